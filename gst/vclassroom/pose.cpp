@@ -1,0 +1,285 @@
+#include "pose.h"
+
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace vclassroom {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+
+bool get_double(const GstStructure* s, const char* field, double* out) {
+  const GValue* v = gst_structure_get_value(s, field);
+  if (!v) return false;
+  if (G_VALUE_HOLDS_DOUBLE(v)) *out = g_value_get_double(v);
+  else if (G_VALUE_HOLDS_FLOAT(v)) *out = g_value_get_float(v);
+  else if (G_VALUE_HOLDS_INT(v)) *out = g_value_get_int(v);
+  else return false;
+  return true;
+}
+
+bool get_u64(const GstStructure* s, const char* field, uint64_t* out) {
+  const GValue* v = gst_structure_get_value(s, field);
+  if (!v) return false;
+  if (G_VALUE_HOLDS_UINT64(v)) *out = g_value_get_uint64(v);
+  else if (G_VALUE_HOLDS_INT64(v) && g_value_get_int64(v) >= 0) *out = static_cast<uint64_t>(g_value_get_int64(v));
+  else if (G_VALUE_HOLDS_UINT(v)) *out = g_value_get_uint(v);
+  else if (G_VALUE_HOLDS_INT(v) && g_value_get_int(v) >= 0) *out = static_cast<uint64_t>(g_value_get_int(v));
+  else return false;
+  return true;
+}
+
+bool get_i64(const GstStructure* s, const char* field, int64_t* out) {
+  const GValue* v = gst_structure_get_value(s, field);
+  if (!v) return false;
+  if (G_VALUE_HOLDS_INT64(v)) *out = g_value_get_int64(v);
+  else if (G_VALUE_HOLDS_UINT64(v)) *out = static_cast<int64_t>(g_value_get_uint64(v));
+  else if (G_VALUE_HOLDS_INT(v)) *out = g_value_get_int(v);
+  else return false;
+  return true;
+}
+
+// YXZ intrinsic angles of R = Ry(yaw) Rx(pitch) Rz(roll).
+Eigen::Matrix3d yaw_pitch_roll(double yaw, double pitch, double roll) {
+  return (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX()) *
+          Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()))
+      .toRotationMatrix();
+}
+
+}  // namespace
+
+Eigen::Isometry3d Pose::cam_to_rig() const {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = orientation.normalized().toRotationMatrix();
+  T.translation() = position;
+  return T;
+}
+
+Pose Pose::from_cam_to_rig(const Eigen::Isometry3d& T) {
+  Pose p;
+  p.position = T.translation();
+  p.orientation = Eigen::Quaterniond(T.linear()).normalized();
+  return p;
+}
+
+void validate_pose(const Pose& p) {
+  if (!p.position.allFinite()) throw Error("pose: position is not finite (NaN or infinity)");
+  if (p.position.norm() > kMaxPoseDistance) {
+    std::ostringstream os;
+    os << "pose: position (" << p.position.x() << ", " << p.position.y() << ", " << p.position.z() << ") is "
+       << p.position.norm() << " m from the rig origin (expected at most " << kMaxPoseDistance << " m)";
+    throw Error(os.str());
+  }
+  const Eigen::Vector4d q = p.orientation.coeffs();
+  if (!q.allFinite()) throw Error("pose: orientation quaternion is not finite (NaN or infinity)");
+  if (std::abs(q.norm() - 1.0) > kUnitQuaternionTolerance) {
+    std::ostringstream os;
+    os << "pose: orientation quaternion has norm " << q.norm() << " (expected a unit quaternion, ±"
+       << kUnitQuaternionTolerance << ")";
+    throw Error(os.str());
+  }
+  if (p.has_fov() && !(p.fov_deg > 1.0 && p.fov_deg < 179.0)) {
+    std::ostringstream os;
+    os << "pose: fov " << p.fov_deg << " deg out of range (expected 1 to 179)";
+    throw Error(os.str());
+  }
+  if (!std::isnan(p.fov_deg) && !std::isfinite(p.fov_deg)) throw Error("pose: fov is infinite");
+}
+
+GstEvent* pose_event_new(const Pose& p) {
+  validate_pose(p);
+  const Eigen::Quaterniond q = p.orientation.normalized();
+  GstStructure* s = gst_structure_new(kPoseEventName, "x", G_TYPE_DOUBLE, p.position.x(), "y", G_TYPE_DOUBLE,
+                                      p.position.y(), "z", G_TYPE_DOUBLE, p.position.z(), "qw", G_TYPE_DOUBLE, q.w(),
+                                      "qx", G_TYPE_DOUBLE, q.x(), "qy", G_TYPE_DOUBLE, q.y(), "qz", G_TYPE_DOUBLE,
+                                      q.z(), "seq", G_TYPE_UINT64, static_cast<guint64>(p.seq), nullptr);
+  if (p.has_fov()) gst_structure_set(s, "fov", G_TYPE_DOUBLE, p.fov_deg, nullptr);
+  if (p.viewer_time_ns >= 0) gst_structure_set(s, "viewer-time", G_TYPE_INT64, static_cast<gint64>(p.viewer_time_ns), nullptr);
+  return gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s);
+}
+
+bool is_pose_event(GstEvent* event) {
+  return event && GST_EVENT_TYPE(event) == GST_EVENT_CUSTOM_UPSTREAM &&
+         gst_event_has_name(event, kPoseEventName);
+}
+
+bool pose_event_parse(GstEvent* event, Pose* out, std::string* error) {
+  std::string dummy;
+  if (!error) error = &dummy;
+  if (!is_pose_event(event)) {
+    *error = "not a vclassroom/pose upstream event";
+    return false;
+  }
+  const GstStructure* s = gst_event_get_structure(event);
+  Pose p;
+  double v[7];
+  const char* fields[7] = {"x", "y", "z", "qw", "qx", "qy", "qz"};
+  for (int i = 0; i < 7; ++i) {
+    if (!get_double(s, fields[i], &v[i])) {
+      *error = std::string("pose event: field '") + fields[i] + "' missing or not a number";
+      return false;
+    }
+  }
+  p.position = Eigen::Vector3d(v[0], v[1], v[2]);
+  p.orientation = Eigen::Quaterniond(v[3], v[4], v[5], v[6]);
+  if (gst_structure_has_field(s, "fov") && !get_double(s, "fov", &p.fov_deg)) {
+    *error = "pose event: field 'fov' is not a number";
+    return false;
+  }
+  if (!get_u64(s, "seq", &p.seq)) {
+    *error = "pose event: field 'seq' missing or not an unsigned integer";
+    return false;
+  }
+  if (gst_structure_has_field(s, "viewer-time") && !get_i64(s, "viewer-time", &p.viewer_time_ns)) {
+    *error = "pose event: field 'viewer-time' is not an integer (ns)";
+    return false;
+  }
+  try {
+    validate_pose(p);
+  } catch (const Error& e) {
+    *error = e.what();
+    return false;
+  }
+  p.orientation.normalize();
+  *out = p;
+  return true;
+}
+
+Pose sliders_to_pose(const Sliders& s, const CameraCalib& ref) {
+  for (double v : s)
+    if (!std::isfinite(v) || v < 0 || v > 100) throw Error("sliders: each value must be between 0 and 100");
+  const Eigen::Vector3d move_cam((s[0] - 50) * kSliderMetres, -(s[1] - 50) * kSliderMetres, (s[2] - 50) * kSliderMetres);
+  const Eigen::Matrix3d R = ref.cam_to_rig.linear();
+  Pose p;
+  p.position = ref.cam_to_rig.translation() + R * move_cam;
+  const double yaw = (s[3] - 50) * kSliderDegrees * kDeg;
+  const double pitch = (s[4] - 50) * kSliderDegrees * kDeg;
+  const double roll = (s[5] - 50) * kSliderDegrees * kDeg;
+  p.orientation = Eigen::Quaterniond(R * yaw_pitch_roll(yaw, pitch, roll)).normalized();
+  return p;
+}
+
+Sliders pose_to_sliders(const Pose& p, const CameraCalib& ref) {
+  const Eigen::Matrix3d R = ref.cam_to_rig.linear();
+  const Eigen::Vector3d move_cam = R.transpose() * (p.position - ref.cam_to_rig.translation());
+  const Eigen::Matrix3d off = R.transpose() * p.orientation.normalized().toRotationMatrix();
+  const double pitch = std::asin(std::clamp(-off(1, 2), -1.0, 1.0));
+  const double yaw = std::atan2(off(0, 2), off(2, 2));
+  const double roll = std::atan2(off(1, 0), off(1, 1));
+  return {50 + move_cam.x() / kSliderMetres, 50 - move_cam.y() / kSliderMetres, 50 + move_cam.z() / kSliderMetres,
+          50 + yaw / kDeg / kSliderDegrees,  50 + pitch / kDeg / kSliderDegrees, 50 + roll / kDeg / kSliderDegrees};
+}
+
+Sliders parse_sliders(const std::string& text) {
+  std::string t = text;
+  for (char& c : t)
+    if (c == '[' || c == ']' || c == ',' || c == ';') c = ' ';
+  std::istringstream is(t);
+  Sliders s;
+  std::string tok;
+  size_t n = 0;
+  while (is >> tok) {
+    if (n == 6) throw Error("sliders '" + text + "': expected 6 values, got more");
+    char* end = nullptr;
+    double v = std::strtod(tok.c_str(), &end);
+    if (end == tok.c_str() || *end != '\0' || !std::isfinite(v))
+      throw Error("sliders '" + text + "': '" + tok + "' is not a number");
+    if (v < 0 || v > 100) throw Error("sliders '" + text + "': '" + tok + "' is outside 0..100");
+    s[n++] = v;
+  }
+  if (n != 6) throw Error("sliders '" + text + "': expected 6 values like [50,50,50,50,50,50], got " + std::to_string(n));
+  return s;
+}
+
+std::string format_sliders(const Sliders& s) {
+  std::ostringstream os;
+  os.precision(10);
+  os << '[';
+  for (size_t i = 0; i < s.size(); ++i) os << (i ? "," : "") << s[i];
+  os << ']';
+  return os.str();
+}
+
+std::vector<PoseSample> load_pose_trace(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path + ": cannot open pose trace (missing or unreadable)");
+  std::string line;
+  size_t lineno = 0;
+  std::map<std::string, size_t> col;
+  std::vector<PoseSample> out;
+  auto split = [](const std::string& l) {
+    std::vector<std::string> f;
+    std::string cur;
+    std::istringstream is(l);
+    while (std::getline(is, cur, ',')) {
+      size_t a = cur.find_first_not_of(" \t\r"), b = cur.find_last_not_of(" \t\r");
+      f.push_back(a == std::string::npos ? "" : cur.substr(a, b - a + 1));
+    }
+    return f;
+  };
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.find_first_not_of(" \t\r") == std::string::npos || line[line.find_first_not_of(" \t")] == '#') continue;
+    std::vector<std::string> f = split(line);
+    if (col.empty()) {
+      for (size_t i = 0; i < f.size(); ++i) col[f[i]] = i;
+      for (const char* req : {"x", "y", "z", "qw", "qx", "qy", "qz"})
+        if (!col.count(req))
+          throw Error(path + ":" + std::to_string(lineno) + ": header lacks column '" + req +
+                      "' (expected t,x,y,z,qw,qx,qy,qz[,fov][,seq])");
+      continue;
+    }
+    if (f.size() != col.size())
+      throw Error(path + ":" + std::to_string(lineno) + ": expected " + std::to_string(col.size()) + " columns, got " +
+                  std::to_string(f.size()));
+    auto num = [&](const std::string& name) {
+      const std::string& s = f[col.at(name)];
+      char* end = nullptr;
+      double v = std::strtod(s.c_str(), &end);
+      if (s.empty() || *end != '\0' || !std::isfinite(v))
+        throw Error(path + ":" + std::to_string(lineno) + ": column '" + name + "': '" + s + "' is not a number");
+      return v;
+    };
+    PoseSample ps;
+    ps.pose.position = {num("x"), num("y"), num("z")};
+    ps.pose.orientation = Eigen::Quaterniond(num("qw"), num("qx"), num("qy"), num("qz"));
+    if (col.count("t")) ps.t = num("t");
+    if (col.count("fov")) ps.pose.fov_deg = num("fov");
+    ps.pose.seq = col.count("seq") ? static_cast<uint64_t>(num("seq")) : out.size();
+    try {
+      validate_pose(ps.pose);
+    } catch (const Error& e) {
+      throw Error(path + ":" + std::to_string(lineno) + ": " + e.what());
+    }
+    ps.pose.orientation.normalize();
+    out.push_back(ps);
+  }
+  if (col.empty()) throw Error(path + ": empty pose trace (expected a header line t,x,y,z,qw,qx,qy,qz)");
+  return out;
+}
+
+void save_pose_trace(const std::vector<PoseSample>& trace, const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw Error(path + ": cannot write pose trace");
+  const bool fov = !trace.empty() && trace.front().pose.has_fov();
+  out << "t,x,y,z,qw,qx,qy,qz" << (fov ? ",fov" : "") << ",seq\n";
+  char buf[512];
+  for (const auto& s : trace) {
+    const auto& p = s.pose;
+    std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g", std::isnan(s.t) ? 0.0 : s.t,
+                  p.position.x(), p.position.y(), p.position.z(), p.orientation.w(), p.orientation.x(),
+                  p.orientation.y(), p.orientation.z());
+    out << buf;
+    if (fov) {
+      std::snprintf(buf, sizeof buf, ",%.17g", p.fov_deg);
+      out << buf;
+    }
+    out << ',' << p.seq << '\n';
+  }
+}
+
+}  // namespace vclassroom

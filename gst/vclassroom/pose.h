@@ -1,0 +1,78 @@
+// The lecturer's 6DoF pose: the `vclassroom/pose` upstream event, the paper's
+// six-slider notation, and pose traces (DESIGN.md §2.3, docs/pose.md).
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <gst/gst.h>
+
+#include "rig.h"
+
+namespace vclassroom {
+
+inline constexpr const char* kPoseEventName = "vclassroom/pose";
+// Positions farther than this from the rig origin are rejected as absurd.
+inline constexpr double kMaxPoseDistance = 1000.0;  // metres
+// Quaternions whose norm is farther than this from 1 are rejected.
+inline constexpr double kUnitQuaternionTolerance = 1e-3;
+
+// The virtual camera's pose in the rig frame: `position` is its optical
+// centre, `orientation` rotates virtual-camera coordinates (OpenCV axes) into
+// rig coordinates, exactly like a rig camera's cam_to_rig.
+struct Pose {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+  double fov_deg = std::numeric_limits<double>::quiet_NaN();  // optional horizontal field of view
+  uint64_t seq = 0;
+  int64_t viewer_time_ns = -1;  // -1: not given
+
+  bool has_fov() const { return std::isfinite(fov_deg); }
+  Eigen::Isometry3d cam_to_rig() const;
+  static Pose from_cam_to_rig(const Eigen::Isometry3d& T);
+};
+
+// Throws Error when the pose is not usable: NaN, non-unit quaternion, absurd
+// position or field of view.
+void validate_pose(const Pose& pose);
+
+// A GST_EVENT_CUSTOM_UPSTREAM event carrying the pose. Validates first; throws Error.
+GstEvent* pose_event_new(const Pose& pose);
+// True when `event` is a pose event (whether or not it is valid).
+bool is_pose_event(GstEvent* event);
+// Parses and validates; false with a message on a malformed or invalid pose.
+bool pose_event_parse(GstEvent* event, Pose* pose, std::string* error);
+
+// The paper's mouse interface writes a view as six sliders 0..100, where
+// [50,50,50,50,50,50] is the reference camera. Mapping (docs/pose.md):
+//   s[0..2]: move right / up / forward in the reference camera's own axes,
+//            (s - 50) * kSliderMetres each (±1 m);
+//   s[3..5]: yaw (turn right) / pitch (look up) / roll (clockwise),
+//            (s - 50) * kSliderDegrees each (±90°), applied yaw, then pitch, then roll.
+using Sliders = std::array<double, 6>;
+inline constexpr double kSliderMetres = 0.02;
+inline constexpr double kSliderDegrees = 1.8;
+
+Pose sliders_to_pose(const Sliders& s, const CameraCalib& reference);
+// Inverse of sliders_to_pose for poses within the sliders' range (|pitch| < 90°).
+Sliders pose_to_sliders(const Pose& pose, const CameraCalib& reference);
+// Parses "[50,50,50,50,50,50]" (brackets optional, comma or space separated); throws Error.
+Sliders parse_sliders(const std::string& text);
+std::string format_sliders(const Sliders& s);
+
+// A pose trace: CSV with a header naming the columns, one pose per frame.
+// Required columns x,y,z,qw,qx,qy,qz; optional t (seconds), fov (deg), seq.
+// '#' starts a comment line. Throws Error naming file, line and column.
+struct PoseSample {
+  double t = std::numeric_limits<double>::quiet_NaN();  // seconds, NaN when the trace has no t column
+  Pose pose;
+};
+std::vector<PoseSample> load_pose_trace(const std::string& path);
+void save_pose_trace(const std::vector<PoseSample>& trace, const std::string& path);
+
+}  // namespace vclassroom

@@ -1,0 +1,254 @@
+// rgbdfilesrc: plays one camera of a recorded dataset folder as video/x-rgbd.
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstrgbdfilesrc.h"
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <gst/vclassroom/dataset.h>
+#include <gst/vclassroom/rgbd.h>
+
+GST_DEBUG_CATEGORY_STATIC(rgbd_file_src_debug);
+#define GST_CAT_DEFAULT rgbd_file_src_debug
+
+using namespace vclassroom;
+
+enum { PROP_0, PROP_LOCATION, PROP_CAMERA_ID, PROP_LOOP, PROP_FRAMERATE };
+
+namespace {
+struct FileSrcState {
+  std::mutex lock;  // guards the properties
+  std::string location;
+  int camera_id = 0;
+  bool loop = false;
+  int fps_n = 30, fps_d = 1;
+
+  // Streaming thread (and start/stop).
+  std::unique_ptr<Dataset> dataset;
+  RgbdInfo info;
+  guint64 frame = 0;   // frames produced since start or the last seek
+  guint64 frames = 0;  // frames in the dataset for this camera
+};
+}  // namespace
+
+struct _GstRgbdFileSrc {
+  GstPushSrc parent;
+  FileSrcState* st;
+};
+
+G_DEFINE_TYPE(GstRgbdFileSrc, gst_rgbd_file_src, GST_TYPE_PUSH_SRC)
+
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
+
+static gboolean gst_rgbd_file_src_start(GstBaseSrc* src) {
+  GstRgbdFileSrc* self = GST_RGBD_FILE_SRC(src);
+  FileSrcState* st = self->st;
+  std::string location;
+  int id;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    location = st->location;
+    id = st->camera_id;
+    st->info.fps_n = st->fps_n;
+    st->info.fps_d = st->fps_d;
+  }
+  if (location.empty()) {
+    GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("no dataset folder given"),
+                      ("set the 'location' property of %s", GST_OBJECT_NAME(self)));
+    return FALSE;
+  }
+  try {
+    st->dataset = std::make_unique<Dataset>(Dataset::open(location));
+    st->info.camera = st->dataset->rig().camera(id);
+    st->frames = st->dataset->frame_count(id);
+  } catch (const Error& e) {
+    st->dataset.reset();
+    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("rgbdfilesrc camera-id=%d", id));
+    return FALSE;
+  }
+  st->info.planes = {Plane::Color, Plane::Depth};
+  if (st->dataset->has_label(id)) st->info.planes.push_back(Plane::Label);
+  if (st->dataset->has_depth_gt(id)) st->info.planes.push_back(Plane::DepthGT);
+  st->frame = 0;
+  GST_INFO_OBJECT(self, "%s camera %d: %" G_GUINT64_FORMAT " frames", location.c_str(), id, st->frames);
+  return TRUE;
+}
+
+static gboolean gst_rgbd_file_src_stop(GstBaseSrc* src) {
+  GST_RGBD_FILE_SRC(src)->st->dataset.reset();
+  return TRUE;
+}
+
+static GstCaps* gst_rgbd_file_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
+  GstRgbdFileSrc* self = GST_RGBD_FILE_SRC(src);
+  GstCaps* caps = self->st->dataset ? rgbd_caps_new(self->st->info)
+                                    : gst_pad_get_pad_template_caps(GST_BASE_SRC_PAD(src));
+  if (filter) {
+    GstCaps* tmp = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
+    gst_caps_unref(caps);
+    caps = tmp;
+  }
+  return caps;
+}
+
+static gboolean gst_rgbd_file_src_is_seekable(GstBaseSrc*) { return TRUE; }
+
+static gboolean gst_rgbd_file_src_do_seek(GstBaseSrc* src, GstSegment* segment) {
+  GstRgbdFileSrc* self = GST_RGBD_FILE_SRC(src);
+  const GstClockTime dur = self->st->info.frame_duration();
+  if (!GST_CLOCK_TIME_IS_VALID(dur) || dur == 0) {
+    self->st->frame = 0;
+  } else {
+    self->st->frame = gst_util_uint64_scale_ceil(segment->start, 1, dur);
+  }
+  segment->time = segment->start;
+  segment->position = segment->start;
+  return TRUE;
+}
+
+static GstFlowReturn gst_rgbd_file_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
+  GstRgbdFileSrc* self = GST_RGBD_FILE_SRC(psrc);
+  FileSrcState* st = self->st;
+  bool loop;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    loop = st->loop;
+  }
+  if (!loop && st->frame >= st->frames) return GST_FLOW_EOS;
+  const size_t index = static_cast<size_t>(st->frame % st->frames);
+  RgbdImages im;
+  try {
+    im = st->dataset->load(st->info.camera.id, index);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, RESOURCE, READ, ("%s", e.what()),
+                      ("rgbdfilesrc camera-id=%d frame %zu", st->info.camera.id, index));
+    return GST_FLOW_ERROR;
+  }
+  GstBuffer* buf = rgbd_buffer_new(st->info);
+  RgbdFrame frame;
+  std::string err;
+  if (!frame.map(buf, st->info, GST_MAP_WRITE, &err)) {
+    gst_buffer_unref(buf);
+    GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  im.color.copyTo(frame.color());
+  im.depth.copyTo(frame.depth());
+  if (st->info.has(Plane::Label)) im.label.copyTo(frame.label());
+  if (st->info.has(Plane::DepthGT)) im.depth_gt.copyTo(frame.plane(Plane::DepthGT));
+  frame.unmap();
+
+  const GstClockTime dur = st->info.frame_duration();
+  if (GST_CLOCK_TIME_IS_VALID(dur)) {
+    GST_BUFFER_PTS(buf) = st->frame * dur;
+    GST_BUFFER_DURATION(buf) = dur;
+  }
+  GST_BUFFER_OFFSET(buf) = st->frame;
+  GST_BUFFER_OFFSET_END(buf) = st->frame + 1;
+  st->frame++;
+  *outbuf = buf;
+  return GST_FLOW_OK;
+}
+
+static void gst_rgbd_file_src_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
+  FileSrcState* st = GST_RGBD_FILE_SRC(object)->st;
+  std::lock_guard<std::mutex> g(st->lock);
+  switch (prop_id) {
+    case PROP_LOCATION:
+      st->location = g_value_get_string(value) ? g_value_get_string(value) : "";
+      break;
+    case PROP_CAMERA_ID:
+      st->camera_id = g_value_get_int(value);
+      break;
+    case PROP_LOOP:
+      st->loop = g_value_get_boolean(value);
+      break;
+    case PROP_FRAMERATE:
+      st->fps_n = gst_value_get_fraction_numerator(value);
+      st->fps_d = gst_value_get_fraction_denominator(value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_rgbd_file_src_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  FileSrcState* st = GST_RGBD_FILE_SRC(object)->st;
+  std::lock_guard<std::mutex> g(st->lock);
+  switch (prop_id) {
+    case PROP_LOCATION:
+      g_value_set_string(value, st->location.c_str());
+      break;
+    case PROP_CAMERA_ID:
+      g_value_set_int(value, st->camera_id);
+      break;
+    case PROP_LOOP:
+      g_value_set_boolean(value, st->loop);
+      break;
+    case PROP_FRAMERATE:
+      gst_value_set_fraction(value, st->fps_n, st->fps_d);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_rgbd_file_src_finalize(GObject* object) {
+  delete GST_RGBD_FILE_SRC(object)->st;
+  G_OBJECT_CLASS(gst_rgbd_file_src_parent_class)->finalize(object);
+}
+
+static void gst_rgbd_file_src_class_init(GstRgbdFileSrcClass* klass) {
+  GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  GstBaseSrcClass* basesrc_class = GST_BASE_SRC_CLASS(klass);
+  GstPushSrcClass* pushsrc_class = GST_PUSH_SRC_CLASS(klass);
+
+  gobject_class->set_property = gst_rgbd_file_src_set_property;
+  gobject_class->get_property = gst_rgbd_file_src_get_property;
+  gobject_class->finalize = gst_rgbd_file_src_finalize;
+  const auto flags = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
+  g_object_class_install_property(
+      gobject_class, PROP_LOCATION,
+      g_param_spec_string("location", "Dataset folder",
+                          "Recorded dataset folder: rig.yaml + cam<ID>/{color,depth,label,depth-gt}/ images "
+                          "(docs/dataset-format.md)",
+                          "", flags));
+  g_object_class_install_property(gobject_class, PROP_CAMERA_ID,
+                                  g_param_spec_int("camera-id", "Camera id", "Which camera of the rig to play", 0,
+                                                   G_MAXINT, 0, flags));
+  g_object_class_install_property(gobject_class, PROP_LOOP,
+                                  g_param_spec_boolean("loop", "Loop",
+                                                       "Start again at the first frame after the last one "
+                                                       "(timestamps keep increasing)",
+                                                       FALSE, flags));
+  g_object_class_install_property(
+      gobject_class, PROP_FRAMERATE,
+      gst_param_spec_fraction("framerate", "Frame rate", "Frame rate the recording is played at", 1, 1, 1000, 1, 30,
+                              1, flags));
+
+  gst_element_class_add_static_pad_template(element_class, &src_template);
+  gst_element_class_set_static_metadata(
+      element_class, "RGB-D dataset source", "Source/File/Video",
+      "Plays one camera of a recorded RGB-D dataset (rig.yaml + colour and 16-bit depth images) as video/x-rgbd "
+      "with the camera's calibration in the caps",
+      "gst-vclassroom developers");
+
+  basesrc_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_start);
+  basesrc_class->stop = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_stop);
+  basesrc_class->get_caps = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_get_caps);
+  basesrc_class->is_seekable = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_is_seekable);
+  basesrc_class->do_seek = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_do_seek);
+  pushsrc_class->create = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_create);
+  GST_DEBUG_CATEGORY_INIT(rgbd_file_src_debug, "rgbdfilesrc", 0, "RGB-D dataset source");
+}
+
+static void gst_rgbd_file_src_init(GstRgbdFileSrc* self) {
+  self->st = new FileSrcState();
+  gst_base_src_set_format(GST_BASE_SRC(self), GST_FORMAT_TIME);
+}

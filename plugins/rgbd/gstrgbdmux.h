@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstaggregator.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_RGBD_MUX (gst_rgbd_mux_get_type())
+G_DECLARE_FINAL_TYPE(GstRgbdMux, gst_rgbd_mux, GST, RGBD_MUX, GstAggregator)
+
+G_END_DECLS
