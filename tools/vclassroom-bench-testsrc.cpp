@@ -1,0 +1,139 @@
+// Benchmark of the synthetic classroom (rgbdtestsrc's renderer and sensor
+// model) on one thread, and the tool that draws the pictures of
+// docs/synthetic-classroom.md.
+//
+//   vclassroom-bench-testsrc [--frames N] [--learners N] [--seed S] [--write-png DIR] [--time T]
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+#include <thread>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/classroom.h>
+
+using namespace vclassroom;
+
+namespace {
+
+std::string cpu_model() {
+  std::ifstream f("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(f, line))
+    if (line.rfind("model name", 0) == 0) {
+      const auto p = line.find(':');
+      return p == std::string::npos ? line : line.substr(p + 2);
+    }
+  return "unknown";
+}
+
+void write_rgb(const std::string& path, const cv::Mat& rgb) {
+  cv::Mat bgr;
+  cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR);
+  if (!cv::imwrite(path, bgr, {cv::IMWRITE_PNG_COMPRESSION, 9})) {
+    std::fprintf(stderr, "cannot write %s\n", path.c_str());
+    std::exit(1);
+  }
+  std::printf("wrote %s\n", path.c_str());
+}
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: vclassroom-bench-testsrc [--frames N] [--learners N] [--seed S] [--time T]\n"
+               "                                [--write-png DIR]\n"
+               "Renders N frames (default 150) per camera of the default rig at 960x540 on one thread,\n"
+               "without and with the sensor model, and prints frames per second per camera.\n"
+               "--write-png DIR writes the documentation pictures (at scene time T, default 4 s) instead.\n");
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int frames = 150, learners = 3;
+  uint64_t seed = 1;
+  double t_png = 4.0;
+  std::string png_dir;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> const char* {
+      if (i + 1 >= argc) std::exit(usage());
+      return argv[++i];
+    };
+    if (a == "--frames") frames = std::atoi(next());
+    else if (a == "--learners") learners = std::atoi(next());
+    else if (a == "--seed") seed = std::strtoull(next(), nullptr, 10);
+    else if (a == "--time") t_png = std::atof(next());
+    else if (a == "--write-png") png_dir = next();
+    else return usage();
+  }
+  try {
+    ClassroomConfig cfg;
+    cfg.seed = seed;
+    cfg.learners = learners;
+    const auto t_build0 = std::chrono::steady_clock::now();
+    Classroom room(cfg);
+    const double build_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_build0).count();
+    const Rig rig = default_classroom_rig();
+    ClassroomRenderer renderer;
+    RenderOutput out;
+    SensorParams sp;
+
+    if (!png_dir.empty()) {
+      cv::Mat depth, color;
+      for (const auto& cam : rig.cameras) {
+        renderer.render(room, t_png, cam, &out);
+        apply_sensor_model(out, cam, sp, seed, 0, &depth, &color);
+        write_rgb(png_dir + "/camera" + std::to_string(cam.id) + "-color.png", color);
+        if (cam.id == 0) {
+          write_rgb(png_dir + "/camera0-depth-clean.png", colorize_depth(out.depth));
+          write_rgb(png_dir + "/camera0-depth-sensor.png", colorize_depth(depth));
+          cv::Mat lab;
+          cv::Mat l8 = out.label * 60;
+          cv::applyColorMap(l8, lab, cv::COLORMAP_HSV);
+          lab.setTo(cv::Scalar(0, 0, 0), out.label == 0);
+          cv::cvtColor(lab, lab, cv::COLOR_BGR2RGB);
+          write_rgb(png_dir + "/camera0-label.png", lab);
+        }
+      }
+      // Novel poses: the back of the room looking at the board, and the
+      // lecturer's spot in front of the board looking at the class.
+      const double fy = room.floor_y();
+      CameraCalib back = look_at_camera({1.2, fy + 1.7, room.back_z() + 0.4}, {-0.3, fy + 1.1, room.front_z()});
+      renderer.render(room, t_png, back, &out);
+      write_rgb(png_dir + "/novel-back-to-board.png", out.color);
+      CameraCalib lect = look_at_camera({-1.0, fy + 1.65, room.front_z() - 0.6}, {0.6, fy + 0.9, room.back_z()});
+      renderer.render(room, t_png, lect, &out);
+      write_rgb(png_dir + "/novel-lecturer.png", out.color);
+      return 0;
+    }
+
+    std::printf("machine: %s (%u hardware threads; this benchmark uses one)\n", cpu_model().c_str(),
+                std::max(1u, (unsigned)std::thread::hardware_concurrency()));
+    std::printf("scene: seed %llu, %d learners, built in %.3f s\n", (unsigned long long)seed, learners, build_s);
+    std::printf("frames per camera: %d at 960x540\n", frames);
+    for (int pass = 0; pass < 2; ++pass) {
+      const bool noise = pass == 1;
+      cv::Mat depth, color;
+      for (const auto& cam : rig.cameras) {
+        // One warm-up frame so allocation is not timed.
+        renderer.render(room, 0, cam, &out);
+        const auto t0 = std::chrono::steady_clock::now();
+        for (int f = 0; f < frames; ++f) {
+          renderer.render(room, f / 30.0, cam, &out);
+          if (noise) apply_sensor_model(out, cam, sp, seed, uint64_t(f), &depth, &color);
+        }
+        const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        std::printf("camera %d %-6s sensor-model %-3s: %7.1f frames/s (%.2f ms/frame)\n", cam.id, cam.name.c_str(),
+                    noise ? "on" : "off", frames / s, 1000.0 * s / frames);
+      }
+    }
+  } catch (const Error& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
