@@ -9,6 +9,7 @@
 #include "gstrgbdfilesink.h"
 #include "gstrgbdfilesrc.h"
 #include "gstrgbdmux.h"
+#include "gstrgbdtestsrc.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
@@ -16,6 +17,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok &= gst_element_register(plugin, "rgbddemux", GST_RANK_NONE, GST_TYPE_RGBD_DEMUX);
   ok &= gst_element_register(plugin, "rgbdfilesrc", GST_RANK_NONE, GST_TYPE_RGBD_FILE_SRC);
   ok &= gst_element_register(plugin, "rgbdfilesink", GST_RANK_NONE, GST_TYPE_RGBD_FILE_SINK);
+  ok &= gst_element_register(plugin, "rgbdtestsrc", GST_RANK_NONE, GST_TYPE_RGBD_TEST_SRC);
   return ok;
 }
 

@@ -1,0 +1,384 @@
+// rgbdtestsrc: the synthetic classroom (docs/synthetic-classroom.md) seen from
+// one camera of a rig, as video/x-rgbd with exact ground truth.
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstrgbdtestsrc.h"
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/rgbd.h>
+
+GST_DEBUG_CATEGORY_STATIC(rgbd_test_src_debug);
+#define GST_CAT_DEFAULT rgbd_test_src_debug
+
+using namespace vclassroom;
+
+enum {
+  PROP_0,
+  PROP_CAMERA_ID,
+  PROP_RIG,
+  PROP_SEED,
+  PROP_LEARNERS,
+  PROP_SENSOR_NOISE,
+  PROP_GROUND_TRUTH,
+  PROP_IS_LIVE,
+  PROP_FRAMERATE,
+};
+
+namespace {
+constexpr guint64 kDefaultSeed = 1;
+constexpr int kDefaultLearners = 3;
+
+struct TestSrcState {
+  std::mutex lock;  // guards the properties
+  int camera_id = 0;
+  std::string rig_path;
+  guint64 seed = kDefaultSeed;
+  int learners = kDefaultLearners;
+  bool sensor_noise = true;
+  bool ground_truth = true;
+  int fps_n = 30, fps_d = 1;
+
+  // Streaming thread (and start/stop).
+  bool started = false;
+  bool noise = true;
+  std::unique_ptr<Classroom> room;
+  ClassroomRenderer renderer;
+  RenderOutput clean;
+  cv::Mat noisy_depth, noisy_color;
+  SensorParams sensor;
+  RgbdInfo info;
+  guint64 frame = 0;  // next frame to produce
+  // Live mode: running time of frame 0.
+  GstClockTime live_base = GST_CLOCK_TIME_NONE;
+};
+}  // namespace
+
+struct _GstRgbdTestSrc {
+  GstPushSrc parent;
+  TestSrcState* st;
+};
+
+G_DEFINE_TYPE(GstRgbdTestSrc, gst_rgbd_test_src, GST_TYPE_PUSH_SRC)
+
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
+
+static gboolean gst_rgbd_test_src_start(GstBaseSrc* src) {
+  GstRgbdTestSrc* self = GST_RGBD_TEST_SRC(src);
+  TestSrcState* st = self->st;
+  std::string rig_path;
+  int id;
+  ClassroomConfig cfg;
+  bool ground_truth;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    rig_path = st->rig_path;
+    id = st->camera_id;
+    cfg.seed = st->seed;
+    cfg.learners = st->learners;
+    st->noise = st->sensor_noise;
+    ground_truth = st->ground_truth;
+    st->info.fps_n = st->fps_n;
+    st->info.fps_d = st->fps_d;
+  }
+  try {
+    const Rig rig = rig_path.empty() ? default_classroom_rig() : load_rig(rig_path);
+    st->info.camera = rig.camera(id);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()),
+                      ("rgbdtestsrc rig=%s camera-id=%d", rig_path.empty() ? "(default rig)" : rig_path.c_str(),
+                       id));
+    return FALSE;
+  }
+  // The scene takes a few hundred ms to build: keep it across restarts.
+  try {
+    if (!st->room || st->room->config().seed != cfg.seed || st->room->config().learners != cfg.learners)
+      st->room = std::make_unique<Classroom>(cfg);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, LIBRARY, INIT, ("%s", e.what()), (nullptr));
+    return FALSE;
+  }
+  st->info.planes = {Plane::Color, Plane::Depth};
+  if (ground_truth) {
+    st->info.planes.push_back(Plane::Label);
+    st->info.planes.push_back(Plane::DepthGT);
+  }
+  st->frame = 0;
+  st->live_base = GST_CLOCK_TIME_NONE;
+  st->started = true;
+  GST_INFO_OBJECT(self, "camera %d (%dx%d), seed %" G_GUINT64_FORMAT ", %d learners, planes %s", id,
+                  st->info.width(), st->info.height(), cfg.seed, cfg.learners, st->info.planes_string().c_str());
+  return TRUE;
+}
+
+static gboolean gst_rgbd_test_src_stop(GstBaseSrc* src) {
+  GST_RGBD_TEST_SRC(src)->st->started = false;
+  return TRUE;
+}
+
+static GstCaps* gst_rgbd_test_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
+  GstRgbdTestSrc* self = GST_RGBD_TEST_SRC(src);
+  GstCaps* caps = self->st->started ? rgbd_caps_new(self->st->info)
+                                    : gst_pad_get_pad_template_caps(GST_BASE_SRC_PAD(src));
+  if (filter) {
+    GstCaps* tmp = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
+    gst_caps_unref(caps);
+    caps = tmp;
+  }
+  return caps;
+}
+
+static GstClockTime frame_time(const RgbdInfo& info, guint64 n) {
+  return gst_util_uint64_scale(n, GST_SECOND * guint64(info.fps_d), guint64(info.fps_n));
+}
+
+static gboolean gst_rgbd_test_src_is_seekable(GstBaseSrc* src) { return !gst_base_src_is_live(src); }
+
+static gboolean gst_rgbd_test_src_do_seek(GstBaseSrc* src, GstSegment* segment) {
+  TestSrcState* st = GST_RGBD_TEST_SRC(src)->st;
+  // The first frame at or after the segment start.
+  st->frame = gst_util_uint64_scale_ceil(segment->start, guint64(st->info.fps_n), GST_SECOND * guint64(st->info.fps_d));
+  segment->time = segment->start;
+  segment->position = segment->start;
+  return TRUE;
+}
+
+// Live: basesrc waits on the clock until each buffer's running time.
+static void gst_rgbd_test_src_get_times(GstBaseSrc* src, GstBuffer* buf, GstClockTime* start, GstClockTime* end) {
+  if (gst_base_src_is_live(src)) {
+    const GstClockTime ts = GST_BUFFER_PTS(buf);
+    if (GST_CLOCK_TIME_IS_VALID(ts)) {
+      *start = ts;
+      *end = GST_BUFFER_DURATION_IS_VALID(buf) ? ts + GST_BUFFER_DURATION(buf) : GST_CLOCK_TIME_NONE;
+      return;
+    }
+  }
+  *start = *end = GST_CLOCK_TIME_NONE;
+}
+
+static gboolean gst_rgbd_test_src_query(GstBaseSrc* src, GstQuery* query) {
+  TestSrcState* st = GST_RGBD_TEST_SRC(src)->st;
+  if (GST_QUERY_TYPE(query) == GST_QUERY_LATENCY && st->started) {
+    // A live frame is ready one frame period after its timestamp.
+    const GstClockTime lat = gst_base_src_is_live(src) ? frame_time(st->info, 1) : 0;
+    gst_query_set_latency(query, gst_base_src_is_live(src), lat, lat);
+    return TRUE;
+  }
+  return GST_BASE_SRC_CLASS(gst_rgbd_test_src_parent_class)->query(src, query);
+}
+
+static GstFlowReturn gst_rgbd_test_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
+  GstRgbdTestSrc* self = GST_RGBD_TEST_SRC(psrc);
+  TestSrcState* st = self->st;
+  const guint64 n = st->frame;
+  // Scene time n / fps, so instances with the same seed show the same instant.
+  const double t = double(n) * st->info.fps_d / st->info.fps_n;
+  const CameraCalib& cam = st->info.camera;
+  try {
+    st->renderer.render(*st->room, t, cam, &st->clean);
+    if (st->noise)
+      apply_sensor_model(st->clean, cam, st->sensor, st->room->config().seed, n, &st->noisy_depth, &st->noisy_color);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("%s", e.what()), ("rgbdtestsrc frame %" G_GUINT64_FORMAT, n));
+    return GST_FLOW_ERROR;
+  }
+  GstBuffer* buf = rgbd_buffer_new(st->info);
+  {
+    RgbdFrame frame;
+    std::string err;
+    if (!frame.map(buf, st->info, GST_MAP_WRITE, &err)) {
+      gst_buffer_unref(buf);
+      GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
+      return GST_FLOW_ERROR;
+    }
+    (st->noise ? st->noisy_color : st->clean.color).copyTo(frame.color());
+    (st->noise ? st->noisy_depth : st->clean.depth).copyTo(frame.depth());
+    if (st->info.has(Plane::Label)) st->clean.label.copyTo(frame.label());
+    if (st->info.has(Plane::DepthGT)) st->clean.depth.copyTo(frame.plane(Plane::DepthGT));
+  }
+
+  GstClockTime base = 0;
+  if (gst_base_src_is_live(GST_BASE_SRC(psrc))) {
+    // Like videotestsrc: frames are stamped in running time, starting from
+    // the running time at which the first one is made.
+    if (!GST_CLOCK_TIME_IS_VALID(st->live_base)) {
+      st->live_base = 0;
+      GstClock* clock = gst_element_get_clock(GST_ELEMENT(self));
+      if (clock) {
+        const GstClockTime now = gst_clock_get_time(clock);
+        const GstClockTime bt = gst_element_get_base_time(GST_ELEMENT(self));
+        if (now > bt) st->live_base = now - bt;
+        gst_object_unref(clock);
+      }
+    }
+    base = st->live_base;
+  }
+  GST_BUFFER_PTS(buf) = base + frame_time(st->info, n);
+  GST_BUFFER_DTS(buf) = GST_BUFFER_PTS(buf);
+  GST_BUFFER_DURATION(buf) = frame_time(st->info, n + 1) - frame_time(st->info, n);
+  GST_BUFFER_OFFSET(buf) = n;
+  GST_BUFFER_OFFSET_END(buf) = n + 1;
+  st->frame++;
+  *outbuf = buf;
+  return GST_FLOW_OK;
+}
+
+static void gst_rgbd_test_src_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
+  GstRgbdTestSrc* self = GST_RGBD_TEST_SRC(object);
+  TestSrcState* st = self->st;
+  if (prop_id == PROP_IS_LIVE) {
+    gst_base_src_set_live(GST_BASE_SRC(object), g_value_get_boolean(value));
+    return;
+  }
+  std::lock_guard<std::mutex> g(st->lock);
+  switch (prop_id) {
+    case PROP_CAMERA_ID:
+      st->camera_id = g_value_get_int(value);
+      break;
+    case PROP_RIG:
+      st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
+      break;
+    case PROP_SEED:
+      st->seed = g_value_get_uint64(value);
+      break;
+    case PROP_LEARNERS:
+      st->learners = g_value_get_int(value);
+      break;
+    case PROP_SENSOR_NOISE:
+      st->sensor_noise = g_value_get_boolean(value);
+      break;
+    case PROP_GROUND_TRUTH:
+      st->ground_truth = g_value_get_boolean(value);
+      break;
+    case PROP_FRAMERATE:
+      st->fps_n = gst_value_get_fraction_numerator(value);
+      st->fps_d = gst_value_get_fraction_denominator(value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_rgbd_test_src_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  TestSrcState* st = GST_RGBD_TEST_SRC(object)->st;
+  if (prop_id == PROP_IS_LIVE) {
+    g_value_set_boolean(value, gst_base_src_is_live(GST_BASE_SRC(object)));
+    return;
+  }
+  std::lock_guard<std::mutex> g(st->lock);
+  switch (prop_id) {
+    case PROP_CAMERA_ID:
+      g_value_set_int(value, st->camera_id);
+      break;
+    case PROP_RIG:
+      g_value_set_string(value, st->rig_path.c_str());
+      break;
+    case PROP_SEED:
+      g_value_set_uint64(value, st->seed);
+      break;
+    case PROP_LEARNERS:
+      g_value_set_int(value, st->learners);
+      break;
+    case PROP_SENSOR_NOISE:
+      g_value_set_boolean(value, st->sensor_noise);
+      break;
+    case PROP_GROUND_TRUTH:
+      g_value_set_boolean(value, st->ground_truth);
+      break;
+    case PROP_FRAMERATE:
+      gst_value_set_fraction(value, st->fps_n, st->fps_d);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_rgbd_test_src_finalize(GObject* object) {
+  delete GST_RGBD_TEST_SRC(object)->st;
+  G_OBJECT_CLASS(gst_rgbd_test_src_parent_class)->finalize(object);
+}
+
+static void gst_rgbd_test_src_class_init(GstRgbdTestSrcClass* klass) {
+  GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  GstBaseSrcClass* basesrc_class = GST_BASE_SRC_CLASS(klass);
+  GstPushSrcClass* pushsrc_class = GST_PUSH_SRC_CLASS(klass);
+
+  gobject_class->set_property = gst_rgbd_test_src_set_property;
+  gobject_class->get_property = gst_rgbd_test_src_get_property;
+  gobject_class->finalize = gst_rgbd_test_src_finalize;
+  const auto flags = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
+  g_object_class_install_property(
+      gobject_class, PROP_CAMERA_ID,
+      g_param_spec_int("camera-id", "Camera id",
+                       "Which camera of the rig to render (default rig: 0 centre, 1 left, 2 right, as seen from "
+                       "the cameras)",
+                       0, G_MAXINT, 0, flags));
+  g_object_class_install_property(
+      gobject_class, PROP_RIG,
+      g_param_spec_string("rig", "Rig file",
+                          "Rig YAML file (docs/rig-format.md) giving the cameras' poses and intrinsics in the "
+                          "classroom's rig frame; empty = the default rig (3 cameras 0.8 m apart at the front, "
+                          "960x540, docs/synthetic-classroom.md)",
+                          "", flags));
+  g_object_class_install_property(
+      gobject_class, PROP_SEED,
+      g_param_spec_uint64("seed", "Seed",
+                          "Seed of the classroom (textures, writing, learners' looks, seats and behaviour) and of the "
+                          "sensor noise; instances with the same seed show the same scene at the same frame",
+                          0, G_MAXUINT64, kDefaultSeed, flags));
+  g_object_class_install_property(
+      gobject_class, PROP_LEARNERS,
+      g_param_spec_int("learners", "Learners", "Number of learners in the room (0 = the empty classroom)", 0,
+                       kClassroomMaxLearners, kDefaultLearners, flags));
+  g_object_class_install_property(
+      gobject_class, PROP_SENSOR_NOISE,
+      g_param_spec_boolean("sensor-noise", "Sensor noise",
+                           "Simulate a consumer RGB-D camera: depth holes on dark, glossy and grazing surfaces and "
+                           "outside the depth field of view, noise growing with depth squared, flying pixels at "
+                           "depth edges, 1 mm quantisation, colour noise. Off: the clean render",
+                           TRUE, flags));
+  g_object_class_install_property(
+      gobject_class, PROP_GROUND_TRUTH,
+      g_param_spec_boolean("ground-truth", "Ground truth",
+                           "Add the learner label plane (0 static, k learner k) and the clean depth (depth-gt) to "
+                           "every buffer: caps planes = \"color,depth,label,depth-gt\" (else \"color,depth\")",
+                           TRUE, flags));
+  g_object_class_install_property(
+      gobject_class, PROP_IS_LIVE,
+      g_param_spec_boolean("is-live", "Is live",
+                           "Act as a live source: produce frames in real time, stamped in running time", FALSE,
+                           flags));
+  g_object_class_install_property(
+      gobject_class, PROP_FRAMERATE,
+      gst_param_spec_fraction("framerate", "Frame rate",
+                              "Frame rate; frame n shows scene time n / framerate", 1, 1, 1000, 1, 30, 1, flags));
+
+  gst_element_class_add_static_pad_template(element_class, &src_template);
+  gst_element_class_set_static_metadata(
+      element_class, "Synthetic RGB-D classroom source", "Source/Video",
+      "A synthetic classroom with moving learners seen from one camera of a rig, as video/x-rgbd with the camera's "
+      "calibration in the caps, an optional consumer depth-sensor model and exact ground truth",
+      "gst-vclassroom developers");
+
+  basesrc_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_start);
+  basesrc_class->stop = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_stop);
+  basesrc_class->get_caps = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_get_caps);
+  basesrc_class->is_seekable = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_is_seekable);
+  basesrc_class->do_seek = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_do_seek);
+  basesrc_class->get_times = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_get_times);
+  basesrc_class->query = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_query);
+  pushsrc_class->create = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_create);
+  GST_DEBUG_CATEGORY_INIT(rgbd_test_src_debug, "rgbdtestsrc", 0, "Synthetic RGB-D classroom source");
+}
+
+static void gst_rgbd_test_src_init(GstRgbdTestSrc* self) {
+  self->st = new TestSrcState();
+  gst_base_src_set_format(GST_BASE_SRC(self), GST_FORMAT_TIME);
+}

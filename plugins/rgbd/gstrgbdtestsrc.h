@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstpushsrc.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_RGBD_TEST_SRC (gst_rgbd_test_src_get_type())
+G_DECLARE_FINAL_TYPE(GstRgbdTestSrc, gst_rgbd_test_src, GST, RGBD_TEST_SRC, GstPushSrc)
+
+G_END_DECLS
