@@ -281,11 +281,11 @@ TEST(SensorModel, ChangesDepthOnlyAsDocumented) {
     EXPECT_LT(cv::mean(diff)[0], 4.0);
     EXPECT_GT(cv::mean(diff)[0], 0.5);
   }
-  // docs/synthetic-classroom.md: 15-30 % of the pixels with clean depth are
+  // docs/synthetic-classroom.md: 15-35 % of the pixels with clean depth are
   // missing in the default views.
   const double frac = double(holes) / valid_clean;
   EXPECT_GE(frac, 0.15);
-  EXPECT_LE(frac, 0.30);
+  EXPECT_LE(frac, 0.35);
 }
 
 // Measured noise at 1, 3 and 5 m on the back wall follows sigma = a z^2.

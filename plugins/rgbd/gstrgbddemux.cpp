@@ -141,6 +141,12 @@ static GstFlowReturn gst_rgbd_demux_chain(GstPad*, GstObject* parent, GstBuffer*
       gst_buffer_unmap(out, &dst);
       gst_buffer_unmap(buf, &src);
     }
+    // copy_region keeps timestamps only at offset 0.
+    GST_BUFFER_PTS(out) = GST_BUFFER_PTS(buf);
+    GST_BUFFER_DTS(out) = GST_BUFFER_DTS(buf);
+    GST_BUFFER_DURATION(out) = GST_BUFFER_DURATION(buf);
+    GST_BUFFER_OFFSET(out) = GST_BUFFER_OFFSET(buf);
+    GST_BUFFER_OFFSET_END(out) = GST_BUFFER_OFFSET_END(buf);
     GstPad* pad = self->srcpads[slot_of(p)];
     const GstFlowReturn r = gst_pad_push(pad, out);
     combined = gst_flow_combiner_update_pad_flow(self->flow, pad, r);

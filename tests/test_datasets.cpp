@@ -1,0 +1,286 @@
+// Recorded datasets: rgbdfilesrc/rgbdfilesink, the Middlebury importer (whose
+// rig must predict where real pixels land) and bad input.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <gst/vclassroom/dataset.h>
+#include <gst/vclassroom/middlebury.h>
+#include <gst/vclassroom/rgbd.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "test_util.h"
+
+namespace fs = std::filesystem;
+using namespace vclassroom;
+
+namespace {
+
+// Plays one camera of a dataset and returns its frames (caps of the first in *info).
+std::vector<RgbdImages> play(const std::string& folder, int camera, RgbdInfo* info, vctest::RunResult* result,
+                             const std::string& extra = "") {
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(("rgbdfilesrc name=src location=\"" + folder + "\" camera-id=" +
+                                    std::to_string(camera) + " " + extra + " ! appsink name=out sync=false")
+                                       .c_str(),
+                                   &err);
+  EXPECT_EQ(err, nullptr);
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  std::vector<RgbdImages> frames;
+  {
+    vctest::SampleCollector got(out);
+    *result = vctest::run_pipeline(p);
+    for (size_t i = 0; i < got.size(); ++i) {
+      RgbdInfo in;
+      std::string e;
+      EXPECT_TRUE(rgbd_info_from_caps(got.caps(i), &in, &e)) << e;
+      if (i == 0 && info) *info = in;
+      RgbdFrame f;
+      EXPECT_TRUE(f.map(got.buffer(i), in, GST_MAP_READ, &e)) << e;
+      frames.push_back({f.color().clone(), f.depth().clone(), f.label().clone(), f.plane(Plane::DepthGT).clone()});
+    }
+  }
+  gst_object_unref(out);
+  gst_object_unref(p);
+  return frames;
+}
+
+void write_small_dataset(const std::string& folder, int frames) {
+  Rig rig = vctest::make_rig(2, 40, 30);
+  save_rig(rig, folder + "/rig.yaml");
+  for (int cam = 0; cam < 2; ++cam)
+    for (int i = 0; i < frames; ++i) {
+      RgbdImages im;
+      im.color = cv::Mat(30, 40, CV_8UC3, cv::Scalar(10 * i, 20 * cam, 30));
+      im.depth = cv::Mat(30, 40, CV_16UC1, cv::Scalar(1000 + 100 * i + cam));
+      dataset_write_frame(folder, cam, i, im);
+    }
+}
+
+// Sub-pixel horizontal offset between a patch of `a` at (x, y) and `b` near
+// (bx, y): the residual that moves the prediction onto the best match.
+// Returns false where the patch is untextured or the match is ambiguous.
+bool match_offset(const cv::Mat& a, const cv::Mat& b, int x, int y, double bx, double* offset) {
+  const int r = 4, search = 3;
+  const int ibx = static_cast<int>(std::lround(bx));
+  if (x - r < 0 || x + r >= a.cols || y - r < 0 || y + r >= a.rows) return false;
+  if (ibx - r - search - 1 < 0 || ibx + r + search + 1 >= b.cols) return false;
+  const cv::Mat pa = a(cv::Rect(x - r, y - r, 2 * r + 1, 2 * r + 1));
+  cv::Scalar mean, sd;
+  cv::meanStdDev(pa, mean, sd);
+  if (sd[0] < 12) return false;
+  double cost[2 * search + 3];
+  for (int k = -search - 1; k <= search + 1; ++k) {
+    const cv::Mat pb = b(cv::Rect(ibx + k - r, y - r, 2 * r + 1, 2 * r + 1));
+    cost[k + search + 1] = cv::norm(pa, pb, cv::NORM_L2SQR);
+  }
+  int best = 1;
+  for (int k = 1; k <= 2 * search + 1; ++k)
+    if (cost[k] < cost[best]) best = k;
+  if (best == 0 || best == 2 * search + 2) return false;
+  // Occluded or changed patches match badly everywhere.
+  if (cost[best] > 0.25 * pa.total() * sd[0] * sd[0]) return false;
+  const double c0 = cost[best - 1], c1 = cost[best], c2 = cost[best + 1];
+  const double denom = c0 - 2 * c1 + c2;
+  const double sub = denom > 0 ? 0.5 * (c0 - c2) / denom : 0.0;
+  *offset = (ibx + best - search - 1 + sub) - bx;
+  return true;
+}
+
+}  // namespace
+
+TEST(Datasets, FileSinkRecordsWhatFileSrcPlays) {
+  vctest::TempDir in, out;
+  write_small_dataset(in.path(), 3);
+  auto r = vctest::run_launch("rgbdfilesrc location=" + in.path() + " camera-id=1 ! rgbdfilesink location=" +
+                              out.path() + " rig-name=copy");
+  ASSERT_EQ(r.error, "");
+  r = vctest::run_launch("rgbdfilesrc location=" + in.path() + " camera-id=0 ! rgbdfilesink location=" + out.path());
+  ASSERT_EQ(r.error, "");
+  const Rig rig = load_rig(out / "rig.yaml");
+  ASSERT_EQ(rig.cameras.size(), 2u);
+  EXPECT_EQ(rig.name, "copy");
+  EXPECT_EQ(rig.camera(1).center_in_rig().x(), 0.1);
+  RgbdInfo info;
+  const auto a = play(in.path(), 1, &info, &r);
+  const auto b = play(out.path(), 1, nullptr, &r);
+  ASSERT_EQ(a.size(), 3u);
+  ASSERT_EQ(b.size(), 3u);
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_TRUE(vctest::same_image(a[i].color, b[i].color));
+    EXPECT_TRUE(vctest::same_image(a[i].depth, b[i].depth));
+  }
+  EXPECT_EQ(a[2].depth.at<uint16_t>(0, 0), 1201);
+}
+
+TEST(Datasets, FileSrcTimestampsAndLoops) {
+  vctest::TempDir dir;
+  write_small_dataset(dir.path(), 3);
+  vctest::RunResult r;
+  RgbdInfo info;
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(("rgbdfilesrc location=" + dir.path() +
+                                    " loop=true framerate=10/1 num-buffers=7 ! appsink name=out sync=false")
+                                       .c_str(),
+                                   &err);
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  vctest::SampleCollector got(out);
+  r = vctest::run_pipeline(p);
+  EXPECT_EQ(r.error, "");
+  ASSERT_EQ(got.size(), 7u);
+  ASSERT_TRUE(rgbd_info_from_caps(got.caps(0), &info, nullptr));
+  EXPECT_EQ(info.fps_n, 10);
+  for (size_t i = 0; i < 7; ++i) {
+    EXPECT_EQ(GST_BUFFER_PTS(got.buffer(i)), i * GST_SECOND / 10);
+    RgbdFrame f;
+    ASSERT_TRUE(f.map(got.buffer(i), info, GST_MAP_READ, nullptr));
+    EXPECT_EQ(f.depth().at<uint16_t>(5, 5), 1000 + 100 * (i % 3)) << "frame " << i;
+  }
+  gst_object_unref(out);
+  gst_object_unref(p);
+}
+
+TEST(Datasets, BadInputPostsClearErrors) {
+  vctest::TempDir dir;
+  write_small_dataset(dir.path(), 2);
+  vctest::RunResult r;
+
+  // A truncated PNG: the error names the file.
+  const std::string color1 = dataset_camera_dir(dir.path(), 0) + "/color/000001.png";
+  {
+    std::ifstream in(color1, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream out(color1, std::ios::binary | std::ios::trunc);
+    out.write(bytes.data(), bytes.size() / 2);
+  }
+  auto frames = play(dir.path(), 0, nullptr, &r);
+  EXPECT_EQ(frames.size(), 1u);  // frame 0 still plays
+  EXPECT_NE(r.error.find("000001.png"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("cannot decode"), std::string::npos) << r.error;
+
+  // A depth image of the wrong size.
+  const std::string depth0 = dataset_camera_dir(dir.path(), 1) + "/depth/000000.png";
+  cv::imwrite(depth0, cv::Mat(10, 12, CV_16UC1, cv::Scalar(5)));
+  frames = play(dir.path(), 1, nullptr, &r);
+  EXPECT_TRUE(frames.empty());
+  EXPECT_NE(r.error.find("depth image is 12x10, but rig camera 1 is 40x30"), std::string::npos) << r.error;
+
+  // An 8-bit depth image.
+  cv::imwrite(depth0, cv::Mat(30, 40, CV_8UC1, cv::Scalar(5)));
+  play(dir.path(), 1, nullptr, &r);
+  EXPECT_NE(r.error.find("16-bit"), std::string::npos) << r.error;
+
+  // A missing dataset folder, a missing rig file.
+  play(dir / "nowhere", 0, nullptr, &r);
+  EXPECT_NE(r.error.find("nowhere"), std::string::npos) << r.error;
+  fs::remove(dir / "rig.yaml");
+  play(dir.path(), 0, nullptr, &r);
+  EXPECT_NE(r.error.find("rig.yaml"), std::string::npos) << r.error;
+
+  // A rig with 0 cameras.
+  vctest::write_text(dir / "rig.yaml", "name: empty\ncameras: []\n");
+  play(dir.path(), 0, nullptr, &r);
+  EXPECT_NE(r.error.find("no cameras"), std::string::npos) << r.error;
+  EXPECT_EQ(r.error_source, "src");
+
+  // Frame counts that disagree between colour and depth.
+  write_small_dataset(dir.path(), 2);
+  fs::remove(dataset_camera_dir(dir.path(), 0) + "/depth/000001.png");
+  play(dir.path(), 0, nullptr, &r);
+  EXPECT_NE(r.error.find("1 images, but color/ has 2"), std::string::npos) << r.error;
+}
+
+TEST(Middlebury, DisparityToDepth) {
+  EXPECT_EQ(disparity_to_depth_mm(200, 3740, 0.16), 2992);  // 3740 * 160 / 200
+  EXPECT_EQ(disparity_to_depth_mm(0, 3740, 0.16), 0);
+  EXPECT_EQ(disparity_to_depth_mm(5, 3740, 0.16), 0);  // 119.7 m does not fit 16 bits
+}
+
+// The importer's rig must say where real pixels go: play the imported Art
+// scene, move every textured pixel of view 1 with its depth through the rig
+// into view 2 and check the real view 2 has that pixel there (block matching).
+TEST(Middlebury, ImportedRigLandsView1PixelsOnView2) {
+  const std::string scene = vctest::shared_path("middlebury-2005-2006-multiview/art");
+  SKIP_WITHOUT_SHARED_DATA(scene);
+  vctest::TempDir dir;
+  const ImportSummary sum = import_middlebury_multiview(scene, dir.path());
+  EXPECT_EQ(sum.rig.cameras.size(), 6u);
+  EXPECT_GT(sum.depth_pixels, 1390 * 1110 * 9 / 10);
+
+  vctest::RunResult r;
+  RgbdInfo info1, info2;
+  const auto v1 = play(dir.path(), 1, &info1, &r);
+  ASSERT_EQ(r.error, "");
+  const auto v2 = play(dir.path(), 2, &info2, &r);
+  ASSERT_EQ(r.error, "");
+  ASSERT_EQ(v1.size(), 1u);
+  ASSERT_EQ(v2.size(), 1u);
+  EXPECT_EQ(info1.width(), 1390);
+  EXPECT_EQ(info1.height(), 1110);
+  EXPECT_EQ(info1.camera.fx, 3740);
+  EXPECT_NEAR(info2.camera.center_in_rig().x() - info1.camera.center_in_rig().x(), 0.040, 1e-12);
+  EXPECT_EQ(cv::countNonZero(v2[0].depth), 0);  // only view 1 has ground truth
+
+  // Rebuild the rig from the caps alone: the calibration must travel with the stream.
+  Rig rig;
+  rig.cameras = {info1.camera, info2.camera};
+  cv::Mat g1, g2;
+  cv::cvtColor(v1[0].color, g1, cv::COLOR_RGB2GRAY);
+  cv::cvtColor(v2[0].color, g2, cv::COLOR_RGB2GRAY);
+  g1.convertTo(g1, CV_32F);
+  g2.convertTo(g2, CV_32F);
+  double sum_abs = 0;
+  int n = 0;
+  for (int y = 8; y < g1.rows - 8; y += 6)
+    for (int x = 8; x < g1.cols - 8; x += 6) {
+      const uint16_t z = v1[0].depth.at<uint16_t>(y, x);
+      if (!z) continue;
+      auto uv = rig.camera(2).project(rig.transform(1, 2) * rig.camera(1).unproject(x, y, z / 1000.0));
+      if (!uv) continue;
+      EXPECT_NEAR(uv->y(), y, 1e-6);
+      double off;
+      if (!match_offset(g1, g2, x, y, uv->x(), &off)) continue;
+      sum_abs += std::abs(off);
+      ++n;
+    }
+  ASSERT_GT(n, 5000) << "too few textured, unoccluded pixels to judge";
+  const double mean = sum_abs / n;
+  RecordProperty("mean_abs_px", std::to_string(mean));
+  EXPECT_LT(mean, 0.5) << "over " << n << " pixels";
+}
+
+TEST(Middlebury, Teddy2003ImportsBothViewsWithDepth) {
+  const std::string scene = vctest::shared_path("middlebury-2003-teddy/teddy");
+  SKIP_WITHOUT_SHARED_DATA(scene);
+  vctest::TempDir dir;
+  const ImportSummary sum = import_middlebury_2003(scene, dir.path());
+  ASSERT_EQ(sum.rig.cameras.size(), 2u);
+  vctest::RunResult r;
+  RgbdInfo i2, i6;
+  const auto a = play(dir.path(), 2, &i2, &r);
+  ASSERT_EQ(r.error, "");
+  const auto b = play(dir.path(), 6, &i6, &r);
+  ASSERT_EQ(r.error, "");
+  EXPECT_EQ(i2.width(), 450);
+  EXPECT_EQ(i2.height(), 375);
+  // disp2 stores 4x the 2->6 disparity: a pixel with disp2 = v moves v/4 px.
+  const cv::Mat disp2 = cv::imread(scene + "/disp2.pgm", cv::IMREAD_GRAYSCALE);
+  Rig rig;
+  rig.cameras = {i2.camera, i6.camera};
+  int checked = 0;
+  for (int y = 0; y < disp2.rows; y += 7)
+    for (int x = 0; x < disp2.cols; x += 7) {
+      const int v = disp2.at<uint8_t>(y, x);
+      const uint16_t z = a[0].depth.at<uint16_t>(y, x);
+      ASSERT_EQ(v == 0, z == 0);
+      if (!v) continue;
+      auto uv = rig.camera(6).project(rig.transform(2, 6) * rig.camera(2).unproject(x, y, z / 1000.0));
+      ASSERT_TRUE(uv.has_value());
+      EXPECT_NEAR(uv->x(), x - v / 4.0, 0.02);
+      ++checked;
+    }
+  EXPECT_GT(checked, 2000);
+  EXPECT_GT(cv::countNonZero(b[0].depth), 450 * 375 * 9 / 10);
+}

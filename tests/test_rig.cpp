@@ -1,0 +1,228 @@
+// Rig files: good ones load, each kind of bad one fails naming file, camera and
+// field; projection helpers agree with the geometry.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include <gst/vclassroom/rig.h>
+
+#include "test_util.h"
+
+using namespace vclassroom;
+
+namespace {
+
+const char* kGoodRig = R"(# two cameras, hand-written (no %YAML header)
+name: lab
+cameras:
+  - id: 0
+    width: 640
+    height: 480
+    fx: 500
+    fy: 500
+    cx: 319.5
+    cy: 239.5
+    rotation: [1, 0, 0, 0, -1, 0, 0, 0, -1]
+    translation: [0, 0, 0]
+  - id: 1
+    width: 640
+    height: 480
+    fx: 510.5
+    fy: 509.25
+    cx: 320
+    cy: 240
+    distortion: [0.1, -0.05, 0.001, 0.002, 0.01]
+    depth_scale: 0.2
+    rotation: [1, 0, 0, 0, -1, 0, 0, 0, -1]
+    translation: [0.8, 0, 0]
+    depth_to_color:
+      rotation: [1, 0, 0, 0, 1, 0, 0, 0, 1]
+      translation: [-0.032, 0, 0]
+)";
+
+std::string replace_once(std::string s, const std::string& from, const std::string& to) {
+  const size_t at = s.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) s.replace(at, from.size(), to);
+  return s;
+}
+
+// Loads `text` as a rig file and returns the error message ("" if it loaded).
+std::string load_error(const vctest::TempDir& dir, const std::string& text) {
+  const std::string path = dir / "rig.yaml";
+  vctest::write_text(path, text);
+  try {
+    load_rig(path);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Rig, HandWrittenRigLoads) {
+  vctest::TempDir dir;
+  vctest::write_text(dir / "rig.yaml", kGoodRig);
+  Rig rig = load_rig(dir / "rig.yaml");
+  ASSERT_EQ(rig.cameras.size(), 2u);
+  EXPECT_EQ(rig.name, "lab");
+  const CameraCalib& c1 = rig.camera(1);
+  EXPECT_DOUBLE_EQ(c1.fx, 510.5);
+  EXPECT_DOUBLE_EQ(c1.fy, 509.25);
+  EXPECT_DOUBLE_EQ(c1.distortion[4], 0.01);
+  EXPECT_DOUBLE_EQ(c1.depth_scale, 0.2);
+  EXPECT_DOUBLE_EQ(rig.camera(0).depth_scale, 1.0);  // default
+  EXPECT_DOUBLE_EQ(c1.center_in_rig().x(), 0.8);
+  ASSERT_TRUE(c1.depth_to_color.has_value());
+  EXPECT_DOUBLE_EQ(c1.depth_to_color->translation().x(), -0.032);
+  EXPECT_FALSE(rig.camera(0).depth_to_color.has_value());
+}
+
+TEST(Rig, SaveLoadRoundTripIsExact) {
+  vctest::TempDir dir;
+  Rig rig = vctest::make_rig(4, 960, 540);
+  rig.cameras[2].cam_to_rig.linear() =
+      Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix();
+  rig.cameras[2].distortion = {0.11, -0.021, 0.0013, -0.0007, 0.004};
+  rig.cameras[3].fx = 1234.5678901234567;
+  rig.cameras[1].depth_to_color = Eigen::Isometry3d(Eigen::Translation3d(0.03, 0.001, -0.002));
+  save_rig(rig, dir / "rig.yaml");
+  Rig back = load_rig(dir / "rig.yaml");
+  ASSERT_EQ(back.cameras.size(), rig.cameras.size());
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const auto &a = rig.cameras[i], &b = back.cameras[i];
+    EXPECT_EQ(a.id, b.id);
+    EXPECT_EQ(a.width, b.width);
+    EXPECT_EQ(a.fx, b.fx);
+    EXPECT_EQ(a.cy, b.cy);
+    EXPECT_EQ(a.distortion, b.distortion);
+    EXPECT_TRUE(a.cam_to_rig.matrix() == b.cam_to_rig.matrix()) << "camera " << i;
+    EXPECT_EQ(a.depth_to_color.has_value(), b.depth_to_color.has_value());
+  }
+}
+
+struct BadRigCase {
+  const char* what;
+  std::string from, to;
+  std::vector<std::string> message_parts;
+};
+
+TEST(Rig, EachKindOfBadRigFailsWithItsMessage) {
+  vctest::TempDir dir;
+  const std::string file = dir / "rig.yaml";
+  const std::vector<BadRigCase> cases = {
+      {"missing field", "    fy: 509.25\n", "", {file, "camera 1", "'fy'", "missing"}},
+      {"zero focal", "    fx: 500\n", "    fx: 0\n", {file, "camera 0", "'fx'", "> 0"}},
+      {"negative focal", "    fy: 509.25\n", "    fy: -3\n", {file, "camera 1", "'fy'"}},
+      {"not a number", "    cx: 320\n", "    cx: left\n", {file, "camera 1", "'cx'", "number"}},
+      {"non-orthonormal rotation", "    rotation: [1, 0, 0, 0, -1, 0, 0, 0, -1]\n    translation: [0.8",
+       "    rotation: [1, 0.2, 0, 0, -1, 0, 0, 0, -1]\n    translation: [0.8",
+       {file, "camera 1", "'rotation'", "orthonormal"}},
+      {"reflection", "    rotation: [1, 0, 0, 0, -1, 0, 0, 0, -1]\n    translation: [0, 0, 0]",
+       "    rotation: [1, 0, 0, 0, 1, 0, 0, 0, -1]\n    translation: [0, 0, 0]", {file, "camera 0", "'rotation'"}},
+      {"short translation", "translation: [0.8, 0, 0]", "translation: [0.8, 0]",
+       {file, "camera 1", "'translation'", "3 numbers"}},
+      {"zero width", "    width: 640\n    height: 480\n    fx: 500", "    width: 0\n    height: 480\n    fx: 500",
+       {file, "camera 0", "'width'"}},
+      {"duplicate id", "  - id: 1\n", "  - id: 0\n", {file, "camera 1", "'id'", "duplicate"}},
+      {"bad depth scale", "depth_scale: 0.2", "depth_scale: 0", {file, "camera 1", "'depth_scale'"}},
+      {"bad distortion", "distortion: [0.1, -0.05, 0.001, 0.002, 0.01]", "distortion: [0.1, -0.05]",
+       {file, "camera 1", "'distortion'", "5 numbers"}},
+      {"bad depth_to_color", "      rotation: [1, 0, 0, 0, 1, 0, 0, 0, 1]", "      rotation: [2, 0, 0, 0, 1, 0, 0, 0, 1]",
+       {file, "camera 1", "depth_to_color", "'rotation'"}},
+  };
+  for (const auto& c : cases) {
+    const std::string msg = load_error(dir, replace_once(kGoodRig, c.from, c.to));
+    ASSERT_FALSE(msg.empty()) << c.what << ": a bad rig loaded";
+    for (const auto& part : c.message_parts)
+      EXPECT_NE(msg.find(part), std::string::npos) << c.what << ": '" << msg << "' lacks '" << part << "'";
+  }
+}
+
+TEST(Rig, CameraCountMustBeOneToEight) {
+  vctest::TempDir dir;
+  std::string msg = load_error(dir, "name: empty\ncameras: []\n");
+  EXPECT_NE(msg.find("no cameras"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(dir / "rig.yaml"), std::string::npos) << msg;
+  msg = load_error(dir, "name: none\n");
+  EXPECT_NE(msg.find("'cameras'"), std::string::npos) << msg;
+
+  EXPECT_THROW(save_rig(vctest::make_rig(9), dir / "nine.yaml"), Error);
+  std::string nine = "cameras:\n";
+  for (int i = 0; i < 9; ++i)
+    nine += "  - {id: " + std::to_string(i) +
+            ", width: 64, height: 48, fx: 50, fy: 50, cx: 32, cy: 24, rotation: [1,0,0,0,1,0,0,0,1], "
+            "translation: [0,0,0]}\n";
+  msg = load_error(dir, nine);
+  EXPECT_NE(msg.find("9 cameras (expected 1 to 8)"), std::string::npos) << msg;
+  save_rig(vctest::make_rig(8), dir / "eight.yaml");
+  EXPECT_EQ(load_rig(dir / "eight.yaml").cameras.size(), 8u);
+}
+
+TEST(Rig, MissingAndMalformedFilesFailClearly) {
+  vctest::TempDir dir;
+  try {
+    load_rig(dir / "nope.yaml");
+    FAIL() << "a missing rig loaded";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("nope.yaml"), std::string::npos);
+  }
+  const std::string msg = load_error(dir, "cameras: [ {id: 0, width: 3\n");
+  EXPECT_NE(msg.find("not a valid rig YAML"), std::string::npos) << msg;
+}
+
+TEST(Rig, UnknownCameraIdNamesTheIds) {
+  Rig rig = vctest::make_rig(3);
+  try {
+    rig.camera(7);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no camera with id 7 (ids: 0 1 2)"), std::string::npos) << e.what();
+  }
+}
+
+// A point seen by camera i at (u, v) with depth z, unprojected and carried into
+// camera j, must land where camera j sees that point directly.
+TEST(Rig, UnprojectInOneCameraProjectsWhereTheOtherSeesThePoint) {
+  Rig rig = vctest::make_rig(2, 640, 480);
+  rig.cameras[0].cam_to_rig.linear() = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  rig.cameras[1].cam_to_rig.linear() = Eigen::AngleAxisd(-0.25, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+                                       Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  rig.cameras[1].cam_to_rig.translation() = Eigen::Vector3d(0.8, 0.02, -0.1);
+  rig.cameras[1].distortion = {0.08, -0.02, 0.001, -0.0015, 0.003};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> X(-1.5, 1.5), Y(-1, 1), Z(1.5, 6);
+  int checked = 0;
+  for (int n = 0; n < 2000; ++n) {
+    const Eigen::Vector3d p_rig(X(rng), Y(rng), Z(rng));
+    const Eigen::Vector3d p0 = rig.cameras[0].cam_to_rig.inverse() * p_rig;
+    const Eigen::Vector3d p1 = rig.cameras[1].cam_to_rig.inverse() * p_rig;
+    auto uv0 = rig.cameras[0].project(p0);
+    auto uv1 = rig.cameras[1].project(p1);
+    if (!uv0 || !uv1) continue;
+    const Eigen::Vector3d back = rig.cameras[0].unproject(uv0->x(), uv0->y(), p0.z());
+    EXPECT_LT((back - p0).norm(), 1e-9);
+    auto uv01 = rig.cameras[1].project(rig.transform(0, 1) * back);
+    ASSERT_TRUE(uv01.has_value());
+    EXPECT_LT((*uv01 - *uv1).norm(), 1e-6);
+    // And back again, through the distorted camera.
+    const Eigen::Vector3d back1 = rig.cameras[1].unproject(uv1->x(), uv1->y(), p1.z());
+    EXPECT_LT((back1 - p1).norm(), 1e-6);
+    ++checked;
+  }
+  EXPECT_GT(checked, 1000);
+  // Behind the camera projects nowhere.
+  EXPECT_FALSE(rig.cameras[0].project(Eigen::Vector3d(0, 0, -1)).has_value());
+}
+
+// Two rectified cameras 0.1 m apart: a point at depth z shifts by f*B/z pixels.
+TEST(Rig, SidewaysCamerasShiftByTheDisparity) {
+  Rig rig = vctest::make_rig(2, 640, 480);
+  const CameraCalib& c0 = rig.camera(0);
+  const double z = 2.5;
+  auto uv = rig.camera(1).project(rig.transform(0, 1) * c0.unproject(300, 200, z));
+  ASSERT_TRUE(uv.has_value());
+  EXPECT_NEAR(uv->x(), 300 - c0.fx * 0.1 / z, 1e-9);
+  EXPECT_NEAR(uv->y(), 200, 1e-9);
+}

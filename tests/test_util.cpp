@@ -1,0 +1,151 @@
+#include "test_util.h"
+
+#include <cstdlib>
+#include <filesystem>
+#include <cstring>
+#include <fstream>
+
+#include <gst/app/gstappsink.h>
+#include <gtest/gtest.h>
+
+namespace fs = std::filesystem;
+
+namespace vctest {
+
+TempDir::TempDir() {
+  std::string tmpl = (fs::temp_directory_path() / "vclassroom-test-XXXXXX").string();
+  char* p = mkdtemp(tmpl.data());
+  path_ = p ? p : "";
+}
+
+TempDir::~TempDir() {
+  std::error_code ec;
+  if (!path_.empty()) fs::remove_all(path_, ec);
+}
+
+std::string shared_data() {
+  const char* env = std::getenv("VCLASSROOM_SHARED_DATA");
+  if (!env || !*env) return "";
+  std::error_code ec;
+  return fs::is_directory(env, ec) ? std::string(env) : "";
+}
+
+std::string shared_path(const std::string& relative) {
+  const std::string root = shared_data();
+  if (root.empty()) return "";
+  std::error_code ec;
+  const fs::path p = fs::path(root) / relative;
+  return fs::exists(p, ec) ? p.string() : "";
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+}
+
+vclassroom::Rig make_rig(int n, int width, int height) {
+  vclassroom::Rig rig;
+  rig.name = "test";
+  for (int i = 0; i < n; ++i) {
+    vclassroom::CameraCalib c;
+    c.id = i;
+    c.name = "cam" + std::to_string(i);
+    c.width = width;
+    c.height = height;
+    c.fx = c.fy = 0.8 * width;
+    c.cx = (width - 1) / 2.0;
+    c.cy = (height - 1) / 2.0;
+    c.cam_to_rig.translation() = Eigen::Vector3d(0.1 * i, 0, 0);
+    rig.cameras.push_back(c);
+  }
+  return rig;
+}
+
+RunResult run_pipeline(GstElement* pipeline, GstClockTime timeout) {
+  RunResult r;
+  GstBus* bus = gst_element_get_bus(pipeline);
+  gst_element_set_state(pipeline, GST_STATE_PLAYING);
+  bool done = false;
+  while (!done) {
+    GstMessage* msg = gst_bus_timed_pop_filtered(
+        bus, timeout, GstMessageType(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING));
+    if (!msg) {
+      ADD_FAILURE() << "pipeline neither finished nor failed within the time limit (hang)";
+      r.error = "timeout";
+      break;
+    }
+    switch (GST_MESSAGE_TYPE(msg)) {
+      case GST_MESSAGE_EOS:
+        done = true;
+        break;
+      case GST_MESSAGE_ERROR: {
+        GError* err = nullptr;
+        gst_message_parse_error(msg, &err, nullptr);
+        r.error = err ? err->message : "unknown error";
+        r.error_source = GST_OBJECT_NAME(GST_MESSAGE_SRC(msg));
+        g_clear_error(&err);
+        done = true;
+        break;
+      }
+      case GST_MESSAGE_WARNING: {
+        GError* err = nullptr;
+        gst_message_parse_warning(msg, &err, nullptr);
+        r.warnings.push_back(err ? err->message : "");
+        g_clear_error(&err);
+        break;
+      }
+      default:
+        break;
+    }
+    gst_message_unref(msg);
+  }
+  gst_element_set_state(pipeline, GST_STATE_NULL);
+  gst_object_unref(bus);
+  return r;
+}
+
+RunResult run_launch(const std::string& description, GstClockTime timeout) {
+  GError* err = nullptr;
+  GstElement* pipeline = gst_parse_launch(description.c_str(), &err);
+  if (!pipeline || err) {
+    RunResult r;
+    r.error = std::string("parse: ") + (err ? err->message : "?");
+    g_clear_error(&err);
+    if (pipeline) gst_object_unref(pipeline);
+    return r;
+  }
+  RunResult r = run_pipeline(pipeline, timeout);
+  gst_object_unref(pipeline);
+  return r;
+}
+
+SampleCollector::SampleCollector(GstElement* appsink) {
+  g_mutex_init(&lock_);
+  GstAppSinkCallbacks cb{};
+  cb.new_sample = &SampleCollector::on_sample;
+  gst_app_sink_set_callbacks(GST_APP_SINK(appsink), &cb, this, nullptr);
+}
+
+SampleCollector::~SampleCollector() {
+  for (GstSample* s : samples_) gst_sample_unref(s);
+  g_mutex_clear(&lock_);
+}
+
+GstFlowReturn SampleCollector::on_sample(GstAppSink* sink, gpointer data) {
+  auto* self = static_cast<SampleCollector*>(data);
+  GstSample* s = gst_app_sink_pull_sample(sink);
+  if (!s) return GST_FLOW_ERROR;
+  g_mutex_lock(&self->lock_);
+  self->samples_.push_back(s);
+  g_mutex_unlock(&self->lock_);
+  return GST_FLOW_OK;
+}
+
+bool same_image(const cv::Mat& a, const cv::Mat& b) {
+  if (a.type() != b.type() || a.size() != b.size()) return false;
+  for (int y = 0; y < a.rows; ++y)
+    if (std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()) != 0) return false;
+  return true;
+}
+
+}  // namespace vctest

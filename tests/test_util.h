@@ -1,0 +1,73 @@
+// Helpers shared by the tests: temporary folders, the shared data, pipelines.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <gst/app/gstappsink.h>
+#include <gst/gst.h>
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/rig.h>
+
+namespace vctest {
+
+// A fresh empty folder, removed when the object goes.
+class TempDir {
+ public:
+  TempDir();
+  ~TempDir();
+  const std::string& path() const { return path_; }
+  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
+
+ private:
+  std::string path_;
+};
+
+// ../shared/data (from VCLASSROOM_SHARED_DATA), or "" when absent.
+std::string shared_data();
+// Path of a file or folder inside the shared data, or "" when absent.
+std::string shared_path(const std::string& relative);
+
+void write_text(const std::string& path, const std::string& text);
+
+// A small valid rig of `n` cameras in a row, 0.1 m apart, facing +Z of the rig.
+vclassroom::Rig make_rig(int n, int width = 64, int height = 48);
+
+// Runs a pipeline to EOS or error. Returns the error message ("" on EOS),
+// and collects warnings. Fails the test on timeout (a hang).
+struct RunResult {
+  std::string error;
+  std::string error_source;
+  std::vector<std::string> warnings;
+};
+RunResult run_pipeline(GstElement* pipeline, GstClockTime timeout = 60 * GST_SECOND);
+RunResult run_launch(const std::string& description, GstClockTime timeout = 60 * GST_SECOND);
+
+// Keeps every sample an appsink receives while the pipeline runs.
+class SampleCollector {
+ public:
+  explicit SampleCollector(GstElement* appsink);
+  ~SampleCollector();
+  const std::vector<GstSample*>& samples() const { return samples_; }
+  size_t size() const { return samples_.size(); }
+  GstBuffer* buffer(size_t i) const { return gst_sample_get_buffer(samples_.at(i)); }
+  GstCaps* caps(size_t i) const { return gst_sample_get_caps(samples_.at(i)); }
+
+ private:
+  static GstFlowReturn on_sample(GstAppSink* sink, gpointer self);
+  GMutex lock_;
+  std::vector<GstSample*> samples_;
+};
+
+// Structural-equality of two images (type, size, bytes).
+bool same_image(const cv::Mat& a, const cv::Mat& b);
+
+}  // namespace vctest
+
+#define SKIP_WITHOUT_SHARED_DATA(path)                                                          \
+  do {                                                                                          \
+    if ((path).empty())                                                                         \
+      GTEST_SKIP() << "needs ../shared/data beside the project (set VCLASSROOM_SHARED_DATA); " \
+                      "it is absent here, as on a user's machine";                              \
+  } while (0)
