@@ -40,6 +40,61 @@ void write_rgb(const std::string& path, const cv::Mat& rgb) {
   std::printf("wrote %s\n", path.c_str());
 }
 
+// What the sensor model does to the default views and to a wall at 1, 3, 5 m:
+// the figures quoted in docs/synthetic-classroom.md.
+void print_sensor_ranges(const Classroom& room, const SensorParams& sp, uint64_t seed) {
+  ClassroomRenderer r;
+  RenderOutput out;
+  cv::Mat depth, color;
+  std::printf("sensor model, default views (30 frames each, share of pixels with clean depth):\n");
+  for (const auto& cam : default_classroom_rig().cameras) {
+    double holes = 0, fov = 0, valid = 0, edge = 0;
+    for (int f = 0; f < 30; ++f) {
+      r.render(room, f / 3.0, cam, &out);
+      apply_sensor_model(out, cam, sp, seed, uint64_t(f), &depth, &color);
+      const cv::Mat edges = sensor_edge_mask(out.depth, sp);
+      for (int y = 0; y < out.depth.rows; ++y)
+        for (int x = 0; x < out.depth.cols; ++x) {
+          if (!out.depth.at<uint16_t>(y, x)) continue;
+          ++valid;
+          const double xn = (x - cam.cx) / cam.fx / sp.fov_ax, yn = (y - cam.cy) / cam.fy / sp.fov_ay;
+          const bool outside = xn * xn + yn * yn > 1;
+          fov += outside;
+          edge += edges.at<uint8_t>(y, x) != 0;
+          holes += depth.at<uint16_t>(y, x) == 0;
+        }
+    }
+    std::printf("  camera %d: missing %.1f %% (outside the depth field of view %.1f %%, depth edges %.1f %%)\n",
+                cam.id, 100 * holes / valid, 100 * fov / valid, 100 * edge / valid);
+  }
+  std::printf("sensor model, matte back wall seen head-on (4 frames, centre of a 320x240 view):\n");
+  for (double d : {1.0, 3.0, 4.9}) {
+    const double y = room.floor_y() + 1.5;
+    const CameraCalib cam = look_at_camera({0.3, y, room.back_z() + d}, {0.3, y, room.back_z()}, 320, 240);
+    r.render(room, 0, cam, &out);
+    const cv::Mat edges = sensor_edge_mask(out.depth, sp);
+    double s = 0, s2 = 0, n = 0, holes = 0;
+    for (int f = 0; f < 4; ++f) {
+      apply_sensor_model(out, cam, sp, seed, uint64_t(f), &depth, &color);
+      for (int yy = 60; yy < 180; ++yy)
+        for (int x = 80; x < 240; ++x) {
+          const int zc = out.depth.at<uint16_t>(yy, x), zn = depth.at<uint16_t>(yy, x);
+          if (!zc || edges.at<uint8_t>(yy, x) || std::abs(zc - 1000 * d) > 100 * d) continue;
+          if (!zn) {
+            ++holes;
+            continue;
+          }
+          s += zn - zc;
+          s2 += double(zn - zc) * (zn - zc);
+          ++n;
+        }
+    }
+    const double mean = s / n;
+    std::printf("  %.1f m: noise sigma %.2f mm (model %.2f mm), bias %+.2f mm, missing %.1f %%\n", d,
+                std::sqrt(s2 / n - mean * mean), sensor_depth_sigma_mm(sp, d), mean, 100 * holes / (holes + n));
+  }
+}
+
 int usage() {
   std::fprintf(stderr,
                "usage: vclassroom-bench-testsrc [--frames N] [--learners N] [--seed S] [--time T]\n"
@@ -131,6 +186,7 @@ int main(int argc, char** argv) {
                     noise ? "on" : "off", frames / s, 1000.0 * s / frames);
       }
     }
+    print_sensor_ranges(room, sp, seed);
   } catch (const Error& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 1;

@@ -124,8 +124,8 @@ struct SensorParams {
   double gloss_dropout = 0.7;
   // Depth field of view, in normalised image coordinates (x/z, y/z): pixels
   // outside the ellipse (x/ax)^2 + (y/ay)^2 = 1 have no depth (unit: tan).
-  double fov_ax = 0.93;
-  double fov_ay = 0.62;
+  double fov_ax = 1.02;
+  double fov_ay = 0.7;
   // A pixel is a depth edge when a 4-neighbour is nearer by more than this
   // share of its depth (and at least edge_min_mm). Edge pixels become flying
   // pixels (depth between the two surfaces) or drop out.

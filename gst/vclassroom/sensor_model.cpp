@@ -62,6 +62,9 @@ double sensor_depth_sigma_mm(const SensorParams& p, double z_m) { return p.sigma
 
 cv::Mat sensor_edge_mask(const cv::Mat& clean, const SensorParams& p) {
   CV_Assert(clean.type() == CV_16UC1);
+  // The same integer test as apply_sensor_model.
+  const int edge_min = int(std::floor(p.edge_min_mm));
+  const int edge_q12 = int(std::lround(p.edge_ratio * 4096));
   cv::Mat mask = cv::Mat::zeros(clean.size(), CV_8UC1);
   const int W = clean.cols, H = clean.rows;
   for (int y = 0; y < H; ++y) {
@@ -73,9 +76,8 @@ cv::Mat sensor_edge_mask(const cv::Mat& clean, const SensorParams& p) {
       for (auto& q : nb) {
         if (q[0] < 0 || q[0] >= W || q[1] < 0 || q[1] >= H) continue;
         const int nz = clean.at<uint16_t>(q[1], q[0]);
-        if (!nz) continue;
-        const double thr = std::max(p.edge_min_mm, p.edge_ratio * std::min(z, nz));
-        if (std::abs(nz - z) > thr) {
+        const int dz = std::abs(nz - z);
+        if (nz && dz > edge_min && dz * 4096 > edge_q12 * std::min(z, nz)) {
           mask.at<uint8_t>(y, x) = 255;
           break;
         }
@@ -108,6 +110,8 @@ void apply_sensor_model(const RenderOutput& clean, const CameraCalib& cam, const
   const float ax2 = float(1.0 / (p.fov_ax * p.fov_ax)), ay2 = float(1.0 / (p.fov_ay * p.fov_ay));
   const float ifx = float(1.0 / cam.fx), ify = float(1.0 / cam.fy), fcx = float(cam.cx), fcy = float(cam.cy);
   const float csig = float(p.color_sigma);
+  const int edge_min = int(std::floor(p.edge_min_mm));
+  const int edge_q12 = int(std::lround(p.edge_ratio * 4096));
   const SurfaceInfo* surf = clean.surfaces.data();
   const size_t nsurf = clean.surfaces.size();
 
@@ -129,14 +133,14 @@ void apply_sensor_model(const RenderOutput& clean, const CameraCalib& cam, const
       const float xn = (float(x) - fcx) * ifx;
       // Outside the depth camera's field of view.
       if (xn * xn * ax2 + yn * yn * ay2 > 1.0f) continue;
-      // Depth discontinuity: the largest jump to a 4-neighbour.
+      // Depth discontinuity: the largest jump to a 4-neighbour (integer
+      // thresholds: this runs for every pixel).
       int jump_z = 0, jump = 0;
       const int nb[4] = {x > 0 ? zr[x - 1] : 0, x + 1 < W ? zr[x + 1] : 0, zu ? zu[x] : 0, zd ? zd[x] : 0};
       for (int nz : nb) {
-        if (!nz) continue;
         const int dz = std::abs(nz - z);
-        const float thr = std::max(float(p.edge_min_mm), float(p.edge_ratio) * float(std::min(z, nz)));
-        if (float(dz) > thr && dz > jump) {
+        if (!nz || dz <= jump || dz <= edge_min) continue;
+        if (dz * 4096 > edge_q12 * std::min(z, nz)) {
           jump = dz;
           jump_z = nz;
         }
@@ -153,14 +157,21 @@ void apply_sensor_model(const RenderOutput& clean, const CameraCalib& cam, const
       }
       const uint16_t id = sr[x];
       const SurfaceInfo& s = id < nsurf ? surf[id] : surf[0];
-      const float rn = std::sqrt(xn * xn + yn * yn + 1.f);
-      const float cosi = std::abs(s.normal_cam.x() * xn + s.normal_cam.y() * yn + s.normal_cam.z()) / rn;
-      const float zm = float(z) * 0.001f;
-      const float signal = s.ir_albedo * cosi / (zm * zm);
-      const float p_dark = 1.f - smooth01((signal - s_lo) / (s_hi - s_lo));
-      const float p_graze = smooth01((g0 - cosi) / (g0 - g1));
-      const float p_miss = 1.f - (1.f - p_dark) * (1.f - p_graze);
-      if (rng.uniform() < p_miss) continue;
+      // Weak return or grazing incidence. The common case (neither) is decided
+      // without divisions or roots: compare squares.
+      const float rn2 = xn * xn + yn * yn + 1.f;
+      const float dn = std::abs(s.normal_cam.x() * xn + s.normal_cam.y() * yn + s.normal_cam.z());
+      const float zm = float(z) * 0.001f, zm2 = zm * zm;
+      const float ird = s.ir_albedo * dn;
+      const bool fine = dn * dn >= g0 * g0 * rn2 && ird * ird >= s_hi * s_hi * zm2 * zm2 * rn2;
+      if (!fine) {
+        const float cosi = dn / std::sqrt(rn2);
+        const float signal = s.ir_albedo * cosi / zm2;
+        const float p_dark = 1.f - smooth01((signal - s_lo) / (s_hi - s_lo));
+        const float p_graze = smooth01((g0 - cosi) / (g0 - g1));
+        const float p_miss = 1.f - (1.f - p_dark) * (1.f - p_graze);
+        if (p_miss > 0 && rng.uniform() < p_miss) continue;
+      }
       if (s.gloss > 0) {
         const float gx = float(x) / cell;
         const int gj = int(gx);
