@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/visualize.h>
 
 using namespace vclassroom;
 
@@ -152,8 +153,11 @@ int main(int argc, char** argv) {
         // The sensor's colour noise does not show at this size but bloats the files: clean colour.
         write_rgb(png_dir + "/camera" + std::to_string(cam.id) + "-color.png", out.color);
         if (cam.id == 0) {
-          write_rgb(png_dir + "/camera0-depth-clean.png", colorize_depth(out.depth));
-          write_rgb(png_dir + "/camera0-depth-sensor.png", colorize_depth(depth));
+          cv::Mat vis;
+          colorize_depth(out.depth, vis, 500, 6000);
+          write_rgb(png_dir + "/camera0-depth-clean.png", vis);
+          colorize_depth(depth, vis, 500, 6000);
+          write_rgb(png_dir + "/camera0-depth-sensor.png", vis);
           cv::Mat lab;
           cv::Mat l8 = out.label * 60;
           cv::applyColorMap(l8, lab, cv::COLORMAP_HSV);

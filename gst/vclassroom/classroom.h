@@ -163,7 +163,4 @@ CameraCalib scale_camera(const CameraCalib& cam, int width, int height);
 CameraCalib look_at_camera(const Eigen::Vector3d& position, const Eigen::Vector3d& target, int width = 960,
                            int height = 540, double hfov_deg = 90.0);
 
-// Colourised depth for previews (CV_8UC3 RGB): near = warm, far = cool, 0 = black.
-cv::Mat colorize_depth(const cv::Mat& depth_mm, double max_mm = 6000);
-
 }  // namespace vclassroom

@@ -788,16 +788,4 @@ CameraCalib scale_camera(const CameraCalib& cam, int width, int height) {
   return c;
 }
 
-cv::Mat colorize_depth(const cv::Mat& depth_mm, double max_mm) {
-  cv::Mat d8;
-  depth_mm.convertTo(d8, CV_8U, 255.0 / max_mm);
-  cv::Mat inv = 255 - d8;
-  cv::Mat bgr;
-  cv::applyColorMap(inv, bgr, cv::COLORMAP_JET);
-  cv::Mat rgb;
-  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
-  rgb.setTo(cv::Scalar(0, 0, 0), depth_mm == 0);
-  return rgb;
-}
-
 }  // namespace vclassroom

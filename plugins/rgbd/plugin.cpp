@@ -5,6 +5,7 @@
 
 #include <gst/gst.h>
 
+#include "gstdepthcolorize.h"
 #include "gstrgbddemux.h"
 #include "gstrgbdfilesink.h"
 #include "gstrgbdfilesrc.h"
@@ -18,6 +19,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok &= gst_element_register(plugin, "rgbdfilesrc", GST_RANK_NONE, GST_TYPE_RGBD_FILE_SRC);
   ok &= gst_element_register(plugin, "rgbdfilesink", GST_RANK_NONE, GST_TYPE_RGBD_FILE_SINK);
   ok &= gst_element_register(plugin, "rgbdtestsrc", GST_RANK_NONE, GST_TYPE_RGBD_TEST_SRC);
+  ok &= gst_element_register(plugin, "depthcolorize", GST_RANK_NONE, GST_TYPE_DEPTH_COLORIZE);
   return ok;
 }
 
