@@ -1,0 +1,436 @@
+#include "depth_completion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+namespace vclassroom {
+
+namespace {
+
+constexpr int kTile = 64;
+
+// Tiles (kTile x kTile) of a CV_16UC1 image that hold at least one 0.
+std::vector<cv::Rect> tiles_with_holes(const cv::Mat& depth) {
+  std::vector<cv::Rect> tiles;
+  for (int y = 0; y < depth.rows; y += kTile)
+    for (int x = 0; x < depth.cols; x += kTile) {
+      const cv::Rect r(x, y, std::min(kTile, depth.cols - x), std::min(kTile, depth.rows - y));
+      if (cv::countNonZero(depth(r)) < r.area()) tiles.push_back(r);
+    }
+  return tiles;
+}
+
+cv::Rect grow(const cv::Rect& r, int margin, const cv::Size& size) {
+  cv::Rect g(r.x - margin, r.y - margin, r.width + 2 * margin, r.height + 2 * margin);
+  return g & cv::Rect(0, 0, size.width, size.height);
+}
+
+inline int agree_tol(int depth, int min_mm, double ratio) {
+  return std::max(min_mm, static_cast<int>(ratio * depth));
+}
+
+cv::Mat diamond5() {
+  return (cv::Mat_<uint8_t>(5, 5) << 0, 0, 1, 0, 0, 0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 0, 1, 1, 1, 0, 0, 0, 1, 0, 0);
+}
+
+// One Ku-style growing step on a region: each hole pixel whose valid
+// neighbours under `kernel` agree (nearest and farthest within tolerance) gets
+// their mid depth. Nearest comes from dilating the inverted depth, farthest
+// from dilating the depth itself.
+void grow_agreeing(cv::Mat& d, const cv::Mat& kernel, const GuidedCompletionParams& p, cv::Mat& inv,
+                   cv::Mat& near_inv, cv::Mat& far) {
+  inv.create(d.size(), CV_16UC1);
+  const int maxd = p.max_depth_mm;
+  for (int y = 0; y < d.rows; ++y) {
+    const uint16_t* s = d.ptr<uint16_t>(y);
+    uint16_t* o = inv.ptr<uint16_t>(y);
+    for (int x = 0; x < d.cols; ++x) o[x] = s[x] ? static_cast<uint16_t>(std::max(1, maxd - s[x])) : 0;
+  }
+  cv::dilate(inv, near_inv, kernel, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::dilate(d, far, kernel, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+  // Only holes enclosed by valid depth on all four sides within the kernel's
+  // reach: a wider hole may hide a depth edge the kernel cannot see, and the
+  // colour-guided fill decides those better.
+  const int reach = kernel.cols / 2;
+  const cv::Mat before = d.clone();
+  auto enclosed = [&](int x, int y) {
+    const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
+    for (int k = 0; k < 4; ++k) {
+      int s = 1;
+      for (; s <= reach; ++s) {
+        const int nx = x + s * dx[k], ny = y + s * dy[k];
+        if (nx < 0 || ny < 0 || nx >= d.cols || ny >= d.rows) return false;
+        if (before.at<uint16_t>(ny, nx)) break;
+      }
+      if (s > reach) return false;
+    }
+    return true;
+  };
+  for (int y = 0; y < d.rows; ++y) {
+    uint16_t* o = d.ptr<uint16_t>(y);
+    const uint16_t* ni = near_inv.ptr<uint16_t>(y);
+    const uint16_t* fa = far.ptr<uint16_t>(y);
+    for (int x = 0; x < d.cols; ++x) {
+      if (o[x] || !ni[x] || !enclosed(x, y)) continue;
+      const int nearest = maxd - ni[x], farthest = fa[x];
+      if (farthest - nearest <= agree_tol(nearest, p.agree_min_mm, p.agree_ratio))
+        o[x] = static_cast<uint16_t>((nearest + farthest + 1) / 2);
+    }
+  }
+}
+
+// Colour-guided fill of every hole pixel from the ends of its horizontal and
+// vertical hole runs (see the header).
+void run_end_fill(const cv::Mat& src, const cv::Mat& color, const GuidedCompletionParams& p, cv::Mat& dst,
+                  cv::Mat* ambiguous) {
+  const int w = src.cols, h = src.rows;
+  const double inv_sigma2 = 1.0 / (p.color_sigma * p.color_sigma);
+  const bool has_color = !color.empty();
+  for (int y = 0; y < h; ++y) {
+    const uint16_t* row = src.ptr<uint16_t>(y);
+    int x = 0;
+    while (x < w) {
+      if (row[x]) {
+        ++x;
+        continue;
+      }
+      const int a = x;
+      while (x < w && !row[x]) ++x;
+      const int b = x - 1;  // hole run [a, b]
+      for (int xi = a; xi <= b; ++xi) {
+        // Candidates: 0 left, 1 right, 2 up, 3 down.
+        int cx[4], cy[4], dist[4];
+        bool ok[4];
+        ok[0] = a > 0, cx[0] = a - 1, cy[0] = y, dist[0] = xi - a + 1;
+        ok[1] = b + 1 < w, cx[1] = b + 1, cy[1] = y, dist[1] = b + 1 - xi;
+        int yu = y - 1;
+        while (yu >= 0 && !src.at<uint16_t>(yu, xi)) --yu;
+        ok[2] = yu >= 0, cx[2] = xi, cy[2] = yu, dist[2] = y - yu;
+        int yd = y + 1;
+        while (yd < h && !src.at<uint16_t>(yd, xi)) ++yd;
+        ok[3] = yd < h, cx[3] = xi, cy[3] = yd, dist[3] = yd - y;
+        double z[4] = {0, 0, 0, 0}, wgt[4];
+        const cv::Vec3b c0 = has_color ? color.at<cv::Vec3b>(y, xi) : cv::Vec3b();
+        for (int k = 0; k < 4; ++k) {
+          if (!ok[k]) {
+            wgt[k] = 0;
+            continue;
+          }
+          z[k] = src.at<uint16_t>(cy[k], cx[k]);
+          double cw = 1.0;
+          if (has_color) {
+            const cv::Vec3b c = color.at<cv::Vec3b>(cy[k], cx[k]);
+            const double dr = c[0] - c0[0], dg = c[1] - c0[1], db = c[2] - c0[2];
+            cw = std::exp(-(dr * dr + dg * dg + db * db) * inv_sigma2);
+          }
+          wgt[k] = (cw + 1e-6) / dist[k];
+        }
+        // A run whose two ends lie on one surface: interpolate 1/Z (exact on a plane).
+        double v[4] = {z[0], z[1], z[2], z[3]};
+        for (int pair = 0; pair < 2; ++pair) {
+          const int i = 2 * pair, j = i + 1;
+          if (!ok[i] || !ok[j]) continue;
+          if (std::abs(z[i] - z[j]) > agree_tol(static_cast<int>(std::min(z[i], z[j])), p.agree_min_mm, p.agree_ratio))
+            continue;
+          const double inv = (dist[j] / z[i] + dist[i] / z[j]) / (dist[i] + dist[j]);
+          v[i] = v[j] = 1.0 / inv;
+        }
+        int best = -1;
+        for (int k = 0; k < 4; ++k)
+          if (wgt[k] > 0 && (best < 0 || wgt[k] > wgt[best])) best = k;
+        if (best < 0) continue;
+        const double tol = agree_tol(static_cast<int>(v[best]), p.agree_min_mm, p.agree_ratio);
+        double sw = 0, sv = 0, sw_all = 0;
+        for (int k = 0; k < 4; ++k) {
+          sw_all += wgt[k];
+          if (wgt[k] > 0 && std::abs(v[k] - v[best]) <= tol) sw += wgt[k], sv += wgt[k] * v[k];
+        }
+        dst.at<uint16_t>(y, xi) = cv::saturate_cast<uint16_t>(sv / sw);
+        if (ambiguous && sw < (1.0 - p.ambiguous_share) * sw_all) ambiguous->at<uint8_t>(y, xi) = 255;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void prior_fill(const cv::Mat& live, const cv::Mat& prior, const cv::Mat& label, const PriorFillParams& p,
+                cv::Mat& out) {
+  CV_Assert(live.type() == CV_16UC1 && prior.type() == CV_16UC1 && live.size() == prior.size());
+  CV_Assert(label.empty() || (label.type() == CV_8UC1 && label.size() == live.size()));
+  cv::Mat guard;
+  if (p.learner_guard_px > 0) {
+    cv::Mat front(live.size(), CV_8UC1);
+    for (int y = 0; y < live.rows; ++y) {
+      const uint16_t* l = live.ptr<uint16_t>(y);
+      const uint16_t* q = prior.ptr<uint16_t>(y);
+      uint8_t* f = front.ptr<uint8_t>(y);
+      for (int x = 0; x < live.cols; ++x)
+        f[x] = (l[x] && q[x] && l[x] + agree_tol(q[x], p.tolerance_min_mm, p.tolerance_ratio) < q[x]) ? 255 : 0;
+    }
+    const int k = 2 * p.learner_guard_px + 1;
+    cv::dilate(front, guard, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
+  }
+  out.create(live.size(), CV_16UC1);
+  for (int y = 0; y < live.rows; ++y) {
+    const uint16_t* l = live.ptr<uint16_t>(y);
+    const uint16_t* q = prior.ptr<uint16_t>(y);
+    const uint8_t* lab = label.empty() ? nullptr : label.ptr<uint8_t>(y);
+    const uint8_t* g = guard.empty() ? nullptr : guard.ptr<uint8_t>(y);
+    uint16_t* o = out.ptr<uint16_t>(y);
+    for (int x = 0; x < live.cols; ++x) {
+      uint16_t v = l[x];
+      if (q[x] && !(lab && lab[x])) {
+        if (!l[x]) {
+          if (!(g && g[x])) v = q[x];
+        } else if (std::abs(int(l[x]) - int(q[x])) <= agree_tol(q[x], p.tolerance_min_mm, p.tolerance_ratio)) {
+          v = q[x];
+        }
+      }
+      o[x] = v;
+    }
+  }
+}
+
+void guided_completion(const cv::Mat& depth, const cv::Mat& color, const GuidedCompletionParams& p, cv::Mat& out,
+                       cv::Mat* filled, cv::Mat* ambiguous) {
+  CV_Assert(depth.type() == CV_16UC1);
+  CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
+  const cv::Mat src = depth.clone();
+  out.create(depth.size(), CV_16UC1);
+  src.copyTo(out);
+  const std::vector<cv::Rect> tiles = tiles_with_holes(src);
+  if (p.morphology) {
+    // Steps reach 2 + 2 + 3 px; a margin of 8 makes each tile's result equal to a whole-frame pass.
+    const cv::Mat k1 = diamond5(), k2 = cv::Mat::ones(5, 5, CV_8U), k3 = cv::Mat::ones(7, 7, CV_8U);
+    cv::Mat region, inv, near_inv, far;
+    for (const cv::Rect& t : tiles) {
+      const cv::Rect r = grow(t, 8, src.size());
+      src(r).copyTo(region);
+      grow_agreeing(region, k1, p, inv, near_inv, far);
+      grow_agreeing(region, k2, p, inv, near_inv, far);
+      grow_agreeing(region, k3, p, inv, near_inv, far);
+      region(cv::Rect(t.x - r.x, t.y - r.y, t.width, t.height)).copyTo(out(t));
+    }
+  }
+  if (ambiguous) {
+    ambiguous->create(depth.size(), CV_8UC1);
+    ambiguous->setTo(0);
+  }
+  if (p.hole_fill) {
+    const cv::Mat stage = out.clone();
+    run_end_fill(stage, color, p, out, ambiguous);
+  }
+  if (p.median || filled) {
+    cv::Mat mask(src.size(), CV_8UC1, cv::Scalar(0));
+    for (const cv::Rect& t : tiles) {
+      cv::Mat m = mask(t);
+      cv::compare(src(t), 0, m, cv::CMP_EQ);
+      cv::Mat nz;
+      cv::compare(out(t), 0, nz, cv::CMP_NE);
+      cv::bitwise_and(m, nz, m);
+    }
+    if (p.median) {
+      cv::Mat med;
+      for (const cv::Rect& t : tiles) {
+        const cv::Rect r = grow(t, 2, src.size());
+        cv::medianBlur(out(r), med, 5);
+        med(cv::Rect(t.x - r.x, t.y - r.y, t.width, t.height)).copyTo(out(t), mask(t));
+      }
+      // The median may pick a neighbouring hole's 0; keep the unblurred fill there.
+      for (const cv::Rect& t : tiles) {
+        for (int y = t.y; y < t.y + t.height; ++y) {
+          uint16_t* o = out.ptr<uint16_t>(y);
+          uint8_t* m = mask.ptr<uint8_t>(y);
+          for (int x = t.x; x < t.x + t.width; ++x)
+            if (m[x] && !o[x]) m[x] = 0;
+        }
+      }
+    }
+    if (filled) *filled = mask;
+  }
+}
+
+void nearest_fill(const cv::Mat& depth, cv::Mat& out) {
+  CV_Assert(depth.type() == CV_16UC1);
+  cv::Mat holes;
+  cv::compare(depth, 0, holes, cv::CMP_EQ);
+  const int n_holes = cv::countNonZero(holes);
+  if (n_holes == 0 || n_holes == depth.rows * depth.cols) {
+    depth.copyTo(out);
+    return;
+  }
+  cv::Mat dist, labels;
+  cv::distanceTransform(holes, dist, labels, cv::DIST_L2, cv::DIST_MASK_5, cv::DIST_LABEL_PIXEL);
+  double max_label = 0;
+  cv::minMaxLoc(labels, nullptr, &max_label);
+  std::vector<uint16_t> lut(static_cast<size_t>(max_label) + 1, 0);
+  for (int y = 0; y < depth.rows; ++y) {
+    const uint16_t* d = depth.ptr<uint16_t>(y);
+    const int* l = labels.ptr<int>(y);
+    for (int x = 0; x < depth.cols; ++x)
+      if (d[x]) lut[l[x]] = d[x];
+  }
+  out.create(depth.size(), CV_16UC1);
+  for (int y = 0; y < depth.rows; ++y) {
+    const uint16_t* d = depth.ptr<uint16_t>(y);
+    const int* l = labels.ptr<int>(y);
+    uint16_t* o = out.ptr<uint16_t>(y);
+    for (int x = 0; x < depth.cols; ++x) o[x] = d[x] ? d[x] : lut[l[x]];
+  }
+}
+
+void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unknown, const ColorizationParams& p) {
+  CV_Assert(depth.type() == CV_16UC1 && unknown.type() == CV_8UC1 && unknown.size() == depth.size());
+  CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
+  const int w = depth.cols, h = depth.rows;
+  std::vector<int> idx;
+  bool zero_unknown = false;
+  for (int y = 0; y < h; ++y) {
+    const uint8_t* u = unknown.ptr<uint8_t>(y);
+    const uint16_t* d = depth.ptr<uint16_t>(y);
+    for (int x = 0; x < w; ++x)
+      if (u[x]) {
+        idx.push_back(y * w + x);
+        zero_unknown |= d[x] == 0;
+      }
+  }
+  if (idx.empty()) return;
+  if (zero_unknown) {
+    cv::Mat filled;
+    nearest_fill(depth, filled);
+    filled.copyTo(depth, unknown);
+  }
+  // Working values in a float image; known pixels are read, unknown ones relaxed.
+  cv::Mat z;
+  depth.convertTo(z, CV_32F);
+  float* zp = z.ptr<float>();
+  const int off[8] = {-w - 1, -w, -w + 1, -1, 1, w - 1, w, w + 1};
+  const int dxs[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
+  const int dys[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
+  std::vector<float> weights(idx.size() * 8);
+  const double inv_c2 = 1.0 / (p.color_sigma * p.color_sigma);
+  for (size_t i = 0; i < idx.size(); ++i) {
+    const int x = idx[i] % w, y = idx[i] / w;
+    const float zr = zp[idx[i]];
+    const double sd = std::max(1.0, p.depth_sigma_ratio * zr);
+    for (int k = 0; k < 8; ++k) {
+      const int nx = x + dxs[k], ny = y + dys[k];
+      float& wk = weights[i * 8 + k];
+      wk = 0;
+      if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+      const float zs = zp[idx[i] + off[k]];
+      if (zs <= 0) continue;
+      double e = p.depth_sigma_ratio > 0 ? (zr - zs) * (zr - zs) / (sd * sd) : 0.0;
+      if (!color.empty()) {
+        const cv::Vec3b a = color.at<cv::Vec3b>(y, x), b = color.at<cv::Vec3b>(ny, nx);
+        const double dr = a[0] - b[0], dg = a[1] - b[1], db = a[2] - b[2];
+        e += (dr * dr + dg * dg + db * db) * inv_c2;
+      }
+      wk = static_cast<float>(std::exp(-e) / ((dxs[k] && dys[k]) ? 1.41421356 : 1.0));
+    }
+  }
+  const float omega = static_cast<float>(p.relaxation);
+  for (int it = 0; it < p.iterations; ++it) {
+    for (size_t i = 0; i < idx.size(); ++i) {
+      const float* wk = &weights[i * 8];
+      float* zr = zp + idx[i];
+      float sw = 0, sv = 0;
+      for (int k = 0; k < 8; ++k)
+        if (wk[k] > 0) sw += wk[k], sv += wk[k] * zr[off[k]];
+      if (sw > 1e-12f) *zr += omega * (sv / sw - *zr);
+    }
+  }
+  for (size_t i = 0; i < idx.size(); ++i)
+    depth.at<uint16_t>(idx[i] / w, idx[i] % w) = cv::saturate_cast<uint16_t>(zp[idx[i]]);
+}
+
+void ku_fast_fill(const cv::Mat& depth_mm, const KuFastParams& p, cv::Mat& out) {
+  CV_Assert(depth_mm.type() == CV_16UC1);
+  const float maxd = static_cast<float>(p.max_depth_m);
+  cv::Mat d;
+  depth_mm.convertTo(d, CV_32F, 0.001);
+  auto invert = [&](cv::Mat& m) {
+    for (int y = 0; y < m.rows; ++y) {
+      float* r = m.ptr<float>(y);
+      for (int x = 0; x < m.cols; ++x)
+        if (r[x] > 0.1f) r[x] = maxd - r[x];
+    }
+  };
+  auto fill_empty_from = [](cv::Mat& m, const cv::Mat& src) {
+    for (int y = 0; y < m.rows; ++y) {
+      float* r = m.ptr<float>(y);
+      const float* s = src.ptr<float>(y);
+      for (int x = 0; x < m.cols; ++x)
+        if (r[x] < 0.1f) r[x] = s[x];
+    }
+  };
+  invert(d);
+  cv::dilate(d, d, diamond5());
+  cv::morphologyEx(d, d, cv::MORPH_CLOSE, cv::Mat::ones(5, 5, CV_8U));
+  cv::Mat dil;
+  cv::dilate(d, dil, cv::Mat::ones(7, 7, CV_8U));
+  fill_empty_from(d, dil);
+  if (p.extrapolate) {
+    for (int x = 0; x < d.cols; ++x) {
+      int top = 0;
+      while (top < d.rows && !(d.at<float>(top, x) > 0.1f)) ++top;
+      // numpy's argmax of an all-false column is 0: nothing is extended there.
+      if (top == d.rows) continue;
+      const float v = d.at<float>(top, x);
+      for (int y = 0; y < top; ++y) d.at<float>(y, x) = v;
+    }
+    cv::dilate(d, dil, cv::Mat::ones(31, 31, CV_8U));
+    fill_empty_from(d, dil);
+  }
+  cv::medianBlur(d, d, 5);
+  if (p.bilateral) {
+    cv::Mat b;
+    cv::bilateralFilter(d, b, 5, 1.5, 2.0);
+    d = b;
+  } else {
+    cv::Mat b;
+    cv::GaussianBlur(d, b, cv::Size(5, 5), 0);
+    for (int y = 0; y < d.rows; ++y) {
+      float* r = d.ptr<float>(y);
+      const float* s = b.ptr<float>(y);
+      for (int x = 0; x < d.cols; ++x)
+        if (r[x] > 0.1f) r[x] = s[x];
+    }
+  }
+  invert(d);
+  out.create(depth_mm.size(), CV_16UC1);
+  for (int y = 0; y < d.rows; ++y) {
+    const float* r = d.ptr<float>(y);
+    uint16_t* o = out.ptr<uint16_t>(y);
+    for (int x = 0; x < d.cols; ++x) o[x] = r[x] > 0.1f ? cv::saturate_cast<uint16_t>(r[x] * 1000.0f) : 0;
+  }
+}
+
+void depth_complete(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& label,
+                    const DepthCompleteOptions& o, cv::Mat& out) {
+  CV_Assert(live.type() == CV_16UC1);
+  if (o.use_prior && !prior.empty())
+    prior_fill(live, prior, label, o.prior, out);
+  else
+    live.copyTo(out);
+  if (!o.image_guided && !o.colorization) return;
+  cv::Mat unknown;
+  if (o.image_guided) {
+    cv::Mat tmp;
+    if (o.colorization) cv::compare(out, 0, unknown, cv::CMP_EQ);
+    guided_completion(out, color, o.guided, tmp, nullptr, nullptr);
+    // What the image-guided stage could not fill is left to colorization too.
+    if (o.colorization) unknown |= tmp == 0;
+    out = tmp;
+  } else if (o.colorization) {
+    cv::compare(out, 0, unknown, cv::CMP_EQ);
+  }
+  if (o.colorization) colorization_fill(out, color, unknown, o.colorize);
+}
+
+}  // namespace vclassroom

@@ -1,0 +1,536 @@
+// vclassroom-eval-depth: depth RMSE / MAE (mm) and completeness of each V-DA
+// stage, its ablations and two baselines against ground truth (docs/vda.md):
+//  (a) the synthetic classroom with the sensor model on, against its clean depth
+//      (the static model is built from learners=0 frames first);
+//  (b) Middlebury 2005/2006 ground truth (view 1) with pixels knocked out the
+//      way real sensors lose them, against the original.
+// With --bench it only measures the per-frame time of depthcomplete +
+// planerefine on 960x540 synthetic frames on one core.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/depth_completion.h>
+#include <gst/vclassroom/error.h>
+#include <gst/vclassroom/middlebury.h>
+#include <gst/vclassroom/plane_refine.h>
+#include <gst/vclassroom/static_model.h>
+#include <gst/vclassroom/visualize.h>
+
+using namespace vclassroom;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Args {
+  std::string shared = "../shared/data";
+  std::string images;  // folder for before/after pictures; none when empty
+  int model_frames = 8;
+  int eval_times = 4;
+  int learners = 6;
+  uint64_t seed = 1;
+  uint64_t knockout_seed = 7;
+  int bench = 0;  // frames to time; 0 = evaluate
+  bool synthetic = true, middlebury = true;
+};
+
+void usage() {
+  std::cerr << "usage: vclassroom-eval-depth [--shared DIR] [--images DIR] [--model-frames N] [--eval-times N]\n"
+               "                             [--learners N] [--seed N] [--knockout-seed N]\n"
+               "                             [--only synthetic|middlebury] [--bench FRAMES]\n";
+}
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// Pixels within `radius` px of a ground-truth depth discontinuity: a
+// 4-neighbour differing by more than `ratio` of the nearer depth.
+cv::Mat edge_band(const cv::Mat& gt, int radius, double ratio = 0.05) {
+  cv::Mat edges(gt.size(), CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < gt.rows; ++y)
+    for (int x = 0; x < gt.cols; ++x) {
+      const int a = gt.at<uint16_t>(y, x);
+      if (!a) continue;
+      const int nb[2][2] = {{x + 1, y}, {x, y + 1}};
+      for (const auto& n : nb) {
+        if (n[0] >= gt.cols || n[1] >= gt.rows) continue;
+        const int b = gt.at<uint16_t>(n[1], n[0]);
+        if (b && std::abs(a - b) > ratio * std::min(a, b)) {
+          edges.at<uint8_t>(y, x) = 255;
+          edges.at<uint8_t>(n[1], n[0]) = 255;
+        }
+      }
+    }
+  if (radius <= 0) return edges;
+  cv::Mat inv = edges == 0, dist;
+  cv::distanceTransform(inv, dist, cv::DIST_L2, cv::DIST_MASK_5);
+  return dist <= radius;
+}
+
+struct Score {
+  double sse = 0, sae = 0;
+  long n = 0, filled = 0, total = 0;
+  void add(int est, int gt) {
+    if (!gt) return;
+    ++total;
+    if (!est) return;
+    ++filled;
+    const double e = est - gt;
+    sse += e * e;
+    sae += std::abs(e);
+    ++n;
+  }
+  double rmse() const { return n ? std::sqrt(sse / n) : 0; }
+  double mae() const { return n ? sae / n : 0; }
+  double fill() const { return total ? 100.0 * filled / total : 0; }
+};
+
+struct Row {
+  std::string name;
+  Score all, band, holes, learners;
+  double ms = 0;
+  int frames = 0;
+  bool na = false;
+};
+
+void score(Row& r, const cv::Mat& est, const cv::Mat& gt, const cv::Mat& band, const cv::Mat& holes,
+           const cv::Mat& label) {
+  for (int y = 0; y < gt.rows; ++y)
+    for (int x = 0; x < gt.cols; ++x) {
+      const int e = est.at<uint16_t>(y, x), g = gt.at<uint16_t>(y, x);
+      r.all.add(e, g);
+      if (band.at<uint8_t>(y, x)) r.band.add(e, g);
+      if (holes.at<uint8_t>(y, x)) r.holes.add(e, g);
+      if (!label.empty() && label.at<uint8_t>(y, x)) r.learners.add(e, g);
+    }
+}
+
+void print_table(const std::string& title, const std::vector<Row>& rows, bool with_learners) {
+  std::printf("\n%s\n", title.c_str());
+  std::printf("| %-34s | RMSE all | MAE all | filled %% | RMSE edge band | MAE edge band | RMSE holes |%s ms/frame |\n",
+              "method", with_learners ? " RMSE learners |" : "");
+  std::printf("|%s|---:|---:|---:|---:|---:|---:|%s---:|\n", std::string(36, '-').c_str(),
+              with_learners ? "---:|" : "");
+  for (const Row& r : rows) {
+    if (r.na) {
+      std::printf("| %-34s | n/a (no multi-view prior model for a single Middlebury view) |\n", r.name.c_str());
+      continue;
+    }
+    std::printf("| %-34s | %8.1f | %7.1f | %8.2f | %14.1f | %13.1f | %10.1f |", r.name.c_str(), r.all.rmse(),
+                r.all.mae(), r.all.fill(), r.band.rmse(), r.band.mae(), r.holes.rmse());
+    if (with_learners) std::printf(" %13.1f |", r.learners.rmse());
+    std::printf(" %8.2f |\n", r.frames ? r.ms / r.frames : 0.0);
+  }
+}
+
+void write_picture(const std::string& dir, const std::string& name, const cv::Mat& depth, double lo, double hi,
+                   int width = 320) {
+  if (dir.empty()) return;
+  cv::Mat rgb, small, bgr;
+  colorize_depth(depth, rgb, lo, hi);
+  cv::resize(rgb, small, cv::Size(width, depth.rows * width / depth.cols), 0, 0, cv::INTER_AREA);
+  cv::cvtColor(small, bgr, cv::COLOR_RGB2BGR);
+  const std::string path = dir + "/vda-" + name + ".png";
+  if (!cv::imwrite(path, bgr)) throw Error(path + ": cannot write");
+}
+
+// Sensor-style losses on clean ground truth, fixed seed: bands along depth
+// edges (varying width, wider on the far side), random blobs, dark surfaces.
+cv::Mat knock_out_mask(const cv::Mat& gt, const cv::Mat& color, uint64_t seed) {
+  cv::RNG rng(seed);
+  const cv::Mat edges = edge_band(gt, 0);
+  cv::Mat not_edge = edges == 0, dist;
+  cv::distanceTransform(not_edge, dist, cv::DIST_L2, cv::DIST_MASK_5);
+  // Smooth random width field in [1, 7] px.
+  cv::Mat coarse(gt.rows / 32 + 2, gt.cols / 32 + 2, CV_32F), width;
+  rng.fill(coarse, cv::RNG::UNIFORM, 1.0, 7.0);
+  cv::resize(coarse, width, gt.size(), 0, 0, cv::INTER_LINEAR);
+  // Far side: deeper than the nearest surface within 9 px.
+  cv::Mat gt_inv(gt.size(), CV_16UC1), near_inv;
+  for (int y = 0; y < gt.rows; ++y)
+    for (int x = 0; x < gt.cols; ++x) {
+      const int v = gt.at<uint16_t>(y, x);
+      gt_inv.at<uint16_t>(y, x) = v ? static_cast<uint16_t>(65535 - v) : 0;
+    }
+  cv::dilate(gt_inv, near_inv, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(19, 19)));
+  cv::Mat mask(gt.size(), CV_8UC1, cv::Scalar(0));
+  for (int y = 0; y < gt.rows; ++y)
+    for (int x = 0; x < gt.cols; ++x) {
+      const int v = gt.at<uint16_t>(y, x);
+      if (!v) continue;
+      const int nearest = 65535 - near_inv.at<uint16_t>(y, x);
+      const bool far_side = v > nearest * 1.05;
+      const float w = width.at<float>(y, x) * (far_side ? 1.6f : 0.6f);
+      if (dist.at<float>(y, x) <= w) mask.at<uint8_t>(y, x) = 255;
+    }
+  // Random blobs (specular spots, absorbing materials): about 5% of the image.
+  const int blobs = gt.rows * gt.cols / 7000;
+  for (int i = 0; i < blobs; ++i) {
+    const cv::Point c(rng.uniform(0, gt.cols), rng.uniform(0, gt.rows));
+    const cv::Size axes(rng.uniform(3, 22), rng.uniform(3, 22));
+    cv::ellipse(mask, c, axes, rng.uniform(0.0, 180.0), 0, 360, cv::Scalar(255), cv::FILLED);
+  }
+  // Dark surfaces return too little signal.
+  cv::Mat gray, dark;
+  cv::cvtColor(color, gray, cv::COLOR_RGB2GRAY);
+  cv::GaussianBlur(gray, gray, cv::Size(5, 5), 0);
+  dark = gray < 40;
+  cv::morphologyEx(dark, dark, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
+  mask |= dark;
+  return mask;
+}
+
+using Method = std::function<void(const cv::Mat& depth, const cv::Mat& color, cv::Mat& out)>;
+
+void eval_middlebury(const Args& a) {
+  const std::vector<std::string> scenes = {"art", "aloe"};
+  for (const std::string& scene : scenes) {
+    const std::string dir = a.shared + "/middlebury-2005-2006-multiview/" + scene;
+    cv::Mat bgr = cv::imread(dir + "/view1.png", cv::IMREAD_COLOR);
+    cv::Mat disp = cv::imread(dir + "/disp1.png", cv::IMREAD_GRAYSCALE);
+    if (bgr.empty() || disp.empty()) {
+      std::printf("\nMiddlebury %s: %s/view1.png or disp1.png missing, skipped\n", scene.c_str(), dir.c_str());
+      continue;
+    }
+    cv::Mat color;
+    cv::cvtColor(bgr, color, cv::COLOR_BGR2RGB);
+    const MiddleburyMultiviewGeometry g;
+    cv::Mat gt(disp.size(), CV_16UC1);
+    for (int y = 0; y < disp.rows; ++y)
+      for (int x = 0; x < disp.cols; ++x) {
+        const int d = disp.at<uint8_t>(y, x);
+        gt.at<uint16_t>(y, x) = d ? disparity_to_depth_mm(d, g.focal_px, 4 * g.view_spacing_m) : 0;
+      }
+    const cv::Mat knocked = knock_out_mask(gt, color, a.knockout_seed);
+    cv::Mat input = gt.clone();
+    input.setTo(0, knocked);
+    const cv::Mat band = edge_band(gt, 5);
+    cv::Mat holes = knocked & (gt > 0);
+    const double holes_share = 100.0 * cv::countNonZero(holes) / cv::countNonZero(gt);
+
+    DepthCompleteOptions full;
+    full.use_prior = false;
+    auto vda = [](DepthCompleteOptions o) -> Method {
+      return [o](const cv::Mat& d, const cv::Mat& c, cv::Mat& out) { depth_complete(d, c, cv::Mat(), cv::Mat(), o, out); };
+    };
+    DepthCompleteOptions guided_only = full;
+    guided_only.colorization = false;
+    DepthCompleteOptions colorize_only = full;
+    colorize_only.image_guided = false;
+    DepthCompleteOptions no_morph = full;
+    no_morph.guided.morphology = false;
+    DepthCompleteOptions no_holefill = full;
+    no_holefill.guided.hole_fill = false;
+    DepthCompleteOptions no_median = full;
+    no_median.guided.median = false;
+    KuFastParams ku_plain;
+    ku_plain.extrapolate = false;
+    const std::vector<std::pair<std::string, Method>> methods = {
+        {"raw (knocked out)", [](const cv::Mat& d, const cv::Mat&, cv::Mat& out) { d.copyTo(out); }},
+        {"baseline: nearest valid pixel", [](const cv::Mat& d, const cv::Mat&, cv::Mat& out) { nearest_fill(d, out); }},
+        {"baseline: Ku fast (extrapolate)",
+         [](const cv::Mat& d, const cv::Mat&, cv::Mat& out) { ku_fast_fill(d, KuFastParams(), out); }},
+        {"baseline: Ku fast (no extrapolate)",
+         [ku_plain](const cv::Mat& d, const cv::Mat&, cv::Mat& out) { ku_fast_fill(d, ku_plain, out); }},
+        {"+prior", nullptr},
+        {"+completion (image-guided)", vda(guided_only)},
+        {"+colorization = full V-DA", vda(full)},
+        {"+planes", nullptr},
+        {"ablation: no image-guided", vda(colorize_only)},
+        {"ablation: image-guided w/o morphology", vda(no_morph)},
+        {"ablation: image-guided w/o hole fill", vda(no_holefill)},
+        {"ablation: image-guided w/o median", vda(no_median)},
+    };
+    std::vector<Row> rows;
+    cv::Mat out;
+    for (const auto& [name, m] : methods) {
+      Row r;
+      r.name = name;
+      if (!m) {
+        r.na = true;
+        rows.push_back(r);
+        continue;
+      }
+      const auto t0 = Clock::now();
+      m(input, color, out);
+      r.ms = ms_since(t0);
+      r.frames = 1;
+      score(r, out, gt, band, holes, cv::Mat());
+      rows.push_back(r);
+      if (!a.images.empty() && scene == "art") {
+        std::string pic;
+        if (name.rfind("raw", 0) == 0) pic = "art-knocked";
+        if (name.rfind("baseline: nearest", 0) == 0) pic = "art-nearest";
+        if (name == "baseline: Ku fast (extrapolate)") pic = "art-kufast";
+        if (name.rfind("+colorization", 0) == 0) pic = "art-vda";
+        if (!pic.empty()) write_picture(a.images, pic, out, 6000, 20000);
+      }
+    }
+    if (!a.images.empty() && scene == "art") write_picture(a.images, "art-gt", gt, 6000, 20000);
+    char title[512];
+    std::snprintf(title, sizeof title,
+                  "Middlebury %s view 1 (%dx%d), GT depth from disp1.png (f = 3740 px, B = 160 mm); %.1f%% of GT "
+                  "pixels knocked out (seed %llu); edge band = GT pixels within 5 px of a >5%% depth step (%d px)",
+                  scene.c_str(), gt.cols, gt.rows, holes_share, static_cast<unsigned long long>(a.knockout_seed),
+                  cv::countNonZero(band & (gt > 0)));
+    print_table(title, rows, false);
+  }
+}
+
+struct SyntheticSetup {
+  Rig rig;
+  StaticModel model;
+  std::map<int, PlaneMaps> maps;
+};
+
+SyntheticSetup build_synthetic_model(const Args& a, double* build_s) {
+  SyntheticSetup s;
+  s.rig = default_classroom_rig();
+  ClassroomConfig empty_cfg;
+  empty_cfg.seed = a.seed;
+  empty_cfg.learners = 0;
+  const Classroom empty(empty_cfg);
+  std::vector<CameraCapture> caps;
+  for (const CameraCalib& cam : s.rig.cameras) {
+    const RenderOutput clean = render(empty, 0.0, cam);
+    CameraCapture c;
+    c.camera_id = cam.id;
+    for (int f = 0; f < a.model_frames; ++f) {
+      cv::Mat depth, color;
+      apply_sensor_model(clean, cam, SensorParams(), a.seed, static_cast<uint64_t>(f), &depth, &color);
+      c.depth.push_back(depth);
+      if (f == 0) c.color = color;
+    }
+    caps.push_back(c);
+  }
+  const auto t0 = Clock::now();
+  s.model = build_static_model(s.rig, caps);
+  *build_s = ms_since(t0) / 1000.0;
+  for (const CameraCalib& cam : s.model.rig.cameras)
+    s.maps[cam.id] = plane_maps_for_camera(s.model.planes, cam, s.model.prior(cam.id));
+  return s;
+}
+
+void eval_synthetic(const Args& a) {
+  double build_s = 0;
+  const SyntheticSetup s = build_synthetic_model(a, &build_s);
+  std::printf("\nStatic model of the empty synthetic classroom (seed %llu, %d sensor frames per camera, 3 cameras "
+              "960x540): built in %.1f s, %zu fused points, %zu planes\n",
+              static_cast<unsigned long long>(a.seed), a.model_frames, build_s, s.model.points.size(),
+              s.model.planes.size());
+  for (const ExtrinsicsChange& c : s.model.refinement)
+    std::printf("  ICP camera %d: moved %.2f mm / %.3f deg, point-to-plane RMS %.2f -> %.2f mm (%d pairs)\n",
+                c.camera_id, c.translation_mm, c.rotation_deg, c.rms_before_mm, c.rms_after_mm, c.pairs);
+  for (const RoomPlane& p : s.model.planes)
+    std::printf("  plane %-7s n = (%+.3f %+.3f %+.3f) offset %+.3f m, %d points\n", p.name.c_str(), p.normal.x(),
+                p.normal.y(), p.normal.z(), p.offset, p.inliers);
+
+  ClassroomConfig cfg;
+  cfg.seed = a.seed;
+  cfg.learners = a.learners;
+  const Classroom room(cfg);
+  const PlaneTolerance tol;
+  DepthCompleteOptions full;
+  struct Variant {
+    std::string name;
+    bool prior, guided, colorize, planes;
+  };
+  const std::vector<Variant> variants = {
+      {"raw sensor depth", false, false, false, false},
+      {"+prior", true, false, false, false},
+      {"+completion (image-guided)", true, true, false, false},
+      {"+colorization", true, true, true, false},
+      {"+planes = full V-DA", true, true, true, true},
+      {"ablation: no prior", false, true, true, true},
+      {"ablation: no image-guided", true, false, true, true},
+      {"ablation: no colorization", true, true, false, true},
+      {"ablation: no planes", true, true, true, false},
+  };
+  std::vector<Row> rows(variants.size() + 2);
+  for (size_t i = 0; i < variants.size(); ++i) rows[i].name = variants[i].name;
+  rows[variants.size()].name = "baseline: nearest valid pixel";
+  rows[variants.size() + 1].name = "baseline: Ku fast (extrapolate)";
+  double ms_complete = 0, ms_planes = 0;
+  int timed = 0;
+  for (int ti = 0; ti < a.eval_times; ++ti) {
+    const double t = 2.0 + 7.5 * ti;
+    for (const CameraCalib& cam0 : s.rig.cameras) {
+      const CameraCalib& cam = s.model.rig.camera(cam0.id);
+      const RenderOutput clean = render(room, t, cam0);
+      cv::Mat depth, color;
+      apply_sensor_model(clean, cam0, SensorParams(), a.seed + 100, static_cast<uint64_t>(1000 + ti), &depth, &color);
+      const cv::Mat band = edge_band(clean.depth, 5);
+      const cv::Mat holes = (depth == 0) & (clean.depth > 0);
+      const cv::Mat& prior = s.model.prior(cam.id);
+      const PlaneMaps& maps = s.maps.at(cam.id);
+      cv::Mat out;
+      for (size_t i = 0; i < variants.size(); ++i) {
+        const Variant& v = variants[i];
+        DepthCompleteOptions o = full;
+        o.use_prior = v.prior;
+        o.image_guided = v.guided;
+        o.colorization = v.colorize;
+        // The label plane is not used: the elements must work without it.
+        const auto t0 = Clock::now();
+        depth_complete(depth, color, prior, cv::Mat(), o, out);
+        const double t_complete = ms_since(t0);
+        const auto t1 = Clock::now();
+        if (v.planes) plane_refine(out, maps, cv::Mat(), tol, out);
+        const double t_planes = ms_since(t1);
+        rows[i].ms += t_complete + t_planes;
+        ++rows[i].frames;
+        if (v.name.rfind("+planes", 0) == 0) {
+          ms_complete += t_complete;
+          ms_planes += t_planes;
+          ++timed;
+        }
+        score(rows[i], out, clean.depth, band, holes, clean.label);
+        if (!a.images.empty() && ti == 1 && cam.id == 0) {
+          if (i == 0) write_picture(a.images, "synthetic-raw", out, 1000, 7000);
+          if (v.name.rfind("+planes", 0) == 0) write_picture(a.images, "synthetic-vda", out, 1000, 7000);
+        }
+      }
+      if (!a.images.empty() && ti == 1 && cam.id == 0) {
+        write_picture(a.images, "synthetic-gt", clean.depth, 1000, 7000);
+        write_picture(a.images, "synthetic-prior", prior, 1000, 7000);
+      }
+      Row& rn = rows[variants.size()];
+      auto t0 = Clock::now();
+      nearest_fill(depth, out);
+      rn.ms += ms_since(t0);
+      ++rn.frames;
+      score(rn, out, clean.depth, band, holes, clean.label);
+      Row& rk = rows[variants.size() + 1];
+      t0 = Clock::now();
+      ku_fast_fill(depth, KuFastParams(), out);
+      rk.ms += ms_since(t0);
+      ++rk.frames;
+      score(rk, out, clean.depth, band, holes, clean.label);
+    }
+  }
+  char title[512];
+  std::snprintf(title, sizeof title,
+                "Synthetic classroom (seed %llu, %d learners, sensor model on), %d frames = %d instants x 3 cameras "
+                "960x540, against the clean depth; edge band = within 5 px of a >5%% depth step; holes = pixels the "
+                "sensor lost",
+                static_cast<unsigned long long>(a.seed), a.learners, a.eval_times * 3, a.eval_times);
+  print_table(title, rows, true);
+  std::printf("per element (full V-DA, mean over %d frames, one thread): depthcomplete %.2f ms, planerefine %.2f ms\n",
+              timed, ms_complete / timed, ms_planes / timed);
+}
+
+void bench(const Args& a) {
+  double build_s = 0;
+  const SyntheticSetup s = build_synthetic_model(a, &build_s);
+  ClassroomConfig cfg;
+  cfg.seed = a.seed;
+  cfg.learners = a.learners;
+  const Classroom room(cfg);
+  // Inputs first, so only the elements' work is timed.
+  struct Input {
+    int cam;
+    cv::Mat depth, color;
+  };
+  std::vector<Input> inputs;
+  for (int i = 0; i < 12; ++i) {
+    const CameraCalib& cam = s.rig.cameras[i % 3];
+    const RenderOutput clean = render(room, 0.5 * i, cam);
+    Input in;
+    in.cam = cam.id;
+    apply_sensor_model(clean, cam, SensorParams(), a.seed + 100, static_cast<uint64_t>(i), &in.depth, &in.color);
+    inputs.push_back(in);
+  }
+  const DepthCompleteOptions full;
+  const PlaneTolerance tol;
+  std::vector<double> tc, tp;
+  cv::Mat out;
+  for (int f = 0; f < a.bench; ++f) {
+    const Input& in = inputs[f % inputs.size()];
+    const auto t0 = Clock::now();
+    depth_complete(in.depth, in.color, s.model.prior(in.cam), cv::Mat(), full, out);
+    const auto t1 = Clock::now();
+    plane_refine(out, s.maps.at(in.cam), cv::Mat(), tol, out);
+    tc.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    tp.push_back(ms_since(t1));
+  }
+  auto stats = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    double sum = 0;
+    for (double x : v) sum += x;
+    return std::make_pair(sum / v.size(), v[v.size() / 2]);
+  };
+  std::vector<double> tt(tc.size());
+  for (size_t i = 0; i < tc.size(); ++i) tt[i] = tc[i] + tp[i];
+  const auto [mc, medc] = stats(tc);
+  const auto [mp, medp] = stats(tp);
+  const auto [mt, medt] = stats(tt);
+  std::printf("bench: %d frames 960x540 (synthetic classroom, %d learners, sensor model), one thread\n", a.bench,
+              a.learners);
+  std::printf("  depthcomplete  mean %.2f ms  median %.2f ms\n", mc, medc);
+  std::printf("  planerefine    mean %.2f ms  median %.2f ms\n", mp, medp);
+  std::printf("  together       mean %.2f ms  median %.2f ms  (budget 8 ms)\n", mt, medt);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        usage();
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (k == "--shared")
+      a.shared = next();
+    else if (k == "--images")
+      a.images = next();
+    else if (k == "--model-frames")
+      a.model_frames = std::stoi(next());
+    else if (k == "--eval-times")
+      a.eval_times = std::stoi(next());
+    else if (k == "--learners")
+      a.learners = std::stoi(next());
+    else if (k == "--seed")
+      a.seed = std::stoull(next());
+    else if (k == "--knockout-seed")
+      a.knockout_seed = std::stoull(next());
+    else if (k == "--bench")
+      a.bench = std::stoi(next());
+    else if (k == "--only") {
+      const std::string w = next();
+      a.synthetic = w == "synthetic";
+      a.middlebury = w == "middlebury";
+    } else {
+      usage();
+      return 2;
+    }
+  }
+  cv::setNumThreads(0);  // one core: the per-frame budget is per core
+  try {
+    if (a.bench > 0) {
+      bench(a);
+      return 0;
+    }
+    if (a.middlebury) eval_middlebury(a);
+    if (a.synthetic) eval_synthetic(a);
+  } catch (const Error& e) {
+    std::cerr << "vclassroom-eval-depth: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
