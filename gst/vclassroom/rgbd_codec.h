@@ -1,0 +1,46 @@
+// One compressed RGB-D frame (docs/rgbd-codec.md): colour as JPEG (libjpeg-turbo),
+// depth and labels lossless with a fast run-length + prediction coder, each
+// section checksummed so a damaged frame is detected, never half decoded.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace vclassroom {
+
+// Lossless 16-bit depth (CV_16UC1). Zeros (no measurement) are coded as runs;
+// valid pixels as the zigzagged difference to a prediction from their valid
+// neighbours (median edge detector), in 4-bit groups. In the spirit of
+// Wilson's RVL (2017), with 2-D prediction.
+void encode_depth_lossless(const cv::Mat& depth, std::vector<uint8_t>* out);
+// False when the data is malformed or does not fill a width x height image.
+bool decode_depth_lossless(const uint8_t* data, size_t size, int width, int height, cv::Mat* depth);
+
+// 8-bit labels (CV_8UC1) as byte runs.
+void encode_labels(const cv::Mat& labels, std::vector<uint8_t>* out);
+bool decode_labels(const uint8_t* data, size_t size, int width, int height, cv::Mat* labels);
+
+// RGB (CV_8UC3) <-> baseline JPEG, 4:2:0. Decoding rejects corrupt data
+// (libjpeg's warnings count as corruption) and images of another size.
+void encode_jpeg(const cv::Mat& rgb, int quality, std::vector<uint8_t>* out);
+bool decode_jpeg(const uint8_t* data, size_t size, int width, int height, cv::Mat* rgb, std::string* error);
+
+struct RgbdCodedFrame {
+  cv::Mat color;   // CV_8UC3 RGB
+  cv::Mat depth;   // CV_16UC1 mm
+  cv::Mat label;   // CV_8UC1, optional (empty: absent)
+};
+
+// The container: header ("VCRD", version, size, section count) then one
+// section per plane (plane id, codec, length, CRC-32 of the payload).
+void encode_rgbd_frame(const RgbdCodedFrame& frame, int jpeg_quality, std::vector<uint8_t>* out);
+// Decodes and checks everything; false with a reason on any damage.
+bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, RgbdCodedFrame* frame,
+                       std::string* error);
+
+uint32_t crc32(const uint8_t* data, size_t size);
+
+}  // namespace vclassroom

@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstbasetransform.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_RGBD_DEC (gst_rgbd_dec_get_type())
+G_DECLARE_FINAL_TYPE(GstRgbdDec, gst_rgbd_dec, GST, RGBD_DEC, GstBaseTransform)
+
+G_END_DECLS

@@ -1,0 +1,20 @@
+// The network family: what carries RGB-D frames and poses between the three worlds.
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include <gst/gst.h>
+
+#include "gstrgbddec.h"
+#include "gstrgbdenc.h"
+
+static gboolean plugin_init(GstPlugin* plugin) {
+  gboolean ok = TRUE;
+  ok &= gst_element_register(plugin, "rgbdenc", GST_RANK_NONE, GST_TYPE_RGBD_ENC);
+  ok &= gst_element_register(plugin, "rgbddec", GST_RANK_NONE, GST_TYPE_RGBD_DEC);
+  return ok;
+}
+
+GST_PLUGIN_DEFINE(GST_VERSION_MAJOR, GST_VERSION_MINOR, vclassroomnet,
+                  "gst-vclassroom network: RGB-D compression, pose back channel", plugin_init, PACKAGE_VERSION,
+                  GST_LICENSE, GST_PACKAGE_NAME, GST_PACKAGE_ORIGIN)

@@ -1,0 +1,13 @@
+// Caps of the compressed stream shared by rgbdenc and rgbddec: the
+// video/x-rgbd fields (size, rate, planes, calibration) under another name.
+#pragma once
+
+#include <gst/gst.h>
+
+inline constexpr const char* kRgbdCodedMediaType = "video/x-rgbd-coded";
+inline constexpr const char* kRgbdCodedTemplateCaps =
+    "video/x-rgbd-coded, codec = (string) vcrd1, width = (int) [ 1, 16384 ], height = (int) [ 1, 16384 ], "
+    "framerate = (fraction) [ 0/1, 2147483647/1 ]";
+
+// Renames every structure of `caps` to `name`, adding or removing the codec field.
+GstCaps* rgbd_caps_renamed(GstCaps* caps, const char* name, bool coded);

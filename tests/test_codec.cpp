@@ -1,0 +1,239 @@
+// rgbdenc/rgbddec and their codec: depth and labels bit-exact, colour close,
+// damaged frames detected and dropped, calibration kept across RTP.
+#include <gtest/gtest.h>
+
+#include <gst/app/gstappsrc.h>
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/rgbd_codec.h>
+#include <opencv2/imgproc.hpp>
+
+#include "test_util.h"
+
+using namespace vclassroom;
+
+namespace {
+
+double psnr(const cv::Mat& a, const cv::Mat& b) { return cv::PSNR(a, b, 255.0); }
+
+cv::Mat sensor_depth(const Classroom& room, const CameraCalib& cam, double t, uint64_t frame) {
+  RenderOutput clean = render(room, t, cam);
+  cv::Mat depth, color;
+  apply_sensor_model(clean, cam, SensorParams(), 1, frame, &depth, &color);
+  return depth;
+}
+
+cv::Mat random_depth(int rows, int cols, unsigned seed, double hole_share) {
+  cv::Mat d(rows, cols, CV_16UC1);
+  cv::RNG rng(seed);
+  rng.fill(d, cv::RNG::UNIFORM, 1, 65536);
+  for (int y = 0; y < rows; ++y)
+    for (int x = 0; x < cols; ++x)
+      if (rng.uniform(0.0, 1.0) < hole_share) d.at<uint16_t>(y, x) = 0;
+  return d;
+}
+
+cv::Mat depth_round_trip(const cv::Mat& d) {
+  std::vector<uint8_t> bytes;
+  encode_depth_lossless(d, &bytes);
+  cv::Mat back;
+  EXPECT_TRUE(decode_depth_lossless(bytes.data(), bytes.size(), d.cols, d.rows, &back));
+  return back;
+}
+
+}  // namespace
+
+TEST(DepthCodec, LosslessOnEveryKindOfImage) {
+  const std::vector<cv::Mat> images = {
+      random_depth(37, 53, 1, 0.0),  random_depth(37, 53, 2, 0.3), random_depth(1, 1, 3, 0.0),
+      random_depth(64, 1, 4, 0.5),   cv::Mat::zeros(20, 30, CV_16UC1), cv::Mat(20, 30, CV_16UC1, cv::Scalar(65535)),
+      cv::Mat(20, 30, CV_16UC1, cv::Scalar(1)),
+  };
+  for (size_t i = 0; i < images.size(); ++i)
+    EXPECT_TRUE(vctest::same_image(depth_round_trip(images[i]), images[i])) << "image " << i;
+  // A view into a larger image (rows with a stride) codes the view only.
+  cv::Mat big = random_depth(40, 60, 9, 0.2);
+  cv::Mat roi = big(cv::Rect(5, 7, 31, 17));
+  EXPECT_TRUE(vctest::same_image(depth_round_trip(roi), roi.clone()));
+}
+
+TEST(DepthCodec, SensorDepthOfTheClassroomIsLosslessAndSmall) {
+  Classroom room;
+  const CameraCalib cam = default_classroom_rig().camera(0);
+  cv::Mat d = sensor_depth(room, cam, 2.0, 60);
+  std::vector<uint8_t> bytes;
+  encode_depth_lossless(d, &bytes);
+  cv::Mat back;
+  ASSERT_TRUE(decode_depth_lossless(bytes.data(), bytes.size(), d.cols, d.rows, &back));
+  EXPECT_TRUE(vctest::same_image(back, d));
+  // Raw is 2 bytes a pixel; a useful depth codec must at least halve it on real-looking depth.
+  EXPECT_LT(bytes.size(), d.total());
+}
+
+TEST(DepthCodec, DamagedDataIsRejectedNotMisread) {
+  cv::Mat d = random_depth(24, 32, 5, 0.2);
+  std::vector<uint8_t> bytes;
+  encode_depth_lossless(d, &bytes);
+  cv::Mat back;
+  for (size_t cut = 0; cut < bytes.size(); cut += 7)
+    EXPECT_FALSE(decode_depth_lossless(bytes.data(), cut, d.cols, d.rows, &back)) << "cut at " << cut;
+  EXPECT_FALSE(decode_depth_lossless(bytes.data(), bytes.size(), d.cols + 1, d.rows, &back));
+}
+
+TEST(LabelCodec, RoundTrip) {
+  cv::Mat l = cv::Mat::zeros(30, 40, CV_8UC1);
+  cv::rectangle(l, cv::Rect(3, 4, 10, 20), cv::Scalar(1), cv::FILLED);
+  cv::circle(l, cv::Point(30, 15), 6, cv::Scalar(3), cv::FILLED);
+  l.at<uint8_t>(29, 39) = 255;
+  std::vector<uint8_t> bytes;
+  encode_labels(l, &bytes);
+  cv::Mat back;
+  ASSERT_TRUE(decode_labels(bytes.data(), bytes.size(), 40, 30, &back));
+  EXPECT_TRUE(vctest::same_image(back, l));
+  EXPECT_FALSE(decode_labels(bytes.data(), bytes.size() / 2, 40, 30, &back));
+}
+
+TEST(RgbdFrameCodec, RoundTripAndEveryDamageIsCaught) {
+  Classroom room;
+  const CameraCalib cam = default_classroom_rig().camera(1);
+  RenderOutput clean = render(room, 1.0, cam);
+  RgbdCodedFrame f{clean.color, clean.depth, clean.label};
+  std::vector<uint8_t> bytes;
+  encode_rgbd_frame(f, 90, &bytes);
+  RgbdCodedFrame back;
+  std::string err;
+  ASSERT_TRUE(decode_rgbd_frame(bytes.data(), bytes.size(), 960, 540, &back, &err)) << err;
+  EXPECT_TRUE(vctest::same_image(back.depth, f.depth));
+  EXPECT_TRUE(vctest::same_image(back.label, f.label));
+  EXPECT_GT(psnr(back.color, f.color), 35.0);
+
+  EXPECT_FALSE(decode_rgbd_frame(bytes.data(), bytes.size(), 961, 540, &back, &err));
+  for (size_t cut : {size_t(0), size_t(10), bytes.size() / 3, bytes.size() - 1}) {
+    EXPECT_FALSE(decode_rgbd_frame(bytes.data(), cut, 960, 540, &back, &err)) << "cut at " << cut;
+    EXPECT_FALSE(err.empty());
+  }
+  // Flip one bit anywhere past the header: the checksum or a sanity check catches it.
+  cv::RNG rng(11);
+  for (int i = 0; i < 200; ++i) {
+    std::vector<uint8_t> bad = bytes;
+    const size_t at = 16 + static_cast<size_t>(rng.uniform(0, static_cast<int>(bad.size() - 16)));
+    bad[at] ^= static_cast<uint8_t>(1u << rng.uniform(0, 8));
+    EXPECT_FALSE(decode_rgbd_frame(bad.data(), bad.size(), 960, 540, &back, &err)) << "bit flip at " << at;
+  }
+}
+
+namespace {
+
+// Runs `middle` between an rgbdtestsrc and an appsink; returns frames + caps.
+struct Played {
+  std::vector<RgbdInfo> infos;
+  std::vector<cv::Mat> color, depth, label;
+  std::vector<GstClockTime> pts;
+  vctest::RunResult result;
+};
+
+Played play(const std::string& middle, int frames = 3) {
+  Played out;
+  GError* err = nullptr;
+  const std::string desc = "rgbdtestsrc camera-id=2 num-buffers=" + std::to_string(frames) + " ! " + middle +
+                           (middle.empty() ? "" : " ! ") + "appsink name=out sync=false";
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  EXPECT_EQ(err, nullptr) << (err ? err->message : "");
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  {
+    vctest::SampleCollector got(sink);
+    out.result = vctest::run_pipeline(p);
+    for (size_t i = 0; i < got.size(); ++i) {
+      RgbdInfo info;
+      std::string e;
+      EXPECT_TRUE(rgbd_info_from_caps(got.caps(i), &info, &e)) << e;
+      RgbdFrame f;
+      EXPECT_TRUE(f.map(got.buffer(i), info, GST_MAP_READ, &e)) << e;
+      out.infos.push_back(info);
+      out.color.push_back(f.color().clone());
+      out.depth.push_back(f.depth().clone());
+      out.label.push_back(f.label().clone());
+      out.pts.push_back(GST_BUFFER_PTS(got.buffer(i)));
+    }
+  }
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  return out;
+}
+
+void expect_same_stream(const Played& a, const Played& b) {
+  ASSERT_EQ(a.result.error, "");
+  ASSERT_EQ(b.result.error, "");
+  ASSERT_EQ(a.depth.size(), b.depth.size());
+  ASSERT_FALSE(a.depth.empty());
+  for (size_t i = 0; i < a.depth.size(); ++i) {
+    EXPECT_TRUE(vctest::same_image(a.depth[i], b.depth[i])) << "depth of frame " << i;
+    EXPECT_TRUE(vctest::same_image(a.label[i], b.label[i])) << "labels of frame " << i;
+    EXPECT_GT(psnr(a.color[i], b.color[i]), 35.0) << "colour of frame " << i;
+    EXPECT_EQ(a.pts[i], b.pts[i]);
+  }
+  const CameraCalib &ca = a.infos[0].camera, &cb = b.infos[0].camera;
+  EXPECT_EQ(ca.id, cb.id);
+  EXPECT_EQ(ca.fx, cb.fx);
+  EXPECT_EQ(ca.cx, cb.cx);
+  EXPECT_TRUE(ca.cam_to_rig.matrix() == cb.cam_to_rig.matrix());
+}
+
+}  // namespace
+
+TEST(RgbdEncDec, DepthAndLabelsBitExactThroughTheElements) {
+  // The coded stream carries colour, depth and labels: the reference drops depth-gt the same way.
+  const Played direct = play("");
+  const Played coded = play("rgbdenc quality=90 ! rgbddec");
+  expect_same_stream(direct, coded);
+  EXPECT_EQ(coded.infos[0].planes, (std::vector<Plane>{Plane::Color, Plane::Depth, Plane::Label}));
+}
+
+TEST(RgbdEncDec, CalibrationAndFramesCrossRtp) {
+  const Played direct = play("");
+  const Played rtp = play("rgbdenc ! rtpgstpay config-interval=1 mtu=1400 ! rtpgstdepay ! rgbddec");
+  expect_same_stream(direct, rtp);
+}
+
+TEST(RgbdEncDec, DamagedFramesAreDroppedWithAWarning) {
+  Classroom room;
+  const CameraCalib cam = scale_camera(default_classroom_rig().camera(0), 64, 36);
+  RgbdInfo info;
+  info.camera = cam;
+  RenderOutput clean = render(room, 0.5, cam);
+  std::vector<uint8_t> good;
+  encode_rgbd_frame({clean.color, clean.depth, cv::Mat()}, 90, &good);
+
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch("appsrc name=src format=time ! rgbddec ! appsink name=out sync=false", &err);
+  ASSERT_EQ(err, nullptr);
+  GstElement* src = gst_bin_get_by_name(GST_BIN(p), "src");
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  vctest::SampleCollector got(out);
+  GstCaps* caps = rgbd_caps_new(info);
+  gst_structure_set_name(gst_caps_get_structure(caps, 0), "video/x-rgbd-coded");
+  gst_caps_set_simple(caps, "codec", G_TYPE_STRING, "vcrd1", nullptr);
+  gst_app_src_set_caps(GST_APP_SRC(src), caps);
+  std::vector<std::vector<uint8_t>> frames = {good, good, good, good};
+  frames[1].resize(frames[1].size() / 2);         // truncated
+  frames[2][frames[2].size() / 2] ^= 0x5A;        // damaged in the middle
+  for (size_t i = 0; i < frames.size(); ++i) {
+    GstBuffer* b = gst_buffer_new_allocate(nullptr, frames[i].size(), nullptr);
+    gst_buffer_fill(b, 0, frames[i].data(), frames[i].size());
+    GST_BUFFER_PTS(b) = i * GST_SECOND / 30;
+    gst_app_src_push_buffer(GST_APP_SRC(src), b);
+  }
+  gst_app_src_end_of_stream(GST_APP_SRC(src));
+  const auto r = vctest::run_pipeline(p);
+  EXPECT_EQ(r.error, "");
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(GST_BUFFER_PTS(got.buffer(0)), 0u);
+  EXPECT_EQ(GST_BUFFER_PTS(got.buffer(1)), 3 * GST_SECOND / 30);
+  ASSERT_EQ(r.warnings.size(), 2u);
+  EXPECT_NE(r.warnings[0].find("truncated"), std::string::npos) << r.warnings[0];
+  EXPECT_NE(r.warnings[1].find("damaged"), std::string::npos) << r.warnings[1];
+  gst_caps_unref(caps);
+  gst_object_unref(src);
+  gst_object_unref(out);
+  gst_object_unref(p);
+}
