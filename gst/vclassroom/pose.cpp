@@ -149,30 +149,45 @@ bool pose_event_parse(GstEvent* event, Pose* out, std::string* error) {
   return true;
 }
 
-Pose sliders_to_pose(const Sliders& s, const CameraCalib& ref) {
-  for (double v : s)
-    if (!std::isfinite(v) || v < 0 || v > 100) throw Error("sliders: each value must be between 0 and 100");
-  const Eigen::Vector3d move_cam((s[0] - 50) * kSliderMetres, -(s[1] - 50) * kSliderMetres, (s[2] - 50) * kSliderMetres);
+Pose offset_to_pose(const ViewOffset& o, const CameraCalib& ref) {
   const Eigen::Matrix3d R = ref.cam_to_rig.linear();
   Pose p;
-  p.position = ref.cam_to_rig.translation() + R * move_cam;
-  const double yaw = (s[3] - 50) * kSliderDegrees * kDeg;
-  const double pitch = (s[4] - 50) * kSliderDegrees * kDeg;
-  const double roll = (s[5] - 50) * kSliderDegrees * kDeg;
-  p.orientation = Eigen::Quaterniond(R * yaw_pitch_roll(yaw, pitch, roll)).normalized();
+  p.position = ref.cam_to_rig.translation() + R * Eigen::Vector3d(o.right, -o.up, o.forward);
+  p.orientation = Eigen::Quaterniond(R * yaw_pitch_roll(o.yaw * kDeg, o.pitch * kDeg, o.roll * kDeg)).normalized();
   return p;
 }
 
-Sliders pose_to_sliders(const Pose& p, const CameraCalib& ref) {
+ViewOffset pose_to_offset(const Pose& p, const CameraCalib& ref) {
   const Eigen::Matrix3d R = ref.cam_to_rig.linear();
-  const Eigen::Vector3d move_cam = R.transpose() * (p.position - ref.cam_to_rig.translation());
+  const Eigen::Vector3d move = R.transpose() * (p.position - ref.cam_to_rig.translation());
   const Eigen::Matrix3d off = R.transpose() * p.orientation.normalized().toRotationMatrix();
-  const double pitch = std::asin(std::clamp(-off(1, 2), -1.0, 1.0));
-  const double yaw = std::atan2(off(0, 2), off(2, 2));
-  const double roll = std::atan2(off(1, 0), off(1, 1));
-  return {50 + move_cam.x() / kSliderMetres, 50 - move_cam.y() / kSliderMetres, 50 + move_cam.z() / kSliderMetres,
-          50 + yaw / kDeg / kSliderDegrees,  50 + pitch / kDeg / kSliderDegrees, 50 + roll / kDeg / kSliderDegrees};
+  ViewOffset o;
+  o.right = move.x();
+  o.up = -move.y();
+  o.forward = move.z();
+  o.pitch = std::asin(std::clamp(-off(1, 2), -1.0, 1.0)) / kDeg;
+  o.yaw = std::atan2(off(0, 2), off(2, 2)) / kDeg;
+  o.roll = std::atan2(off(1, 0), off(1, 1)) / kDeg;
+  return o;
 }
+
+ViewOffset sliders_to_offset(const Sliders& s) {
+  return {(s[0] - 50) * kSliderMetres, (s[1] - 50) * kSliderMetres, (s[2] - 50) * kSliderMetres,
+          (s[3] - 50) * kSliderDegrees, (s[4] - 50) * kSliderDegrees, (s[5] - 50) * kSliderDegrees};
+}
+
+Sliders offset_to_sliders(const ViewOffset& o) {
+  return {50 + o.right / kSliderMetres, 50 + o.up / kSliderMetres, 50 + o.forward / kSliderMetres,
+          50 + o.yaw / kSliderDegrees,  50 + o.pitch / kSliderDegrees, 50 + o.roll / kSliderDegrees};
+}
+
+Pose sliders_to_pose(const Sliders& s, const CameraCalib& ref) {
+  for (double v : s)
+    if (!std::isfinite(v) || v < 0 || v > 100) throw Error("sliders: each value must be between 0 and 100");
+  return offset_to_pose(sliders_to_offset(s), ref);
+}
+
+Sliders pose_to_sliders(const Pose& p, const CameraCalib& ref) { return offset_to_sliders(pose_to_offset(p, ref)); }
 
 Sliders parse_sliders(const std::string& text) {
   std::string t = text;

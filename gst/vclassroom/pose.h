@@ -58,6 +58,17 @@ using Sliders = std::array<double, 6>;
 inline constexpr double kSliderMetres = 0.02;
 inline constexpr double kSliderDegrees = 1.8;
 
+// A view relative to a reference camera, in that camera's own axes: the
+// unbounded form of the sliders (which are this, scaled and offset by 50).
+struct ViewOffset {
+  double right = 0, up = 0, forward = 0;  // metres
+  double yaw = 0, pitch = 0, roll = 0;    // degrees: turn right, look up, roll clockwise
+};
+Pose offset_to_pose(const ViewOffset& o, const CameraCalib& reference);
+ViewOffset pose_to_offset(const Pose& pose, const CameraCalib& reference);
+ViewOffset sliders_to_offset(const Sliders& s);
+Sliders offset_to_sliders(const ViewOffset& o);
+
 Pose sliders_to_pose(const Sliders& s, const CameraCalib& reference);
 // Inverse of sliders_to_pose for poses within the sliders' range (|pitch| < 90°).
 Sliders pose_to_sliders(const Pose& pose, const CameraCalib& reference);

@@ -1,0 +1,372 @@
+// posenav: the paper's mouse interface on the lecturer's side. It sits in
+// front of the video sink, turns the sink's navigation events (drag, wheel,
+// keys) into vclassroom/pose events sent upstream towards the server, and can
+// instead drive the view from the six-slider notation or a pose trace.
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstposenav.h"
+
+#include <gst/video/navigation.h>
+
+#include <cmath>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <gst/vclassroom/pose.h>
+
+GST_DEBUG_CATEGORY_STATIC(pose_nav_debug);
+#define GST_CAT_DEFAULT pose_nav_debug
+
+using namespace vclassroom;
+
+enum { PROP_0, PROP_RIG, PROP_REFERENCE_CAMERA, PROP_SLIDERS, PROP_POSE_TRACE, PROP_MOVE_STEP, PROP_TURN_SPEED, PROP_FOV, PROP_SEQ };
+
+namespace {
+constexpr double kDefaultMoveStep = 0.1;   // m per key press or wheel notch
+constexpr double kDefaultTurnSpeed = 0.2;  // degrees per dragged pixel
+
+struct NavState {
+  std::mutex lock;  // everything below: navigation, properties and streaming meet here
+  std::string rig_path;
+  int reference_id = 0;
+  std::string sliders_text = "[50,50,50,50,50,50]";
+  std::string trace_path;
+  double move_step = kDefaultMoveStep;
+  double turn_speed = kDefaultTurnSpeed;
+  double fov = 0;
+
+  CameraCalib reference;        // from the rig, or the rig origin looking level along -Z
+  ViewOffset start, view;       // start pose and current pose, relative to the reference
+  std::vector<PoseSample> trace;
+  size_t trace_index = 0;
+  bool dragging = false;
+  double drag_x = 0, drag_y = 0;
+  bool started = false;         // the start pose has been sent
+  uint64_t seq = 0;
+};
+
+CameraCalib level_reference() {
+  CameraCalib c;
+  c.width = c.height = 1;
+  c.fx = c.fy = 1;
+  c.cam_to_rig.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  return c;
+}
+}  // namespace
+
+struct _GstPoseNav {
+  GstBaseTransform parent;
+  NavState* st;
+};
+
+G_DEFINE_TYPE(GstPoseNav, gst_pose_nav, GST_TYPE_BASE_TRANSFORM)
+
+static GstStaticPadTemplate sink_template =
+    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
+
+// Builds the event for `pose` (called with the lock held); nullptr if invalid.
+static GstEvent* make_pose_event_locked(GstPoseNav* self, Pose pose) {
+  NavState* st = self->st;
+  pose.seq = ++st->seq;
+  pose.viewer_time_ns = static_cast<int64_t>(gst_util_get_timestamp());
+  if (st->fov > 0) pose.fov_deg = st->fov;
+  try {
+    return pose_event_new(pose);
+  } catch (const Error& e) {
+    GST_WARNING_OBJECT(self, "not sending pose: %s", e.what());
+    return nullptr;
+  }
+}
+
+static void send_upstream(GstPoseNav* self, GstEvent* event) {
+  if (!event) return;
+  GST_LOG_OBJECT(self, "sending %" GST_PTR_FORMAT, gst_event_get_structure(event));
+  gst_pad_push_event(GST_BASE_TRANSFORM_SINK_PAD(self), event);
+}
+
+static GstEvent* view_event_locked(GstPoseNav* self) {
+  return make_pose_event_locked(self, offset_to_pose(self->st->view, self->st->reference));
+}
+
+// Applies one navigation event; true when posenav used (and so swallows) it.
+static bool navigate_locked(GstPoseNav* self, GstEvent* event, GstEvent** pose_out) {
+  NavState* st = self->st;
+  if (!st->trace.empty()) return false;  // a trace drives the view
+  ViewOffset& v = st->view;
+  const double yaw_fwd = v.yaw * M_PI / 180.0;
+  // Moving follows the heading (yaw) but stays level, as walking does.
+  auto walk = [&](double forward, double right) {
+    v.forward += forward * std::cos(yaw_fwd) - right * std::sin(yaw_fwd);
+    v.right += forward * std::sin(yaw_fwd) + right * std::cos(yaw_fwd);
+  };
+  bool used = true;
+  double x, y, dx, dy;
+  gint button;
+  const char* key = nullptr;
+  switch (gst_navigation_event_get_type(event)) {
+    case GST_NAVIGATION_EVENT_MOUSE_BUTTON_PRESS:
+      if (!gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y) || button != 1) return false;
+      st->dragging = true;
+      st->drag_x = x;
+      st->drag_y = y;
+      return true;
+    case GST_NAVIGATION_EVENT_MOUSE_BUTTON_RELEASE:
+      if (!gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y) || button != 1) return false;
+      st->dragging = false;
+      return true;
+    case GST_NAVIGATION_EVENT_MOUSE_MOVE:
+      if (!st->dragging || !gst_navigation_event_parse_mouse_move_event(event, &x, &y)) return false;
+      // Drag right to turn right, drag up to look up.
+      v.yaw += (x - st->drag_x) * st->turn_speed;
+      v.pitch = std::clamp(v.pitch - (y - st->drag_y) * st->turn_speed, -89.0, 89.0);
+      st->drag_x = x;
+      st->drag_y = y;
+      break;
+    case GST_NAVIGATION_EVENT_MOUSE_SCROLL:
+      if (!gst_navigation_event_parse_mouse_scroll_event(event, &x, &y, &dx, &dy)) return false;
+      walk(dy * st->move_step, 0);  // wheel away from you: forward
+      break;
+    case GST_NAVIGATION_EVENT_KEY_PRESS: {
+      if (!gst_navigation_event_parse_key_event(event, &key) || !key) return false;
+      const std::string k = key;
+      if (k == "Up" || k == "w") walk(st->move_step, 0);
+      else if (k == "Down" || k == "s") walk(-st->move_step, 0);
+      else if (k == "Left" || k == "a") walk(0, -st->move_step);
+      else if (k == "Right" || k == "d") walk(0, st->move_step);
+      else if (k == "Page_Up" || k == "q") v.up += st->move_step;
+      else if (k == "Page_Down" || k == "e") v.up -= st->move_step;
+      else if (k == "Home" || k == "r") v = st->start;
+      else used = false;
+      break;
+    }
+    case GST_NAVIGATION_EVENT_KEY_RELEASE:
+      if (!gst_navigation_event_parse_key_event(event, &key) || !key) return false;
+      used = std::string("Up Down Left Right w s a d Page_Up Page_Down q e Home r").find(key) != std::string::npos;
+      return used;  // the press moved; the release is ours too, but changes nothing
+    default:
+      return false;
+  }
+  if (used) *pose_out = view_event_locked(self);
+  return used;
+}
+
+static gboolean gst_pose_nav_src_event(GstBaseTransform* trans, GstEvent* event) {
+  GstPoseNav* self = GST_POSE_NAV(trans);
+  if (GST_EVENT_TYPE(event) == GST_EVENT_NAVIGATION) {
+    GstEvent* pose = nullptr;
+    bool used;
+    {
+      std::lock_guard<std::mutex> g(self->st->lock);
+      used = navigate_locked(self, event, &pose);
+    }
+    if (used) {
+      gst_event_unref(event);
+      send_upstream(self, pose);
+      return TRUE;
+    }
+  }
+  return GST_BASE_TRANSFORM_CLASS(gst_pose_nav_parent_class)->src_event(trans, event);
+}
+
+static GstFlowReturn gst_pose_nav_transform_ip(GstBaseTransform* trans, GstBuffer*) {
+  GstPoseNav* self = GST_POSE_NAV(trans);
+  GstEvent* pose = nullptr;
+  {
+    std::lock_guard<std::mutex> g(self->st->lock);
+    NavState* st = self->st;
+    if (!st->trace.empty()) {
+      // One trace pose per frame, for reproducible runs; the last one holds.
+      const PoseSample& s = st->trace[std::min(st->trace_index, st->trace.size() - 1)];
+      st->trace_index++;
+      pose = make_pose_event_locked(self, s.pose);
+    } else if (!st->started) {
+      pose = view_event_locked(self);
+    }
+    st->started = true;
+  }
+  send_upstream(self, pose);
+  return GST_FLOW_OK;
+}
+
+static gboolean gst_pose_nav_start(GstBaseTransform* trans) {
+  GstPoseNav* self = GST_POSE_NAV(trans);
+  NavState* st = self->st;
+  std::lock_guard<std::mutex> g(st->lock);
+  try {
+    st->reference = st->rig_path.empty() ? level_reference() : load_rig(st->rig_path).camera(st->reference_id);
+    st->start = sliders_to_offset(parse_sliders(st->sliders_text));
+    st->trace = st->trace_path.empty() ? std::vector<PoseSample>() : load_pose_trace(st->trace_path);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("%s", e.what()), ("posenav properties"));
+    return FALSE;
+  }
+  st->view = st->start;
+  st->trace_index = 0;
+  st->started = false;
+  st->dragging = false;
+  return TRUE;
+}
+
+static void gst_pose_nav_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
+  GstPoseNav* self = GST_POSE_NAV(object);
+  NavState* st = self->st;
+  GstEvent* pose = nullptr;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    switch (prop_id) {
+      case PROP_RIG:
+        st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
+        break;
+      case PROP_REFERENCE_CAMERA:
+        st->reference_id = g_value_get_int(value);
+        break;
+      case PROP_SLIDERS: {
+        const std::string text = g_value_get_string(value) ? g_value_get_string(value) : "";
+        try {
+          const ViewOffset start = sliders_to_offset(parse_sliders(text));
+          st->sliders_text = text;
+          // While running, a new slider setting moves the view there at once.
+          if (GST_STATE(self) >= GST_STATE_PAUSED && st->trace.empty()) {
+            st->start = st->view = start;
+            pose = view_event_locked(self);
+          }
+        } catch (const Error& e) {
+          g_warning("posenav: %s", e.what());
+        }
+        break;
+      }
+      case PROP_POSE_TRACE:
+        st->trace_path = g_value_get_string(value) ? g_value_get_string(value) : "";
+        break;
+      case PROP_MOVE_STEP:
+        st->move_step = g_value_get_double(value);
+        break;
+      case PROP_TURN_SPEED:
+        st->turn_speed = g_value_get_double(value);
+        break;
+      case PROP_FOV:
+        st->fov = g_value_get_double(value);
+        break;
+      default:
+        G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+    }
+  }
+  send_upstream(self, pose);
+}
+
+static void gst_pose_nav_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  NavState* st = GST_POSE_NAV(object)->st;
+  std::lock_guard<std::mutex> g(st->lock);
+  switch (prop_id) {
+    case PROP_RIG:
+      g_value_set_string(value, st->rig_path.c_str());
+      break;
+    case PROP_REFERENCE_CAMERA:
+      g_value_set_int(value, st->reference_id);
+      break;
+    case PROP_SLIDERS:
+      // The current view in the slider notation (it may lie outside 0..100 after free navigation).
+      g_value_set_string(value, GST_STATE(object) >= GST_STATE_PAUSED
+                                    ? format_sliders(offset_to_sliders(st->view)).c_str()
+                                    : st->sliders_text.c_str());
+      break;
+    case PROP_POSE_TRACE:
+      g_value_set_string(value, st->trace_path.c_str());
+      break;
+    case PROP_MOVE_STEP:
+      g_value_set_double(value, st->move_step);
+      break;
+    case PROP_TURN_SPEED:
+      g_value_set_double(value, st->turn_speed);
+      break;
+    case PROP_FOV:
+      g_value_set_double(value, st->fov);
+      break;
+    case PROP_SEQ:
+      g_value_set_uint64(value, st->seq);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_pose_nav_finalize(GObject* object) {
+  delete GST_POSE_NAV(object)->st;
+  G_OBJECT_CLASS(gst_pose_nav_parent_class)->finalize(object);
+}
+
+static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
+  GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  GstBaseTransformClass* trans_class = GST_BASE_TRANSFORM_CLASS(klass);
+  gobject_class->set_property = gst_pose_nav_set_property;
+  gobject_class->get_property = gst_pose_nav_get_property;
+  gobject_class->finalize = gst_pose_nav_finalize;
+  const auto ready = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
+  const auto playing = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
+  g_object_class_install_property(
+      gobject_class, PROP_RIG,
+      g_param_spec_string("rig", "Rig file",
+                          "Rig YAML file whose reference camera the sliders and navigation are relative to (empty: "
+                          "the rig origin, looking level along -Z)",
+                          "", ready));
+  g_object_class_install_property(gobject_class, PROP_REFERENCE_CAMERA,
+                                  g_param_spec_int("reference-camera", "Reference camera",
+                                                   "Id of the rig camera that [50,50,50,50,50,50] stands for", 0,
+                                                   G_MAXINT, 0, ready));
+  g_object_class_install_property(
+      gobject_class, PROP_SLIDERS,
+      g_param_spec_string("sliders", "Sliders",
+                          "The paper's six-slider view [right,up,forward,yaw,pitch,roll], 0..100, 50 = the "
+                          "reference camera (docs/pose.md): the start pose; setting it while playing jumps there. "
+                          "Reading it gives the current view",
+                          "[50,50,50,50,50,50]", playing));
+  g_object_class_install_property(
+      gobject_class, PROP_POSE_TRACE,
+      g_param_spec_string("pose-trace", "Pose trace",
+                          "CSV pose trace (docs/pose.md): when set, each frame that passes sends the next pose of "
+                          "the trace (the last one holds) and navigation is ignored",
+                          "", ready));
+  g_object_class_install_property(gobject_class, PROP_MOVE_STEP,
+                                  g_param_spec_double("move-step", "Move step",
+                                                      "Metres moved per key press or wheel notch", 0.001, 10,
+                                                      kDefaultMoveStep, playing));
+  g_object_class_install_property(gobject_class, PROP_TURN_SPEED,
+                                  g_param_spec_double("turn-speed", "Turn speed",
+                                                      "Degrees turned per pixel dragged with the left button", 0.001,
+                                                      10, kDefaultTurnSpeed, playing));
+  g_object_class_install_property(
+      gobject_class, PROP_FOV,
+      g_param_spec_double("fov", "Field of view",
+                          "Horizontal field of view (degrees) asked of the server; 0 = the server's default", 0, 179,
+                          0, playing));
+  g_object_class_install_property(
+      gobject_class, PROP_SEQ,
+      g_param_spec_uint64("seq", "Last sequence number", "seq of the last pose event sent", 0, G_MAXUINT64, 0,
+                          GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  gst_element_class_add_static_pad_template(element_class, &sink_template);
+  gst_element_class_add_static_pad_template(element_class, &src_template);
+  gst_element_class_set_static_metadata(
+      element_class, "Lecturer pose navigation", "Filter/Video",
+      "The lecturer's mouse interface: put it before the video sink. Dragging with the left button looks around, "
+      "the wheel and the arrow/WASD keys move (Q/E or PageUp/PageDown up and down), Home or R returns to the start "
+      "pose; each change goes upstream as a vclassroom/pose event. The navigation events it uses stop here. Also "
+      "drives the view from the six-slider notation or a pose trace",
+      "gst-vclassroom developers");
+  trans_class->src_event = GST_DEBUG_FUNCPTR(gst_pose_nav_src_event);
+  trans_class->transform_ip = GST_DEBUG_FUNCPTR(gst_pose_nav_transform_ip);
+  trans_class->start = GST_DEBUG_FUNCPTR(gst_pose_nav_start);
+  trans_class->transform_ip_on_passthrough = TRUE;
+  GST_DEBUG_CATEGORY_INIT(pose_nav_debug, "posenav", 0, "lecturer pose navigation");
+}
+
+static void gst_pose_nav_init(GstPoseNav* self) {
+  self->st = new NavState();
+  self->st->reference = level_reference();
+  gst_base_transform_set_passthrough(GST_BASE_TRANSFORM(self), TRUE);
+}
