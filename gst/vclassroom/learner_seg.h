@@ -1,0 +1,90 @@
+// V-VA step 1: learner masks with ids that stay the same over time
+// (docs/vva.md). GStreamer-free.
+//
+// Per pixel, two cues against a model of the empty classroom: depth clearly
+// in front of the static depth, and colour change against a background colour
+// model (used where depth is missing). Memory in the spirit of XMem (Cheng &
+// Schwing, ECCV 2022), without a network:
+//  - fast state: the previous frame's labels, which keep pixels whose cues are
+//    unknown (depth holes on dark hair) in their learner;
+//  - working memory: a per-pixel evidence that decays over a few frames, so a
+//    learner whose clothes match the wall and whose depth drops out for a
+//    moment is not lost, and the background colour model is only updated
+//    where no learner is (a learner who sits still is never absorbed);
+//  - long-term memory: a compact descriptor per learner (mean colour, depth,
+//    position, size) kept for a while after it disappears, so a learner who
+//    was occluded or left and comes back gets the id it had.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace vclassroom {
+
+struct SegParams {
+  // Depth cue: a pixel is in front of the empty room when nearer than the
+  // static depth by more than max(depth_margin_mm, depth_margin_ratio * static).
+  double depth_margin_mm = 60;
+  double depth_margin_ratio = 0.03;
+  // Colour cue: sum of |RGB - background| above this (0..765).
+  int color_threshold = 60;
+  // Working memory: evidence = decay * evidence + (1 - decay) * cue.
+  double memory_decay = 0.5;
+  // Blobs smaller than this share of the image are noise.
+  double min_area_ratio = 0.0015;
+  // Background colour model learning rate where no learner is.
+  double background_rate = 0.05;
+  // Long-term memory: frames a lost learner's descriptor is kept.
+  int keep_lost_frames = 300;
+};
+
+struct LearnerTrack {
+  int id = 0;                // label value, 1..255
+  cv::Vec3f mean_color;      // RGB
+  float depth_mm = 0;        // median depth
+  cv::Point2f centroid;      // px
+  int area = 0;              // px
+  int64_t last_seen = -1;    // frame index
+  int64_t first_seen = -1;
+};
+
+class LearnerSegmenter {
+ public:
+  explicit LearnerSegmenter(const SegParams& params = SegParams());
+  // The empty classroom's depth for this camera (V-DA's prior depth, mm,
+  // 0 = unknown). Without it the static depth is learnt online: the farthest
+  // stable depth seen at each pixel (learners who never move stay background).
+  void set_static_depth(const cv::Mat& depth_mm);
+  // One frame: colour CV_8UC3 RGB, depth CV_16UC1 mm. Writes CV_8UC1 labels
+  // (0 static, k learner k). Frames must keep their size.
+  void segment(const cv::Mat& color, const cv::Mat& depth, cv::Mat* label);
+  // Learners seen in the last frame, and those remembered after they left.
+  const std::vector<LearnerTrack>& active() const { return active_; }
+  const std::vector<LearnerTrack>& remembered() const { return lost_; }
+  void reset();
+
+ private:
+  int new_id();
+  SegParams p_;
+  cv::Mat prior_;       // CV_16UC1 given static depth
+  cv::Mat bg_depth_;    // CV_32F learnt static depth (mm)
+  cv::Mat bg_color_;    // CV_32FC3
+  cv::Mat evidence_;    // CV_32F working memory
+  cv::Mat prev_label_;  // CV_8UC1 fast state
+  cv::Mat fg_, cc_labels_, cc_stats_, cc_centroids_;
+  std::vector<LearnerTrack> active_, lost_;
+  int64_t frame_ = 0;
+};
+
+// Foreground IoU of two label images (any non-zero label is a learner), and
+// the mean IoU of each ground-truth learner with the predicted id that
+// overlaps it most. For evaluations.
+struct SegScore {
+  double fg_iou = 0;
+  double mean_learner_iou = 0;
+};
+SegScore score_segmentation(const cv::Mat& predicted, const cv::Mat& truth);
+
+}  // namespace vclassroom

@@ -1,0 +1,91 @@
+// V-VA step 2: warps one RGB-D camera to the lecturer's virtual view
+// (docs/vva.md). GStreamer-free.
+//
+// The source image is a mesh: every 2x2 block of pixels gives two triangles
+// whose corners are the pixel centres at their measured depth. Triangles are
+// projected into the virtual camera and rasterised with a z-buffer; each
+// covered virtual pixel remembers the sub-pixel source position it came from,
+// and its colour is then sampled bilinearly there (forward geometry, backward
+// colour). A triangle whose corners straddle a depth edge (or a learner/static
+// boundary) is dropped instead of stretched, so foreground never smears over
+// background and disoccluded areas stay holes for the fusion to fill.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "rig.h"
+
+namespace vclassroom {
+
+// One frame of the source camera. All images have the camera's size.
+struct WarpSource {
+  cv::Mat color;         // CV_8UC3 RGB
+  cv::Mat depth;         // CV_16UC1 mm, live depth (0 = none)
+  cv::Mat label;         // CV_8UC1, 0 static, k learner k; may be empty (all static)
+  // Static layer: the depth of the empty classroom for this camera (V-DA's
+  // prior depth, or a stand-in). Used for label-0 pixels where non-zero; may be empty.
+  cv::Mat static_depth;  // CV_16UC1 mm
+};
+
+struct WarpParams {
+  // Two mesh neighbours belong to different surfaces when their depths differ
+  // by more than max(edge_min_mm, edge_ratio * nearer depth).
+  double edge_ratio = 0.03;
+  double edge_min_mm = 15;
+  // ... unless the view does not tear them apart: a triangle with a depth
+  // step is kept when none of its edges grows by more than this many pixels
+  // beyond its source length (slanted surfaces stay whole, edges open).
+  double max_gap_px = 1.0;
+  // Projected triangles larger than this many times their source area (0.5 px²)
+  // are dropped (grazing surfaces seen edge-on).
+  double max_stretch = 64;
+  // Source pixels this close (px) to a depth edge are not warped: their colour
+  // mixes both surfaces (the ghost contour of DIBR). The holes get filled.
+  int boundary_px = 0;
+  // Learner pixels without live depth take their learner's median depth.
+  bool fill_learner_depth = true;
+};
+
+// The source warped to the virtual view: all images have the virtual camera's size.
+struct WarpedView {
+  cv::Mat color;   // CV_8UC3 RGB, black where weight is 0
+  cv::Mat depth;   // CV_16UC1 mm along the virtual optical axis, 0 = hole
+  cv::Mat label;   // CV_8UC1
+  cv::Mat weight;  // CV_8UC1, 0 = hole, 1..255 quality (viewing angle, distance, stretch)
+};
+
+// Keeps per-source precomputation (pixel rays) and scratch buffers between
+// frames; one per camera (not thread-safe, cheap to create).
+class ViewWarper {
+ public:
+  // `source` and `virt` give intrinsics and cam_to_rig; `virt` must have no
+  // distortion. `out` is reallocated only when its size changes.
+  void warp(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt, const WarpParams& params,
+            WarpedView* out);
+
+ private:
+  void prepare_rays(const CameraCalib& source);
+  CameraCalib rays_for_;
+  bool have_rays_ = false;
+  std::vector<float> ray_x_, ray_y_;
+  // Per source pixel: projected position, virtual depth (m; <= 0 invalid), vertex weight.
+  std::vector<float> px_, py_, pz_, pw_;
+  std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
+  std::vector<uint8_t> src_label_;
+  // Per virtual pixel: z-buffer (m), source position.
+  std::vector<float> zbuf_, su_, sv_, wbuf_;
+  std::vector<uint8_t> lbuf_;
+};
+
+// Convenience: one-shot warp.
+WarpedView warp_view(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,
+                     const WarpParams& params = WarpParams());
+
+// The camera that sees the virtual view `virt`: same as `base` (intrinsics,
+// size) with the pose's cam_to_rig; when fov_deg is finite, fx = fy set for
+// that horizontal field of view at base's width (cx, cy unchanged).
+CameraCalib virtual_camera(const CameraCalib& base, const Eigen::Isometry3d& cam_to_rig, double fov_deg);
+
+}  // namespace vclassroom

@@ -1,0 +1,178 @@
+// Leave-one-out evaluation of V-VA (docs/vva.md): synthesise a camera from
+// the others and compare it with that camera's real image (PSNR/SSIM as
+// DESIGN.md §5), in the layout of the paper's Table I.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/dataset.h>
+#include <gst/vclassroom/image_metrics.h>
+#include <gst/vclassroom/learner_seg.h>
+#include <gst/vclassroom/middlebury.h>
+#include <gst/vclassroom/view_fuse.h>
+#include <gst/vclassroom/view_warp.h>
+
+using namespace vclassroom;
+
+namespace {
+
+struct Options {
+  std::string shared = "../shared/data";
+  std::string images;  // folder for side-by-side PNGs, "" = none
+  std::string only;    // "classroom", "middlebury", "teddy" or "" = all
+  int frames = 20;
+  int width = 960, height = 540;
+  int boundary_px = 1;
+  std::string write_priors;  // folder: write the empty room's depth per camera and exit
+};
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: vclassroom-eval-views [--shared DIR] [--only classroom|middlebury|teddy] [--frames N]\n"
+               "                             [--size WxH] [--images DIR] [--boundary PX]\n"
+               "       vclassroom-eval-views --write-priors DIR [--size WxH]\n"
+               "  --shared DIR   the shared data folder (default ../shared/data, relative to the repo root)\n"
+               "  --images DIR   write side-by-side PNGs (synthesised | real | error x4) there\n"
+               "  --frames N     synthetic classroom frames to average over (default 20)\n"
+               "  --size WxH     synthetic classroom camera size (default 960x540)\n"
+               "  --boundary PX  source pixels dropped next to depth edges (default 1)\n"
+               "  --write-priors DIR  write the empty classroom's clean depth for cameras 0..2 of the\n"
+               "                 default rig as DIR/prior-cam<K>.png (16-bit mm): the stand-in for V-DA's\n"
+               "                 static model that learnerseg/viewwarp's prior-depth property reads\n");
+  return 2;
+}
+
+struct Stats {
+  std::vector<double> v;
+  void add(double x) { v.push_back(x); }
+  double avg() const {
+    double s = 0;
+    for (double x : v) s += x;
+    return v.empty() ? NAN : s / v.size();
+  }
+  double max() const { return v.empty() ? NAN : *std::max_element(v.begin(), v.end()); }
+  double min() const { return v.empty() ? NAN : *std::min_element(v.begin(), v.end()); }
+};
+
+void write_side_by_side(const std::string& path, const cv::Mat& synth, const cv::Mat& real, const cv::Rect& roi,
+                        int max_width = 1200) {
+  const cv::Mat a = synth(roi), b = real(roi);
+  cv::Mat row;
+  cv::hconcat(std::vector<cv::Mat>{a, b, error_image(a, b)}, row);
+  if (row.cols > max_width) cv::resize(row, row, cv::Size(), double(max_width) / row.cols, double(max_width) / row.cols, cv::INTER_AREA);
+  cv::Mat bgr;
+  cv::cvtColor(row, bgr, cv::COLOR_RGB2BGR);
+  cv::imwrite(path, bgr, {cv::IMWRITE_PNG_COMPRESSION, 9});
+  std::printf("  wrote %s\n", path.c_str());
+}
+
+std::string make_temp_dir() {
+  char tmpl[] = "/tmp/vclassroom-eval-XXXXXX";
+  const char* d = mkdtemp(tmpl);
+  if (!d) throw Error("cannot create a temporary folder");
+  return d;
+}
+
+// Single reference: view 1 + depth -> view k, crop right 50*(k-1) columns (FW-DIBR protocol).
+void eval_middlebury(const Options& opt) {
+  const std::string base = opt.shared + "/middlebury-2005-2006-multiview";
+  const std::map<std::string, std::vector<double>> best = {
+      {"art", {32.681, 29.637, 26.941, 25.072, 24.182}},     // Layered Simple
+      {"aloe", {31.886, 29.396, 27.710, 26.702, 25.766}}};   // Layered Simple
+  std::printf("\n== Middlebury 2005/2006, view 1 + disp1_noholes -> views 2..6 (FW-DIBR protocol: right 50*(k-1) "
+              "columns cropped) ==\n");
+  for (const std::string scene : {"art", "aloe"}) {
+    const std::string tmp = make_temp_dir();
+    import_middlebury_multiview(base + "/" + scene, tmp, true);
+    const Dataset ds = Dataset::open(tmp);
+    const RgbdImages ref = ds.load(1, 0);
+    WarpSource src{ref.color, ref.depth, cv::Mat(), cv::Mat()};
+    WarpParams wp;
+    wp.boundary_px = opt.boundary_px;
+    FuseParams fp;
+    std::printf("%-5s offset |  PSNR dB  SSIMx100 | best published PSNR (Layered Simple) | ours - best\n",
+                scene.c_str());
+    for (int k = 2; k <= 6; ++k) {
+      const CameraCalib& target = ds.rig().camera(k);
+      const WarpedView w = warp_view(ds.rig().camera(1), src, target, wp);
+      FusedView f;
+      fuse_views({&w}, fp, &f);
+      const RgbdImages real = ds.load(k, 0);
+      const cv::Rect roi(0, 0, real.color.cols - 50 * (k - 1), real.color.rows);
+      const double p = psnr_rgb(f.color, real.color, roi), s = ssim_luma(f.color, real.color, roi);
+      const double b = best.at(scene)[k - 2];
+      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.2f  (%.1f%% filled)\n",
+                  scene.c_str(), k - 1, p, 100 * s, b, p - b, 100.0 * cv::countNonZero(f.filled(roi)) / roi.area());
+      if (!opt.images.empty() && (k == 2 || k == 6))
+        write_side_by_side(opt.images + "/vva-" + scene + "-view1-to-" + std::to_string(k) + ".png", f.color,
+                           real.color, roi);
+    }
+    std::string cmd = "rm -rf '" + tmp + "'";
+    if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "could not remove %s\n", tmp.c_str());
+  }
+}
+
+void eval_teddy(const Options& opt) {
+  const std::string tmp = make_temp_dir();
+  import_middlebury_2003(opt.shared + "/middlebury-2003-teddy/teddy", tmp);
+  const Dataset ds = Dataset::open(tmp);
+  std::printf("\n== Middlebury 2003 Teddy (quarter size), one reference -> the other ==\n");
+  for (auto [from, to] : {std::pair<int, int>{2, 6}, {6, 2}}) {
+    const RgbdImages ref = ds.load(from, 0), real = ds.load(to, 0);
+    WarpParams wp;
+    wp.boundary_px = opt.boundary_px;
+    const WarpedView w = warp_view(ds.rig().camera(from), WarpSource{ref.color, ref.depth, {}, {}},
+                                   ds.rig().camera(to), wp);
+    FusedView f;
+    fuse_views({&w}, FuseParams(), &f);
+    // The border the other view cannot see: 4 x 16 px of disparity range; crop it like FW-DIBR's 50 px.
+    const int crop = 64;
+    const cv::Rect roi = to > from ? cv::Rect(0, 0, real.color.cols - crop, real.color.rows)
+                                   : cv::Rect(crop, 0, real.color.cols - crop, real.color.rows);
+    std::printf("teddy %d -> %d: PSNR %.2f dB, SSIMx100 %.2f (%d border columns cropped)\n", from, to,
+                psnr_rgb(f.color, real.color, roi), 100 * ssim_luma(f.color, real.color, roi), crop);
+    if (!opt.images.empty() && from == 2)
+      write_side_by_side(opt.images + "/vva-teddy-2-to-6.png", f.color, real.color, roi);
+  }
+  std::string cmd = "rm -rf '" + tmp + "'";
+  if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "could not remove %s\n", tmp.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) std::exit(usage());
+      return argv[++i];
+    };
+    if (a == "--shared") opt.shared = next();
+    else if (a == "--images") opt.images = next();
+    else if (a == "--only") opt.only = next();
+    else if (a == "--frames") opt.frames = std::atoi(next().c_str());
+    else if (a == "--boundary") opt.boundary_px = std::atoi(next().c_str());
+    else if (a == "--write-priors") opt.write_priors = next();
+    else if (a == "--size") {
+      if (std::sscanf(next().c_str(), "%dx%d", &opt.width, &opt.height) != 2) return usage();
+    } else return usage();
+  }
+  try {
+    if (opt.only.empty() || opt.only == "middlebury") eval_middlebury(opt);
+    if (opt.only.empty() || opt.only == "teddy") eval_teddy(opt);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "vclassroom-eval-views: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
