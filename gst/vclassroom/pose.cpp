@@ -1,6 +1,9 @@
 #include "pose.h"
 
+#include "checksum.h"
+
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -217,6 +220,64 @@ std::string format_sliders(const Sliders& s) {
   for (size_t i = 0; i < s.size(); ++i) os << (i ? "," : "") << s[i];
   os << ']';
   return os.str();
+}
+
+namespace {
+template <typename T>
+void put_le(uint8_t*& p, T v) {
+  uint64_t bits = 0;
+  std::memcpy(&bits, &v, sizeof v);
+  for (size_t i = 0; i < sizeof v; ++i) *p++ = static_cast<uint8_t>(bits >> (8 * i));
+}
+template <typename T>
+T get_le(const uint8_t*& p) {
+  uint64_t bits = 0;
+  for (size_t i = 0; i < sizeof(T); ++i) bits |= static_cast<uint64_t>(*p++) << (8 * i);
+  T v;
+  std::memcpy(&v, &bits, sizeof v);
+  return v;
+}
+}  // namespace
+
+void pose_to_wire(const Pose& pose, uint8_t out[kPoseWireSize]) {
+  uint8_t* p = out;
+  for (char c : {'V', 'C', 'P', '1'}) *p++ = static_cast<uint8_t>(c);
+  put_le<uint64_t>(p, pose.seq);
+  put_le<int64_t>(p, pose.viewer_time_ns);
+  const Eigen::Quaterniond q = pose.orientation.normalized();
+  for (double v : {pose.position.x(), pose.position.y(), pose.position.z(), q.w(), q.x(), q.y(), q.z(), pose.fov_deg})
+    put_le<double>(p, v);
+  put_le<uint32_t>(p, crc32(out, kPoseWireSize - 4));
+}
+
+bool pose_from_wire(const uint8_t* data, size_t size, Pose* out, std::string* error) {
+  if (size != kPoseWireSize || std::memcmp(data, "VCP1", 4) != 0) {
+    if (error) *error = "not a pose packet (size " + std::to_string(size) + ")";
+    return false;
+  }
+  const uint8_t* check = data + kPoseWireSize - 4;
+  if (get_le<uint32_t>(check) != crc32(data, kPoseWireSize - 4)) {
+    if (error) *error = "damaged pose packet (checksum)";
+    return false;
+  }
+  const uint8_t* p = data + 4;
+  Pose pose;
+  pose.seq = get_le<uint64_t>(p);
+  pose.viewer_time_ns = get_le<int64_t>(p);
+  double v[8];
+  for (double& x : v) x = get_le<double>(p);
+  pose.position = Eigen::Vector3d(v[0], v[1], v[2]);
+  pose.orientation = Eigen::Quaterniond(v[3], v[4], v[5], v[6]);
+  pose.fov_deg = v[7];
+  try {
+    validate_pose(pose);
+  } catch (const Error& e) {
+    if (error) *error = e.what();
+    return false;
+  }
+  pose.orientation.normalize();
+  *out = pose;
+  return true;
 }
 
 std::vector<PoseSample> load_pose_trace(const std::string& path) {

@@ -76,6 +76,14 @@ Sliders pose_to_sliders(const Pose& pose, const CameraCalib& reference);
 Sliders parse_sliders(const std::string& text);
 std::string format_sliders(const Sliders& s);
 
+// The pose on the wire (RTP payload of the back channel, docs/pose.md):
+// "VCP1", seq u64, viewer-time i64, x y z qw qx qy qz fov as IEEE doubles
+// (fov NaN = none), CRC-32 of all before it; little-endian.
+inline constexpr size_t kPoseWireSize = 4 + 8 + 8 + 8 * 8 + 4;
+void pose_to_wire(const Pose& pose, uint8_t out[kPoseWireSize]);
+// False on a wrong size or magic, or a pose validate_pose() rejects.
+bool pose_from_wire(const uint8_t* data, size_t size, Pose* pose, std::string* error);
+
 // A pose trace: CSV with a header naming the columns, one pose per frame.
 // Required columns x,y,z,qw,qx,qy,qz; optional t (seconds), fov (deg), seq.
 // '#' starts a comment line. Throws Error naming file, line and column.

@@ -1,5 +1,7 @@
 #include "rgbd_codec.h"
 
+#include "checksum.h"
+
 #include <array>
 #include <csetjmp>
 #include <cstdio>
@@ -123,21 +125,6 @@ void jpeg_note(j_common_ptr cinfo, int level) {
 }
 
 }  // namespace
-
-uint32_t crc32(const uint8_t* data, size_t size) {
-  static const auto table = [] {
-    std::array<uint32_t, 256> t{};
-    for (uint32_t i = 0; i < 256; ++i) {
-      uint32_t c = i;
-      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
-      t[i] = c;
-    }
-    return t;
-  }();
-  uint32_t c = 0xFFFFFFFFu;
-  for (size_t i = 0; i < size; ++i) c = table[(c ^ data[i]) & 0xFF] ^ (c >> 8);
-  return c ^ 0xFFFFFFFFu;
-}
 
 void encode_depth_lossless(const cv::Mat& depth, std::vector<uint8_t>* out) {
   CV_Assert(depth.type() == CV_16UC1);

@@ -41,6 +41,4 @@ void encode_rgbd_frame(const RgbdCodedFrame& frame, int jpeg_quality, std::vecto
 bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, RgbdCodedFrame* frame,
                        std::string* error);
 
-uint32_t crc32(const uint8_t* data, size_t size);
-
 }  // namespace vclassroom

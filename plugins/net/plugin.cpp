@@ -7,11 +7,15 @@
 
 #include "gstrgbddec.h"
 #include "gstrgbdenc.h"
+#include "gstposerecv.h"
+#include "gstposesend.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
   ok &= gst_element_register(plugin, "rgbdenc", GST_RANK_NONE, GST_TYPE_RGBD_ENC);
   ok &= gst_element_register(plugin, "rgbddec", GST_RANK_NONE, GST_TYPE_RGBD_DEC);
+  ok &= gst_element_register(plugin, "posesend", GST_RANK_NONE, GST_TYPE_POSE_SEND);
+  ok &= gst_element_register(plugin, "poserecv", GST_RANK_NONE, GST_TYPE_POSE_RECV);
   return ok;
 }
 

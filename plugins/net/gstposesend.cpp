@@ -1,0 +1,230 @@
+// posesend: on the lecturer's side, the pose events that reach it from
+// downstream (posenav) leave as RTP packets on its `rtp` pad (to udpsink);
+// video passes through untouched. The latest pose is repeated with every
+// video frame, so a lost packet costs at most one frame of staleness.
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstposesend.h"
+
+#include <gst/rtp/gstrtpbuffer.h>
+
+#include <mutex>
+#include <optional>
+
+#include <gst/vclassroom/pose.h>
+
+#include "poseback.h"
+
+GST_DEBUG_CATEGORY_STATIC(pose_send_debug);
+#define GST_CAT_DEFAULT pose_send_debug
+
+using namespace vclassroom;
+
+enum { PROP_0, PROP_PT, PROP_REPEAT, PROP_SENT };
+
+namespace {
+struct SendState {
+  std::mutex lock;  // serialises pushes on the rtp pad (navigation and streaming threads) and guards all below
+  guint pt = 96;
+  bool repeat = true;
+  bool rtp_started = false;
+  guint16 rtp_seq = 0;
+  guint32 ssrc = 0;
+  std::optional<Pose> latest;
+  guint64 sent = 0;
+};
+}  // namespace
+
+struct _GstPoseSend {
+  GstElement parent;
+  GstPad* sinkpad;
+  GstPad* srcpad;
+  GstPad* rtppad;
+  SendState* st;
+};
+
+G_DEFINE_TYPE(GstPoseSend, gst_pose_send, GST_TYPE_ELEMENT)
+
+static GstStaticPadTemplate sink_template =
+    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
+static GstStaticPadTemplate rtp_template =
+    GST_STATIC_PAD_TEMPLATE("rtp", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kPoseRtpCaps));
+
+// Sends `pose` as one RTP packet; called with the lock held.
+static void send_locked(GstPoseSend* self, const Pose& pose) {
+  SendState* st = self->st;
+  if (!st->rtp_started) {
+    gchar* id = gst_pad_create_stream_id(self->rtppad, GST_ELEMENT(self), "pose");
+    gst_pad_push_event(self->rtppad, gst_event_new_stream_start(id));
+    g_free(id);
+    GstCaps* caps = gst_caps_from_string(kPoseRtpCaps);
+    gst_caps_set_simple(caps, "payload", G_TYPE_INT, static_cast<int>(st->pt), "ssrc", G_TYPE_UINT, st->ssrc, nullptr);
+    gst_pad_push_event(self->rtppad, gst_event_new_caps(caps));
+    gst_caps_unref(caps);
+    GstSegment seg;
+    gst_segment_init(&seg, GST_FORMAT_TIME);
+    gst_pad_push_event(self->rtppad, gst_event_new_segment(&seg));
+    st->rtp_started = true;
+  }
+  GstBuffer* buf = gst_rtp_buffer_new_allocate(kPoseWireSize, 0, 0);
+  GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
+  gst_rtp_buffer_map(buf, GST_MAP_WRITE, &rtp);
+  gst_rtp_buffer_set_payload_type(&rtp, static_cast<guint8>(st->pt));
+  gst_rtp_buffer_set_ssrc(&rtp, st->ssrc);
+  gst_rtp_buffer_set_seq(&rtp, st->rtp_seq++);
+  const guint64 t = pose.viewer_time_ns >= 0 ? static_cast<guint64>(pose.viewer_time_ns) : gst_util_get_timestamp();
+  gst_rtp_buffer_set_timestamp(&rtp, static_cast<guint32>(gst_util_uint64_scale(t, 90000, GST_SECOND)));
+  gst_rtp_buffer_set_marker(&rtp, TRUE);
+  pose_to_wire(pose, static_cast<uint8_t*>(gst_rtp_buffer_get_payload(&rtp)));
+  gst_rtp_buffer_unmap(&rtp);
+  const GstFlowReturn r = gst_pad_push(self->rtppad, buf);
+  if (r != GST_FLOW_OK && r != GST_FLOW_NOT_LINKED) GST_DEBUG_OBJECT(self, "pose push: %s", gst_flow_get_name(r));
+  st->sent++;
+}
+
+static gboolean gst_pose_send_src_event(GstPad* pad, GstObject* parent, GstEvent* event) {
+  GstPoseSend* self = GST_POSE_SEND(parent);
+  if (is_pose_event(event)) {
+    Pose pose;
+    std::string err;
+    const bool ok = pose_event_parse(event, &pose, &err);
+    gst_event_unref(event);
+    if (!ok) {
+      GST_WARNING_OBJECT(self, "ignoring a bad pose event: %s", err.c_str());
+      return FALSE;
+    }
+    std::lock_guard<std::mutex> g(self->st->lock);
+    self->st->latest = pose;
+    send_locked(self, pose);
+    return TRUE;  // it goes on over the network, not to the lecturer's source
+  }
+  return gst_pad_event_default(pad, parent, event);
+}
+
+static GstFlowReturn gst_pose_send_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
+  GstPoseSend* self = GST_POSE_SEND(parent);
+  {
+    std::lock_guard<std::mutex> g(self->st->lock);
+    if (self->st->repeat && self->st->latest) send_locked(self, *self->st->latest);
+  }
+  return gst_pad_push(self->srcpad, buf);
+}
+
+static gboolean gst_pose_send_sink_event(GstPad* pad, GstObject* parent, GstEvent* event) {
+  GstPoseSend* self = GST_POSE_SEND(parent);
+  if (GST_EVENT_TYPE(event) == GST_EVENT_EOS) {
+    std::lock_guard<std::mutex> g(self->st->lock);
+    if (self->st->rtp_started) gst_pad_push_event(self->rtppad, gst_event_new_eos());
+  }
+  return gst_pad_event_default(pad, parent, event);
+}
+
+static GstIterator* gst_pose_send_iterate_links(GstPad* pad, GstObject* parent) {
+  GstPoseSend* self = GST_POSE_SEND(parent);
+  return iterate_video_link(pad, pad == self->sinkpad ? self->srcpad : self->sinkpad);
+}
+
+static GstStateChangeReturn gst_pose_send_change_state(GstElement* element, GstStateChange transition) {
+  GstPoseSend* self = GST_POSE_SEND(element);
+  if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {
+    std::lock_guard<std::mutex> g(self->st->lock);
+    self->st->rtp_started = false;
+    self->st->latest.reset();
+    self->st->ssrc = g_random_int();
+    self->st->rtp_seq = static_cast<guint16>(g_random_int());
+  }
+  return GST_ELEMENT_CLASS(gst_pose_send_parent_class)->change_state(element, transition);
+}
+
+static void gst_pose_send_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
+  SendState* st = GST_POSE_SEND(object)->st;
+  std::lock_guard<std::mutex> g(st->lock);
+  switch (prop_id) {
+    case PROP_PT:
+      st->pt = g_value_get_uint(value);
+      break;
+    case PROP_REPEAT:
+      st->repeat = g_value_get_boolean(value);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_pose_send_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  SendState* st = GST_POSE_SEND(object)->st;
+  std::lock_guard<std::mutex> g(st->lock);
+  switch (prop_id) {
+    case PROP_PT:
+      g_value_set_uint(value, st->pt);
+      break;
+    case PROP_REPEAT:
+      g_value_set_boolean(value, st->repeat);
+      break;
+    case PROP_SENT:
+      g_value_set_uint64(value, st->sent);
+      break;
+    default:
+      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_pose_send_finalize(GObject* object) {
+  delete GST_POSE_SEND(object)->st;
+  G_OBJECT_CLASS(gst_pose_send_parent_class)->finalize(object);
+}
+
+static void gst_pose_send_class_init(GstPoseSendClass* klass) {
+  GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  gobject_class->set_property = gst_pose_send_set_property;
+  gobject_class->get_property = gst_pose_send_get_property;
+  gobject_class->finalize = gst_pose_send_finalize;
+  element_class->change_state = GST_DEBUG_FUNCPTR(gst_pose_send_change_state);
+  g_object_class_install_property(
+      gobject_class, PROP_PT,
+      g_param_spec_uint("pt", "Payload type", "RTP payload type of the pose packets", 96, 127, 96,
+                        GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
+  g_object_class_install_property(
+      gobject_class, PROP_REPEAT,
+      g_param_spec_boolean("repeat", "Repeat", "Send the latest pose again with every video frame, so a lost packet "
+                                               "is made good at the next frame",
+                           TRUE, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(gobject_class, PROP_SENT,
+                                  g_param_spec_uint64("sent", "Packets sent", "Pose packets sent so far", 0,
+                                                      G_MAXUINT64, 0,
+                                                      GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  gst_element_class_add_static_pad_template(element_class, &sink_template);
+  gst_element_class_add_static_pad_template(element_class, &src_template);
+  gst_element_class_add_static_pad_template(element_class, &rtp_template);
+  gst_element_class_set_static_metadata(
+      element_class, "Pose back-channel sender", "Network/Filter",
+      "Lecturer side of the pose back channel: video passes through; the vclassroom/pose events that reach it "
+      "from downstream (posenav) leave as RTP packets on the 'rtp' pad (link it to udpsink); the latest pose is "
+      "repeated with each frame so loss heals",
+      "gst-vclassroom developers");
+  GST_DEBUG_CATEGORY_INIT(pose_send_debug, "posesend", 0, "pose back-channel sender");
+}
+
+static void gst_pose_send_init(GstPoseSend* self) {
+  self->st = new SendState();
+  self->sinkpad = gst_pad_new_from_static_template(&sink_template, "sink");
+  gst_pad_set_chain_function(self->sinkpad, GST_DEBUG_FUNCPTR(gst_pose_send_chain));
+  gst_pad_set_event_function(self->sinkpad, GST_DEBUG_FUNCPTR(gst_pose_send_sink_event));
+  gst_pad_set_iterate_internal_links_function(self->sinkpad, GST_DEBUG_FUNCPTR(gst_pose_send_iterate_links));
+  GST_PAD_SET_PROXY_CAPS(self->sinkpad);
+  GST_PAD_SET_PROXY_ALLOCATION(self->sinkpad);
+  gst_element_add_pad(GST_ELEMENT(self), self->sinkpad);
+  self->srcpad = gst_pad_new_from_static_template(&src_template, "src");
+  gst_pad_set_event_function(self->srcpad, GST_DEBUG_FUNCPTR(gst_pose_send_src_event));
+  gst_pad_set_iterate_internal_links_function(self->srcpad, GST_DEBUG_FUNCPTR(gst_pose_send_iterate_links));
+  GST_PAD_SET_PROXY_CAPS(self->srcpad);
+  gst_element_add_pad(GST_ELEMENT(self), self->srcpad);
+  self->rtppad = gst_pad_new_from_static_template(&rtp_template, "rtp");
+  gst_pad_use_fixed_caps(self->rtppad);
+  gst_element_add_pad(GST_ELEMENT(self), self->rtppad);
+}
