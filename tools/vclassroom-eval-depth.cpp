@@ -42,12 +42,14 @@ struct Args {
   uint64_t knockout_seed = 7;
   int bench = 0;  // frames to time; 0 = evaluate
   bool synthetic = true, middlebury = true;
+  DepthCompleteOptions vda;  // the V-DA settings evaluated (the elements' defaults unless changed)
 };
 
 void usage() {
   std::cerr << "usage: vclassroom-eval-depth [--shared DIR] [--images DIR] [--model-frames N] [--eval-times N]\n"
                "                             [--learners N] [--seed N] [--knockout-seed N]\n"
-               "                             [--only synthetic|middlebury] [--bench FRAMES]\n";
+               "                             [--only synthetic|middlebury] [--bench FRAMES]\n"
+               "                             [--colorize-iterations N] [--median-size 3|5] [--color-sigma X]\n";
 }
 
 double ms_since(Clock::time_point t0) {
@@ -219,10 +221,10 @@ void eval_middlebury(const Args& a) {
     cv::Mat holes = knocked & (gt > 0);
     const double holes_share = 100.0 * cv::countNonZero(holes) / cv::countNonZero(gt);
 
-    DepthCompleteOptions full;
+    DepthCompleteOptions full = a.vda;
     full.use_prior = false;
     auto vda = [](DepthCompleteOptions o) -> Method {
-      return [o](const cv::Mat& d, const cv::Mat& c, cv::Mat& out) { depth_complete(d, c, cv::Mat(), cv::Mat(), o, out); };
+      return [o](const cv::Mat& d, const cv::Mat& c, cv::Mat& out) { depth_complete(d, c, cv::Mat(), cv::Mat(), cv::Mat(), o, out); };
     };
     DepthCompleteOptions guided_only = full;
     guided_only.colorization = false;
@@ -341,7 +343,7 @@ void eval_synthetic(const Args& a) {
   cfg.learners = a.learners;
   const Classroom room(cfg);
   const PlaneTolerance tol;
-  DepthCompleteOptions full;
+  const DepthCompleteOptions full = a.vda;
   struct Variant {
     std::string name;
     bool prior, guided, colorize, planes;
@@ -383,7 +385,7 @@ void eval_synthetic(const Args& a) {
         o.colorization = v.colorize;
         // The label plane is not used: the elements must work without it.
         const auto t0 = Clock::now();
-        depth_complete(depth, color, prior, cv::Mat(), o, out);
+        depth_complete(depth, color, prior, s.model.color(cam.id), cv::Mat(), o, out);
         const double t_complete = ms_since(t0);
         const auto t1 = Clock::now();
         if (v.planes) plane_refine(out, maps, cv::Mat(), tol, out);
@@ -451,14 +453,14 @@ void bench(const Args& a) {
     apply_sensor_model(clean, cam, SensorParams(), a.seed + 100, static_cast<uint64_t>(i), &in.depth, &in.color);
     inputs.push_back(in);
   }
-  const DepthCompleteOptions full;
+  const DepthCompleteOptions full = a.vda;
   const PlaneTolerance tol;
   std::vector<double> tc, tp;
   cv::Mat out;
   for (int f = 0; f < a.bench; ++f) {
     const Input& in = inputs[f % inputs.size()];
     const auto t0 = Clock::now();
-    depth_complete(in.depth, in.color, s.model.prior(in.cam), cv::Mat(), full, out);
+    depth_complete(in.depth, in.color, s.model.prior(in.cam), s.model.color(in.cam), cv::Mat(), full, out);
     const auto t1 = Clock::now();
     plane_refine(out, s.maps.at(in.cam), cv::Mat(), tol, out);
     tc.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
@@ -509,6 +511,12 @@ int main(int argc, char** argv) {
       a.seed = std::stoull(next());
     else if (k == "--knockout-seed")
       a.knockout_seed = std::stoull(next());
+    else if (k == "--colorize-iterations")
+      a.vda.colorize.iterations = std::stoi(next());
+    else if (k == "--median-size")
+      a.vda.guided.median_size = std::stoi(next());
+    else if (k == "--color-sigma")
+      a.vda.colorize.color_sigma = std::stod(next());
     else if (k == "--bench")
       a.bench = std::stoi(next());
     else if (k == "--only") {

@@ -11,24 +11,6 @@ namespace vclassroom {
 
 namespace {
 
-constexpr int kTile = 64;
-
-// Tiles (kTile x kTile) of a CV_16UC1 image that hold at least one 0.
-std::vector<cv::Rect> tiles_with_holes(const cv::Mat& depth) {
-  std::vector<cv::Rect> tiles;
-  for (int y = 0; y < depth.rows; y += kTile)
-    for (int x = 0; x < depth.cols; x += kTile) {
-      const cv::Rect r(x, y, std::min(kTile, depth.cols - x), std::min(kTile, depth.rows - y));
-      if (cv::countNonZero(depth(r)) < r.area()) tiles.push_back(r);
-    }
-  return tiles;
-}
-
-cv::Rect grow(const cv::Rect& r, int margin, const cv::Size& size) {
-  cv::Rect g(r.x - margin, r.y - margin, r.width + 2 * margin, r.height + 2 * margin);
-  return g & cv::Rect(0, 0, size.width, size.height);
-}
-
 inline int agree_tol(int depth, int min_mm, double ratio) {
   return std::max(min_mm, static_cast<int>(ratio * depth));
 }
@@ -37,130 +19,157 @@ cv::Mat diamond5() {
   return (cv::Mat_<uint8_t>(5, 5) << 0, 0, 1, 0, 0, 0, 1, 1, 1, 0, 1, 1, 1, 1, 1, 0, 1, 1, 1, 0, 0, 0, 1, 0, 0);
 }
 
-// One Ku-style growing step on a region: each hole pixel whose valid
-// neighbours under `kernel` agree (nearest and farthest within tolerance) gets
-// their mid depth. Nearest comes from dilating the inverted depth, farthest
-// from dilating the depth itself.
-void grow_agreeing(cv::Mat& d, const cv::Mat& kernel, const GuidedCompletionParams& p, cv::Mat& inv,
-                   cv::Mat& near_inv, cv::Mat& far) {
-  inv.create(d.size(), CV_16UC1);
+// Ku et al.'s 5x5 diamond, and full squares, as lists of offsets.
+std::vector<cv::Point> kernel_offsets(int radius, bool diamond) {
+  std::vector<cv::Point> k;
+  for (int dy = -radius; dy <= radius; ++dy)
+    for (int dx = -radius; dx <= radius; ++dx)
+      if (!diamond || std::abs(dx) + std::abs(dy) <= radius) k.emplace_back(dx, dy);
+  return k;
+}
+
+// One Ku-style step: the dilation of the inverted depth (max_depth - D, so
+// the maximum is the nearest surface) and of the depth itself (the farthest),
+// evaluated at the hole pixels only, which is all the step reads. A hole
+// pixel is filled with the mid depth when the two agree and it is enclosed by
+// valid depth on all four sides within the kernel's reach: a wider hole may
+// hide a depth edge the kernel cannot see, and the colour-guided fill decides
+// those better. Returns how many pixels it filled.
+int grow_agreeing(cv::Mat& d, std::vector<cv::Point>& holes, const std::vector<cv::Point>& kernel, int reach,
+                  const GuidedCompletionParams& p) {
   const int maxd = p.max_depth_mm;
-  for (int y = 0; y < d.rows; ++y) {
-    const uint16_t* s = d.ptr<uint16_t>(y);
-    uint16_t* o = inv.ptr<uint16_t>(y);
-    for (int x = 0; x < d.cols; ++x) o[x] = s[x] ? static_cast<uint16_t>(std::max(1, maxd - s[x])) : 0;
-  }
-  cv::dilate(inv, near_inv, kernel, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
-  cv::dilate(d, far, kernel, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
-  // Only holes enclosed by valid depth on all four sides within the kernel's
-  // reach: a wider hole may hide a depth edge the kernel cannot see, and the
-  // colour-guided fill decides those better.
-  const int reach = kernel.cols / 2;
-  const cv::Mat before = d.clone();
-  auto enclosed = [&](int x, int y) {
+  std::vector<std::pair<cv::Point, uint16_t>> fills;
+  for (const cv::Point& h : holes) {
+    bool enclosed = true;
     const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
-    for (int k = 0; k < 4; ++k) {
+    for (int k = 0; k < 4 && enclosed; ++k) {
       int s = 1;
       for (; s <= reach; ++s) {
-        const int nx = x + s * dx[k], ny = y + s * dy[k];
-        if (nx < 0 || ny < 0 || nx >= d.cols || ny >= d.rows) return false;
-        if (before.at<uint16_t>(ny, nx)) break;
+        const int nx = h.x + s * dx[k], ny = h.y + s * dy[k];
+        if (nx < 0 || ny < 0 || nx >= d.cols || ny >= d.rows) {
+          s = reach + 1;
+          break;
+        }
+        if (d.at<uint16_t>(ny, nx)) break;
       }
-      if (s > reach) return false;
+      enclosed = s <= reach;
     }
-    return true;
-  };
-  for (int y = 0; y < d.rows; ++y) {
-    uint16_t* o = d.ptr<uint16_t>(y);
-    const uint16_t* ni = near_inv.ptr<uint16_t>(y);
-    const uint16_t* fa = far.ptr<uint16_t>(y);
-    for (int x = 0; x < d.cols; ++x) {
-      if (o[x] || !ni[x] || !enclosed(x, y)) continue;
-      const int nearest = maxd - ni[x], farthest = fa[x];
-      if (farthest - nearest <= agree_tol(nearest, p.agree_min_mm, p.agree_ratio))
-        o[x] = static_cast<uint16_t>((nearest + farthest + 1) / 2);
+    if (!enclosed) continue;
+    int near_inv = 0, far = 0;
+    for (const cv::Point& o : kernel) {
+      const int x = h.x + o.x, y = h.y + o.y;
+      if (x < 0 || y < 0 || x >= d.cols || y >= d.rows) continue;
+      const int v = d.at<uint16_t>(y, x);
+      if (!v) continue;
+      near_inv = std::max(near_inv, std::max(1, maxd - v));
+      far = std::max(far, v);
     }
+    if (!near_inv) continue;
+    const int nearest = maxd - near_inv;
+    if (far - nearest <= agree_tol(nearest, p.agree_min_mm, p.agree_ratio))
+      fills.emplace_back(h, static_cast<uint16_t>((nearest + far + 1) / 2));
   }
+  // Applied after the pass, as a dilation reads only its input.
+  for (const auto& [pt, v] : fills) d.at<uint16_t>(pt) = v;
+  if (!fills.empty())
+    holes.erase(std::remove_if(holes.begin(), holes.end(), [&](const cv::Point& h) { return d.at<uint16_t>(h) != 0; }),
+                holes.end());
+  return static_cast<int>(fills.size());
 }
 
 // Colour-guided fill of every hole pixel from the ends of its horizontal and
-// vertical hole runs (see the header).
-void run_end_fill(const cv::Mat& src, const cv::Mat& color, const GuidedCompletionParams& p, cv::Mat& dst,
-                  cv::Mat* ambiguous) {
+// vertical hole runs (see the header). `src` is read, `dst` written.
+void run_end_fill(const cv::Mat& src, const std::vector<cv::Point>& holes, const cv::Mat& color,
+                  const GuidedCompletionParams& p, cv::Mat& dst, cv::Mat* ambiguous) {
   const int w = src.cols, h = src.rows;
   const double inv_sigma2 = 1.0 / (p.color_sigma * p.color_sigma);
   const bool has_color = !color.empty();
-  for (int y = 0; y < h; ++y) {
-    const uint16_t* row = src.ptr<uint16_t>(y);
-    int x = 0;
-    while (x < w) {
-      if (row[x]) {
-        ++x;
-        continue;
-      }
-      const int a = x;
-      while (x < w && !row[x]) ++x;
-      const int b = x - 1;  // hole run [a, b]
-      for (int xi = a; xi <= b; ++xi) {
-        // Candidates: 0 left, 1 right, 2 up, 3 down.
-        int cx[4], cy[4], dist[4];
-        bool ok[4];
-        ok[0] = a > 0, cx[0] = a - 1, cy[0] = y, dist[0] = xi - a + 1;
-        ok[1] = b + 1 < w, cx[1] = b + 1, cy[1] = y, dist[1] = b + 1 - xi;
-        int yu = y - 1;
-        while (yu >= 0 && !src.at<uint16_t>(yu, xi)) --yu;
-        ok[2] = yu >= 0, cx[2] = xi, cy[2] = yu, dist[2] = y - yu;
-        int yd = y + 1;
-        while (yd < h && !src.at<uint16_t>(yd, xi)) ++yd;
-        ok[3] = yd < h, cx[3] = xi, cy[3] = yd, dist[3] = yd - y;
-        double z[4] = {0, 0, 0, 0}, wgt[4];
-        const cv::Vec3b c0 = has_color ? color.at<cv::Vec3b>(y, xi) : cv::Vec3b();
-        for (int k = 0; k < 4; ++k) {
-          if (!ok[k]) {
-            wgt[k] = 0;
-            continue;
-          }
-          z[k] = src.at<uint16_t>(cy[k], cx[k]);
-          double cw = 1.0;
-          if (has_color) {
-            const cv::Vec3b c = color.at<cv::Vec3b>(cy[k], cx[k]);
-            const double dr = c[0] - c0[0], dg = c[1] - c0[1], db = c[2] - c0[2];
-            cw = std::exp(-(dr * dr + dg * dg + db * db) * inv_sigma2);
-          }
-          wgt[k] = (cw + 1e-6) / dist[k];
-        }
-        // A run whose two ends lie on one surface: interpolate 1/Z (exact on a plane).
-        double v[4] = {z[0], z[1], z[2], z[3]};
-        for (int pair = 0; pair < 2; ++pair) {
-          const int i = 2 * pair, j = i + 1;
-          if (!ok[i] || !ok[j]) continue;
-          if (std::abs(z[i] - z[j]) > agree_tol(static_cast<int>(std::min(z[i], z[j])), p.agree_min_mm, p.agree_ratio))
-            continue;
-          const double inv = (dist[j] / z[i] + dist[i] / z[j]) / (dist[i] + dist[j]);
-          v[i] = v[j] = 1.0 / inv;
-        }
-        int best = -1;
-        for (int k = 0; k < 4; ++k)
-          if (wgt[k] > 0 && (best < 0 || wgt[k] > wgt[best])) best = k;
-        if (best < 0) continue;
-        const double tol = agree_tol(static_cast<int>(v[best]), p.agree_min_mm, p.agree_ratio);
-        double sw = 0, sv = 0, sw_all = 0;
-        for (int k = 0; k < 4; ++k) {
-          sw_all += wgt[k];
-          if (wgt[k] > 0 && std::abs(v[k] - v[best]) <= tol) sw += wgt[k], sv += wgt[k] * v[k];
-        }
-        dst.at<uint16_t>(y, xi) = cv::saturate_cast<uint16_t>(sv / sw);
-        if (ambiguous && sw < (1.0 - p.ambiguous_share) * sw_all) ambiguous->at<uint8_t>(y, xi) = 255;
-      }
-    }
+  // Nearest valid row above / below each hole pixel, by two passes over the
+  // holes (row-major order visits the pixel above first).
+  cv::Mat up(src.size(), CV_16SC1), down(src.size(), CV_16SC1);
+  for (const cv::Point& q : holes)
+    up.at<int16_t>(q) = q.y == 0 ? -1 : (src.at<uint16_t>(q.y - 1, q.x) ? q.y - 1 : up.at<int16_t>(q.y - 1, q.x));
+  for (auto it = holes.rbegin(); it != holes.rend(); ++it) {
+    const cv::Point& q = *it;
+    down.at<int16_t>(q) =
+        q.y == h - 1 ? -1 : (src.at<uint16_t>(q.y + 1, q.x) ? q.y + 1 : down.at<int16_t>(q.y + 1, q.x));
   }
+  // Holes are in row-major order, so each horizontal run is a contiguous stretch.
+  size_t i = 0;
+  while (i < holes.size()) {
+    size_t j = i;
+    while (j + 1 < holes.size() && holes[j + 1].y == holes[i].y && holes[j + 1].x == holes[j].x + 1) ++j;
+    const int y = holes[i].y, a = holes[i].x, b = holes[j].x;
+    for (int xi = a; xi <= b; ++xi) {
+      // Candidates: 0 left, 1 right, 2 up, 3 down.
+      int cx[4], cy[4], dist[4];
+      bool ok[4];
+      ok[0] = a > 0, cx[0] = a - 1, cy[0] = y, dist[0] = xi - a + 1;
+      ok[1] = b + 1 < w, cx[1] = b + 1, cy[1] = y, dist[1] = b + 1 - xi;
+      const int yu = up.at<int16_t>(y, xi), yd = down.at<int16_t>(y, xi);
+      ok[2] = yu >= 0, cx[2] = xi, cy[2] = yu, dist[2] = y - yu;
+      ok[3] = yd >= 0, cx[3] = xi, cy[3] = yd, dist[3] = yd - y;
+      double z[4] = {0, 0, 0, 0}, wgt[4];
+      const cv::Vec3b c0 = has_color ? color.at<cv::Vec3b>(y, xi) : cv::Vec3b();
+      for (int k = 0; k < 4; ++k) {
+        if (!ok[k]) {
+          wgt[k] = 0;
+          continue;
+        }
+        z[k] = src.at<uint16_t>(cy[k], cx[k]);
+        double cw = 1.0;
+        if (has_color) {
+          const cv::Vec3b c = color.at<cv::Vec3b>(cy[k], cx[k]);
+          const double dr = c[0] - c0[0], dg = c[1] - c0[1], db = c[2] - c0[2];
+          cw = std::exp(-(dr * dr + dg * dg + db * db) * inv_sigma2);
+        }
+        wgt[k] = (cw + 1e-6) / dist[k];
+      }
+      // A run whose two ends lie on one surface: interpolate 1/Z (exact on a plane).
+      double v[4] = {z[0], z[1], z[2], z[3]};
+      for (int pair = 0; pair < 2; ++pair) {
+        const int m = 2 * pair, n = m + 1;
+        if (!ok[m] || !ok[n]) continue;
+        if (std::abs(z[m] - z[n]) > agree_tol(static_cast<int>(std::min(z[m], z[n])), p.agree_min_mm, p.agree_ratio))
+          continue;
+        const double inv = (dist[n] / z[m] + dist[m] / z[n]) / (dist[m] + dist[n]);
+        v[m] = v[n] = 1.0 / inv;
+      }
+      int best = -1;
+      for (int k = 0; k < 4; ++k)
+        if (wgt[k] > 0 && (best < 0 || wgt[k] > wgt[best])) best = k;
+      if (best < 0) continue;
+      const double tol = agree_tol(static_cast<int>(v[best]), p.agree_min_mm, p.agree_ratio);
+      double sw = 0, sv = 0, sw_all = 0;
+      for (int k = 0; k < 4; ++k) {
+        sw_all += wgt[k];
+        if (wgt[k] > 0 && std::abs(v[k] - v[best]) <= tol) sw += wgt[k], sv += wgt[k] * v[k];
+      }
+      dst.at<uint16_t>(y, xi) = cv::saturate_cast<uint16_t>(sv / sw);
+      if (ambiguous && sw < (1.0 - p.ambiguous_share) * sw_all) ambiguous->at<uint8_t>(y, xi) = 255;
+    }
+    i = j + 1;
+  }
+}
+
+std::vector<cv::Point> hole_list(const cv::Mat& depth) {
+  std::vector<cv::Point> holes;
+  for (int y = 0; y < depth.rows; ++y) {
+    const uint16_t* r = depth.ptr<uint16_t>(y);
+    for (int x = 0; x < depth.cols; ++x)
+      if (!r[x]) holes.emplace_back(x, y);
+  }
+  return holes;
 }
 
 }  // namespace
 
-void prior_fill(const cv::Mat& live, const cv::Mat& prior, const cv::Mat& label, const PriorFillParams& p,
-                cv::Mat& out) {
+void prior_fill(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& prior_color,
+                const cv::Mat& label, const PriorFillParams& p, cv::Mat& out) {
   CV_Assert(live.type() == CV_16UC1 && prior.type() == CV_16UC1 && live.size() == prior.size());
+  const bool color_test = p.color_tolerance > 0 && !color.empty() && !prior_color.empty();
+  CV_Assert(!color_test || (color.type() == CV_8UC3 && prior_color.type() == CV_8UC3 &&
+                            color.size() == live.size() && prior_color.size() == live.size()));
   CV_Assert(label.empty() || (label.type() == CV_8UC1 && label.size() == live.size()));
   cv::Mat guard;
   if (p.learner_guard_px > 0) {
@@ -172,6 +181,9 @@ void prior_fill(const cv::Mat& live, const cv::Mat& prior, const cv::Mat& label,
       for (int x = 0; x < live.cols; ++x)
         f[x] = (l[x] && q[x] && l[x] + agree_tol(q[x], p.tolerance_min_mm, p.tolerance_ratio) < q[x]) ? 255 : 0;
     }
+    // Flying pixels along the room's own depth edges are also "in front" but
+    // only a pixel or two wide; an opening keeps bodies and drops them.
+    cv::morphologyEx(front, front, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
     const int k = 2 * p.learner_guard_px + 1;
     cv::dilate(front, guard, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
   }
@@ -181,12 +193,18 @@ void prior_fill(const cv::Mat& live, const cv::Mat& prior, const cv::Mat& label,
     const uint16_t* q = prior.ptr<uint16_t>(y);
     const uint8_t* lab = label.empty() ? nullptr : label.ptr<uint8_t>(y);
     const uint8_t* g = guard.empty() ? nullptr : guard.ptr<uint8_t>(y);
+    const uint8_t* c = color_test ? color.ptr<uint8_t>(y) : nullptr;
+    const uint8_t* pc = color_test ? prior_color.ptr<uint8_t>(y) : nullptr;
+    const int ctol = p.color_tolerance;
     uint16_t* o = out.ptr<uint16_t>(y);
     for (int x = 0; x < live.cols; ++x) {
       uint16_t v = l[x];
       if (q[x] && !(lab && lab[x])) {
         if (!l[x]) {
-          if (!(g && g[x])) v = q[x];
+          const bool room_colour = !c || (std::abs(c[3 * x] - pc[3 * x]) <= ctol &&
+                                          std::abs(c[3 * x + 1] - pc[3 * x + 1]) <= ctol &&
+                                          std::abs(c[3 * x + 2] - pc[3 * x + 2]) <= ctol);
+          if (!(g && g[x]) && room_colour) v = q[x];
         } else if (std::abs(int(l[x]) - int(q[x])) <= agree_tol(q[x], p.tolerance_min_mm, p.tolerance_ratio)) {
           v = q[x];
         }
@@ -200,58 +218,50 @@ void guided_completion(const cv::Mat& depth, const cv::Mat& color, const GuidedC
                        cv::Mat* filled, cv::Mat* ambiguous) {
   CV_Assert(depth.type() == CV_16UC1);
   CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
-  const cv::Mat src = depth.clone();
-  out.create(depth.size(), CV_16UC1);
-  src.copyTo(out);
-  const std::vector<cv::Rect> tiles = tiles_with_holes(src);
-  if (p.morphology) {
-    // Steps reach 2 + 2 + 3 px; a margin of 8 makes each tile's result equal to a whole-frame pass.
-    const cv::Mat k1 = diamond5(), k2 = cv::Mat::ones(5, 5, CV_8U), k3 = cv::Mat::ones(7, 7, CV_8U);
-    cv::Mat region, inv, near_inv, far;
-    for (const cv::Rect& t : tiles) {
-      const cv::Rect r = grow(t, 8, src.size());
-      src(r).copyTo(region);
-      grow_agreeing(region, k1, p, inv, near_inv, far);
-      grow_agreeing(region, k2, p, inv, near_inv, far);
-      grow_agreeing(region, k3, p, inv, near_inv, far);
-      region(cv::Rect(t.x - r.x, t.y - r.y, t.width, t.height)).copyTo(out(t));
-    }
-  }
+  // Per-frame work is proportional to the holes, not the image: the
+  // morphological steps are evaluated at hole pixels only.
+  const std::vector<cv::Point> all_holes = hole_list(depth);
+  if (out.data != depth.data) depth.copyTo(out);
   if (ambiguous) {
     ambiguous->create(depth.size(), CV_8UC1);
     ambiguous->setTo(0);
   }
-  if (p.hole_fill) {
-    const cv::Mat stage = out.clone();
-    run_end_fill(stage, color, p, out, ambiguous);
+  std::vector<cv::Point> holes = all_holes;
+  if (p.morphology && !holes.empty()) {
+    static const std::vector<cv::Point> k_diamond = kernel_offsets(2, true), k5 = kernel_offsets(2, false),
+                                        k7 = kernel_offsets(3, false);
+    grow_agreeing(out, holes, k_diamond, 2, p);  // dilation with the diamond
+    grow_agreeing(out, holes, k5, 2, p);         // closing of small holes
+    grow_agreeing(out, holes, k7, 3, p);         // hole fill
   }
-  if (p.median || filled) {
-    cv::Mat mask(src.size(), CV_8UC1, cv::Scalar(0));
-    for (const cv::Rect& t : tiles) {
-      cv::Mat m = mask(t);
-      cv::compare(src(t), 0, m, cv::CMP_EQ);
-      cv::Mat nz;
-      cv::compare(out(t), 0, nz, cv::CMP_NE);
-      cv::bitwise_and(m, nz, m);
-    }
-    if (p.median) {
-      cv::Mat med;
-      for (const cv::Rect& t : tiles) {
-        const cv::Rect r = grow(t, 2, src.size());
-        cv::medianBlur(out(r), med, 5);
-        med(cv::Rect(t.x - r.x, t.y - r.y, t.width, t.height)).copyTo(out(t), mask(t));
+  if (p.hole_fill && !holes.empty()) {
+    const cv::Mat stage = out.clone();
+    run_end_fill(stage, holes, color, p, out, ambiguous);
+  }
+  if (p.median && !all_holes.empty()) {
+    // 5x5 median of the filled image at each filled pixel (0s of unfilled holes excluded).
+    std::vector<std::pair<cv::Point, uint16_t>> med;
+    med.reserve(all_holes.size());
+    uint16_t vals[25];
+    const int r2 = p.median_size >= 5 ? 2 : 1;
+    for (const cv::Point& h : all_holes) {
+      if (!out.at<uint16_t>(h)) continue;
+      int n = 0;
+      for (int y = std::max(0, h.y - r2); y <= std::min(out.rows - 1, h.y + r2); ++y) {
+        const uint16_t* r = out.ptr<uint16_t>(y);
+        for (int x = std::max(0, h.x - r2); x <= std::min(out.cols - 1, h.x + r2); ++x)
+          if (r[x]) vals[n++] = r[x];
       }
-      // The median may pick a neighbouring hole's 0; keep the unblurred fill there.
-      for (const cv::Rect& t : tiles) {
-        for (int y = t.y; y < t.y + t.height; ++y) {
-          uint16_t* o = out.ptr<uint16_t>(y);
-          uint8_t* m = mask.ptr<uint8_t>(y);
-          for (int x = t.x; x < t.x + t.width; ++x)
-            if (m[x] && !o[x]) m[x] = 0;
-        }
-      }
+      std::nth_element(vals, vals + n / 2, vals + n);
+      med.emplace_back(h, vals[n / 2]);
     }
-    if (filled) *filled = mask;
+    for (const auto& [pt, v] : med) out.at<uint16_t>(pt) = v;
+  }
+  if (filled) {
+    filled->create(depth.size(), CV_8UC1);
+    filled->setTo(0);
+    for (const cv::Point& h : all_holes)
+      if (out.at<uint16_t>(h)) filled->at<uint8_t>(h) = 255;
   }
 }
 
@@ -411,11 +421,11 @@ void ku_fast_fill(const cv::Mat& depth_mm, const KuFastParams& p, cv::Mat& out) 
   }
 }
 
-void depth_complete(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& label,
-                    const DepthCompleteOptions& o, cv::Mat& out) {
+void depth_complete(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& prior_color,
+                    const cv::Mat& label, const DepthCompleteOptions& o, cv::Mat& out) {
   CV_Assert(live.type() == CV_16UC1);
   if (o.use_prior && !prior.empty())
-    prior_fill(live, prior, label, o.prior, out);
+    prior_fill(live, color, prior, prior_color, label, o.prior, out);
   else
     live.copyTo(out);
   if (!o.image_guided && !o.colorization) return;

@@ -18,15 +18,20 @@ struct PriorFillParams {
   // Holes within this many pixels of live depth that is clearly in front of the
   // prior (a learner) keep no prior: a learner's missing hair or dark sweater
   // must not become the wall behind it.
-  int learner_guard_px = 8;
+  int learner_guard_px = 4;
+  // A missing pixel takes the prior only where the live colour still looks
+  // like the empty room's (largest RGB channel difference at most this); 0 = no test.
+  int color_tolerance = 40;
 };
 
 // out = live where live is in front of the prior (learners, new objects) or
-// behind it; the prior where live is missing (and no learner is near) or where
-// live agrees with it (the prior is the less noisy measurement of the static
-// room). `label` (CV_8UC1, may be empty): pixels with label > 0 never take the prior.
-void prior_fill(const cv::Mat& live, const cv::Mat& prior, const cv::Mat& label, const PriorFillParams& p,
-                cv::Mat& out);
+// behind it; the prior where live is missing (no learner near, and the colour
+// still that of the empty room) or where live agrees with it (the prior is the
+// less noisy measurement of the static room). `color` / `prior_color` (CV_8UC3,
+// either may be empty: no colour test): the live image and the empty room's.
+// `label` (CV_8UC1, may be empty): pixels with label > 0 never take the prior.
+void prior_fill(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& prior_color,
+                const cv::Mat& label, const PriorFillParams& p, cv::Mat& out);
 
 // The Ku et al.-style stage, with its changes for indoor depth in mm: depth is
 // inverted (max_depth_mm - D) so dilation prefers the nearer surface, but
@@ -42,7 +47,8 @@ struct GuidedCompletionParams {
   double agree_ratio = 0.03;
   bool hole_fill = true;            // colour-guided fill of the remaining holes
   double color_sigma = 20.0;        // colour distance (8-bit RGB, L2) at which a run end's weight falls to 1/e
-  bool median = true;               // 5x5 median over filled pixels only
+  bool median = true;               // median over filled pixels only
+  int median_size = 5;              // 3 or 5
   // A hole pixel is ambiguous when the run ends that disagree with the chosen
   // surface carry more than this share of the colour weight (typically at a
   // depth edge whose colours do not tell the sides apart).
@@ -102,9 +108,9 @@ struct DepthCompleteOptions {
   ColorizationParams colorize;
 };
 
-// Runs the enabled stages in order. `prior` and `label` may be empty (the
-// prior stage is then skipped). `out` must not alias `live`.
-void depth_complete(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& label,
-                    const DepthCompleteOptions& o, cv::Mat& out);
+// Runs the enabled stages in order. `prior`, `prior_color` and `label` may be
+// empty (without `prior` the prior stage is skipped). `out` must not alias `live`.
+void depth_complete(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& prior_color,
+                    const cv::Mat& label, const DepthCompleteOptions& o, cv::Mat& out);
 
 }  // namespace vclassroom

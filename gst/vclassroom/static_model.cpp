@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "error.h"
 
@@ -30,6 +31,10 @@ void make_dir(const std::string& p) {
 
 std::string prior_path(const std::string& folder, int id) {
   return folder + "/prior-depth/cam" + std::to_string(id) + ".png";
+}
+
+std::string color_path(const std::string& folder, int id) {
+  return folder + "/prior-color/cam" + std::to_string(id) + ".png";
 }
 
 // Camera-frame points of a depth image (metres), NaN where there is no depth.
@@ -114,6 +119,11 @@ const cv::Mat& StaticModel::prior(int id) const {
   return it->second;
 }
 
+cv::Mat StaticModel::color(int id) const {
+  auto it = prior_color.find(id);
+  return it == prior_color.end() ? cv::Mat() : it->second;
+}
+
 cv::Mat median_depth(const std::vector<cv::Mat>& frames, double min_share) {
   if (frames.empty()) throw Error("median_depth: no frames");
   const cv::Size size = frames[0].size();
@@ -129,7 +139,14 @@ cv::Mat median_depth(const std::vector<cv::Mat>& frames, double min_share) {
         if (uint16_t v = f.at<uint16_t>(y, x)) vals.push_back(v);
       if (vals.size() < need) continue;
       std::nth_element(vals.begin(), vals.begin() + vals.size() / 2, vals.end());
-      out.at<uint16_t>(y, x) = vals[vals.size() / 2];
+      const int med = vals[vals.size() / 2];
+      // Flying pixels at depth edges jump between the surfaces from frame to
+      // frame: keep a pixel only when most measurements agree with the median.
+      const int tol = std::max(20, med / 50);
+      size_t agree = 0;
+      for (uint16_t v : vals) agree += std::abs(int(v) - med) <= tol;
+      if (agree < need) continue;
+      out.at<uint16_t>(y, x) = static_cast<uint16_t>(med);
     }
   return out;
 }
@@ -266,6 +283,21 @@ cv::Mat splat_depth(const std::vector<Eigen::Vector3f>& points, const CameraCali
         if (!o || zmm < o) o = static_cast<uint16_t>(zmm);
       }
   }
+  // Points of hidden surfaces show through the gaps between the splats of
+  // nearer ones: drop pixels much farther than the nearest splat around them.
+  cv::Mat inv(z.size(), CV_16UC1), near_inv;
+  for (int v = 0; v < z.rows; ++v)
+    for (int u = 0; u < z.cols; ++u) {
+      const int d = z.at<uint16_t>(v, u);
+      inv.at<uint16_t>(v, u) = d ? static_cast<uint16_t>(65535 - d) : 0;
+    }
+  cv::dilate(inv, near_inv, cv::Mat::ones(7, 7, CV_8U));
+  for (int v = 0; v < z.rows; ++v)
+    for (int u = 0; u < z.cols; ++u) {
+      uint16_t& d = z.at<uint16_t>(v, u);
+      const int nearest = 65535 - near_inv.at<uint16_t>(v, u);
+      if (d && d > nearest * 1.05 + 20) d = 0;
+    }
   return z;
 }
 
@@ -347,6 +379,7 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
     const PlaneMaps maps = plane_maps_for_camera(m.planes, cam, filled, o.plane_tolerance);
     plane_refine(filled, maps, cv::Mat(), o.plane_tolerance, filled);
     m.prior_depth[cam.id] = filled;
+    if (!col.empty()) m.prior_color[cam.id] = col;
   }
   return m;
 }
@@ -418,6 +451,12 @@ void save_static_model(const StaticModel& m, const std::string& folder) {
   }
   for (const auto& [id, prior] : m.prior_depth)
     if (!cv::imwrite(prior_path(folder, id), prior)) throw Error(prior_path(folder, id) + ": cannot write");
+  if (!m.prior_color.empty()) make_dir(folder + "/prior-color");
+  for (const auto& [id, col] : m.prior_color) {
+    cv::Mat bgr;
+    cv::cvtColor(col, bgr, cv::COLOR_RGB2BGR);
+    if (!cv::imwrite(color_path(folder, id), bgr)) throw Error(color_path(folder, id) + ": cannot write");
+  }
   if (!m.points.empty()) write_ply(folder + "/fused.ply", m.points, m.colors);
 }
 
@@ -470,6 +509,15 @@ StaticModel load_static_model(const std::string& folder) {
                   " but rig.yaml gives camera " + std::to_string(cam.id) + " " + std::to_string(cam.width) + "x" +
                   std::to_string(cam.height));
     m.prior_depth[cam.id] = prior;
+    const cv::Mat bgr = cv::imread(color_path(folder, cam.id), cv::IMREAD_COLOR);
+    if (bgr.empty()) continue;  // optional: without it depthcomplete skips its colour test
+    if (bgr.cols != cam.width || bgr.rows != cam.height)
+      throw Error(where + ": " + color_path(folder, cam.id) + " is " + std::to_string(bgr.cols) + "x" +
+                  std::to_string(bgr.rows) + " but rig.yaml gives camera " + std::to_string(cam.id) + " " +
+                  std::to_string(cam.width) + "x" + std::to_string(cam.height));
+    cv::Mat rgb;
+    cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+    m.prior_color[cam.id] = rgb;
   }
   return m;
 }

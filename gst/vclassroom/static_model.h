@@ -61,10 +61,13 @@ struct StaticModel {
   std::vector<cv::Vec3b> colors;          // RGB per point
   std::vector<RoomPlane> planes;          // rig frame
   std::map<int, cv::Mat> prior_depth;     // camera id -> D_i (CV_16UC1 mm, camera size)
+  std::map<int, cv::Mat> prior_color;     // camera id -> the empty room's colour (CV_8UC3 RGB); may be absent
   std::vector<ExtrinsicsChange> refinement;  // one per camera but the reference
 
   // D_i of camera `id`; throws Error when the model has none.
   const cv::Mat& prior(int id) const;
+  // The empty room's colour seen by camera `id`; an empty Mat when unknown.
+  cv::Mat color(int id) const;
 };
 
 // Per-pixel median of the valid measurements of several depth frames (robust
@@ -97,10 +100,10 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
 bool align_model_to_room(StaticModel& m);
 
 // Model folder: rig.yaml (refined rig), planes.csv, prior-depth/cam<ID>.png,
-// fused.ply, refinement.csv. Throws Error naming the file.
+// prior-color/cam<ID>.png, fused.ply, refinement.csv. Throws Error naming the file.
 void save_static_model(const StaticModel& m, const std::string& folder);
-// Reads rig.yaml, planes.csv and every camera's prior (the cloud is not
-// needed per frame and not read). Throws Error naming the folder and file.
+// Reads rig.yaml, planes.csv, every camera's prior depth and (when present)
+// colour; the cloud is not needed per frame and not read. Throws Error naming the folder and file.
 StaticModel load_static_model(const std::string& folder);
 
 // Writes a binary little-endian PLY (x y z float, red green blue uchar).

@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstbasetransform.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_DEPTH_COMPLETE (gst_depth_complete_get_type())
+G_DECLARE_FINAL_TYPE(GstDepthComplete, gst_depth_complete, GST, DEPTH_COMPLETE, GstBaseTransform)
+
+G_END_DECLS

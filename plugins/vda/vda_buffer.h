@@ -1,0 +1,39 @@
+// Shared by depthcomplete and planerefine: the camera's part of a static
+// model folder, and output buffers whose depth plane is new while every other
+// plane shares the input's memory.
+#pragma once
+
+#include <string>
+
+#include <gst/gst.h>
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/static_model.h>
+
+namespace vda {
+
+// Loads `folder` and checks it has camera `info.camera.id` at the stream's
+// size. Throws vclassroom::Error with a message naming the folder, the camera
+// and both sizes.
+vclassroom::StaticModel load_model_for_stream(const std::string& folder, const vclassroom::RgbdInfo& info);
+
+// A new depth memory for the stream (default packed stride), mapped writable
+// as `mat` until `finish`.
+class DepthOutput {
+ public:
+  DepthOutput(const vclassroom::RgbdInfo& info);
+  ~DepthOutput();
+  cv::Mat mat;
+  // Builds the output: plane `depth` from this memory, the others shared with
+  // `in`; copies flags and timestamps. nullptr (and `error`) on failure.
+  GstBuffer* finish(GstBuffer* in, const vclassroom::RgbdInfo& info, std::string* error);
+
+ private:
+  GstBuffer* buf_ = nullptr;
+  GstMapInfo map_{};
+  gint stride_ = 0;
+  bool mapped_ = false;
+};
+
+}  // namespace vda

@@ -1,0 +1,475 @@
+// V-DA: depth completion stages, planar refinement and the static model on
+// small hand-made inputs with known answers, and the depthcomplete /
+// planerefine elements through GStreamer.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <memory>
+
+#include <gst/app/gstappsink.h>
+#include <gst/check/gstharness.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/depth_completion.h>
+#include <gst/vclassroom/error.h>
+#include <gst/vclassroom/plane_refine.h>
+#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/static_model.h>
+
+#include "test_util.h"
+
+using namespace vclassroom;
+
+namespace {
+
+// A 64x48 camera looking along +Z of the rig.
+CameraCalib small_camera(int id = 0) {
+  CameraCalib c = vctest::make_rig(1, 64, 48).cameras[0];
+  c.id = id;
+  return c;
+}
+
+// Depth (mm) of the plane n . p + d = 0 (camera frame) at every pixel.
+cv::Mat plane_depth_image(const CameraCalib& cam, const Eigen::Vector4d& plane_cam) {
+  cv::Mat d(cam.height, cam.width, CV_16UC1);
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u) d.at<uint16_t>(v, u) = cv::saturate_cast<uint16_t>(plane_depth_mm(plane_cam, cam, u, v));
+  return d;
+}
+
+double max_abs_diff(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask = cv::Mat()) {
+  cv::Mat d;
+  cv::absdiff(a, b, d);
+  double mx = 0;
+  cv::minMaxLoc(d, nullptr, &mx, nullptr, nullptr, mask);
+  return mx;
+}
+
+// A slanted plane (a wall seen at an angle) with a 12x10 hole.
+struct SlantedPlane {
+  CameraCalib cam = small_camera();
+  cv::Mat truth, depth, color, hole;
+  SlantedPlane() {
+    const Eigen::Vector3d n = Eigen::Vector3d(0.4, -0.2, -1.0).normalized();
+    truth = plane_depth_image(cam, Eigen::Vector4d(n.x(), n.y(), n.z(), 2.5));
+    depth = truth.clone();
+    hole = cv::Mat::zeros(truth.size(), CV_8UC1);
+    hole(cv::Rect(20, 15, 12, 10)).setTo(255);
+    depth.setTo(0, hole);
+    color = cv::Mat(truth.size(), CV_8UC3, cv::Scalar(120, 110, 90));
+  }
+};
+
+TEST(DepthCompletion, HoleInAPlaneIsFilledOnThePlane) {
+  const SlantedPlane p;
+  cv::Mat out;
+  guided_completion(p.depth, p.color, GuidedCompletionParams(), out);
+  EXPECT_EQ(cv::countNonZero(out), out.rows * out.cols);
+  // 1/Z is affine in the image for a plane, so interpolation across the hole is exact up to rounding.
+  EXPECT_LE(max_abs_diff(out, p.truth, p.hole), 3.0);
+  EXPECT_EQ(max_abs_diff(out, p.truth, p.hole == 0), 0.0) << "measured depth must not change";
+
+  DepthCompleteOptions all;
+  depth_complete(p.depth, p.color, cv::Mat(), cv::Mat(), cv::Mat(), all, out);
+  EXPECT_LE(max_abs_diff(out, p.truth, p.hole), 3.0);
+}
+
+TEST(DepthCompletion, DepthEdgeIsNotBlurredAcross) {
+  // Near box (1000 mm, red) on the left, far wall (2500 mm, blue) on the right,
+  // a hole band across the edge wider on the far side, as sensors lose it.
+  const int w = 64, h = 48, edge = 30;
+  cv::Mat truth(h, w, CV_16UC1), color(h, w, CV_8UC3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      truth.at<uint16_t>(y, x) = x < edge ? 1000 : 2500;
+      color.at<cv::Vec3b>(y, x) = x < edge ? cv::Vec3b(200, 40, 30) : cv::Vec3b(30, 60, 200);
+    }
+  cv::Mat depth = truth.clone();
+  depth(cv::Rect(edge - 3, 0, 10, h)).setTo(0);
+  cv::Mat out;
+  DepthCompleteOptions o;
+  depth_complete(depth, color, cv::Mat(), cv::Mat(), cv::Mat(), o, out);
+  for (int y = 0; y < h; ++y)
+    for (int x = edge - 3; x < edge + 7; ++x)
+      ASSERT_EQ(out.at<uint16_t>(y, x), truth.at<uint16_t>(y, x)) << "at (" << x << ", " << y << ")";
+
+  // The baselines do not know colour: nearest-valid splits the band in the middle.
+  nearest_fill(depth, out);
+  EXPECT_EQ(out.at<uint16_t>(10, edge + 1), 1000);
+}
+
+TEST(DepthCompletion, PriorIsNotPastedOverALearner) {
+  const int w = 64, h = 48;
+  cv::Mat prior(h, w, CV_16UC1, cv::Scalar(3000));  // the wall
+  cv::Mat live(h, w, CV_16UC1, cv::Scalar(3012));   // the wall, measured with noise
+  const cv::Rect learner(20, 10, 16, 30);
+  live(learner).setTo(1500);
+  live(cv::Rect(26, 20, 3, 3)).setTo(0);   // a hole inside the learner (dark hair)
+  live(cv::Rect(50, 5, 4, 4)).setTo(0);    // a hole in the wall
+  live.at<uint16_t>(40, 5) = 3500;         // behind the wall: not the static room, kept
+  const cv::Mat color(h, w, CV_8UC3, cv::Scalar(100, 100, 100));
+  cv::Mat out;
+  prior_fill(live, color, prior, cv::Mat(), cv::Mat(), PriorFillParams(), out);
+  cv::Mat learner_mask = cv::Mat::zeros(h, w, CV_8UC1);
+  learner_mask(learner).setTo(255);
+  learner_mask(cv::Rect(26, 20, 3, 3)).setTo(0);
+  EXPECT_EQ(max_abs_diff(out, live, learner_mask), 0.0) << "measured learner depth must stay";
+  EXPECT_EQ(out.at<uint16_t>(21, 27), 0) << "the hole in the learner must not become the wall";
+  EXPECT_EQ(out.at<uint16_t>(6, 51), 3000) << "a hole in the wall takes the prior";
+  EXPECT_EQ(out.at<uint16_t>(2, 2), 3000) << "live depth agreeing with the room takes the less noisy prior";
+  EXPECT_EQ(out.at<uint16_t>(40, 5), 3500);
+
+  // The whole chain fills the learner's hole from the learner.
+  depth_complete(live, color, prior, cv::Mat(), cv::Mat(), DepthCompleteOptions(), out);
+  EXPECT_NEAR(out.at<uint16_t>(21, 27), 1500, 20);
+
+  // Without measured depth, the label plane or the empty room's colour still protect learners.
+  cv::Mat blank(h, w, CV_16UC1, cv::Scalar(0)), label = cv::Mat::zeros(h, w, CV_8UC1);
+  label(learner).setTo(3);
+  prior_fill(blank, color, prior, cv::Mat(), label, PriorFillParams(), out);
+  EXPECT_EQ(cv::countNonZero(out(learner)), 0);
+  cv::Mat room_color = color.clone(), live_color = color.clone();
+  live_color(learner).setTo(cv::Scalar(200, 30, 30));
+  prior_fill(blank, live_color, prior, room_color, cv::Mat(), PriorFillParams(), out);
+  EXPECT_EQ(cv::countNonZero(out(learner)), 0);
+  EXPECT_EQ(out.at<uint16_t>(2, 2), 3000);
+}
+
+TEST(DepthCompletion, ColorizationFollowsColour) {
+  // Left half red at 1200 mm, right half green at 2000 mm; the unknown strip
+  // straddles the boundary and starts from a wrong guess.
+  const int w = 40, h = 20;
+  cv::Mat depth(h, w, CV_16UC1), color(h, w, CV_8UC3), unknown = cv::Mat::zeros(h, w, CV_8UC1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      depth.at<uint16_t>(y, x) = x < 20 ? 1200 : 2000;
+      color.at<cv::Vec3b>(y, x) = x < 20 ? cv::Vec3b(220, 20, 20) : cv::Vec3b(20, 220, 20);
+    }
+  unknown(cv::Rect(14, 0, 12, h)).setTo(255);
+  depth.setTo(1600, unknown);
+  ColorizationParams p;
+  p.iterations = 300;
+  colorization_fill(depth, color, unknown, p);
+  EXPECT_NEAR(depth.at<uint16_t>(10, 17), 1200, 15);
+  EXPECT_NEAR(depth.at<uint16_t>(10, 22), 2000, 15);
+  EXPECT_EQ(depth.at<uint16_t>(10, 2), 1200) << "known pixels never change";
+}
+
+TEST(DepthCompletion, Baselines) {
+  cv::Mat d(20, 30, CV_16UC1, cv::Scalar(0));
+  d.at<uint16_t>(5, 3) = 1000;
+  d.at<uint16_t>(5, 25) = 4000;
+  cv::Mat out;
+  nearest_fill(d, out);
+  EXPECT_EQ(out.at<uint16_t>(5, 10), 1000);
+  EXPECT_EQ(out.at<uint16_t>(15, 20), 4000);
+  EXPECT_EQ(cv::countNonZero(out), out.rows * out.cols);
+
+  // Ku et al.'s fast mode closes a small hole in a flat surface at its depth.
+  cv::Mat flat(40, 40, CV_16UC1, cv::Scalar(2000));
+  flat(cv::Rect(18, 18, 3, 3)).setTo(0);
+  ku_fast_fill(flat, KuFastParams(), out);
+  EXPECT_NEAR(out.at<uint16_t>(19, 19), 2000, 1);
+  EXPECT_NEAR(out.at<uint16_t>(5, 5), 2000, 1);
+}
+
+TEST(PlaneRefine, SnapsPlanePixelsAndLeavesLearners) {
+  CameraCalib cam = small_camera();
+  // Camera 1.2 m above a floor, looking down 30 degrees.
+  cam.cam_to_rig.linear() = Eigen::AngleAxisd(30.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix() *
+                            Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  RoomPlane floor;
+  floor.normal = Eigen::Vector3d::UnitY();
+  floor.offset = 1.2;
+  floor.name = "floor";
+  const cv::Mat truth = plane_depth_image(cam, plane_in_camera(floor, cam));
+  ASSERT_GT(cv::countNonZero(truth), truth.rows * truth.cols / 2) << "the floor must be in view";
+  const PlaneMaps maps = plane_maps_for_camera({floor}, cam, truth);
+  cv::Mat noisy = truth.clone();
+  cv::RNG rng(3);
+  for (int v = 0; v < noisy.rows; ++v)
+    for (int u = 0; u < noisy.cols; ++u)
+      if (truth.at<uint16_t>(v, u)) noisy.at<uint16_t>(v, u) += static_cast<uint16_t>(rng.uniform(-12, 13));
+  const cv::Rect learner(20, 30, 10, 10);
+  for (int v = learner.y; v < learner.br().y; ++v)
+    for (int u = learner.x; u < learner.br().x; ++u) noisy.at<uint16_t>(v, u) = truth.at<uint16_t>(v, u) - 600;
+  cv::Mat out;
+  plane_refine(noisy, maps, cv::Mat(), PlaneTolerance(), out);
+  cv::Mat off_learner = truth > 0;
+  off_learner(learner).setTo(0);
+  EXPECT_EQ(max_abs_diff(out, truth, off_learner), 0.0);
+  EXPECT_EQ(max_abs_diff(out(learner), noisy(learner)), 0.0);
+
+  // Prior of another size: a clear error.
+  try {
+    plane_maps_for_camera({floor}, cam, cv::Mat(10, 10, CV_16UC1, cv::Scalar(1000)));
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("10x10"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("64x48"), std::string::npos) << e.what();
+  }
+}
+
+// The empty synthetic classroom seen by a small version of the default rig.
+struct SmallModel {
+  Rig rig;
+  std::vector<CameraCapture> captures;
+  SmallModel(int w = 240, int h = 135, int frames = 3) {
+    rig = default_classroom_rig();
+    for (CameraCalib& c : rig.cameras) c = scale_camera(c, w, h);
+    ClassroomConfig cfg;
+    cfg.learners = 0;
+    const Classroom room(cfg);
+    for (const CameraCalib& cam : rig.cameras) {
+      const RenderOutput clean = render(room, 0.0, cam);
+      CameraCapture c;
+      c.camera_id = cam.id;
+      for (int f = 0; f < frames; ++f) {
+        cv::Mat depth, color;
+        apply_sensor_model(clean, cam, SensorParams(), 1, f, &depth, &color);
+        c.depth.push_back(depth);
+        if (f == 0) c.color = color;
+      }
+      captures.push_back(c);
+    }
+  }
+};
+
+TEST(StaticModel, IcpRecoversAPerturbedCameraAndFindsTheFloor) {
+  const SmallModel s(480, 270, 3);
+  Rig perturbed = s.rig;
+  Eigen::Isometry3d nudge = Eigen::Isometry3d::Identity();
+  nudge.linear() = Eigen::AngleAxisd(0.5 * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  nudge.translation() = Eigen::Vector3d(0.02, -0.01, 0.015);
+  perturbed.cameras[1].cam_to_rig = nudge * perturbed.cameras[1].cam_to_rig;
+  const StaticModel m = build_static_model(perturbed, s.captures);
+  ASSERT_EQ(m.refinement.size(), 2u);
+  EXPECT_GT(m.refinement[0].translation_mm, 10.0) << "the nudge must be undone";
+  const Eigen::Isometry3d err = m.rig.cameras[1].cam_to_rig * s.rig.cameras[1].cam_to_rig.inverse();
+  EXPECT_LT(err.translation().norm(), 0.006);
+  EXPECT_LT(Eigen::AngleAxisd(err.linear()).angle() * 180.0 / M_PI, 0.15);
+
+  const Classroom room(ClassroomConfig{1, 0, 2.0});
+  const RoomPlane* floor = nullptr;
+  for (const RoomPlane& p : m.planes)
+    if (p.name == "floor") floor = &p;
+  ASSERT_NE(floor, nullptr);
+  EXPECT_GT(floor->normal.y(), 0.999);
+  EXPECT_NEAR(-floor->offset / floor->normal.y(), room.floor_y(), 0.01);
+
+  // Priors cover every camera pixel and match the empty room where it was measured.
+  for (const CameraCalib& cam : s.rig.cameras) {
+    const cv::Mat& prior = m.prior(cam.id);
+    ASSERT_EQ(prior.size(), cv::Size(cam.width, cam.height));
+    EXPECT_EQ(cv::countNonZero(prior), prior.rows * prior.cols);
+  }
+}
+
+TEST(StaticModel, FolderRoundTripAndErrors) {
+  const SmallModel s(160, 90, 2);
+  const StaticModel m = build_static_model(s.rig, s.captures);
+  vctest::TempDir dir;
+  const std::string folder = dir / "model";
+  save_static_model(m, folder);
+  const StaticModel back = load_static_model(folder);
+  ASSERT_EQ(back.planes.size(), m.planes.size());
+  for (size_t i = 0; i < m.planes.size(); ++i) {
+    EXPECT_NEAR((back.planes[i].normal - m.planes[i].normal).norm(), 0, 1e-12);
+    EXPECT_EQ(back.planes[i].name, m.planes[i].name);
+  }
+  for (const CameraCalib& cam : m.rig.cameras) {
+    EXPECT_TRUE(vctest::same_image(back.prior(cam.id), m.prior(cam.id)));
+    EXPECT_TRUE(vctest::same_image(back.color(cam.id), m.color(cam.id)));
+  }
+  auto message = [](const std::string& f) {
+    try {
+      load_static_model(f);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message(dir / "nothing").find("nothing"), std::string::npos);
+  cv::imwrite(folder + "/prior-depth/cam1.png", cv::Mat(7, 9, CV_16UC1, cv::Scalar(1000)));
+  const std::string size_msg = message(folder);
+  EXPECT_NE(size_msg.find("9x7"), std::string::npos) << size_msg;
+  EXPECT_NE(size_msg.find("160x90"), std::string::npos) << size_msg;
+  std::remove((folder + "/planes.csv").c_str());
+  EXPECT_NE(message(folder).find("planes.csv"), std::string::npos);
+}
+
+// Elements -------------------------------------------------------------------
+
+class VdaElements : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new vctest::TempDir();
+    const SmallModel s(240, 135, 3);
+    model_ = new StaticModel(build_static_model(s.rig, s.captures));
+    save_static_model(*model_, folder());
+    Rig rig = s.rig;
+    save_rig(rig, rig_path());
+  }
+  static void TearDownTestSuite() {
+    delete model_;
+    delete dir_;
+  }
+  static std::string folder() { return *dir_ / "model"; }
+  static std::string rig_path() { return *dir_ / "small-rig.yaml"; }
+  static vctest::TempDir* dir_;
+  static StaticModel* model_;
+
+  // A 240x135 frame of camera `id` with learners, as the sensor sees it.
+  static GstBuffer* frame(const RgbdInfo& info, GstClockTime pts) {
+    ClassroomConfig cfg;
+    cfg.learners = 4;
+    const Classroom room(cfg);
+    const RenderOutput clean = render(room, 3.0, info.camera);
+    cv::Mat depth, color;
+    apply_sensor_model(clean, info.camera, SensorParams(), 5, 9, &depth, &color);
+    GstBuffer* buf = rgbd_buffer_new(info);
+    RgbdFrame f;
+    std::string err;
+    EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+    color.copyTo(f.color());
+    depth.copyTo(f.depth());
+    if (info.has(Plane::Label)) clean.label.copyTo(f.label());
+    f.unmap();
+    GST_BUFFER_PTS(buf) = pts;
+    GST_BUFFER_DTS(buf) = pts;
+    GST_BUFFER_DURATION(buf) = GST_SECOND / 30;
+    GST_BUFFER_OFFSET(buf) = 7;
+    return buf;
+  }
+
+  void check_element(const std::string& launch, bool expect_no_holes) {
+    RgbdInfo info;
+    info.camera = model_->rig.camera(2);
+    info.planes = {Plane::Color, Plane::Depth, Plane::Label};
+    GstHarness* h = gst_harness_new_parse(launch.c_str());
+    GstCaps* caps = rgbd_caps_new(info);
+    gst_harness_set_src_caps(h, gst_caps_ref(caps));
+    GstBuffer* in = frame(info, 5 * GST_SECOND);
+    cv::Mat in_color, in_depth, in_label;
+    {
+      RgbdFrame f;
+      std::string err;
+      ASSERT_TRUE(f.map(in, info, GST_MAP_READ, &err)) << err;
+      in_color = f.color().clone();
+      in_depth = f.depth().clone();
+      in_label = f.label().clone();
+    }
+    GstBuffer* out = gst_harness_push_and_pull(h, gst_buffer_ref(in));
+    ASSERT_NE(out, nullptr);
+    GstCaps* out_caps = gst_pad_get_current_caps(h->sinkpad);
+    EXPECT_TRUE(gst_caps_is_equal(caps, out_caps));
+    EXPECT_EQ(GST_BUFFER_PTS(out), 5 * GST_SECOND);
+    EXPECT_EQ(GST_BUFFER_DTS(out), 5 * GST_SECOND);
+    EXPECT_EQ(GST_BUFFER_DURATION(out), GST_SECOND / 30);
+    EXPECT_EQ(GST_BUFFER_OFFSET(out), 7u);
+    RgbdFrame f;
+    std::string err;
+    ASSERT_TRUE(f.map(out, info, GST_MAP_READ, &err)) << err;
+    EXPECT_TRUE(vctest::same_image(f.color(), in_color)) << "colour must pass untouched";
+    EXPECT_TRUE(vctest::same_image(f.label(), in_label));
+    EXPECT_FALSE(vctest::same_image(f.depth(), in_depth)) << "depth must be worked on";
+    if (expect_no_holes) EXPECT_EQ(cv::countNonZero(f.depth()), info.width() * info.height());
+    f.unmap();
+    // The input was not written to (its depth is shared by nobody else, but must stay).
+    {
+      RgbdFrame fi;
+      ASSERT_TRUE(fi.map(in, info, GST_MAP_READ, &err)) << err;
+      EXPECT_TRUE(vctest::same_image(fi.depth(), in_depth));
+    }
+    gst_buffer_unref(out);
+    gst_buffer_unref(in);
+    gst_caps_unref(out_caps);
+    gst_caps_unref(caps);
+    gst_harness_teardown(h);
+  }
+};
+
+vctest::TempDir* VdaElements::dir_ = nullptr;
+StaticModel* VdaElements::model_ = nullptr;
+
+TEST_F(VdaElements, DepthCompleteKeepsCapsTimestampsAndColour) {
+  check_element("depthcomplete model=" + folder(), true);
+}
+
+TEST_F(VdaElements, PlaneRefineKeepsCapsTimestampsAndColour) {
+  check_element("planerefine model=" + folder(), false);
+}
+
+TEST_F(VdaElements, StagesCanBeSwitchedOff) {
+  // With every stage off the depth passes unchanged.
+  RgbdInfo info;
+  info.camera = model_->rig.camera(0);
+  GstHarness* h = gst_harness_new_parse(
+      ("depthcomplete use-prior=false image-guided=false colorization=false model=" + folder()).c_str());
+  gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  GstBuffer* in = frame(info, 0);
+  GstBuffer* out = gst_harness_push_and_pull(h, gst_buffer_ref(in));
+  RgbdFrame a, b;
+  std::string err;
+  ASSERT_TRUE(a.map(in, info, GST_MAP_READ, &err));
+  ASSERT_TRUE(b.map(out, info, GST_MAP_READ, &err));
+  EXPECT_TRUE(vctest::same_image(a.depth(), b.depth()));
+  EXPECT_GT(a.depth().rows * a.depth().cols - cv::countNonZero(a.depth()), 0) << "the input has holes";
+  a.unmap();
+  b.unmap();
+  gst_buffer_unref(in);
+  gst_buffer_unref(out);
+  gst_harness_teardown(h);
+}
+
+TEST_F(VdaElements, PipelineFromTestSource) {
+  GError* error = nullptr;
+  GstElement* pipeline = gst_parse_launch(
+      ("rgbdtestsrc num-buffers=3 camera-id=1 learners=3 rig=" + rig_path() + " ! depthcomplete model=" + folder() +
+       " ! planerefine model=" + folder() + " ! appsink name=sink")
+          .c_str(),
+      &error);
+  ASSERT_EQ(error, nullptr) << error->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipeline), "sink");
+  vctest::SampleCollector samples(sink);
+  const vctest::RunResult r = vctest::run_pipeline(pipeline);
+  EXPECT_EQ(r.error, "");
+  ASSERT_EQ(samples.size(), 3u);
+  RgbdInfo info;
+  std::string err;
+  ASSERT_TRUE(rgbd_info_from_caps(samples.caps(0), &info, &err)) << err;
+  EXPECT_EQ(info.camera.id, 1);
+  for (size_t i = 0; i < samples.size(); ++i) {
+    RgbdFrame f;
+    ASSERT_TRUE(f.map(samples.buffer(i), info, GST_MAP_READ, &err)) << err;
+    EXPECT_EQ(cv::countNonZero(f.depth()), info.width() * info.height()) << "frame " << i;
+    EXPECT_EQ(GST_BUFFER_PTS(samples.buffer(i)) - GST_BUFFER_PTS(samples.buffer(0)),
+              gst_util_uint64_scale(i, GST_SECOND, 30));
+  }
+  gst_object_unref(sink);
+  gst_object_unref(pipeline);
+}
+
+TEST_F(VdaElements, BadModelFolderIsAClearError) {
+  const vctest::RunResult r =
+      vctest::run_launch("rgbdtestsrc num-buffers=1 rig=" + rig_path() + " ! depthcomplete model=" + (*dir_ / "nope") +
+                         " ! fakesink");
+  EXPECT_NE(r.error.find("nope"), std::string::npos) << r.error;
+  const vctest::RunResult r2 = vctest::run_launch("rgbdtestsrc num-buffers=1 rig=" + rig_path() +
+                                                  " ! planerefine model=" + (*dir_ / "nope") + " ! fakesink");
+  EXPECT_NE(r2.error.find("nope"), std::string::npos) << r2.error;
+}
+
+TEST_F(VdaElements, MismatchedResolutionIsAClearError) {
+  // The default rig is 960x540; the model was built at 240x135.
+  for (const char* element : {"depthcomplete", "planerefine"}) {
+    const vctest::RunResult r = vctest::run_launch(std::string("rgbdtestsrc num-buffers=1 ! ") + element +
+                                                   " model=" + folder() + " ! fakesink");
+    EXPECT_NE(r.error.find(folder()), std::string::npos) << element << ": " << r.error;
+    EXPECT_NE(r.error.find("240x135"), std::string::npos) << element << ": " << r.error;
+    EXPECT_NE(r.error.find("960x540"), std::string::npos) << element << ": " << r.error;
+  }
+}
+
+}  // namespace
