@@ -4,7 +4,9 @@
 
 #include <gio/gio.h>
 #include <gst/check/gstharness.h>
+#include <gst/app/gstappsrc.h>
 #include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/pose_meta.h>
 
 #include <algorithm>
 #include <random>
@@ -235,4 +237,63 @@ TEST(PoseBackChannel, OverUdpOnLoopback) {
   for (GstElement* e : {render, display, server, lecturer}) gst_object_unref(e);
   g_mutex_clear(&w.lock);
   g_cond_clear(&w.cond);
+}
+
+namespace {
+// What a network keeps of a packet: its bytes, nothing else (no metas).
+GstPadProbeReturn bytes_only(GstPad*, GstPadProbeInfo* info, gpointer) {
+  GstBuffer* in = GST_PAD_PROBE_INFO_BUFFER(info);
+  GstMapInfo m;
+  gst_buffer_map(in, &m, GST_MAP_READ);
+  GstBuffer* out = gst_buffer_new_memdup(m.data, m.size);
+  gst_buffer_unmap(in, &m);
+  GST_BUFFER_PTS(out) = GST_BUFFER_PTS(in);
+  gst_buffer_unref(in);
+  GST_PAD_PROBE_INFO_DATA(info) = out;
+  return GST_PAD_PROBE_OK;
+}
+}  // namespace
+
+// The pose a frame was rendered for crosses RTP in a header extension:
+// payloader and depayloader enable it from the extmap field in the caps.
+TEST(PoseHeaderExtension, SeqAndViewerTimeCrossRtp) {
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(
+      "appsrc name=src format=time caps=video/x-raw,format=RGB,width=16,height=8,framerate=30/1 ! "
+      "rtpvrawpay ! application/x-rtp,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose ! "
+      "rtpvrawdepay name=depay ! "
+      "appsink name=out sync=false",
+      &err);
+  ASSERT_EQ(err, nullptr) << (err ? err->message : "");
+  GstElement *src = gst_bin_get_by_name(GST_BIN(p), "src"), *out = gst_bin_get_by_name(GST_BIN(p), "out");
+  GstElement* depay = gst_bin_get_by_name(GST_BIN(p), "depay");
+  GstPad* wire = gst_element_get_static_pad(depay, "sink");
+  gst_pad_add_probe(wire, GST_PAD_PROBE_TYPE_BUFFER, bytes_only, nullptr, nullptr);
+  gst_object_unref(wire);
+  gst_object_unref(depay);
+  vctest::SampleCollector got(out);
+  for (int i = 0; i < 4; ++i) {
+    GstBuffer* b = gst_buffer_new_allocate(nullptr, 16 * 8 * 3, nullptr);
+    gst_buffer_memset(b, 0, static_cast<guint8>(i), 16 * 8 * 3);
+    GST_BUFFER_PTS(b) = i * GST_SECOND / 30;
+    if (i != 1) buffer_add_pose_meta(b, 100 + i, 5000000000ll + i);  // frame 1: rendered before any pose
+    gst_app_src_push_buffer(GST_APP_SRC(src), b);
+  }
+  gst_app_src_end_of_stream(GST_APP_SRC(src));
+  const auto r = vctest::run_pipeline(p);
+  EXPECT_EQ(r.error, "");
+  ASSERT_EQ(got.size(), 4u);
+  for (int i = 0; i < 4; ++i) {
+    const PoseMeta* m = buffer_get_pose_meta(got.buffer(i));
+    if (i == 1) {
+      EXPECT_EQ(m, nullptr);
+      continue;
+    }
+    ASSERT_NE(m, nullptr) << "frame " << i;
+    EXPECT_EQ(m->seq, 100u + i);
+    EXPECT_EQ(m->viewer_time_ns, 5000000000ll + i);
+  }
+  gst_object_unref(src);
+  gst_object_unref(out);
+  gst_object_unref(p);
 }

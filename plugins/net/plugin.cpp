@@ -9,6 +9,7 @@
 #include "gstrgbdenc.h"
 #include "gstposerecv.h"
 #include "gstposesend.h"
+#include "gstrtphdrextvcpose.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
@@ -16,6 +17,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok &= gst_element_register(plugin, "rgbddec", GST_RANK_NONE, GST_TYPE_RGBD_DEC);
   ok &= gst_element_register(plugin, "posesend", GST_RANK_NONE, GST_TYPE_POSE_SEND);
   ok &= gst_element_register(plugin, "poserecv", GST_RANK_NONE, GST_TYPE_POSE_RECV);
+  ok &= gst_element_register(plugin, "rtphdrextvcpose", GST_RANK_MARGINAL, GST_TYPE_RTP_HEADER_EXTENSION_VC_POSE);
   return ok;
 }
 

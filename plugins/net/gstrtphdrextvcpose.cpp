@@ -1,0 +1,61 @@
+// rtphdrextvcpose: an RTP header extension carrying the seq and viewer time of
+// the pose a video frame was rendered for (the frame's PoseMeta), so the
+// lecturer's side can measure motion-to-photon latency. 16 bytes, big-endian:
+// seq (u64), viewer time in ns (i64, -1 = none).
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstrtphdrextvcpose.h"
+
+#include <gst/vclassroom/pose_meta.h>
+
+using namespace vclassroom;
+
+constexpr gsize kSize = 16;
+
+struct _GstRTPHeaderExtensionVcPose {
+  GstRTPHeaderExtension parent;
+};
+
+G_DEFINE_TYPE(GstRTPHeaderExtensionVcPose, gst_rtp_header_extension_vc_pose, GST_TYPE_RTP_HEADER_EXTENSION)
+
+static GstRTPHeaderExtensionFlags get_supported_flags(GstRTPHeaderExtension*) {
+  return GstRTPHeaderExtensionFlags(GST_RTP_HEADER_EXTENSION_ONE_BYTE | GST_RTP_HEADER_EXTENSION_TWO_BYTE);
+}
+
+static gsize get_max_size(GstRTPHeaderExtension*, const GstBuffer*) { return kSize; }
+
+static gssize write_ext(GstRTPHeaderExtension*, const GstBuffer* input, GstRTPHeaderExtensionFlags, GstBuffer*,
+                        guint8* data, gsize size) {
+  const PoseMeta* meta = buffer_get_pose_meta(const_cast<GstBuffer*>(input));
+  if (!meta) return 0;  // a frame rendered before any pose: nothing to say
+  if (size < kSize) return -1;
+  GST_WRITE_UINT64_BE(data, meta->seq);
+  GST_WRITE_UINT64_BE(data + 8, static_cast<guint64>(meta->viewer_time_ns));
+  return kSize;
+}
+
+static gboolean read_ext(GstRTPHeaderExtension*, GstRTPHeaderExtensionFlags, const guint8* data, gsize size,
+                         GstBuffer* buffer) {
+  if (size != kSize) return FALSE;
+  buffer_add_pose_meta(buffer, GST_READ_UINT64_BE(data), static_cast<gint64>(GST_READ_UINT64_BE(data + 8)));
+  return TRUE;
+}
+
+static void gst_rtp_header_extension_vc_pose_class_init(GstRTPHeaderExtensionVcPoseClass* klass) {
+  GstRTPHeaderExtensionClass* ext_class = GST_RTP_HEADER_EXTENSION_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  ext_class->get_supported_flags = get_supported_flags;
+  ext_class->get_max_size = get_max_size;
+  ext_class->write = write_ext;
+  ext_class->read = read_ext;
+  gst_element_class_set_static_metadata(
+      element_class, "vclassroom pose RTP header extension", GST_RTP_HDREXT_ELEMENT_CLASS,
+      "Carries the seq and viewer time of the lecturer pose a frame was rendered for (" VCLASSROOM_RTP_HDREXT_POSE_URI
+      "), for motion-to-photon latency; payloaders and depayloaders enable it from an extmap-N caps field",
+      "gst-vclassroom developers");
+  gst_rtp_header_extension_class_set_uri(ext_class, VCLASSROOM_RTP_HDREXT_POSE_URI);
+}
+
+static void gst_rtp_header_extension_vc_pose_init(GstRTPHeaderExtensionVcPose*) {}
