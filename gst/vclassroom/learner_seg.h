@@ -57,6 +57,8 @@ class LearnerSegmenter {
   // 0 = unknown). Without it the static depth is learnt online: the farthest
   // stable depth seen at each pixel (learners who never move stay background).
   void set_static_depth(const cv::Mat& depth_mm);
+  // Takes effect from the next frame; the memory is kept.
+  void set_params(const SegParams& params) { p_ = params; }
   // One frame: colour CV_8UC3 RGB, depth CV_16UC1 mm. Writes CV_8UC1 labels
   // (0 static, k learner k). Frames must keep their size.
   void segment(const cv::Mat& color, const cv::Mat& depth, cv::Mat* label);

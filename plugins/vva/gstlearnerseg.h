@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstbasetransform.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_LEARNER_SEG (gst_learner_seg_get_type())
+G_DECLARE_FINAL_TYPE(GstLearnerSeg, gst_learner_seg, GST, LEARNER_SEG, GstBaseTransform)
+
+G_END_DECLS

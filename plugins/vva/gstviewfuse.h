@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstaggregator.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_VIEW_FUSE (gst_view_fuse_get_type())
+G_DECLARE_FINAL_TYPE(GstViewFuse, gst_view_fuse, GST, VIEW_FUSE, GstAggregator)
+
+G_END_DECLS

@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstbasetransform.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_VIEW_WARP (gst_view_warp_get_type())
+G_DECLARE_FINAL_TYPE(GstViewWarp, gst_view_warp, GST, VIEW_WARP, GstBaseTransform)
+
+G_END_DECLS
