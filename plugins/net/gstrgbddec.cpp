@@ -36,12 +36,7 @@ static GstCaps* gst_rgbd_dec_transform_caps(GstBaseTransform*, GstPadDirection d
                                             GstCaps* filter) {
   GstCaps* out = direction == GST_PAD_SINK ? rgbd_caps_renamed(caps, kRgbdMediaType, false)
                                            : rgbd_caps_renamed(caps, kRgbdCodedMediaType, true);
-  if (filter) {
-    GstCaps* tmp = gst_caps_intersect_full(filter, out, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(out);
-    out = tmp;
-  }
-  return out;
+  return caps_filtered(out, filter);
 }
 
 static gboolean gst_rgbd_dec_set_caps(GstBaseTransform* trans, GstCaps*, GstCaps* outcaps) {
@@ -58,13 +53,9 @@ static gboolean gst_rgbd_dec_set_caps(GstBaseTransform* trans, GstCaps*, GstCaps
 static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBuffer** outbuf) {
   GstRgbdDec* self = GST_RGBD_DEC(trans);
   *outbuf = nullptr;
-  GstBuffer* in = trans->queued_buf;
-  trans->queued_buf = nullptr;
-  if (!in) return GST_FLOW_OK;
-  if (!self->have_info) {
-    gst_buffer_unref(in);
-    return GST_FLOW_NOT_NEGOTIATED;
-  }
+  GstBuffer* in;
+  GstFlowReturn ret;
+  if (!take_queued_input(trans, self->have_info, &in, &ret)) return ret;
   const RgbdInfo& info = *self->info;
   RgbdCodedFrame f;
   std::string err;

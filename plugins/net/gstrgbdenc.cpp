@@ -46,12 +46,7 @@ static GstCaps* gst_rgbd_enc_transform_caps(GstBaseTransform*, GstPadDirection d
     out = rgbd_caps_renamed(caps, kRgbdMediaType, false);
     for (guint i = 0; i < gst_caps_get_size(out); ++i) gst_structure_remove_field(gst_caps_get_structure(out, i), "planes");
   }
-  if (filter) {
-    GstCaps* tmp = gst_caps_intersect_full(filter, out, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(out);
-    out = tmp;
-  }
-  return out;
+  return caps_filtered(out, filter);
 }
 
 static gboolean gst_rgbd_enc_set_caps(GstBaseTransform* trans, GstCaps* incaps, GstCaps*) {
@@ -74,13 +69,9 @@ static gboolean gst_rgbd_enc_set_caps(GstBaseTransform* trans, GstCaps* incaps, 
 static GstFlowReturn gst_rgbd_enc_generate_output(GstBaseTransform* trans, GstBuffer** outbuf) {
   GstRgbdEnc* self = GST_RGBD_ENC(trans);
   *outbuf = nullptr;
-  GstBuffer* in = trans->queued_buf;
-  trans->queued_buf = nullptr;
-  if (!in) return GST_FLOW_OK;
-  if (!self->have_info) {
-    gst_buffer_unref(in);
-    return GST_FLOW_NOT_NEGOTIATED;
-  }
+  GstBuffer* in;
+  GstFlowReturn ret;
+  if (!take_queued_input(trans, self->have_info, &in, &ret)) return ret;
   GST_OBJECT_LOCK(self);
   const int quality = self->quality;
   GST_OBJECT_UNLOCK(self);

@@ -26,3 +26,24 @@ GstCaps* rgbd_caps_renamed(GstCaps* caps, const char* name, bool coded) {
   }
   return out;
 }
+
+GstCaps* caps_filtered(GstCaps* caps, GstCaps* filter) {
+  if (!filter) return caps;
+  GstCaps* out = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
+  gst_caps_unref(caps);
+  return out;
+}
+
+bool take_queued_input(GstBaseTransform* trans, gboolean negotiated, GstBuffer** in, GstFlowReturn* ret) {
+  *in = trans->queued_buf;
+  trans->queued_buf = nullptr;
+  *ret = GST_FLOW_OK;
+  if (!*in) return false;
+  if (!negotiated) {
+    gst_buffer_unref(*in);
+    *in = nullptr;
+    *ret = GST_FLOW_NOT_NEGOTIATED;
+    return false;
+  }
+  return true;
+}
