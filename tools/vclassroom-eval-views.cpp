@@ -33,6 +33,7 @@ struct Options {
   int frames = 20;
   int width = 960, height = 540;
   int boundary_px = 1;
+  bool mesh = false;
   std::string write_priors;  // folder: write the empty room's depth per camera and exit
 };
 
@@ -46,6 +47,7 @@ int usage() {
                "  --frames N     synthetic classroom frames to average over (default 20)\n"
                "  --size WxH     synthetic classroom camera size (default 960x540)\n"
                "  --boundary PX  source pixels dropped next to depth edges (default 1)\n"
+               "  --mesh         warp with the triangle mesh rasteriser (reference) instead of the cell splat\n"
                "  --write-priors DIR  write the empty classroom's clean depth for cameras 0..2 of the\n"
                "                 default rig as DIR/prior-cam<K>.png (16-bit mm): the stand-in for V-DA's\n"
                "                 static model that learnerseg/viewwarp's prior-depth property reads\n");
@@ -99,6 +101,7 @@ void eval_middlebury(const Options& opt) {
     WarpSource src{ref.color, ref.depth, cv::Mat(), cv::Mat()};
     WarpParams wp;
     wp.boundary_px = opt.boundary_px;
+    wp.mesh = opt.mesh;
     FuseParams fp;
     std::printf("%-5s offset |  PSNR dB  SSIMx100 | best published PSNR (Layered Simple) | ours - best\n",
                 scene.c_str());
@@ -131,6 +134,7 @@ void eval_teddy(const Options& opt) {
     const RgbdImages ref = ds.load(from, 0), real = ds.load(to, 0);
     WarpParams wp;
     wp.boundary_px = opt.boundary_px;
+    wp.mesh = opt.mesh;
     const WarpedView w = warp_view(ds.rig().camera(from), WarpSource{ref.color, ref.depth, {}, {}},
                                    ds.rig().camera(to), wp);
     FusedView f;
@@ -207,6 +211,7 @@ void eval_classroom(const Options& opt) {
   SensorParams sensor;
   WarpParams wp;
   wp.boundary_px = opt.boundary_px;
+    wp.mesh = opt.mesh;
   std::vector<cv::Mat> priors(3);
   for (int i = 0; i < 3; ++i) {
     RenderOutput e;
@@ -304,6 +309,7 @@ int main(int argc, char** argv) {
     else if (a == "--only") opt.only = next();
     else if (a == "--frames") opt.frames = std::atoi(next().c_str());
     else if (a == "--boundary") opt.boundary_px = std::atoi(next().c_str());
+    else if (a == "--mesh") opt.mesh = true;
     else if (a == "--write-priors") opt.write_priors = next();
     else if (a == "--size") {
       if (std::sscanf(next().c_str(), "%dx%d", &opt.width, &opt.height) != 2) return usage();

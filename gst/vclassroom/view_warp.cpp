@@ -13,6 +13,16 @@ namespace {
 constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kNear = 0.05f;  // metres: nearer points are behind the virtual lens
 
+// floor/ceil without a libm call (x86-64 baseline has no SSE4.1 round).
+inline int fast_floor(float x) {
+  const int i = int(x);
+  return i > x ? i - 1 : i;
+}
+inline int fast_ceil(float x) {
+  const int i = int(x);
+  return i < x ? i + 1 : i;
+}
+
 bool same_intrinsics(const CameraCalib& a, const CameraCalib& b) {
   return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx &&
          a.cy == b.cy && a.distortion == b.distortion;
@@ -247,24 +257,98 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       }
     }
   };
-  for (int v = 0; v + 1 < H; ++v) {
-    const float fv = float(v), fv1 = fv + 1.0f;
-    for (int u = 0; u + 1 < W; ++u) {
-      const size_t a = size_t(v) * W + u, b = a + 1, c = a + W, d = c + 1;
-      if (pz_[a] <= 0 && pz_[d] <= 0) continue;
-      const float fu = float(u), fu1 = fu + 1.0f;
-      const bool t1 = consistent(a, b, c), t2 = consistent(b, d, c);
-      if (t1 && t2) {
-        raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
-        raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
-        continue;
+  if (prm.mesh) {
+    for (int v = 0; v + 1 < H; ++v) {
+      const float fv = float(v), fv1 = fv + 1.0f;
+      for (int u = 0; u + 1 < W; ++u) {
+        const size_t a = size_t(v) * W + u, b = a + 1, c = a + W, d = c + 1;
+        if (pz_[a] <= 0 && pz_[d] <= 0) continue;
+        const float fu = float(u), fu1 = fu + 1.0f;
+        const bool t1 = consistent(a, b, c), t2 = consistent(b, d, c);
+        if (t1 && t2) {
+          raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
+          raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
+          continue;
+        }
+        // The other diagonal may keep one surface whole.
+        const bool t3 = consistent(a, b, d), t4 = consistent(a, d, c);
+        if (t1) raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
+        if (t2) raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
+        if (t3) raster(a, b, d, fu, fv, fu1, fv, fu1, fv1);
+        if (t4) raster(a, d, c, fu, fv, fu1, fv1, fu, fv1);
       }
-      // The other diagonal may keep one surface whole.
-      const bool t3 = consistent(a, b, d), t4 = consistent(a, d, c);
-      if (t1) raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
-      if (t2) raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
-      if (t3) raster(a, b, d, fu, fv, fu1, fv, fu1, fv1);
-      if (t4) raster(a, d, c, fu, fv, fu1, fv1, fu, fv1);
+    }
+  } else {
+    // Each source pixel's cell [u +- 0.5] x [v +- 0.5] mapped by the local
+    // affine map J (from the neighbours on the same surface) covers the
+    // virtual pixels whose pre-image lies inside it: the mesh's coverage
+    // without its per-triangle set-up. Pixels with no neighbour on their
+    // surface (flying pixels, speckle) are not drawn.
+    auto same_surface = [&](size_t i, size_t j) {
+      const float zi = pz_[i], zj = pz_[j];
+      if (zj <= 0 || src_label_[i] != src_label_[j]) return false;
+      if (std::fabs(zi - zj) <= std::max(float(emin), float(er) * std::min(zi, zj))) return true;
+      const float dx = px_[i] - px_[j], dy = py_[i] - py_[j];
+      const float lim = scale_xy * src_depth_[i] * 0.001f / zi + gap;
+      return dx * dx + dy * dy <= lim * lim;
+    };
+    constexpr float kCell = 0.5f + 1e-3f;
+    constexpr float kEdge = 0.02f;
+    for (int v = 0; v < H; ++v) {
+      for (int u = 0; u < W; ++u) {
+        const size_t i = size_t(v) * W + u;
+        const float zi = pz_[i];
+        if (zi <= 0) continue;
+        float jxu = 0, jyu = 0, jxv = 0, jyv = 0;
+        bool hu = false, hv = false;
+        const bool right = u + 1 < W && same_surface(i, i + 1), left = u > 0 && same_surface(i, i - 1);
+        const bool down = v + 1 < H && same_surface(i, i + W), up = v > 0 && same_surface(i, i - W);
+        if (right) {
+          jxu = px_[i + 1] - px_[i], jyu = py_[i + 1] - py_[i], hu = true;
+        } else if (left) {
+          jxu = px_[i] - px_[i - 1], jyu = py_[i] - py_[i - 1], hu = true;
+        }
+        if (down) {
+          jxv = px_[i + W] - px_[i], jyv = py_[i + W] - py_[i], hv = true;
+        } else if (up) {
+          jxv = px_[i] - px_[i - W], jyv = py_[i] - py_[i - W], hv = true;
+        }
+        // Towards a depth edge the cell ends at the pixel centre, like the mesh:
+        // the surface is not known to go on beyond it.
+        const float umax = right || u + 1 >= W ? kCell : kEdge, umin = left || u == 0 ? -kCell : -kEdge;
+        const float vmax = down || v + 1 >= H ? kCell : kEdge, vmin = up || v == 0 ? -kCell : -kEdge;
+        if (!hu && !hv) continue;
+        if (!hu) jxu = jyv, jyu = -jxv;  // a one-pixel-wide strip: assume a square cell
+        if (!hv) jxv = -jyu, jyv = jxu;
+        const float det = jxu * jyv - jxv * jyu;
+        const float area = std::fabs(det);
+        if (area < 1e-6f || area > max_area2) continue;
+        const float idet = 1.0f / det;
+        const float x = px_[i], y = py_[i];
+        const float hx = kCell * (std::fabs(jxu) + std::fabs(jxv)), hy = kCell * (std::fabs(jyu) + std::fabs(jyv));
+        if (x + hx < 0 || y + hy < 0 || x - hx > VW || y - hy > VH) continue;
+        const int xmin = std::max(0, fast_ceil(x - hx)), xmax = std::min(VW - 1, fast_floor(x + hx));
+        const int ymin = std::max(0, fast_ceil(y - hy)), ymax = std::min(VH - 1, fast_floor(y + hy));
+        if (xmin > xmax || ymin > ymax) continue;
+        const float wq = pw_[i] * (area > 1.0f ? 1.0f / std::sqrt(area) : 1.0f);
+        const uint8_t lab = src_label_[i];
+        const float fu = float(u), fv = float(v);
+        for (int yi = ymin; yi <= ymax; ++yi) {
+          const float dy = float(yi) - y;
+          for (int xi = xmin; xi <= xmax; ++xi) {
+            const float dx = float(xi) - x;
+            const float du = (jyv * dx - jxv * dy) * idet, dv = (jxu * dy - jyu * dx) * idet;
+            if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
+            const size_t o = size_t(yi) * VW + xi;
+            if (zi >= zbuf_[o]) continue;
+            zbuf_[o] = zi;
+            su_[o] = fu + du;
+            sv_[o] = fv + dv;
+            wbuf_[o] = wq;
+            lbuf_[o] = lab;
+          }
+        }
+      }
     }
   }
 

@@ -1,0 +1,164 @@
+// Speed of the V-VA server stages (docs/vva.md): learnerseg per camera,
+// viewwarp per camera, viewfuse, on synthetic classroom frames with the
+// sensor model, as frames per second; and how the cost grows with the output
+// resolution and the number of cameras. GStreamer-free (the algorithms the
+// elements call), so it measures the algorithms, not the pipeline overhead.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/learner_seg.h>
+#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/view_fuse.h>
+#include <gst/vclassroom/view_warp.h>
+
+using namespace vclassroom;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Camera {
+  CameraCalib calib;
+  std::vector<cv::Mat> color, depth;  // recorded frames, played in a loop
+  cv::Mat prior;
+  LearnerSegmenter seg;
+  ViewWarper warper;
+  cv::Mat label;
+  WarpedView warped;
+};
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+struct Result {
+  double seg_ms = 0, warp_ms = 0, fuse_ms = 0, total_ms = 0;
+};
+
+// One server step per frame: every camera segmented and warped (cameras split
+// over `threads` threads), then fused.
+Result run(std::vector<Camera>& cams, const CameraCalib& virt, int frames, int threads) {
+  Result r;
+  WarpParams wp;
+  FuseParams fp;
+  FusedView fused;
+  std::vector<double> seg_ms(cams.size()), warp_ms(cams.size());
+  auto work = [&](size_t i, int f) {
+    Camera& c = cams[i];
+    const size_t k = size_t(f) % c.color.size();
+    auto t0 = Clock::now();
+    c.seg.segment(c.color[k], c.depth[k], &c.label);
+    seg_ms[i] += ms_since(t0);
+    t0 = Clock::now();
+    WarpSource src{c.color[k], c.depth[k], c.label, c.prior};
+    c.warper.warp(c.calib, src, virt, wp, &c.warped);
+    warp_ms[i] += ms_since(t0);
+  };
+  const auto start = Clock::now();
+  for (int f = 0; f < frames; ++f) {
+    if (threads <= 1) {
+      for (size_t i = 0; i < cams.size(); ++i) work(i, f);
+    } else {
+      std::vector<std::thread> pool;
+      for (int t = 0; t < threads; ++t)
+        pool.emplace_back([&, t] {
+          for (size_t i = size_t(t); i < cams.size(); i += size_t(threads)) work(i, f);
+        });
+      for (auto& th : pool) th.join();
+    }
+    auto t0 = Clock::now();
+    std::vector<const WarpedView*> views;
+    for (auto& c : cams) views.push_back(&c.warped);
+    fuse_views(views, fp, &fused);
+    r.fuse_ms += ms_since(t0);
+  }
+  r.total_ms = ms_since(start) / frames;
+  for (size_t i = 0; i < cams.size(); ++i) {
+    r.seg_ms += seg_ms[i] / frames;
+    r.warp_ms += warp_ms[i] / frames;
+  }
+  r.fuse_ms /= frames;
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int frames = 60, threads = 2;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--frames" && i + 1 < argc) frames = std::atoi(argv[++i]);
+    else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
+    else {
+      std::fprintf(stderr,
+                   "usage: vclassroom-bench-server [--frames N] [--threads T]\n"
+                   "  Times learnerseg + viewwarp per camera and viewfuse on 960x540 synthetic classroom frames\n"
+                   "  (sensor model on, 6 learners), camera 0's pose moved 0.2 m left as the virtual view.\n"
+                   "  T threads share the cameras (default 2: this machine's cores).\n");
+      return 2;
+    }
+  }
+  cv::setNumThreads(1);  // our threads are the cameras
+  const Rig rig = default_classroom_rig();
+  const Classroom room(ClassroomConfig{1, 6, 2.0}), empty(ClassroomConfig{1, 0, 2.0});
+  const int recorded = 8;
+  auto make_cams = [&](const std::vector<int>& ids) {
+    std::vector<Camera> cams(ids.size());
+    ClassroomRenderer renderer;
+    for (size_t i = 0; i < ids.size(); ++i) {
+      Camera& c = cams[i];
+      c.calib = rig.camera(ids[i]);
+      RenderOutput e;
+      renderer.render(empty, 0.0, c.calib, &e);
+      c.prior = e.depth.clone();
+      c.seg.set_static_depth(c.prior);
+      for (int f = 0; f < recorded; ++f) {
+        RenderOutput r;
+        renderer.render(room, f / 30.0, c.calib, &r);
+        cv::Mat d, col;
+        apply_sensor_model(r, c.calib, SensorParams(), 1, uint64_t(f), &d, &col);
+        c.color.push_back(col);
+        c.depth.push_back(d);
+      }
+    }
+    return cams;
+  };
+  const CameraCalib& ref = rig.camera(0);
+  auto virt_at = [&](int w, int h) {
+    const Pose p = sliders_to_pose(Sliders{40, 50, 50, 50, 50, 50}, ref);
+    return virtual_camera(scale_camera(ref, w, h), p.cam_to_rig(), NAN);
+  };
+  std::printf("V-VA server stages, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, %d thread(s)\n",
+              frames, threads);
+  std::printf("(run under whatever load the machine has; see docs/vva.md)\n\n");
+  {
+    std::vector<Camera> cams = make_cams({0, 1, 2});
+    run(cams, virt_at(960, 540), 5, threads);  // warm-up
+    const Result r = run(cams, virt_at(960, 540), frames, threads);
+    std::printf("3 cameras -> 960x540: %.1f fps (%.2f ms/frame); per frame, summed over cameras: learnerseg %.2f ms, "
+                "viewwarp %.2f ms, viewfuse %.2f ms\n",
+                1000.0 / r.total_ms, r.total_ms, r.seg_ms, r.warp_ms, r.fuse_ms);
+    const Result r1 = run(cams, virt_at(960, 540), frames, 1);
+    std::printf("same, 1 thread: %.1f fps (%.2f ms/frame)\n\n", 1000.0 / r1.total_ms, r1.total_ms);
+    std::printf("output resolution (3 cameras, %d threads):\n", threads);
+    for (auto [w, h] : std::vector<std::pair<int, int>>{{480, 270}, {960, 540}, {1280, 720}, {1920, 1080}}) {
+      const Result q = run(cams, virt_at(w, h), std::max(10, frames / 3), threads);
+      std::printf("  %4dx%-4d  %6.1f fps  (warp %.2f ms, fuse %.2f ms)\n", w, h, 1000.0 / q.total_ms, q.warp_ms,
+                  q.fuse_ms);
+    }
+  }
+  std::printf("camera count (960x540 out, %d threads; the 4th camera repeats camera 0):\n", threads);
+  for (const std::vector<int>& ids : std::vector<std::vector<int>>{{1}, {1, 2}, {0, 1, 2}, {0, 1, 2, 0}}) {
+    std::vector<Camera> cams = make_cams(ids);
+    const Result q = run(cams, virt_at(960, 540), std::max(10, frames / 3), threads);
+    std::printf("  %zu camera(s)  %6.1f fps  (%.2f ms/frame)\n", ids.size(), 1000.0 / q.total_ms, q.total_ms);
+  }
+  return 0;
+}
