@@ -12,6 +12,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include <gst/vclassroom/rgbd.h>
 
@@ -105,16 +106,20 @@ static GstFlowReturn gst_rgbd_demux_chain(GstPad*, GstObject* parent, GstBuffer*
     return GST_FLOW_NOT_NEGOTIATED;
   }
   const RgbdInfo& info = *self->info;
-  GstFlowReturn combined = GST_FLOW_OK;
+  // Check every plane first: a frame goes out whole on every pad or not at all.
+  std::vector<PlaneLayout> layouts(info.planes.size());
   for (size_t i = 0; i < info.planes.size(); ++i) {
-    const Plane p = info.planes[i];
-    PlaneLayout l;
     std::string err;
-    if (!rgbd_plane_layout(buf, info, i, &l, &err)) {
+    if (!rgbd_plane_layout(buf, info, i, &layouts[i], &err)) {
       GST_ELEMENT_WARNING(self, STREAM, DECODE, ("dropping corrupt frame: %s", err.c_str()), (nullptr));
       gst_buffer_unref(buf);
       return GST_FLOW_OK;
     }
+  }
+  GstFlowReturn combined = GST_FLOW_OK;
+  for (size_t i = 0; i < info.planes.size(); ++i) {
+    const Plane p = info.planes[i];
+    const PlaneLayout& l = layouts[i];
     GstVideoInfo vi;
     gst_video_info_set_format(&vi, plane_format(p), info.width(), info.height());
     const gint stride = GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0);

@@ -145,8 +145,9 @@ static GstFlowReturn gst_rgbd_mux_aggregate(GstAggregator* agg, gboolean timeout
     ret = GST_FLOW_NOT_NEGOTIATED;
     goto done;
   }
-  if (st->caps_dirty || !st->have_out) {
-    // Negotiation happens before aggregate(); getting here means it failed.
+  // Normally negotiated before aggregate(); a caps change that raced with
+  // the data renegotiates here.
+  if ((st->caps_dirty || !st->have_out) && !gst_aggregator_negotiate(agg)) {
     ret = GST_FLOW_NOT_NEGOTIATED;
     goto done;
   }
