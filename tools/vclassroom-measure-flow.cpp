@@ -1,0 +1,288 @@
+// The whole flow on loopback, measured: the classroom cameras and the server
+// run as child processes (pipelines/classroom.sh, pipelines/server.sh); this
+// program is the lecturer. It sends a pose 30 times a second (a slow walk and
+// head turn), displays into a fakesink, and for every displayed frame reads
+// the pose it was rendered for (RTP header extension) to get pose-to-display
+// latency. It reports p50/p99 latency, frames displayed, bitrates and CPU.
+// Run from the source root inside `meson devenv -C build` (plugins on the path).
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gst/gst.h>
+
+#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/pose_meta.h>
+
+using namespace vclassroom;
+
+namespace {
+
+struct Options {
+  int seconds = 20;
+  std::vector<int> cameras{0, 1, 2};
+  std::string model;
+  std::string pipelines = "pipelines";
+  double drop = 0;
+};
+
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
+  return "unknown CPU";
+}
+
+// User + system CPU seconds of a process and its children that have exited.
+double cpu_seconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t close = s.rfind(')');
+  if (close == std::string::npos) return 0;
+  std::istringstream rest(s.substr(close + 2));
+  std::vector<std::string> f;
+  std::string tok;
+  while (rest >> tok) f.push_back(tok);
+  if (f.size() < 15) return 0;
+  const double tick = static_cast<double>(sysconf(_SC_CLK_TCK));
+  return (std::stod(f[11]) + std::stod(f[12]) + std::stod(f[13]) + std::stod(f[14])) / tick;
+}
+
+pid_t spawn(const std::string& script, const std::map<std::string, std::string>& env, const std::string& log) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    for (const auto& [k, v] : env) setenv(k.c_str(), v.c_str(), 1);
+    FILE* f = std::freopen(log.c_str(), "w", stdout);
+    (void)f;
+    dup2(fileno(stdout), fileno(stderr));
+    execl("/bin/bash", "bash", script.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  return pid;
+}
+
+struct Display {
+  std::mutex lock;
+  std::map<uint64_t, GstClockTime> first_shown;  // pose seq -> display time
+  std::map<uint64_t, int64_t> viewer_time;        // pose seq -> when it was taken
+  uint64_t frames = 0, frames_with_pose = 0;
+  uint64_t video_bytes = 0;
+};
+
+GstPadProbeReturn on_display(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* d = static_cast<Display*>(data);
+  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  const GstClockTime now = gst_util_get_timestamp();
+  std::lock_guard<std::mutex> g(d->lock);
+  d->frames++;
+  if (const PoseMeta* m = buffer_get_pose_meta(buf)) {
+    d->frames_with_pose++;
+    if (!d->first_shown.count(m->seq) && m->viewer_time_ns >= 0) {
+      d->first_shown[m->seq] = now;
+      d->viewer_time[m->seq] = m->viewer_time_ns;
+    }
+  }
+  return GST_PAD_PROBE_OK;
+}
+
+GstPadProbeReturn on_video_packet(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* d = static_cast<Display*>(data);
+  std::lock_guard<std::mutex> g(d->lock);
+  if (info->type & GST_PAD_PROBE_TYPE_BUFFER_LIST)
+    d->video_bytes += gst_buffer_list_calculate_size(GST_PAD_PROBE_INFO_BUFFER_LIST(info));
+  else
+    d->video_bytes += gst_buffer_get_size(GST_PAD_PROBE_INFO_BUFFER(info));
+  return GST_PAD_PROBE_OK;
+}
+
+// Bytes per second one classroom pipeline sends (measured in this process, before the run).
+double camera_link_rate(const Options& o) {
+  uint64_t bytes = 0;
+  GstElement* p = gst_parse_launch(
+      "rgbdtestsrc camera-id=0 num-buffers=60 ground-truth=false ! rgbdenc quality=90 ! "
+      "rtpgstpay config-interval=1 mtu=1400 ! fakesink name=net",
+      nullptr);
+  (void)o;
+  GstElement* net = gst_bin_get_by_name(GST_BIN(p), "net");
+  GstPad* pad = gst_element_get_static_pad(net, "sink");
+  // rtpgstpay pushes buffer lists: one buffer per packet, each with 28 bytes of IP/UDP header to add.
+  gst_pad_add_probe(
+      pad, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
+      [](GstPad*, GstPadProbeInfo* info, gpointer data) {
+        auto* total = static_cast<uint64_t*>(data);
+        if (info->type & GST_PAD_PROBE_TYPE_BUFFER_LIST) {
+          GstBufferList* list = GST_PAD_PROBE_INFO_BUFFER_LIST(info);
+          *total += gst_buffer_list_calculate_size(list) + 28 * gst_buffer_list_length(list);
+        } else {
+          *total += gst_buffer_get_size(GST_PAD_PROBE_INFO_BUFFER(info)) + 28;
+        }
+        return GST_PAD_PROBE_OK;
+      },
+      &bytes, nullptr);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  GstBus* bus = gst_element_get_bus(p);
+  GstMessage* m = gst_bus_timed_pop_filtered(bus, 120 * GST_SECOND, GstMessageType(GST_MESSAGE_EOS | GST_MESSAGE_ERROR));
+  if (m) gst_message_unref(m);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(bus);
+  gst_object_unref(pad);
+  gst_object_unref(net);
+  gst_object_unref(p);
+  return bytes / 2.0;  // 60 frames = 2 s at 30 fps
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
+  return v[i];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  gst_init(&argc, &argv);
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
+    if (a == "--seconds") o.seconds = std::atoi(next().c_str());
+    else if (a == "--model") o.model = next();
+    else if (a == "--pipelines") o.pipelines = next();
+    else if (a == "--drop") o.drop = std::atof(next().c_str());
+    else if (a == "--cameras") {
+      o.cameras.clear();
+      std::istringstream is(next());
+      int k;
+      while (is >> k) o.cameras.push_back(k);
+    } else {
+      std::fprintf(stderr,
+                   "usage: vclassroom-measure-flow [--seconds N] [--cameras \"0 1 2\"] [--model DIR] [--drop P]\n"
+                   "                              [--pipelines DIR]\n"
+                   "Runs pipelines/classroom.sh per camera and pipelines/server.sh as processes on loopback,\n"
+                   "acts as the lecturer, and prints pose-to-display latency p50/p99, frames displayed,\n"
+                   "bitrate per link and CPU per process. Run inside `meson devenv -C build`.\n");
+      return 2;
+    }
+  }
+  const double cam_rate = camera_link_rate(o);
+
+  std::string cams;
+  for (int k : o.cameras) cams += (cams.empty() ? "" : " ") + std::to_string(k);
+  std::vector<pid_t> children;
+  const pid_t server = spawn(o.pipelines + "/server.sh", {{"CAMERAS", cams}, {"MODEL", o.model}}, "/dev/null");
+  children.push_back(server);
+
+  // The lecturer: as pipelines/lecturer.sh, with a probe before the sink.
+  GError* err = nullptr;
+  GstElement* lect = gst_parse_launch(
+      "udpsrc name=video port=5010 buffer-size=8388608 caps=\"application/x-rtp,media=video,clock-rate=90000,"
+      "encoding-name=VP8,payload=96,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! "
+      "rtpjitterbuffer latency=30 ! rtpvp8depay ! vp8dec ! posesend name=back ! videoconvert ! "
+      "fakesink name=display sync=false  back.rtp ! udpsink host=127.0.0.1 port=5011 sync=false async=false",
+      &err);
+  if (!lect || err) {
+    std::fprintf(stderr, "lecturer pipeline: %s\n", err ? err->message : "?");
+    return 1;
+  }
+  Display d;
+  GstElement* display = gst_bin_get_by_name(GST_BIN(lect), "display");
+  GstElement* video = gst_bin_get_by_name(GST_BIN(lect), "video");
+  GstPad* dpad = gst_element_get_static_pad(display, "sink");
+  gst_pad_add_probe(dpad, GST_PAD_PROBE_TYPE_BUFFER, on_display, &d, nullptr);
+  GstPad* vpad = gst_element_get_static_pad(video, "src");
+  gst_pad_add_probe(vpad, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
+                    on_video_packet, &d, nullptr);
+  gst_element_set_state(lect, GST_STATE_PLAYING);
+  for (int k : o.cameras)
+    children.push_back(spawn(o.pipelines + "/classroom.sh",
+                             {{"CAMERA", std::to_string(k)}, {"DROP", std::to_string(o.drop)}}, "/dev/null"));
+
+  // A slow walk along the front and a head turn: one pose every 33 ms.
+  const CameraCalib reference = [] {
+    CameraCalib c;
+    c.width = c.height = 1;
+    c.fx = c.fy = 1;
+    c.cam_to_rig.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
+    return c;
+  }();
+  std::atomic<bool> running{true};
+  uint64_t poses_sent = 0;
+  std::thread walker([&] {
+    uint64_t seq = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    while (running) {
+      const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      ViewOffset v;
+      v.right = 0.4 * std::sin(0.2 * t);
+      v.forward = -0.3 + 0.1 * std::sin(0.13 * t);
+      v.yaw = 15 * std::sin(0.3 * t);
+      Pose p = offset_to_pose(v, reference);
+      p.seq = ++seq;
+      p.viewer_time_ns = static_cast<int64_t>(gst_util_get_timestamp());
+      gst_element_send_event(display, pose_event_new(p));
+      poses_sent = seq;
+      std::this_thread::sleep_for(std::chrono::milliseconds(33));  // a tool's pacing, not a test
+    }
+  });
+  std::this_thread::sleep_for(std::chrono::seconds(o.seconds));
+  std::vector<double> cpu;
+  for (pid_t c : children) cpu.push_back(cpu_seconds(c));
+  running = false;
+  walker.join();
+  for (pid_t c : children) kill(c, SIGINT);
+  gst_element_set_state(lect, GST_STATE_NULL);
+  for (pid_t c : children) {
+    int status;
+    for (int i = 0; i < 50 && waitpid(c, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    kill(c, SIGKILL);
+    waitpid(c, &status, 0);
+  }
+  struct rusage self_usage;
+  getrusage(RUSAGE_SELF, &self_usage);
+  const double lect_cpu = self_usage.ru_utime.tv_sec + self_usage.ru_utime.tv_usec / 1e6 + self_usage.ru_stime.tv_sec +
+                          self_usage.ru_stime.tv_usec / 1e6;
+
+  std::vector<double> latency_ms;
+  {
+    std::lock_guard<std::mutex> g(d.lock);
+    for (const auto& [seq, shown] : d.first_shown)
+      latency_ms.push_back((static_cast<double>(shown) - static_cast<double>(d.viewer_time[seq])) / 1e6);
+  }
+  std::printf("machine: %s, %ld cores; %zu synthetic cameras 960x540 at 30 fps on loopback, %d s, V-DA %s\n",
+              cpu_model().c_str(), sysconf(_SC_NPROCESSORS_ONLN), o.cameras.size(), o.seconds,
+              o.model.empty() ? "off" : "on");
+  std::printf("poses sent: %lu; distinct poses displayed: %zu\n", static_cast<unsigned long>(poses_sent), latency_ms.size());
+  std::printf("pose-to-display latency: p50 %.1f ms, p99 %.1f ms\n", percentile(latency_ms, 0.5),
+              percentile(latency_ms, 0.99));
+  std::printf("frames displayed: %lu of %d rendered-at-30-fps slots (%.1f fps); with a pose stamp: %lu\n",
+              static_cast<unsigned long>(d.frames), 30 * o.seconds, d.frames / static_cast<double>(o.seconds),
+              static_cast<unsigned long>(d.frames_with_pose));
+  std::printf("bitrate: camera link %.1f Mbit/s each (measured alone); server->lecturer %.2f Mbit/s; pose link %.3f Mbit/s\n",
+              cam_rate * 8 / 1e6, d.video_bytes * 8.0 / o.seconds / 1e6,
+              (poses_sent + d.frames) * (kPoseWireSize + 12 + 28) * 8.0 / o.seconds / 1e6);
+  std::printf("CPU (share of one core): server %.0f %%", 100 * cpu[0] / o.seconds);
+  for (size_t i = 1; i < cpu.size(); ++i) std::printf(", camera %d %.0f %%", o.cameras[i - 1], 100 * cpu[i] / o.seconds);
+  std::printf(", lecturer (this program) %.0f %%\n", 100 * lect_cpu / o.seconds);
+  gst_object_unref(dpad);
+  gst_object_unref(vpad);
+  gst_object_unref(display);
+  gst_object_unref(video);
+  gst_object_unref(lect);
+  return 0;
+}
