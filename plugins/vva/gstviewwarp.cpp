@@ -214,6 +214,10 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     return GST_FLOW_ERROR;
   }
   const CameraCalib virt = virtual_camera(st->out_info.camera, pose.cam_to_rig(), pose.fov_deg);
+  GST_LOG_OBJECT(self, "pose seq %" G_GUINT64_FORMAT " at (%.3f, %.3f, %.3f); source camera %d at (%.3f, %.3f, %.3f)",
+                 pose.seq, pose.position.x(), pose.position.y(), pose.position.z(), st->in_info.camera.id,
+                 st->in_info.camera.cam_to_rig.translation().x(), st->in_info.camera.cam_to_rig.translation().y(),
+                 st->in_info.camera.cam_to_rig.translation().z());
   WarpSource src;
   src.color = in.color();
   src.depth = in.depth();

@@ -1,0 +1,455 @@
+// V-VA: image metrics, view warping, fusion, learner segmentation, and the
+// learnerseg / viewwarp / viewfuse elements through GStreamer.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include <gst/app/gstappsink.h>
+#include <gst/check/gstharness.h>
+#include <gst/gst.h>
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/image_metrics.h>
+#include <gst/vclassroom/learner_seg.h>
+#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/pose_meta.h>
+#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/view_fuse.h>
+#include <gst/vclassroom/view_warp.h>
+
+#include "test_util.h"
+
+using namespace vclassroom;
+
+namespace {
+
+CameraCalib pinhole(int w, int h, double f) {
+  CameraCalib c;
+  c.width = w;
+  c.height = h;
+  c.fx = c.fy = f;
+  c.cx = (w - 1) / 2.0;
+  c.cy = (h - 1) / 2.0;
+  return c;
+}
+
+// A smooth texture that bilinear sampling reproduces closely: colour of column u.
+cv::Vec3b ramp_color(double u, double v) {
+  return cv::Vec3b(uint8_t(128 + 100 * std::sin(u * 0.21)), uint8_t(128 + 100 * std::cos(v * 0.17)),
+                   uint8_t(128 + 60 * std::sin((u + v) * 0.11)));
+}
+
+WarpSource fronto_plane(int w, int h, uint16_t depth_mm) {
+  WarpSource s;
+  s.color.create(h, w, CV_8UC3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) s.color.at<cv::Vec3b>(y, x) = ramp_color(x, y);
+  s.depth = cv::Mat(h, w, CV_16UC1, cv::Scalar(depth_mm));
+  return s;
+}
+
+// A rig of the default classroom at a small size, written to `dir`.
+std::string small_classroom_rig(const vctest::TempDir& dir, int w = 160, int h = 90) {
+  Rig rig = default_classroom_rig();
+  for (auto& c : rig.cameras) c = scale_camera(c, w, h);
+  const std::string path = dir / "rig.yaml";
+  save_rig(rig, path);
+  return path;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- metrics
+
+TEST(ImageMetrics, IdenticalImagesAreInfinitePsnrAndUnitSsim) {
+  cv::Mat a(40, 50, CV_8UC3);
+  cv::randu(a, 0, 255);
+  EXPECT_TRUE(std::isinf(psnr_rgb(a, a)));
+  EXPECT_NEAR(ssim_luma(a, a), 1.0, 1e-9);
+}
+
+TEST(ImageMetrics, PsnrFollowsTheDefinition) {
+  cv::Mat a(10, 10, CV_8UC3, cv::Scalar(100, 100, 100)), b = a.clone();
+  b.setTo(cv::Scalar(110, 100, 100));  // MSE = 100 / 3 over all channels
+  EXPECT_NEAR(psnr_rgb(a, b), 10 * std::log10(255.0 * 255.0 / (100.0 / 3)), 1e-9);
+  // The crop excludes what it should.
+  cv::Mat c = a.clone();
+  c(cv::Rect(5, 0, 5, 10)).setTo(cv::Scalar(0, 0, 0));
+  EXPECT_TRUE(std::isinf(psnr_rgb(a, c, cv::Rect(0, 0, 5, 10))));
+}
+
+TEST(ImageMetrics, SsimDropsWithNoiseAndStructureLoss) {
+  cv::Mat a(64, 64, CV_8UC3);
+  cv::randu(a, 0, 255);
+  cv::GaussianBlur(a, a, cv::Size(5, 5), 1.5);
+  cv::Mat noisy = a.clone(), flat(64, 64, CV_8UC3, cv::mean(a));
+  cv::Mat n(64, 64, CV_8UC3);
+  cv::randn(n, 0, 8);
+  cv::add(a, n, noisy);
+  const double s_noisy = ssim_luma(a, noisy), s_flat = ssim_luma(a, flat);
+  EXPECT_LT(s_noisy, 1.0);
+  EXPECT_GT(s_noisy, s_flat);
+}
+
+// ---------------------------------------------------------------- warping
+
+TEST(ViewWarp, OwnPoseReproducesTheCleanClassroom) {
+  const Classroom room(ClassroomConfig{3, 4, 2.0});
+  const CameraCalib cam = scale_camera(default_classroom_rig().camera(1), 320, 180);
+  const RenderOutput r = render(room, 1.0, cam);
+  WarpSource src{r.color, r.depth, r.label, cv::Mat()};
+  for (bool mesh : {false, true}) {
+    WarpParams p;
+    p.mesh = mesh;
+    const WarpedView w = warp_view(cam, src, cam, p);
+    FusedView f;
+    fuse_views({&w}, FuseParams(), &f);
+    EXPECT_GT(psnr_rgb(f.color, r.color), 40.0) << (mesh ? "mesh" : "splat");
+  }
+}
+
+TEST(ViewWarp, SidewaysMoveOfAFrontoParallelPlaneShiftsByTheDisparity) {
+  const int w = 120, h = 60;
+  const double f = 100, z = 2.0, baseline = 0.113;  // disparity 5.65 px, not an integer
+  const CameraCalib src = pinhole(w, h, f);
+  CameraCalib virt = src;
+  virt.cam_to_rig.translation() = Eigen::Vector3d(baseline, 0, 0);
+  const WarpSource in = fronto_plane(w, h, uint16_t(z * 1000));
+  const double d = f * baseline / z;
+  for (bool mesh : {false, true}) {
+    WarpParams p;
+    p.mesh = mesh;
+    const WarpedView out = warp_view(src, in, virt, p);
+    double max_err = 0;
+    int checked = 0;
+    for (int y = 2; y < h - 2; ++y)
+      for (int x = 2; x < w - 2 - int(std::ceil(d)); ++x) {
+        ASSERT_GT(out.weight.at<uint8_t>(y, x), 0) << "hole at " << x << "," << y;
+        EXPECT_EQ(out.depth.at<uint16_t>(y, x), 2000);
+        // The point seen at virtual x was at source x + d.
+        const double u = x + d;
+        const int u0 = int(u);
+        const double a = u - u0;
+        const cv::Vec3b c0 = in.color.at<cv::Vec3b>(y, u0), c1 = in.color.at<cv::Vec3b>(y, u0 + 1);
+        for (int ch = 0; ch < 3; ++ch) {
+          const double expect = (1 - a) * c0[ch] + a * c1[ch];
+          max_err = std::max(max_err, std::abs(expect - out.color.at<cv::Vec3b>(y, x)[ch]));
+        }
+        ++checked;
+      }
+    EXPECT_GT(checked, 5000);
+    EXPECT_LE(max_err, 1.01) << (mesh ? "mesh" : "splat") << ": sub-pixel shift off";
+    // What moved out of view on the right is a hole, not smeared.
+    EXPECT_EQ(out.weight.at<uint8_t>(h / 2, w - 1), 0);
+  }
+}
+
+TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
+  const int w = 120, h = 80;
+  const CameraCalib src = pinhole(w, h, 100);
+  WarpSource in = fronto_plane(w, h, 4000);
+  const cv::Rect box(50, 25, 20, 30);
+  in.depth(box).setTo(cv::Scalar(1000));
+  in.color(box).setTo(cv::Scalar(255, 0, 255));
+  for (double dx : {-0.15, 0.15}) {
+    CameraCalib virt = src;
+    virt.cam_to_rig.translation() = Eigen::Vector3d(dx, 0, 0);
+    for (bool mesh : {false, true}) {
+      WarpParams p;
+      p.mesh = mesh;
+      p.boundary_px = 1;
+      const WarpedView out = warp_view(src, in, virt, p);
+      // The box moves by f * dx / 1 m = 15 px; the background by 3.75 px.
+      const int shift = int(std::lround(-100 * dx / 1.0));
+      const cv::Rect moved(box.x + shift + 1, box.y + 1, box.width - 2, box.height - 2);
+      for (int y = moved.y; y < moved.br().y; ++y)
+        for (int x = moved.x; x < moved.br().x; ++x) {
+          ASSERT_EQ(out.depth.at<uint16_t>(y, x), 1000) << x << "," << y << " dx " << dx;
+          ASSERT_EQ(out.color.at<cv::Vec3b>(y, x), cv::Vec3b(255, 0, 255));
+        }
+      // No magenta smeared into the disocclusion or onto the background.
+      int magenta_on_background = 0;
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          if (out.depth.at<uint16_t>(y, x) > 1000 && out.color.at<cv::Vec3b>(y, x)[1] < 40 &&
+              out.color.at<cv::Vec3b>(y, x)[0] > 200 && out.color.at<cv::Vec3b>(y, x)[2] > 200)
+            ++magenta_on_background;
+      EXPECT_EQ(magenta_on_background, 0);
+    }
+  }
+}
+
+TEST(ViewFuse, NearestSurfaceWinsWhateverTheWeights) {
+  WarpedView near_view, far_view;
+  for (WarpedView* v : {&near_view, &far_view}) {
+    v->color.create(4, 4, CV_8UC3);
+    v->depth.create(4, 4, CV_16UC1);
+    v->label = cv::Mat::zeros(4, 4, CV_8UC1);
+    v->weight.create(4, 4, CV_8UC1);
+  }
+  near_view.color.setTo(cv::Scalar(200, 0, 0));
+  near_view.depth.setTo(cv::Scalar(1000));
+  near_view.label.setTo(cv::Scalar(3));
+  near_view.weight.setTo(cv::Scalar(5));  // a poor camera
+  far_view.color.setTo(cv::Scalar(0, 200, 0));
+  far_view.depth.setTo(cv::Scalar(3000));
+  far_view.weight.setTo(cv::Scalar(255));
+  FusedView f;
+  fuse_views({&far_view, &near_view}, FuseParams(), &f);
+  EXPECT_EQ(f.color.at<cv::Vec3b>(1, 1), cv::Vec3b(200, 0, 0));
+  EXPECT_EQ(f.depth.at<uint16_t>(1, 1), 1000);
+  EXPECT_EQ(f.label.at<uint8_t>(1, 1), 3);
+  // Two views of one surface blend by weight.
+  WarpedView other = near_view;
+  other.color = cv::Mat(4, 4, CV_8UC3, cv::Scalar(100, 0, 0));
+  other.weight = cv::Mat(4, 4, CV_8UC1, cv::Scalar(5));
+  fuse_views({&near_view, &other}, FuseParams(), &f);
+  EXPECT_EQ(f.color.at<cv::Vec3b>(1, 1), cv::Vec3b(150, 0, 0));
+}
+
+TEST(ViewFuse, HolesTakeTheBackgroundNotTheForeground) {
+  // Row: foreground (near, red) | hole | background (far, green).
+  cv::Mat color(5, 30, CV_8UC3, cv::Scalar(0, 0, 0)), depth(5, 30, CV_16UC1, cv::Scalar(0));
+  color.colRange(0, 10).setTo(cv::Scalar(255, 0, 0));
+  depth.colRange(0, 10).setTo(cv::Scalar(1000));
+  color.colRange(20, 30).setTo(cv::Scalar(0, 255, 0));
+  depth.colRange(20, 30).setTo(cv::Scalar(4000));
+  cv::Mat filled;
+  fill_holes_from_background(color, depth, 0.08, 0, &filled);
+  for (int x = 10; x < 20; ++x) {
+    EXPECT_EQ(filled.at<uint8_t>(2, x), 255);
+    EXPECT_EQ(color.at<cv::Vec3b>(2, x), cv::Vec3b(0, 255, 0)) << x;
+    EXPECT_EQ(depth.at<uint16_t>(2, x), 4000);
+  }
+}
+
+// ---------------------------------------------------------------- segmentation
+
+TEST(LearnerSeg, IdsStayStableThroughMotionOcclusionAndReturn) {
+  const int w = 160, h = 100;
+  const cv::Mat room(h, w, CV_16UC1, cv::Scalar(3000));
+  cv::Mat wall(h, w, CV_8UC3, cv::Scalar(180, 180, 170));
+  LearnerSegmenter seg;
+  seg.set_static_depth(room);
+  int id_a = -1, id_b = -1;
+  for (int f = 0; f < 30; ++f) {
+    cv::Mat color = wall.clone(), depth = room.clone();
+    // A walks right; B sits still (wall-coloured clothes) and is hidden for frames 12..19.
+    const cv::Rect a(10 + 2 * f, 20, 16, 40), b(120, 30, 18, 40);
+    color(a).setTo(cv::Scalar(200, 40, 40));
+    depth(a).setTo(cv::Scalar(1500));
+    const bool b_visible = f < 12 || f >= 20;
+    if (b_visible) {
+      color(b).setTo(cv::Scalar(180, 180, 170));  // like the wall: only depth tells it apart
+      depth(b).setTo(cv::Scalar(2200));
+    }
+    cv::Mat label;
+    seg.segment(color, depth, &label);
+    const int la = label.at<uint8_t>(a.y + a.height / 2, a.x + a.width / 2);
+    ASSERT_GT(la, 0) << "frame " << f;
+    if (id_a < 0) id_a = la;
+    EXPECT_EQ(la, id_a) << "frame " << f;
+    const int lb = label.at<uint8_t>(b.y + b.height / 2, b.x + b.width / 2);
+    if (b_visible) {
+      ASSERT_GT(lb, 0) << "frame " << f;
+      if (id_b < 0) id_b = lb;
+      EXPECT_EQ(lb, id_b) << "frame " << f << ": B should get its id back";
+      EXPECT_NE(lb, id_a);
+    } else {
+      EXPECT_EQ(lb, 0) << "frame " << f;
+    }
+  }
+}
+
+TEST(LearnerSeg, FindsTheClassroomLearners) {
+  const Classroom room(ClassroomConfig{1, 6, 2.0}), empty(ClassroomConfig{1, 0, 2.0});
+  const CameraCalib cam = scale_camera(default_classroom_rig().camera(0), 320, 180);
+  LearnerSegmenter seg;
+  seg.set_static_depth(render(empty, 0.0, cam).depth);
+  SegScore s;
+  for (int f = 0; f < 3; ++f) {
+    const RenderOutput r = render(room, f / 10.0, cam);
+    cv::Mat depth, color, label;
+    apply_sensor_model(r, cam, SensorParams(), 1, uint64_t(f), &depth, &color);
+    seg.segment(color, depth, &label);
+    s = score_segmentation(label, r.label);
+  }
+  EXPECT_GT(s.fg_iou, 0.6);
+}
+
+// ---------------------------------------------------------------- elements
+
+TEST(ViewWarpElement, APoseEventChangesTheNextFrame) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + rig).c_str());
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(1), 160, 90);
+  info.planes = {Plane::Color, Plane::Depth};
+  GstCaps* caps = rgbd_caps_new(info);
+  gst_harness_set_src_caps(h, caps);
+  const Classroom room(ClassroomConfig{1, 3, 2.0});
+  const RenderOutput r = render(room, 0.0, info.camera);
+  auto make_input = [&] {
+    GstBuffer* buf = rgbd_buffer_new(info);
+    RgbdFrame f;
+    std::string err;
+    EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+    r.color.copyTo(f.color());
+    r.depth.copyTo(f.depth());
+    f.unmap();
+    return buf;
+  };
+  auto output_color = [&](GstBuffer* out, uint64_t* seq) {
+    GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+    RgbdInfo oi;
+    std::string err;
+    EXPECT_TRUE(rgbd_info_from_caps(oc, &oi, &err)) << err;
+    gst_caps_unref(oc);
+    EXPECT_EQ(oi.planes.size(), 4u);
+    RgbdFrame f;
+    EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, &err)) << err;
+    PoseMeta* m = buffer_get_pose_meta(out);
+    EXPECT_NE(m, nullptr);
+    *seq = m ? m->seq : 999;
+    return f.color().clone();
+  };
+  ASSERT_EQ(gst_harness_push(h, make_input()), GST_FLOW_OK);
+  GstBuffer* out1 = gst_harness_pull(h);
+  uint64_t seq1 = 0;
+  const cv::Mat c1 = output_color(out1, &seq1);
+  // The reference camera (0) seen from camera 1 until a pose arrives.
+  Pose pose = sliders_to_pose(Sliders{30, 50, 50, 60, 50, 50}, default_classroom_rig().camera(0));
+  pose.seq = 7;
+  ASSERT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(pose)));
+  // An older pose arriving late does not win.
+  Pose old = pose;
+  old.seq = 3;
+  old.position.x() += 0.5;
+  ASSERT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(old)));
+  ASSERT_EQ(gst_harness_push(h, make_input()), GST_FLOW_OK);
+  GstBuffer* out2 = gst_harness_pull(h);
+  uint64_t seq2 = 0;
+  const cv::Mat c2 = output_color(out2, &seq2);
+  EXPECT_EQ(seq2, 7u);
+  EXPECT_LT(psnr_rgb(c1, c2), 30.0) << "the view did not move";
+  // The same frame warped by the library to that pose is what came out.
+  const CameraCalib virt = virtual_camera(scale_camera(info.camera, 160, 90), pose.cam_to_rig(), NAN);
+  WarpParams p;
+  p.boundary_px = 1;
+  const WarpedView expect = warp_view(info.camera, WarpSource{r.color, r.depth, {}, {}}, virt, p);
+  EXPECT_TRUE(vctest::same_image(expect.color, c2)) << "PSNR " << psnr_rgb(expect.color, c2);
+  gst_buffer_unref(out1);
+  gst_buffer_unref(out2);
+  gst_harness_teardown(h);
+}
+
+TEST(ViewFuseElement, PoseEventAtTheSinkReachesEveryViewWarp) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const std::string branch = " ! viewwarp name=w%d rig=" + rig + " ! queue max-size-buffers=1 ! f.cam_%d";
+  std::string desc = "viewfuse name=f ! appsink name=out sync=false max-buffers=1";
+  for (int i = 1; i <= 2; ++i) {
+    char b[512];
+    std::snprintf(b, sizeof b, branch.c_str(), i, i);
+    desc += " rgbdtestsrc rig=" + rig + " camera-id=" + std::to_string(i) + " learners=2" + b;
+  }
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  GstSample* first = gst_app_sink_pull_sample(GST_APP_SINK(sink));
+  ASSERT_NE(first, nullptr);
+  Pose pose = sliders_to_pose(Sliders{60, 50, 55, 45, 50, 50}, default_classroom_rig().camera(0));
+  pose.seq = 42;
+  GstPad* sinkpad = gst_element_get_static_pad(sink, "sink");
+  ASSERT_TRUE(gst_pad_push_event(sinkpad, pose_event_new(pose)));
+  gst_object_unref(sinkpad);
+  // Upstream custom events travel synchronously: both warps have it now.
+  for (const char* name : {"w1", "w2"}) {
+    GstElement* w = gst_bin_get_by_name(GST_BIN(pipe), name);
+    guint64 n = 0;
+    g_object_get(w, "poses-received", &n, nullptr);
+    EXPECT_EQ(n, 1u) << name;
+    gst_object_unref(w);
+  }
+  // Frames already in the queues show the old pose; then every frame shows the new one.
+  bool seen = false;
+  for (int i = 0; i < 8; ++i) {
+    GstSample* s = gst_app_sink_pull_sample(GST_APP_SINK(sink));
+    ASSERT_NE(s, nullptr);
+    PoseMeta* m = buffer_get_pose_meta(gst_sample_get_buffer(s));
+    ASSERT_NE(m, nullptr);
+    if (seen) EXPECT_EQ(m->seq, 42u) << "frame " << i << " went back to an old pose";
+    seen = seen || m->seq == 42;
+    gst_sample_unref(s);
+  }
+  EXPECT_TRUE(seen);
+  gst_sample_unref(first);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}
+
+TEST(ViewFuseElement, ACameraThatStopsDoesNotStallTheOutput) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const std::string desc = "viewfuse name=f ! appsink name=out sync=false "
+                           "rgbdtestsrc rig=" + rig + " camera-id=1 num-buffers=12 ! viewwarp rig=" + rig +
+                           " ! queue ! f.cam_0 "
+                           "rgbdtestsrc rig=" + rig + " camera-id=2 num-buffers=3 ! viewwarp rig=" + rig +
+                           " ! queue ! f.cam_1";
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  vctest::SampleCollector samples(sink);
+  const vctest::RunResult r = vctest::run_pipeline(pipe);
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(samples.size(), 12u);
+  GstElement* f = gst_bin_get_by_name(GST_BIN(pipe), "f");
+  guint64 n = 0;
+  g_object_get(f, "frames-fused", &n, nullptr);
+  EXPECT_EQ(n, 12u);
+  gst_object_unref(f);
+  gst_object_unref(sink);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(pipe);
+}
+
+TEST(LearnerSegElement, AddsTheLabelPlane) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(
+      ("rgbdtestsrc rig=" + rig + " num-buffers=3 learners=4 ground-truth=false ! learnerseg ! appsink name=out "
+       "sync=false").c_str(),
+      &err);
+  ASSERT_EQ(err, nullptr);
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  vctest::SampleCollector samples(sink);
+  EXPECT_EQ(vctest::run_pipeline(pipe).error, "");
+  ASSERT_EQ(samples.size(), 3u);
+  RgbdInfo info;
+  std::string e;
+  ASSERT_TRUE(rgbd_info_from_caps(samples.caps(2), &info, &e)) << e;
+  EXPECT_EQ(info.planes_string(), "color,depth,label");
+  gst_object_unref(sink);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(pipe);
+}
+
+TEST(PoseMeta, TravelsWithCopies) {
+  GstBuffer* b = gst_buffer_new_allocate(nullptr, 16, nullptr);
+  buffer_add_pose_meta(b, 12, 3456);
+  GstBuffer* c = gst_buffer_copy(b);
+  PoseMeta* m = buffer_get_pose_meta(c);
+  ASSERT_NE(m, nullptr);
+  EXPECT_EQ(m->seq, 12u);
+  EXPECT_EQ(m->viewer_time_ns, 3456);
+  gst_buffer_unref(b);
+  gst_buffer_unref(c);
+}
