@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# The first live demo (docs/vva.md): three synthetic classroom cameras -> [V-DA when a
+# model is given] -> learnerseg -> viewwarp (one per camera) -> viewfuse, which plays the
+# lecturer's pose trace (a slow walk and head turn through the front of the class) by
+# sending each pose upstream to every viewwarp -> H.264 in an MP4 file.
+# Variables: OUT (file, default out/all-in-one.mp4), FRAMES (default 300 = 10 s),
+# TRACE (pose trace CSV, default pipelines/lecturer-walk.csv), SEED (default 1),
+# LEARNERS (default 6), MODEL (a folder from vclassroom-build-model: when set and the
+# depthcomplete element exists, V-DA completes each camera's depth first),
+# BUILD (build folder for the tools when they are not on PATH, default build).
+# The static layer's depth for learnerseg/viewwarp: the empty classroom's depth per camera,
+# written by `vclassroom-eval-views --write-priors` (a stand-in for V-DA's prior depth).
+# Needs the plugins on GST_PLUGIN_PATH (run it through scripts/demo.sh or `meson devenv -C build`).
+set -euo pipefail
+HERE=$(cd "$(dirname "$0")" && pwd)
+OUT=${OUT:-out/all-in-one.mp4}
+FRAMES=${FRAMES:-300}
+TRACE=${TRACE:-$HERE/lecturer-walk.csv}
+SEED=${SEED:-1}
+LEARNERS=${LEARNERS:-6}
+BUILD=${BUILD:-build}
+mkdir -p "$(dirname "$OUT")"
+
+EVAL=$(command -v vclassroom-eval-views || echo "$BUILD/tools/vclassroom-eval-views")
+PRIORS=$(mktemp -d)
+trap 'rm -rf "$PRIORS"' EXIT
+"$EVAL" --write-priors "$PRIORS" > /dev/null
+
+VDA=""
+if [ -n "${MODEL:-}" ] && gst-inspect-1.0 depthcomplete > /dev/null 2>&1; then
+  VDA="! depthcomplete model=$MODEL"
+fi
+
+branches=""
+for k in 0 1 2; do
+  branches="$branches rgbdtestsrc camera-id=$k seed=$SEED learners=$LEARNERS num-buffers=$FRAMES ground-truth=false $VDA \
+    ! learnerseg prior-depth=$PRIORS/prior-cam$k.png \
+    ! viewwarp prior-depth=$PRIORS/prior-cam$k.png ! queue max-size-buffers=2 ! fuse.cam_$k"
+done
+echo "all-in-one: 3 cameras -> learnerseg -> viewwarp -> viewfuse (pose trace $TRACE) -> $OUT"
+eval gst-launch-1.0 -e \
+  viewfuse name=fuse pose-trace="$TRACE" ! videoconvert ! x264enc speed-preset=veryfast tune=zerolatency \
+  ! mp4mux ! filesink location="$OUT" $branches
+echo "wrote $OUT"
