@@ -84,9 +84,15 @@ void run_end_fill(const cv::Mat& src, const std::vector<cv::Point>& holes, const
   const int w = src.cols, h = src.rows;
   const double inv_sigma2 = 1.0 / (p.color_sigma * p.color_sigma);
   const bool has_color = !color.empty();
+  // exp(-d2 / sigma^2) for squared colour distances d2 in steps of 8 (0 beyond 6 sigma).
+  const int lut_size = static_cast<int>(36.0 * p.color_sigma * p.color_sigma / 8.0) + 2;
+  std::vector<float> color_lut(lut_size);
+  for (int i = 0; i < lut_size; ++i) color_lut[i] = static_cast<float>(std::exp(-8.0 * i * inv_sigma2));
   // Nearest valid row above / below each hole pixel, by two passes over the
   // holes (row-major order visits the pixel above first).
-  cv::Mat up(src.size(), CV_16SC1), down(src.size(), CV_16SC1);
+  thread_local cv::Mat up, down;
+  up.create(src.size(), CV_16SC1);
+  down.create(src.size(), CV_16SC1);
   for (const cv::Point& q : holes)
     up.at<int16_t>(q) = q.y == 0 ? -1 : (src.at<uint16_t>(q.y - 1, q.x) ? q.y - 1 : up.at<int16_t>(q.y - 1, q.x));
   for (auto it = holes.rbegin(); it != holes.rend(); ++it) {
@@ -120,18 +126,36 @@ void run_end_fill(const cv::Mat& src, const std::vector<cv::Point>& holes, const
         double cw = 1.0;
         if (has_color) {
           const cv::Vec3b c = color.at<cv::Vec3b>(cy[k], cx[k]);
-          const double dr = c[0] - c0[0], dg = c[1] - c0[1], db = c[2] - c0[2];
-          cw = std::exp(-(dr * dr + dg * dg + db * db) * inv_sigma2);
+          const int dr = c[0] - c0[0], dg = c[1] - c0[1], db = c[2] - c0[2];
+          const int bin = (dr * dr + dg * dg + db * db) >> 3;
+          cw = bin < lut_size ? color_lut[bin] : 0.0;
         }
         wgt[k] = (cw + 1e-6) / dist[k];
       }
-      // A run whose two ends lie on one surface: interpolate 1/Z (exact on a plane).
+      // A run whose two ends lie on one surface: interpolate 1/Z (exact on a
+      // plane). One surface: the ends agree, or one end's slope (1/Z is linear
+      // along an image line on a plane) carried across the hole reaches the other.
       double v[4] = {z[0], z[1], z[2], z[3]};
+      const int step_x[4] = {-1, 1, 0, 0}, step_y[4] = {0, 0, -1, 1};
+      auto beyond = [&](int k) -> double {
+        const int bx = cx[k] + step_x[k], by = cy[k] + step_y[k];
+        if (bx < 0 || by < 0 || bx >= w || by >= h) return 0;
+        return src.at<uint16_t>(by, bx);
+      };
+      auto reaches = [&](int from, int to) {
+        const double zb = beyond(from);
+        if (zb <= 0) return false;
+        const double slope = 1.0 / z[from] - 1.0 / zb;  // per pixel, towards the hole
+        const double inv = 1.0 / z[from] + slope * (dist[from] + dist[to]);
+        if (inv <= 0) return false;
+        return std::abs(1.0 / inv - z[to]) <= agree_tol(static_cast<int>(z[to]), p.agree_min_mm, p.agree_ratio);
+      };
       for (int pair = 0; pair < 2; ++pair) {
         const int m = 2 * pair, n = m + 1;
         if (!ok[m] || !ok[n]) continue;
-        if (std::abs(z[m] - z[n]) > agree_tol(static_cast<int>(std::min(z[m], z[n])), p.agree_min_mm, p.agree_ratio))
-          continue;
+        const bool agree =
+            std::abs(z[m] - z[n]) <= agree_tol(static_cast<int>(std::min(z[m], z[n])), p.agree_min_mm, p.agree_ratio);
+        if (!agree && !reaches(m, n) && !reaches(n, m)) continue;
         const double inv = (dist[n] / z[m] + dist[m] / z[n]) / (dist[m] + dist[n]);
         v[m] = v[n] = 1.0 / inv;
       }
@@ -164,28 +188,39 @@ std::vector<cv::Point> hole_list(const cv::Mat& depth) {
 
 }  // namespace
 
-void prior_fill(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& prior_color,
-                const cv::Mat& label, const PriorFillParams& p, cv::Mat& out) {
+void prior_fill(const cv::Mat& live, const cv::Mat& color, const StaticPrior& sp, const cv::Mat& label,
+                const PriorFillParams& p, cv::Mat& out) {
+  const cv::Mat& prior = sp.depth;
+  const cv::Mat& prior_color = sp.color;
   CV_Assert(live.type() == CV_16UC1 && prior.type() == CV_16UC1 && live.size() == prior.size());
   const bool color_test = p.color_tolerance > 0 && !color.empty() && !prior_color.empty();
   CV_Assert(!color_test || (color.type() == CV_8UC3 && prior_color.type() == CV_8UC3 &&
                             color.size() == live.size() && prior_color.size() == live.size()));
+  CV_Assert(sp.measured.empty() || (sp.measured.type() == CV_8UC1 && sp.measured.size() == live.size()));
   CV_Assert(label.empty() || (label.type() == CV_8UC1 && label.size() == live.size()));
   cv::Mat guard;
   if (p.learner_guard_px > 0) {
-    cv::Mat front(live.size(), CV_8UC1);
+    thread_local cv::Mat front, opened;
+    front.create(live.size(), CV_8UC1);
+    const int ratio_q16 = static_cast<int>(p.tolerance_ratio * 65536.0);
+    const int min_tol = p.tolerance_min_mm;
     for (int y = 0; y < live.rows; ++y) {
       const uint16_t* l = live.ptr<uint16_t>(y);
       const uint16_t* q = prior.ptr<uint16_t>(y);
       uint8_t* f = front.ptr<uint8_t>(y);
-      for (int x = 0; x < live.cols; ++x)
-        f[x] = (l[x] && q[x] && l[x] + agree_tol(q[x], p.tolerance_min_mm, p.tolerance_ratio) < q[x]) ? 255 : 0;
+      for (int x = 0; x < live.cols; ++x) {
+        const int tol = std::max(min_tol, (q[x] * ratio_q16) >> 16);
+        f[x] = (l[x] != 0) & (l[x] + tol < q[x]) ? 255 : 0;
+      }
     }
     // Flying pixels along the room's own depth edges are also "in front" but
-    // only a pixel or two wide; an opening keeps bodies and drops them.
-    cv::morphologyEx(front, front, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
-    const int k = 2 * p.learner_guard_px + 1;
-    cv::dilate(front, guard, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
+    // only a pixel or two wide: an opening (5x5) drops them and keeps bodies;
+    // its dilation and the guard's compose into one 5 + 2 guard wide dilation.
+    cv::erode(front, opened, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
+    const int k = 5 + 2 * p.learner_guard_px;
+    thread_local cv::Mat guard_buf;
+    cv::dilate(opened, guard_buf, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
+    guard = guard_buf;
   }
   out.create(live.size(), CV_16UC1);
   for (int y = 0; y < live.rows; ++y) {
@@ -195,6 +230,7 @@ void prior_fill(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior,
     const uint8_t* g = guard.empty() ? nullptr : guard.ptr<uint8_t>(y);
     const uint8_t* c = color_test ? color.ptr<uint8_t>(y) : nullptr;
     const uint8_t* pc = color_test ? prior_color.ptr<uint8_t>(y) : nullptr;
+    const uint8_t* meas = sp.measured.empty() || !p.measured_only ? nullptr : sp.measured.ptr<uint8_t>(y);
     const int ctol = p.color_tolerance;
     uint16_t* o = out.ptr<uint16_t>(y);
     for (int x = 0; x < live.cols; ++x) {
@@ -204,7 +240,7 @@ void prior_fill(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior,
           const bool room_colour = !c || (std::abs(c[3 * x] - pc[3 * x]) <= ctol &&
                                           std::abs(c[3 * x + 1] - pc[3 * x + 1]) <= ctol &&
                                           std::abs(c[3 * x + 2] - pc[3 * x + 2]) <= ctol);
-          if (!(g && g[x]) && room_colour) v = q[x];
+          if (!(g && g[x]) && room_colour && (!meas || meas[x])) v = q[x];
         } else if (std::abs(int(l[x]) - int(q[x])) <= agree_tol(q[x], p.tolerance_min_mm, p.tolerance_ratio)) {
           v = q[x];
         }
@@ -235,7 +271,8 @@ void guided_completion(const cv::Mat& depth, const cv::Mat& color, const GuidedC
     grow_agreeing(out, holes, k7, 3, p);         // hole fill
   }
   if (p.hole_fill && !holes.empty()) {
-    const cv::Mat stage = out.clone();
+    thread_local cv::Mat stage;
+    out.copyTo(stage);
     run_end_fill(stage, holes, color, p, out, ambiguous);
   }
   if (p.median && !all_holes.empty()) {
@@ -298,65 +335,80 @@ void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unkn
   CV_Assert(depth.type() == CV_16UC1 && unknown.type() == CV_8UC1 && unknown.size() == depth.size());
   CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
   const int w = depth.cols, h = depth.rows;
-  std::vector<int> idx;
+  std::vector<cv::Point> pts;
+  cv::findNonZero(unknown, pts);
   bool zero_unknown = false;
-  for (int y = 0; y < h; ++y) {
-    const uint8_t* u = unknown.ptr<uint8_t>(y);
-    const uint16_t* d = depth.ptr<uint16_t>(y);
-    for (int x = 0; x < w; ++x)
-      if (u[x]) {
-        idx.push_back(y * w + x);
-        zero_unknown |= d[x] == 0;
-      }
-  }
-  if (idx.empty()) return;
+  for (const cv::Point& q : pts) zero_unknown |= depth.at<uint16_t>(q) == 0;
+  if (pts.empty()) return;
   if (zero_unknown) {
     cv::Mat filled;
     nearest_fill(depth, filled);
     filled.copyTo(depth, unknown);
   }
-  // Working values in a float image; known pixels are read, unknown ones relaxed.
-  cv::Mat z;
-  depth.convertTo(z, CV_32F);
-  float* zp = z.ptr<float>();
-  const int off[8] = {-w - 1, -w, -w + 1, -1, 1, w - 1, w, w + 1};
-  const int dxs[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
-  const int dys[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
-  std::vector<float> weights(idx.size() * 8);
+  // Each unknown's equation is x_i = (c_i + sum_j w_ij x_j) / W_i: known
+  // neighbours are folded into c_i once, unknown ones are linked by index, so
+  // the work is proportional to the unknowns, not the image.
+  const size_t n = pts.size();
+  thread_local cv::Mat index_of;  // CV_32S, meaningful at unknown pixels only
+  index_of.create(depth.size(), CV_32S);
+  std::vector<float> x(n), c(n, 0.0f), wsum(n, 0.0f);
+  for (size_t i = 0; i < n; ++i) {
+    index_of.at<int>(pts[i]) = static_cast<int>(i);
+    x[i] = depth.at<uint16_t>(pts[i]);
+  }
+  struct Link {
+    int j;
+    float w;
+  };
+  std::vector<Link> links;
+  links.reserve(n * 8);
+  std::vector<size_t> first(n + 1);
   const double inv_c2 = 1.0 / (p.color_sigma * p.color_sigma);
-  for (size_t i = 0; i < idx.size(); ++i) {
-    const int x = idx[i] % w, y = idx[i] / w;
-    const float zr = zp[idx[i]];
+  // exp(-d2 / sigma^2) for squared colour distances d2 in steps of 8 (0 beyond 6 sigma).
+  const int lut_size = static_cast<int>(36.0 * p.color_sigma * p.color_sigma / 8.0) + 2;
+  std::vector<float> color_lut(lut_size);
+  for (int i = 0; i < lut_size; ++i) color_lut[i] = static_cast<float>(std::exp(-8.0 * i * inv_c2));
+  for (size_t i = 0; i < n; ++i) {
+    first[i] = links.size();
+    const int px = pts[i].x, py = pts[i].y;
+    const float zr = x[i];
     const double sd = std::max(1.0, p.depth_sigma_ratio * zr);
-    for (int k = 0; k < 8; ++k) {
-      const int nx = x + dxs[k], ny = y + dys[k];
-      float& wk = weights[i * 8 + k];
-      wk = 0;
-      if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
-      const float zs = zp[idx[i] + off[k]];
-      if (zs <= 0) continue;
-      double e = p.depth_sigma_ratio > 0 ? (zr - zs) * (zr - zs) / (sd * sd) : 0.0;
-      if (!color.empty()) {
-        const cv::Vec3b a = color.at<cv::Vec3b>(y, x), b = color.at<cv::Vec3b>(ny, nx);
-        const double dr = a[0] - b[0], dg = a[1] - b[1], db = a[2] - b[2];
-        e += (dr * dr + dg * dg + db * db) * inv_c2;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int nx = px + dx, ny = py + dy;
+        if ((!dx && !dy) || nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+        const float zs = depth.at<uint16_t>(ny, nx);
+        if (zs <= 0) continue;
+        float cw = 1.0f;
+        if (!color.empty()) {
+          const cv::Vec3b ca = color.at<cv::Vec3b>(py, px), cb = color.at<cv::Vec3b>(ny, nx);
+          const int dr = ca[0] - cb[0], dg = ca[1] - cb[1], db = ca[2] - cb[2];
+          const int bin = (dr * dr + dg * dg + db * db) >> 3;
+          cw = bin < lut_size ? color_lut[bin] : 0.0f;
+        }
+        if (p.depth_sigma_ratio > 0) cw *= static_cast<float>(std::exp(-(zr - zs) * (zr - zs) / (sd * sd)));
+        // A small floor keeps every unknown region tied to its surroundings,
+        // so the relaxation stays anchored where colours differ all round.
+        cw = std::max(cw, 1e-6f);
+        if (dx && dy) cw *= 0.70710678f;
+        wsum[i] += cw;
+        if (unknown.at<uint8_t>(ny, nx))
+          links.push_back(Link{index_of.at<int>(ny, nx), cw});
+        else
+          c[i] += cw * zs;
       }
-      wk = static_cast<float>(std::exp(-e) / ((dxs[k] && dys[k]) ? 1.41421356 : 1.0));
-    }
   }
+  first[n] = links.size();
   const float omega = static_cast<float>(p.relaxation);
-  for (int it = 0; it < p.iterations; ++it) {
-    for (size_t i = 0; i < idx.size(); ++i) {
-      const float* wk = &weights[i * 8];
-      float* zr = zp + idx[i];
-      float sw = 0, sv = 0;
-      for (int k = 0; k < 8; ++k)
-        if (wk[k] > 0) sw += wk[k], sv += wk[k] * zr[off[k]];
-      if (sw > 1e-12f) *zr += omega * (sv / sw - *zr);
+  for (int it = 0; it < p.iterations; ++it)
+    for (size_t i = 0; i < n; ++i) {
+      if (wsum[i] <= 1e-12f) continue;
+      float sv = c[i];
+      for (size_t l = first[i]; l < first[i + 1]; ++l) sv += links[l].w * x[links[l].j];
+      x[i] += omega * (sv / wsum[i] - x[i]);
     }
-  }
-  for (size_t i = 0; i < idx.size(); ++i)
-    depth.at<uint16_t>(idx[i] / w, idx[i] % w) = cv::saturate_cast<uint16_t>(zp[idx[i]]);
+  for (size_t i = 0; i < n; ++i)
+    if (std::isfinite(x[i]) && x[i] >= 1.0f) depth.at<uint16_t>(pts[i]) = cv::saturate_cast<uint16_t>(x[i]);
 }
 
 void ku_fast_fill(const cv::Mat& depth_mm, const KuFastParams& p, cv::Mat& out) {
@@ -421,11 +473,11 @@ void ku_fast_fill(const cv::Mat& depth_mm, const KuFastParams& p, cv::Mat& out) 
   }
 }
 
-void depth_complete(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& prior_color,
-                    const cv::Mat& label, const DepthCompleteOptions& o, cv::Mat& out) {
+void depth_complete(const cv::Mat& live, const cv::Mat& color, const StaticPrior& prior, const cv::Mat& label,
+                    const DepthCompleteOptions& o, cv::Mat& out) {
   CV_Assert(live.type() == CV_16UC1);
   if (o.use_prior && !prior.empty())
-    prior_fill(live, color, prior, prior_color, label, o.prior, out);
+    prior_fill(live, color, prior, label, o.prior, out);
   else
     live.copyTo(out);
   if (!o.image_guided && !o.colorization) return;

@@ -22,16 +22,27 @@ struct PriorFillParams {
   // A missing pixel takes the prior only where the live colour still looks
   // like the empty room's (largest RGB channel difference at most this); 0 = no test.
   int color_tolerance = 40;
+  // Holes take only prior depth some camera measured; the rest of the prior
+  // (filled offline) is left to the per-frame completion.
+  bool measured_only = false;
+};
+
+// What the static model knows of the empty room in one camera.
+struct StaticPrior {
+  cv::Mat depth;     // CV_16UC1 mm, D_i (complete: measured, then filled offline)
+  cv::Mat color;     // CV_8UC3 RGB, the empty room's colour; may be empty (no colour test)
+  cv::Mat measured;  // CV_8UC1, 255 where some camera measured the depth; empty = all
+  bool empty() const { return depth.empty(); }
 };
 
 // out = live where live is in front of the prior (learners, new objects) or
-// behind it; the prior where live is missing (no learner near, and the colour
-// still that of the empty room) or where live agrees with it (the prior is the
-// less noisy measurement of the static room). `color` / `prior_color` (CV_8UC3,
-// either may be empty: no colour test): the live image and the empty room's.
-// `label` (CV_8UC1, may be empty): pixels with label > 0 never take the prior.
-void prior_fill(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& prior_color,
-                const cv::Mat& label, const PriorFillParams& p, cv::Mat& out);
+// behind it; the prior where live is missing (no learner near, the colour still
+// that of the empty room, and the prior measured there rather than filled) or
+// where live agrees with it (the prior is the less noisy measurement of the
+// static room). `color` (CV_8UC3, may be empty): the live image. `label`
+// (CV_8UC1, may be empty): pixels with label > 0 never take the prior.
+void prior_fill(const cv::Mat& live, const cv::Mat& color, const StaticPrior& prior, const cv::Mat& label,
+                const PriorFillParams& p, cv::Mat& out);
 
 // The Ku et al.-style stage, with its changes for indoor depth in mm: depth is
 // inverted (max_depth_mm - D) so dilation prefers the nearer surface, but
@@ -48,7 +59,7 @@ struct GuidedCompletionParams {
   bool hole_fill = true;            // colour-guided fill of the remaining holes
   double color_sigma = 20.0;        // colour distance (8-bit RGB, L2) at which a run end's weight falls to 1/e
   bool median = true;               // median over filled pixels only
-  int median_size = 5;              // 3 or 5
+  int median_size = 3;              // 3 or 5
   // A hole pixel is ambiguous when the run ends that disagree with the chosen
   // surface carry more than this share of the colour weight (typically at a
   // depth edge whose colours do not tell the sides apart).
@@ -63,13 +74,13 @@ struct GuidedCompletionParams {
 void guided_completion(const cv::Mat& depth, const cv::Mat& color, const GuidedCompletionParams& p, cv::Mat& out,
                        cv::Mat* filled = nullptr, cv::Mat* ambiguous = nullptr);
 
-// Colorization-style fill (Levin et al.): the depth of each unknown pixel r is
+// Colorization-style fill (Levin et al.): the value of each unknown pixel r is
 // the colour-weighted mean of its 8 neighbours, D(r) = sum_s w_rs D(s), solved
-// by successive over-relaxation with the known pixels fixed. The weights also
-// fall with the depth difference of the current estimate, so a solve started
-// from a good fill refines surfaces without smearing depth edges.
+// by successive over-relaxation with the known pixels fixed, started from the
+// current fill. Optionally the weights also fall with the difference of the
+// starting values (depth_sigma_ratio).
 struct ColorizationParams {
-  int iterations = 30;
+  int iterations = 10;  // per frame, starting from the image-guided fill; the offline model uses more
   double color_sigma = 12.0;     // RGB L2 distance, 8-bit
   double depth_sigma_ratio = 0;  // depth difference (share of depth) at which weights fall to 1/e; 0 = colour only
   double relaxation = 1.6;       // SOR factor in [1, 2)
@@ -108,9 +119,9 @@ struct DepthCompleteOptions {
   ColorizationParams colorize;
 };
 
-// Runs the enabled stages in order. `prior`, `prior_color` and `label` may be
-// empty (without `prior` the prior stage is skipped). `out` must not alias `live`.
-void depth_complete(const cv::Mat& live, const cv::Mat& color, const cv::Mat& prior, const cv::Mat& prior_color,
-                    const cv::Mat& label, const DepthCompleteOptions& o, cv::Mat& out);
+// Runs the enabled stages in order. `prior` and `label` may be empty (without a
+// prior the prior stage is skipped). `out` must not alias `live`.
+void depth_complete(const cv::Mat& live, const cv::Mat& color, const StaticPrior& prior, const cv::Mat& label,
+                    const DepthCompleteOptions& o, cv::Mat& out);
 
 }  // namespace vclassroom

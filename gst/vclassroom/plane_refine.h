@@ -40,17 +40,23 @@ struct PlaneMaps {
 };
 
 // Tolerance for "this depth lies on the plane": max(min_mm, ratio * depth).
+// The default suits live sensor depth (about 3 sigma of a consumer ToF camera
+// at 5 m).
 struct PlaneTolerance {
-  int min_mm = 30;
-  double ratio = 0.025;
+  int min_mm = 20;
+  double ratio = 0.015;
   int at(int depth_mm) const { return std::max(min_mm, static_cast<int>(ratio * depth_mm)); }
 };
+
+// Membership tolerance for priors whose plane pixels were snapped when the
+// model was built (build_static_model does): they lie on the plane to rounding.
+inline constexpr PlaneTolerance kSnappedPriorTolerance{3, 0.0};
 
 // Assigns each pixel the nearest plane whose depth along its ray agrees with
 // the static room's prior depth (CV_16UC1 mm, the camera's size) within `tol`.
 // Throws Error when the prior's size is not the camera's.
 PlaneMaps plane_maps_for_camera(const std::vector<RoomPlane>& planes, const CameraCalib& cam, const cv::Mat& prior,
-                                const PlaneTolerance& tol = {});
+                                const PlaneTolerance& tol = kSnappedPriorTolerance);
 
 // out = the plane's depth where `maps` has a plane and `depth` lies within
 // tolerance of it; `depth` elsewhere (learners, objects off the plane, holes).

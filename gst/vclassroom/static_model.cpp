@@ -33,6 +33,10 @@ std::string prior_path(const std::string& folder, int id) {
   return folder + "/prior-depth/cam" + std::to_string(id) + ".png";
 }
 
+std::string measured_path(const std::string& folder, int id) {
+  return folder + "/prior-measured/cam" + std::to_string(id) + ".png";
+}
+
 std::string color_path(const std::string& folder, int id) {
   return folder + "/prior-color/cam" + std::to_string(id) + ".png";
 }
@@ -124,6 +128,15 @@ cv::Mat StaticModel::color(int id) const {
   return it == prior_color.end() ? cv::Mat() : it->second;
 }
 
+StaticPrior StaticModel::prior_for(int id) const {
+  StaticPrior p;
+  p.depth = prior(id);
+  p.color = color(id);
+  auto it = prior_measured.find(id);
+  if (it != prior_measured.end()) p.measured = it->second;
+  return p;
+}
+
 cv::Mat median_depth(const std::vector<cv::Mat>& frames, double min_share) {
   if (frames.empty()) throw Error("median_depth: no frames");
   const cv::Size size = frames[0].size();
@@ -172,8 +185,9 @@ std::vector<ExtrinsicsChange> refine_extrinsics(Rig& rig, const std::map<int, cv
     const Eigen::Isometry3d T0 = T;
     ExtrinsicsChange ch;
     ch.camera_id = cam.id;
+    double robust_c = o.icp_max_distance_m;
     for (int it = 0; it < o.icp_iterations; ++it) {
-      const double maxd = std::max(0.02, o.icp_max_distance_m * std::pow(0.85, it));
+      const double maxd = std::max(0.03, o.icp_max_distance_m * std::pow(0.9, it));
       Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
       Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
       double sse = 0;
@@ -189,15 +203,20 @@ std::vector<ExtrinsicsChange> refine_extrinsics(Rig& rig, const std::map<int, cv
         const Eigen::Vector3d r(rp[0], rp[1], rp[2]), nn(rn[0], rn[1], rn[2]);
         if ((q - r).norm() > maxd) continue;
         const double e = nn.dot(q - r);
+        // Tukey weights: occlusion boundaries and flying pixels pair wrong surfaces.
+        const double ur = e / robust_c;
+        if (std::abs(ur) >= 1) continue;
+        const double wt = (1 - ur * ur) * (1 - ur * ur);
         Eigen::Matrix<double, 6, 1> J;
         J << q.cross(nn), nn;
-        A += J * J.transpose();
-        b += J * e;
+        A += wt * J * J.transpose();
+        b += wt * J * e;
         sse += e * e;
         ++n;
       }
       if (n < 6) break;
       const double rms = std::sqrt(sse / n) * 1000.0;
+      robust_c = std::max(0.01, 3.0 * rms / 1000.0);
       if (it == 0) ch.rms_before_mm = rms;
       ch.rms_after_mm = rms;
       ch.pairs = n;
@@ -366,12 +385,15 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
   // then offline completion guided by the camera's colour, then plane snapping.
   for (const CameraCalib& cam : m.rig.cameras) {
     cv::Mat prior = depth[cam.id].clone();
-    const cv::Mat splat = splat_depth(m.points, cam, o.voxel_m);
-    for (int v = 0; v < prior.rows; ++v)
-      for (int u = 0; u < prior.cols; ++u)
-        if (!prior.at<uint16_t>(v, u)) prior.at<uint16_t>(v, u) = splat.at<uint16_t>(v, u);
+    if (o.fill_from_other_cameras) {
+      const cv::Mat splat = splat_depth(m.points, cam, o.voxel_m);
+      for (int v = 0; v < prior.rows; ++v)
+        for (int u = 0; u < prior.cols; ++u)
+          if (!prior.at<uint16_t>(v, u)) prior.at<uint16_t>(v, u) = splat.at<uint16_t>(v, u);
+    }
     cv::Mat unknown;
     cv::compare(prior, 0, unknown, cv::CMP_EQ);
+    m.prior_measured[cam.id] = unknown == 0;
     const cv::Mat& col = color[cam.id].empty() ? cv::Mat() : color[cam.id];
     cv::Mat filled;
     guided_completion(prior, col, o.guided, filled);
@@ -451,6 +473,9 @@ void save_static_model(const StaticModel& m, const std::string& folder) {
   }
   for (const auto& [id, prior] : m.prior_depth)
     if (!cv::imwrite(prior_path(folder, id), prior)) throw Error(prior_path(folder, id) + ": cannot write");
+  if (!m.prior_measured.empty()) make_dir(folder + "/prior-measured");
+  for (const auto& [id, mask] : m.prior_measured)
+    if (!cv::imwrite(measured_path(folder, id), mask)) throw Error(measured_path(folder, id) + ": cannot write");
   if (!m.prior_color.empty()) make_dir(folder + "/prior-color");
   for (const auto& [id, col] : m.prior_color) {
     cv::Mat bgr;
@@ -509,6 +534,13 @@ StaticModel load_static_model(const std::string& folder) {
                   " but rig.yaml gives camera " + std::to_string(cam.id) + " " + std::to_string(cam.width) + "x" +
                   std::to_string(cam.height));
     m.prior_depth[cam.id] = prior;
+    const cv::Mat measured = cv::imread(measured_path(folder, cam.id), cv::IMREAD_GRAYSCALE);
+    if (!measured.empty()) {  // optional: without it every prior pixel counts as measured
+      if (measured.size() != prior.size())
+        throw Error(where + ": " + measured_path(folder, cam.id) + " is not " + std::to_string(cam.width) + "x" +
+                    std::to_string(cam.height));
+      m.prior_measured[cam.id] = measured;
+    }
     const cv::Mat bgr = cv::imread(color_path(folder, cam.id), cv::IMREAD_COLOR);
     if (bgr.empty()) continue;  // optional: without it depthcomplete skips its colour test
     if (bgr.cols != cam.width || bgr.rows != cam.height)

@@ -29,7 +29,7 @@ struct CameraCapture {
 
 struct StaticModelOptions {
   bool refine_extrinsics = true;
-  int icp_iterations = 20;
+  int icp_iterations = 40;
   int icp_stride = 4;              // use every n-th pixel of each camera's depth
   double icp_max_distance_m = 0.10;
   double voxel_m = 0.01;           // fused cloud resolution
@@ -38,11 +38,13 @@ struct StaticModelOptions {
   double min_plane_share = 0.01;   // a plane explains at least this share of the fused points
   int ransac_iterations = 400;
   uint64_t seed = 1;
+  // Fill each camera's unmeasured pixels from the other cameras' points (the fused cloud projected in).
+  bool fill_from_other_cameras = true;
   // Tolerance with which prior pixels are snapped to the planes.
   PlaneTolerance plane_tolerance{20, 0.01};
   // Offline completion of each prior: image-guided fill, then colorization.
   GuidedCompletionParams guided;
-  ColorizationParams colorize{200, 12.0, 0.04, 1.8};
+  ColorizationParams colorize{1000, 12.0, 0.0, 1.8};
 };
 
 // How much ICP moved one camera's extrinsics, and how well it fits.
@@ -62,12 +64,15 @@ struct StaticModel {
   std::vector<RoomPlane> planes;          // rig frame
   std::map<int, cv::Mat> prior_depth;     // camera id -> D_i (CV_16UC1 mm, camera size)
   std::map<int, cv::Mat> prior_color;     // camera id -> the empty room's colour (CV_8UC3 RGB); may be absent
+  std::map<int, cv::Mat> prior_measured;  // camera id -> 255 where D_i was measured, 0 where filled; may be absent
   std::vector<ExtrinsicsChange> refinement;  // one per camera but the reference
 
   // D_i of camera `id`; throws Error when the model has none.
   const cv::Mat& prior(int id) const;
   // The empty room's colour seen by camera `id`; an empty Mat when unknown.
   cv::Mat color(int id) const;
+  // Everything depthcomplete needs of camera `id`; throws Error when the model has no prior for it.
+  StaticPrior prior_for(int id) const;
 };
 
 // Per-pixel median of the valid measurements of several depth frames (robust
@@ -100,7 +105,7 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
 bool align_model_to_room(StaticModel& m);
 
 // Model folder: rig.yaml (refined rig), planes.csv, prior-depth/cam<ID>.png,
-// prior-color/cam<ID>.png, fused.ply, refinement.csv. Throws Error naming the file.
+// prior-color/cam<ID>.png, prior-measured/cam<ID>.png, fused.ply, refinement.csv. Throws Error naming the file.
 void save_static_model(const StaticModel& m, const std::string& folder);
 // Reads rig.yaml, planes.csv, every camera's prior depth and (when present)
 // colour; the cloud is not needed per frame and not read. Throws Error naming the folder and file.

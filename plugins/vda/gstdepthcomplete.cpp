@@ -45,7 +45,7 @@ struct CompleteState {
 
   // Streaming thread (set in set_caps).
   RgbdInfo info;
-  cv::Mat prior, prior_color;
+  StaticPrior prior;
   cv::Mat scratch;
 };
 }  // namespace
@@ -85,13 +85,11 @@ static gboolean gst_depth_complete_set_caps(GstBaseTransform* trans, GstCaps* in
     folder = st->model_folder;
     use_prior = st->options.use_prior;
   }
-  st->prior.release();
-  st->prior_color.release();
+  st->prior = StaticPrior();
   if (!folder.empty()) {
     try {
       const StaticModel m = vda::load_model_for_stream(folder, info);
-      st->prior = m.prior(info.camera.id);
-      st->prior_color = m.color(info.camera.id);
+      st->prior = m.prior_for(info.camera.id);
     } catch (const Error& e) {
       GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("depthcomplete model=%s", folder.c_str()));
       return FALSE;
@@ -126,7 +124,7 @@ static GstFlowReturn gst_depth_complete_prepare_output_buffer(GstBaseTransform* 
       return GST_FLOW_ERROR;
     }
     const cv::Mat label = use_labels ? frame.label() : cv::Mat();
-    depth_complete(frame.depth(), frame.color(), st->prior, st->prior_color, label, o, st->scratch);
+    depth_complete(frame.depth(), frame.color(), st->prior, label, o, st->scratch);
     st->scratch.copyTo(depth_out.mat);
   }
   *out = depth_out.finish(in, st->info, &err);

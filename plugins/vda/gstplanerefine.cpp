@@ -66,11 +66,9 @@ static gboolean gst_plane_refine_set_caps(GstBaseTransform* trans, GstCaps* inca
     return FALSE;
   }
   std::string folder;
-  PlaneTolerance tol;
   {
     std::lock_guard<std::mutex> g(st->lock);
     folder = st->model_folder;
-    tol = st->tolerance;
   }
   if (folder.empty()) {
     GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("planerefine has no static model"),
@@ -81,7 +79,7 @@ static gboolean gst_plane_refine_set_caps(GstBaseTransform* trans, GstCaps* inca
     const StaticModel m = vda::load_model_for_stream(folder, info);
     // The planes are carried into this camera through the model's (refined) extrinsics.
     const CameraCalib& cam = m.rig.camera(info.camera.id);
-    st->maps = plane_maps_for_camera(m.planes, cam, m.prior(cam.id), tol);
+    st->maps = plane_maps_for_camera(m.planes, cam, m.prior(cam.id));
     st->have_maps = true;
   } catch (const Error& e) {
     GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("planerefine model=%s", folder.c_str()));
@@ -196,13 +194,13 @@ static void gst_plane_refine_class_init(GstPlaneRefineClass* klass) {
       gobject_class, PROP_TOLERANCE,
       g_param_spec_uint("tolerance", "Tolerance (mm)",
                         "Depth within max(tolerance, tolerance-ratio x depth) of the pixel's plane is snapped to "
-                        "it; farther (learners, objects on the plane) is left alone. Read when caps arrive",
-                        0, 10000, static_cast<guint>(d.min_mm), ready));
+                        "it; farther (learners, objects on the plane) is left alone",
+                        0, 10000, static_cast<guint>(d.min_mm), GParamFlags(flags | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_TOLERANCE_RATIO,
       g_param_spec_double("tolerance-ratio", "Tolerance ratio",
                           "Share of the depth added to the tolerance at range (sensor noise grows with depth)", 0.0,
-                          1.0, d.ratio, ready));
+                          1.0, d.ratio, GParamFlags(flags | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_USE_LABELS,
       g_param_spec_boolean("use-labels", "Use the label plane",
