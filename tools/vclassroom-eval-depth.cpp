@@ -6,6 +6,7 @@
 //      way real sensors lose them, against the original.
 // With --bench it only measures the per-frame time of depthcomplete +
 // planerefine on 960x540 synthetic frames on one core.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -225,6 +226,13 @@ void eval_middlebury(const Args& a) {
         const int d = disp.at<uint8_t>(y, x);
         gt.at<uint16_t>(y, x) = d ? disparity_to_depth_mm(d, g.focal_px, 4 * g.view_spacing_m) : 0;
       }
+    // Picture range: the 2nd and 98th percentiles of the ground truth.
+    std::vector<uint16_t> vals;
+    for (int y = 0; y < gt.rows; y += 4)
+      for (int x = 0; x < gt.cols; x += 4)
+        if (gt.at<uint16_t>(y, x)) vals.push_back(gt.at<uint16_t>(y, x));
+    std::sort(vals.begin(), vals.end());
+    const double lo = vals.empty() ? 0 : vals[vals.size() * 2 / 100], hi = vals.empty() ? 1 : vals[vals.size() * 98 / 100];
     const cv::Mat knocked = knock_out_mask(gt, color, a.knockout_seed);
     cv::Mat input = gt.clone();
     input.setTo(0, knocked);
@@ -287,10 +295,10 @@ void eval_middlebury(const Args& a) {
         if (name.rfind("baseline: nearest", 0) == 0) pic = "art-nearest";
         if (name == "baseline: Ku fast (extrapolate)") pic = "art-kufast";
         if (name.rfind("+colorization", 0) == 0) pic = "art-vda";
-        if (!pic.empty()) write_picture(a.images, pic, out, 6000, 20000);
+        if (!pic.empty()) write_picture(a.images, pic, out, lo, hi);
       }
     }
-    if (!a.images.empty() && scene == "art") write_picture(a.images, "art-gt", gt, 6000, 20000);
+    if (!a.images.empty() && scene == "art") write_picture(a.images, "art-gt", gt, lo, hi);
     char title[512];
     std::snprintf(title, sizeof title,
                   "Middlebury %s view 1 (%dx%d), GT depth from disp1.png (f = 3740 px, B = 160 mm); %.1f%% of GT "

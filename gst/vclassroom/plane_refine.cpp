@@ -62,16 +62,21 @@ void plane_refine(const cv::Mat& depth, const PlaneMaps& maps, const cv::Mat& la
   CV_Assert(depth.type() == CV_16UC1 && maps.depth.size() == depth.size() && maps.index.size() == depth.size());
   CV_Assert(label.empty() || (label.type() == CV_8UC1 && label.size() == depth.size()));
   if (out.data != depth.data) depth.copyTo(out);
-  for (int y = 0; y < depth.rows; ++y) {
-    const uint8_t* idx = maps.index.ptr<uint8_t>(y);
-    const uint16_t* pd = maps.depth.ptr<uint16_t>(y);
-    const uint8_t* lab = label.empty() ? nullptr : label.ptr<uint8_t>(y);
-    uint16_t* o = out.ptr<uint16_t>(y);
-    for (int x = 0; x < depth.cols; ++x) {
-      if (idx[x] == PlaneMaps::kNoPlane || !o[x] || (lab && lab[x])) continue;
-      if (std::abs(int(o[x]) - int(pd[x])) <= tol.at(pd[x])) o[x] = pd[x];
-    }
+  // Whole-image vector operations: this runs on every frame.
+  thread_local cv::Mat allowed, diff, on_plane, has_depth;
+  maps.depth.convertTo(allowed, CV_16U, tol.ratio);
+  cv::max(allowed, cv::Scalar(tol.min_mm), allowed);
+  cv::absdiff(out, maps.depth, diff);
+  cv::compare(diff, allowed, on_plane, cv::CMP_LE);
+  cv::compare(maps.index, PlaneMaps::kNoPlane, has_depth, cv::CMP_NE);
+  on_plane &= has_depth;
+  cv::compare(out, 0, has_depth, cv::CMP_NE);
+  on_plane &= has_depth;
+  if (!label.empty()) {
+    cv::compare(label, 0, has_depth, cv::CMP_EQ);
+    on_plane &= has_depth;
   }
+  maps.depth.copyTo(out, on_plane);
 }
 
 }  // namespace vclassroom
