@@ -16,8 +16,8 @@ nav="sliders=\"$SLIDERS\""
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
-desc="udpsrc port=$VIDEO_PORT caps=\"application/x-rtp,media=video,clock-rate=90000,encoding-name=VP8,payload=96,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
-  rtpjitterbuffer latency=30 ! rtpvp8depay ! vp8dec ! posesend name=back ! videoconvert ! posenav $nav ! $SINK \
+desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
+  rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! posenav $nav ! $SINK \
   back.rtp ! udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $desc

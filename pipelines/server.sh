@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Server: N RTP camera inputs -> decode -> V-DA -> V-VA -> VP8 -> RTP -> UDP to the lecturer;
+# Server: N RTP camera inputs -> decode -> V-DA -> V-VA -> JPEG -> RTP -> UDP to the lecturer;
 # pose packets from the lecturer come back on POSE_PORT and steer the view.
 # Variables: CAMERAS (ids, default "0 1 2"), BASE_PORT (camera k on BASE_PORT + k, default 5000),
+#   CAMERA_PORTS (one port per camera in CAMERAS order, instead of BASE_PORT + k),
 #   LECTURER (host, default 127.0.0.1), VIDEO_PORT (default 5010), POSE_PORT (default 5011),
 #   MODEL (folder from vclassroom-build-model; empty: no V-DA), RIG (rig file; empty: the default classroom rig),
-#   WIDTH/HEIGHT (virtual view, default 960x540), BITRATE (VP8 kbit/s, default 4000).
+#   WIDTH/HEIGHT (virtual view, default 960x540), QUALITY (JPEG quality of the lecturer's video, default 90).
 set -euo pipefail
 CAMERAS=${CAMERAS:-"0 1 2"}
 BASE_PORT=${BASE_PORT:-5000}
@@ -15,29 +16,33 @@ MODEL=${MODEL:-}
 RIG=${RIG:-}
 WIDTH=${WIDTH:-960}
 HEIGHT=${HEIGHT:-540}
-BITRATE=${BITRATE:-4000}
+QUALITY=${QUALITY:-90}
 # A 960x540 RGB-D frame is ~400 packets sent at once: the socket must hold a few frames.
 UDP_BUFFER=${UDP_BUFFER:-33554432}
 POSE_EXT="extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose"
 
+read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
 branches=""
+i=0
 for k in $CAMERAS; do
+  port=${camera_ports[$i]:-$((BASE_PORT + k))}
+  i=$((i + 1))
   vda=""
   [ -n "$MODEL" ] && vda="depthcomplete model=$MODEL ! planerefine model=$MODEL !"
   prior=""
   [ -n "$MODEL" ] && prior="prior-depth=$MODEL/prior-depth/cam$k.png"
   rig=""
   [ -n "$RIG" ] && rig="rig=$RIG"
-  branches="$branches udpsrc port=$((BASE_PORT + k)) buffer-size=$UDP_BUFFER caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST\" ! \
+  branches="$branches udpsrc port=$port buffer-size=$UDP_BUFFER caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST\" ! \
     rtpjitterbuffer latency=50 drop-on-latency=true ! rtpgstdepay ! rgbddec ! queue max-size-buffers=2 leaky=downstream ! \
     $vda learnerseg $prior ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
-desc="viewfuse name=fuse latency=100000000 ! poserecv name=poses ! videoconvert ! \
-  vp8enc deadline=1 cpu-used=8 lag-in-frames=0 end-usage=cbr target-bitrate=$((BITRATE * 1000)) keyframe-max-dist=15 ! \
-  rtpvp8pay ! application/x-rtp,$POSE_EXT ! udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
+desc="viewfuse name=fuse latency=100000000 ! poserecv name=poses ! \
+  jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=1400 ! application/x-rtp,$POSE_EXT ! \
+  udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
   udpsrc port=$POSE_PORT caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! poses.rtp \
   $branches"
 # shellcheck disable=SC2086

@@ -191,9 +191,9 @@ int main(int argc, char** argv) {
   // The lecturer: as pipelines/lecturer.sh, with a probe before the sink.
   GError* err = nullptr;
   GstElement* lect = gst_parse_launch(
-      "udpsrc name=video port=5010 buffer-size=8388608 caps=\"application/x-rtp,media=video,clock-rate=90000,"
-      "encoding-name=VP8,payload=96,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! "
-      "rtpjitterbuffer latency=30 ! rtpvp8depay ! vp8dec ! posesend name=back ! videoconvert ! "
+      "udpsrc name=video port=5010 buffer-size=8388608 caps=\"application/x-rtp,media=application,clock-rate=90000,"
+      "encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! "
+      "rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! "
       "fakesink name=display sync=false  back.rtp ! udpsink host=127.0.0.1 port=5011 sync=false async=false",
       &err);
   if (!lect || err) {
