@@ -92,18 +92,19 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
       }
     }
   }
-  cv::morphologyEx(fg_, fg_, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(3, 3)));
-  cv::morphologyEx(fg_, fg_, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7)));
+  // Rectangular kernels: separable, several times cheaper than ellipses at this size.
+  cv::morphologyEx(fg_, fg_, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
+  cv::morphologyEx(fg_, fg_, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(7, 7)));
   const int n = cv::connectedComponentsWithStats(fg_, cc_labels_, cc_stats_, cc_centroids_, 8, CV_32S);
   const int min_area = std::max(20, int(p_.min_area_ratio * W * H));
 
   // Overlap of each blob with last frame's learners.
-  std::vector<std::map<int, int>> overlap(n);
+  std::vector<int> overlap(size_t(n) * 256, 0);
   for (int y = 0; y < H; ++y) {
     const int* l = cc_labels_.ptr<int>(y);
     const uint8_t* pl = prev_label_.ptr<uint8_t>(y);
     for (int x = 0; x < W; ++x)
-      if (l[x] && pl[x]) ++overlap[l[x]][pl[x]];
+      if (l[x] && pl[x]) ++overlap[size_t(l[x]) * 256 + pl[x]];
   }
   std::vector<int> blob_id(n, 0);
   std::vector<LearnerTrack> next;
@@ -148,8 +149,8 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
   for (int i = 1; i < n; ++i) {
     if (desc[i].area < min_area) continue;
     int best = 0, best_count = 0;
-    for (auto [id, count] : overlap[i])
-      if (count > best_count) best = id, best_count = count;
+    for (int id = 1; id < 256; ++id)
+      if (overlap[size_t(i) * 256 + id] > best_count) best = id, best_count = overlap[size_t(i) * 256 + id];
     if (best && best_count >= std::min(desc[i].area, find_active(best) ? find_active(best)->area : 1) / 5)
       blob_id[i] = best;
   }

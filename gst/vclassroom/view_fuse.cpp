@@ -21,15 +21,25 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   float wlut[256];
   for (int i = 0; i < 256; ++i) wlut[i] = float(std::pow(i / 255.0, prm.weight_power));
   const float tol_ratio = float(prm.depth_tol_ratio), tol_mm = float(prm.depth_tol_mm);
+  struct Row {
+    const cv::Vec3b* c;
+    const uint16_t* d;
+    const uint8_t* l;
+    const uint8_t* w;
+  };
+  std::vector<Row> rows(k);
   for (int y = 0; y < size.height; ++y) {
+    for (size_t c = 0; c < k; ++c)
+      rows[c] = Row{views[c]->color.ptr<cv::Vec3b>(y), views[c]->depth.ptr<uint16_t>(y),
+                    views[c]->label.empty() ? nullptr : views[c]->label.ptr<uint8_t>(y), views[c]->weight.ptr<uint8_t>(y)};
     cv::Vec3b* oc = out->color.ptr<cv::Vec3b>(y);
     uint16_t* od = out->depth.ptr<uint16_t>(y);
     uint8_t* ol = out->label.ptr<uint8_t>(y);
     for (int x = 0; x < size.width; ++x) {
       int zmin = 65536;
       for (size_t c = 0; c < k; ++c) {
-        const int z = views[c]->depth.ptr<uint16_t>(y)[x];
-        if (z && views[c]->weight.ptr<uint8_t>(y)[x] && z < zmin) zmin = z;
+        const int z = rows[c].d[x];
+        if (z && rows[c].w[x] && z < zmin) zmin = z;
       }
       if (zmin == 65536) {
         oc[x] = cv::Vec3b(0, 0, 0);
@@ -41,11 +51,11 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
       float acc[3] = {0, 0, 0}, wsum = 0, zsum = 0, wbest = -1;
       uint8_t lab = 0;
       for (size_t c = 0; c < k; ++c) {
-        const int z = views[c]->depth.ptr<uint16_t>(y)[x];
-        const uint8_t wq = views[c]->weight.ptr<uint8_t>(y)[x];
+        const int z = rows[c].d[x];
+        const uint8_t wq = rows[c].w[x];
         if (!z || !wq || z > limit) continue;
         const float w = wlut[wq] + 1e-6f;
-        const cv::Vec3b p = views[c]->color.ptr<cv::Vec3b>(y)[x];
+        const cv::Vec3b p = rows[c].c[x];
         acc[0] += w * p[0];
         acc[1] += w * p[1];
         acc[2] += w * p[2];
@@ -53,7 +63,7 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
         wsum += w;
         if (w > wbest) {
           wbest = w;
-          lab = views[c]->label.ptr<uint8_t>(y)[x];
+          lab = rows[c].l ? rows[c].l[x] : 0;
         }
       }
       const float iw = 1.0f / wsum;
@@ -82,7 +92,9 @@ void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double backgroun
     uint16_t dist;
     cv::Vec3b c;
   };
-  std::vector<Cand> cand(size_t(W) * H * 4, Cand{0, 0, {}});
+  // Scratch kept per thread: a 960x540 frame needs 16 MB, too much to allocate each frame.
+  static thread_local std::vector<Cand> cand;
+  cand.resize(size_t(W) * H * 4);
   auto at = [&](int x, int y, int dir) -> Cand& { return cand[(size_t(y) * W + x) * 4 + dir]; };
   bool any_hole = false;
   for (int y = 0; y < H; ++y) {
@@ -107,23 +119,29 @@ void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double backgroun
     }
   }
   if (!any_hole) return;
-  for (int x = 0; x < W; ++x) {
-    Cand last{0, 0, {}};
-    for (int y = 0; y < H; ++y) {
-      const uint16_t d = depth.ptr<uint16_t>(y)[x];
-      if (d) last = Cand{d, 0, color.ptr<cv::Vec3b>(y)[x]};
+  // Columns, walked row by row (cache friendly): one running candidate per column.
+  static thread_local std::vector<Cand> col;
+  col.assign(size_t(W), Cand{0, 0, {}});
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* d = depth.ptr<uint16_t>(y);
+    const cv::Vec3b* c = color.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < W; ++x) {
+      if (d[x]) col[x] = Cand{d[x], 0, c[x]};
       else {
-        if (last.z) ++last.dist;
-        at(x, y, 2) = last;
+        if (col[x].z) ++col[x].dist;
+        at(x, y, 2) = col[x];
       }
     }
-    last = Cand{0, 0, {}};
-    for (int y = H - 1; y >= 0; --y) {
-      const uint16_t d = depth.ptr<uint16_t>(y)[x];
-      if (d) last = Cand{d, 0, color.ptr<cv::Vec3b>(y)[x]};
+  }
+  col.assign(size_t(W), Cand{0, 0, {}});
+  for (int y = H - 1; y >= 0; --y) {
+    const uint16_t* d = depth.ptr<uint16_t>(y);
+    const cv::Vec3b* c = color.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < W; ++x) {
+      if (d[x]) col[x] = Cand{d[x], 0, c[x]};
       else {
-        if (last.z) ++last.dist;
-        at(x, y, 3) = last;
+        if (col[x].z) ++col[x].dist;
+        at(x, y, 3) = col[x];
       }
     }
   }

@@ -189,7 +189,10 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     // Quality of this camera for the point: the angle between its ray and the
     // virtual ray, and how much farther it is than the virtual camera.
     float w = 1.0f;
-    if (tn > 1e-6f) {
+    // The weight varies slowly across the image: compute it every 4th pixel.
+    if (tn > 1e-6f && (i & 3) && i > 0 && pz_[i - 1] > 0) {
+      w = pw_[i - 1];
+    } else if (tn > 1e-6f) {
       const float dvx = qx - t.x(), dvy = qy - t.y(), dvz = qz - t.z();  // from the source centre
       const float nq = std::sqrt(qx * qx + qy * qy + qz * qz);
       const float nd = std::sqrt(dvx * dvx + dvy * dvy + dvz * dvz);
@@ -294,6 +297,19 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     };
     constexpr float kCell = 0.5f + 1e-3f;
     constexpr float kEdge = 0.02f;
+    constexpr uint8_t kRight = 1, kDown = 2;
+    // Which neighbours (right, below) lie on the same surface: each test once.
+    links_.resize(n);
+    for (int v = 0; v < H; ++v)
+      for (int u = 0; u < W; ++u) {
+        const size_t i = size_t(v) * W + u;
+        uint8_t f = 0;
+        if (pz_[i] > 0) {
+          if (u + 1 < W && same_surface(i, i + 1)) f |= kRight;
+          if (v + 1 < H && same_surface(i, i + W)) f |= kDown;
+        }
+        links_[i] = f;
+      }
     for (int v = 0; v < H; ++v) {
       for (int u = 0; u < W; ++u) {
         const size_t i = size_t(v) * W + u;
@@ -301,8 +317,9 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
         if (zi <= 0) continue;
         float jxu = 0, jyu = 0, jxv = 0, jyv = 0;
         bool hu = false, hv = false;
-        const bool right = u + 1 < W && same_surface(i, i + 1), left = u > 0 && same_surface(i, i - 1);
-        const bool down = v + 1 < H && same_surface(i, i + W), up = v > 0 && same_surface(i, i - W);
+        const uint8_t nb = links_[i];
+        const bool right = nb & kRight, down = nb & kDown;
+        const bool left = u > 0 && (links_[i - 1] & kRight), up = v > 0 && (links_[i - W] & kDown);
         if (right) {
           jxu = px_[i + 1] - px_[i], jyu = py_[i + 1] - py_[i], hu = true;
         } else if (left) {

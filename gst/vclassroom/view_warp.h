@@ -78,6 +78,7 @@ class ViewWarper {
   std::vector<float> px_, py_, pz_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint8_t> src_label_;
+  std::vector<uint8_t> links_;  // per source pixel: same surface as right (1) / below (2)
   // Per virtual pixel: z-buffer (m), source position.
   std::vector<float> zbuf_, su_, sv_, wbuf_;
   std::vector<uint8_t> lbuf_;
