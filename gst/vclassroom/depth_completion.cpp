@@ -198,56 +198,57 @@ void prior_fill(const cv::Mat& live, const cv::Mat& color, const StaticPrior& sp
                             color.size() == live.size() && prior_color.size() == live.size()));
   CV_Assert(sp.measured.empty() || (sp.measured.type() == CV_8UC1 && sp.measured.size() == live.size()));
   CV_Assert(label.empty() || (label.type() == CV_8UC1 && label.size() == live.size()));
-  cv::Mat guard;
+  // Whole-image vector operations: this runs on every frame over every pixel.
+  thread_local cv::Mat tol, sum, agree, take, tmp, guard;
+  prior.convertTo(tol, CV_16U, p.tolerance_ratio);
+  cv::max(tol, cv::Scalar(p.tolerance_min_mm), tol);
+  // Agreeing live depth: the static room, measured better by the prior.
+  cv::absdiff(live, prior, sum);
+  cv::compare(sum, tol, agree, cv::CMP_LE);
+  cv::compare(live, 0, tmp, cv::CMP_NE);
+  agree &= tmp;
+  cv::compare(prior, 0, tmp, cv::CMP_NE);
+  agree &= tmp;
+  // Holes: prior unless near a learner, not the room's colour, or not measured.
+  cv::compare(live, 0, take, cv::CMP_EQ);
+  take &= tmp;
   if (p.learner_guard_px > 0) {
-    thread_local cv::Mat front, opened;
-    front.create(live.size(), CV_8UC1);
-    const int ratio_q16 = static_cast<int>(p.tolerance_ratio * 65536.0);
-    const int min_tol = p.tolerance_min_mm;
-    for (int y = 0; y < live.rows; ++y) {
-      const uint16_t* l = live.ptr<uint16_t>(y);
-      const uint16_t* q = prior.ptr<uint16_t>(y);
-      uint8_t* f = front.ptr<uint8_t>(y);
-      for (int x = 0; x < live.cols; ++x) {
-        const int tol = std::max(min_tol, (q[x] * ratio_q16) >> 16);
-        f[x] = (l[x] != 0) & (l[x] + tol < q[x]) ? 255 : 0;
-      }
-    }
+    // Live depth clearly in front of the prior is a learner (or a new object).
+    cv::add(live, tol, sum);  // saturates
+    cv::Mat& front = tmp;
+    cv::compare(sum, prior, front, cv::CMP_LT);
+    cv::Mat nonzero;
+    cv::compare(live, 0, nonzero, cv::CMP_NE);
+    front &= nonzero;
     // Flying pixels along the room's own depth edges are also "in front" but
     // only a pixel or two wide: an opening (5x5) drops them and keeps bodies;
-    // its dilation and the guard's compose into one 5 + 2 guard wide dilation.
-    cv::erode(front, opened, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
+    // its dilation and the guard's compose into one dilation 5 + 2 guard wide.
+    cv::erode(front, nonzero, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
     const int k = 5 + 2 * p.learner_guard_px;
-    thread_local cv::Mat guard_buf;
-    cv::dilate(opened, guard_buf, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
-    guard = guard_buf;
+    cv::dilate(nonzero, guard, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
+    cv::bitwise_not(guard, guard);
+    take &= guard;
   }
-  out.create(live.size(), CV_16UC1);
-  for (int y = 0; y < live.rows; ++y) {
-    const uint16_t* l = live.ptr<uint16_t>(y);
-    const uint16_t* q = prior.ptr<uint16_t>(y);
-    const uint8_t* lab = label.empty() ? nullptr : label.ptr<uint8_t>(y);
-    const uint8_t* g = guard.empty() ? nullptr : guard.ptr<uint8_t>(y);
-    const uint8_t* c = color_test ? color.ptr<uint8_t>(y) : nullptr;
-    const uint8_t* pc = color_test ? prior_color.ptr<uint8_t>(y) : nullptr;
-    const uint8_t* meas = sp.measured.empty() || !p.measured_only ? nullptr : sp.measured.ptr<uint8_t>(y);
+  if (p.measured_only && !sp.measured.empty()) take &= sp.measured;
+  if (color_test) {
     const int ctol = p.color_tolerance;
-    uint16_t* o = out.ptr<uint16_t>(y);
-    for (int x = 0; x < live.cols; ++x) {
-      uint16_t v = l[x];
-      if (q[x] && !(lab && lab[x])) {
-        if (!l[x]) {
-          const bool room_colour = !c || (std::abs(c[3 * x] - pc[3 * x]) <= ctol &&
-                                          std::abs(c[3 * x + 1] - pc[3 * x + 1]) <= ctol &&
-                                          std::abs(c[3 * x + 2] - pc[3 * x + 2]) <= ctol);
-          if (!(g && g[x]) && room_colour && (!meas || meas[x])) v = q[x];
-        } else if (std::abs(int(l[x]) - int(q[x])) <= agree_tol(q[x], p.tolerance_min_mm, p.tolerance_ratio)) {
-          v = q[x];
-        }
-      }
-      o[x] = v;
+    for (int y = 0; y < live.rows; ++y) {
+      uint8_t* t = take.ptr<uint8_t>(y);
+      const uint8_t* c = color.ptr<uint8_t>(y);
+      const uint8_t* pc = prior_color.ptr<uint8_t>(y);
+      for (int x = 0; x < live.cols; ++x)
+        if (t[x] && (std::abs(c[3 * x] - pc[3 * x]) > ctol || std::abs(c[3 * x + 1] - pc[3 * x + 1]) > ctol ||
+                     std::abs(c[3 * x + 2] - pc[3 * x + 2]) > ctol))
+          t[x] = 0;
     }
   }
+  take |= agree;
+  if (!label.empty()) {
+    cv::compare(label, 0, tmp, cv::CMP_EQ);
+    take &= tmp;
+  }
+  live.copyTo(out);
+  prior.copyTo(out, take);
 }
 
 void guided_completion(const cv::Mat& depth, const cv::Mat& color, const GuidedCompletionParams& p, cv::Mat& out,
