@@ -346,70 +346,61 @@ void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unkn
     nearest_fill(depth, filled);
     filled.copyTo(depth, unknown);
   }
-  // Each unknown's equation is x_i = (c_i + sum_j w_ij x_j) / W_i: known
-  // neighbours are folded into c_i once, unknown ones are linked by index, so
-  // the work is proportional to the unknowns, not the image.
+  // Working values in a float image: known pixels are read, unknown ones relaxed.
+  thread_local cv::Mat z;
+  depth.convertTo(z, CV_32F);
+  float* zp = z.ptr<float>();
   const size_t n = pts.size();
-  thread_local cv::Mat index_of;  // CV_32S, meaningful at unknown pixels only
-  index_of.create(depth.size(), CV_32S);
-  std::vector<float> x(n), c(n, 0.0f), wsum(n, 0.0f);
-  for (size_t i = 0; i < n; ++i) {
-    index_of.at<int>(pts[i]) = static_cast<int>(i);
-    x[i] = depth.at<uint16_t>(pts[i]);
-  }
-  struct Link {
-    int j;
-    float w;
-  };
-  std::vector<Link> links;
-  links.reserve(n * 8);
-  std::vector<size_t> first(n + 1);
+  const int off[8] = {-w - 1, -w, -w + 1, -1, 1, w - 1, w, w + 1};
+  const int dxs[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
+  const int dys[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
+  thread_local std::vector<float> weights;
+  weights.assign(n * 8, 0.0f);
   const double inv_c2 = 1.0 / (p.color_sigma * p.color_sigma);
   // exp(-d2 / sigma^2) for squared colour distances d2 in steps of 8 (0 beyond 6 sigma).
   const int lut_size = static_cast<int>(36.0 * p.color_sigma * p.color_sigma / 8.0) + 2;
   std::vector<float> color_lut(lut_size);
   for (int i = 0; i < lut_size; ++i) color_lut[i] = static_cast<float>(std::exp(-8.0 * i * inv_c2));
+  std::vector<int> idx(n);
   for (size_t i = 0; i < n; ++i) {
-    first[i] = links.size();
-    const int px = pts[i].x, py = pts[i].y;
-    const float zr = x[i];
+    const int x = pts[i].x, y = pts[i].y;
+    idx[i] = y * w + x;
+    const float zr = zp[idx[i]];
     const double sd = std::max(1.0, p.depth_sigma_ratio * zr);
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int nx = px + dx, ny = py + dy;
-        if ((!dx && !dy) || nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
-        const float zs = depth.at<uint16_t>(ny, nx);
-        if (zs <= 0) continue;
-        float cw = 1.0f;
-        if (!color.empty()) {
-          const cv::Vec3b ca = color.at<cv::Vec3b>(py, px), cb = color.at<cv::Vec3b>(ny, nx);
-          const int dr = ca[0] - cb[0], dg = ca[1] - cb[1], db = ca[2] - cb[2];
-          const int bin = (dr * dr + dg * dg + db * db) >> 3;
-          cw = bin < lut_size ? color_lut[bin] : 0.0f;
-        }
-        if (p.depth_sigma_ratio > 0) cw *= static_cast<float>(std::exp(-(zr - zs) * (zr - zs) / (sd * sd)));
-        // A small floor keeps every unknown region tied to its surroundings,
-        // so the relaxation stays anchored where colours differ all round.
-        cw = std::max(cw, 1e-6f);
-        if (dx && dy) cw *= 0.70710678f;
-        wsum[i] += cw;
-        if (unknown.at<uint8_t>(ny, nx))
-          links.push_back(Link{index_of.at<int>(ny, nx), cw});
-        else
-          c[i] += cw * zs;
+    const uint8_t* c0 = color.empty() ? nullptr : color.ptr<uint8_t>(y) + 3 * x;
+    for (int k = 0; k < 8; ++k) {
+      const int nx = x + dxs[k], ny = y + dys[k];
+      if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+      const float zs = zp[idx[i] + off[k]];
+      if (zs <= 0) continue;
+      float cw = 1.0f;
+      if (c0) {
+        const uint8_t* c1 = c0 + (dys[k] * static_cast<int>(color.step[0]) + 3 * dxs[k]);
+        const int dr = c0[0] - c1[0], dg = c0[1] - c1[1], db = c0[2] - c1[2];
+        const int bin = (dr * dr + dg * dg + db * db) >> 3;
+        cw = bin < lut_size ? color_lut[bin] : 0.0f;
       }
+      if (p.depth_sigma_ratio > 0) cw *= static_cast<float>(std::exp(-(zr - zs) * (zr - zs) / (sd * sd)));
+      // A small floor keeps every unknown region tied to its surroundings,
+      // so the relaxation stays anchored where colours differ all round.
+      cw = std::max(cw, 1e-6f);
+      weights[i * 8 + k] = (dxs[k] && dys[k]) ? cw * 0.70710678f : cw;
+    }
   }
-  first[n] = links.size();
   const float omega = static_cast<float>(p.relaxation);
   for (int it = 0; it < p.iterations; ++it)
     for (size_t i = 0; i < n; ++i) {
-      if (wsum[i] <= 1e-12f) continue;
-      float sv = c[i];
-      for (size_t l = first[i]; l < first[i + 1]; ++l) sv += links[l].w * x[links[l].j];
-      x[i] += omega * (sv / wsum[i] - x[i]);
+      const float* wk = &weights[i * 8];
+      float* zr = zp + idx[i];
+      float sw = 0, sv = 0;
+      for (int k = 0; k < 8; ++k)  // weight 0: outside the image or no depth, not to be read
+        if (wk[k] > 0) sw += wk[k], sv += wk[k] * zr[off[k]];
+      if (sw > 1e-12f) *zr += omega * (sv / sw - *zr);
     }
-  for (size_t i = 0; i < n; ++i)
-    if (std::isfinite(x[i]) && x[i] >= 1.0f) depth.at<uint16_t>(pts[i]) = cv::saturate_cast<uint16_t>(x[i]);
+  for (size_t i = 0; i < n; ++i) {
+    const float v = zp[idx[i]];
+    if (std::isfinite(v) && v >= 1.0f) depth.at<uint16_t>(pts[i]) = cv::saturate_cast<uint16_t>(v);
+  }
 }
 
 void ku_fast_fill(const cv::Mat& depth_mm, const KuFastParams& p, cv::Mat& out) {
