@@ -67,7 +67,7 @@ struct Stats {
 };
 
 void write_side_by_side(const std::string& path, const cv::Mat& synth, const cv::Mat& real, const cv::Rect& roi,
-                        int max_width = 1200) {
+                        int max_width = 900) {
   const cv::Mat a = synth(roi), b = real(roi);
   cv::Mat row;
   cv::hconcat(std::vector<cv::Mat>{a, b, error_image(a, b)}, row);
@@ -256,7 +256,7 @@ void eval_classroom(const Options& opt) {
         nssim[c].add(ssim_luma(fused.color, gt.color));
         if (c == 0 && k == 1 && f == opt.frames - 1 && !opt.images.empty())
           write_side_by_side(opt.images + "/vva-classroom-novel.png", fused.color, gt.color,
-                             cv::Rect(0, 0, gt.color.cols, gt.color.rows), 1440);
+                             cv::Rect(0, 0, gt.color.cols, gt.color.rows));
       }
     }
   }
@@ -280,7 +280,7 @@ void eval_classroom(const Options& opt) {
                 iou[i].min(), learner_iou[i].avg(), learner_iou[i].min());
   if (!opt.images.empty())
     write_side_by_side(opt.images + "/vva-classroom-cam0.png", last_synth, last_real,
-                       cv::Rect(0, 0, last_real.cols, last_real.rows), 1440);
+                       cv::Rect(0, 0, last_real.cols, last_real.rows));
 }
 
 void write_priors(const Options& opt) {
