@@ -380,9 +380,11 @@ class VdaElements : public ::testing::Test {
     EXPECT_TRUE(vctest::same_image(f.color(), in_color)) << "colour must pass untouched";
     EXPECT_TRUE(vctest::same_image(f.label(), in_label));
     EXPECT_FALSE(vctest::same_image(f.depth(), in_depth)) << "depth must be worked on";
-    if (expect_no_holes) EXPECT_EQ(cv::countNonZero(f.depth()), info.width() * info.height());
+    if (expect_no_holes) {
+      EXPECT_EQ(cv::countNonZero(f.depth()), info.width() * info.height());
+    }
     f.unmap();
-    // The input was not written to (its depth is shared by nobody else, but must stay).
+    // The input buffer is not written to.
     {
       RgbdFrame fi;
       ASSERT_TRUE(fi.map(in, info, GST_MAP_READ, &err)) << err;
