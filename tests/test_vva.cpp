@@ -383,7 +383,9 @@ TEST(ViewFuseElement, PoseEventAtTheSinkReachesEveryViewWarp) {
     ASSERT_NE(s, nullptr);
     PoseMeta* m = buffer_get_pose_meta(gst_sample_get_buffer(s));
     ASSERT_NE(m, nullptr);
-    if (seen) EXPECT_EQ(m->seq, 42u) << "frame " << i << " went back to an old pose";
+    if (seen) {
+      EXPECT_EQ(m->seq, 42u) << "frame " << i << " went back to an old pose";
+    }
     seen = seen || m->seq == 42;
     gst_sample_unref(s);
   }
