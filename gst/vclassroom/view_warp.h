@@ -45,7 +45,7 @@ struct WarpParams {
   // mixes both surfaces (the ghost contour of DIBR). The holes get filled.
   int boundary_px = 0;
   // true: rasterise the two triangles of every 2x2 block (the reference,
-  // about 10x slower); false: map every pixel's cell with the local affine
+  // about 1.7x slower); false: map every pixel's cell with the local affine
   // map of its same-surface neighbours (same coverage away from edges).
   bool mesh = false;
   // Learner pixels without live depth take their learner's median depth.
