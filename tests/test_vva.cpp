@@ -422,6 +422,38 @@ TEST(ViewFuseElement, ACameraThatStopsDoesNotStallTheOutput) {
   gst_object_unref(pipe);
 }
 
+TEST(ViewFuseElement, ALiveCameraThatGoesSilentDoesNotStallTheOutput) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 96, 54);
+  const std::string desc = "viewfuse name=f latency=50000000 ! appsink name=out sync=false max-buffers=4 drop=false "
+                           "rgbdtestsrc is-live=true rig=" + rig + " camera-id=1 ! viewwarp rig=" + rig +
+                           " ! queue ! f.cam_0 "
+                           "rgbdtestsrc is-live=true rig=" + rig + " camera-id=2 ! valve name=v ! viewwarp rig=" +
+                           rig + " ! queue ! f.cam_1";
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  GstElement* valve = gst_bin_get_by_name(GST_BIN(pipe), "v");
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  for (int i = 0; i < 3; ++i) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "no output at the start";
+    gst_sample_unref(s);
+  }
+  // Camera 2 goes silent without EOS (its buffers are dropped from now on).
+  g_object_set(valve, "drop", TRUE, nullptr);
+  for (int i = 0; i < 10; ++i) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "viewfuse stalled after camera 2 went silent (frame " << i << ")";
+    gst_sample_unref(s);
+  }
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(valve);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}
+
 TEST(LearnerSegElement, AddsTheLabelPlane) {
   vctest::TempDir dir;
   const std::string rig = small_classroom_rig(dir);
