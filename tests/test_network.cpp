@@ -181,21 +181,11 @@ GstPadProbeReturn on_pose(GstPad*, GstPadProbeInfo* info, gpointer data) {
   return GST_PAD_PROBE_OK;
 }
 
-int free_udp_port() {
-  GSocket* s = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_DATAGRAM, G_SOCKET_PROTOCOL_UDP, nullptr);
-  GInetAddress* lo = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
-  GSocketAddress* any = g_inet_socket_address_new(lo, 0);
-  g_socket_bind(s, any, TRUE, nullptr);
-  GSocketAddress* bound = g_socket_get_local_address(s, nullptr);
-  const int port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
-  for (GObject* o : {G_OBJECT(bound), G_OBJECT(any), G_OBJECT(lo), G_OBJECT(s)}) g_object_unref(o);
-  return port;
-}
 }  // namespace
 
 // Two pipelines joined by UDP on loopback, as lecturer and server run.
 TEST(PoseBackChannel, OverUdpOnLoopback) {
-  const int port = free_udp_port();
+  const int port = vctest::free_udp_port();
   const std::string server_desc =
       "videotestsrc name=render is-live=true ! video/x-raw,width=32,height=24,framerate=30/1 ! poserecv name=r ! "
       "fakesink sync=false  udpsrc address=127.0.0.1 port=" + std::to_string(port) +

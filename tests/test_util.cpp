@@ -5,6 +5,7 @@
 #include <cstring>
 #include <fstream>
 
+#include <gio/gio.h>
 #include <gst/app/gstappsink.h>
 #include <gtest/gtest.h>
 
@@ -139,6 +140,17 @@ GstFlowReturn SampleCollector::on_sample(GstAppSink* sink, gpointer data) {
   self->samples_.push_back(s);
   g_mutex_unlock(&self->lock_);
   return GST_FLOW_OK;
+}
+
+int free_udp_port() {
+  GSocket* s = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_DATAGRAM, G_SOCKET_PROTOCOL_UDP, nullptr);
+  GInetAddress* lo = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
+  GSocketAddress* any = g_inet_socket_address_new(lo, 0);
+  g_socket_bind(s, any, TRUE, nullptr);
+  GSocketAddress* bound = g_socket_get_local_address(s, nullptr);
+  const int port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
+  for (GObject* o : {G_OBJECT(bound), G_OBJECT(any), G_OBJECT(lo), G_OBJECT(s)}) g_object_unref(o);
+  return port;
 }
 
 bool same_image(const cv::Mat& a, const cv::Mat& b) {

@@ -60,6 +60,9 @@ class SampleCollector {
   std::vector<GstSample*> samples_;
 };
 
+// A UDP port on 127.0.0.1 that is free now (bound and released).
+int free_udp_port();
+
 // Structural-equality of two images (type, size, bytes).
 bool same_image(const cv::Mat& a, const cv::Mat& b);
 

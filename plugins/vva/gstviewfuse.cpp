@@ -43,6 +43,7 @@ struct FuseState {
   GstVideoInfo out_info{};
   bool have_out = false;
   FusedView fused;
+  GstClockTime last_out = GST_CLOCK_TIME_NONE;  // running time of the last output frame
 };
 
 }  // namespace
@@ -206,6 +207,42 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     std::lock_guard<std::mutex> g(st->lock);
     for (auto& in : inputs) in.info = st->pad_info[GST_PAD(in.pad)];
   }
+  // One output frame shows one pose. Live, a camera's frame warped for an
+  // older pose than the others (or older than the last output) is stale:
+  // drop it and wait for its fresh one, fusing only the consistent ones when
+  // the latency runs out. Not live, everything is fused and the frame is
+  // stamped with the oldest pose in it, the one it fully shows.
+  {
+    uint64_t newest = 0;
+    for (auto& in : inputs)
+      if (const PoseMeta* m = buffer_get_pose_meta(in.buf)) newest = std::max<uint64_t>(newest, m->seq);
+    const bool live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
+    bool dropped = false;
+    for (auto it = inputs.begin(); live && it != inputs.end();) {
+      const PoseMeta* m = buffer_get_pose_meta(it->buf);
+      const GstClockTime t = running_time(it->pad, it->buf);
+      const bool old_pose = (m ? m->seq : 0) < newest;
+      const bool old_time = GST_CLOCK_TIME_IS_VALID(st->last_out) && GST_CLOCK_TIME_IS_VALID(t) && t <= st->last_out;
+      if (old_pose || old_time) {
+        GST_LOG_OBJECT(self, "%s: dropping a stale frame (%s)", GST_PAD_NAME(it->pad), old_pose ? "older pose" : "late");
+        gst_aggregator_pad_drop_buffer(it->pad);
+        gst_buffer_unref(it->buf);
+        gst_object_unref(it->pad);
+        it = inputs.erase(it);
+        dropped = true;
+      } else {
+        ++it;
+      }
+    }
+    if (dropped && !timeout) {
+      for (auto& in : inputs) {
+        gst_buffer_unref(in.buf);
+        gst_object_unref(in.pad);
+      }
+      return GST_AGGREGATOR_FLOW_NEED_DATA;
+    }
+    if (inputs.empty()) return GST_AGGREGATOR_FLOW_NEED_DATA;
+  }
 
   GstFlowReturn ret = GST_FLOW_OK;
   GstClockTime rt = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
@@ -231,12 +268,13 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
     ptrs.push_back(&views[i]);
     frames.push_back(std::move(f));
+    // The newest input is what the frame is as fresh as.
     const GstClockTime t = running_time(inputs[i].pad, inputs[i].buf);
-    if (GST_CLOCK_TIME_IS_VALID(t) && (!GST_CLOCK_TIME_IS_VALID(rt) || t < rt)) {
+    if (GST_CLOCK_TIME_IS_VALID(t) && (!GST_CLOCK_TIME_IS_VALID(rt) || t > rt)) {
       rt = t;
       duration = GST_BUFFER_DURATION(inputs[i].buf);
     }
-    if (PoseMeta* m = buffer_get_pose_meta(inputs[i].buf); m && (!have_pose || m->seq > pose.seq)) {
+    if (PoseMeta* m = buffer_get_pose_meta(inputs[i].buf); m && (!have_pose || m->seq < pose.seq)) {
       pose = *m;
       have_pose = true;
     }
@@ -258,6 +296,10 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
       goto done;
     }
     gst_buffer_unmap(out, &map);
+    // Never back in time, whatever the inputs' timing.
+    if (GST_CLOCK_TIME_IS_VALID(st->last_out) && (!GST_CLOCK_TIME_IS_VALID(rt) || rt <= st->last_out))
+      rt = st->last_out + 1;
+    st->last_out = rt;
     GST_BUFFER_PTS(out) = rt;
     GST_BUFFER_DURATION(out) = duration;
     if (have_pose) buffer_add_pose_meta(out, pose.seq, pose.viewer_time_ns);
@@ -299,6 +341,7 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
   }
   st->trace.clear();
   st->trace_next = 0;
+  st->last_out = GST_CLOCK_TIME_NONE;
   st->have_out = false;
   if (!path.empty()) {
     try {
