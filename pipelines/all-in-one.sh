@@ -5,11 +5,9 @@
 # sending each pose upstream to every viewwarp -> H.264 in an MP4 file.
 # Variables: OUT (file, default out/all-in-one.mp4), FRAMES (default 300 = 10 s),
 # TRACE (pose trace CSV, default pipelines/lecturer-walk.csv), SEED (default 1),
-# LEARNERS (default 6), MODEL (a folder from vclassroom-build-model: when set and the
-# depthcomplete element exists, V-DA completes each camera's depth first),
+# LEARNERS (default 6), MODEL (a folder from vclassroom-build-model: when set, V-DA
+# (depthcomplete, planerefine) cleans each camera's depth and its prior depth is the static layer),
 # BUILD (build folder for the tools when they are not on PATH, default build).
-# The static layer's depth for learnerseg/viewwarp: the empty classroom's depth per camera,
-# written by `vclassroom-eval-views --write-priors` (a stand-in for V-DA's prior depth).
 # Needs the plugins on GST_PLUGIN_PATH (run it through scripts/demo.sh or `meson devenv -C build`).
 set -euo pipefail
 HERE=$(cd "$(dirname "$0")" && pwd)
@@ -21,23 +19,27 @@ LEARNERS=${LEARNERS:-6}
 BUILD=${BUILD:-build}
 mkdir -p "$(dirname "$OUT")"
 
-EVAL=$(command -v vclassroom-eval-views || echo "$BUILD/tools/vclassroom-eval-views")
-PRIORS=$(mktemp -d)
-trap 'rm -rf "$PRIORS"' EXIT
-"$EVAL" --write-priors "$PRIORS" > /dev/null
-
+# The static layer's depth per camera: V-DA's prior depth when a model is given, else
+# the empty classroom's exact depth (a stand-in, written by vclassroom-eval-views).
 VDA=""
-if [ -n "${MODEL:-}" ] && gst-inspect-1.0 depthcomplete > /dev/null 2>&1; then
-  VDA="! depthcomplete model=$MODEL"
+if [ -n "${MODEL:-}" ]; then
+  VDA="! depthcomplete model=$MODEL ! planerefine model=$MODEL"
+  prior() { echo "$MODEL/prior-depth/cam$1.png"; }
+else
+  EVAL=$(command -v vclassroom-eval-views || echo "$BUILD/tools/vclassroom-eval-views")
+  PRIORS=$(mktemp -d)
+  trap 'rm -rf "$PRIORS"' EXIT
+  "$EVAL" --write-priors "$PRIORS" > /dev/null
+  prior() { echo "$PRIORS/prior-cam$1.png"; }
 fi
 
 branches=""
 for k in 0 1 2; do
   branches="$branches rgbdtestsrc camera-id=$k seed=$SEED learners=$LEARNERS num-buffers=$FRAMES ground-truth=false $VDA \
-    ! learnerseg prior-depth=$PRIORS/prior-cam$k.png \
-    ! viewwarp prior-depth=$PRIORS/prior-cam$k.png ! queue max-size-buffers=2 ! fuse.cam_$k"
+    ! learnerseg prior-depth=$(prior $k) \
+    ! viewwarp prior-depth=$(prior $k) ! queue max-size-buffers=2 ! fuse.cam_$k"
 done
-echo "all-in-one: 3 cameras -> learnerseg -> viewwarp -> viewfuse (pose trace $TRACE) -> $OUT"
+echo "all-in-one: 3 cameras ${MODEL:+-> depthcomplete -> planerefine }-> learnerseg -> viewwarp -> viewfuse (pose trace $TRACE) -> $OUT"
 eval gst-launch-1.0 -e \
   viewfuse name=fuse pose-trace="$TRACE" ! videoconvert ! x264enc speed-preset=veryfast tune=zerolatency \
   ! mp4mux ! filesink location="$OUT" $branches
