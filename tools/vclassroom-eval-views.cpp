@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <cstdlib>
 #include <cstring>
 #include <map>
@@ -79,8 +80,8 @@ void write_side_by_side(const std::string& path, const cv::Mat& synth, const cv:
 }
 
 std::string make_temp_dir() {
-  char tmpl[] = "/tmp/vclassroom-eval-XXXXXX";
-  const char* d = mkdtemp(tmpl);
+  std::string tmpl = (std::filesystem::temp_directory_path() / "vclassroom-eval-XXXXXX").string();
+  const char* d = mkdtemp(tmpl.data());
   if (!d) throw Error("cannot create a temporary folder");
   return d;
 }

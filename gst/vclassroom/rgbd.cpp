@@ -289,6 +289,15 @@ GstBuffer* rgbd_buffer_assemble(const RgbdInfo& info, const std::vector<GstBuffe
   return out;
 }
 
+GstClockTime aggregator_pad_running_time(GstAggregatorPad* pad, GstBuffer* buf) {
+  const GstClockTime ts = GST_BUFFER_PTS_IS_VALID(buf) ? GST_BUFFER_PTS(buf) : GST_BUFFER_DTS(buf);
+  if (!GST_CLOCK_TIME_IS_VALID(ts)) return GST_CLOCK_TIME_NONE;
+  GST_OBJECT_LOCK(pad);
+  const GstClockTime rt = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, ts);
+  GST_OBJECT_UNLOCK(pad);
+  return rt;
+}
+
 bool RgbdFrame::map(GstBuffer* buf, const RgbdInfo& info, GstMapFlags flags, std::string* error) {
   unmap();
   for (size_t i = 0; i < info.planes.size(); ++i) {

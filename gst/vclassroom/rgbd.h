@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include <gst/base/gstaggregator.h>
 #include <gst/gst.h>
 #include <gst/video/video.h>
 #include <opencv2/core.hpp>
@@ -84,6 +85,10 @@ GstBuffer* rgbd_buffer_assemble(const RgbdInfo& info, const std::vector<GstBuffe
                                 const std::vector<PlaneLayout>& layouts);
 // Adds GstVideoMeta for every plane of a packed buffer that has none.
 void rgbd_buffer_add_default_metas(GstBuffer* buf, const RgbdInfo& info);
+
+// Running time of a buffer queued on an aggregator pad (PTS, else DTS, in
+// the pad's segment); GST_CLOCK_TIME_NONE when it has no timestamp.
+GstClockTime aggregator_pad_running_time(GstAggregatorPad* pad, GstBuffer* buf);
 
 // Maps the planes of an rgbd buffer as cv::Mat headers over the buffer's memory.
 class RgbdFrame {

@@ -57,14 +57,6 @@ static GstStaticPadTemplate depth_template = GST_STATIC_PAD_TEMPLATE(
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
 
-static GstClockTime running_time(GstAggregatorPad* pad, GstBuffer* buf) {
-  GstClockTime ts = GST_BUFFER_PTS_IS_VALID(buf) ? GST_BUFFER_PTS(buf) : GST_BUFFER_DTS(buf);
-  if (!GST_CLOCK_TIME_IS_VALID(ts)) return GST_CLOCK_TIME_NONE;
-  GST_OBJECT_LOCK(pad);
-  GstClockTime rt = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, ts);
-  GST_OBJECT_UNLOCK(pad);
-  return rt;
-}
 
 // Output stream description from the colour caps and the rig (or a nominal camera).
 static gboolean compute_output_info(GstRgbdMux* self) {
@@ -152,8 +144,8 @@ static GstFlowReturn gst_rgbd_mux_aggregate(GstAggregator* agg, gboolean timeout
     goto done;
   }
   {
-    const GstClockTime rt_c = running_time(self->color_pad, color);
-    const GstClockTime rt_d = running_time(self->depth_pad, depth);
+    const GstClockTime rt_c = aggregator_pad_running_time(self->color_pad, color);
+    const GstClockTime rt_d = aggregator_pad_running_time(self->depth_pad, depth);
     GstClockTime skew;
     {
       std::lock_guard<std::mutex> g(st->lock);

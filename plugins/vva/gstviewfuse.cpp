@@ -153,14 +153,6 @@ static GstFlowReturn gst_view_fuse_update_src_caps(GstAggregator* agg, GstCaps* 
   return GST_FLOW_OK;
 }
 
-static GstClockTime running_time(GstAggregatorPad* pad, GstBuffer* buf) {
-  GstClockTime ts = GST_BUFFER_PTS_IS_VALID(buf) ? GST_BUFFER_PTS(buf) : GST_BUFFER_DTS(buf);
-  if (!GST_CLOCK_TIME_IS_VALID(ts)) return GST_CLOCK_TIME_NONE;
-  GST_OBJECT_LOCK(pad);
-  GstClockTime rt = gst_segment_to_running_time(&pad->segment, GST_FORMAT_TIME, ts);
-  GST_OBJECT_UNLOCK(pad);
-  return rt;
-}
 
 static void send_trace_pose(GstViewFuse* self) {
   FuseState* st = self->st;
@@ -220,7 +212,7 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     bool dropped = false;
     for (auto it = inputs.begin(); live && it != inputs.end();) {
       const PoseMeta* m = buffer_get_pose_meta(it->buf);
-      const GstClockTime t = running_time(it->pad, it->buf);
+      const GstClockTime t = aggregator_pad_running_time(it->pad, it->buf);
       const bool old_pose = (m ? m->seq : 0) < newest;
       const bool old_time = GST_CLOCK_TIME_IS_VALID(st->last_out) && GST_CLOCK_TIME_IS_VALID(t) && t <= st->last_out;
       if (old_pose || old_time) {
@@ -269,7 +261,7 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     ptrs.push_back(&views[i]);
     frames.push_back(std::move(f));
     // The newest input is what the frame is as fresh as.
-    const GstClockTime t = running_time(inputs[i].pad, inputs[i].buf);
+    const GstClockTime t = aggregator_pad_running_time(inputs[i].pad, inputs[i].buf);
     if (GST_CLOCK_TIME_IS_VALID(t) && (!GST_CLOCK_TIME_IS_VALID(rt) || t > rt)) {
       rt = t;
       duration = GST_BUFFER_DURATION(inputs[i].buf);
