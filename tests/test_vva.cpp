@@ -487,3 +487,39 @@ TEST(PoseMeta, TravelsWithCopies) {
   gst_buffer_unref(b);
   gst_buffer_unref(c);
 }
+
+// A flushing seek back to the start: output goes on at once, stamped from the
+// new position, not after the old one.
+TEST(ViewFuseElement, ASeekBackRestartsTheOutputTimeline) {
+  vctest::TempDir dir;
+  Rig rig = default_classroom_rig();
+  for (auto& c : rig.cameras) c = scale_camera(c, 128, 72);
+  save_rig(rig, dir / "rig.yaml");
+  const std::string r = dir / "rig.yaml";
+  GstElement* p = gst_parse_launch(("viewfuse name=f ! appsink name=out sync=false max-buffers=2  "
+                                    "rgbdtestsrc camera-id=0 rig=" + r + " learners=0 ground-truth=false ! "
+                                    "learnerseg ! viewwarp rig=" + r + " ! f.cam_0")
+                                       .c_str(),
+                                   nullptr);
+  ASSERT_NE(p, nullptr);
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  auto next_pts = [&]() {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 30 * GST_SECOND);
+    EXPECT_NE(s, nullptr) << "no output frame";
+    if (!s) return GST_CLOCK_TIME_NONE;
+    const GstClockTime t = GST_BUFFER_PTS(gst_sample_get_buffer(s));
+    gst_sample_unref(s);
+    return t;
+  };
+  GstClockTime before = 0;
+  for (int i = 0; i < 20; ++i) before = next_pts();
+  ASSERT_GE(before, 15 * GST_SECOND / 30);
+  ASSERT_TRUE(gst_element_seek_simple(p, GST_FORMAT_TIME, GstSeekFlags(GST_SEEK_FLAG_FLUSH), 0));
+  const GstClockTime after = next_pts();
+  EXPECT_LT(after, 5 * GST_SECOND / 30) << "after a seek to 0 the output is still stamped from the old position";
+  EXPECT_GT(next_pts(), after);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(out);
+  gst_object_unref(p);
+}

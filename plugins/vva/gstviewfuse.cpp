@@ -251,6 +251,9 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
   for (size_t i = 0; i < inputs.size(); ++i) {
     auto f = std::make_unique<RgbdFrame>();
     std::string err;
+    // A gap (a camera that said it has nothing for this time) is normal: skip it quietly.
+    if (GST_BUFFER_FLAG_IS_SET(inputs[i].buf, GST_BUFFER_FLAG_GAP) || gst_buffer_get_size(inputs[i].buf) == 0)
+      continue;
     if (!f->map(inputs[i].buf, inputs[i].info, GST_MAP_READ, &err)) {
       GST_ELEMENT_WARNING(self, STREAM, FAILED, ("pad %s: %s (frame skipped)", GST_PAD_NAME(inputs[i].pad),
                                                  err.c_str()),
@@ -275,7 +278,12 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     const int w = GST_VIDEO_INFO_WIDTH(&st->out_info), h = GST_VIDEO_INFO_HEIGHT(&st->out_info);
     GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out_info), nullptr);
     GstMapInfo map;
-    gst_buffer_map(out, &map, GST_MAP_WRITE);
+    if (!gst_buffer_map(out, &map, GST_MAP_WRITE)) {
+      gst_buffer_unref(out);
+      GST_ELEMENT_ERROR(self, RESOURCE, FAILED, ("cannot map an output buffer"), (nullptr));
+      ret = GST_FLOW_ERROR;
+      goto done;
+    }
     try {
       fuse_views(ptrs, params, &st->fused);
       cv::Mat dst(h, w, CV_8UC3, map.data, GST_VIDEO_INFO_PLANE_STRIDE(&st->out_info, 0));
@@ -292,13 +300,20 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     if (GST_CLOCK_TIME_IS_VALID(st->last_out) && (!GST_CLOCK_TIME_IS_VALID(rt) || rt <= st->last_out))
       rt = st->last_out + 1;
     st->last_out = rt;
-    GST_BUFFER_PTS(out) = rt;
+    // Running time back into the output segment (it starts at a seek's position).
+    GstClockTime pts = rt;
+    GST_OBJECT_LOCK(agg);
+    const GstClockTime in_segment = gst_segment_position_from_running_time(
+        &GST_AGGREGATOR_PAD(agg->srcpad)->segment, GST_FORMAT_TIME, rt);
+    GST_OBJECT_UNLOCK(agg);
+    if (GST_CLOCK_TIME_IS_VALID(in_segment)) pts = in_segment;
+    GST_BUFFER_PTS(out) = pts;
     GST_BUFFER_DURATION(out) = duration;
     if (have_pose) buffer_add_pose_meta(out, pose.seq, pose.viewer_time_ns);
     {
       GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
       GST_OBJECT_LOCK(agg);
-      if (GST_CLOCK_TIME_IS_VALID(rt)) seg->position = rt + (GST_CLOCK_TIME_IS_VALID(duration) ? duration : 0);
+      if (GST_CLOCK_TIME_IS_VALID(pts)) seg->position = pts + (GST_CLOCK_TIME_IS_VALID(duration) ? duration : 0);
       GST_OBJECT_UNLOCK(agg);
     }
     {
@@ -322,6 +337,12 @@ done:
   return ret;
 }
 
+// After a flush (a seek) running time starts again: forget the last output time.
+static GstFlowReturn gst_view_fuse_flush(GstAggregator* agg) {
+  GST_VIEW_FUSE(agg)->st->last_out = GST_CLOCK_TIME_NONE;
+  return GST_FLOW_OK;
+}
+
 static gboolean gst_view_fuse_start(GstAggregator* agg) {
   GstViewFuse* self = GST_VIEW_FUSE(agg);
   FuseState* st = self->st;
@@ -330,6 +351,11 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     std::lock_guard<std::mutex> g(st->lock);
     path = st->trace_path;
     st->frames = 0;
+  }
+  {
+    // Request pads outlive a restart; their caps (maybe a new virtual size) come again.
+    std::lock_guard<std::mutex> g(st->lock);
+    st->pad_info.clear();
   }
   st->trace.clear();
   st->trace_next = 0;
@@ -453,6 +479,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   agg_class->src_event = GST_DEBUG_FUNCPTR(gst_view_fuse_src_event);
   agg_class->update_src_caps = GST_DEBUG_FUNCPTR(gst_view_fuse_update_src_caps);
   agg_class->start = GST_DEBUG_FUNCPTR(gst_view_fuse_start);
+  agg_class->flush = GST_DEBUG_FUNCPTR(gst_view_fuse_flush);
   agg_class->create_new_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_create_new_pad);
   agg_class->get_next_time = gst_aggregator_simple_get_next_time;
   element_class->release_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_release_pad);
