@@ -475,12 +475,13 @@ void depth_complete(const cv::Mat& live, const cv::Mat& color, const StaticPrior
   if (!o.image_guided && !o.colorization) return;
   cv::Mat unknown;
   if (o.image_guided) {
-    cv::Mat tmp;
+    // Kept across frames: a fresh 1 MB image each frame costs more than the stage's own work on small holes.
+    thread_local cv::Mat guided;
     if (o.colorization) cv::compare(out, 0, unknown, cv::CMP_EQ);
-    guided_completion(out, color, o.guided, tmp, nullptr, nullptr);
+    guided_completion(out, color, o.guided, guided, nullptr, nullptr);
     // What the image-guided stage could not fill is left to colorization too.
-    if (o.colorization) unknown |= tmp == 0;
-    out = tmp;
+    if (o.colorization) unknown |= guided == 0;
+    guided.copyTo(out);
   } else if (o.colorization) {
     cv::compare(out, 0, unknown, cv::CMP_EQ);
   }

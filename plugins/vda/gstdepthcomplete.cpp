@@ -115,24 +115,13 @@ static GstFlowReturn gst_depth_complete_prepare_output_buffer(GstBaseTransform* 
     o = st->options;
     use_labels = st->use_labels;
   }
-  std::string err;
-  vda::DepthOutput depth_out(st->info);
-  {
-    RgbdFrame frame;
-    if (!frame.map(in, st->info, GST_MAP_READ, &err)) {
-      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("depthcomplete: %s", err.c_str()), (nullptr));
-      return GST_FLOW_ERROR;
-    }
-    const cv::Mat label = use_labels ? frame.label() : cv::Mat();
-    depth_complete(frame.depth(), frame.color(), st->prior, label, o, st->scratch);
-    st->scratch.copyTo(depth_out.mat);
-  }
-  *out = depth_out.finish(in, st->info, &err);
-  if (!*out) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("depthcomplete: %s", err.c_str()), (nullptr));
-    return GST_FLOW_ERROR;
-  }
-  return GST_FLOW_OK;
+  return vda::replace_depth(GST_ELEMENT(self), in, st->info,
+                            [&](const RgbdFrame& frame, cv::Mat& depth_out) {
+                              const cv::Mat label = use_labels ? frame.label() : cv::Mat();
+                              depth_complete(frame.depth(), frame.color(), st->prior, label, o, st->scratch);
+                              st->scratch.copyTo(depth_out);
+                            },
+                            out);
 }
 
 static GstFlowReturn gst_depth_complete_transform(GstBaseTransform*, GstBuffer*, GstBuffer*) {

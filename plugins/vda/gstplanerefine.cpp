@@ -101,23 +101,13 @@ static GstFlowReturn gst_plane_refine_prepare_output_buffer(GstBaseTransform* tr
     tol = st->tolerance;
     use_labels = st->use_labels;
   }
-  std::string err;
-  vda::DepthOutput depth_out(st->info);
-  {
-    RgbdFrame frame;
-    if (!frame.map(in, st->info, GST_MAP_READ, &err)) {
-      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("planerefine: %s", err.c_str()), (nullptr));
-      return GST_FLOW_ERROR;
-    }
-    frame.depth().copyTo(depth_out.mat);
-    plane_refine(depth_out.mat, st->maps, use_labels ? frame.label() : cv::Mat(), tol, depth_out.mat);
-  }
-  *out = depth_out.finish(in, st->info, &err);
-  if (!*out) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("planerefine: %s", err.c_str()), (nullptr));
-    return GST_FLOW_ERROR;
-  }
-  return GST_FLOW_OK;
+  return vda::replace_depth(GST_ELEMENT(self), in, st->info,
+                            [&](const RgbdFrame& frame, cv::Mat& depth_out) {
+                              frame.depth().copyTo(depth_out);
+                              plane_refine(depth_out, st->maps, use_labels ? frame.label() : cv::Mat(), tol,
+                                           depth_out);
+                            },
+                            out);
 }
 
 static GstFlowReturn gst_plane_refine_transform(GstBaseTransform*, GstBuffer*, GstBuffer*) {

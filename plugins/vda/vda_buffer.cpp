@@ -68,4 +68,24 @@ GstBuffer* DepthOutput::finish(GstBuffer* in, const RgbdInfo& info, std::string*
   return out;
 }
 
+GstFlowReturn replace_depth(GstElement* element, GstBuffer* in, const RgbdInfo& info,
+                            const std::function<void(const RgbdFrame&, cv::Mat&)>& compute, GstBuffer** out) {
+  std::string err;
+  DepthOutput depth_out(info);
+  {
+    RgbdFrame frame;
+    if (!frame.map(in, info, GST_MAP_READ, &err)) {
+      GST_ELEMENT_ERROR(element, STREAM, FAILED, ("%s: %s", GST_OBJECT_NAME(element), err.c_str()), (nullptr));
+      return GST_FLOW_ERROR;
+    }
+    compute(frame, depth_out.mat);
+  }
+  *out = depth_out.finish(in, info, &err);
+  if (!*out) {
+    GST_ELEMENT_ERROR(element, STREAM, FAILED, ("%s: %s", GST_OBJECT_NAME(element), err.c_str()), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  return GST_FLOW_OK;
+}
+
 }  // namespace vda

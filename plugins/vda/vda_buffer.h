@@ -3,6 +3,7 @@
 // plane shares the input's memory.
 #pragma once
 
+#include <functional>
 #include <string>
 
 #include <gst/gst.h>
@@ -35,5 +36,13 @@ class DepthOutput {
   gint stride_ = 0;
   bool mapped_ = false;
 };
+
+// The whole per-frame step of both elements: maps `in`, lets `compute` write
+// the new depth into `depth_out` (same size, CV_16UC1) from the input frame,
+// and builds the output buffer. Errors are posted on `element`, prefixed with
+// its name. The frame is only read.
+GstFlowReturn replace_depth(GstElement* element, GstBuffer* in, const vclassroom::RgbdInfo& info,
+                            const std::function<void(const vclassroom::RgbdFrame& frame, cv::Mat& depth_out)>& compute,
+                            GstBuffer** out);
 
 }  // namespace vda
