@@ -214,13 +214,7 @@ int main(int argc, char** argv) {
                              {{"CAMERA", std::to_string(k)}, {"DROP", std::to_string(o.drop)}}, "/dev/null"));
 
   // A slow walk along the front and a head turn: one pose every 33 ms.
-  const CameraCalib reference = [] {
-    CameraCalib c;
-    c.width = c.height = 1;
-    c.fx = c.fy = 1;
-    c.cam_to_rig.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
-    return c;
-  }();
+  const CameraCalib reference = rig_origin_reference();
   std::atomic<bool> running{true};
   uint64_t poses_sent = 0;
   std::thread walker([&] {

@@ -160,6 +160,14 @@ Pose offset_to_pose(const ViewOffset& o, const CameraCalib& ref) {
   return p;
 }
 
+CameraCalib rig_origin_reference() {
+  CameraCalib c;
+  c.width = c.height = 1;
+  c.fx = c.fy = 1;
+  c.cam_to_rig.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  return c;
+}
+
 ViewOffset pose_to_offset(const Pose& p, const CameraCalib& ref) {
   const Eigen::Matrix3d R = ref.cam_to_rig.linear();
   const Eigen::Vector3d move = R.transpose() * (p.position - ref.cam_to_rig.translation());

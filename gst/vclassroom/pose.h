@@ -65,6 +65,9 @@ struct ViewOffset {
   double yaw = 0, pitch = 0, roll = 0;    // degrees: turn right, look up, roll clockwise
 };
 Pose offset_to_pose(const ViewOffset& o, const CameraCalib& reference);
+// The reference when no rig is known: a camera at the rig origin looking
+// level along -Z (rotation diag(1, -1, -1), rig Y up).
+CameraCalib rig_origin_reference();
 ViewOffset pose_to_offset(const Pose& pose, const CameraCalib& reference);
 ViewOffset sliders_to_offset(const Sliders& s);
 Sliders offset_to_sliders(const ViewOffset& o);

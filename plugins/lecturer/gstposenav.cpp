@@ -48,13 +48,6 @@ struct NavState {
   uint64_t seq = 0;
 };
 
-CameraCalib level_reference() {
-  CameraCalib c;
-  c.width = c.height = 1;
-  c.fx = c.fy = 1;
-  c.cam_to_rig.linear() = Eigen::Vector3d(1, -1, -1).asDiagonal();
-  return c;
-}
 }  // namespace
 
 struct _GstPoseNav {
@@ -198,7 +191,7 @@ static gboolean gst_pose_nav_start(GstBaseTransform* trans) {
   NavState* st = self->st;
   std::lock_guard<std::mutex> g(st->lock);
   try {
-    st->reference = st->rig_path.empty() ? level_reference() : load_rig(st->rig_path).camera(st->reference_id);
+    st->reference = st->rig_path.empty() ? rig_origin_reference() : load_rig(st->rig_path).camera(st->reference_id);
     st->start = sliders_to_offset(parse_sliders(st->sliders_text));
     st->trace = st->trace_path.empty() ? std::vector<PoseSample>() : load_pose_trace(st->trace_path);
   } catch (const Error& e) {
@@ -367,6 +360,6 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
 
 static void gst_pose_nav_init(GstPoseNav* self) {
   self->st = new NavState();
-  self->st->reference = level_reference();
+  self->st->reference = rig_origin_reference();
   gst_base_transform_set_passthrough(GST_BASE_TRANSFORM(self), TRUE);
 }
