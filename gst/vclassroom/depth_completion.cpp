@@ -3,11 +3,65 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
 
+#include "simd.h"
+
 namespace vclassroom {
+
+// Per-row kernels of the per-frame stages: branch-free so that the compiler
+// vectorises them, and cloned for AVX2 (simd.h). External linkage: GCC's
+// target_clones needs it.
+namespace detail {
+
+// "Within tolerance" of depth d: max(min_mm, ratio * d), the ratio in 1/65536
+// steps (integer lanes vectorise better than float ones).
+inline uint32_t ratio_q16(double ratio) {
+  return static_cast<uint32_t>(std::clamp(ratio, 0.0, 65535.0 / 65536.0) * 65536.0 + 0.5);
+}
+
+// 255 where live depth is clearly in front of the prior (a learner).
+VCLASSROOM_SIMD_CLONES
+void prior_front_row(const uint16_t* live, const uint16_t* prior, int n, uint32_t tol_min, uint32_t rq16,
+                     uint8_t* front) {
+  for (int x = 0; x < n; ++x) {
+    const uint32_t l = live[x], p = prior[x];
+    const uint32_t t = std::max(tol_min, (p * rq16 + 32768u) >> 16);
+    front[x] = (l != 0) & (l + t < p) ? 255 : 0;
+  }
+}
+
+// 255 where the live colour differs from the empty room's by more than `tol`
+// in some channel.
+VCLASSROOM_SIMD_CLONES
+void color_differs_row(const uint8_t* c, const uint8_t* pc, int n, int tol, uint8_t* bad) {
+  for (int x = 0; x < n; ++x) {
+    const int d0 = std::abs(c[3 * x] - pc[3 * x]), d1 = std::abs(c[3 * x + 1] - pc[3 * x + 1]),
+              d2 = std::abs(c[3 * x + 2] - pc[3 * x + 2]);
+    bad[x] = std::max(d0, std::max(d1, d2)) > tol ? 255 : 0;
+  }
+}
+
+// The prior fill's choice per pixel. `keep_live`: 255 where a hole must not
+// take the prior (near a learner, colour changed, not measured, labelled).
+VCLASSROOM_SIMD_CLONES
+void prior_select_row(const uint16_t* live, const uint16_t* prior, const uint8_t* keep_live, const uint8_t* label,
+                      int n, uint32_t tol_min, uint32_t rq16, uint16_t* out) {
+  for (int x = 0; x < n; ++x) {
+    const uint32_t l = live[x], p = prior[x];
+    const uint32_t t = std::max(tol_min, (p * rq16 + 32768u) >> 16);
+    const uint32_t diff = l > p ? l - p : p - l;
+    const bool agree = (l != 0) & (diff <= t);
+    const bool hole = (l == 0) & (keep_live[x] == 0);
+    const bool take = (p != 0) & (agree | hole) & (label[x] == 0);
+    out[x] = take ? static_cast<uint16_t>(p) : static_cast<uint16_t>(l);
+  }
+}
+
+}  // namespace detail
 
 namespace {
 
@@ -79,9 +133,14 @@ int grow_agreeing(cv::Mat& d, std::vector<cv::Point>& holes, const std::vector<c
 
 // Colour-guided fill of every hole pixel from the ends of its horizontal and
 // vertical hole runs (see the header). `src` is read, `dst` written.
-void run_end_fill(const cv::Mat& src, const std::vector<cv::Point>& holes, const cv::Mat& color,
-                  const GuidedCompletionParams& p, cv::Mat& dst, cv::Mat* ambiguous) {
+void run_end_fill(cv::Mat& src, const std::vector<cv::Point>& holes, const cv::Mat& color,
+                  const GuidedCompletionParams& p, cv::Mat* ambiguous) {
   const int w = src.cols, h = src.rows;
+  // Written after the pass: every fill reads the image as it was before it
+  // (hole pixels still 0), without a copy of the whole image.
+  thread_local std::vector<uint16_t> fills;
+  fills.assign(holes.size(), 0);
+  size_t hole_index = 0;
   const double inv_sigma2 = 1.0 / (p.color_sigma * p.color_sigma);
   const bool has_color = !color.empty();
   // exp(-d2 / sigma^2) for squared colour distances d2 in steps of 8 (0 beyond 6 sigma).
@@ -106,7 +165,7 @@ void run_end_fill(const cv::Mat& src, const std::vector<cv::Point>& holes, const
     size_t j = i;
     while (j + 1 < holes.size() && holes[j + 1].y == holes[i].y && holes[j + 1].x == holes[j].x + 1) ++j;
     const int y = holes[i].y, a = holes[i].x, b = holes[j].x;
-    for (int xi = a; xi <= b; ++xi) {
+    for (int xi = a; xi <= b; ++xi, ++hole_index) {
       // Candidates: 0 left, 1 right, 2 up, 3 down.
       int cx[4], cy[4], dist[4];
       bool ok[4];
@@ -169,21 +228,69 @@ void run_end_fill(const cv::Mat& src, const std::vector<cv::Point>& holes, const
         sw_all += wgt[k];
         if (wgt[k] > 0 && std::abs(v[k] - v[best]) <= tol) sw += wgt[k], sv += wgt[k] * v[k];
       }
-      dst.at<uint16_t>(y, xi) = cv::saturate_cast<uint16_t>(sv / sw);
+      fills[hole_index] = cv::saturate_cast<uint16_t>(sv / sw);
       if (ambiguous && sw < (1.0 - p.ambiguous_share) * sw_all) ambiguous->at<uint8_t>(y, xi) = 255;
     }
     i = j + 1;
   }
+  for (size_t k = 0; k < holes.size(); ++k)
+    if (fills[k]) src.at<uint16_t>(holes[k]) = fills[k];
 }
 
-std::vector<cv::Point> hole_list(const cv::Mat& depth) {
-  std::vector<cv::Point> holes;
+// The zero pixels of `depth`, row-major. Most pixels are not holes: four at a
+// time are tested for a zero lane with one 64-bit word.
+void hole_list(const cv::Mat& depth, std::vector<cv::Point>& holes) {
+  holes.clear();
+  const int w = depth.cols;
   for (int y = 0; y < depth.rows; ++y) {
     const uint16_t* r = depth.ptr<uint16_t>(y);
-    for (int x = 0; x < depth.cols; ++x)
+    int x = 0;
+    for (; x + 4 <= w; x += 4) {
+      uint64_t v;
+      std::memcpy(&v, r + x, sizeof v);
+      if (!((v - 0x0001000100010001ull) & ~v & 0x8000800080008000ull)) continue;
+      for (int k = 0; k < 4; ++k)
+        if (!r[x + k]) holes.emplace_back(x + k, y);
+    }
+    for (; x < w; ++x)
       if (!r[x]) holes.emplace_back(x, y);
   }
-  return holes;
+}
+
+// The image-guided stage on `out` in place; `all_holes` are its zero pixels.
+void guided_in_place(cv::Mat& out, const std::vector<cv::Point>& all_holes, const cv::Mat& color,
+                     const GuidedCompletionParams& p, cv::Mat* ambiguous) {
+  thread_local std::vector<cv::Point> holes;
+  holes = all_holes;
+  if (p.morphology && !holes.empty()) {
+    static const std::vector<cv::Point> k_diamond = kernel_offsets(2, true), k5 = kernel_offsets(2, false),
+                                        k7 = kernel_offsets(3, false);
+    grow_agreeing(out, holes, k_diamond, 2, p);  // dilation with the diamond
+    grow_agreeing(out, holes, k5, 2, p);         // closing of small holes
+    grow_agreeing(out, holes, k7, 3, p);         // hole fill
+  }
+  if (p.hole_fill && !holes.empty()) run_end_fill(out, holes, color, p, ambiguous);
+  if (p.median && !all_holes.empty()) {
+    // Median of the filled image at each filled pixel (0s of unfilled holes excluded).
+    thread_local std::vector<uint16_t> med;
+    med.assign(all_holes.size(), 0);
+    uint16_t vals[25];
+    const int r2 = p.median_size >= 5 ? 2 : 1;
+    for (size_t i = 0; i < all_holes.size(); ++i) {
+      const cv::Point& h = all_holes[i];
+      if (!out.at<uint16_t>(h)) continue;
+      int n = 0;
+      for (int y = std::max(0, h.y - r2); y <= std::min(out.rows - 1, h.y + r2); ++y) {
+        const uint16_t* r = out.ptr<uint16_t>(y);
+        for (int x = std::max(0, h.x - r2); x <= std::min(out.cols - 1, h.x + r2); ++x)
+          if (r[x]) vals[n++] = r[x];
+      }
+      std::nth_element(vals, vals + n / 2, vals + n);
+      med[i] = vals[n / 2];
+    }
+    for (size_t i = 0; i < all_holes.size(); ++i)
+      if (med[i]) out.at<uint16_t>(all_holes[i]) = med[i];
+  }
 }
 
 }  // namespace
@@ -198,57 +305,45 @@ void prior_fill(const cv::Mat& live, const cv::Mat& color, const StaticPrior& sp
                             color.size() == live.size() && prior_color.size() == live.size()));
   CV_Assert(sp.measured.empty() || (sp.measured.type() == CV_8UC1 && sp.measured.size() == live.size()));
   CV_Assert(label.empty() || (label.type() == CV_8UC1 && label.size() == live.size()));
-  // Whole-image vector operations: this runs on every frame over every pixel.
-  thread_local cv::Mat tol, sum, agree, take, tmp, guard;
-  prior.convertTo(tol, CV_16U, p.tolerance_ratio);
-  cv::max(tol, cv::Scalar(p.tolerance_min_mm), tol);
-  // Agreeing live depth: the static room, measured better by the prior.
-  cv::absdiff(live, prior, sum);
-  cv::compare(sum, tol, agree, cv::CMP_LE);
-  cv::compare(live, 0, tmp, cv::CMP_NE);
-  agree &= tmp;
-  cv::compare(prior, 0, tmp, cv::CMP_NE);
-  agree &= tmp;
-  // Holes: prior unless near a learner, not the room's colour, or not measured.
-  cv::compare(live, 0, take, cv::CMP_EQ);
-  take &= tmp;
-  if (p.learner_guard_px > 0) {
-    // Live depth clearly in front of the prior is a learner (or a new object).
-    cv::add(live, tol, sum);  // saturates
-    cv::Mat& front = tmp;
-    cv::compare(sum, prior, front, cv::CMP_LT);
-    cv::Mat nonzero;
-    cv::compare(live, 0, nonzero, cv::CMP_NE);
-    front &= nonzero;
-    // Flying pixels along the room's own depth edges are also "in front" but
-    // only a pixel or two wide: an opening (5x5) drops them and keeps bodies;
-    // its dilation and the guard's compose into one dilation 5 + 2 guard wide.
-    cv::erode(front, nonzero, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
+  const int w = live.cols;
+  const uint32_t tol_min = static_cast<uint32_t>(std::max(0, p.tolerance_min_mm));
+  const uint32_t rq16 = detail::ratio_q16(p.tolerance_ratio);
+  // Learners: live depth clearly in front of the prior. Flying pixels along the
+  // room's own depth edges are also "in front" but only a pixel or two wide: an
+  // opening (5x5) drops them and keeps bodies; its dilation and the guard's
+  // compose into one dilation 5 + 2 guard wide. Only this needs whole-image
+  // morphology; the rest is two fused row passes.
+  thread_local cv::Mat front, eroded, guard;
+  const bool use_guard = p.learner_guard_px > 0;
+  if (use_guard) {
+    front.create(live.size(), CV_8UC1);
+    for (int y = 0; y < live.rows; ++y)
+      detail::prior_front_row(live.ptr<uint16_t>(y), prior.ptr<uint16_t>(y), w, tol_min, rq16, front.ptr<uint8_t>(y));
+    cv::erode(front, eroded, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
     const int k = 5 + 2 * p.learner_guard_px;
-    cv::dilate(nonzero, guard, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
-    cv::bitwise_not(guard, guard);
-    take &= guard;
+    cv::dilate(eroded, guard, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(k, k)));
   }
-  if (p.measured_only && !sp.measured.empty()) take &= sp.measured;
-  if (color_test) {
-    const int ctol = p.color_tolerance;
-    for (int y = 0; y < live.rows; ++y) {
-      uint8_t* t = take.ptr<uint8_t>(y);
-      const uint8_t* c = color.ptr<uint8_t>(y);
-      const uint8_t* pc = prior_color.ptr<uint8_t>(y);
-      for (int x = 0; x < live.cols; ++x)
-        if (t[x] && (std::abs(c[3 * x] - pc[3 * x]) > ctol || std::abs(c[3 * x + 1] - pc[3 * x + 1]) > ctol ||
-                     std::abs(c[3 * x + 2] - pc[3 * x + 2]) > ctol))
-          t[x] = 0;
-    }
+  const bool use_measured = p.measured_only && !sp.measured.empty();
+  thread_local std::vector<uint8_t> keep, bad, zeros;
+  keep.assign(w, 0);
+  bad.assign(w, 0);
+  zeros.assign(w, 0);
+  out.create(live.size(), CV_16UC1);
+  for (int y = 0; y < live.rows; ++y) {
+    uint8_t* k = keep.data();
+    if (color_test) detail::color_differs_row(color.ptr<uint8_t>(y), prior_color.ptr<uint8_t>(y), w,
+                                              p.color_tolerance, bad.data());
+    const uint8_t* g = use_guard ? guard.ptr<uint8_t>(y) : zeros.data();
+    const uint8_t* m = use_measured ? sp.measured.ptr<uint8_t>(y) : nullptr;
+    const uint8_t* cb = bad.data();
+    if (m)
+      for (int x = 0; x < w; ++x) k[x] = g[x] | cb[x] | static_cast<uint8_t>(~m[x]);
+    else
+      for (int x = 0; x < w; ++x) k[x] = g[x] | cb[x];
+    detail::prior_select_row(live.ptr<uint16_t>(y), prior.ptr<uint16_t>(y), k,
+                             label.empty() ? zeros.data() : label.ptr<uint8_t>(y), w, tol_min, rq16,
+                             out.ptr<uint16_t>(y));
   }
-  take |= agree;
-  if (!label.empty()) {
-    cv::compare(label, 0, tmp, cv::CMP_EQ);
-    take &= tmp;
-  }
-  live.copyTo(out);
-  prior.copyTo(out, take);
 }
 
 void guided_completion(const cv::Mat& depth, const cv::Mat& color, const GuidedCompletionParams& p, cv::Mat& out,
@@ -257,44 +352,14 @@ void guided_completion(const cv::Mat& depth, const cv::Mat& color, const GuidedC
   CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
   // Per-frame work is proportional to the holes, not the image: the
   // morphological steps are evaluated at hole pixels only.
-  const std::vector<cv::Point> all_holes = hole_list(depth);
+  std::vector<cv::Point> all_holes;
+  hole_list(depth, all_holes);
   if (out.data != depth.data) depth.copyTo(out);
   if (ambiguous) {
     ambiguous->create(depth.size(), CV_8UC1);
     ambiguous->setTo(0);
   }
-  std::vector<cv::Point> holes = all_holes;
-  if (p.morphology && !holes.empty()) {
-    static const std::vector<cv::Point> k_diamond = kernel_offsets(2, true), k5 = kernel_offsets(2, false),
-                                        k7 = kernel_offsets(3, false);
-    grow_agreeing(out, holes, k_diamond, 2, p);  // dilation with the diamond
-    grow_agreeing(out, holes, k5, 2, p);         // closing of small holes
-    grow_agreeing(out, holes, k7, 3, p);         // hole fill
-  }
-  if (p.hole_fill && !holes.empty()) {
-    thread_local cv::Mat stage;
-    out.copyTo(stage);
-    run_end_fill(stage, holes, color, p, out, ambiguous);
-  }
-  if (p.median && !all_holes.empty()) {
-    // 5x5 median of the filled image at each filled pixel (0s of unfilled holes excluded).
-    std::vector<std::pair<cv::Point, uint16_t>> med;
-    med.reserve(all_holes.size());
-    uint16_t vals[25];
-    const int r2 = p.median_size >= 5 ? 2 : 1;
-    for (const cv::Point& h : all_holes) {
-      if (!out.at<uint16_t>(h)) continue;
-      int n = 0;
-      for (int y = std::max(0, h.y - r2); y <= std::min(out.rows - 1, h.y + r2); ++y) {
-        const uint16_t* r = out.ptr<uint16_t>(y);
-        for (int x = std::max(0, h.x - r2); x <= std::min(out.cols - 1, h.x + r2); ++x)
-          if (r[x]) vals[n++] = r[x];
-      }
-      std::nth_element(vals, vals + n / 2, vals + n);
-      med.emplace_back(h, vals[n / 2]);
-    }
-    for (const auto& [pt, v] : med) out.at<uint16_t>(pt) = v;
-  }
+  guided_in_place(out, all_holes, color, p, ambiguous);
   if (filled) {
     filled->create(depth.size(), CV_8UC1);
     filled->setTo(0);
@@ -332,47 +397,64 @@ void nearest_fill(const cv::Mat& depth, cv::Mat& out) {
   }
 }
 
-void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unknown, const ColorizationParams& p) {
-  CV_Assert(depth.type() == CV_16UC1 && unknown.type() == CV_8UC1 && unknown.size() == depth.size());
-  CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
+namespace {
+
+// Colorization over the unknown pixels `pts` (row-major). Each unknown pixel
+// keeps its known neighbours' weighted sum as one constant and links to its
+// unknown neighbours by index, so a sweep touches only the unknown pixels'
+// own records, not the image.
+void colorize_points(cv::Mat& depth, const cv::Mat& color, const std::vector<cv::Point>& pts,
+                     const ColorizationParams& p) {
   const int w = depth.cols, h = depth.rows;
-  std::vector<cv::Point> pts;
-  cv::findNonZero(unknown, pts);
+  const size_t n = pts.size();
+  if (!n) return;
   bool zero_unknown = false;
   for (const cv::Point& q : pts) zero_unknown |= depth.at<uint16_t>(q) == 0;
-  if (pts.empty()) return;
   if (zero_unknown) {
     cv::Mat filled;
     nearest_fill(depth, filled);
-    filled.copyTo(depth, unknown);
+    for (const cv::Point& q : pts) depth.at<uint16_t>(q) = filled.at<uint16_t>(q);
   }
-  // Working values in a float image: known pixels are read, unknown ones relaxed.
-  thread_local cv::Mat z;
-  depth.convertTo(z, CV_32F);
-  float* zp = z.ptr<float>();
-  const size_t n = pts.size();
-  const int off[8] = {-w - 1, -w, -w + 1, -1, 1, w - 1, w, w + 1};
+  // Which pixels are unknown, and their index: written and cleared at `pts`
+  // only, so per frame nothing of the size of the image is touched.
+  thread_local cv::Mat index;
+  if (index.size() != depth.size() || index.type() != CV_32SC1) {
+    index.create(depth.size(), CV_32SC1);
+    index.setTo(-1);
+  }
+  for (size_t i = 0; i < n; ++i) index.at<int>(pts[i]) = static_cast<int>(i);
+  struct Node {
+    float cst;          // sum of w * D over the known neighbours
+    float omega_inv_sw; // relaxation / sum of all weights; 0 = no neighbour (left as it is)
+    int link[8];        // unknown neighbours (unused: the pixel itself, weight 0)
+    float wl[8];
+  };
+  thread_local std::vector<Node> nodes;
+  thread_local std::vector<float> z;
+  nodes.resize(n);
+  z.resize(n);
+  for (size_t i = 0; i < n; ++i) z[i] = depth.at<uint16_t>(pts[i]);
   const int dxs[8] = {-1, 0, 1, -1, 1, -1, 0, 1};
   const int dys[8] = {-1, -1, -1, 0, 0, 1, 1, 1};
-  thread_local std::vector<float> weights;
-  weights.assign(n * 8, 0.0f);
   const double inv_c2 = 1.0 / (p.color_sigma * p.color_sigma);
   // exp(-d2 / sigma^2) for squared colour distances d2 in steps of 8 (0 beyond 6 sigma).
   const int lut_size = static_cast<int>(36.0 * p.color_sigma * p.color_sigma / 8.0) + 2;
   std::vector<float> color_lut(lut_size);
   for (int i = 0; i < lut_size; ++i) color_lut[i] = static_cast<float>(std::exp(-8.0 * i * inv_c2));
-  std::vector<int> idx(n);
+  const float omega = static_cast<float>(p.relaxation);
   for (size_t i = 0; i < n; ++i) {
     const int x = pts[i].x, y = pts[i].y;
-    idx[i] = y * w + x;
-    const float zr = zp[idx[i]];
+    const float zr = z[i];
     const double sd = std::max(1.0, p.depth_sigma_ratio * zr);
     const uint8_t* c0 = color.empty() ? nullptr : color.ptr<uint8_t>(y) + 3 * x;
+    Node& nd = nodes[i];
+    float cst = 0, sw = 0;
+    int nl = 0;
     for (int k = 0; k < 8; ++k) {
       const int nx = x + dxs[k], ny = y + dys[k];
       if (nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
-      const float zs = zp[idx[i] + off[k]];
-      if (zs <= 0) continue;
+      const float zs = depth.at<uint16_t>(ny, nx);
+      if (zs <= 0) continue;  // no depth: not a neighbour
       float cw = 1.0f;
       if (c0) {
         const uint8_t* c1 = c0 + (dys[k] * static_cast<int>(color.step[0]) + 3 * dxs[k]);
@@ -384,23 +466,45 @@ void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unkn
       // A small floor keeps every unknown region tied to its surroundings,
       // so the relaxation stays anchored where colours differ all round.
       cw = std::max(cw, 1e-6f);
-      weights[i * 8 + k] = (dxs[k] && dys[k]) ? cw * 0.70710678f : cw;
+      if (dxs[k] && dys[k]) cw *= 0.70710678f;
+      sw += cw;
+      const int j = index.at<int>(ny, nx);
+      if (j >= 0) {
+        nd.link[nl] = j;
+        nd.wl[nl++] = cw;
+      } else {
+        cst += cw * zs;
+      }
     }
+    for (; nl < 8; ++nl) nd.link[nl] = static_cast<int>(i), nd.wl[nl] = 0;
+    nd.cst = cst;
+    nd.omega_inv_sw = sw > 1e-12f ? omega / sw : 0.0f;
   }
-  const float omega = static_cast<float>(p.relaxation);
+  for (const cv::Point& q : pts) index.at<int>(q) = -1;
+  // Successive over-relaxation in row-major order (Gauss-Seidel: each update
+  // sees its neighbours' newest values).
+  float* zp = z.data();
   for (int it = 0; it < p.iterations; ++it)
     for (size_t i = 0; i < n; ++i) {
-      const float* wk = &weights[i * 8];
-      float* zr = zp + idx[i];
-      float sw = 0, sv = 0;
-      for (int k = 0; k < 8; ++k)  // weight 0: outside the image or no depth, not to be read
-        if (wk[k] > 0) sw += wk[k], sv += wk[k] * zr[off[k]];
-      if (sw > 1e-12f) *zr += omega * (sv / sw - *zr);
+      const Node& nd = nodes[i];
+      float sv = nd.cst;
+      for (int k = 0; k < 8; ++k) sv += nd.wl[k] * zp[nd.link[k]];
+      zp[i] += nd.omega_inv_sw * sv - (nd.omega_inv_sw > 0 ? omega : 0.0f) * zp[i];
     }
   for (size_t i = 0; i < n; ++i) {
-    const float v = zp[idx[i]];
+    const float v = zp[i];
     if (std::isfinite(v) && v >= 1.0f) depth.at<uint16_t>(pts[i]) = cv::saturate_cast<uint16_t>(v);
   }
+}
+
+}  // namespace
+
+void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unknown, const ColorizationParams& p) {
+  CV_Assert(depth.type() == CV_16UC1 && unknown.type() == CV_8UC1 && unknown.size() == depth.size());
+  CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
+  std::vector<cv::Point> pts;
+  cv::findNonZero(unknown, pts);
+  colorize_points(depth, color, pts, p);
 }
 
 void ku_fast_fill(const cv::Mat& depth_mm, const KuFastParams& p, cv::Mat& out) {
@@ -468,24 +572,21 @@ void ku_fast_fill(const cv::Mat& depth_mm, const KuFastParams& p, cv::Mat& out) 
 void depth_complete(const cv::Mat& live, const cv::Mat& color, const StaticPrior& prior, const cv::Mat& label,
                     const DepthCompleteOptions& o, cv::Mat& out) {
   CV_Assert(live.type() == CV_16UC1);
+  CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == live.size()));
   if (o.use_prior && !prior.empty())
     prior_fill(live, color, prior, label, o.prior, out);
   else
     live.copyTo(out);
   if (!o.image_guided && !o.colorization) return;
-  cv::Mat unknown;
-  if (o.image_guided) {
-    // Kept across frames: a fresh 1 MB image each frame costs more than the stage's own work on small holes.
-    thread_local cv::Mat guided;
-    if (o.colorization) cv::compare(out, 0, unknown, cv::CMP_EQ);
-    guided_completion(out, color, o.guided, guided, nullptr, nullptr);
-    // What the image-guided stage could not fill is left to colorization too.
-    if (o.colorization) unknown |= guided == 0;
-    guided.copyTo(out);
-  } else if (o.colorization) {
-    cv::compare(out, 0, unknown, cv::CMP_EQ);
-  }
-  if (o.colorization) colorization_fill(out, color, unknown, o.colorize);
+  // Both later stages work on the holes left after the prior, in place: one
+  // scan of the image finds them, and nothing else of its size is copied.
+  thread_local std::vector<cv::Point> holes;
+  hole_list(out, holes);
+  if (holes.empty()) return;
+  if (o.image_guided) guided_in_place(out, holes, color, o.guided, nullptr);
+  // What the image-guided stage filled is refined by colorization, and what it
+  // could not fill is left to it too: the unknowns are all of the holes.
+  if (o.colorization) colorize_points(out, color, holes, o.colorize);
 }
 
 }  // namespace vclassroom
