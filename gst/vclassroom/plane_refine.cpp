@@ -1,10 +1,38 @@
 #include "plane_refine.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "error.h"
 
+// Baseline x86-64 build; the per-frame row kernel also has an AVX2 copy that
+// the loader picks where the CPU has it.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define PLANE_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define PLANE_SIMD_CLONES
+#endif
+
 namespace vclassroom {
+
+namespace detail {
+
+// One row of plane_refine, branch-free so that it vectorises: the tolerance
+// max(min_mm, ratio * plane depth) with the ratio in 1/65536 steps.
+PLANE_SIMD_CLONES
+void plane_snap_row(const uint16_t* in, const uint16_t* plane_depth, const uint8_t* index, const uint8_t* label,
+                    int n, uint32_t tol_min, uint32_t rq16, uint16_t* out) {
+  for (int x = 0; x < n; ++x) {
+    const uint32_t d = in[x], pd = plane_depth[x];
+    const uint32_t t = std::max(tol_min, (pd * rq16 + 32768u) >> 16);
+    const uint32_t diff = d > pd ? d - pd : pd - d;
+    const bool snap = (d != 0) & (index[x] != PlaneMaps::kNoPlane) & (diff <= t) & (label[x] == 0);
+    out[x] = snap ? static_cast<uint16_t>(pd) : static_cast<uint16_t>(d);
+  }
+}
+
+}  // namespace detail
 
 Eigen::Vector4d plane_in_camera(const RoomPlane& plane, const CameraCalib& cam) {
   // p_rig = R p_cam + t, so n . (R p_cam + t) + d = (R^T n) . p_cam + (n . t + d).
@@ -61,22 +89,15 @@ void plane_refine(const cv::Mat& depth, const PlaneMaps& maps, const cv::Mat& la
                   cv::Mat& out) {
   CV_Assert(depth.type() == CV_16UC1 && maps.depth.size() == depth.size() && maps.index.size() == depth.size());
   CV_Assert(label.empty() || (label.type() == CV_8UC1 && label.size() == depth.size()));
-  if (out.data != depth.data) depth.copyTo(out);
-  // Whole-image vector operations: this runs on every frame.
-  thread_local cv::Mat allowed, diff, on_plane, has_depth;
-  maps.depth.convertTo(allowed, CV_16U, tol.ratio);
-  cv::max(allowed, cv::Scalar(tol.min_mm), allowed);
-  cv::absdiff(out, maps.depth, diff);
-  cv::compare(diff, allowed, on_plane, cv::CMP_LE);
-  cv::compare(maps.index, PlaneMaps::kNoPlane, has_depth, cv::CMP_NE);
-  on_plane &= has_depth;
-  cv::compare(out, 0, has_depth, cv::CMP_NE);
-  on_plane &= has_depth;
-  if (!label.empty()) {
-    cv::compare(label, 0, has_depth, cv::CMP_EQ);
-    on_plane &= has_depth;
-  }
-  maps.depth.copyTo(out, on_plane);
+  out.create(depth.size(), CV_16UC1);  // no reallocation when `out` is `depth`
+  const uint32_t tol_min = static_cast<uint32_t>(std::max(0, tol.min_mm));
+  const uint32_t rq16 = static_cast<uint32_t>(std::clamp(tol.ratio, 0.0, 65535.0 / 65536.0) * 65536.0 + 0.5);
+  thread_local std::vector<uint8_t> zeros;
+  zeros.assign(depth.cols, 0);
+  for (int y = 0; y < depth.rows; ++y)
+    detail::plane_snap_row(depth.ptr<uint16_t>(y), maps.depth.ptr<uint16_t>(y), maps.index.ptr<uint8_t>(y),
+                           label.empty() ? zeros.data() : label.ptr<uint8_t>(y), depth.cols, tol_min, rq16,
+                           out.ptr<uint16_t>(y));
 }
 
 }  // namespace vclassroom
