@@ -262,6 +262,56 @@ void hole_list(const cv::Mat& depth, std::vector<cv::Point>& holes) {
   }
 }
 
+// Median of nine values by a fixed exchange network (19 min/max, no branches).
+inline uint16_t median9(uint16_t* p) {
+  auto sort2 = [](uint16_t& a, uint16_t& b) {
+    const uint16_t lo = std::min(a, b), hi = std::max(a, b);
+    a = lo, b = hi;
+  };
+  sort2(p[1], p[2]), sort2(p[4], p[5]), sort2(p[7], p[8]);
+  sort2(p[0], p[1]), sort2(p[3], p[4]), sort2(p[6], p[7]);
+  sort2(p[1], p[2]), sort2(p[4], p[5]), sort2(p[7], p[8]);
+  sort2(p[0], p[3]), sort2(p[5], p[8]), sort2(p[4], p[7]);
+  sort2(p[3], p[6]), sort2(p[1], p[4]), sort2(p[2], p[5]);
+  sort2(p[4], p[7]), sort2(p[4], p[2]), sort2(p[6], p[4]);
+  sort2(p[4], p[2]);
+  return p[4];
+}
+
+// Median of the image at each pixel of `pts` that has depth, over its 3x3 or
+// 5x5 window (0s excluded); all medians are taken before any is written.
+void filled_median_at(cv::Mat& out, const std::vector<cv::Point>& pts, int size) {
+  if (pts.empty()) return;
+  thread_local std::vector<uint16_t> med;
+  med.assign(pts.size(), 0);
+  uint16_t vals[25];
+  const int r2 = size >= 5 ? 2 : 1;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const cv::Point& h = pts[i];
+    if (!out.at<uint16_t>(h)) continue;
+    if (r2 == 1 && h.x > 0 && h.y > 0 && h.x + 1 < out.cols && h.y + 1 < out.rows) {
+      const uint16_t* a = out.ptr<uint16_t>(h.y - 1) + h.x - 1;
+      const uint16_t* b = out.ptr<uint16_t>(h.y) + h.x - 1;
+      const uint16_t* c = out.ptr<uint16_t>(h.y + 1) + h.x - 1;
+      uint16_t v[9] = {a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]};
+      if (v[0] && v[1] && v[2] && v[3] && v[5] && v[6] && v[7] && v[8]) {
+        med[i] = median9(v);
+        continue;
+      }
+    }
+    int n = 0;
+    for (int y = std::max(0, h.y - r2); y <= std::min(out.rows - 1, h.y + r2); ++y) {
+      const uint16_t* r = out.ptr<uint16_t>(y);
+      for (int x = std::max(0, h.x - r2); x <= std::min(out.cols - 1, h.x + r2); ++x)
+        if (r[x]) vals[n++] = r[x];
+    }
+    std::nth_element(vals, vals + n / 2, vals + n);
+    med[i] = vals[n / 2];
+  }
+  for (size_t i = 0; i < pts.size(); ++i)
+    if (med[i]) out.at<uint16_t>(pts[i]) = med[i];
+}
+
 // The image-guided stage on `out` in place; `all_holes` are its zero pixels.
 void guided_in_place(cv::Mat& out, const std::vector<cv::Point>& all_holes, const cv::Mat& color,
                      const GuidedCompletionParams& p, cv::Mat* ambiguous) {
@@ -275,27 +325,7 @@ void guided_in_place(cv::Mat& out, const std::vector<cv::Point>& all_holes, cons
     grow_agreeing(out, holes, k7, 3, p);         // hole fill
   }
   if (p.hole_fill && !holes.empty()) run_end_fill(out, holes, color, p, ambiguous);
-  if (p.median && !all_holes.empty()) {
-    // Median of the filled image at each filled pixel (0s of unfilled holes excluded).
-    thread_local std::vector<uint16_t> med;
-    med.assign(all_holes.size(), 0);
-    uint16_t vals[25];
-    const int r2 = p.median_size >= 5 ? 2 : 1;
-    for (size_t i = 0; i < all_holes.size(); ++i) {
-      const cv::Point& h = all_holes[i];
-      if (!out.at<uint16_t>(h)) continue;
-      int n = 0;
-      for (int y = std::max(0, h.y - r2); y <= std::min(out.rows - 1, h.y + r2); ++y) {
-        const uint16_t* r = out.ptr<uint16_t>(y);
-        for (int x = std::max(0, h.x - r2); x <= std::min(out.cols - 1, h.x + r2); ++x)
-          if (r[x]) vals[n++] = r[x];
-      }
-      std::nth_element(vals, vals + n / 2, vals + n);
-      med[i] = vals[n / 2];
-    }
-    for (size_t i = 0; i < all_holes.size(); ++i)
-      if (med[i]) out.at<uint16_t>(all_holes[i]) = med[i];
-  }
+  if (p.median) filled_median_at(out, all_holes, p.median_size);
 }
 
 }  // namespace
@@ -504,6 +534,13 @@ void colorize_points(cv::Mat& depth, const cv::Mat& color, const std::vector<cv:
 
 }  // namespace
 
+void filled_median(cv::Mat& depth, const cv::Mat& filled, int size) {
+  CV_Assert(depth.type() == CV_16UC1 && filled.type() == CV_8UC1 && filled.size() == depth.size());
+  std::vector<cv::Point> pts;
+  cv::findNonZero(filled, pts);
+  filled_median_at(depth, pts, size);
+}
+
 void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unknown, const ColorizationParams& p) {
   CV_Assert(depth.type() == CV_16UC1 && unknown.type() == CV_8UC1 && unknown.size() == depth.size());
   CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
@@ -588,10 +625,17 @@ void depth_complete(const cv::Mat& live, const cv::Mat& color, const StaticPrior
   thread_local std::vector<cv::Point> holes;
   hole_list(out, holes);
   if (holes.empty()) return;
-  if (o.image_guided) guided_in_place(out, holes, color, o.guided, nullptr);
+  // The image-guided stage's median runs last, after colorization: before it,
+  // the relaxation spreads the pixels the median moved into their
+  // neighbourhood, and on the knocked-out Middlebury views that costs more
+  // than the median gains (docs/vda.md).
+  GuidedCompletionParams guided = o.guided;
+  guided.median = false;
+  if (o.image_guided) guided_in_place(out, holes, color, guided, nullptr);
   // What the image-guided stage filled is refined by colorization, and what it
   // could not fill is left to it too: the unknowns are all of the holes.
   if (o.colorization) colorize_points(out, color, holes, o.colorize);
+  if (o.image_guided && o.guided.median) filled_median_at(out, holes, o.guided.median_size);
 }
 
 }  // namespace vclassroom

@@ -50,7 +50,8 @@ void prior_fill(const cv::Mat& live, const cv::Mat& color, const StaticPrior& pr
 // the valid depths under its kernel agree (so nothing grows across a depth
 // edge); holes that remain are filled from the four run ends around each hole
 // pixel, chosen and weighted by colour similarity, interpolating 1/Z across a
-// run whose two ends lie on one surface; then a 5x5 median over the filled pixels.
+// run whose two ends lie on one surface; then a 3x3 median over the filled
+// pixels (in depth_complete after colorization, see there).
 struct GuidedCompletionParams {
   int max_depth_mm = 65535;         // inversion constant: any 16-bit depth stays valid once inverted
   bool morphology = true;           // diamond dilation, closing, 7x7 hole fill (agreeing neighbours only)
@@ -91,6 +92,11 @@ struct ColorizationParams {
 // valid pixel's depth (nearest_fill). Known pixels are never changed.
 void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unknown, const ColorizationParams& p);
 
+// Median of `depth` over its 3x3 (size 3) or 5x5 window, 0s excluded, at every
+// pixel where `filled` (CV_8UC1) is nonzero and depth is not 0; all medians are
+// taken from the input, then written.
+void filled_median(cv::Mat& depth, const cv::Mat& filled, int size = 3);
+
 // Baseline: every hole pixel takes the depth of the nearest valid pixel
 // (Euclidean distance). Empty input stays empty.
 void nearest_fill(const cv::Mat& depth, cv::Mat& out);
@@ -119,8 +125,11 @@ struct DepthCompleteOptions {
   ColorizationParams colorize;
 };
 
-// Runs the enabled stages in order. `prior` and `label` may be empty (without a
-// prior the prior stage is skipped). `out` must not alias `live`.
+// Runs the enabled stages in order: prior fill, image-guided completion,
+// colorization, and last the image-guided stage's median over the filled
+// pixels (after colorization, whose relaxation would otherwise spread what the
+// median moved). `prior` and `label` may be empty (without a prior the prior
+// stage is skipped). `out` must not alias `live`.
 void depth_complete(const cv::Mat& live, const cv::Mat& color, const StaticPrior& prior, const cv::Mat& label,
                     const DepthCompleteOptions& o, cv::Mat& out);
 

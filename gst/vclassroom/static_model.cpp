@@ -396,8 +396,12 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
     m.prior_measured[cam.id] = unknown == 0;
     const cv::Mat& col = color[cam.id].empty() ? cv::Mat() : color[cam.id];
     cv::Mat filled;
-    guided_completion(prior, col, o.guided, filled);
+    // The same order as per frame (depth_complete): the median last.
+    GuidedCompletionParams guided = o.guided;
+    guided.median = false;
+    guided_completion(prior, col, guided, filled);
     colorization_fill(filled, col, unknown, o.colorize);
+    if (o.guided.median) filled_median(filled, unknown, o.guided.median_size);
     const PlaneMaps maps = plane_maps_for_camera(m.planes, cam, filled, o.plane_tolerance);
     plane_refine(filled, maps, cv::Mat(), o.plane_tolerance, filled);
     m.prior_depth[cam.id] = filled;
