@@ -3,6 +3,8 @@
 // planerefine elements through GStreamer.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <memory>
 
@@ -162,6 +164,154 @@ TEST(DepthCompletion, ColorizationFollowsColour) {
   EXPECT_EQ(depth.at<uint16_t>(10, 2), 1200) << "known pixels never change";
 }
 
+TEST(DepthCompletion, FilledMedianKnownAnswer) {
+  // Medians are taken from the input (not from pixels already replaced), over
+  // the window's nonzero values, at filled pixels only.
+  cv::Mat d = (cv::Mat_<uint16_t>(4, 5) << 10, 20, 30, 40, 50,  //
+               60, 70, 80, 90, 100,                              //
+               0, 0, 5000, 0, 110,                               //
+               120, 130, 140, 150, 160);
+  cv::Mat filled = cv::Mat::zeros(d.size(), CV_8UC1);
+  filled.at<uint8_t>(1, 1) = 255;  // full window: 10 20 30 60 70 80 0 0 5000 -> nonzero 10 20 30 60 70 80 5000
+  filled.at<uint8_t>(2, 2) = 255;  // 70 80 90 0 5000 0 130 140 150 -> 70 80 90 130 140 150 5000
+  filled.at<uint8_t>(0, 4) = 255;  // corner: 40 50 90 100
+  filled.at<uint8_t>(2, 3) = 255;  // no depth: stays 0
+  cv::Mat out = d.clone();
+  filled_median(out, filled, 3);
+  EXPECT_EQ(out.at<uint16_t>(1, 1), 60);
+  EXPECT_EQ(out.at<uint16_t>(2, 2), 130);
+  EXPECT_EQ(out.at<uint16_t>(0, 4), 90);  // upper median of an even count
+  EXPECT_EQ(out.at<uint16_t>(2, 3), 0);
+  cv::Mat untouched = filled == 0;
+  EXPECT_EQ(max_abs_diff(out, d, untouched), 0.0);
+
+  // A full 3x3 window (the exchange network) agrees with sorting.
+  cv::RNG rng(5);
+  cv::Mat r(9, 9, CV_16UC1);
+  rng.fill(r, cv::RNG::UNIFORM, 1, 6000);
+  cv::Mat all(r.size(), CV_8UC1, cv::Scalar(255)), med = r.clone();
+  filled_median(med, all, 3);
+  for (int y = 1; y < 8; ++y)
+    for (int x = 1; x < 8; ++x) {
+      std::vector<uint16_t> v;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) v.push_back(r.at<uint16_t>(y + dy, x + dx));
+      std::sort(v.begin(), v.end());
+      ASSERT_EQ(med.at<uint16_t>(y, x), v[4]) << "at (" << x << ", " << y << ")";
+    }
+}
+
+TEST(DepthCompletion, MedianRunsAfterColorization) {
+  // depth_complete = image-guided stage without its median, colorization of
+  // every hole, then the median over the holes.
+  const int w = 48, h = 36;
+  cv::Mat depth(h, w, CV_16UC1), color(h, w, CV_8UC3);
+  cv::RNG rng(11);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool near = (x - 20) * (x - 20) + (y - 18) * (y - 18) < 100;
+      depth.at<uint16_t>(y, x) = static_cast<uint16_t>((near ? 1400 : 2600) + rng.uniform(-15, 16));
+      color.at<cv::Vec3b>(y, x) = near ? cv::Vec3b(200, 60, 40) : cv::Vec3b(40, 90, 180);
+    }
+  depth(cv::Rect(8, 10, 9, 12)).setTo(0);
+  depth(cv::Rect(26, 14, 6, 3)).setTo(0);
+  const cv::Mat holes = depth == 0;
+  DepthCompleteOptions o;
+  cv::Mat out;
+  depth_complete(depth, color, StaticPrior(), cv::Mat(), o, out);
+  GuidedCompletionParams g = o.guided;
+  g.median = false;
+  cv::Mat chain;
+  guided_completion(depth, color, g, chain);
+  colorization_fill(chain, color, holes, o.colorize);
+  filled_median(chain, holes, o.guided.median_size);
+  EXPECT_EQ(max_abs_diff(out, chain), 0.0);
+  EXPECT_EQ(cv::countNonZero(out), w * h);
+}
+
+TEST(DepthCompletion, ColorizationMatchesDenseRelaxation) {
+  // The hole-list solver against a plain whole-image successive over-relaxation.
+  const int w = 30, h = 22;
+  cv::RNG rng(9);
+  cv::Mat depth(h, w, CV_16UC1), color(h, w, CV_8UC3), unknown = cv::Mat::zeros(h, w, CV_8UC1);
+  rng.fill(depth, cv::RNG::UNIFORM, 1500, 3000);
+  rng.fill(color, cv::RNG::UNIFORM, 0, 256);
+  unknown(cv::Rect(5, 4, 10, 8)).setTo(255);
+  unknown(cv::Rect(0, 15, 7, 7)).setTo(255);  // at the image border
+  unknown(cv::Rect(20, 10, 4, 4)).setTo(255);
+  depth.at<uint16_t>(3, 25) = 0;  // a known pixel without depth is no neighbour
+  ColorizationParams p;
+  p.iterations = 25;
+  cv::Mat got = depth.clone();
+  colorization_fill(got, color, unknown, p);
+
+  cv::Mat z;
+  depth.convertTo(z, CV_64F);
+  const double lut_step = 8.0;
+  for (int it = 0; it < p.iterations; ++it)
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        if (!unknown.at<uint8_t>(y, x)) continue;
+        double sw = 0, sv = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int nx = x + dx, ny = y + dy;
+            if ((!dx && !dy) || nx < 0 || ny < 0 || nx >= w || ny >= h) continue;
+            if (depth.at<uint16_t>(ny, nx) == 0) continue;
+            const cv::Vec3b a = color.at<cv::Vec3b>(y, x), b = color.at<cv::Vec3b>(ny, nx);
+            const int d2 = (a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]);
+            const int bin = d2 >> 3;
+            double cw = bin * lut_step < 36.0 * p.color_sigma * p.color_sigma
+                            ? std::exp(-lut_step * bin / (p.color_sigma * p.color_sigma))
+                            : 0.0;
+            cw = std::max(cw, 1e-6);
+            if (dx && dy) cw *= 0.70710678;
+            sw += cw;
+            sv += cw * z.at<double>(ny, nx);
+          }
+        z.at<double>(y, x) += p.relaxation * (sv / sw - z.at<double>(y, x));
+      }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (!unknown.at<uint8_t>(y, x)) {
+        ASSERT_EQ(got.at<uint16_t>(y, x), depth.at<uint16_t>(y, x));
+        continue;
+      }
+      ASSERT_NEAR(got.at<uint16_t>(y, x), z.at<double>(y, x), 1.0) << "at (" << x << ", " << y << ")";
+    }
+}
+
+TEST(DepthCompletion, PriorFillToleranceAndMeasuredOnly) {
+  // Prior 2000 mm: tolerance max(40, 3% of 2000) = 60 mm.
+  const int w = 32, h = 24;
+  StaticPrior prior;
+  prior.depth = cv::Mat(h, w, CV_16UC1, cv::Scalar(2000));
+  cv::Mat live(h, w, CV_16UC1, cv::Scalar(2000));
+  live.at<uint16_t>(2, 2) = 2060;   // within: the prior
+  live.at<uint16_t>(2, 5) = 2061;   // behind: kept
+  live.at<uint16_t>(2, 8) = 1939;   // in front, one pixel: kept, and too small to count as a learner
+  live.at<uint16_t>(2, 11) = 1940;  // within
+  live(cv::Rect(20, 10, 2, 2)).setTo(0);
+  live(cv::Rect(4, 14, 2, 2)).setTo(0);
+  cv::Mat out;
+  prior_fill(live, cv::Mat(), prior, cv::Mat(), PriorFillParams(), out);
+  EXPECT_EQ(out.at<uint16_t>(2, 2), 2000);
+  EXPECT_EQ(out.at<uint16_t>(2, 5), 2061);
+  EXPECT_EQ(out.at<uint16_t>(2, 8), 1939);
+  EXPECT_EQ(out.at<uint16_t>(2, 11), 2000);
+  EXPECT_EQ(out.at<uint16_t>(10, 20), 2000) << "a hole away from learners takes the prior";
+
+  // Holes take only prior depth some camera measured.
+  prior.measured = cv::Mat(h, w, CV_8UC1, cv::Scalar(255));
+  prior.measured(cv::Rect(0, 12, 16, 12)).setTo(0);
+  PriorFillParams mo;
+  mo.measured_only = true;
+  prior_fill(live, cv::Mat(), prior, cv::Mat(), mo, out);
+  EXPECT_EQ(out.at<uint16_t>(10, 20), 2000);
+  EXPECT_EQ(out.at<uint16_t>(14, 4), 0);
+  EXPECT_EQ(out.at<uint16_t>(20, 2), 2000) << "measured live depth still takes the prior where it agrees";
+}
+
 TEST(DepthCompletion, Baselines) {
   cv::Mat d(20, 30, CV_16UC1, cv::Scalar(0));
   d.at<uint16_t>(5, 3) = 1000;
@@ -217,6 +367,37 @@ TEST(PlaneRefine, SnapsPlanePixelsAndLeavesLearners) {
   }
 }
 
+TEST(PlaneRefine, ToleranceLabelsAndHoles) {
+  // A plane at 2000 mm everywhere: tolerance max(20, 1.5% of 2000) = 30 mm.
+  PlaneMaps maps;
+  maps.index = cv::Mat(4, 40, CV_8UC1, cv::Scalar(0));
+  maps.depth = cv::Mat(4, 40, CV_16UC1, cv::Scalar(2000));
+  maps.index.at<uint8_t>(1, 7) = PlaneMaps::kNoPlane;
+  cv::Mat d(4, 40, CV_16UC1, cv::Scalar(2010)), label = cv::Mat::zeros(4, 40, CV_8UC1);
+  d.at<uint16_t>(1, 1) = 2030;
+  d.at<uint16_t>(1, 2) = 2031;
+  d.at<uint16_t>(1, 3) = 1970;
+  d.at<uint16_t>(1, 4) = 1969;
+  d.at<uint16_t>(1, 5) = 0;
+  d.at<uint16_t>(1, 7) = 2005;
+  d.at<uint16_t>(1, 9) = 2005;
+  label.at<uint8_t>(1, 9) = 2;
+  cv::Mat out;
+  plane_refine(d, maps, label, PlaneTolerance(), out);
+  EXPECT_EQ(out.at<uint16_t>(0, 0), 2000);
+  EXPECT_EQ(out.at<uint16_t>(1, 1), 2000);
+  EXPECT_EQ(out.at<uint16_t>(1, 2), 2031);
+  EXPECT_EQ(out.at<uint16_t>(1, 3), 2000);
+  EXPECT_EQ(out.at<uint16_t>(1, 4), 1969);
+  EXPECT_EQ(out.at<uint16_t>(1, 5), 0) << "holes stay holes";
+  EXPECT_EQ(out.at<uint16_t>(1, 7), 2005) << "no plane there";
+  EXPECT_EQ(out.at<uint16_t>(1, 9), 2005) << "labelled learner";
+  // In place, without a label plane.
+  plane_refine(d, maps, cv::Mat(), PlaneTolerance(), d);
+  EXPECT_EQ(d.at<uint16_t>(1, 9), 2000);
+  EXPECT_EQ(d.at<uint16_t>(1, 2), 2031);
+}
+
 // The empty synthetic classroom seen by a small version of the default rig.
 struct SmallModel {
   Rig rig;
@@ -269,6 +450,27 @@ TEST(StaticModel, IcpRecoversAPerturbedCameraAndFindsTheFloor) {
     const cv::Mat& prior = m.prior(cam.id);
     ASSERT_EQ(prior.size(), cv::Size(cam.width, cam.height));
     EXPECT_EQ(cv::countNonZero(prior), prior.rows * prior.cols);
+  }
+}
+
+TEST(StaticModel, PlaneSnappingCanBeLeftOut) {
+  // The "without planes" ablation's model: the same capture, prior not snapped.
+  const SmallModel s(160, 90, 2);
+  const StaticModel snapped = build_static_model(s.rig, s.captures);
+  StaticModelOptions o;
+  o.snap_planes = false;
+  const StaticModel raw = build_static_model(s.rig, s.captures, o);
+  ASSERT_EQ(snapped.planes.size(), raw.planes.size());
+  for (const CameraCalib& cam : snapped.rig.cameras) {
+    // Pixels within rounding of a plane: most of the snapped prior, few of the other.
+    const int on_snapped = cv::countNonZero(plane_maps_for_camera(snapped.planes, cam, snapped.prior(cam.id)).index !=
+                                            PlaneMaps::kNoPlane);
+    const CameraCalib& raw_cam = raw.rig.camera(cam.id);
+    const int on_raw =
+        cv::countNonZero(plane_maps_for_camera(raw.planes, raw_cam, raw.prior(cam.id)).index != PlaneMaps::kNoPlane);
+    EXPECT_GT(on_snapped, cam.width * cam.height / 2) << "camera " << cam.id;
+    EXPECT_LT(on_raw * 2, on_snapped) << "camera " << cam.id;
+    EXPECT_EQ(cv::countNonZero(raw.prior(cam.id)), cam.width * cam.height);
   }
 }
 

@@ -26,7 +26,8 @@ static void usage() {
          "  --size WxH         synthetic camera size (default 960x540)\n"
          "  --no-icp           keep the rig's extrinsics\n"
          "  --align            re-align the rig frame: Y up from the floor, X along the largest wall\n"
-         "  --voxel M          fused cloud voxel size in metres (default 0.01)\n";
+         "  --voxel M          fused cloud voxel size in metres (default 0.01)\n"
+         "  --no-plane-snap    leave the prior depth off the planes (V-DA's \"without planes\" ablation)\n";
 }
 
 int main(int argc, char** argv) {
@@ -64,6 +65,8 @@ int main(int argc, char** argv) {
         o.refine_extrinsics = false;
       else if (k == "--align")
         align = true;
+      else if (k == "--no-plane-snap")
+        o.snap_planes = false;
       else if (k == "--voxel")
         o.voxel_m = std::stod(next());
       else {

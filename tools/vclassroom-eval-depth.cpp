@@ -311,11 +311,12 @@ void eval_middlebury(const Args& a) {
 
 struct SyntheticSetup {
   Rig rig;
-  StaticModel model;
+  StaticModel model;            // the full V-DA's: prior snapped to the planes
+  StaticModel model_no_planes;  // the same capture, prior left off the planes (the "without planes" rows)
   std::map<int, PlaneMaps> maps;
 };
 
-SyntheticSetup build_synthetic_model(const Args& a, double* build_s) {
+SyntheticSetup build_synthetic_model(const Args& a, double* build_s, bool without_planes = false) {
   SyntheticSetup s;
   s.rig = default_classroom_rig();
   ClassroomConfig empty_cfg;
@@ -338,6 +339,13 @@ SyntheticSetup build_synthetic_model(const Args& a, double* build_s) {
   const double t0 = CpuClock::now();
   s.model = build_static_model(s.rig, caps);
   *build_s = ms_since(t0) / 1000.0;
+  if (without_planes) {
+    // V-DA without its planar refinement: neither the model's prior nor the
+    // frames are snapped to the planes.
+    StaticModelOptions no_snap;
+    no_snap.snap_planes = false;
+    s.model_no_planes = build_static_model(s.rig, caps, no_snap);
+  }
   for (const CameraCalib& cam : s.model.rig.cameras)
     s.maps[cam.id] = plane_maps_for_camera(s.model.planes, cam, s.model.prior(cam.id));
   return s;
@@ -345,7 +353,7 @@ SyntheticSetup build_synthetic_model(const Args& a, double* build_s) {
 
 void eval_synthetic(const Args& a) {
   double build_s = 0;
-  const SyntheticSetup s = build_synthetic_model(a, &build_s);
+  const SyntheticSetup s = build_synthetic_model(a, &build_s, true);
   std::printf("\nStatic model of the empty synthetic classroom (seed %llu, %d sensor frames per camera, 3 cameras "
               "960x540): built in %.1f s, %zu fused points, %zu planes\n",
               static_cast<unsigned long long>(a.seed), a.model_frames, build_s, s.model.points.size(),
@@ -363,6 +371,9 @@ void eval_synthetic(const Args& a) {
   const Classroom room(cfg);
   const PlaneTolerance tol;
   const DepthCompleteOptions full = a.vda;
+  // `planes` is V-DA's planar refinement as a whole: the prior snapped to the
+  // planes when the model is built, and planerefine per frame. Rows without it
+  // use the model built without snapping.
   struct Variant {
     std::string name;
     bool prior, guided, colorize, planes;
@@ -404,7 +415,8 @@ void eval_synthetic(const Args& a) {
         o.colorization = v.colorize;
         // The label plane is not used: the elements must work without it.
         const auto t0 = CpuClock::now();
-        depth_complete(depth, color, s.model.prior_for(cam.id), cv::Mat(), o, out);
+        const StaticModel& model = v.planes ? s.model : s.model_no_planes;
+        depth_complete(depth, color, model.prior_for(cam.id), cv::Mat(), o, out);
         const double t_complete = ms_since(t0);
         const auto t1 = CpuClock::now();
         if (v.planes) plane_refine(out, maps, cv::Mat(), tol, out);

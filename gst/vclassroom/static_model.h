@@ -40,7 +40,9 @@ struct StaticModelOptions {
   uint64_t seed = 1;
   // Fill each camera's unmeasured pixels from the other cameras' points (the fused cloud projected in).
   bool fill_from_other_cameras = true;
-  // Tolerance with which prior pixels are snapped to the planes.
+  // Snap prior pixels to the planes (part of V-DA's planar refinement; off for
+  // its "without planes" ablation), with this tolerance.
+  bool snap_planes = true;
   PlaneTolerance plane_tolerance{20, 0.01};
   // Offline completion of each prior: image-guided fill, then colorization.
   GuidedCompletionParams guided;
