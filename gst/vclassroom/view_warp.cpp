@@ -2,16 +2,37 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
+
+#include "simd.h"
 
 namespace vclassroom {
 
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kNear = 0.05f;  // metres: nearer points are behind the virtual lens
+// Source positions are kept in OpenCV's fixed-point remap format: 1/32 px.
+constexpr int kSubBits = cv::INTER_BITS;
+constexpr int kSub = 1 << kSubBits;
+// Link flags: same surface as the right / lower neighbour. Several bits each,
+// so that testing one is a compare, not a 1-bit cast GCC will not vectorise.
+constexpr uint8_t kRight = 0x0f, kDown = 0xf0;
+
+// What the z-buffer keeps per virtual pixel: the winning sample, colour
+// included. Nearly every sample written survives (a cell rarely lands behind
+// another), so sampling the colour when writing costs no more than after,
+// and reads the source near the row being splatted, in cache.
+struct Sample {
+  uint16_t z;  // mm along the virtual axis; kNoSample = nothing yet
+  uint8_t rgb[3];
+  uint8_t weight;  // 1..255
+  uint8_t label;
+  uint8_t unused;
+};
+constexpr uint16_t kNoSample = 0xffff;
 
 // floor/ceil without a libm call (x86-64 baseline has no SSE4.1 round).
 inline int fast_floor(float x) {
@@ -48,6 +69,259 @@ void learner_median_depths(const cv::Mat& depth, const cv::Mat& label, uint16_t 
   }
 }
 
+// The per-pixel loops below are written branch-free so the compiler
+// vectorises them; the AVX2 clone is picked at run time where the CPU has it.
+
+// Layered depth of one row: learners keep their live depth, the room takes
+// its static depth where known.
+VCLASSROOM_SIMD_CLONES
+void layer_row(int n, const uint16_t* live, const uint16_t* stat, const uint8_t* lab, uint16_t* out) {
+  for (int i = 0; i < n; ++i) {
+    const uint16_t s = stat[i], d = live[i];
+    out[i] = ((lab[i] == 0) & (s != 0)) ? s : d;
+  }
+}
+
+// A step p1 -> p2 along a line is a depth edge when it is large and much
+// larger than the steps beside it (a slanted surface has steps too, but even
+// ones). code[i] = 1: the far side is i; 2: the far side is i + stride.
+VCLASSROOM_SIMD_CLONES
+void depth_edges(int n, const uint16_t* d, ptrdiff_t stride, float ratio, float min_mm, uint8_t* code) {
+  for (int i = 0; i < n; ++i) {
+    const int p0 = d[i - stride], p1 = d[i], p2 = d[i + stride], p3 = d[i + 2 * stride];
+    const int step = p2 > p1 ? p2 - p1 : p1 - p2;
+    const int s0 = p0 ? (p1 > p0 ? p1 - p0 : p0 - p1) : 0;
+    const int s3 = p3 ? (p3 > p2 ? p3 - p2 : p2 - p3) : 0;
+    const int side = s0 > s3 ? s0 : s3;
+    const float lim = std::max(min_mm, ratio * float(p1 < p2 ? p1 : p2));
+    const bool edge = (p1 != 0) & (p2 != 0) & (float(step) > lim) & (step > 3 * side);
+    code[i] = edge ? (p1 > p2 ? 1 : 2) : 0;
+  }
+}
+
+// Marks, for the depth edges in `code` (depth_edges), the pixel k steps
+// beyond the far side: code 1 at j drops j - k*stride, code 2 at j drops
+// j + (k + 1)*stride. `count` pixels along the line, `stride` apart.
+VCLASSROOM_SIMD_CLONES
+void mark_far_side(int count, int k, ptrdiff_t stride, const uint8_t* __restrict code, uint8_t* __restrict drop) {
+  const size_t n = size_t(count) * stride, near = size_t(k) * stride, far = size_t(k + 1) * stride;
+  for (size_t i = 0; i + near < n; ++i) drop[i] |= code[i + near] == 1;
+  for (size_t i = far; i < n; ++i) drop[i] |= code[i - far] == 2;
+}
+
+VCLASSROOM_SIMD_CLONES
+void clear_dropped(size_t n, const uint8_t* __restrict drop, uint16_t* __restrict depth) {
+  for (size_t i = 0; i < n; ++i) depth[i] = drop[i] ? 0 : depth[i];
+}
+
+struct Projection {
+  float r[9], t[3];  // source camera -> virtual camera
+  float fx, fy, cx, cy;
+  float link_scale;  // virtual / source focal length
+  float link_gap;    // px
+};
+
+// Every source pixel into the virtual camera: position, depth (0 = not
+// drawn), the longest a one-pixel mesh edge may grow before it counts as
+// torn, and the camera's quality for the point: cos^8 of the angle between
+// its ray and the virtual ray (10° -> 0.89, 30° -> 0.32), times how much
+// nearer the virtual camera is.
+VCLASSROOM_SIMD_CLONES
+void project_points(size_t n, const uint16_t* zmm, const float* ray_x, const float* ray_y, const Projection& p,
+                    float* __restrict px, float* __restrict py, float* __restrict pz, float* __restrict plim,
+                    float* __restrict pw) {
+  const float r0 = p.r[0], r1 = p.r[1], r2 = p.r[2], r3 = p.r[3], r4 = p.r[4], r5 = p.r[5], r6 = p.r[6],
+              r7 = p.r[7], r8 = p.r[8], tx = p.t[0], ty = p.t[1], tz = p.t[2];
+  const float fx = p.fx, fy = p.fy, cx = p.cx, cy = p.cy, link_scale = p.link_scale, link_gap = p.link_gap;
+  for (size_t i = 0; i < n; ++i) {
+    const float z = float(zmm[i]) * 0.001f;
+    const float X = ray_x[i] * z, Y = ray_y[i] * z;
+    const float qx = r0 * X + r1 * Y + r2 * z + tx;
+    const float qy = r3 * X + r4 * Y + r5 * z + ty;
+    const float qz = r6 * X + r7 * Y + r8 * z + tz;
+    const bool valid = (zmm[i] != 0) & (qz >= kNear);
+    const float iz = 1.0f / (valid ? qz : 1.0f);
+    px[i] = fx * qx * iz + cx;
+    py[i] = fy * qy * iz + cy;
+    pz[i] = valid ? qz : 0.0f;
+    plim[i] = link_scale * z * iz + link_gap;
+    const float dx = qx - tx, dy = qy - ty, dz = qz - tz;  // from the source centre
+    const float nq2 = qx * qx + qy * qy + qz * qz, nd2 = dx * dx + dy * dy + dz * dz;
+    const float prod = valid ? nq2 * nd2 : 1.0f;
+    const float c = (qx * dx + qy * dy + qz * dz) / std::sqrt(prod);
+    const float c2 = c * c, c4 = c2 * c2, c8 = c4 * c4;
+    const float nearer = std::sqrt(std::min(1.0f, nq2 / std::max(nd2, 1e-12f)));
+    pw[i] = std::max(0.02f, c8) * nearer;
+  }
+}
+
+// flag on out[i] where pixels i and i + stride lie on the same surface: both
+// drawn, same label, and either close in depth or not torn apart by the view
+// (a slanted surface).
+VCLASSROOM_SIMD_CLONES
+void link_neighbours(size_t n, ptrdiff_t stride, const float* px, const float* py, const float* pz,
+                     const float* plim, const uint8_t* lab, float ratio, float min_m, uint8_t flag, uint8_t* out) {
+  for (size_t i = 0; i < n; ++i) {
+    const float zi = pz[i], zj = pz[i + stride];
+    const float dz = zi > zj ? zi - zj : zj - zi;
+    const float close = std::max(min_m, ratio * std::min(zi, zj));
+    const float dx = px[i] - px[i + stride], dy = py[i] - py[i + stride];
+    const bool near_in_view = dx * dx + dy * dy <= plim[i] * plim[i];
+    const bool same = (zi > 0) & (zj > 0) & (lab[i] == lab[i + stride]) & ((dz <= close) | near_in_view);
+    out[i] |= same ? flag : 0;
+  }
+}
+
+constexpr float kCell = 0.5f + 1e-3f;  // half a source pixel, and a hair to close cracks
+constexpr float kEdge = 0.02f;          // how far a cell reaches past its centre towards a depth edge
+
+// The cells of one source row, set up for the splat (see ViewWarper::warp).
+// A cell whose projection covers at most 2x2 virtual pixels (the view does
+// not magnify) is fully prepared here: which of the 2x2 candidates it covers
+// and the source position of each, in remap fixed point. Others are marked
+// kBigCell and handled one by one.
+constexpr uint8_t kBigCell = 16;
+struct CellRow {
+  int32_t* x0;  // first candidate column / row
+  int32_t* y0;
+  uint8_t* mask;    // bit k: candidate (x0 + (k & 1), y0 + (k >> 1)) covered; or kBigCell; 0: not drawn
+  uint8_t* weight;  // 1..255
+  float* su;  // source position of candidate 0 (unclamped)
+  float* sv;
+  float* dsu_dx;  // its change per virtual pixel to the right / down
+  float* dsv_dx;
+  float* dsu_dy;
+  float* dsv_dy;
+};
+
+struct CellGeometry {
+  int W, H, VW, VH;
+  float max_area;
+};
+
+// px..links point at the row's first pixel; the arrays are padded by a row
+// and a pixel on both sides, so the neighbours of border pixels can be read.
+VCLASSROOM_SIMD_CLONES
+void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, const float* __restrict py,
+                   const float* __restrict pz, const float* __restrict pw, const uint8_t* __restrict links,
+                   const CellRow& out) {
+  const int W = g.W, H = g.H;
+  const float VWf = float(g.VW), VHf = float(g.VH), max_area = g.max_area;
+  const int VW1 = g.VW - 1, VH1 = g.VH - 1;
+  const float fv = float(v);
+  const bool has_up = v > 0, has_down_border = v + 1 >= H, top = v == 0;
+  int32_t* __restrict ox0 = out.x0;
+  int32_t* __restrict oy0 = out.y0;
+  uint8_t* __restrict omask = out.mask;
+  uint8_t* __restrict ow = out.weight;
+  float *__restrict osu = out.su, *__restrict osv = out.sv, *__restrict oa00 = out.dsu_dx,
+        *__restrict oa10 = out.dsv_dx, *__restrict oa01 = out.dsu_dy, *__restrict oa11 = out.dsv_dy;
+  // The outputs are distinct arrays (GCC does not take __restrict on locals
+  // as proof).
+#pragma GCC ivdep
+  for (int u = 0; u < W; ++u) {
+    const float zi = pz[u], x = px[u], y = py[u];
+    const bool right = (links[u] & kRight) != 0, down = (links[u] & kDown) != 0;
+    const bool left = (u > 0) & ((links[u - 1] & kRight) != 0);
+    const bool up = has_up & ((links[u - W] & kDown) != 0);
+    const float rxu = px[u + 1] - x, ryu = py[u + 1] - y, lxu = x - px[u - 1], lyu = y - py[u - 1];
+    const float dxv = px[u + W] - x, dyv = py[u + W] - y, uxv = x - px[u - W], uyv = y - py[u - W];
+    const bool hu = right | left, hv = down | up;
+    float jxu = right ? rxu : lxu, jyu = right ? ryu : lyu;
+    float jxv = down ? dxv : uxv, jyv = down ? dyv : uyv;
+    // A one-pixel-wide strip: assume a square cell.
+    jxu = hu ? jxu : jyv;
+    jyu = hu ? jyu : -jxv;
+    jxv = hv ? jxv : -jyu;
+    jyv = hv ? jyv : jxu;
+    const float det = jxu * jyv - jxv * jyu;
+    const float area = std::fabs(det);
+    const float hx = kCell * (std::fabs(jxu) + std::fabs(jxv)), hy = kCell * (std::fabs(jyu) + std::fabs(jyv));
+    const bool in_view = (x + hx >= 0) & (y + hy >= 0) & (x - hx <= VWf) & (y - hy <= VHf);
+    bool drawn = (zi > 0) & (hu | hv) & (area >= 1e-6f) & (area <= max_area) & in_view;
+    // Clamped before the integer conversion: off-view points can be far out.
+    const float xl = std::clamp(x - hx, -2.0f, VWf + 2), xh = std::clamp(x + hx, -2.0f, VWf + 2);
+    const float yl = std::clamp(y - hy, -2.0f, VHf + 2), yh = std::clamp(y + hy, -2.0f, VHf + 2);
+    const int xmin = std::max(0, fast_ceil(xl)), xmax = std::min(VW1, fast_floor(xh));
+    const int ymin = std::max(0, fast_ceil(yl)), ymax = std::min(VH1, fast_floor(yh));
+    drawn = drawn & (xmin <= xmax) & (ymin <= ymax);
+    const bool small = (xmax - xmin <= 1) & (ymax - ymin <= 1);
+    // Towards a depth edge the cell ends at the pixel centre, like the mesh:
+    // the surface is not known to go on beyond it.
+    const float umax = (right | (u + 1 >= W)) ? kCell : kEdge, umin = (left | (u == 0)) ? -kCell : -kEdge;
+    const float vmax = (down | has_down_border) ? kCell : kEdge, vmin = (up | top) ? -kCell : -kEdge;
+    const float idet = 1.0f / (drawn ? det : 1.0f);
+    const float a00 = jyv * idet, a01 = -jxv * idet, a10 = -jyu * idet, a11 = jxu * idet;
+    const float dx0 = float(xmin) - x, dy0 = float(ymin) - y;
+    const bool has_x1 = xmax > xmin, has_y1 = ymax > ymin;
+    const float fu = float(u);
+    int mask = 0;
+    for (int k = 0; k < 4; ++k) {
+      const float dx = dx0 + float(k & 1), dy = dy0 + float(k >> 1);
+      const float du = a00 * dx + a01 * dy, dv = a10 * dx + a11 * dy;
+      const bool exists = ((k & 1) == 0 || has_x1) & ((k >> 1) == 0 || has_y1);
+      const bool inside = exists & (du <= umax) & (du >= umin) & (dv <= vmax) & (dv >= vmin);
+      mask |= inside ? (1 << k) : 0;
+    }
+    osu[u] = fu + a00 * dx0 + a01 * dy0;
+    osv[u] = fv + a10 * dx0 + a11 * dy0;
+    oa00[u] = a00;
+    oa10[u] = a10;
+    oa01[u] = a01;
+    oa11[u] = a11;
+    omask[u] = uint8_t(drawn ? (small ? mask : kBigCell) : 0);
+    ox0[u] = xmin;
+    oy0[u] = ymin;
+    const float w = pw[u] / std::sqrt(std::max(area, 1.0f));
+    ow[u] = uint8_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f));
+  }
+}
+
+inline uint16_t depth_mm(float z_m) { return uint16_t(std::min(65534.0f, z_m * 1000.0f + 0.5f)); }
+
+// Bilinear colour of the source at a fixed-point position (1/32 px) inside the image.
+struct ColorSampler {
+  const uint8_t* data;
+  size_t step;
+  int max_x, max_y;
+  void operator()(int32_t fu, int32_t fv, uint8_t* rgb) const {
+    const int ix = fu >> kSubBits, iy = fv >> kSubBits, fx = fu & (kSub - 1), fy = fv & (kSub - 1);
+    const uint8_t* p0 = data + size_t(iy) * step + 3 * size_t(ix);
+    const uint8_t* p1 = iy < max_y ? p0 + step : p0;
+    const int dx = ix < max_x ? 3 : 0;
+    const int w00 = (kSub - fx) * (kSub - fy), w01 = fx * (kSub - fy), w10 = (kSub - fx) * fy, w11 = fx * fy;
+    for (int c = 0; c < 3; ++c)
+      rgb[c] = uint8_t((w00 * p0[c] + w01 * p0[dx + c] + w10 * p1[c] + w11 * p1[dx + c] + kSub * kSub / 2) >>
+                       (2 * kSubBits));
+  }
+};
+
+inline int32_t to_fixed(float s, float max) { return int32_t(std::clamp(s, 0.0f, max) * kSub + 0.5f); }
+
+inline void store(Sample& s, uint16_t zmm, int32_t fu, int32_t fv, const ColorSampler& color, uint8_t weight,
+                  uint8_t label) {
+  s.z = zmm;
+  color(fu, fv, s.rgb);
+  s.weight = weight;
+  s.label = label;
+}
+
+inline uint8_t weight_byte(float w) { return uint8_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f)); }
+
+// Holes keep the initial record: colour, weight and label 0, depth "none".
+VCLASSROOM_SIMD_CLONES
+void unpack_samples(int n, const Sample* __restrict s, uint8_t* __restrict rgb, uint16_t* __restrict depth,
+                    uint8_t* __restrict label, uint8_t* __restrict weight) {
+  for (int i = 0; i < n; ++i) {
+    depth[i] = s[i].z == kNoSample ? 0 : s[i].z;
+    rgb[3 * i] = s[i].rgb[0];
+    rgb[3 * i + 1] = s[i].rgb[1];
+    rgb[3 * i + 2] = s[i].rgb[2];
+    label[i] = s[i].label;
+    weight[i] = s[i].weight;
+  }
+}
+
 }  // namespace
 
 CameraCalib virtual_camera(const CameraCalib& base, const Eigen::Isometry3d& cam_to_rig, double fov_deg) {
@@ -81,21 +355,36 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
                       WarpedView* out) {
   CV_Assert(in.color.type() == CV_8UC3 && in.depth.type() == CV_16UC1);
   CV_Assert(in.color.cols == src.width && in.color.rows == src.height && in.depth.size() == in.color.size());
+  CV_Assert(in.label.empty() || (in.label.type() == CV_8UC1 && in.label.size() == in.color.size()));
+  CV_Assert(in.static_depth.empty() ||
+            (in.static_depth.type() == CV_16UC1 && in.static_depth.size() == in.color.size()));
+  // Source positions are stored in 16 bits at 1/32 px.
+  CV_Assert(src.width < 2048 && src.height < 2048);
   const int W = src.width, H = src.height;
   const int VW = virt.width, VH = virt.height;
   const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
   prepare_rays(src);
-  px_.resize(n);
-  py_.resize(n);
-  pz_.resize(n);
-  pw_.resize(n);
+  // Padded by a row and a pixel on both sides (zero: nothing drawn), so
+  // border pixels can read their neighbours without a test.
+  const size_t pad = size_t(W) + 1;
+  for (auto* a : {&px_, &py_, &pz_, &plim_, &pw_}) {
+    a->resize(n + 2 * pad);
+    std::fill_n(a->begin(), pad, 0.0f);
+    std::fill_n(a->end() - ptrdiff_t(pad), pad, 0.0f);
+  }
+  float *const PX = px_.data() + pad, *const PY = py_.data() + pad, *const PZ = pz_.data() + pad,
+               *const PW = pw_.data() + pad, *const PL = plim_.data() + pad;
   src_depth_.resize(n);
   src_label_.resize(n);
-  zbuf_.assign(vn, kInf);
-  su_.resize(vn);
-  sv_.resize(vn);
-  wbuf_.resize(vn);
-  lbuf_.resize(vn);
+  static_assert(sizeof(Sample) == 8, "one z-buffer record is 8 bytes");
+  zbuf_.resize(vn);
+  Sample* const zbuf = reinterpret_cast<Sample*>(zbuf_.data());
+  Sample none{};
+  none.z = kNoSample;
+  uint64_t none_bits;
+  std::memcpy(&none_bits, &none, sizeof none);
+  std::fill(zbuf_.begin(), zbuf_.end(), none_bits);
+  const ColorSampler color{in.color.data, in.color.step, W - 1, H - 1};
 
   // The layered depth of every source pixel: learners live, the room static.
   const bool has_label = !in.label.empty();
@@ -104,168 +393,111 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   if (has_label && prm.fill_learner_depth) learner_median_depths(in.depth, in.label, med);
   for (int v = 0; v < H; ++v) {
     const uint16_t* d = in.depth.ptr<uint16_t>(v);
-    const uint16_t* s = has_static ? in.static_depth.ptr<uint16_t>(v) : nullptr;
-    const uint8_t* l = has_label ? in.label.ptr<uint8_t>(v) : nullptr;
     uint16_t* od = &src_depth_[size_t(v) * W];
     uint8_t* ol = &src_label_[size_t(v) * W];
-    for (int u = 0; u < W; ++u) {
-      const uint8_t lab = l ? l[u] : 0;
-      uint16_t z = d[u];
-      if (lab) {
-        if (!z) z = med[lab];
-      } else if (s && s[u]) {
-        z = s[u];
-      }
-      od[u] = z;
-      ol[u] = lab;
-    }
+    if (has_label) std::memcpy(ol, in.label.ptr<uint8_t>(v), size_t(W));
+    else std::memset(ol, 0, size_t(W));
+    if (has_static) layer_row(W, d, in.static_depth.ptr<uint16_t>(v), ol, od);
+    else std::memcpy(od, d, size_t(W) * sizeof(uint16_t));
+    if (has_label)
+      for (int u = 0; u < W; ++u)
+        if (ol[u] && !od[u]) od[u] = med[ol[u]];
   }
-  if (prm.boundary_px > 0) {
+  if (prm.boundary_px > 0 && W >= 4 && H >= 4) {
     // Drop the far-side pixels next to a depth edge: their colour mixes both
     // surfaces and would draw a ghost contour where the background is revealed.
-    // A step is an edge when it is large and much larger than the steps beside
-    // it (a slanted surface has steps too, but even ones).
-    std::vector<uint8_t> drop(n, 0);
+    edge_code_.assign(n, 0);
+    drop_.assign(n, 0);
     const int b = prm.boundary_px;
-    auto is_edge = [&](int p0, int p1, int p2, int p3) {  // depths along a line; step p1 -> p2
-      if (!p1 || !p2) return false;
-      const int step = std::abs(p2 - p1);
-      if (step <= std::max(prm.edge_min_mm, prm.edge_ratio * std::min(p1, p2))) return false;
-      const int side = std::max(p0 ? std::abs(p1 - p0) : 0, p3 ? std::abs(p3 - p2) : 0);
-      return step > 3 * side;
-    };
-    const uint16_t* D = src_depth_.data();
-    for (int v = 0; v < H; ++v)
-      for (int u = 1; u + 2 < W; ++u) {
-        const size_t i = size_t(v) * W + u;
-        if (!is_edge(D[i - 1], D[i], D[i + 1], D[i + 2])) continue;
-        const int dir = D[i] > D[i + 1] ? -1 : 1;  // towards the far side
-        const int start = dir < 0 ? u : u + 1;
-        for (int k = 0; k < b; ++k) {
-          const int x = start + dir * k;
-          if (x >= 0 && x < W) drop[size_t(v) * W + x] = 1;
-        }
-      }
-    for (int v = 1; v + 2 < H; ++v)
-      for (int u = 0; u < W; ++u) {
-        const size_t i = size_t(v) * W + u;
-        if (!is_edge(D[i - W], D[i], D[i + W], D[i + 2 * W])) continue;
-        const int dir = D[i] > D[i + W] ? -1 : 1;
-        const int start = dir < 0 ? v : v + 1;
-        for (int k = 0; k < b; ++k) {
-          const int y = start + dir * k;
-          if (y >= 0 && y < H) drop[size_t(y) * W + u] = 1;
-        }
-      }
-    for (size_t i = 0; i < n; ++i)
-      if (drop[i]) src_depth_[i] = 0;
+    const float ratio = float(prm.edge_ratio), min_mm = float(prm.edge_min_mm);
+    uint16_t* D = src_depth_.data();
+    uint8_t* const code = edge_code_.data();
+    uint8_t* const drop = drop_.data();
+    // Along rows; the far side and the b - 1 pixels beyond it, within the row.
+    for (int v = 0; v < H; ++v) {
+      const size_t row = size_t(v) * W;
+      depth_edges(W - 3, D + row + 1, 1, ratio, min_mm, code + row + 1);
+      for (int k = 0; k < b && k < W; ++k) mark_far_side(W, k, 1, code + row, drop + row);
+    }
+    // Along columns.
+    std::fill(edge_code_.begin(), edge_code_.end(), 0);
+    depth_edges(int(size_t(W) * (H - 3)), D + W, W, ratio, min_mm, code + W);
+    for (int k = 0; k < b && k < H; ++k) mark_far_side(int(n / W), k, W, code, drop);
+    clear_dropped(n, drop, D);
   }
 
   // Source -> virtual camera.
   const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * src.cam_to_rig;
-  const Eigen::Matrix3f R = T.linear().cast<float>();
-  const Eigen::Vector3f t = T.translation().cast<float>();
-  const float fx = float(virt.fx), fy = float(virt.fy), cx = float(virt.cx), cy = float(virt.cy);
-  const float tn = t.norm();
-  for (size_t i = 0; i < n; ++i) {
-    const uint16_t zmm = src_depth_[i];
-    if (!zmm) {
-      pz_[i] = 0;
-      continue;
-    }
-    const float z = zmm * 0.001f;
-    const float X = ray_x_[i] * z, Y = ray_y_[i] * z;
-    const float qx = R(0, 0) * X + R(0, 1) * Y + R(0, 2) * z + t.x();
-    const float qy = R(1, 0) * X + R(1, 1) * Y + R(1, 2) * z + t.y();
-    const float qz = R(2, 0) * X + R(2, 1) * Y + R(2, 2) * z + t.z();
-    if (qz < kNear) {
-      pz_[i] = 0;
-      continue;
-    }
-    const float iz = 1.0f / qz;
-    px_[i] = fx * qx * iz + cx;
-    py_[i] = fy * qy * iz + cy;
-    pz_[i] = qz;
-    // Quality of this camera for the point: the angle between its ray and the
-    // virtual ray, and how much farther it is than the virtual camera.
-    float w = 1.0f;
-    // The weight varies slowly across the image: compute it every 4th pixel.
-    if (tn > 1e-6f && (i & 3) && i > 0 && pz_[i - 1] > 0) {
-      w = pw_[i - 1];
-    } else if (tn > 1e-6f) {
-      const float dvx = qx - t.x(), dvy = qy - t.y(), dvz = qz - t.z();  // from the source centre
-      const float nq = std::sqrt(qx * qx + qy * qy + qz * qz);
-      const float nd = std::sqrt(dvx * dvx + dvy * dvy + dvz * dvz);
-      const float c = (qx * dvx + qy * dvy + qz * dvz) / (nq * nd);
-      const float c2 = c * c, c4 = c2 * c2;
-      w = std::max(0.02f, c4 * c4);  // cos^8: 10° -> 0.89, 30° -> 0.32
-      if (nd > nq) w *= nq / nd;
-    }
-    pw_[i] = w;
+  Projection proj;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) proj.r[3 * r + c] = float(T.linear()(r, c));
+    proj.t[r] = float(T.translation()(r));
   }
+  proj.fx = float(virt.fx), proj.fy = float(virt.fy), proj.cx = float(virt.cx), proj.cy = float(virt.cy);
+  proj.link_scale = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
+  proj.link_gap = float(prm.max_gap_px);
+  project_points(n, src_depth_.data(), ray_x_.data(), ray_y_.data(), proj, PX, PY, PZ, PL, PW);
 
-  // Rasterise the mesh.
+  const float max_u = float(W - 1), max_v = float(H - 1);
   const double er = prm.edge_ratio, emin = prm.edge_min_mm * 0.001;
   const float max_area2 = float(prm.max_stretch);
-  const float scale_xy = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
-  const float gap = float(prm.max_gap_px);  // |2*area| of a 0.5 px² triangle is 1
-  auto consistent = [&](size_t a, size_t b, size_t c) {
-    const float za = pz_[a], zb = pz_[b], zc = pz_[c];
-    if (za <= 0 || zb <= 0 || zc <= 0) return false;
-    if (src_label_[a] != src_label_[b] || src_label_[a] != src_label_[c]) return false;
-    const float lo = std::min(za, std::min(zb, zc)), hi = std::max(za, std::max(zb, zc));
-    if (hi - lo <= std::max(emin, er * lo)) return true;
-    // Different depths but not torn apart by this view (a slanted surface):
-    // no edge longer than its source length at the local scale + max_gap_px.
-    const float scale = scale_xy * src_depth_[a] * 0.001f / za;
-    auto edge_ok = [&](size_t i, size_t j) {
-      const float su = float(int(i % W) - int(j % W)), sv = float(int(i / W) - int(j / W));
-      const float lim = scale * std::sqrt(su * su + sv * sv) + gap;
-      const float dx = px_[i] - px_[j], dy = py_[i] - py_[j];
-      return dx * dx + dy * dy <= lim * lim;
-    };
-    return edge_ok(a, b) && edge_ok(b, c) && edge_ok(a, c);
-  };
-  auto raster = [&](size_t a, size_t b, size_t c, float ua, float va, float ub, float vb, float uc, float vc) {
-    const float x0 = px_[a], y0 = py_[a], x1 = px_[b], y1 = py_[b], x2 = px_[c], y2 = py_[c];
-    const float area2 = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
-    const float aa = std::fabs(area2);
-    if (aa < 1e-12f || aa > max_area2) return;
-    const int xmin = std::max(0, int(std::ceil(std::min(x0, std::min(x1, x2)))));
-    const int xmax = std::min(VW - 1, int(std::floor(std::max(x0, std::max(x1, x2)))));
-    const int ymin = std::max(0, int(std::ceil(std::min(y0, std::min(y1, y2)))));
-    const int ymax = std::min(VH - 1, int(std::floor(std::max(y0, std::max(y1, y2)))));
-    if (xmin > xmax || ymin > ymax) return;
-    const float inv = 1.0f / area2;
-    const float stretch = aa > 1.0f ? 1.0f / std::sqrt(aa) : 1.0f;
-    const float wq = (pw_[a] + pw_[b] + pw_[c]) * (1.0f / 3.0f) * stretch;
-    const uint8_t lab = src_label_[a];
-    constexpr float eps = -0.02f;
-    for (int y = ymin; y <= ymax; ++y) {
-      const float fyv = float(y);
-      for (int x = xmin; x <= xmax; ++x) {
-        const float fxv = float(x);
-        const float l1 = ((fxv - x0) * (y2 - y0) - (x2 - x0) * (fyv - y0)) * inv;
-        const float l2 = ((x1 - x0) * (fyv - y0) - (fxv - x0) * (y1 - y0)) * inv;
-        const float l0 = 1.0f - l1 - l2;
-        if (l0 < eps || l1 < eps || l2 < eps) continue;
-        const float z = l0 * pz_[a] + l1 * pz_[b] + l2 * pz_[c];
-        const size_t o = size_t(y) * VW + x;
-        if (z >= zbuf_[o]) continue;
-        zbuf_[o] = z;
-        su_[o] = l0 * ua + l1 * ub + l2 * uc;
-        sv_[o] = l0 * va + l1 * vb + l2 * vc;
-        wbuf_[o] = wq;
-        lbuf_[o] = lab;
-      }
-    }
-  };
   if (prm.mesh) {
+    // Rasterise the two triangles of every 2x2 block.
+    const float gap = float(prm.max_gap_px);
+    auto consistent = [&](size_t a, size_t b, size_t c) {
+      const float za = PZ[a], zb = PZ[b], zc = PZ[c];
+      if (za <= 0 || zb <= 0 || zc <= 0) return false;
+      if (src_label_[a] != src_label_[b] || src_label_[a] != src_label_[c]) return false;
+      const float lo = std::min(za, std::min(zb, zc)), hi = std::max(za, std::max(zb, zc));
+      if (hi - lo <= std::max(emin, er * lo)) return true;
+      // Different depths but not torn apart by this view (a slanted surface):
+      // no edge longer than its source length at the local scale + max_gap_px.
+      const float scale = proj.link_scale * src_depth_[a] * 0.001f / za;
+      auto edge_ok = [&](size_t i, size_t j) {
+        const float su = float(int(i % W) - int(j % W)), sv = float(int(i / W) - int(j / W));
+        const float lim = scale * std::sqrt(su * su + sv * sv) + gap;
+        const float dx = PX[i] - PX[j], dy = PY[i] - PY[j];
+        return dx * dx + dy * dy <= lim * lim;
+      };
+      return edge_ok(a, b) && edge_ok(b, c) && edge_ok(a, c);
+    };
+    auto raster = [&](size_t a, size_t b, size_t c, float ua, float va, float ub, float vb, float uc, float vc) {
+      const float x0 = PX[a], y0 = PY[a], x1 = PX[b], y1 = PY[b], x2 = PX[c], y2 = PY[c];
+      const float area2 = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+      const float aa = std::fabs(area2);
+      if (aa < 1e-12f || aa > max_area2) return;
+      const int xmin = std::max(0, fast_ceil(std::min(x0, std::min(x1, x2))));
+      const int xmax = std::min(VW - 1, fast_floor(std::max(x0, std::max(x1, x2))));
+      const int ymin = std::max(0, fast_ceil(std::min(y0, std::min(y1, y2))));
+      const int ymax = std::min(VH - 1, fast_floor(std::max(y0, std::max(y1, y2))));
+      if (xmin > xmax || ymin > ymax) return;
+      const float inv = 1.0f / area2;
+      const float stretch = aa > 1.0f ? 1.0f / std::sqrt(aa) : 1.0f;
+      const uint8_t wq = weight_byte((PW[a] + PW[b] + PW[c]) * (1.0f / 3.0f) * stretch);
+      const uint8_t lab = src_label_[a];
+      constexpr float eps = -0.02f;
+      for (int y = ymin; y <= ymax; ++y) {
+        const float fyv = float(y);
+        for (int x = xmin; x <= xmax; ++x) {
+          const float fxv = float(x);
+          const float l1 = ((fxv - x0) * (y2 - y0) - (x2 - x0) * (fyv - y0)) * inv;
+          const float l2 = ((x1 - x0) * (fyv - y0) - (fxv - x0) * (y1 - y0)) * inv;
+          const float l0 = 1.0f - l1 - l2;
+          if (l0 < eps || l1 < eps || l2 < eps) continue;
+          const float z = l0 * PZ[a] + l1 * PZ[b] + l2 * PZ[c];
+          Sample& s = zbuf[size_t(y) * VW + x];
+          const uint16_t zmm = depth_mm(z);
+          if (zmm >= s.z) continue;
+          store(s, zmm, to_fixed(l0 * ua + l1 * ub + l2 * uc, max_u), to_fixed(l0 * va + l1 * vb + l2 * vc, max_v),
+                color, wq, lab);
+        }
+      }
+    };
     for (int v = 0; v + 1 < H; ++v) {
       const float fv = float(v), fv1 = fv + 1.0f;
       for (int u = 0; u + 1 < W; ++u) {
         const size_t a = size_t(v) * W + u, b = a + 1, c = a + W, d = c + 1;
-        if (pz_[a] <= 0 && pz_[d] <= 0) continue;
+        if (PZ[a] <= 0 && PZ[d] <= 0) continue;
         const float fu = float(u), fu1 = fu + 1.0f;
         const bool t1 = consistent(a, b, c), t2 = consistent(b, d, c);
         if (t1 && t2) {
@@ -287,123 +519,97 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     // virtual pixels whose pre-image lies inside it: the mesh's coverage
     // without its per-triangle set-up. Pixels with no neighbour on their
     // surface (flying pixels, speckle) are not drawn.
-    auto same_surface = [&](size_t i, size_t j) {
-      const float zi = pz_[i], zj = pz_[j];
-      if (zj <= 0 || src_label_[i] != src_label_[j]) return false;
-      if (std::fabs(zi - zj) <= std::max(float(emin), float(er) * std::min(zi, zj))) return true;
-      const float dx = px_[i] - px_[j], dy = py_[i] - py_[j];
-      const float lim = scale_xy * src_depth_[i] * 0.001f / zi + gap;
-      return dx * dx + dy * dy <= lim * lim;
-    };
-    constexpr float kCell = 0.5f + 1e-3f;
-    constexpr float kEdge = 0.02f;
-    constexpr uint8_t kRight = 1, kDown = 2;
-    // Which neighbours (right, below) lie on the same surface: each test once.
-    links_.resize(n);
-    for (int v = 0; v < H; ++v)
-      for (int u = 0; u < W; ++u) {
-        const size_t i = size_t(v) * W + u;
-        uint8_t f = 0;
-        if (pz_[i] > 0) {
-          if (u + 1 < W && same_surface(i, i + 1)) f |= kRight;
-          if (v + 1 < H && same_surface(i, i + W)) f |= kDown;
+    links_.resize(n + 2 * pad);
+    std::fill(links_.begin(), links_.end(), 0);
+    uint8_t* const LINKS = links_.data() + pad;
+    link_neighbours(n - 1, 1, PX, PY, PZ, PL, src_label_.data(), float(er), float(emin), kRight, LINKS);
+    for (int v = 0; v < H; ++v) LINKS[size_t(v) * W + W - 1] &= uint8_t(~kRight);  // no wrap to the next row
+    link_neighbours(n - W, W, PX, PY, PZ, PL, src_label_.data(), float(er), float(emin), kDown, LINKS);
+    // A cell the view magnifies: every virtual pixel of its bounding box tested.
+    auto splat_big_cell = [&](int u, int v) {
+      const size_t i = size_t(v) * W + u;
+      const float zi = PZ[i];
+      const uint8_t nb = LINKS[i];
+      const bool right = nb & kRight, down = nb & kDown;
+      const bool left = u > 0 && (LINKS[i - 1] & kRight), up = v > 0 && (LINKS[i - W] & kDown);
+      float jxu = 0, jyu = 0, jxv = 0, jyv = 0;
+      if (right) jxu = PX[i + 1] - PX[i], jyu = PY[i + 1] - PY[i];
+      else if (left) jxu = PX[i] - PX[i - 1], jyu = PY[i] - PY[i - 1];
+      if (down) jxv = PX[i + W] - PX[i], jyv = PY[i + W] - PY[i];
+      else if (up) jxv = PX[i] - PX[i - W], jyv = PY[i] - PY[i - W];
+      if (!(right || left)) jxu = jyv, jyu = -jxv;
+      if (!(down || up)) jxv = -jyu, jyv = jxu;
+      const float det = jxu * jyv - jxv * jyu;
+      const float x = PX[i], y = PY[i];
+      const float hx = kCell * (std::fabs(jxu) + std::fabs(jxv)), hy = kCell * (std::fabs(jyu) + std::fabs(jyv));
+      const int xmin = std::max(0, fast_ceil(x - hx)), xmax = std::min(VW - 1, fast_floor(x + hx));
+      const int ymin = std::max(0, fast_ceil(y - hy)), ymax = std::min(VH - 1, fast_floor(y + hy));
+      const float umax = right || u + 1 >= W ? kCell : kEdge, umin = left || u == 0 ? -kCell : -kEdge;
+      const float vmax = down || v + 1 >= H ? kCell : kEdge, vmin = up || v == 0 ? -kCell : -kEdge;
+      const float idet = 1.0f / det;
+      const float a00 = jyv * idet, a01 = -jxv * idet, a10 = -jyu * idet, a11 = jxu * idet;
+      const uint8_t wq = weight_byte(PW[i] / std::sqrt(std::max(std::fabs(det), 1.0f)));
+      const uint8_t lab = src_label_[i];
+      const uint16_t zmm = depth_mm(zi);
+      const float fu = float(u), fv = float(v);
+      for (int yi = ymin; yi <= ymax; ++yi) {
+        const float dy = float(yi) - y;
+        Sample* row = zbuf + size_t(yi) * VW;
+        for (int xi = xmin; xi <= xmax; ++xi) {
+          const float dx = float(xi) - x;
+          const float du = a00 * dx + a01 * dy, dv = a10 * dx + a11 * dy;
+          if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
+          Sample& s = row[xi];
+          if (zmm >= s.z) continue;
+          store(s, zmm, to_fixed(fu + du, max_u), to_fixed(fv + dv, max_v), color, wq, lab);
         }
-        links_[i] = f;
       }
+    };
+    cell_x0_.resize(W);
+    cell_y0_.resize(W);
+    cell_mask_.resize(W);
+    cell_weight_.resize(W);
+    cell_pos_.resize(size_t(W) * 6);
+    float* const pos = cell_pos_.data();
+    const CellRow cells{cell_x0_.data(), cell_y0_.data(), cell_mask_.data(), cell_weight_.data(),
+                        pos,             pos + W,         pos + 2 * W,       pos + 3 * W,
+                        pos + 4 * W,     pos + 5 * W};
+    const CellGeometry geom{W, H, VW, VH, max_area2};
     for (int v = 0; v < H; ++v) {
+      const size_t row = size_t(v) * W;
+      prepare_cells(geom, v, PX + row, PY + row, PZ + row, PW + row, LINKS + row, cells);
+      const uint8_t* lab = &src_label_[row];
       for (int u = 0; u < W; ++u) {
-        const size_t i = size_t(v) * W + u;
-        const float zi = pz_[i];
-        if (zi <= 0) continue;
-        float jxu = 0, jyu = 0, jxv = 0, jyv = 0;
-        bool hu = false, hv = false;
-        const uint8_t nb = links_[i];
-        const bool right = nb & kRight, down = nb & kDown;
-        const bool left = u > 0 && (links_[i - 1] & kRight), up = v > 0 && (links_[i - W] & kDown);
-        if (right) {
-          jxu = px_[i + 1] - px_[i], jyu = py_[i + 1] - py_[i], hu = true;
-        } else if (left) {
-          jxu = px_[i] - px_[i - 1], jyu = py_[i] - py_[i - 1], hu = true;
+        const uint8_t m = cell_mask_[u];
+        if (!m) continue;
+        if (m == kBigCell) {
+          splat_big_cell(u, v);
+          continue;
         }
-        if (down) {
-          jxv = px_[i + W] - px_[i], jyv = py_[i + W] - py_[i], hv = true;
-        } else if (up) {
-          jxv = px_[i] - px_[i - W], jyv = py_[i] - py_[i - W], hv = true;
-        }
-        // Towards a depth edge the cell ends at the pixel centre, like the mesh:
-        // the surface is not known to go on beyond it.
-        const float umax = right || u + 1 >= W ? kCell : kEdge, umin = left || u == 0 ? -kCell : -kEdge;
-        const float vmax = down || v + 1 >= H ? kCell : kEdge, vmin = up || v == 0 ? -kCell : -kEdge;
-        if (!hu && !hv) continue;
-        if (!hu) jxu = jyv, jyu = -jxv;  // a one-pixel-wide strip: assume a square cell
-        if (!hv) jxv = -jyu, jyv = jxu;
-        const float det = jxu * jyv - jxv * jyu;
-        const float area = std::fabs(det);
-        if (area < 1e-6f || area > max_area2) continue;
-        const float idet = 1.0f / det;
-        const float x = px_[i], y = py_[i];
-        const float hx = kCell * (std::fabs(jxu) + std::fabs(jxv)), hy = kCell * (std::fabs(jyu) + std::fabs(jyv));
-        if (x + hx < 0 || y + hy < 0 || x - hx > VW || y - hy > VH) continue;
-        const int xmin = std::max(0, fast_ceil(x - hx)), xmax = std::min(VW - 1, fast_floor(x + hx));
-        const int ymin = std::max(0, fast_ceil(y - hy)), ymax = std::min(VH - 1, fast_floor(y + hy));
-        if (xmin > xmax || ymin > ymax) continue;
-        const float wq = pw_[i] * (area > 1.0f ? 1.0f / std::sqrt(area) : 1.0f);
-        const uint8_t lab = src_label_[i];
-        const float fu = float(u), fv = float(v);
-        for (int yi = ymin; yi <= ymax; ++yi) {
-          const float dy = float(yi) - y;
-          for (int xi = xmin; xi <= xmax; ++xi) {
-            const float dx = float(xi) - x;
-            const float du = (jyv * dx - jxv * dy) * idet, dv = (jxu * dy - jyu * dx) * idet;
-            if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
-            const size_t o = size_t(yi) * VW + xi;
-            if (zi >= zbuf_[o]) continue;
-            zbuf_[o] = zi;
-            su_[o] = fu + du;
-            sv_[o] = fv + dv;
-            wbuf_[o] = wq;
-            lbuf_[o] = lab;
-          }
+        const uint16_t zmm = depth_mm(PZ[row + u]);
+        Sample* const first = zbuf + size_t(cell_y0_[u]) * VW + cell_x0_[u];
+        // Usually one candidate: a loop over the set bits costs one predictable
+        // branch, where testing each bit mispredicts.
+        for (unsigned bits = m; bits; bits &= bits - 1) {
+          const int k = __builtin_ctz(bits);
+          Sample& s = first[(k >> 1) * VW + (k & 1)];
+          if (zmm >= s.z) continue;
+          const float kx = float(k & 1), ky = float(k >> 1);
+          const float su = cells.su[u] + cells.dsu_dx[u] * kx + cells.dsu_dy[u] * ky;
+          const float sv = cells.sv[u] + cells.dsv_dx[u] * kx + cells.dsv_dy[u] * ky;
+          store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, cell_weight_[u], lab[u]);
         }
       }
     }
   }
 
-  // Backward colour: bilinear at the sub-pixel source position.
   out->color.create(VH, VW, CV_8UC3);
   out->depth.create(VH, VW, CV_16UC1);
   out->label.create(VH, VW, CV_8UC1);
   out->weight.create(VH, VW, CV_8UC1);
-  const int sstep = int(in.color.step);
-  for (int y = 0; y < VH; ++y) {
-    cv::Vec3b* oc = out->color.ptr<cv::Vec3b>(y);
-    uint16_t* od = out->depth.ptr<uint16_t>(y);
-    uint8_t* ol = out->label.ptr<uint8_t>(y);
-    uint8_t* ow = out->weight.ptr<uint8_t>(y);
-    for (int x = 0; x < VW; ++x) {
-      const size_t o = size_t(y) * VW + x;
-      const float z = zbuf_[o];
-      if (z == kInf) {
-        oc[x] = cv::Vec3b(0, 0, 0);
-        od[x] = 0;
-        ol[x] = 0;
-        ow[x] = 0;
-        continue;
-      }
-      const float su = std::clamp(su_[o], 0.0f, float(W - 1)), sv = std::clamp(sv_[o], 0.0f, float(H - 1));
-      const int u0 = std::min(int(su), W - 2 < 0 ? 0 : W - 2), v0 = std::min(int(sv), H - 2 < 0 ? 0 : H - 2);
-      const float fu = su - u0, fv = sv - v0;
-      const uint8_t* p = in.color.data + size_t(v0) * sstep + 3 * u0;
-      const float w00 = (1 - fu) * (1 - fv), w01 = fu * (1 - fv), w10 = (1 - fu) * fv, w11 = fu * fv;
-      for (int ch = 0; ch < 3; ++ch) {
-        const float c = w00 * p[ch] + w01 * p[3 + ch] + w10 * p[sstep + ch] + w11 * p[sstep + 3 + ch];
-        oc[x][ch] = uint8_t(std::min(255.0f, c + 0.5f));
-      }
-      od[x] = uint16_t(std::min(65535.0f, z * 1000.0f + 0.5f));
-      ol[x] = lbuf_[o];
-      ow[x] = uint8_t(std::clamp(wbuf_[o] * 255.0f + 0.5f, 1.0f, 255.0f));
-    }
-  }
+  for (int y = 0; y < VH; ++y)
+    unpack_samples(VW, zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
+                   out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
 }
 
 WarpedView warp_view(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,

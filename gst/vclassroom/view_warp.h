@@ -74,14 +74,19 @@ class ViewWarper {
   CameraCalib rays_for_;
   bool have_rays_ = false;
   std::vector<float> ray_x_, ray_y_;
-  // Per source pixel: projected position, virtual depth (m; <= 0 invalid), vertex weight.
-  std::vector<float> px_, py_, pz_, pw_;
+  // Per source pixel: projected position, virtual depth (m; <= 0 invalid),
+  // longest unbroken mesh edge (px), vertex weight.
+  std::vector<float> px_, py_, pz_, plim_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint8_t> src_label_;
-  std::vector<uint8_t> links_;  // per source pixel: same surface as right (1) / below (2)
-  // Per virtual pixel: z-buffer (m), source position.
-  std::vector<float> zbuf_, su_, sv_, wbuf_;
-  std::vector<uint8_t> lbuf_;
+  std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
+  std::vector<uint8_t> links_;             // per source pixel: same surface as right (1) / below (2)
+  std::vector<uint64_t> zbuf_;             // per virtual pixel: z-buffer record (view_warp.cpp)
+  // One source row of splat cells (view_warp.cpp, prepare_cells).
+  std::vector<int32_t> cell_x0_, cell_y0_;
+  std::vector<float> cell_pos_;
+  std::vector<uint8_t> cell_mask_, cell_weight_;
+  cv::Mat map_xy_, map_frac_;              // per virtual pixel: source position for cv::remap
 };
 
 // Convenience: one-shot warp.
