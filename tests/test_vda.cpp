@@ -611,6 +611,44 @@ TEST_F(VdaElements, PlaneRefineKeepsCapsTimestampsAndColour) {
   check_element("planerefine model=" + folder(), false);
 }
 
+TEST_F(VdaElements, ElementsComputeWhatTheLibraryComputes) {
+  // The elements write straight into the output depth plane; the result must
+  // be the library's, bit for bit, with the model as read from its folder.
+  const StaticModel m = load_static_model(folder());
+  RgbdInfo info;
+  info.camera = m.rig.camera(1);
+  GstBuffer* in = frame(info, 0);
+  cv::Mat depth, color;
+  {
+    RgbdFrame f;
+    std::string err;
+    ASSERT_TRUE(f.map(in, info, GST_MAP_READ, &err)) << err;
+    depth = f.depth().clone();
+    color = f.color().clone();
+  }
+  cv::Mat want_complete, want_planes;
+  depth_complete(depth, color, m.prior_for(1), cv::Mat(), DepthCompleteOptions(), want_complete);
+  plane_refine(depth, plane_maps_for_camera(m.planes, info.camera, m.prior(1)), cv::Mat(), PlaneTolerance(),
+               want_planes);
+  const std::pair<std::string, cv::Mat> cases[] = {{"depthcomplete model=" + folder(), want_complete},
+                                                   {"planerefine model=" + folder(), want_planes}};
+  for (const auto& [launch, want] : cases) {
+    GstHarness* h = gst_harness_new_parse(launch.c_str());
+    gst_harness_set_src_caps(h, rgbd_caps_new(info));
+    GstBuffer* out = gst_harness_push_and_pull(h, gst_buffer_ref(in));
+    ASSERT_NE(out, nullptr) << launch;
+    RgbdFrame f;
+    std::string err;
+    ASSERT_TRUE(f.map(out, info, GST_MAP_READ, &err)) << err;
+    EXPECT_TRUE(vctest::same_image(f.depth(), want)) << launch;
+    EXPECT_FALSE(vctest::same_image(f.depth(), depth)) << launch << " must change the depth";
+    f.unmap();
+    gst_buffer_unref(out);
+    gst_harness_teardown(h);
+  }
+  gst_buffer_unref(in);
+}
+
 TEST_F(VdaElements, StagesCanBeSwitchedOff) {
   // With every stage off the depth passes unchanged.
   RgbdInfo info;

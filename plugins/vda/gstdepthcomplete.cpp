@@ -46,7 +46,6 @@ struct CompleteState {
   // Streaming thread (set in set_caps).
   RgbdInfo info;
   StaticPrior prior;
-  cv::Mat scratch;
 };
 }  // namespace
 
@@ -118,8 +117,9 @@ static GstFlowReturn gst_depth_complete_prepare_output_buffer(GstBaseTransform* 
   return vda::replace_depth(GST_ELEMENT(self), in, st->info,
                             [&](const RgbdFrame& frame, cv::Mat& depth_out) {
                               const cv::Mat label = use_labels ? frame.label() : cv::Mat();
-                              depth_complete(frame.depth(), frame.color(), st->prior, label, o, st->scratch);
-                              st->scratch.copyTo(depth_out);
+                              // Written straight into the output plane (same size and type,
+                              // so depth_complete keeps its memory and stride).
+                              depth_complete(frame.depth(), frame.color(), st->prior, label, o, depth_out);
                             },
                             out);
 }

@@ -103,8 +103,7 @@ static GstFlowReturn gst_plane_refine_prepare_output_buffer(GstBaseTransform* tr
   }
   return vda::replace_depth(GST_ELEMENT(self), in, st->info,
                             [&](const RgbdFrame& frame, cv::Mat& depth_out) {
-                              frame.depth().copyTo(depth_out);
-                              plane_refine(depth_out, st->maps, use_labels ? frame.label() : cv::Mat(), tol,
+                              plane_refine(frame.depth(), st->maps, use_labels ? frame.label() : cv::Mat(), tol,
                                            depth_out);
                             },
                             out);
