@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <string>
@@ -26,6 +27,7 @@
 #include <gst/vclassroom/error.h>
 #include <gst/vclassroom/middlebury.h>
 #include <gst/vclassroom/plane_refine.h>
+#include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/static_model.h>
 #include <gst/vclassroom/visualize.h>
 
@@ -463,7 +465,134 @@ void eval_synthetic(const Args& a) {
               timed, ms_complete / timed, ms_planes / timed);
 }
 
-void bench(const Args& a) {
+// A chain function that drops what the elements give.
+GstFlowReturn drop_buffer(GstPad*, GstObject*, GstBuffer* buf) {
+  gst_buffer_unref(buf);
+  return GST_FLOW_OK;
+}
+
+gboolean accept_event(GstPad*, GstObject*, GstEvent* event) {
+  gst_event_unref(event);
+  return TRUE;
+}
+
+gboolean accept_any_caps(GstPad* pad, GstObject* parent, GstQuery* query) {
+  switch (GST_QUERY_TYPE(query)) {
+    case GST_QUERY_ACCEPT_CAPS:
+      gst_query_set_accept_caps_result(query, TRUE);
+      return TRUE;
+    case GST_QUERY_CAPS: {
+      GstCaps* any = gst_caps_new_any();
+      gst_query_set_caps_result(query, any);
+      gst_caps_unref(any);
+      return TRUE;
+    }
+    default:
+      return gst_pad_query_default(pad, parent, query);
+  }
+}
+
+// The same frames through the depthcomplete and planerefine elements, pushed
+// from this thread so that thread CPU time covers all of their per-frame work
+// (output plane allocation, mapping, buffer assembly) and nothing else.
+template <typename Input>
+void bench_elements(const Args& a, const SyntheticSetup& s, const std::vector<Input>& inputs, const std::string& argv0) {
+  gst_init(nullptr, nullptr);
+  if (!gst_registry_find_feature(gst_registry_get(), "depthcomplete", GST_TYPE_ELEMENT_FACTORY)) {
+    // Run from the build tree: the plugin is built beside the tools.
+    const std::filesystem::path dir = std::filesystem::path(argv0).parent_path() / ".." / "plugins" / "vda";
+    gst_registry_scan_path(gst_registry_get(), dir.string().c_str());
+  }
+  GstElement* dc = gst_element_factory_make("depthcomplete", nullptr);
+  GstElement* pr = gst_element_factory_make("planerefine", nullptr);
+  if (!dc || !pr) {
+    std::printf("  elements: depthcomplete / planerefine not found (set GST_PLUGIN_PATH), not timed\n");
+    if (dc) gst_object_unref(dc);
+    if (pr) gst_object_unref(pr);
+    return;
+  }
+  char* tmp = g_dir_make_tmp("vda-bench-XXXXXX", nullptr);
+  const std::string folder = std::string(tmp) + "/model";
+  g_free(tmp);
+  save_static_model(s.model, folder);
+  g_object_set(dc, "model", folder.c_str(), nullptr);
+  g_object_set(pr, "model", folder.c_str(), nullptr);
+  GstElement* bin = gst_pipeline_new(nullptr);
+  gst_bin_add_many(GST_BIN(bin), dc, pr, nullptr);
+  gst_element_link(dc, pr);
+  GstPad* src = gst_pad_new("src", GST_PAD_SRC);
+  GstPad* sink = gst_pad_new("sink", GST_PAD_SINK);
+  gst_pad_set_chain_function(sink, drop_buffer);
+  gst_pad_set_event_function(sink, accept_event);
+  gst_pad_set_query_function(sink, accept_any_caps);
+  GstPad* dc_sink = gst_element_get_static_pad(dc, "sink");
+  GstPad* pr_src = gst_element_get_static_pad(pr, "src");
+  gst_pad_link(src, dc_sink);
+  gst_pad_link(pr_src, sink);
+  gst_pad_set_active(src, TRUE);
+  gst_pad_set_active(sink, TRUE);
+  gst_element_set_state(bin, GST_STATE_PLAYING);
+  // The cameras one after the other (caps, and with them the elements' camera,
+  // change twice); the first frame of each is not timed, as the elements read
+  // the model and build the plane maps on caps.
+  std::vector<size_t> order;
+  std::vector<bool> first;
+  for (const CameraCalib& c : s.model.rig.cameras) {
+    std::vector<size_t> mine;
+    for (size_t i = 0; i < inputs.size(); ++i)
+      if (inputs[i].cam == c.id) mine.push_back(i);
+    for (int k = 0; k < 1 + a.bench / 3 && !mine.empty(); ++k) {
+      order.push_back(mine[k % mine.size()]);
+      first.push_back(k == 0);
+    }
+  }
+  std::vector<double> ms;
+  int cam = -1;
+  for (size_t f = 0; f < order.size(); ++f) {
+    const Input& in = inputs[order[f]];
+    RgbdInfo info;
+    info.camera = s.model.rig.camera(in.cam);
+    if (in.cam != cam) {
+      if (cam < 0) gst_pad_push_event(src, gst_event_new_stream_start("vda-bench"));
+      gst_pad_push_event(src, gst_event_new_caps(rgbd_caps_new(info)));
+      if (cam < 0) {
+        GstSegment seg;
+        gst_segment_init(&seg, GST_FORMAT_TIME);
+        gst_pad_push_event(src, gst_event_new_segment(&seg));
+      }
+      cam = in.cam;
+    }
+    GstBuffer* buf = rgbd_buffer_new(info);
+    RgbdFrame fr;
+    std::string err;
+    if (!fr.map(buf, info, GST_MAP_WRITE, &err)) throw Error("bench: " + err);
+    in.color.copyTo(fr.color());
+    in.depth.copyTo(fr.depth());
+    fr.unmap();
+    GST_BUFFER_PTS(buf) = static_cast<GstClockTime>(f) * GST_SECOND / 30;
+    GST_BUFFER_DURATION(buf) = GST_SECOND / 30;
+    const double t0 = CpuClock::now();
+    const GstFlowReturn r = gst_pad_push(src, buf);
+    if (!first[f]) ms.push_back(ms_since(t0));
+    if (r != GST_FLOW_OK) throw Error(std::string("bench: elements returned ") + gst_flow_get_name(r));
+  }
+  gst_element_set_state(bin, GST_STATE_NULL);
+  gst_object_unref(dc_sink);
+  gst_object_unref(pr_src);
+  gst_object_unref(src);
+  gst_object_unref(sink);
+  gst_object_unref(bin);
+  std::filesystem::remove_all(std::filesystem::path(folder).parent_path());
+  std::vector<double> steady = ms;
+  std::sort(steady.begin(), steady.end());
+  double sum = 0;
+  for (double x : steady) sum += x;
+  std::printf("  through the elements (depthcomplete ! planerefine, GstBuffers in and out, after the first frame of "
+              "each camera, %zu frames): mean %.2f ms  median %.2f ms  (budget 8 ms)\n",
+              steady.size(), steady.empty() ? 0.0 : sum / steady.size(), steady.empty() ? 0.0 : steady[steady.size() / 2]);
+}
+
+void bench(const Args& a, const std::string& argv0) {
   double build_s = 0;
   const SyntheticSetup s = build_synthetic_model(a, &build_s);
   ClassroomConfig cfg;
@@ -486,6 +615,20 @@ void bench(const Args& a) {
   }
   const DepthCompleteOptions full = a.vda;
   const PlaneTolerance tol;
+  // Where the time goes: each stage added in turn (same frames, same order).
+  auto stage_ms = [&](bool guided, bool colorize) {
+    DepthCompleteOptions o = full;
+    o.image_guided = guided;
+    o.colorization = colorize;
+    cv::Mat tmp;
+    const double t0 = CpuClock::now();
+    for (int f = 0; f < a.bench; ++f) {
+      const Input& in = inputs[f % inputs.size()];
+      depth_complete(in.depth, in.color, s.model.prior_for(in.cam), cv::Mat(), o, tmp);
+    }
+    return ms_since(t0) / a.bench;
+  };
+  const double ms_prior = stage_ms(false, false), ms_guided = stage_ms(true, false);
   std::vector<double> tc, tp;
   cv::Mat out;
   for (int f = 0; f < a.bench; ++f) {
@@ -513,6 +656,10 @@ void bench(const Args& a) {
   std::printf("  depthcomplete  mean %.2f ms  median %.2f ms\n", mc, medc);
   std::printf("  planerefine    mean %.2f ms  median %.2f ms\n", mp, medp);
   std::printf("  together       mean %.2f ms  median %.2f ms  (budget 8 ms)\n", mt, medt);
+  std::printf("  stages (mean, each added in turn): prior fill %.2f, image-guided %.2f, colorization + median %.2f, "
+              "planes %.2f ms\n",
+              ms_prior, ms_guided - ms_prior, mc - ms_guided, mp);
+  bench_elements(a, s, inputs, argv0);
 }
 
 }  // namespace
@@ -564,7 +711,7 @@ int main(int argc, char** argv) {
   cv::setNumThreads(0);  // one core: the per-frame budget is per core
   try {
     if (a.bench > 0) {
-      bench(a);
+      bench(a, argv[0]);
       return 0;
     }
     if (a.middlebury) eval_middlebury(a);
