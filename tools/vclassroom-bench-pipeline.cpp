@@ -1,0 +1,243 @@
+// Throughput of the V-VA server as GStreamer runs it (docs/vva.md): three
+// camera branches `appsrc ! learnerseg ! viewwarp ! queue` into `viewfuse`,
+// at 960x540 in and out, the lecturer walking along a pose trace, as fast as
+// the machine goes. Where vclassroom-bench-server times the algorithms one
+// by one, this is what a user gets: the elements' own threads spread over
+// the cores, caps, buffers, events and the aggregator included.
+//
+// The camera frames are recorded from rgbdtestsrc (sensor model on) before
+// the clock starts and played in a loop, so the cameras cost nothing here:
+// on a real server they arrive over the network.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <string>
+#include <vector>
+
+#include <gst/app/gstappsink.h>
+#include <gst/app/gstappsrc.h>
+#include <gst/gst.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/pose.h>
+
+using namespace vclassroom;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Recording {
+  GstCaps* caps = nullptr;
+  std::vector<GstBuffer*> frames;
+};
+
+// `count` frames of camera `id` from rgbdtestsrc.
+bool record_camera(int id, int learners, int count, Recording* rec) {
+  const std::string desc = "rgbdtestsrc camera-id=" + std::to_string(id) + " seed=1 learners=" +
+                           std::to_string(learners) + " num-buffers=" + std::to_string(count) +
+                           " ground-truth=false ! appsink name=out sync=false";
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  if (!p) {
+    std::fprintf(stderr, "cannot build the recording pipeline: %s\n", err ? err->message : "?");
+    g_clear_error(&err);
+    return false;
+  }
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  while (GstSample* s = gst_app_sink_pull_sample(GST_APP_SINK(sink))) {
+    if (!rec->caps) rec->caps = gst_caps_copy(gst_sample_get_caps(s));
+    rec->frames.push_back(gst_buffer_ref(gst_sample_get_buffer(s)));
+    gst_sample_unref(s);
+  }
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  return int(rec->frames.size()) == count;
+}
+
+struct Feeder {
+  const Recording* rec = nullptr;
+  int total = 0;
+  int next = 0;
+};
+
+void feed(GstAppSrc* src, guint, gpointer data) {
+  Feeder* f = static_cast<Feeder*>(data);
+  if (f->next >= f->total) {
+    gst_app_src_end_of_stream(src);
+    return;
+  }
+  GstBuffer* b = gst_buffer_copy(f->rec->frames[size_t(f->next) % f->rec->frames.size()]);
+  GST_BUFFER_PTS(b) = gst_util_uint64_scale(guint64(f->next), GST_SECOND, 30);
+  GST_BUFFER_DTS(b) = GST_CLOCK_TIME_NONE;
+  GST_BUFFER_DURATION(b) = gst_util_uint64_scale(1, GST_SECOND, 30);
+  ++f->next;
+  gst_app_src_push_buffer(src, b);
+}
+
+struct Counter {
+  std::atomic<int> frames{0};
+  int warmup = 0;
+  Clock::time_point first, last;
+  double cpu_first = 0, cpu_last = 0;
+};
+
+double process_cpu_ms() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+GstPadProbeReturn count_frame(GstPad*, GstPadProbeInfo*, gpointer data) {
+  Counter* c = static_cast<Counter*>(data);
+  const int n = ++c->frames;
+  if (n == c->warmup) {
+    c->first = Clock::now();
+    c->cpu_first = process_cpu_ms();
+  }
+  c->last = Clock::now();
+  c->cpu_last = process_cpu_ms();
+  return GST_PAD_PROBE_OK;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  gst_init(&argc, &argv);
+  int frames = 300, learners = 6, cameras = 3;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--frames" && i + 1 < argc) frames = std::max(40, std::atoi(argv[++i]));
+    else if (a == "--learners" && i + 1 < argc) learners = std::atoi(argv[++i]);
+    else if (a == "--cameras" && i + 1 < argc) cameras = std::clamp(std::atoi(argv[++i]), 1, 3);
+    else {
+      std::fprintf(stderr,
+                   "usage: vclassroom-bench-pipeline [--frames N] [--learners L] [--cameras C]\n"
+                   "  Frames per second of `appsrc ! learnerseg ! viewwarp ! queue` x C into viewfuse -> fakesink\n"
+                   "  at 960x540, the virtual view following a lecturer's walk (a new pose every frame).\n"
+                   "  Needs the plugins: run it inside `meson devenv -C build` or after `meson install`.\n");
+      return 2;
+    }
+  }
+  for (const char* e : {"rgbdtestsrc", "learnerseg", "viewwarp", "viewfuse"})
+    if (!gst_element_factory_find(e)) {
+      std::fprintf(stderr, "element %s not found: run inside `meson devenv -C build` or install the plugins\n", e);
+      return 1;
+    }
+  char tmpl[] = "/tmp/vclassroom-bench-XXXXXX";
+  const char* dir = mkdtemp(tmpl);
+  if (!dir) {
+    std::perror("mkdtemp");
+    return 1;
+  }
+  const std::string tmp = dir;
+
+  // The empty room's depth per camera (what V-DA's model gives), and the walk.
+  const Rig rig = default_classroom_rig();
+  const Classroom empty(ClassroomConfig{1, 0, 2.0});
+  ClassroomRenderer renderer;
+  std::vector<std::string> priors;
+  for (int k = 0; k < cameras; ++k) {
+    RenderOutput r;
+    renderer.render(empty, 0.0, rig.camera(k), &r);
+    priors.push_back(tmp + "/prior-cam" + std::to_string(k) + ".png");
+    cv::imwrite(priors.back(), r.depth);
+  }
+  std::vector<PoseSample> walk;
+  for (int f = 0; f < frames; ++f) {
+    // 0.2 m left of camera 0, walking right 1 cm per frame and turning 0.2 deg per frame.
+    const double s = f * 0.5;
+    PoseSample p;
+    p.t = f / 30.0;
+    p.pose = sliders_to_pose(Sliders{40 + std::fmod(s, 20.0), 50, 50, 50 + std::fmod(s * 0.1, 10.0), 50, 50},
+                             rig.camera(0));
+    walk.push_back(p);
+  }
+  const std::string trace = tmp + "/walk.csv";
+  save_pose_trace(walk, trace);
+
+  std::vector<Recording> rec(static_cast<size_t>(cameras));
+  for (int k = 0; k < cameras; ++k)
+    if (!record_camera(k, learners, 8, &rec[size_t(k)])) {
+      std::fprintf(stderr, "could not record camera %d from rgbdtestsrc\n", k);
+      return 1;
+    }
+
+  std::string desc = "viewfuse name=fuse pose-trace=" + trace + " ! fakesink name=out sync=false";
+  for (int k = 0; k < cameras; ++k)
+    desc += " appsrc name=src" + std::to_string(k) + " format=time max-buffers=2 ! learnerseg prior-depth=" +
+            priors[size_t(k)] + " ! viewwarp prior-depth=" + priors[size_t(k)] +
+            " ! queue max-size-buffers=2 ! fuse.cam_" + std::to_string(k);
+  GError* err = nullptr;
+  GstElement* pipeline = gst_parse_launch(desc.c_str(), &err);
+  if (!pipeline) {
+    std::fprintf(stderr, "cannot build the pipeline: %s\n", err ? err->message : "?");
+    return 1;
+  }
+  std::vector<Feeder> feeders(static_cast<size_t>(cameras));
+  for (int k = 0; k < cameras; ++k) {
+    GstElement* src = gst_bin_get_by_name(GST_BIN(pipeline), ("src" + std::to_string(k)).c_str());
+    gst_app_src_set_caps(GST_APP_SRC(src), rec[size_t(k)].caps);
+    feeders[size_t(k)] = Feeder{&rec[size_t(k)], frames, 0};
+    GstAppSrcCallbacks cb = {};
+    cb.need_data = feed;
+    gst_app_src_set_callbacks(GST_APP_SRC(src), &cb, &feeders[size_t(k)], nullptr);
+    gst_object_unref(src);
+  }
+  Counter counter;
+  counter.warmup = 30;  // the first frames set up rays, buffers, the memory of learnerseg
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipeline), "out");
+  GstPad* sinkpad = gst_element_get_static_pad(sink, "sink");
+  gst_pad_add_probe(sinkpad, GST_PAD_PROBE_TYPE_BUFFER, count_frame, &counter, nullptr);
+  gst_object_unref(sinkpad);
+  gst_object_unref(sink);
+
+  const double cpu0 = process_cpu_ms();
+  gst_element_set_state(pipeline, GST_STATE_PLAYING);
+  GstBus* bus = gst_element_get_bus(pipeline);
+  GstMessage* msg =
+      gst_bus_timed_pop_filtered(bus, GST_CLOCK_TIME_NONE, GstMessageType(GST_MESSAGE_EOS | GST_MESSAGE_ERROR));
+  int rc = 0;
+  if (GST_MESSAGE_TYPE(msg) == GST_MESSAGE_ERROR) {
+    GError* e = nullptr;
+    gst_message_parse_error(msg, &e, nullptr);
+    std::fprintf(stderr, "pipeline error from %s: %s\n", GST_OBJECT_NAME(msg->src), e->message);
+    g_clear_error(&e);
+    rc = 1;
+  }
+  gst_message_unref(msg);
+  gst_object_unref(bus);
+  gst_element_set_state(pipeline, GST_STATE_NULL);
+  const double cpu_all = process_cpu_ms() - cpu0;
+  gst_object_unref(pipeline);
+
+  const int n = counter.frames.load();
+  if (rc == 0 && n > counter.warmup + 1) {
+    const double secs = std::chrono::duration<double>(counter.last - counter.first).count();
+    const int measured = n - counter.warmup;
+    std::printf("%d camera(s) 960x540 -> learnerseg -> viewwarp -> viewfuse 960x540, %d learners, %d frames out\n",
+                cameras, learners, n);
+    std::printf("throughput: %.1f fps (%.1f ms per output frame) after %d warm-up frames\n", measured / secs,
+                1000.0 * secs / measured, counter.warmup);
+    std::printf("CPU: %.1f ms per output frame (%.0f%% of one core), %.1f ms per frame over the whole run\n",
+                (counter.cpu_last - counter.cpu_first) / measured,
+                100.0 * (counter.cpu_last - counter.cpu_first) / (1000.0 * secs), cpu_all / n);
+  } else if (rc == 0) {
+    std::fprintf(stderr, "only %d frames came out\n", n);
+    rc = 1;
+  }
+  for (auto& r : rec) {
+    for (GstBuffer* b : r.frames) gst_buffer_unref(b);
+    if (r.caps) gst_caps_unref(r.caps);
+  }
+  for (const auto& p : priors) std::remove(p.c_str());
+  std::remove(trace.c_str());
+  rmdir(dir);
+  return rc;
+}
