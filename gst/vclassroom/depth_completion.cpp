@@ -315,14 +315,31 @@ void filled_median_at(cv::Mat& out, const std::vector<cv::Point>& pts, int size)
 // The image-guided stage on `out` in place; `all_holes` are its zero pixels.
 void guided_in_place(cv::Mat& out, const std::vector<cv::Point>& all_holes, const cv::Mat& color,
                      const GuidedCompletionParams& p, cv::Mat* ambiguous) {
-  thread_local std::vector<cv::Point> holes;
+  thread_local std::vector<cv::Point> holes, short_runs;
   holes = all_holes;
   if (p.morphology && !holes.empty()) {
     static const std::vector<cv::Point> k_diamond = kernel_offsets(2, true), k5 = kernel_offsets(2, false),
                                         k7 = kernel_offsets(3, false);
-    grow_agreeing(out, holes, k_diamond, 2, p);  // dilation with the diamond
-    grow_agreeing(out, holes, k5, 2, p);         // closing of small holes
-    grow_agreeing(out, holes, k7, 3, p);         // hole fill
+    // A hole is enclosed within the largest reach (3 px) on both sides of its
+    // row only in a horizontal run of at most 5 holes, and the steps fill only
+    // enclosed holes, so longer runs never change here: most holes are in them.
+    const int max_run = 2 * 3 - 1;
+    short_runs.clear();
+    for (size_t i = 0; i < all_holes.size();) {
+      size_t j = i;
+      while (j + 1 < all_holes.size() && all_holes[j + 1].y == all_holes[i].y &&
+             all_holes[j + 1].x == all_holes[j].x + 1)
+        ++j;
+      if (static_cast<int>(j - i + 1) <= max_run) short_runs.insert(short_runs.end(), &all_holes[i], &all_holes[j] + 1);
+      i = j + 1;
+    }
+    int filled = 0;
+    filled += grow_agreeing(out, short_runs, k_diamond, 2, p);  // dilation with the diamond
+    filled += grow_agreeing(out, short_runs, k5, 2, p);         // closing of small holes
+    filled += grow_agreeing(out, short_runs, k7, 3, p);         // hole fill
+    if (filled)
+      holes.erase(std::remove_if(holes.begin(), holes.end(), [&](const cv::Point& h) { return out.at<uint16_t>(h) != 0; }),
+                  holes.end());
   }
   if (p.hole_fill && !holes.empty()) run_end_fill(out, holes, color, p, ambiguous);
   if (p.median) filled_median_at(out, all_holes, p.median_size);
