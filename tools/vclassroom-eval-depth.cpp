@@ -382,6 +382,7 @@ void eval_synthetic(const Args& a) {
   };
   const std::vector<Variant> variants = {
       {"raw sensor depth", false, false, false, false},
+      {"raw sensor depth + planerefine", false, false, false, true},
       {"+prior", true, false, false, false},
       {"+completion (image-guided)", true, true, false, false},
       {"+colorization", true, true, true, false},
