@@ -146,6 +146,37 @@ TEST(ViewWarp, SidewaysMoveOfAFrontoParallelPlaneShiftsByTheDisparity) {
   }
 }
 
+// A warper keeps its buffers between frames (the z-buffer is emptied as the
+// result is read out): a frame must come out the same as from a fresh warper,
+// whatever the frames before it were, at any virtual size.
+TEST(ViewWarp, AReusedWarperGivesWhatAFreshOneGives) {
+  const Classroom room(ClassroomConfig{2, 5, 2.0});
+  const Rig rig = default_classroom_rig();
+  const CameraCalib cam = scale_camera(rig.camera(1), 240, 135);
+  const RenderOutput a = render(room, 0.5, cam), b = render(room, 2.0, cam);
+  auto view = [&](double x_slider, int w, int h) {
+    const Pose p = sliders_to_pose(Sliders{x_slider, 50, 50, 55, 50, 50}, rig.camera(0));
+    return virtual_camera(scale_camera(rig.camera(0), w, h), p.cam_to_rig(), NAN);
+  };
+  WarpParams prm;
+  prm.boundary_px = 1;
+  ViewWarper reused;
+  WarpedView out;
+  reused.warp(cam, WarpSource{a.color, a.depth, a.label, cv::Mat()}, view(30, 240, 135), prm, &out);
+  reused.warp(cam, WarpSource{a.color, a.depth, a.label, cv::Mat()}, view(40, 200, 100), prm, &out);
+  for (auto [w, h] : {std::pair{200, 100}, std::pair{240, 135}}) {
+    const WarpSource src{b.color, b.depth, b.label, cv::Mat()};
+    reused.warp(cam, src, view(45, w, h), prm, &out);
+    const WarpedView fresh = warp_view(cam, src, view(45, w, h), prm);
+    ASSERT_EQ(out.color.size(), cv::Size(w, h));
+    EXPECT_GT(cv::countNonZero(fresh.weight), w * h / 4) << "the test view should see much of the room";
+    EXPECT_EQ(cv::norm(out.color, fresh.color, cv::NORM_INF), 0) << w << "x" << h;
+    EXPECT_EQ(cv::norm(out.depth, fresh.depth, cv::NORM_INF), 0) << w << "x" << h;
+    EXPECT_EQ(cv::norm(out.label, fresh.label, cv::NORM_INF), 0) << w << "x" << h;
+    EXPECT_EQ(cv::norm(out.weight, fresh.weight, cv::NORM_INF), 0) << w << "x" << h;
+  }
+}
+
 TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
   const int w = 120, h = 80;
   const CameraCalib src = pinhole(w, h, 100);

@@ -33,6 +33,8 @@ struct Sample {
   uint8_t unused;
 };
 constexpr uint16_t kNoSample = 0xffff;
+constexpr Sample kEmptySample{kNoSample, {0, 0, 0}, 0, 0, 0};
+static_assert(sizeof(Sample) == 8, "one z-buffer record is 8 bytes");
 
 // floor/ceil without a libm call (x86-64 baseline has no SSE4.1 round).
 inline int fast_floor(float x) {
@@ -310,7 +312,7 @@ inline uint8_t weight_byte(float w) { return uint8_t(std::clamp(w * 255.0f + 0.5
 
 // Holes keep the initial record: colour, weight and label 0, depth "none".
 VCLASSROOM_SIMD_CLONES
-void unpack_samples(int n, const Sample* __restrict s, uint8_t* __restrict rgb, uint16_t* __restrict depth,
+void unpack_samples(int n, Sample* __restrict s, uint8_t* __restrict rgb, uint16_t* __restrict depth,
                     uint8_t* __restrict label, uint8_t* __restrict weight) {
   for (int i = 0; i < n; ++i) {
     depth[i] = s[i].z == kNoSample ? 0 : s[i].z;
@@ -320,6 +322,8 @@ void unpack_samples(int n, const Sample* __restrict s, uint8_t* __restrict rgb, 
     label[i] = s[i].label;
     weight[i] = s[i].weight;
   }
+  // Empty again for the next frame, while the records are in cache.
+  std::fill_n(s, n, kEmptySample);
 }
 
 }  // namespace
@@ -376,14 +380,13 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
                *const PW = pw_.data() + pad, *const PL = plim_.data() + pad;
   src_depth_.resize(n);
   src_label_.resize(n);
-  static_assert(sizeof(Sample) == 8, "one z-buffer record is 8 bytes");
-  zbuf_.resize(vn);
+  // The z-buffer is left empty by the last frame's unpack: only a new size
+  // needs a fill (one pass less over 8 bytes per virtual pixel).
+  if (zbuf_.size() != vn) {
+    zbuf_.resize(vn);
+    std::fill_n(reinterpret_cast<Sample*>(zbuf_.data()), vn, kEmptySample);
+  }
   Sample* const zbuf = reinterpret_cast<Sample*>(zbuf_.data());
-  Sample none{};
-  none.z = kNoSample;
-  uint64_t none_bits;
-  std::memcpy(&none_bits, &none, sizeof none);
-  std::fill(zbuf_.begin(), zbuf_.end(), none_bits);
   const ColorSampler color{in.color.data, in.color.step, W - 1, H - 1};
 
   // The layered depth of every source pixel: learners live, the room static.
