@@ -205,7 +205,8 @@ TEST(RgbdEncDec, DamagedFramesAreDroppedWithAWarning) {
   encode_rgbd_frame({clean.color, clean.depth, cv::Mat()}, 90, &good);
 
   GError* err = nullptr;
-  GstElement* p = gst_parse_launch("appsrc name=src format=time ! rgbddec ! appsink name=out sync=false", &err);
+  GstElement* p = gst_parse_launch(
+      "appsrc name=src format=time ! rgbddec name=dec stats-interval=2 ! appsink name=out sync=false", &err);
   ASSERT_EQ(err, nullptr);
   GstElement* src = gst_bin_get_by_name(GST_BIN(p), "src");
   GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
@@ -232,6 +233,27 @@ TEST(RgbdEncDec, DamagedFramesAreDroppedWithAWarning) {
   ASSERT_EQ(r.warnings.size(), 2u);
   EXPECT_NE(r.warnings[0].find("truncated"), std::string::npos) << r.warnings[0];
   EXPECT_NE(r.warnings[1].find("damaged"), std::string::npos) << r.warnings[1];
+  // What was lost is counted, on the properties and every 2 frames on the bus.
+  GstElement* dec = gst_bin_get_by_name(GST_BIN(p), "dec");
+  guint64 decoded = 0, dropped = 0, bytes = 0;
+  g_object_get(dec, "frames", &decoded, "frames-dropped", &dropped, "bytes", &bytes, nullptr);
+  EXPECT_EQ(decoded, 2u);
+  EXPECT_EQ(dropped, 2u);
+  EXPECT_EQ(bytes, 2 * good.size());
+  gst_object_unref(dec);
+  std::vector<std::pair<guint64, guint64>> posted;
+  for (const std::string& m : r.element_messages) {
+    GstStructure* st = gst_structure_from_string(m.c_str(), nullptr);
+    ASSERT_NE(st, nullptr) << m;
+    if (gst_structure_has_name(st, "vclassroom-codec-stats")) {
+      guint64 f = 0, d = 0;
+      EXPECT_TRUE(gst_structure_get_uint64(st, "frames", &f) && gst_structure_get_uint64(st, "frames-dropped", &d)) << m;
+      posted.emplace_back(f, d);
+    }
+    gst_structure_free(st);
+  }
+  // After frames 2 (one good, one truncated) and 4 (the damaged one, then a good one).
+  EXPECT_EQ(posted, (std::vector<std::pair<guint64, guint64>>{{1, 1}, {2, 2}}));
   gst_caps_unref(caps);
   gst_object_unref(src);
   gst_object_unref(out);

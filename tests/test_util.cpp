@@ -69,7 +69,7 @@ RunResult run_pipeline(GstElement* pipeline, GstClockTime timeout) {
   bool done = false;
   while (!done) {
     GstMessage* msg = gst_bus_timed_pop_filtered(
-        bus, timeout, GstMessageType(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING));
+        bus, timeout, GstMessageType(GST_MESSAGE_EOS | GST_MESSAGE_ERROR | GST_MESSAGE_WARNING | GST_MESSAGE_ELEMENT));
     if (!msg) {
       ADD_FAILURE() << "pipeline neither finished nor failed within the time limit (hang)";
       r.error = "timeout";
@@ -93,6 +93,14 @@ RunResult run_pipeline(GstElement* pipeline, GstClockTime timeout) {
         gst_message_parse_warning(msg, &err, nullptr);
         r.warnings.push_back(err ? err->message : "");
         g_clear_error(&err);
+        break;
+      }
+      case GST_MESSAGE_ELEMENT: {
+        if (const GstStructure* st = gst_message_get_structure(msg)) {
+          gchar* text = gst_structure_to_string(st);
+          r.element_messages.push_back(text);
+          g_free(text);
+        }
         break;
       }
       default:

@@ -40,6 +40,7 @@ struct RunResult {
   std::string error;
   std::string error_source;
   std::vector<std::string> warnings;
+  std::vector<std::string> element_messages;  // their structures, serialised
 };
 RunResult run_pipeline(GstElement* pipeline, GstClockTime timeout = 60 * GST_SECOND);
 RunResult run_launch(const std::string& description, GstClockTime timeout = 60 * GST_SECOND);

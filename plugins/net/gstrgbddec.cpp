@@ -22,7 +22,7 @@ struct _GstRgbdDec {
   GstBaseTransform parent;
   RgbdInfo* info;  // of the output
   gboolean have_info;
-  guint64 dropped;
+  CodecStats stats;  // object lock
 };
 
 G_DEFINE_TYPE(GstRgbdDec, gst_rgbd_dec, GST_TYPE_BASE_TRANSFORM)
@@ -71,12 +71,16 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
     ok = false;
     err = "frame lacks the label plane its caps announce";
   }
+  const gsize coded_size = gst_buffer_get_size(in);
   if (!ok) {
-    self->dropped++;
+    codec_stats_count(GST_ELEMENT(self), &self->stats, coded_size, true);
+    GST_OBJECT_LOCK(self);
+    const guint64 dropped = self->stats.dropped;
+    GST_OBJECT_UNLOCK(self);
     GST_ELEMENT_WARNING(self, STREAM, DECODE,
                         ("dropping a damaged frame at %" GST_TIME_FORMAT ": %s", GST_TIME_ARGS(GST_BUFFER_PTS(in)),
                          err.c_str()),
-                        ("%" G_GUINT64_FORMAT " dropped so far", self->dropped));
+                        ("%" G_GUINT64_FORMAT " dropped so far", dropped));
     gst_buffer_unref(in);
     return GST_FLOW_OK;
   }
@@ -95,13 +99,29 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
   }
   gst_buffer_copy_into(out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
   gst_buffer_unref(in);
+  codec_stats_count(GST_ELEMENT(self), &self->stats, coded_size, false);
   *outbuf = out;
   return GST_FLOW_OK;
 }
 
 static gboolean gst_rgbd_dec_start(GstBaseTransform* trans) {
-  GST_RGBD_DEC(trans)->dropped = 0;
+  GstRgbdDec* self = GST_RGBD_DEC(trans);
+  GST_OBJECT_LOCK(self);
+  self->stats = CodecStats{0, 0, 0, self->stats.interval};
+  GST_OBJECT_UNLOCK(self);
   return TRUE;
+}
+
+static void gst_rgbd_dec_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
+  GstRgbdDec* self = GST_RGBD_DEC(object);
+  if (!codec_stats_set_property(GST_OBJECT(self), &self->stats, prop_id, value))
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+}
+
+static void gst_rgbd_dec_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  GstRgbdDec* self = GST_RGBD_DEC(object);
+  if (!codec_stats_get_property(GST_OBJECT(self), self->stats, prop_id, value))
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
 }
 
 static void gst_rgbd_dec_finalize(GObject* object) {
@@ -113,6 +133,9 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
   GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
   GstBaseTransformClass* trans_class = GST_BASE_TRANSFORM_CLASS(klass);
   G_OBJECT_CLASS(klass)->finalize = gst_rgbd_dec_finalize;
+  G_OBJECT_CLASS(klass)->set_property = gst_rgbd_dec_set_property;
+  G_OBJECT_CLASS(klass)->get_property = gst_rgbd_dec_get_property;
+  codec_stats_install_properties(G_OBJECT_CLASS(klass), "Frames decoded");
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(
@@ -131,5 +154,5 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
 static void gst_rgbd_dec_init(GstRgbdDec* self) {
   self->info = new RgbdInfo();
   self->have_info = FALSE;
-  self->dropped = 0;
+  self->stats = CodecStats();
 }

@@ -27,6 +27,7 @@ struct _GstRgbdEnc {
   gint quality;  // object lock
   RgbdInfo* info;
   gboolean have_info;
+  CodecStats stats;  // object lock
 };
 
 G_DEFINE_TYPE(GstRgbdEnc, gst_rgbd_enc, GST_TYPE_BASE_TRANSFORM)
@@ -81,6 +82,7 @@ static GstFlowReturn gst_rgbd_enc_generate_output(GstBaseTransform* trans, GstBu
     std::string err;
     if (!frame.map(in, *self->info, GST_MAP_READ, &err)) {
       GST_ELEMENT_WARNING(self, STREAM, ENCODE, ("dropping corrupt frame: %s", err.c_str()), (nullptr));
+      codec_stats_count(GST_ELEMENT(self), &self->stats, 0, true);
       gst_buffer_unref(in);
       return GST_FLOW_OK;
     }
@@ -91,8 +93,17 @@ static GstFlowReturn gst_rgbd_enc_generate_output(GstBaseTransform* trans, GstBu
   gst_buffer_fill(out, 0, bytes.data(), bytes.size());
   gst_buffer_copy_into(out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
   gst_buffer_unref(in);
+  codec_stats_count(GST_ELEMENT(self), &self->stats, bytes.size(), false);
   *outbuf = out;
   return GST_FLOW_OK;
+}
+
+static gboolean gst_rgbd_enc_start(GstBaseTransform* trans) {
+  GstRgbdEnc* self = GST_RGBD_ENC(trans);
+  GST_OBJECT_LOCK(self);
+  self->stats = CodecStats{0, 0, 0, self->stats.interval};
+  GST_OBJECT_UNLOCK(self);
+  return TRUE;
 }
 
 static void gst_rgbd_enc_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
@@ -101,7 +112,7 @@ static void gst_rgbd_enc_set_property(GObject* object, guint prop_id, const GVal
     GST_OBJECT_LOCK(self);
     self->quality = g_value_get_int(value);
     GST_OBJECT_UNLOCK(self);
-  } else {
+  } else if (!codec_stats_set_property(GST_OBJECT(self), &self->stats, prop_id, value)) {
     G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
 }
@@ -112,7 +123,7 @@ static void gst_rgbd_enc_get_property(GObject* object, guint prop_id, GValue* va
     GST_OBJECT_LOCK(self);
     g_value_set_int(value, self->quality);
     GST_OBJECT_UNLOCK(self);
-  } else {
+  } else if (!codec_stats_get_property(GST_OBJECT(self), self->stats, prop_id, value)) {
     G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
 }
@@ -134,6 +145,7 @@ static void gst_rgbd_enc_class_init(GstRgbdEncClass* klass) {
       g_param_spec_int("quality", "JPEG quality", "JPEG quality of the colour image (depth is always lossless)", 1,
                        100, kDefaultQuality,
                        GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  codec_stats_install_properties(gobject_class, "Frames encoded");
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(
@@ -145,6 +157,7 @@ static void gst_rgbd_enc_class_init(GstRgbdEncClass* klass) {
   trans_class->transform_caps = GST_DEBUG_FUNCPTR(gst_rgbd_enc_transform_caps);
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_enc_set_caps);
   trans_class->generate_output = GST_DEBUG_FUNCPTR(gst_rgbd_enc_generate_output);
+  trans_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_enc_start);
   trans_class->passthrough_on_same_caps = FALSE;
   GST_DEBUG_CATEGORY_INIT(rgbd_enc_debug, "rgbdenc", 0, "RGB-D encoder");
 }
@@ -153,4 +166,5 @@ static void gst_rgbd_enc_init(GstRgbdEnc* self) {
   self->quality = kDefaultQuality;
   self->info = new RgbdInfo();
   self->have_info = FALSE;
+  self->stats = CodecStats();
 }

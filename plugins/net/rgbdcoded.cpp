@@ -47,3 +47,59 @@ bool take_queued_input(GstBaseTransform* trans, gboolean negotiated, GstBuffer**
   }
   return true;
 }
+
+void codec_stats_install_properties(GObjectClass* klass, const char* frames_blurb) {
+  const auto ro = GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
+  g_object_class_install_property(klass, kPropFrames,
+                                  g_param_spec_uint64("frames", "Frames", frames_blurb, 0, G_MAXUINT64, 0, ro));
+  g_object_class_install_property(klass, kPropBytes,
+                                  g_param_spec_uint64("bytes", "Bytes", "Compressed bytes of those frames", 0,
+                                                      G_MAXUINT64, 0, ro));
+  g_object_class_install_property(
+      klass, kPropDropped,
+      g_param_spec_uint64("frames-dropped", "Frames dropped", "Frames dropped as damaged or unreadable", 0,
+                          G_MAXUINT64, 0, ro));
+  g_object_class_install_property(
+      klass, kPropStatsInterval,
+      g_param_spec_uint("stats-interval", "Statistics interval",
+                        "Post a vclassroom-codec-stats element message (frames, bytes, frames-dropped) every this "
+                        "many frames; 0: never",
+                        0, G_MAXUINT, 0,
+                        GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+}
+
+bool codec_stats_get_property(GstObject* self, const CodecStats& st, guint prop_id, GValue* value) {
+  GST_OBJECT_LOCK(self);
+  bool known = true;
+  switch (prop_id) {
+    case kPropFrames: g_value_set_uint64(value, st.frames); break;
+    case kPropBytes: g_value_set_uint64(value, st.bytes); break;
+    case kPropDropped: g_value_set_uint64(value, st.dropped); break;
+    case kPropStatsInterval: g_value_set_uint(value, st.interval); break;
+    default: known = false;
+  }
+  GST_OBJECT_UNLOCK(self);
+  return known;
+}
+
+bool codec_stats_set_property(GstObject* self, CodecStats* st, guint prop_id, const GValue* value) {
+  if (prop_id != kPropStatsInterval) return false;
+  GST_OBJECT_LOCK(self);
+  st->interval = g_value_get_uint(value);
+  GST_OBJECT_UNLOCK(self);
+  return true;
+}
+
+void codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped) {
+  GST_OBJECT_LOCK(self);
+  if (dropped) st->dropped++;
+  else st->frames++, st->bytes += bytes;
+  const guint64 seen = st->frames + st->dropped;
+  const bool due = st->interval && seen % st->interval == 0;
+  const CodecStats now = *st;
+  GST_OBJECT_UNLOCK(self);
+  if (!due) return;
+  GstStructure* s = gst_structure_new("vclassroom-codec-stats", "frames", G_TYPE_UINT64, now.frames, "bytes",
+                                      G_TYPE_UINT64, now.bytes, "frames-dropped", G_TYPE_UINT64, now.dropped, nullptr);
+  gst_element_post_message(self, gst_message_new_element(GST_OBJECT(self), s));
+}

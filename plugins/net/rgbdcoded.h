@@ -19,3 +19,21 @@ GstCaps* caps_filtered(GstCaps* caps, GstCaps* filter);
 // Takes the input buffer GstBaseTransform queued for generate_output. False
 // when there is none or caps were never set (then *ret says which).
 bool take_queued_input(GstBaseTransform* trans, gboolean negotiated, GstBuffer** in, GstFlowReturn* ret);
+
+// What rgbdenc / rgbddec have done, readable as properties and, every
+// `interval` frames when that is not 0, posted on the bus as an element
+// message "vclassroom-codec-stats" (frames, bytes, dropped): `gst-launch-1.0 -m`
+// prints it, so a deployment can see what each camera sent and the server got.
+struct CodecStats {
+  guint64 frames = 0;   // frames coded or decoded
+  guint64 bytes = 0;    // compressed bytes of those frames
+  guint64 dropped = 0;  // frames dropped as damaged
+  guint interval = 0;
+};
+enum CodecStatsProp : guint { kPropFrames = 100, kPropBytes, kPropDropped, kPropStatsInterval };
+void codec_stats_install_properties(GObjectClass* klass, const char* frames_blurb);
+// For the properties above; false when prop_id is not one of them.
+bool codec_stats_get_property(GstObject* self, const CodecStats& st, guint prop_id, GValue* value);
+bool codec_stats_set_property(GstObject* self, CodecStats* st, guint prop_id, const GValue* value);
+// Counts one frame (or a dropped one) and posts the message when due. Takes the object lock.
+void codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped);
