@@ -135,7 +135,7 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
   G_OBJECT_CLASS(klass)->finalize = gst_rgbd_dec_finalize;
   G_OBJECT_CLASS(klass)->set_property = gst_rgbd_dec_set_property;
   G_OBJECT_CLASS(klass)->get_property = gst_rgbd_dec_get_property;
-  codec_stats_install_properties(G_OBJECT_CLASS(klass), "Frames decoded");
+  codec_stats_install_properties(G_OBJECT_CLASS(klass), "Frames decoded since the element started");
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(

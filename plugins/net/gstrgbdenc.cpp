@@ -145,7 +145,7 @@ static void gst_rgbd_enc_class_init(GstRgbdEncClass* klass) {
       g_param_spec_int("quality", "JPEG quality", "JPEG quality of the colour image (depth is always lossless)", 1,
                        100, kDefaultQuality,
                        GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
-  codec_stats_install_properties(gobject_class, "Frames encoded");
+  codec_stats_install_properties(gobject_class, "Frames encoded since the element started");
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(

@@ -53,7 +53,7 @@ void codec_stats_install_properties(GObjectClass* klass, const char* frames_blur
   g_object_class_install_property(klass, kPropFrames,
                                   g_param_spec_uint64("frames", "Frames", frames_blurb, 0, G_MAXUINT64, 0, ro));
   g_object_class_install_property(klass, kPropBytes,
-                                  g_param_spec_uint64("bytes", "Bytes", "Compressed bytes of those frames", 0,
+                                  g_param_spec_uint64("bytes", "Bytes", "Compressed bytes of the frames counted in frames", 0,
                                                       G_MAXUINT64, 0, ro));
   g_object_class_install_property(
       klass, kPropDropped,
