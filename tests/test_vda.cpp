@@ -185,6 +185,23 @@ TEST(DepthCompletion, FilledMedianKnownAnswer) {
   cv::Mat untouched = filled == 0;
   EXPECT_EQ(max_abs_diff(out, d, untouched), 0.0);
 
+  // A thin structure (a 1 px pencil, red at 1000 mm on a blue wall at 3000 mm):
+  // the plain median erases it, the colour-aware one keeps it and still
+  // removes a wrong depth on the wall.
+  cv::Mat thin(7, 7, CV_16UC1, cv::Scalar(3000)), thin_color(7, 7, CV_8UC3, cv::Scalar(30, 40, 200));
+  thin.col(3).setTo(1000);
+  thin_color.col(3).setTo(cv::Scalar(210, 30, 20));
+  thin.at<uint16_t>(3, 5) = 1000;  // the wall filled with the pencil's depth
+  const cv::Mat every(thin.size(), CV_8UC1, cv::Scalar(255));
+  cv::Mat plain = thin.clone(), aware = thin.clone();
+  filled_median(plain, every, 3);
+  filled_median(aware, every, 3, thin_color, 100.0);
+  EXPECT_EQ(plain.at<uint16_t>(3, 3), 3000);
+  EXPECT_EQ(aware.at<uint16_t>(3, 3), 1000);
+  EXPECT_EQ(aware.at<uint16_t>(0, 3), 1000);
+  EXPECT_EQ(aware.at<uint16_t>(3, 5), 3000);
+  EXPECT_EQ(aware.at<uint16_t>(3, 1), 3000);
+
   // A full 3x3 window (the exchange network) agrees with sorting.
   cv::RNG rng(5);
   cv::Mat r(9, 9, CV_16UC1);
@@ -224,7 +241,7 @@ TEST(DepthCompletion, MedianRunsAfterColorization) {
   cv::Mat chain;
   guided_completion(depth, color, g, chain);
   colorization_fill(chain, color, holes, o.colorize);
-  filled_median(chain, holes, o.guided.median_size);
+  filled_median(chain, holes, o.guided.median_size, color, o.guided.median_color_distance);
   EXPECT_EQ(max_abs_diff(out, chain), 0.0);
   EXPECT_EQ(cv::countNonZero(out), w * h);
 }

@@ -279,34 +279,45 @@ inline uint16_t median9(uint16_t* p) {
 }
 
 // Median of the image at each pixel of `pts` that has depth, over its 3x3 or
-// 5x5 window (0s excluded); all medians are taken before any is written.
-void filled_median_at(cv::Mat& out, const std::vector<cv::Point>& pts, int size) {
+// 5x5 window (0s excluded, and with `color` given, pixels whose colour differs
+// from the centre's by more than `max_color_distance`); all medians are taken
+// before any is written.
+void filled_median_at(cv::Mat& out, const std::vector<cv::Point>& pts, int size, const cv::Mat& color,
+                      double max_color_distance) {
   if (pts.empty()) return;
   thread_local std::vector<uint16_t> med;
   med.assign(pts.size(), 0);
   uint16_t vals[25];
   const int r2 = size >= 5 ? 2 : 1;
+  const bool by_color = !color.empty() && max_color_distance > 0;
+  const int max_d2 = by_color ? static_cast<int>(std::min(1e9, max_color_distance * max_color_distance)) : 0;
+  auto same_surface = [&](const cv::Point& c, int x, int y) {
+    if (!by_color) return true;
+    const uint8_t* p0 = color.ptr<uint8_t>(c.y) + 3 * c.x;
+    const uint8_t* p1 = color.ptr<uint8_t>(y) + 3 * x;
+    const int dr = p0[0] - p1[0], dg = p0[1] - p1[1], db = p0[2] - p1[2];
+    return dr * dr + dg * dg + db * db <= max_d2;
+  };
   for (size_t i = 0; i < pts.size(); ++i) {
     const cv::Point& h = pts[i];
     if (!out.at<uint16_t>(h)) continue;
-    if (r2 == 1 && h.x > 0 && h.y > 0 && h.x + 1 < out.cols && h.y + 1 < out.rows) {
-      const uint16_t* a = out.ptr<uint16_t>(h.y - 1) + h.x - 1;
-      const uint16_t* b = out.ptr<uint16_t>(h.y) + h.x - 1;
-      const uint16_t* c = out.ptr<uint16_t>(h.y + 1) + h.x - 1;
-      uint16_t v[9] = {a[0], a[1], a[2], b[0], b[1], b[2], c[0], c[1], c[2]};
-      if (v[0] && v[1] && v[2] && v[3] && v[5] && v[6] && v[7] && v[8]) {
-        med[i] = median9(v);
-        continue;
-      }
-    }
     int n = 0;
+    bool full = true;
     for (int y = std::max(0, h.y - r2); y <= std::min(out.rows - 1, h.y + r2); ++y) {
       const uint16_t* r = out.ptr<uint16_t>(y);
-      for (int x = std::max(0, h.x - r2); x <= std::min(out.cols - 1, h.x + r2); ++x)
-        if (r[x]) vals[n++] = r[x];
+      for (int x = std::max(0, h.x - r2); x <= std::min(out.cols - 1, h.x + r2); ++x) {
+        if (r[x] && same_surface(h, x, y))
+          vals[n++] = r[x];
+        else
+          full = false;
+      }
     }
-    std::nth_element(vals, vals + n / 2, vals + n);
-    med[i] = vals[n / 2];
+    if (n == 9 && full)
+      med[i] = median9(vals);
+    else {
+      std::nth_element(vals, vals + n / 2, vals + n);
+      med[i] = vals[n / 2];
+    }
   }
   for (size_t i = 0; i < pts.size(); ++i)
     if (med[i]) out.at<uint16_t>(pts[i]) = med[i];
@@ -342,7 +353,7 @@ void guided_in_place(cv::Mat& out, const std::vector<cv::Point>& all_holes, cons
                   holes.end());
   }
   if (p.hole_fill && !holes.empty()) run_end_fill(out, holes, color, p, ambiguous);
-  if (p.median) filled_median_at(out, all_holes, p.median_size);
+  if (p.median) filled_median_at(out, all_holes, p.median_size, color, p.median_color_distance);
 }
 
 }  // namespace
@@ -551,11 +562,13 @@ void colorize_points(cv::Mat& depth, const cv::Mat& color, const std::vector<cv:
 
 }  // namespace
 
-void filled_median(cv::Mat& depth, const cv::Mat& filled, int size) {
+void filled_median(cv::Mat& depth, const cv::Mat& filled, int size, const cv::Mat& color,
+                   double max_color_distance) {
   CV_Assert(depth.type() == CV_16UC1 && filled.type() == CV_8UC1 && filled.size() == depth.size());
+  CV_Assert(color.empty() || (color.type() == CV_8UC3 && color.size() == depth.size()));
   std::vector<cv::Point> pts;
   cv::findNonZero(filled, pts);
-  filled_median_at(depth, pts, size);
+  filled_median_at(depth, pts, size, color, max_color_distance);
 }
 
 void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unknown, const ColorizationParams& p) {
@@ -652,7 +665,8 @@ void depth_complete(const cv::Mat& live, const cv::Mat& color, const StaticPrior
   // What the image-guided stage filled is refined by colorization, and what it
   // could not fill is left to it too: the unknowns are all of the holes.
   if (o.colorization) colorize_points(out, color, holes, o.colorize);
-  if (o.image_guided && o.guided.median) filled_median_at(out, holes, o.guided.median_size);
+  if (o.image_guided && o.guided.median)
+    filled_median_at(out, holes, o.guided.median_size, color, o.guided.median_color_distance);
 }
 
 }  // namespace vclassroom

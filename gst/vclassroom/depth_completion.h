@@ -51,7 +51,8 @@ void prior_fill(const cv::Mat& live, const cv::Mat& color, const StaticPrior& pr
 // edge); holes that remain are filled from the four run ends around each hole
 // pixel, chosen and weighted by colour similarity, interpolating 1/Z across a
 // run whose two ends lie on one surface; then a 3x3 median over the filled
-// pixels (in depth_complete after colorization, see there).
+// pixels among neighbours of similar colour (in depth_complete after
+// colorization, see there).
 struct GuidedCompletionParams {
   int max_depth_mm = 65535;         // inversion constant: any 16-bit depth stays valid once inverted
   bool morphology = true;           // diamond dilation, closing, 7x7 hole fill (agreeing neighbours only)
@@ -61,6 +62,11 @@ struct GuidedCompletionParams {
   double color_sigma = 20.0;        // colour distance (8-bit RGB, L2) at which a run end's weight falls to 1/e
   bool median = true;               // median over filled pixels only
   int median_size = 3;              // 3 or 5
+  // The median's window leaves out pixels whose colour differs from the centre's
+  // by more than this (8-bit RGB, L2; 5 colour sigmas: weight e^-25 in the hole
+  // fill, another surface): it keeps thin structures and edges where they are.
+  // 0 = plain median.
+  double median_color_distance = 100.0;
   // A hole pixel is ambiguous when the run ends that disagree with the chosen
   // surface carry more than this share of the colour weight (typically at a
   // depth edge whose colours do not tell the sides apart).
@@ -94,8 +100,11 @@ void colorization_fill(cv::Mat& depth, const cv::Mat& color, const cv::Mat& unkn
 
 // Median of `depth` over its 3x3 (size 3) or 5x5 window, 0s excluded, at every
 // pixel where `filled` (CV_8UC1) is nonzero and depth is not 0; all medians are
-// taken from the input, then written.
-void filled_median(cv::Mat& depth, const cv::Mat& filled, int size = 3);
+// taken from the input, then written. With `color` (CV_8UC3, may be empty) and
+// max_color_distance > 0, window pixels whose colour differs from the centre's
+// by more than that (RGB L2) are left out.
+void filled_median(cv::Mat& depth, const cv::Mat& filled, int size = 3, const cv::Mat& color = cv::Mat(),
+                   double max_color_distance = 0);
 
 // Baseline: every hole pixel takes the depth of the nearest valid pixel
 // (Euclidean distance). Empty input stays empty.

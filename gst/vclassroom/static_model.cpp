@@ -401,7 +401,7 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
     guided.median = false;
     guided_completion(prior, col, guided, filled);
     colorization_fill(filled, col, unknown, o.colorize);
-    if (o.guided.median) filled_median(filled, unknown, o.guided.median_size);
+    if (o.guided.median) filled_median(filled, unknown, o.guided.median_size, col, o.guided.median_color_distance);
     if (o.snap_planes) {
       const PlaneMaps maps = plane_maps_for_camera(m.planes, cam, filled, o.plane_tolerance);
       plane_refine(filled, maps, cv::Mat(), o.plane_tolerance, filled);
