@@ -379,6 +379,7 @@ void eval_synthetic(const Args& a) {
   struct Variant {
     std::string name;
     bool prior, guided, colorize, planes;
+    int sub = 0;  // 1: image-guided without morphology, 2: without hole fill, 3: without median
   };
   const std::vector<Variant> variants = {
       {"raw sensor depth", false, false, false, false},
@@ -391,6 +392,9 @@ void eval_synthetic(const Args& a) {
       {"ablation: no image-guided", true, false, true, true},
       {"ablation: no colorization", true, true, false, true},
       {"ablation: no planes", true, true, true, false},
+      {"ablation: image-guided w/o morphology", true, true, true, true, 1},
+      {"ablation: image-guided w/o hole fill", true, true, true, true, 2},
+      {"ablation: image-guided w/o median", true, true, true, true, 3},
   };
   std::vector<Row> rows(variants.size() + 2);
   for (size_t i = 0; i < variants.size(); ++i) rows[i].name = variants[i].name;
@@ -416,6 +420,9 @@ void eval_synthetic(const Args& a) {
         o.use_prior = v.prior;
         o.image_guided = v.guided;
         o.colorization = v.colorize;
+        o.guided.morphology = v.sub != 1;
+        o.guided.hole_fill = v.sub != 2;
+        o.guided.median = v.sub != 3;
         // The label plane is not used: the elements must work without it.
         const auto t0 = CpuClock::now();
         const StaticModel& model = v.planes ? s.model : s.model_no_planes;
