@@ -3,12 +3,17 @@
 # Variables: CAMERA (id, default 0), SERVER (host, default 127.0.0.1), PORT (default 5000 + CAMERA),
 #   SOURCE (default: the synthetic classroom's camera CAMERA, live), QUALITY (JPEG, default 90),
 #   DROP (share of packets to drop on purpose, to test a bad link; default 0).
+#   STATS (0: quiet; N: every N frames rgbdenc posts vclassroom-codec-stats, printed by -m).
 set -euo pipefail
 CAMERA=${CAMERA:-0}
 SERVER=${SERVER:-127.0.0.1}
 PORT=${PORT:-$((5000 + CAMERA))}
 QUALITY=${QUALITY:-90}
 DROP=${DROP:-0}
+STATS=${STATS:-0}
 SOURCE=${SOURCE:-"rgbdtestsrc camera-id=$CAMERA is-live=true ground-truth=false"}
-exec gst-launch-1.0 -e $SOURCE ! rgbdenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=1400 ! \
+# STATS > 0: every STATS frames the encoder posts what it sent (printed by -m).
+verbose=""
+[ "$STATS" -gt 0 ] && verbose="-m"
+exec gst-launch-1.0 -e $verbose $SOURCE ! rgbdenc name=enc quality=$QUALITY stats-interval=$STATS ! rtpgstpay config-interval=1 mtu=1400 ! \
   identity drop-probability=$DROP ! udpsink host=$SERVER port=$PORT sync=false

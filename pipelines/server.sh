@@ -6,6 +6,7 @@
 #   LECTURER (host, default 127.0.0.1), VIDEO_PORT (default 5010), POSE_PORT (default 5011),
 #   MODEL (folder from vclassroom-build-model; empty: no V-DA), RIG (rig file; empty: the default classroom rig),
 #   WIDTH/HEIGHT (virtual view, default 960x540), QUALITY (JPEG quality of the lecturer's video, default 90).
+#   STATS (0: quiet; N: every N frames each camera's decoder posts vclassroom-codec-stats, printed by -m).
 set -euo pipefail
 CAMERAS=${CAMERAS:-"0 1 2"}
 BASE_PORT=${BASE_PORT:-5000}
@@ -19,6 +20,7 @@ HEIGHT=${HEIGHT:-540}
 QUALITY=${QUALITY:-90}
 # A 960x540 RGB-D frame is ~400 packets sent at once: the socket must hold a few frames.
 UDP_BUFFER=${UDP_BUFFER:-33554432}
+STATS=${STATS:-0}
 POSE_EXT="extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose"
 
 read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
@@ -34,7 +36,7 @@ for k in $CAMERAS; do
   rig=""
   [ -n "$RIG" ] && rig="rig=$RIG"
   branches="$branches udpsrc port=$port buffer-size=$UDP_BUFFER caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST\" ! \
-    rtpjitterbuffer latency=50 drop-on-latency=true ! rtpgstdepay ! rgbddec ! queue max-size-buffers=2 leaky=downstream ! \
+    rtpjitterbuffer latency=50 drop-on-latency=true ! rtpgstdepay ! rgbddec name=dec$k stats-interval=$STATS ! queue max-size-buffers=2 leaky=downstream ! \
     $vda learnerseg $prior ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
@@ -46,4 +48,7 @@ desc="viewfuse name=fuse latency=100000000 ! poserecv name=poses ! \
   udpsrc port=$POSE_PORT caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! poses.rtp \
   $branches"
 # shellcheck disable=SC2086
-exec gst-launch-1.0 -e $desc
+# STATS > 0: every STATS frames each decoder posts what it got (printed by -m).
+verbose=""
+[ "$STATS" -gt 0 ] && verbose="-m"
+exec gst-launch-1.0 -e $verbose $desc

@@ -146,6 +146,23 @@ double camera_link_rate(const Options& o) {
   return bytes / 2.0;  // 60 frames = 2 s at 30 fps
 }
 
+// The last vclassroom-codec-stats message `element` posted, as gst-launch -m
+// printed it in `log`: {frames, frames-dropped}; {-1, -1} when there is none.
+std::pair<long long, long long> last_codec_stats(const std::string& log, const std::string& element) {
+  std::ifstream in(log);
+  std::string line;
+  std::pair<long long, long long> last{-1, -1};
+  const std::string from = "from element \"" + element + "\"";
+  auto field = [](const std::string& l, const std::string& name) -> long long {
+    const size_t at = l.find(" " + name + "=(guint64)");
+    return at == std::string::npos ? -1 : std::atoll(l.c_str() + at + name.size() + 11);
+  };
+  while (std::getline(in, line))
+    if (line.find(from) != std::string::npos && line.find("vclassroom-codec-stats") != std::string::npos)
+      last = {field(line, "frames"), field(line, "frames-dropped")};
+  return last;
+}
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -184,8 +201,18 @@ int main(int argc, char** argv) {
 
   std::string cams;
   for (int k : o.cameras) cams += (cams.empty() ? "" : " ") + std::to_string(k);
+  // Each process logs its bus messages there; the codecs post their counts once a second.
+  char log_template[] = "/tmp/vclassroom-flow-XXXXXX";
+  const char* log_dir = mkdtemp(log_template);
+  if (!log_dir) {
+    std::perror("mkdtemp");
+    return 1;
+  }
+  const std::string server_log = std::string(log_dir) + "/server.log";
+  std::vector<std::string> camera_logs;
   std::vector<pid_t> children;
-  const pid_t server = spawn(o.pipelines + "/server.sh", {{"CAMERAS", cams}, {"MODEL", o.model}}, "/dev/null");
+  const pid_t server =
+      spawn(o.pipelines + "/server.sh", {{"CAMERAS", cams}, {"MODEL", o.model}, {"STATS", "30"}}, server_log);
   children.push_back(server);
 
   // The lecturer: as pipelines/lecturer.sh, with a probe before the sink.
@@ -209,9 +236,12 @@ int main(int argc, char** argv) {
   gst_pad_add_probe(vpad, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
                     on_video_packet, &d, nullptr);
   gst_element_set_state(lect, GST_STATE_PLAYING);
-  for (int k : o.cameras)
+  for (int k : o.cameras) {
+    camera_logs.push_back(std::string(log_dir) + "/camera" + std::to_string(k) + ".log");
     children.push_back(spawn(o.pipelines + "/classroom.sh",
-                             {{"CAMERA", std::to_string(k)}, {"DROP", std::to_string(o.drop)}}, "/dev/null"));
+                             {{"CAMERA", std::to_string(k)}, {"DROP", std::to_string(o.drop)}, {"STATS", "30"}},
+                             camera_logs.back()));
+  }
 
   // A slow walk along the front and a head turn: one pose every 33 ms.
   const CameraCalib reference = rig_origin_reference();
@@ -267,12 +297,28 @@ int main(int argc, char** argv) {
   std::printf("frames displayed: %lu of %d rendered-at-30-fps slots (%.1f fps); with a pose stamp: %lu\n",
               static_cast<unsigned long>(d.frames), 30 * o.seconds, d.frames / static_cast<double>(o.seconds),
               static_cast<unsigned long>(d.frames_with_pose));
+  for (size_t i = 0; i < o.cameras.size(); ++i) {
+    const int k = o.cameras[i];
+    const auto sent = last_codec_stats(camera_logs[i], "enc");
+    const auto got = last_codec_stats(server_log, "dec" + std::to_string(k));
+    if (sent.first < 0 || got.first < 0) {
+      std::printf("camera %d: no frame counts in the logs (%s, %s)\n", k, camera_logs[i].c_str(), server_log.c_str());
+      continue;
+    }
+    std::printf("camera %d: %lld frames sent (%.1f fps), %lld delivered whole to the server (%.1f %%), %lld damaged; "
+                "final counts at end of stream\n",
+                k, sent.first, sent.first / static_cast<double>(o.seconds), got.first,
+                sent.first ? 100.0 * got.first / sent.first : 0.0, got.second);
+  }
   std::printf("bitrate: camera link %.1f Mbit/s each (measured alone); server->lecturer %.2f Mbit/s; pose link %.3f Mbit/s\n",
               cam_rate * 8 / 1e6, d.video_bytes * 8.0 / o.seconds / 1e6,
               (poses_sent + d.frames) * (kPoseWireSize + 12 + 28) * 8.0 / o.seconds / 1e6);
   std::printf("CPU (share of one core): server %.0f %%", 100 * cpu[0] / o.seconds);
   for (size_t i = 1; i < cpu.size(); ++i) std::printf(", camera %d %.0f %%", o.cameras[i - 1], 100 * cpu[i] / o.seconds);
   std::printf(", lecturer (this program) %.0f %%\n", 100 * lect_cpu / o.seconds);
+  for (const auto& f : camera_logs) std::remove(f.c_str());
+  std::remove(server_log.c_str());
+  rmdir(log_dir);
   gst_object_unref(dpad);
   gst_object_unref(vpad);
   gst_object_unref(display);

@@ -104,6 +104,11 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
   return GST_FLOW_OK;
 }
 
+static gboolean gst_rgbd_dec_sink_event(GstBaseTransform* trans, GstEvent* event) {
+  return codec_stats_sink_event(trans, event, &GST_RGBD_DEC(trans)->stats,
+                                GST_BASE_TRANSFORM_CLASS(gst_rgbd_dec_parent_class)->sink_event);
+}
+
 static gboolean gst_rgbd_dec_start(GstBaseTransform* trans) {
   GstRgbdDec* self = GST_RGBD_DEC(trans);
   GST_OBJECT_LOCK(self);
@@ -147,6 +152,7 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_dec_set_caps);
   trans_class->generate_output = GST_DEBUG_FUNCPTR(gst_rgbd_dec_generate_output);
   trans_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_dec_start);
+  trans_class->sink_event = GST_DEBUG_FUNCPTR(gst_rgbd_dec_sink_event);
   trans_class->passthrough_on_same_caps = FALSE;
   GST_DEBUG_CATEGORY_INIT(rgbd_dec_debug, "rgbddec", 0, "RGB-D decoder");
 }

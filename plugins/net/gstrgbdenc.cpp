@@ -98,6 +98,11 @@ static GstFlowReturn gst_rgbd_enc_generate_output(GstBaseTransform* trans, GstBu
   return GST_FLOW_OK;
 }
 
+static gboolean gst_rgbd_enc_sink_event(GstBaseTransform* trans, GstEvent* event) {
+  return codec_stats_sink_event(trans, event, &GST_RGBD_ENC(trans)->stats,
+                                GST_BASE_TRANSFORM_CLASS(gst_rgbd_enc_parent_class)->sink_event);
+}
+
 static gboolean gst_rgbd_enc_start(GstBaseTransform* trans) {
   GstRgbdEnc* self = GST_RGBD_ENC(trans);
   GST_OBJECT_LOCK(self);
@@ -158,6 +163,7 @@ static void gst_rgbd_enc_class_init(GstRgbdEncClass* klass) {
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_enc_set_caps);
   trans_class->generate_output = GST_DEBUG_FUNCPTR(gst_rgbd_enc_generate_output);
   trans_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_enc_start);
+  trans_class->sink_event = GST_DEBUG_FUNCPTR(gst_rgbd_enc_sink_event);
   trans_class->passthrough_on_same_caps = FALSE;
   GST_DEBUG_CATEGORY_INIT(rgbd_enc_debug, "rgbdenc", 0, "RGB-D encoder");
 }

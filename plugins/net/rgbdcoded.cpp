@@ -96,10 +96,22 @@ void codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dro
   else st->frames++, st->bytes += bytes;
   const guint64 seen = st->frames + st->dropped;
   const bool due = st->interval && seen % st->interval == 0;
+  GST_OBJECT_UNLOCK(self);
+  if (due) codec_stats_post(self, st);
+}
+
+void codec_stats_post(GstElement* self, const CodecStats* st) {
+  GST_OBJECT_LOCK(self);
   const CodecStats now = *st;
   GST_OBJECT_UNLOCK(self);
-  if (!due) return;
+  if (!now.interval) return;
   GstStructure* s = gst_structure_new("vclassroom-codec-stats", "frames", G_TYPE_UINT64, now.frames, "bytes",
                                       G_TYPE_UINT64, now.bytes, "frames-dropped", G_TYPE_UINT64, now.dropped, nullptr);
   gst_element_post_message(self, gst_message_new_element(GST_OBJECT(self), s));
+}
+
+gboolean codec_stats_sink_event(GstBaseTransform* trans, GstEvent* event, CodecStats* st,
+                                gboolean (*parent_sink_event)(GstBaseTransform*, GstEvent*)) {
+  if (GST_EVENT_TYPE(event) == GST_EVENT_EOS) codec_stats_post(GST_ELEMENT(trans), st);
+  return parent_sink_event(trans, event);
 }
