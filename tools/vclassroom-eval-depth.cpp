@@ -664,7 +664,7 @@ void bench(const Args& a, const std::string& argv0) {
   std::printf("  depthcomplete  mean %.2f ms  median %.2f ms\n", mc, medc);
   std::printf("  planerefine    mean %.2f ms  median %.2f ms\n", mp, medp);
   std::printf("  together       mean %.2f ms  median %.2f ms  (budget 8 ms)\n", mt, medt);
-  std::printf("  stages (mean, each added in turn): prior fill %.2f, image-guided %.2f, colorization + median %.2f, "
+  std::printf("  stages (mean, each added in turn): prior fill %.2f, image-guided (with its median) %.2f, colorization %.2f, "
               "planes %.2f ms\n",
               ms_prior, ms_guided - ms_prior, mc - ms_guided, mp);
   bench_elements(a, s, inputs, argv0);
