@@ -23,6 +23,8 @@
 #include <thread>
 #include <vector>
 
+#include <gst/app/gstappsink.h>
+#include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
 
 #include <gst/vclassroom/pose.h>
@@ -38,6 +40,11 @@ struct Options {
   std::string model;
   std::string pipelines = "pipelines";
   double drop = 0;
+  // true: the cameras are pipelines/classroom.sh processes rendering live;
+  // false: this program replays each camera's coded stream, recorded before
+  // the run, at 30 fps (on a real rig the cameras are other machines, and
+  // here three live renderers alone would need more than this machine's cores).
+  bool live_cameras = false;
 };
 
 std::string cpu_model() {
@@ -163,6 +170,49 @@ std::pair<long long, long long> last_codec_stats(const std::string& log, const s
   return last;
 }
 
+// One camera's coded stream (rgbdtestsrc ! rgbdenc), recorded before the run.
+struct CodedRecording {
+  GstCaps* caps = nullptr;
+  std::vector<GstBuffer*> frames;
+};
+
+bool record_coded_camera(int id, int count, CodedRecording* rec) {
+  const std::string desc = "rgbdtestsrc camera-id=" + std::to_string(id) + " num-buffers=" + std::to_string(count) +
+                           " ground-truth=false ! rgbdenc quality=90 ! appsink name=out sync=false";
+  GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
+  if (!p) return false;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  while (GstSample* smp = gst_app_sink_pull_sample(GST_APP_SINK(sink))) {
+    if (!rec->caps) rec->caps = gst_caps_copy(gst_sample_get_caps(smp));
+    rec->frames.push_back(gst_buffer_ref(gst_sample_get_buffer(smp)));
+    gst_sample_unref(smp);
+  }
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  return static_cast<int>(rec->frames.size()) == count;
+}
+
+// The classroom side of pipelines/classroom.sh after rgbdenc, fed from memory.
+struct Replay {
+  GstElement* pipeline = nullptr;
+  GstElement* src = nullptr;
+  uint64_t sent = 0;
+};
+
+bool start_replay(const CodedRecording& rec, int port, double drop, Replay* r) {
+  const std::string desc = "appsrc name=src format=time is-live=true ! rtpgstpay config-interval=1 mtu=1400 ! "
+                           "identity drop-probability=" + std::to_string(drop) +
+                           " ! udpsink host=127.0.0.1 port=" + std::to_string(port) + " sync=false";
+  r->pipeline = gst_parse_launch(desc.c_str(), nullptr);
+  if (!r->pipeline) return false;
+  r->src = gst_bin_get_by_name(GST_BIN(r->pipeline), "src");
+  gst_app_src_set_caps(GST_APP_SRC(r->src), rec.caps);
+  gst_element_set_state(r->pipeline, GST_STATE_PLAYING);
+  return true;
+}
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -182,6 +232,7 @@ int main(int argc, char** argv) {
     else if (a == "--model") o.model = next();
     else if (a == "--pipelines") o.pipelines = next();
     else if (a == "--drop") o.drop = std::atof(next().c_str());
+    else if (a == "--live-cameras") o.live_cameras = true;
     else if (a == "--cameras") {
       o.cameras.clear();
       std::istringstream is(next());
@@ -190,14 +241,22 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: vclassroom-measure-flow [--seconds N] [--cameras \"0 1 2\"] [--model DIR] [--drop P]\n"
-                   "                              [--pipelines DIR]\n"
-                   "Runs pipelines/classroom.sh per camera and pipelines/server.sh as processes on loopback,\n"
-                   "acts as the lecturer, and prints pose-to-display latency p50/p99, frames displayed,\n"
-                   "bitrate per link and CPU per process. Run inside `meson devenv -C build`.\n");
+                   "                              [--live-cameras] [--pipelines DIR]\n"
+                   "Runs pipelines/server.sh as a process on loopback, acts as the lecturer, and prints\n"
+                   "pose-to-display latency p50/p99, frames sent and delivered per camera, frames displayed,\n"
+                   "bitrate per link and CPU per process. The cameras' coded streams are recorded first and\n"
+                   "replayed at 30 fps by this program; --live-cameras runs pipelines/classroom.sh per camera\n"
+                   "instead (rendering live on this machine). Run inside `meson devenv -C build`.\n");
       return 2;
     }
   }
   const double cam_rate = camera_link_rate(o);
+  std::vector<CodedRecording> recordings(o.live_cameras ? 0 : o.cameras.size());
+  for (size_t i = 0; i < recordings.size(); ++i)
+    if (!record_coded_camera(o.cameras[i], 60, &recordings[i])) {
+      std::fprintf(stderr, "could not record camera %d\n", o.cameras[i]);
+      return 1;
+    }
 
   std::string cams;
   for (int k : o.cameras) cams += (cams.empty() ? "" : " ") + std::to_string(k);
@@ -236,11 +295,35 @@ int main(int argc, char** argv) {
   gst_pad_add_probe(vpad, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
                     on_video_packet, &d, nullptr);
   gst_element_set_state(lect, GST_STATE_PLAYING);
-  for (int k : o.cameras) {
-    camera_logs.push_back(std::string(log_dir) + "/camera" + std::to_string(k) + ".log");
-    children.push_back(spawn(o.pipelines + "/classroom.sh",
-                             {{"CAMERA", std::to_string(k)}, {"DROP", std::to_string(o.drop)}, {"STATS", "30"}},
-                             camera_logs.back()));
+  std::vector<Replay> replays(recordings.size());
+  std::atomic<bool> replaying{true};
+  std::thread replayer;
+  if (o.live_cameras) {
+    for (int k : o.cameras) {
+      camera_logs.push_back(std::string(log_dir) + "/camera" + std::to_string(k) + ".log");
+      children.push_back(spawn(o.pipelines + "/classroom.sh",
+                               {{"CAMERA", std::to_string(k)}, {"DROP", std::to_string(o.drop)}, {"STATS", "30"}},
+                               camera_logs.back()));
+    }
+  } else {
+    for (size_t i = 0; i < replays.size(); ++i)
+      if (!start_replay(recordings[i], 5000 + o.cameras[i], o.drop, &replays[i])) {
+        std::fprintf(stderr, "could not start the replay of camera %d\n", o.cameras[i]);
+        return 1;
+      }
+    // Every camera sends frame f at f/30 s, as a live camera would.
+    replayer = std::thread([&] {
+      const auto t0 = std::chrono::steady_clock::now();
+      for (uint64_t f = 0; replaying; ++f) {
+        std::this_thread::sleep_until(t0 + std::chrono::microseconds(f * 1000000 / 30));  // a tool's pacing
+        for (size_t i = 0; i < replays.size(); ++i) {
+          GstBuffer* b = gst_buffer_copy(recordings[i].frames[f % recordings[i].frames.size()]);
+          GST_BUFFER_PTS(b) = f * GST_SECOND / 30;
+          GST_BUFFER_DURATION(b) = GST_SECOND / 30;
+          if (gst_app_src_push_buffer(GST_APP_SRC(replays[i].src), b) == GST_FLOW_OK) replays[i].sent++;
+        }
+      }
+    });
   }
 
   // A slow walk along the front and a head turn: one pose every 33 ms.
@@ -269,6 +352,17 @@ int main(int argc, char** argv) {
   for (pid_t c : children) cpu.push_back(cpu_seconds(c));
   running = false;
   walker.join();
+  replaying = false;
+  if (replayer.joinable()) replayer.join();
+  for (auto& r : replays) {
+    gst_element_set_state(r.pipeline, GST_STATE_NULL);
+    gst_object_unref(r.src);
+    gst_object_unref(r.pipeline);
+  }
+  for (auto& r : recordings) {
+    for (GstBuffer* b : r.frames) gst_buffer_unref(b);
+    gst_caps_unref(r.caps);
+  }
   for (pid_t c : children) kill(c, SIGINT);
   gst_element_set_state(lect, GST_STATE_NULL);
   for (pid_t c : children) {
@@ -288,9 +382,10 @@ int main(int argc, char** argv) {
     for (const auto& [seq, shown] : d.first_shown)
       latency_ms.push_back((static_cast<double>(shown) - static_cast<double>(d.viewer_time[seq])) / 1e6);
   }
-  std::printf("machine: %s, %ld cores; %zu synthetic cameras 960x540 at 30 fps on loopback, %d s, V-DA %s\n",
-              cpu_model().c_str(), sysconf(_SC_NPROCESSORS_ONLN), o.cameras.size(), o.seconds,
-              o.model.empty() ? "off" : "on");
+  std::printf("machine: %s, %ld cores; %zu synthetic cameras 960x540 at 30 fps on loopback (%s), %d s, V-DA %s\n",
+              cpu_model().c_str(), sysconf(_SC_NPROCESSORS_ONLN), o.cameras.size(),
+              o.live_cameras ? "live: pipelines/classroom.sh processes" : "coded streams replayed by this program",
+              o.seconds, o.model.empty() ? "off" : "on");
   std::printf("poses sent: %lu; distinct poses displayed: %zu\n", static_cast<unsigned long>(poses_sent), latency_ms.size());
   std::printf("pose-to-display latency: p50 %.1f ms, p99 %.1f ms\n", percentile(latency_ms, 0.5),
               percentile(latency_ms, 0.99));
@@ -299,10 +394,11 @@ int main(int argc, char** argv) {
               static_cast<unsigned long>(d.frames_with_pose));
   for (size_t i = 0; i < o.cameras.size(); ++i) {
     const int k = o.cameras[i];
-    const auto sent = last_codec_stats(camera_logs[i], "enc");
+    const auto sent = o.live_cameras ? last_codec_stats(camera_logs[i], "enc")
+                                     : std::pair<long long, long long>{static_cast<long long>(replays[i].sent), 0};
     const auto got = last_codec_stats(server_log, "dec" + std::to_string(k));
     if (sent.first < 0 || got.first < 0) {
-      std::printf("camera %d: no frame counts in the logs (%s, %s)\n", k, camera_logs[i].c_str(), server_log.c_str());
+      std::printf("camera %d: no frame counts in the logs\n", k);
       continue;
     }
     std::printf("camera %d: %lld frames sent (%.1f fps), %lld delivered whole to the server (%.1f %%), %lld damaged; "
@@ -314,8 +410,10 @@ int main(int argc, char** argv) {
               cam_rate * 8 / 1e6, d.video_bytes * 8.0 / o.seconds / 1e6,
               (poses_sent + d.frames) * (kPoseWireSize + 12 + 28) * 8.0 / o.seconds / 1e6);
   std::printf("CPU (share of one core): server %.0f %%", 100 * cpu[0] / o.seconds);
+  // cpu[] holds the server, then the camera processes when live.
   for (size_t i = 1; i < cpu.size(); ++i) std::printf(", camera %d %.0f %%", o.cameras[i - 1], 100 * cpu[i] / o.seconds);
-  std::printf(", lecturer (this program) %.0f %%\n", 100 * lect_cpu / o.seconds);
+  std::printf(", lecturer (this program%s) %.0f %%\n", o.live_cameras ? "" : ", with the camera replays",
+              100 * lect_cpu / o.seconds);
   for (const auto& f : camera_logs) std::remove(f.c_str());
   std::remove(server_log.c_str());
   rmdir(log_dir);
