@@ -68,14 +68,37 @@ class LearnerSegmenter {
   void reset();
 
  private:
+  // A horizontal stretch of foreground pixels [x0, x1] in row y: the
+  // connected components, their descriptors and the label image are all
+  // built from these, so only foreground pixels cost anything.
+  struct Run {
+    int y, x0, x1;
+  };
+  struct Blob {
+    int64_t area = 0, sum_x = 0, sum_y = 0;
+    int64_t color[3] = {0, 0, 0}, depth_sum = 0, depth_count = 0;
+    uint32_t order_key = 0;
+    int slot = -1;  // row in overlap_ when big enough to be a learner
+  };
   int new_id();
+  void update_depth_bounds();
+  void find_blobs();
   SegParams p_;
   cv::Mat prior_;       // CV_16UC1 given static depth
   cv::Mat bg_depth_;    // CV_32F learnt static depth (mm)
-  cv::Mat bg_color_;    // CV_32FC3
-  cv::Mat evidence_;    // CV_32F working memory
+  cv::Mat bg_color_;    // CV_16UC3 RGB, 8 fractional bits
+  cv::Mat evidence_;    // CV_16SC1 working memory, 14 fractional bits
   cv::Mat prev_label_;  // CV_8UC1 fast state
-  cv::Mat fg_, cc_labels_, cc_stats_, cc_centroids_;
+  cv::Mat fg_;
+  // The depth cue's bounds from the given static depth: "in front" below
+  // depth_lo_, "on the room's surface" below depth_hi_ (0 there: unknown).
+  // The prior does not move, so they are computed once per prior and params.
+  cv::Mat depth_lo_, depth_hi_;
+  double bounds_margin_ = -1, bounds_ratio_ = -1;
+  std::vector<Run> runs_;
+  std::vector<int> run_parent_, run_blob_, row_first_run_;
+  std::vector<Blob> blobs_;
+  std::vector<int> overlap_;
   std::vector<LearnerTrack> active_, lost_;
   int64_t frame_ = 0;
 };
