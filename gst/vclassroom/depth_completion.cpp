@@ -97,8 +97,38 @@ std::vector<cv::Point> kernel_offsets(int radius, bool diamond) {
 int grow_agreeing(cv::Mat& d, std::vector<cv::Point>& holes, const std::vector<cv::Point>& kernel, int reach,
                   const GuidedCompletionParams& p) {
   const int maxd = p.max_depth_mm;
-  std::vector<std::pair<cv::Point, uint16_t>> fills;
+  thread_local std::vector<std::pair<cv::Point, uint16_t>> fills;
+  fills.clear();
+  // Away from the border (most holes) the kernel is read through linear
+  // offsets, without bounds checks.
+  int radius = reach;
+  for (const cv::Point& o : kernel) radius = std::max(radius, std::max(std::abs(o.x), std::abs(o.y)));
+  const ptrdiff_t step = static_cast<ptrdiff_t>(d.step1());
+  thread_local std::vector<ptrdiff_t> lin;
+  lin.clear();
+  for (const cv::Point& o : kernel) lin.push_back(o.y * step + o.x);
   for (const cv::Point& h : holes) {
+    if (h.x >= radius && h.y >= radius && h.x + radius < d.cols && h.y + radius < d.rows) {
+      const uint16_t* c = d.ptr<uint16_t>(h.y) + h.x;
+      auto reached = [&](ptrdiff_t dir) {
+        for (int s = 1; s <= reach; ++s)
+          if (c[s * dir]) return true;
+        return false;
+      };
+      if (!reached(-1) || !reached(1) || !reached(-step) || !reached(step)) continue;
+      int near_inv = 0, far = 0;
+      for (const ptrdiff_t o : lin) {
+        const int v = c[o];
+        if (!v) continue;
+        near_inv = std::max(near_inv, std::max(1, maxd - v));
+        far = std::max(far, v);
+      }
+      if (!near_inv) continue;
+      const int nearest = maxd - near_inv;
+      if (far - nearest <= agree_tol(nearest, p.agree_min_mm, p.agree_ratio))
+        fills.emplace_back(h, static_cast<uint16_t>((nearest + far + 1) / 2));
+      continue;
+    }
     bool enclosed = true;
     const int dx[4] = {-1, 1, 0, 0}, dy[4] = {0, 0, -1, 1};
     for (int k = 0; k < 4 && enclosed; ++k) {
