@@ -240,6 +240,23 @@ TEST(ViewFuse, NearestSurfaceWinsWhateverTheWeights) {
   EXPECT_EQ(f.color.at<cv::Vec3b>(1, 1), cv::Vec3b(150, 0, 0));
 }
 
+TEST(ViewFuse, LivePairingToleratesPosesTakenCloseTogether) {
+  const int64_t ms = 1000000;
+  const WarpedPose none, p10{true, 10, 1000 * ms}, p11{true, 11, 1033 * ms}, p13{true, 13, 1100 * ms},
+      p11_untimed{true, 11, -1};
+  // One pose period apart: fused together.
+  EXPECT_EQ(stale_poses({p10, p11, p11}, 50 * ms), (std::vector<bool>{false, false, false}));
+  // Without a window only exactly the newest pose counts.
+  EXPECT_EQ(stale_poses({p10, p11, p11}, 0), (std::vector<bool>{true, false, false}));
+  // 100 ms apart: the older frame is stale, and only it.
+  EXPECT_EQ(stale_poses({p10, p11, p13}, 50 * ms), (std::vector<bool>{true, true, false}));
+  // No viewer time to compare: only the newest seq is fresh.
+  EXPECT_EQ(stale_poses({p10, p11_untimed}, 50 * ms), (std::vector<bool>{true, false}));
+  // A frame without a pose is stale beside one with a pose; frames without any are all fine.
+  EXPECT_EQ(stale_poses({none, p10}, 50 * ms), (std::vector<bool>{true, false}));
+  EXPECT_EQ(stale_poses({none, none}, 50 * ms), (std::vector<bool>{false, false}));
+}
+
 TEST(ViewFuse, HolesTakeTheBackgroundNotTheForeground) {
   // Row: foreground (near, red) | hole | background (far, green).
   cv::Mat color(5, 30, CV_8UC3, cv::Scalar(0, 0, 0)), depth(5, 30, CV_16UC1, cv::Scalar(0));

@@ -313,4 +313,22 @@ void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double backgroun
   depth = new_depth;
 }
 
+std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns) {
+  const WarpedPose* newest = nullptr;
+  for (const WarpedPose& p : inputs)
+    if (p.known && (!newest || p.seq > newest->seq)) newest = &p;
+  std::vector<bool> stale(inputs.size(), false);
+  if (!newest) return stale;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const WarpedPose& p = inputs[i];
+    if (!p.known) {
+      stale[i] = true;
+    } else if (p.seq < newest->seq) {
+      const bool timed = p.viewer_time_ns >= 0 && newest->viewer_time_ns >= 0;
+      stale[i] = !timed || newest->viewer_time_ns - p.viewer_time_ns > window_ns;
+    }
+  }
+  return stale;
+}
+
 }  // namespace vclassroom

@@ -47,4 +47,21 @@ void fuse_views(const std::vector<const WarpedView*>& views, const FuseParams& p
 void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px = 3,
                                 cv::Mat* filled = nullptr);
 
+// The pose a camera's warped frame was made for (its PoseMeta), for the live
+// pairing in viewfuse.
+struct WarpedPose {
+  bool known = false;          // the frame carries a pose
+  uint64_t seq = 0;
+  int64_t viewer_time_ns = -1;  // when the viewer took the pose; < 0 unknown
+};
+
+// Live, one output frame should show one view: a camera's frame warped for
+// an older pose than the newest among `inputs` is stale, unless the viewer
+// took the two poses at most `window_ns` apart (the cameras' threads pick up
+// a new pose at slightly different moments; at 30 poses a second waiting for
+// exact agreement would drop frames all the time, while poses 50 ms apart
+// differ by a few centimetres and degrees). Frames without a pose are stale
+// when another has one. Returns one flag per input.
+std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns);
+
 }  // namespace vclassroom

@@ -26,7 +26,8 @@ GST_DEBUG_CATEGORY_STATIC(view_fuse_debug);
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_POSE_TRACE, PROP_DEPTH_TOLERANCE, PROP_FILL_HOLES, PROP_FRAMES_FUSED };
+enum { PROP_0, PROP_POSE_TRACE, PROP_DEPTH_TOLERANCE, PROP_FILL_HOLES, PROP_FRAMES_FUSED, PROP_POSE_WINDOW };
+constexpr guint64 kDefaultPoseWindow = 50 * GST_MSECOND;
 
 namespace {
 
@@ -36,6 +37,7 @@ struct FuseState {
   FuseParams params;
   std::map<GstPad*, RgbdInfo> pad_info;
   guint64 frames = 0;
+  guint64 pose_window = kDefaultPoseWindow;  // ns
 
   // Streaming thread only.
   std::vector<PoseSample> trace;
@@ -205,15 +207,24 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
   // the latency runs out. Not live, everything is fused and the frame is
   // stamped with the oldest pose in it, the one it fully shows.
   {
-    uint64_t newest = 0;
-    for (auto& in : inputs)
-      if (const PoseMeta* m = buffer_get_pose_meta(in.buf)) newest = std::max<uint64_t>(newest, m->seq);
+    std::vector<WarpedPose> poses;
+    for (auto& in : inputs) {
+      WarpedPose p;
+      if (const PoseMeta* m = buffer_get_pose_meta(in.buf)) p = WarpedPose{true, m->seq, m->viewer_time_ns};
+      poses.push_back(p);
+    }
+    int64_t window;
+    {
+      std::lock_guard<std::mutex> g(st->lock);
+      window = int64_t(st->pose_window);
+    }
+    const std::vector<bool> stale = stale_poses(poses, window);
     const bool live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
     bool dropped = false;
-    for (auto it = inputs.begin(); live && it != inputs.end();) {
-      const PoseMeta* m = buffer_get_pose_meta(it->buf);
+    size_t index = 0;
+    for (auto it = inputs.begin(); live && it != inputs.end(); ++index) {
       const GstClockTime t = aggregator_pad_running_time(it->pad, it->buf);
-      const bool old_pose = (m ? m->seq : 0) < newest;
+      const bool old_pose = stale[index];
       const bool old_time = GST_CLOCK_TIME_IS_VALID(st->last_out) && GST_CLOCK_TIME_IS_VALID(t) && t <= st->last_out;
       if (old_pose || old_time) {
         GST_LOG_OBJECT(self, "%s: dropping a stale frame (%s)", GST_PAD_NAME(it->pad), old_pose ? "older pose" : "late");
@@ -403,6 +414,9 @@ static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GVa
     case PROP_FILL_HOLES:
       st->params.fill_holes = g_value_get_boolean(value);
       break;
+    case PROP_POSE_WINDOW:
+      st->pose_window = g_value_get_uint64(value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -420,6 +434,9 @@ static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_FILL_HOLES:
       g_value_set_boolean(value, st->params.fill_holes);
+      break;
+    case PROP_POSE_WINDOW:
+      g_value_set_uint64(value, st->pose_window);
       break;
     case PROP_FRAMES_FUSED:
       g_value_set_uint64(value, st->frames);
@@ -461,6 +478,14 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
       g_param_spec_boolean("fill-holes", "Fill holes",
                            "Fill what no camera sees from its background side (else black)", d.fill_holes,
                            GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
+      gobject_class, PROP_POSE_WINDOW,
+      g_param_spec_uint64("pose-window", "Pose window",
+                          "Live: cameras' frames warped for poses the viewer took at most this many ns apart are "
+                          "fused together; a frame warped for an older pose is dropped and its fresh one awaited "
+                          "(0: only frames of exactly the same pose). The output is stamped with the oldest pose",
+                          0, G_MAXUINT64, kDefaultPoseWindow,
+                          GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_FRAMES_FUSED,
       g_param_spec_uint64("frames-fused", "Frames fused", "Output frames produced since start", 0, G_MAXUINT64, 0,
