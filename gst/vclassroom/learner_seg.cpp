@@ -8,13 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-// The per-pixel cue loop is compiled for AVX2 as well as the x86-64 baseline;
-// the loader picks the copy the CPU can run.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define LEARNER_SEG_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define LEARNER_SEG_CLONES
-#endif
+#include "simd.h"
 
 namespace vclassroom {
 
@@ -37,7 +31,7 @@ struct CueConsts {
 };
 
 // One row of the cue + working memory + background colour update.
-LEARNER_SEG_CLONES
+VCLASSROOM_SIMD_CLONES
 void cue_row(int W, const uint8_t* __restrict c, const uint16_t* __restrict d, const uint16_t* __restrict lo,
              const uint16_t* __restrict hi, const uint8_t* __restrict pl, uint16_t* __restrict bg,
              int16_t* __restrict ev, uint8_t* __restrict fg, const CueConsts& k) {

@@ -6,18 +6,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-// The blending loop is compiled for AVX2 as well as the x86-64 baseline; the
-// loader picks the copy the CPU can run. Plain "avx2" (not x86-64-v3) on
-// purpose: without FMA the compiler cannot contract a * b + c, so both copies
-// round exactly alike and the output does not depend on the CPU.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define VIEW_FUSE_CLONES __attribute__((target_clones("avx2", "default")))
-// The row helpers must be inlined into each copy to be compiled for its target.
-#define VIEW_FUSE_INLINE inline __attribute__((always_inline))
-#else
-#define VIEW_FUSE_CLONES
-#define VIEW_FUSE_INLINE inline
-#endif
+#include "simd.h"
 
 namespace vclassroom {
 
@@ -49,7 +38,7 @@ struct BlendScratch {
 // Every value is loaded whatever the selects decide and the label is picked
 // with a mask: a load the compiler may only do on one side of a condition
 // (the weight table, the label) keeps the loop from vectorising.
-VIEW_FUSE_INLINE void add_view(int W, const uint8_t* __restrict p, const uint16_t* __restrict d,
+VCLASSROOM_SIMD_INLINE void add_view(int W, const uint8_t* __restrict p, const uint16_t* __restrict d,
                                const uint8_t* __restrict l, const float* __restrict wrow, const float* __restrict limit,
                                float* __restrict a0, float* __restrict a1, float* __restrict a2, float* __restrict zs,
                                float* __restrict ws, float* __restrict wb, int* __restrict lab) {
@@ -70,12 +59,12 @@ VIEW_FUSE_INLINE void add_view(int W, const uint8_t* __restrict p, const uint16_
   }
 }
 
-VIEW_FUSE_INLINE void weights_of(int W, const uint8_t* __restrict w, const float* __restrict wlut,
+VCLASSROOM_SIMD_INLINE void weights_of(int W, const uint8_t* __restrict w, const float* __restrict wlut,
                                  float* __restrict wrow) {
   for (int x = 0; x < W; ++x) wrow[x] = wlut[w[x]];
 }
 
-VIEW_FUSE_INLINE void nearest_of(int W, const uint16_t* __restrict d, const uint8_t* __restrict w,
+VCLASSROOM_SIMD_INLINE void nearest_of(int W, const uint16_t* __restrict d, const uint8_t* __restrict w,
                                  int* __restrict zmin) {
   for (int x = 0; x < W; ++x) {
     const int z = d[x];
@@ -83,7 +72,7 @@ VIEW_FUSE_INLINE void nearest_of(int W, const uint16_t* __restrict d, const uint
   }
 }
 
-VIEW_FUSE_INLINE void start_row(int W, const int* __restrict zmin, float tol_mm, float tol_ratio,
+VCLASSROOM_SIMD_INLINE void start_row(int W, const int* __restrict zmin, float tol_mm, float tol_ratio,
                                 float* __restrict limit, float* __restrict a0, float* __restrict a1,
                                 float* __restrict a2, float* __restrict zs, float* __restrict ws, float* __restrict wb,
                                 int* __restrict lab) {
@@ -100,7 +89,7 @@ VIEW_FUSE_INLINE void start_row(int W, const int* __restrict zmin, float tol_mm,
   }
 }
 
-VIEW_FUSE_INLINE void finish_row(int W, const int* __restrict zmin, const float* __restrict a0,
+VCLASSROOM_SIMD_INLINE void finish_row(int W, const int* __restrict zmin, const float* __restrict a0,
                                  const float* __restrict a1, const float* __restrict a2, const float* __restrict zs,
                                  const float* __restrict ws, int* __restrict r, int* __restrict g, int* __restrict b,
                                  int* __restrict z) {
@@ -117,7 +106,7 @@ VIEW_FUSE_INLINE void finish_row(int W, const int* __restrict zmin, const float*
 
 // Narrowing and interleaving on their own: next to the float work above the
 // compiler does not vectorise them.
-VIEW_FUSE_INLINE void store_row(int W, const int* __restrict r, const int* __restrict g, const int* __restrict b,
+VCLASSROOM_SIMD_INLINE void store_row(int W, const int* __restrict r, const int* __restrict g, const int* __restrict b,
                                 const int* __restrict z, const int* __restrict lab, uint8_t* __restrict oc,
                                 uint16_t* __restrict od, uint8_t* __restrict ol) {
   for (int x = 0; x < W; ++x) {
@@ -135,7 +124,7 @@ VIEW_FUSE_INLINE void store_row(int W, const int* __restrict r, const int* __res
 // views of each pixel would (a view that does not count adds exactly 0), so
 // the result does not depend on the vector width. `wlut` holds each weight
 // code's blending weight, 0 for code 0 (no sample).
-VIEW_FUSE_CLONES
+VCLASSROOM_SIMD_CLONES
 void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_mm, float tol_ratio, BlendScratch& s,
                uint8_t* oc, uint16_t* od, uint8_t* ol) {
   int* zmin = s.zmin.data();
