@@ -524,6 +524,47 @@ TEST(LearnerSegElement, AddsTheLabelPlane) {
   gst_object_unref(pipe);
 }
 
+// The label plane is new; colour and depth are passed on untouched (shared,
+// not copied), and the labels are the library's.
+TEST(LearnerSegElement, PassesColourAndDepthOnAndLabelsAsTheLibrary) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(
+      ("rgbdtestsrc rig=" + rig + " num-buffers=4 learners=4 ground-truth=false ! tee name=t "
+       "t. ! queue ! appsink name=raw sync=false  t. ! queue ! learnerseg ! appsink name=out sync=false").c_str(),
+      &err);
+  ASSERT_EQ(err, nullptr);
+  GstElement* raw_sink = gst_bin_get_by_name(GST_BIN(pipe), "raw");
+  GstElement* out_sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  {
+    vctest::SampleCollector raw(raw_sink), out(out_sink);
+    EXPECT_EQ(vctest::run_pipeline(pipe).error, "");
+    ASSERT_EQ(raw.size(), 4u);
+    ASSERT_EQ(out.size(), 4u);
+    LearnerSegmenter reference;
+    for (size_t i = 0; i < 4; ++i) {
+      RgbdInfo ri, oi;
+      std::string e;
+      ASSERT_TRUE(rgbd_info_from_caps(raw.caps(i), &ri, &e)) << e;
+      ASSERT_TRUE(rgbd_info_from_caps(out.caps(i), &oi, &e)) << e;
+      RgbdFrame rf, of;
+      ASSERT_TRUE(rf.map(raw.buffer(i), ri, GST_MAP_READ, &e)) << e;
+      ASSERT_TRUE(of.map(out.buffer(i), oi, GST_MAP_READ, &e)) << e;
+      EXPECT_TRUE(vctest::same_image(rf.color(), of.color())) << "colour of frame " << i;
+      EXPECT_TRUE(vctest::same_image(rf.depth(), of.depth())) << "depth of frame " << i;
+      cv::Mat expect;
+      reference.segment(rf.color(), rf.depth(), &expect);
+      EXPECT_TRUE(vctest::same_image(expect, of.label())) << "labels of frame " << i;
+      EXPECT_EQ(GST_BUFFER_PTS(raw.buffer(i)), GST_BUFFER_PTS(out.buffer(i)));
+    }
+  }
+  gst_object_unref(raw_sink);
+  gst_object_unref(out_sink);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(pipe);
+}
+
 TEST(PoseMeta, TravelsWithCopies) {
   GstBuffer* b = gst_buffer_new_allocate(nullptr, 16, nullptr);
   buffer_add_pose_meta(b, 12, 3456);

@@ -289,6 +289,57 @@ GstBuffer* rgbd_buffer_assemble(const RgbdInfo& info, const std::vector<GstBuffe
   return out;
 }
 
+RgbdPlaneOutput::RgbdPlaneOutput(const RgbdInfo& out_info, Plane plane) : out_info_(out_info), plane_(plane) {
+  const int i = out_info.index_of(plane);
+  g_return_if_fail(i >= 0);
+  stride_ = out_info.default_stride(static_cast<size_t>(i));
+  buf_ = gst_buffer_new_allocate(nullptr, out_info.plane_size(static_cast<size_t>(i)), nullptr);
+  if (buf_ && gst_buffer_map(buf_, &map_, GST_MAP_WRITE)) {
+    mapped_ = true;
+    mat = cv::Mat(out_info.height(), out_info.width(), plane_cv_type(plane), map_.data, static_cast<size_t>(stride_));
+  }
+}
+
+RgbdPlaneOutput::~RgbdPlaneOutput() {
+  if (mapped_) gst_buffer_unmap(buf_, &map_);
+  if (buf_) gst_buffer_unref(buf_);
+}
+
+GstBuffer* RgbdPlaneOutput::finish(GstBuffer* in, const RgbdInfo& in_info, std::string* error) {
+  if (!mapped_) {
+    *error = std::string("cannot allocate the output ") + plane_name(plane_) + " plane";
+    return nullptr;
+  }
+  gst_buffer_unmap(buf_, &map_);
+  mapped_ = false;
+  mat = cv::Mat();
+  std::vector<GstBuffer*> parts;
+  std::vector<PlaneLayout> layouts;
+  for (Plane p : out_info_.planes) {
+    if (p == plane_) {
+      parts.push_back(buf_);
+      layouts.push_back(PlaneLayout{0, stride_});
+      continue;
+    }
+    const int i = in_info.index_of(p);
+    if (i < 0) {
+      *error = std::string("the input has no ") + plane_name(p) + " plane to pass on";
+      return nullptr;
+    }
+    PlaneLayout l;
+    if (!rgbd_plane_layout(in, in_info, static_cast<size_t>(i), &l, error)) return nullptr;
+    parts.push_back(in);
+    layouts.push_back(l);
+  }
+  GstBuffer* out = rgbd_buffer_assemble(out_info_, parts, layouts);
+  if (!out) {
+    *error = "cannot assemble the output buffer";
+    return nullptr;
+  }
+  gst_buffer_copy_into(out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
+  return out;
+}
+
 GstClockTime aggregator_pad_running_time(GstAggregatorPad* pad, GstBuffer* buf) {
   const GstClockTime ts = GST_BUFFER_PTS_IS_VALID(buf) ? GST_BUFFER_PTS(buf) : GST_BUFFER_DTS(buf);
   if (!GST_CLOCK_TIME_IS_VALID(ts)) return GST_CLOCK_TIME_NONE;

@@ -83,6 +83,30 @@ GstBuffer* rgbd_buffer_new(const RgbdInfo& info);
 // parts.size() must equal info.planes.size(). Timestamps are not copied.
 GstBuffer* rgbd_buffer_assemble(const RgbdInfo& info, const std::vector<GstBuffer*>& parts,
                                 const std::vector<PlaneLayout>& layouts);
+// An output buffer that is the input with one plane new (replaced or added)
+// and every other plane sharing the input's memory: for elements that compute
+// one plane (depthcomplete, planerefine: depth; learnerseg: labels). The new
+// plane is allocated at construction and mapped writable as `mat`.
+class RgbdPlaneOutput {
+ public:
+  RgbdPlaneOutput(const RgbdInfo& out_info, Plane plane);
+  ~RgbdPlaneOutput();
+  RgbdPlaneOutput(const RgbdPlaneOutput&) = delete;
+  RgbdPlaneOutput& operator=(const RgbdPlaneOutput&) = delete;
+  cv::Mat mat;  // the new plane; empty when it could not be allocated
+  // The output buffer (planes of out_info): the new plane, the others from `in`
+  // (described by in_info); flags and timestamps copied. nullptr and `error` on failure.
+  GstBuffer* finish(GstBuffer* in, const RgbdInfo& in_info, std::string* error);
+
+ private:
+  RgbdInfo out_info_;
+  Plane plane_;
+  GstBuffer* buf_ = nullptr;
+  GstMapInfo map_{};
+  gint stride_ = 0;
+  bool mapped_ = false;
+};
+
 // Adds GstVideoMeta for every plane of a packed buffer that has none.
 void rgbd_buffer_add_default_metas(GstBuffer* buf, const RgbdInfo& info);
 

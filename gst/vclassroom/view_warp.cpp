@@ -84,6 +84,14 @@ void layer_row(int n, const uint16_t* live, const uint16_t* stat, const uint8_t*
   }
 }
 
+// Whether a row has learner pixels without depth (most rows have none).
+VCLASSROOM_SIMD_CLONES
+bool has_learner_hole(int n, const uint8_t* lab, const uint16_t* depth) {
+  int any = 0;
+  for (int i = 0; i < n; ++i) any |= (lab[i] != 0) & (depth[i] == 0);
+  return any != 0;
+}
+
 // A step p1 -> p2 along a line is a depth edge when it is large and much
 // larger than the steps beside it (a slanted surface has steps too, but even
 // ones). code[i] = 1: the far side is i; 2: the far side is i + stride.
@@ -408,7 +416,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     else std::memset(ol, 0, size_t(W));
     if (has_static) layer_row(W, d, in.static_depth.ptr<uint16_t>(v), ol, od);
     else std::memcpy(od, d, size_t(W) * sizeof(uint16_t));
-    if (has_label)
+    if (has_label && has_learner_hole(W, ol, od))
       for (int u = 0; u < W; ++u)
         if (ol[u] && !od[u]) od[u] = med[ol[u]];
   }

@@ -19,24 +19,6 @@ namespace vda {
 // and both sizes.
 vclassroom::StaticModel load_model_for_stream(const std::string& folder, const vclassroom::RgbdInfo& info);
 
-// A new depth memory for the stream (default packed stride), mapped writable
-// as `mat` until `finish`.
-class DepthOutput {
- public:
-  DepthOutput(const vclassroom::RgbdInfo& info);
-  ~DepthOutput();
-  cv::Mat mat;
-  // Builds the output: plane `depth` from this memory, the others shared with
-  // `in`; copies flags and timestamps. nullptr (and `error`) on failure.
-  GstBuffer* finish(GstBuffer* in, const vclassroom::RgbdInfo& info, std::string* error);
-
- private:
-  GstBuffer* buf_ = nullptr;
-  GstMapInfo map_{};
-  gint stride_ = 0;
-  bool mapped_ = false;
-};
-
 // The whole per-frame step of both elements: maps `in`, lets `compute` write
 // the new depth into `depth_out` (same size, CV_16UC1) from the input frame,
 // and builds the output buffer. Errors are posted on `element`, prefixed with

@@ -32,7 +32,6 @@ struct SegState {
   // Streaming thread only.
   RgbdInfo in_info, out_info;
   LearnerSegmenter seg;
-  cv::Mat label;
 };
 
 // "color,depth,..." with "label" added after depth when missing.
@@ -97,13 +96,6 @@ static gboolean gst_learner_seg_get_unit_size(GstBaseTransform*, GstCaps* caps, 
   return TRUE;
 }
 
-static GstFlowReturn gst_learner_seg_prepare_output_buffer(GstBaseTransform* trans, GstBuffer* in, GstBuffer** out) {
-  GstLearnerSeg* self = GST_LEARNER_SEG(trans);
-  *out = rgbd_buffer_new(self->st->out_info);
-  gst_buffer_copy_into(*out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
-  return GST_FLOW_OK;
-}
-
 static gboolean gst_learner_seg_start(GstBaseTransform* trans) {
   GstLearnerSeg* self = GST_LEARNER_SEG(trans);
   SegState* st = self->st;
@@ -127,7 +119,10 @@ static gboolean gst_learner_seg_start(GstBaseTransform* trans) {
   return TRUE;
 }
 
-static GstFlowReturn gst_learner_seg_transform(GstBaseTransform* trans, GstBuffer* inbuf, GstBuffer* outbuf) {
+// All the work is here: the output is the input plus a new label plane, the
+// other planes shared with the input (no copy).
+static GstFlowReturn gst_learner_seg_prepare_output_buffer(GstBaseTransform* trans, GstBuffer* inbuf,
+                                                            GstBuffer** outbuf) {
   GstLearnerSeg* self = GST_LEARNER_SEG(trans);
   SegState* st = self->st;
   {
@@ -137,26 +132,33 @@ static GstFlowReturn gst_learner_seg_transform(GstBaseTransform* trans, GstBuffe
       st->params_dirty = false;
     }
   }
-  RgbdFrame in, out;
   std::string err;
-  if (!in.map(inbuf, st->in_info, GST_MAP_READ, &err) || !out.map(outbuf, st->out_info, GST_MAP_WRITE, &err)) {
+  RgbdPlaneOutput labels(st->out_info, Plane::Label);
+  if (!labels.mat.empty()) {
+    RgbdFrame in;
+    if (!in.map(inbuf, st->in_info, GST_MAP_READ, &err)) {
+      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", err.c_str()), (nullptr));
+      return GST_FLOW_ERROR;
+    }
+    try {
+      // Written straight into the new plane (same size and type: segment() keeps it).
+      st->seg.segment(in.color(), in.depth(), &labels.mat);
+    } catch (const cv::Exception& e) {
+      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("segmentation failed: %s", e.what()), (nullptr));
+      return GST_FLOW_ERROR;
+    }
+  }
+  *outbuf = labels.finish(inbuf, st->in_info, &err);
+  if (!*outbuf) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", err.c_str()), (nullptr));
     return GST_FLOW_ERROR;
   }
-  cv::Mat label = out.label();
-  try {
-    st->seg.segment(in.color(), in.depth(), &st->label);
-  } catch (const cv::Exception& e) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("segmentation failed: %s", e.what()), (nullptr));
-    return GST_FLOW_ERROR;
-  }
-  st->label.copyTo(label);
-  for (Plane p : st->out_info.planes) {
-    if (p == Plane::Label) continue;
-    in.plane(p).copyTo(out.plane(p));
-  }
   GST_LOG_OBJECT(self, "%zu learners", st->seg.active().size());
   return GST_FLOW_OK;
+}
+
+static GstFlowReturn gst_learner_seg_transform(GstBaseTransform*, GstBuffer*, GstBuffer*) {
+  return GST_FLOW_OK;  // all work is done in prepare_output_buffer
 }
 
 static void gst_learner_seg_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
