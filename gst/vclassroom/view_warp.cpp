@@ -19,7 +19,7 @@ constexpr int kSubBits = cv::INTER_BITS;
 constexpr int kSub = 1 << kSubBits;
 // Link flags: same surface as the right / lower neighbour. Several bits each,
 // so that testing one is a compare, not a 1-bit cast GCC will not vectorise.
-constexpr uint8_t kRight = 0x0f, kDown = 0xf0;
+constexpr uint32_t kRight = 0x0f, kDown = 0xf0;
 
 // What the z-buffer keeps per virtual pixel: the winning sample, colour
 // included. Nearly every sample written survives (a cell rarely lands behind
@@ -176,7 +176,7 @@ void project_points(size_t n, const uint16_t* zmm, const float* ray_x, const flo
 // (a slanted surface).
 VCLASSROOM_SIMD_CLONES
 void link_neighbours(size_t n, ptrdiff_t stride, const float* px, const float* py, const float* pz,
-                     const float* plim, const uint8_t* lab, float ratio, float min_m, uint8_t flag, uint8_t* out) {
+                     const float* plim, const uint8_t* lab, float ratio, float min_m, uint32_t flag, uint32_t* out) {
   for (size_t i = 0; i < n; ++i) {
     const float zi = pz[i], zj = pz[i + stride];
     const float dz = zi > zj ? zi - zj : zj - zi;
@@ -196,12 +196,14 @@ constexpr float kEdge = 0.02f;          // how far a cell reaches past its centr
 // not magnify) is fully prepared here: which of the 2x2 candidates it covers
 // and the source position of each, in remap fixed point. Others are marked
 // kBigCell and handled one by one.
-constexpr uint8_t kBigCell = 16;
+constexpr int32_t kBigCell = 16;
 struct CellRow {
   int32_t* x0;  // first candidate column / row
   int32_t* y0;
-  uint8_t* mask;    // bit k: candidate (x0 + (k & 1), y0 + (k >> 1)) covered; or kBigCell; 0: not drawn
-  uint8_t* weight;  // 1..255
+  // 32-bit like everything else here: one byte-wide array would make the
+  // compiler process 32 pixels per step and spill most of its registers.
+  int32_t* mask;    // bit k: candidate (x0 + (k & 1), y0 + (k >> 1)) covered; or kBigCell; 0: not drawn
+  int32_t* weight;  // 1..255
   float* su;  // source position of candidate 0 (unclamped)
   float* sv;
   float* dsu_dx;  // its change per virtual pixel to the right / down
@@ -219,7 +221,7 @@ struct CellGeometry {
 // and a pixel on both sides, so the neighbours of border pixels can be read.
 VCLASSROOM_SIMD_CLONES
 void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, const float* __restrict py,
-                   const float* __restrict pz, const float* __restrict pw, const uint8_t* __restrict links,
+                   const float* __restrict pz, const float* __restrict pw, const uint32_t* __restrict links,
                    const CellRow& out) {
   const int W = g.W, H = g.H;
   const float VWf = float(g.VW), VHf = float(g.VH), max_area = g.max_area;
@@ -228,8 +230,8 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
   const bool has_up = v > 0, has_down_border = v + 1 >= H, top = v == 0;
   int32_t* __restrict ox0 = out.x0;
   int32_t* __restrict oy0 = out.y0;
-  uint8_t* __restrict omask = out.mask;
-  uint8_t* __restrict ow = out.weight;
+  int32_t* __restrict omask = out.mask;
+  int32_t* __restrict ow = out.weight;
   float *__restrict osu = out.su, *__restrict osv = out.sv, *__restrict oa00 = out.dsu_dx,
         *__restrict oa10 = out.dsv_dx, *__restrict oa01 = out.dsu_dy, *__restrict oa11 = out.dsv_dy;
   // The outputs are distinct arrays (GCC does not take __restrict on locals
@@ -285,11 +287,11 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
     oa10[u] = a10;
     oa01[u] = a01;
     oa11[u] = a11;
-    omask[u] = uint8_t(drawn ? (small ? mask : kBigCell) : 0);
+    omask[u] = drawn ? (small ? mask : kBigCell) : 0;
     ox0[u] = xmin;
     oy0[u] = ymin;
     const float w = pw[u] / std::sqrt(std::max(area, 1.0f));
-    ow[u] = uint8_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f));
+    ow[u] = int32_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f));
   }
 }
 
@@ -539,15 +541,15 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     // surface (flying pixels, speckle) are not drawn.
     links_.resize(n + 2 * pad);
     std::fill(links_.begin(), links_.end(), 0);
-    uint8_t* const LINKS = links_.data() + pad;
+    uint32_t* const LINKS = links_.data() + pad;
     link_neighbours(n - 1, 1, PX, PY, PZ, PL, src_label_.data(), float(er), float(emin), kRight, LINKS);
-    for (int v = 0; v < H; ++v) LINKS[size_t(v) * W + W - 1] &= uint8_t(~kRight);  // no wrap to the next row
+    for (int v = 0; v < H; ++v) LINKS[size_t(v) * W + W - 1] &= ~kRight;  // no wrap to the next row
     link_neighbours(n - W, W, PX, PY, PZ, PL, src_label_.data(), float(er), float(emin), kDown, LINKS);
     // A cell the view magnifies: every virtual pixel of its bounding box tested.
     auto splat_big_cell = [&](int u, int v) {
       const size_t i = size_t(v) * W + u;
       const float zi = PZ[i];
-      const uint8_t nb = LINKS[i];
+      const uint32_t nb = LINKS[i];
       const bool right = nb & kRight, down = nb & kDown;
       const bool left = u > 0 && (LINKS[i - 1] & kRight), up = v > 0 && (LINKS[i - W] & kDown);
       float jxu = 0, jyu = 0, jxv = 0, jyv = 0;
@@ -598,7 +600,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       prepare_cells(geom, v, PX + row, PY + row, PZ + row, PW + row, LINKS + row, cells);
       const uint8_t* lab = &src_label_[row];
       for (int u = 0; u < W; ++u) {
-        const uint8_t m = cell_mask_[u];
+        const int32_t m = cell_mask_[u];
         if (!m) continue;
         if (m == kBigCell) {
           splat_big_cell(u, v);
@@ -615,7 +617,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
           const float kx = float(k & 1), ky = float(k >> 1);
           const float su = cells.su[u] + cells.dsu_dx[u] * kx + cells.dsu_dy[u] * ky;
           const float sv = cells.sv[u] + cells.dsv_dx[u] * kx + cells.dsv_dy[u] * ky;
-          store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, cell_weight_[u], lab[u]);
+          store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, uint8_t(cell_weight_[u]), lab[u]);
         }
       }
     }

@@ -80,12 +80,12 @@ class ViewWarper {
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint8_t> src_label_;
   std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
-  std::vector<uint8_t> links_;             // per source pixel: same surface as right (1) / below (2)
+  std::vector<uint32_t> links_;            // per source pixel: same surface as right / below (flags)
   std::vector<uint64_t> zbuf_;             // per virtual pixel: z-buffer record (view_warp.cpp)
   // One source row of splat cells (view_warp.cpp, prepare_cells).
   std::vector<int32_t> cell_x0_, cell_y0_;
   std::vector<float> cell_pos_;
-  std::vector<uint8_t> cell_mask_, cell_weight_;
+  std::vector<int32_t> cell_mask_, cell_weight_;
   cv::Mat map_xy_, map_frac_;              // per virtual pixel: source position for cv::remap
 };
 
