@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -16,10 +17,13 @@
 
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/dataset.h>
+#include <gst/vclassroom/depth_completion.h>
 #include <gst/vclassroom/image_metrics.h>
 #include <gst/vclassroom/learner_seg.h>
 #include <gst/vclassroom/middlebury.h>
+#include <gst/vclassroom/plane_refine.h>
 #include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/static_model.h>
 #include <gst/vclassroom/view_fuse.h>
 #include <gst/vclassroom/view_warp.h>
 
@@ -36,12 +40,13 @@ struct Options {
   int boundary_px = 1;
   bool mesh = false;
   std::string write_priors;  // folder: write the empty room's depth per camera and exit
+  std::string model;         // V-DA model folder: the full system runs V-DA on the sensor depth
 };
 
 int usage() {
   std::fprintf(stderr,
                "usage: vclassroom-eval-views [--shared DIR] [--only classroom|middlebury|teddy] [--frames N]\n"
-               "                             [--size WxH] [--images DIR] [--boundary PX]\n"
+               "                             [--size WxH] [--images DIR] [--boundary PX] [--model DIR]\n"
                "       vclassroom-eval-views --write-priors DIR [--size WxH]\n"
                "  --shared DIR   the shared data folder (default ../shared/data, relative to the repo root)\n"
                "  --images DIR   write side-by-side PNGs (synthesised | real | error x4) there\n"
@@ -49,6 +54,10 @@ int usage() {
                "  --size WxH     synthetic classroom camera size (default 960x540)\n"
                "  --boundary PX  source pixels dropped next to depth edges (default 1)\n"
                "  --mesh         warp with the triangle mesh rasteriser (reference) instead of the cell splat\n"
+               "  --model DIR    V-DA's static model (vclassroom-build-model --synthetic, 960x540): the\n"
+               "                 static layer is its prior depth and the sensor depth goes through\n"
+               "                 depthcomplete + planerefine first, as in the live pipeline; without it\n"
+               "                 the static layer is the empty room's exact depth (a stand-in)\n"
                "  --write-priors DIR  write the empty classroom's clean depth for cameras 0..2 of the\n"
                "                 default rig as DIR/prior-cam<K>.png (16-bit mm): the stand-in for V-DA's\n"
                "                 static model that learnerseg/viewwarp's prior-depth property reads\n");
@@ -214,35 +223,65 @@ void eval_classroom(const Options& opt) {
   wp.boundary_px = opt.boundary_px;
     wp.mesh = opt.mesh;
   std::vector<cv::Mat> priors(3);
-  for (int i = 0; i < 3; ++i) {
-    RenderOutput e;
-    renderer.render(empty, 0.0, all[i], &e);
-    priors[i] = e.depth.clone();
-    seg[i].set_static_depth(priors[i]);
+  // With a model: what the live pipeline runs per camera before learnerseg.
+  std::vector<StaticPrior> vda_prior(3);
+  std::vector<PlaneMaps> vda_planes(3);
+  const bool vda = !opt.model.empty();
+  if (vda) {
+    const StaticModel m = load_static_model(opt.model);
+    for (int i = 0; i < 3; ++i) {
+      const int id = all[i].id;
+      if (m.prior(id).size() != cv::Size(all[i].width, all[i].height))
+        throw std::runtime_error("model " + opt.model + ": camera " + std::to_string(id) + " is not " +
+                                 std::to_string(all[i].width) + "x" + std::to_string(all[i].height));
+      priors[i] = m.prior(id).clone();
+      vda_prior[i] = m.prior_for(id);
+      const CameraCalib* cam = m.rig.find(id);
+      vda_planes[i] = plane_maps_for_camera(m.planes, cam ? *cam : all[i], m.prior(id));
+    }
+  } else {
+    for (int i = 0; i < 3; ++i) {
+      RenderOutput e;
+      renderer.render(empty, 0.0, all[i], &e);
+      priors[i] = e.depth.clone();
+    }
   }
+  for (int i = 0; i < 3; ++i) seg[i].set_static_depth(priors[i]);
   const double fps = 10.0;  // segmentation sees consecutive frames at 10 fps
   FusedView fused;
   cv::Mat last_synth, last_real;
   for (int f = 0; f < opt.frames; ++f) {
     const double t = f / fps;
     std::vector<RgbdImages> imgs(3);
-    std::vector<cv::Mat> labels(3), truth(3);
+    std::vector<cv::Mat> labels(3), truth(3), raw_depth(3);
     for (int i = 0; i < 3; ++i) {
       RenderOutput r;
       renderer.render(room, t, all[i], &r);
       apply_sensor_model(r, all[i], sensor, cfg.seed, uint64_t(f), &imgs[i].depth, &imgs[i].color);
+      raw_depth[i] = imgs[i].depth;
+      if (vda) {
+        cv::Mat completed;
+        depth_complete(imgs[i].depth, imgs[i].color, vda_prior[i], cv::Mat(), DepthCompleteOptions(), completed);
+        plane_refine(completed, vda_planes[i], cv::Mat(), PlaneTolerance(), completed);
+        imgs[i].depth = completed;
+      }
       truth[i] = r.label.clone();
       seg[i].segment(imgs[i].color, imgs[i].depth, &labels[i]);
       const SegScore sc = score_segmentation(labels[i], truth[i]);
       iou[i].add(sc.fg_iou);
       learner_iou[i].add(sc.mean_learner_iou);
     }
+    // "w/o V-DA" sees the sensor's depth as it came.
+    std::vector<RgbdImages> raw_imgs{imgs[1], imgs[2]};
+    raw_imgs[0].depth = raw_depth[1];
+    raw_imgs[1].depth = raw_depth[2];
     const std::vector<RgbdImages> src_imgs{imgs[1], imgs[2]};
     const std::vector<cv::Mat> src_priors{priors[1], priors[2]};
     for (size_t c = 0; c < configs.size(); ++c) {
       const std::vector<cv::Mat> src_labels = configs[c].truth_labels ? std::vector<cv::Mat>{truth[1], truth[2]}
                                                                       : std::vector<cv::Mat>{labels[1], labels[2]};
-      synthesize(sources, src_imgs, src_priors, src_labels, configs[c], target, wp, warpers, &fused);
+      const std::vector<RgbdImages>& in = configs[c].static_prior ? src_imgs : raw_imgs;
+      synthesize(sources, in, src_priors, src_labels, configs[c], target, wp, warpers, &fused);
       psnr[c].add(psnr_rgb(fused.color, imgs[0].color));
       ssim[c].add(ssim_luma(fused.color, imgs[0].color));
       if (c == 0 && f == opt.frames - 1) {
@@ -252,7 +291,7 @@ void eval_classroom(const Options& opt) {
       for (size_t k = 0; k < novel.size(); ++k) {
         RenderOutput gt;
         renderer.render(room, t, novel[k], &gt);
-        synthesize(sources, src_imgs, src_priors, src_labels, configs[c], novel[k], wp, warpers, &fused);
+        synthesize(sources, in, src_priors, src_labels, configs[c], novel[k], wp, warpers, &fused);
         npsnr[c].add(psnr_rgb(fused.color, gt.color));
         nssim[c].add(ssim_luma(fused.color, gt.color));
         if (c == 0 && k == 1 && f == opt.frames - 1 && !opt.images.empty())
@@ -263,7 +302,11 @@ void eval_classroom(const Options& opt) {
   }
   std::printf("\n== Synthetic classroom (seed %llu, %d learners, sensor model on, %dx%d, %d frames at %.0f fps) ==\n",
               (unsigned long long)cfg.seed, cfg.learners, opt.width, opt.height, opt.frames, fps);
-  std::printf("Static prior = the empty room's clean depth rendered per camera: a STAND-IN for V-DA's static model.\n");
+  if (vda)
+    std::printf("V-DA: static layer = the model's prior depth (%s); sensor depth -> depthcomplete + planerefine, as live.\n",
+                opt.model.c_str());
+  else
+    std::printf("Static prior = the empty room's clean depth rendered per camera: a STAND-IN for V-DA's static model.\n");
   std::printf("Leave-one-out: camera 0 synthesised from cameras 1 and 2, against camera 0's sensor image (Table I layout)\n");
   std::printf("%-52s | PSNR avg   max   min | SSIMx100 avg   max   min\n", "method");
   for (size_t c = 0; c < configs.size(); ++c)
@@ -312,6 +355,7 @@ int main(int argc, char** argv) {
     else if (a == "--boundary") opt.boundary_px = std::atoi(next().c_str());
     else if (a == "--mesh") opt.mesh = true;
     else if (a == "--write-priors") opt.write_priors = next();
+    else if (a == "--model") opt.model = next();
     else if (a == "--size") {
       if (std::sscanf(next().c_str(), "%dx%d", &opt.width, &opt.height) != 2) return usage();
     } else return usage();
