@@ -8,13 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-// The build targets the Debian x86-64 baseline; the per-row kernels below are
-// also compiled for AVX2 and the loader picks that copy where the CPU has it.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define VDA_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define VDA_SIMD_CLONES
-#endif
+#include "simd.h"
 
 namespace vclassroom {
 
@@ -29,7 +23,7 @@ inline uint32_t ratio_q16(double ratio) {
 }
 
 // 255 where live depth is clearly in front of the prior (a learner).
-VDA_SIMD_CLONES
+VCLASSROOM_SIMD_CLONES
 void prior_front_row(const uint16_t* live, const uint16_t* prior, int n, uint32_t tol_min, uint32_t rq16,
                      uint8_t* front) {
   for (int x = 0; x < n; ++x) {
@@ -41,7 +35,7 @@ void prior_front_row(const uint16_t* live, const uint16_t* prior, int n, uint32_
 
 // 255 where the live colour differs from the empty room's by more than `tol`
 // in some channel.
-VDA_SIMD_CLONES
+VCLASSROOM_SIMD_CLONES
 void color_differs_row(const uint8_t* c, const uint8_t* pc, int n, int tol, uint8_t* bad) {
   for (int x = 0; x < n; ++x) {
     const int d0 = std::abs(c[3 * x] - pc[3 * x]), d1 = std::abs(c[3 * x + 1] - pc[3 * x + 1]),
@@ -52,7 +46,7 @@ void color_differs_row(const uint8_t* c, const uint8_t* pc, int n, int tol, uint
 
 // The prior fill's choice per pixel. `keep_live`: 255 where a hole must not
 // take the prior (near a learner, colour changed, not measured, labelled).
-VDA_SIMD_CLONES
+VCLASSROOM_SIMD_CLONES
 void prior_select_row(const uint16_t* live, const uint16_t* prior, const uint8_t* keep_live, const uint8_t* label,
                       int n, uint32_t tol_min, uint32_t rq16, uint16_t* out) {
   for (int x = 0; x < n; ++x) {

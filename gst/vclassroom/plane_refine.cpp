@@ -5,14 +5,7 @@
 #include <vector>
 
 #include "error.h"
-
-// Baseline x86-64 build; the per-frame row kernel also has an AVX2 copy that
-// the loader picks where the CPU has it.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define PLANE_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define PLANE_SIMD_CLONES
-#endif
+#include "simd.h"
 
 namespace vclassroom {
 
@@ -20,7 +13,7 @@ namespace detail {
 
 // One row of plane_refine, branch-free so that it vectorises: the tolerance
 // max(min_mm, ratio * plane depth) with the ratio in 1/65536 steps.
-PLANE_SIMD_CLONES
+VCLASSROOM_SIMD_CLONES
 void plane_snap_row(const uint16_t* in, const uint16_t* plane_depth, const uint8_t* index, const uint8_t* label,
                     int n, uint32_t tol_min, uint32_t rq16, uint16_t* out) {
   for (int x = 0; x < n; ++x) {
