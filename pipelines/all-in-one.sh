@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The first live demo (docs/vva.md): three synthetic classroom cameras -> [V-DA when a
-# model is given] -> learnerseg -> viewwarp (one per camera) -> viewfuse, which plays the
-# lecturer's pose trace (a slow walk and head turn through the front of the class) by
-# sending each pose upstream to every viewwarp -> H.264 in an MP4 file.
+# model is given] -> learnerseg -> viewwarp (one per camera) -> viewfuse -> H.264 in an MP4
+# file. Every viewwarp plays the lecturer's pose trace (a slow walk and head turn through the
+# front of the class) by its frames' time, so the cameras' frames of one instant are warped
+# for the same pose however far apart the branches run.
 # Variables: OUT (file, default out/all-in-one.mp4), FRAMES (default 300 = 10 s),
 # TRACE (pose trace CSV, default pipelines/lecturer-walk.csv), SEED (default 1),
 # LEARNERS (default 6), MODEL (a folder from vclassroom-build-model: when set, V-DA
@@ -37,10 +38,10 @@ branches=""
 for k in 0 1 2; do
   branches="$branches rgbdtestsrc camera-id=$k seed=$SEED learners=$LEARNERS num-buffers=$FRAMES ground-truth=false $VDA \
     ! learnerseg prior-depth=$(prior $k) \
-    ! viewwarp prior-depth=$(prior $k) ! queue max-size-buffers=2 ! fuse.cam_$k"
+    ! viewwarp prior-depth=$(prior $k) pose-trace=\"$TRACE\" ! queue max-size-buffers=2 ! fuse.cam_$k"
 done
 echo "all-in-one: 3 cameras ${MODEL:+-> depthcomplete -> planerefine }-> learnerseg -> viewwarp -> viewfuse (pose trace $TRACE) -> $OUT"
 eval gst-launch-1.0 -e \
-  viewfuse name=fuse pose-trace="$TRACE" ! videoconvert ! x264enc speed-preset=veryfast tune=zerolatency \
+  viewfuse name=fuse ! videoconvert ! x264enc speed-preset=veryfast tune=zerolatency \
   ! mp4mux ! filesink location="$OUT" $branches
 echo "wrote $OUT"

@@ -206,5 +206,21 @@ TEST(PoseTrace, MinimalTraceNumbersFramesAndErrorsNameLineAndColumn) {
   EXPECT_NE(e.find("unit quaternion"), std::string::npos) << e;
   e = error_of("x,y,z,qw,qx,qy,qz\n0,0,0,1,0,0\n");
   EXPECT_NE(e.find("columns"), std::string::npos) << e;
+  e = error_of("t,x,y,z,qw,qx,qy,qz\n0.1,0,0,0,1,0,0,0\n0.05,0,0,0,1,0,0,0\n");
+  EXPECT_NE(e.find("b.csv:3"), std::string::npos) << e;
+  EXPECT_NE(e.find("'t'"), std::string::npos) << e;
   EXPECT_THROW(load_pose_trace(dir / "missing.csv"), Error);
+}
+
+TEST(PoseTrace, TheSampleForAFrameComesFromItsTimeOrItsNumber) {
+  std::vector<PoseSample> timed(3);
+  for (int i = 0; i < 3; ++i) timed[size_t(i)].t = i / 30.0;
+  EXPECT_EQ(pose_trace_index(timed, 0.0, 7), 0u);            // the time decides, not the frame number
+  EXPECT_EQ(pose_trace_index(timed, 0.02, 0), 0u);           // between samples: the one before
+  EXPECT_EQ(pose_trace_index(timed, 2 / 30.0 - 1e-9, 0), 2u);  // rounding of the frame time
+  EXPECT_EQ(pose_trace_index(timed, -1.0, 0), 0u);           // before the trace: its first sample
+  EXPECT_EQ(pose_trace_index(timed, 10.0, 0), 2u);           // after it: the last is held
+  std::vector<PoseSample> untimed(3);
+  EXPECT_EQ(pose_trace_index(untimed, 5.0, 1), 1u);
+  EXPECT_EQ(pose_trace_index(untimed, 0.0, 9), 2u);
 }

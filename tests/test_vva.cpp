@@ -177,6 +177,37 @@ TEST(ViewWarp, AReusedWarperGivesWhatAFreshOneGives) {
   }
 }
 
+// A learner whose top rows carry the room's depth (a completion upstream
+// filled the holes on dark hair from the room behind) is still drawn as one
+// learner at its own depth: depth on or behind the room is not the learner's.
+TEST(ViewWarp, ALearnerPixelWithTheRoomsDepthTakesTheLearnersDepth) {
+  const int w = 120, h = 80;
+  const CameraCalib src = pinhole(w, h, 100);
+  WarpSource in = fronto_plane(w, h, 4000);
+  in.static_depth = cv::Mat(h, w, CV_16UC1, cv::Scalar(4000));
+  in.label = cv::Mat::zeros(h, w, CV_8UC1);
+  const cv::Rect body(50, 25, 20, 30), hair(50, 25, 20, 8);
+  in.depth(body).setTo(cv::Scalar(2000));
+  in.depth(hair).setTo(cv::Scalar(4000));  // pasted from the room
+  in.color(body).setTo(cv::Scalar(255, 0, 255));
+  in.label(body).setTo(cv::Scalar(3));
+  CameraCalib virt = src;
+  virt.cam_to_rig.translation() = Eigen::Vector3d(0.2, 0, 0);
+  WarpParams p;
+  p.boundary_px = 1;
+  const WarpedView out = warp_view(src, in, virt, p);
+  // At 2 m the learner moves 10 px left; at 4 m (the wrong depth) the hair would move 5 px.
+  int learner_at_2m = 0, learner_at_4m = 0;
+  for (int y = hair.y + 1; y < hair.br().y - 1; ++y) {
+    for (int x = hair.x - 10 + 1; x < hair.br().x - 10 - 1; ++x) learner_at_2m += out.label.at<uint8_t>(y, x) == 3;
+    // Columns only the wrong depth would reach (right of where the learner is drawn).
+    for (int x = hair.br().x - 10 + 1; x < hair.br().x - 5; ++x) learner_at_4m += out.label.at<uint8_t>(y, x) == 3;
+  }
+  EXPECT_EQ(learner_at_2m, (hair.height - 2) * (hair.width - 2)) << "the hair rows are not drawn with the learner";
+  EXPECT_EQ(learner_at_4m, 0) << "hair drawn at the room's depth: a second head";
+  EXPECT_EQ(out.depth.at<uint16_t>(hair.y + 3, hair.x), 2000);
+}
+
 TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
   const int w = 120, h = 80;
   const CameraCalib src = pinhole(w, h, 100);
@@ -328,6 +359,67 @@ TEST(LearnerSeg, FindsTheClassroomLearners) {
 }
 
 // ---------------------------------------------------------------- elements
+
+// With a pose trace each frame is warped for the trace's pose at its own
+// running time, whatever pose events say and whenever it is processed.
+TEST(ViewWarpElement, APoseTraceSetsEachFramesViewByItsTime) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const CameraCalib ref = default_classroom_rig().camera(0);
+  std::vector<PoseSample> trace;
+  for (int i = 0; i < 3; ++i) {
+    PoseSample p;
+    p.t = i * 0.1;  // three poses, 100 ms apart
+    p.pose = sliders_to_pose(Sliders{40.0 + 10 * i, 50, 50, 50, 50, 50}, ref);
+    trace.push_back(p);
+  }
+  save_pose_trace(trace, dir / "walk.csv");
+  GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + rig + " pose-trace=" + (dir / "walk.csv")).c_str());
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(1), 160, 90);
+  info.planes = {Plane::Color, Plane::Depth};
+  gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  const Classroom room(ClassroomConfig{1, 3, 2.0});
+  const RenderOutput r = render(room, 0.0, info.camera);
+  // A pose event must not override the trace.
+  Pose other = sliders_to_pose(Sliders{90, 50, 50, 50, 50, 50}, ref);
+  other.seq = 1000;
+  ASSERT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(other)));
+  std::vector<uint64_t> seqs;
+  std::vector<cv::Mat> colors;
+  // Frames at 0, 50, 150 and 400 ms show trace poses 1, 1, 2 and 3 (the last is held).
+  for (GstClockTime ms : {0, 50, 150, 400}) {
+    GstBuffer* buf = rgbd_buffer_new(info);
+    {
+      RgbdFrame f;
+      std::string err;
+      ASSERT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+      r.color.copyTo(f.color());
+      r.depth.copyTo(f.depth());
+    }
+    GST_BUFFER_PTS(buf) = ms * GST_MSECOND;
+    ASSERT_EQ(gst_harness_push(h, buf), GST_FLOW_OK);
+    GstBuffer* out = gst_harness_pull(h);
+    ASSERT_NE(out, nullptr);
+    const PoseMeta* m = buffer_get_pose_meta(out);
+    ASSERT_NE(m, nullptr);
+    seqs.push_back(m->seq);
+    GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+    RgbdInfo oi;
+    std::string err;
+    ASSERT_TRUE(rgbd_info_from_caps(oc, &oi, &err)) << err;
+    gst_caps_unref(oc);
+    RgbdFrame f;
+    ASSERT_TRUE(f.map(out, oi, GST_MAP_READ, &err)) << err;
+    colors.push_back(f.color().clone());
+    f.unmap();
+    gst_buffer_unref(out);
+  }
+  EXPECT_EQ(seqs, (std::vector<uint64_t>{1, 1, 2, 3}));
+  EXPECT_EQ(cv::norm(colors[0], colors[1], cv::NORM_INF), 0) << "same trace pose, same view";
+  EXPECT_GT(cv::norm(colors[1], colors[2], cv::NORM_L1), 0) << "the next trace pose must change the view";
+  gst_harness_teardown(h);
+}
 
 TEST(ViewWarpElement, APoseEventChangesTheNextFrame) {
   vctest::TempDir dir;

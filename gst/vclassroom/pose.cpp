@@ -2,6 +2,8 @@
 
 #include "checksum.h"
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -331,7 +333,12 @@ std::vector<PoseSample> load_pose_trace(const std::string& path) {
     PoseSample ps;
     ps.pose.position = {num("x"), num("y"), num("z")};
     ps.pose.orientation = Eigen::Quaterniond(num("qw"), num("qx"), num("qy"), num("qz"));
-    if (col.count("t")) ps.t = num("t");
+    if (col.count("t")) {
+      ps.t = num("t");
+      if (!out.empty() && ps.t < out.back().t)
+        throw Error(path + ":" + std::to_string(lineno) + ": column 't': " + std::to_string(ps.t) +
+                    " is earlier than the line before (" + std::to_string(out.back().t) + "); times must not decrease");
+    }
     if (col.count("fov")) ps.pose.fov_deg = num("fov");
     ps.pose.seq = col.count("seq") ? static_cast<uint64_t>(num("seq")) : out.size();
     try {
@@ -364,6 +371,16 @@ void save_pose_trace(const std::vector<PoseSample>& trace, const std::string& pa
     }
     out << ',' << p.seq << '\n';
   }
+}
+
+size_t pose_trace_index(const std::vector<PoseSample>& trace, double t, uint64_t frame) {
+  if (trace.empty()) return 0;
+  if (std::isnan(trace.front().t)) return static_cast<size_t>(std::min<uint64_t>(frame, trace.size() - 1));
+  // A frame time a hair under a sample's (rounding of 1/30 s) still shows that sample.
+  const double at = t + 1e-6;
+  const auto it = std::upper_bound(trace.begin(), trace.end(), at,
+                                   [](double v, const PoseSample& s) { return v < s.t; });
+  return it == trace.begin() ? 0 : static_cast<size_t>(it - trace.begin()) - 1;
 }
 
 }  // namespace vclassroom

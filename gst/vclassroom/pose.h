@@ -96,5 +96,10 @@ struct PoseSample {
 };
 std::vector<PoseSample> load_pose_trace(const std::string& path);
 void save_pose_trace(const std::vector<PoseSample>& trace, const std::string& path);
+// Which sample of a non-empty trace shows the frame at running time `t`
+// seconds, the `frame`-th of its stream: with a t column the last sample at or
+// before t (the first before it starts), else sample `frame`; the last one is
+// held.
+size_t pose_trace_index(const std::vector<PoseSample>& trace, double t, uint64_t frame);
 
 }  // namespace vclassroom

@@ -6,6 +6,7 @@
 
 #include "gstviewwarp.h"
 
+#include <cmath>
 #include <mutex>
 #include <string>
 
@@ -22,7 +23,18 @@ GST_DEBUG_CATEGORY_STATIC(view_warp_debug);
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_WIDTH, PROP_HEIGHT, PROP_FOV, PROP_PRIOR_DEPTH, PROP_BOUNDARY, PROP_RIG, PROP_REFERENCE, PROP_POSES_RECEIVED };
+enum {
+  PROP_0,
+  PROP_WIDTH,
+  PROP_HEIGHT,
+  PROP_FOV,
+  PROP_PRIOR_DEPTH,
+  PROP_BOUNDARY,
+  PROP_RIG,
+  PROP_REFERENCE,
+  PROP_POSES_RECEIVED,
+  PROP_POSE_TRACE
+};
 
 namespace {
 
@@ -34,6 +46,7 @@ struct WarpState {
   int boundary_px = 1;
   std::string rig_path;
   int reference_id = 0;
+  std::string trace_path;
   // Latest pose (highest seq wins); the rig's reference camera until one arrives.
   Pose pose;
   bool have_pose = false;
@@ -42,6 +55,8 @@ struct WarpState {
   // Streaming thread only.
   RgbdInfo in_info, out_info;
   cv::Mat prior;
+  std::vector<PoseSample> trace;  // pose-trace, loaded at start
+  uint64_t frames = 0;
   ViewWarper warper;
   WarpedView warped;
 };
@@ -185,6 +200,26 @@ static gboolean gst_view_warp_start(GstBaseTransform* trans) {
     GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("property rig of %s", GST_OBJECT_NAME(self)));
     return FALSE;
   }
+  std::string trace_path;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    trace_path = st->trace_path;
+  }
+  st->trace.clear();
+  st->frames = 0;
+  if (!trace_path.empty()) {
+    try {
+      st->trace = load_pose_trace(trace_path);
+    } catch (const Error& e) {
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()),
+                        ("property pose-trace of %s", GST_OBJECT_NAME(self)));
+      return FALSE;
+    }
+    if (st->trace.empty()) {
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("pose trace %s has no poses", trace_path.c_str()), (nullptr));
+      return FALSE;
+    }
+  }
   st->prior.release();
   if (!path.empty()) {
     st->prior = cv::imread(path, cv::IMREAD_ANYDEPTH);
@@ -207,6 +242,17 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     pose = st->pose;
     params.boundary_px = st->boundary_px;
   }
+  if (!st->trace.empty()) {
+    // The frame's own moment of the trace: every camera's frame of one
+    // instant gets the same pose, however far apart their threads run.
+    const GstClockTime rt = gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf));
+    const double t = GST_CLOCK_TIME_IS_VALID(rt) ? double(rt) / GST_SECOND : std::nan("");
+    const size_t i = pose_trace_index(st->trace, std::isnan(t) ? -1.0 : t, st->frames);
+    pose = st->trace[i].pose;
+    pose.seq = i + 1;
+    pose.viewer_time_ns = -1;
+  }
+  ++st->frames;
   RgbdFrame in, out;
   std::string err;
   if (!in.map(inbuf, st->in_info, GST_MAP_READ, &err) || !out.map(outbuf, st->out_info, GST_MAP_WRITE, &err)) {
@@ -285,6 +331,9 @@ static void gst_view_warp_set_property(GObject* object, guint prop_id, const GVa
     case PROP_REFERENCE:
       st->reference_id = g_value_get_int(value);
       break;
+    case PROP_POSE_TRACE:
+      st->trace_path = g_value_get_string(value) ? g_value_get_string(value) : "";
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -314,6 +363,9 @@ static void gst_view_warp_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_REFERENCE:
       g_value_set_int(value, st->reference_id);
+      break;
+    case PROP_POSE_TRACE:
+      g_value_set_string(value, st->trace_path.c_str());
       break;
     case PROP_POSES_RECEIVED:
       g_value_set_uint64(value, st->poses_received);
@@ -373,6 +425,14 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
       g_param_spec_int("reference-camera", "Reference camera",
                        "Id of the rig camera whose view is rendered until the first pose event arrives", 0, G_MAXINT,
                        0, ready));
+  g_object_class_install_property(
+      gobject_class, PROP_POSE_TRACE,
+      g_param_spec_string("pose-trace", "Pose trace",
+                          "CSV pose trace (docs/pose.md) that sets the view of each frame by its running time (the "
+                          "trace's t column; without one, by frame number), overriding pose events: for rendering a "
+                          "scripted path, every camera's frame of one instant warped for the same pose. Empty: "
+                          "pose events steer the view",
+                          "", ready));
   g_object_class_install_property(
       gobject_class, PROP_POSES_RECEIVED,
       g_param_spec_uint64("poses-received", "Poses received", "Pose events this element has received", 0,
