@@ -177,37 +177,6 @@ TEST(ViewWarp, AReusedWarperGivesWhatAFreshOneGives) {
   }
 }
 
-// A learner whose top rows carry the room's depth (a completion upstream
-// filled the holes on dark hair from the room behind) is still drawn as one
-// learner at its own depth: depth on or behind the room is not the learner's.
-TEST(ViewWarp, ALearnerPixelWithTheRoomsDepthTakesTheLearnersDepth) {
-  const int w = 120, h = 80;
-  const CameraCalib src = pinhole(w, h, 100);
-  WarpSource in = fronto_plane(w, h, 4000);
-  in.static_depth = cv::Mat(h, w, CV_16UC1, cv::Scalar(4000));
-  in.label = cv::Mat::zeros(h, w, CV_8UC1);
-  const cv::Rect body(50, 25, 20, 30), hair(50, 25, 20, 8);
-  in.depth(body).setTo(cv::Scalar(2000));
-  in.depth(hair).setTo(cv::Scalar(4000));  // pasted from the room
-  in.color(body).setTo(cv::Scalar(255, 0, 255));
-  in.label(body).setTo(cv::Scalar(3));
-  CameraCalib virt = src;
-  virt.cam_to_rig.translation() = Eigen::Vector3d(0.2, 0, 0);
-  WarpParams p;
-  p.boundary_px = 1;
-  const WarpedView out = warp_view(src, in, virt, p);
-  // At 2 m the learner moves 10 px left; at 4 m (the wrong depth) the hair would move 5 px.
-  int learner_at_2m = 0, learner_at_4m = 0;
-  for (int y = hair.y + 1; y < hair.br().y - 1; ++y) {
-    for (int x = hair.x - 10 + 1; x < hair.br().x - 10 - 1; ++x) learner_at_2m += out.label.at<uint8_t>(y, x) == 3;
-    // Columns only the wrong depth would reach (right of where the learner is drawn).
-    for (int x = hair.br().x - 10 + 1; x < hair.br().x - 5; ++x) learner_at_4m += out.label.at<uint8_t>(y, x) == 3;
-  }
-  EXPECT_EQ(learner_at_2m, (hair.height - 2) * (hair.width - 2)) << "the hair rows are not drawn with the learner";
-  EXPECT_EQ(learner_at_4m, 0) << "hair drawn at the room's depth: a second head";
-  EXPECT_EQ(out.depth.at<uint16_t>(hair.y + 3, hair.x), 2000);
-}
-
 TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
   const int w = 120, h = 80;
   const CameraCalib src = pinhole(w, h, 100);

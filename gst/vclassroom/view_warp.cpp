@@ -74,23 +74,13 @@ void learner_median_depths(const uint16_t* depth, const uint8_t* label, int W, i
 // The per-pixel loops below are written branch-free so the compiler
 // vectorises them; the AVX2 clone is picked at run time where the CPU has it.
 
-// Layered depth of one row: the room takes its static depth where known;
-// learners keep their live depth only where it lies in front of the room by
-// more than max(margin_mm, ratio * room depth) — a learner stands in front of
-// the room, so a depth on or behind it was not measured on the learner (a
-// completion upstream filled a hole on dark hair from the room, say) and
-// becomes a hole the learner's median depth fills.
+// Layered depth of one row: learners keep their live depth, the room takes
+// its static depth where known.
 VCLASSROOM_SIMD_CLONES
-void layer_row(int n, const uint16_t* live, const uint16_t* stat, const uint8_t* lab, uint16_t ratio_q16,
-               uint16_t margin_mm, uint16_t* out) {
+void layer_row(int n, const uint16_t* live, const uint16_t* stat, const uint8_t* lab, uint16_t* out) {
   for (int i = 0; i < n; ++i) {
     const uint16_t s = stat[i], d = live[i];
-    const uint16_t rel = uint16_t((uint32_t(s) * ratio_q16) >> 16);
-    const uint32_t margin = rel > margin_mm ? rel : margin_mm;
-    const bool in_front = (s == 0) | (uint32_t(d) + margin < s);
-    const uint16_t learner = in_front ? d : uint16_t(0);
-    const uint16_t room = s != 0 ? s : d;
-    out[i] = lab[i] == 0 ? room : learner;
+    out[i] = ((lab[i] == 0) & (s != 0)) ? s : d;
   }
 }
 
@@ -418,15 +408,13 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   // The layered depth of every source pixel: learners live, the room static.
   const bool has_label = !in.label.empty();
   const bool has_static = !in.static_depth.empty();
-  const uint16_t learner_ratio = uint16_t(std::clamp(std::ceil(prm.learner_margin_ratio * 65536.0), 0.0, 65535.0));
-  const uint16_t learner_margin = uint16_t(std::clamp(std::floor(prm.learner_margin_mm), 0.0, 65535.0));
   for (int v = 0; v < H; ++v) {
     const uint16_t* d = in.depth.ptr<uint16_t>(v);
     uint16_t* od = &src_depth_[size_t(v) * W];
     uint8_t* ol = &src_label_[size_t(v) * W];
     if (has_label) std::memcpy(ol, in.label.ptr<uint8_t>(v), size_t(W));
     else std::memset(ol, 0, size_t(W));
-    if (has_static) layer_row(W, d, in.static_depth.ptr<uint16_t>(v), ol, learner_ratio, learner_margin, od);
+    if (has_static) layer_row(W, d, in.static_depth.ptr<uint16_t>(v), ol, od);
     else std::memcpy(od, d, size_t(W) * sizeof(uint16_t));
   }
   if (has_label && prm.fill_learner_depth) {

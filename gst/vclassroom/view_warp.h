@@ -50,11 +50,6 @@ struct WarpParams {
   bool mesh = false;
   // Learner pixels without live depth take their learner's median depth.
   bool fill_learner_depth = true;
-  // With a static layer, a learner pixel's live depth counts only when it is
-  // nearer than the room's by more than max(learner_margin_mm,
-  // learner_margin_ratio * room depth); else it is a hole (learnerseg's margins).
-  double learner_margin_mm = 60;
-  double learner_margin_ratio = 0.03;
 };
 
 // The source warped to the virtual view: all images have the virtual camera's size.
