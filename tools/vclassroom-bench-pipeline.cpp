@@ -18,7 +18,6 @@
 #include <string>
 #include <vector>
 
-#include <gst/app/gstappsink.h>
 #include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
 #include <opencv2/imgcodecs.hpp>
@@ -26,40 +25,13 @@
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/pose.h>
 
+#include "recording.h"
+
 using namespace vclassroom;
+using vclassroom_tools::Recording;
 using Clock = std::chrono::steady_clock;
 
 namespace {
-
-struct Recording {
-  GstCaps* caps = nullptr;
-  std::vector<GstBuffer*> frames;
-};
-
-// `count` frames of camera `id` from rgbdtestsrc.
-bool record_camera(int id, int learners, int count, Recording* rec) {
-  const std::string desc = "rgbdtestsrc camera-id=" + std::to_string(id) + " seed=1 learners=" +
-                           std::to_string(learners) + " num-buffers=" + std::to_string(count) +
-                           " ground-truth=false ! appsink name=out sync=false";
-  GError* err = nullptr;
-  GstElement* p = gst_parse_launch(desc.c_str(), &err);
-  if (!p) {
-    std::fprintf(stderr, "cannot build the recording pipeline: %s\n", err ? err->message : "?");
-    g_clear_error(&err);
-    return false;
-  }
-  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
-  gst_element_set_state(p, GST_STATE_PLAYING);
-  while (GstSample* s = gst_app_sink_pull_sample(GST_APP_SINK(sink))) {
-    if (!rec->caps) rec->caps = gst_caps_copy(gst_sample_get_caps(s));
-    rec->frames.push_back(gst_buffer_ref(gst_sample_get_buffer(s)));
-    gst_sample_unref(s);
-  }
-  gst_element_set_state(p, GST_STATE_NULL);
-  gst_object_unref(sink);
-  gst_object_unref(p);
-  return int(rec->frames.size()) == count;
-}
 
 struct Feeder {
   const Recording* rec = nullptr;
@@ -166,7 +138,9 @@ int main(int argc, char** argv) {
 
   std::vector<Recording> rec(static_cast<size_t>(cameras));
   for (int k = 0; k < cameras; ++k)
-    if (!record_camera(k, learners, 8, &rec[size_t(k)])) {
+    if (!vclassroom_tools::record_stream("rgbdtestsrc camera-id=" + std::to_string(k) + " seed=1 learners=" +
+                                             std::to_string(learners) + " num-buffers=8 ground-truth=false",
+                                         8, &rec[size_t(k)])) {
       std::fprintf(stderr, "could not record camera %d from rgbdtestsrc\n", k);
       return 1;
     }
@@ -256,10 +230,6 @@ int main(int argc, char** argv) {
     std::printf("throughput: median %.1f fps (min %.1f, max %.1f over %d runs of %d frames after %d warm-up "
                 "frames); CPU %.1f ms per output frame\n",
                 med.fps, figs.front().fps, figs.back().fps, int(figs.size()), frames - 30, 30, med.cpu_ms);
-  }
-  for (auto& r : rec) {
-    for (GstBuffer* b : r.frames) gst_buffer_unref(b);
-    if (r.caps) gst_caps_unref(r.caps);
   }
   for (const auto& p : priors) std::remove(p.c_str());
   std::remove(trace.c_str());

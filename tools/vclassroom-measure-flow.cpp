@@ -23,12 +23,13 @@
 #include <thread>
 #include <vector>
 
-#include <gst/app/gstappsink.h>
 #include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
 
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
+
+#include "recording.h"
 
 using namespace vclassroom;
 
@@ -170,30 +171,6 @@ std::pair<long long, long long> last_codec_stats(const std::string& log, const s
   return last;
 }
 
-// One camera's coded stream (rgbdtestsrc ! rgbdenc), recorded before the run.
-struct CodedRecording {
-  GstCaps* caps = nullptr;
-  std::vector<GstBuffer*> frames;
-};
-
-bool record_coded_camera(int id, int count, CodedRecording* rec) {
-  const std::string desc = "rgbdtestsrc camera-id=" + std::to_string(id) + " num-buffers=" + std::to_string(count) +
-                           " ground-truth=false ! rgbdenc quality=90 ! appsink name=out sync=false";
-  GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
-  if (!p) return false;
-  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
-  gst_element_set_state(p, GST_STATE_PLAYING);
-  while (GstSample* smp = gst_app_sink_pull_sample(GST_APP_SINK(sink))) {
-    if (!rec->caps) rec->caps = gst_caps_copy(gst_sample_get_caps(smp));
-    rec->frames.push_back(gst_buffer_ref(gst_sample_get_buffer(smp)));
-    gst_sample_unref(smp);
-  }
-  gst_element_set_state(p, GST_STATE_NULL);
-  gst_object_unref(sink);
-  gst_object_unref(p);
-  return static_cast<int>(rec->frames.size()) == count;
-}
-
 // The classroom side of pipelines/classroom.sh after rgbdenc, fed from memory.
 struct Replay {
   GstElement* pipeline = nullptr;
@@ -201,7 +178,7 @@ struct Replay {
   uint64_t sent = 0;
 };
 
-bool start_replay(const CodedRecording& rec, int port, double drop, Replay* r) {
+bool start_replay(const vclassroom_tools::Recording& rec, int port, double drop, Replay* r) {
   const std::string desc = "appsrc name=src format=time is-live=true ! rtpgstpay config-interval=1 mtu=1400 ! "
                            "identity drop-probability=" + std::to_string(drop) +
                            " ! udpsink host=127.0.0.1 port=" + std::to_string(port) + " sync=false";
@@ -251,9 +228,12 @@ int main(int argc, char** argv) {
     }
   }
   const double cam_rate = camera_link_rate(o);
-  std::vector<CodedRecording> recordings(o.live_cameras ? 0 : o.cameras.size());
+  // Each camera's coded stream, as classroom.sh sends it, recorded once.
+  std::vector<vclassroom_tools::Recording> recordings(o.live_cameras ? 0 : o.cameras.size());
   for (size_t i = 0; i < recordings.size(); ++i)
-    if (!record_coded_camera(o.cameras[i], 60, &recordings[i])) {
+    if (!vclassroom_tools::record_stream("rgbdtestsrc camera-id=" + std::to_string(o.cameras[i]) +
+                                             " num-buffers=60 ground-truth=false ! rgbdenc quality=90",
+                                         60, &recordings[i])) {
       std::fprintf(stderr, "could not record camera %d\n", o.cameras[i]);
       return 1;
     }
@@ -359,10 +339,7 @@ int main(int argc, char** argv) {
     gst_object_unref(r.src);
     gst_object_unref(r.pipeline);
   }
-  for (auto& r : recordings) {
-    for (GstBuffer* b : r.frames) gst_buffer_unref(b);
-    gst_caps_unref(r.caps);
-  }
+
   for (pid_t c : children) kill(c, SIGINT);
   gst_element_set_state(lect, GST_STATE_NULL);
   for (pid_t c : children) {
