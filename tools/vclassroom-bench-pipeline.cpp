@@ -25,7 +25,7 @@
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/pose.h>
 
-#include "recording.h"
+#include "tool_support.h"
 
 using namespace vclassroom;
 using vclassroom_tools::Recording;
@@ -104,10 +104,10 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "element %s not found: run inside `meson devenv -C build` or install the plugins\n", e);
       return 1;
     }
-  char tmpl[] = "/tmp/vclassroom-bench-XXXXXX";
-  const char* dir = mkdtemp(tmpl);
+  const std::string dir_path = vclassroom_tools::make_temp_dir("vclassroom-bench");
+  const char* dir = dir_path.empty() ? nullptr : dir_path.c_str();
   if (!dir) {
-    std::perror("mkdtemp");
+    std::perror("cannot make a scratch folder");
     return 1;
   }
   const std::string tmp = dir;

@@ -29,7 +29,7 @@
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
 
-#include "recording.h"
+#include "tool_support.h"
 
 using namespace vclassroom;
 
@@ -241,10 +241,10 @@ int main(int argc, char** argv) {
   std::string cams;
   for (int k : o.cameras) cams += (cams.empty() ? "" : " ") + std::to_string(k);
   // Each process logs its bus messages there; the codecs post their counts once a second.
-  char log_template[] = "/tmp/vclassroom-flow-XXXXXX";
-  const char* log_dir = mkdtemp(log_template);
+  const std::string log_dir_path = vclassroom_tools::make_temp_dir("vclassroom-flow");
+  const char* log_dir = log_dir_path.empty() ? nullptr : log_dir_path.c_str();
   if (!log_dir) {
-    std::perror("mkdtemp");
+    std::perror("cannot make a scratch folder");
     return 1;
   }
   const std::string server_log = std::string(log_dir) + "/server.log";

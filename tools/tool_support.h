@@ -1,5 +1,6 @@
-// What the benchmark tools replay: a stream recorded into memory before the
-// clock starts, so the source costs nothing while they measure.
+// What the measuring tools share: a stream recorded into memory before the
+// clock starts (so the source costs nothing while they measure), and a
+// scratch folder.
 #pragma once
 
 #include <cstdio>
@@ -54,6 +55,15 @@ inline bool record_stream(const std::string& source, int count, Recording* rec) 
     return false;
   }
   return true;
+}
+
+// A new folder in the system's temporary folder ($TMPDIR), named
+// <prefix>-XXXXXX; "" when it cannot be made.
+inline std::string make_temp_dir(const std::string& prefix) {
+  std::string path = std::string(g_get_tmp_dir()) + "/" + prefix + "-XXXXXX";
+  std::vector<char> buf(path.begin(), path.end());
+  buf.push_back('\0');
+  return g_mkdtemp(buf.data()) ? std::string(buf.data()) : std::string();
 }
 
 }  // namespace vclassroom_tools
