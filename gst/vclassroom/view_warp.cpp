@@ -222,7 +222,7 @@ struct CellGeometry {
 VCLASSROOM_SIMD_CLONES
 void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, const float* __restrict py,
                    const float* __restrict pz, const float* __restrict pw, const uint32_t* __restrict links,
-                   const CellRow& out) {
+                   const uint32_t* __restrict links_up, const CellRow& out) {
   const int W = g.W, H = g.H;
   const float VWf = float(g.VW), VHf = float(g.VH), max_area = g.max_area;
   const int VW1 = g.VW - 1, VH1 = g.VH - 1;
@@ -241,7 +241,7 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
     const float zi = pz[u], x = px[u], y = py[u];
     const bool right = (links[u] & kRight) != 0, down = (links[u] & kDown) != 0;
     const bool left = (u > 0) & ((links[u - 1] & kRight) != 0);
-    const bool up = has_up & ((links[u - W] & kDown) != 0);
+    const bool up = has_up & ((links_up[u] & kDown) != 0);
     const float rxu = px[u + 1] - x, ryu = py[u + 1] - y, lxu = x - px[u - 1], lyu = y - py[u - 1];
     const float dxv = px[u + W] - x, dyv = py[u + W] - y, uxv = x - px[u - W], uyv = y - py[u - W];
     const bool hu = right | left, hv = down | up;
@@ -545,19 +545,29 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     // virtual pixels whose pre-image lies inside it: the mesh's coverage
     // without its per-triangle set-up. Pixels with no neighbour on their
     // surface (flying pixels, speckle) are not drawn.
-    links_.resize(n + 2 * pad);
-    std::fill(links_.begin(), links_.end(), 0);
-    uint32_t* const LINKS = links_.data() + pad;
-    link_neighbours(n - 1, 1, PX, PY, PZ, PL, src_label_.data(), float(er), float(emin), kRight, LINKS);
-    for (int v = 0; v < H; ++v) LINKS[size_t(v) * W + W - 1] &= ~kRight;  // no wrap to the next row
-    link_neighbours(n - W, W, PX, PY, PZ, PL, src_label_.data(), float(er), float(emin), kDown, LINKS);
+    // Which neighbours lie on the same surface, a row at a time just before
+    // its cells are set up (two rows kept: a cell also looks at the row above).
+    links_.assign(3 * size_t(W + 2), 0);
+    uint32_t* const no_links = links_.data() + 2 * size_t(W + 2) + 1;  // the row above row 0
+    auto links_row = [&](int v) { return links_.data() + size_t(v & 1) * (W + 2) + 1; };
+    auto link_row = [&](int v) {
+      const size_t row = size_t(v) * W;
+      uint32_t* out = links_row(v);
+      std::fill_n(out, W, 0u);
+      link_neighbours(size_t(W - 1), 1, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
+                      float(emin), kRight, out);
+      if (v + 1 < H)
+        link_neighbours(size_t(W), W, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
+                        float(emin), kDown, out);
+    };
     // A cell the view magnifies: every virtual pixel of its bounding box tested.
     auto splat_big_cell = [&](int u, int v) {
       const size_t i = size_t(v) * W + u;
       const float zi = PZ[i];
-      const uint32_t nb = LINKS[i];
+      const uint32_t* links = links_row(v);
+      const uint32_t nb = links[u];
       const bool right = nb & kRight, down = nb & kDown;
-      const bool left = u > 0 && (LINKS[i - 1] & kRight), up = v > 0 && (LINKS[i - W] & kDown);
+      const bool left = u > 0 && (links[u - 1] & kRight), up = v > 0 && (links_row(v - 1)[u] & kDown);
       float jxu = 0, jyu = 0, jxv = 0, jyv = 0;
       if (right) jxu = PX[i + 1] - PX[i], jyu = PY[i + 1] - PY[i];
       else if (left) jxu = PX[i] - PX[i - 1], jyu = PY[i] - PY[i - 1];
@@ -603,7 +613,9 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     const CellGeometry geom{W, H, VW, VH, max_area2};
     for (int v = 0; v < H; ++v) {
       const size_t row = size_t(v) * W;
-      prepare_cells(geom, v, PX + row, PY + row, PZ + row, PW + row, LINKS + row, cells);
+      link_row(v);
+      prepare_cells(geom, v, PX + row, PY + row, PZ + row, PW + row, links_row(v), v > 0 ? links_row(v - 1) : no_links,
+                    cells);
       const uint8_t* lab = &src_label_[row];
       for (int u = 0; u < W; ++u) {
         const int32_t m = cell_mask_[u];
