@@ -80,7 +80,7 @@ class ViewWarper {
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint8_t> src_label_;
   std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
-  std::vector<uint32_t> links_;            // per source pixel: same surface as right / below (flags)
+  std::vector<uint32_t> links_;            // two rows of link flags (same surface as right / below), a spare zero row
   std::vector<uint64_t> zbuf_;             // per virtual pixel: z-buffer record (view_warp.cpp)
   // One source row of splat cells (view_warp.cpp, prepare_cells).
   std::vector<int32_t> cell_x0_, cell_y0_;
