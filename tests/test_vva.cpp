@@ -355,6 +355,7 @@ TEST(ViewWarpElement, APoseTraceSetsEachFramesViewByItsTime) {
   other.seq = 1000;
   ASSERT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(other)));
   std::vector<uint64_t> seqs;
+  std::vector<int64_t> viewer_times;
   std::vector<cv::Mat> colors;
   // Frames at 0, 50, 150 and 400 ms show trace poses 1, 1, 2 and 3 (the last is held).
   for (GstClockTime ms : {0, 50, 150, 400}) {
@@ -373,6 +374,7 @@ TEST(ViewWarpElement, APoseTraceSetsEachFramesViewByItsTime) {
     const PoseMeta* m = buffer_get_pose_meta(out);
     ASSERT_NE(m, nullptr);
     seqs.push_back(m->seq);
+    viewer_times.push_back(m->viewer_time_ns);
     GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
     RgbdInfo oi;
     std::string err;
@@ -385,6 +387,8 @@ TEST(ViewWarpElement, APoseTraceSetsEachFramesViewByItsTime) {
     gst_buffer_unref(out);
   }
   EXPECT_EQ(seqs, (std::vector<uint64_t>{1, 1, 2, 3}));
+  // The trace's time stands for the viewer's, so viewfuse's pose window can compare cameras.
+  EXPECT_EQ(viewer_times, (std::vector<int64_t>{0, 0, 100000000, 200000000}));
   EXPECT_EQ(cv::norm(colors[0], colors[1], cv::NORM_INF), 0) << "same trace pose, same view";
   EXPECT_GT(cv::norm(colors[1], colors[2], cv::NORM_L1), 0) << "the next trace pose must change the view";
   gst_harness_teardown(h);

@@ -41,15 +41,33 @@ inline bool record_stream(const std::string& source, int count, Recording* rec) 
     return false;
   }
   GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  GstBus* bus = gst_element_get_bus(p);
   gst_element_set_state(p, GST_STATE_PLAYING);
-  while (GstSample* s = gst_app_sink_pull_sample(GST_APP_SINK(sink))) {
-    if (!rec->caps) rec->caps = gst_caps_copy(gst_sample_get_caps(s));
-    rec->frames.push_back(gst_buffer_ref(gst_sample_get_buffer(s)));
-    gst_sample_unref(s);
+  // Until the end of the stream, or an error (which would leave the sink waiting for ever).
+  bool failed = false;
+  while (!failed) {
+    if (GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 100 * GST_MSECOND)) {
+      if (!rec->caps) rec->caps = gst_caps_copy(gst_sample_get_caps(s));
+      rec->frames.push_back(gst_buffer_ref(gst_sample_get_buffer(s)));
+      gst_sample_unref(s);
+      continue;
+    }
+    if (gst_app_sink_is_eos(GST_APP_SINK(sink))) break;
+    if (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR)) {
+      GError* e = nullptr;
+      gst_message_parse_error(m, &e, nullptr);
+      std::fprintf(stderr, "recording '%s' failed in %s: %s\n", source.c_str(), GST_OBJECT_NAME(m->src),
+                   e ? e->message : "?");
+      g_clear_error(&e);
+      gst_message_unref(m);
+      failed = true;
+    }
   }
+  gst_object_unref(bus);
   gst_element_set_state(p, GST_STATE_NULL);
   gst_object_unref(sink);
   gst_object_unref(p);
+  if (failed) return false;
   if (static_cast<int>(rec->frames.size()) < count) {
     std::fprintf(stderr, "'%s' gave %zu buffers, expected %d\n", source.c_str(), rec->frames.size(), count);
     return false;

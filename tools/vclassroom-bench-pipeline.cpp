@@ -159,8 +159,10 @@ int main(int argc, char** argv) {
               " ! queue max-size-buffers=2 ! fuse.cam_" + std::to_string(k);
     GError* err = nullptr;
     GstElement* pipeline = gst_parse_launch(desc.c_str(), &err);
-    if (!pipeline) {
+    if (!pipeline || err) {
       std::fprintf(stderr, "cannot build the pipeline: %s\n", err ? err->message : "?");
+      g_clear_error(&err);
+      if (pipeline) gst_object_unref(pipeline);
       return 1;
     }
     std::vector<Feeder> feeders(static_cast<size_t>(cameras));

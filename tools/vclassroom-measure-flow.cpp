@@ -182,8 +182,15 @@ bool start_replay(const vclassroom_tools::Recording& rec, int port, double drop,
   const std::string desc = "appsrc name=src format=time is-live=true ! rtpgstpay config-interval=1 mtu=1400 ! "
                            "identity drop-probability=" + std::to_string(drop) +
                            " ! udpsink host=127.0.0.1 port=" + std::to_string(port) + " sync=false";
-  r->pipeline = gst_parse_launch(desc.c_str(), nullptr);
-  if (!r->pipeline) return false;
+  GError* err = nullptr;
+  r->pipeline = gst_parse_launch(desc.c_str(), &err);
+  if (!r->pipeline || err) {
+    std::fprintf(stderr, "camera replay pipeline: %s\n", err ? err->message : "?");
+    g_clear_error(&err);
+    if (r->pipeline) gst_object_unref(r->pipeline);
+    r->pipeline = nullptr;
+    return false;
+  }
   r->src = gst_bin_get_by_name(GST_BIN(r->pipeline), "src");
   gst_app_src_set_caps(GST_APP_SRC(r->src), rec.caps);
   gst_element_set_state(r->pipeline, GST_STATE_PLAYING);
@@ -289,6 +296,18 @@ int main(int argc, char** argv) {
     for (size_t i = 0; i < replays.size(); ++i)
       if (!start_replay(recordings[i], 5000 + o.cameras[i], o.drop, &replays[i])) {
         std::fprintf(stderr, "could not start the replay of camera %d\n", o.cameras[i]);
+        // The server already runs: stop it, so it does not keep the ports.
+        for (pid_t c : children) {
+          kill(c, SIGKILL);
+          waitpid(c, nullptr, 0);
+        }
+        gst_element_set_state(lect, GST_STATE_NULL);
+        for (auto& r : replays)
+          if (r.pipeline) {
+            gst_element_set_state(r.pipeline, GST_STATE_NULL);
+            gst_object_unref(r.src);
+            gst_object_unref(r.pipeline);
+          }
         return 1;
       }
     // Every camera sends frame f at f/30 s, as a live camera would.

@@ -295,7 +295,8 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
   }
 }
 
-inline uint16_t depth_mm(float z_m) { return uint16_t(std::min(65534.0f, z_m * 1000.0f + 0.5f)); }
+// The mesh path extrapolates a little beyond its triangles: clamped both ways.
+inline uint16_t depth_mm(float z_m) { return uint16_t(std::clamp(z_m * 1000.0f + 0.5f, 0.0f, 65534.0f)); }
 
 // Bilinear colour of the source at a fixed-point position (1/32 px) inside the image.
 struct ColorSampler {
@@ -378,8 +379,6 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   CV_Assert(in.label.empty() || (in.label.type() == CV_8UC1 && in.label.size() == in.color.size()));
   CV_Assert(in.static_depth.empty() ||
             (in.static_depth.type() == CV_16UC1 && in.static_depth.size() == in.color.size()));
-  // Source positions are stored in 16 bits at 1/32 px.
-  CV_Assert(src.width < 2048 && src.height < 2048);
   const int W = src.width, H = src.height;
   const int VW = virt.width, VH = virt.height;
   const size_t n = size_t(W) * H, vn = size_t(VW) * VH;

@@ -86,7 +86,6 @@ class ViewWarper {
   std::vector<int32_t> cell_x0_, cell_y0_;
   std::vector<float> cell_pos_;
   std::vector<int32_t> cell_mask_, cell_weight_;
-  cv::Mat map_xy_, map_frac_;              // per virtual pixel: source position for cv::remap
 };
 
 // Convenience: one-shot warp.

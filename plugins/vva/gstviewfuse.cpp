@@ -484,7 +484,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           "Live: cameras' frames warped for poses the viewer took at most this many ns apart are "
                           "fused together; a frame warped for an older pose is dropped and its fresh one awaited "
                           "(0: only frames of exactly the same pose). The output is stamped with the oldest pose",
-                          0, G_MAXUINT64, kDefaultPoseWindow,
+                          0, G_MAXINT64, kDefaultPoseWindow,
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_FRAMES_FUSED,

@@ -245,12 +245,19 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   if (!st->trace.empty()) {
     // The frame's own moment of the trace: every camera's frame of one
     // instant gets the same pose, however far apart their threads run.
-    const GstClockTime rt = gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf));
-    const double t = GST_CLOCK_TIME_IS_VALID(rt) ? double(rt) / GST_SECOND : std::nan("");
-    const size_t i = pose_trace_index(st->trace, std::isnan(t) ? -1.0 : t, st->frames);
+    const bool timed = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf);
+    const GstClockTime rt =
+        timed ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf)) : GST_CLOCK_TIME_NONE;
+    // Without a running time the trace goes by frame number, whatever its t column.
+    const size_t i = GST_CLOCK_TIME_IS_VALID(rt) && !std::isnan(st->trace.front().t)
+                         ? pose_trace_index(st->trace, double(rt) / GST_SECOND, st->frames)
+                         : std::min<size_t>(st->frames, st->trace.size() - 1);
     pose = st->trace[i].pose;
     pose.seq = i + 1;
-    pose.viewer_time_ns = -1;
+    // The trace's own time as the viewer time: viewfuse's pose window then
+    // compares the poses of two cameras by how far apart the trace has them.
+    const double t = st->trace[i].t;
+    pose.viewer_time_ns = std::isnan(t) ? -1 : int64_t(std::llround(t * 1e9));
   }
   ++st->frames;
   RgbdFrame in, out;
@@ -428,8 +435,8 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_POSE_TRACE,
       g_param_spec_string("pose-trace", "Pose trace",
-                          "CSV pose trace (docs/pose.md) that sets the view of each frame by its running time (the "
-                          "trace's t column; without one, by frame number), overriding pose events: for rendering a "
+                          "CSV pose trace (docs/pose.md) that sets the view of each frame by its running time against "
+                          "the trace's t column (without either, by frame number), overriding pose events: for rendering a "
                           "scripted path, every camera's frame of one instant warped for the same pose. Empty: "
                           "pose events steer the view",
                           "", ready));
