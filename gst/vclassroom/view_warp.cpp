@@ -197,9 +197,15 @@ constexpr float kEdge = 0.02f;          // how far a cell reaches past its centr
 // and the source position of each, in remap fixed point. Others are marked
 // kBigCell and handled one by one.
 constexpr int32_t kBigCell = 16;
+// A cell side that borders its surface's neighbour (or the image border)
+// reaches half a pixel; towards a depth edge only kEdge.
+constexpr int32_t kOpenRight = 1, kOpenLeft = 2, kOpenDown = 4, kOpenUp = 8;
 struct CellRow {
   int32_t* x0;  // first candidate column / row
   int32_t* y0;
+  int32_t* x1;     // last column / row of the bounding box (big cells)
+  int32_t* y1;
+  int32_t* sides;  // which sides reach a full half pixel: kOpen* bits (big cells)
   // 32-bit like everything else here: one byte-wide array would make the
   // compiler process 32 pixels per step and spill most of its registers.
   int32_t* mask;    // bit k: candidate (x0 + (k & 1), y0 + (k >> 1)) covered; or kBigCell; 0: not drawn
@@ -230,6 +236,7 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
   const bool has_up = v > 0, has_down_border = v + 1 >= H, top = v == 0;
   int32_t* __restrict ox0 = out.x0;
   int32_t* __restrict oy0 = out.y0;
+  int32_t *__restrict ox1 = out.x1, *__restrict oy1 = out.y1, *__restrict osides = out.sides;
   int32_t* __restrict omask = out.mask;
   int32_t* __restrict ow = out.weight;
   float *__restrict osu = out.su, *__restrict osv = out.sv, *__restrict oa00 = out.dsu_dx,
@@ -266,8 +273,10 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
     const bool small = (xmax - xmin <= 1) & (ymax - ymin <= 1);
     // Towards a depth edge the cell ends at the pixel centre, like the mesh:
     // the surface is not known to go on beyond it.
-    const float umax = (right | (u + 1 >= W)) ? kCell : kEdge, umin = (left | (u == 0)) ? -kCell : -kEdge;
-    const float vmax = (down | has_down_border) ? kCell : kEdge, vmin = (up | top) ? -kCell : -kEdge;
+    const bool open_right = right | (u + 1 >= W), open_left = left | (u == 0);
+    const bool open_down = down | has_down_border, open_up = up | top;
+    const float umax = open_right ? kCell : kEdge, umin = open_left ? -kCell : -kEdge;
+    const float vmax = open_down ? kCell : kEdge, vmin = open_up ? -kCell : -kEdge;
     const float idet = 1.0f / (drawn ? det : 1.0f);
     const float a00 = jyv * idet, a01 = -jxv * idet, a10 = -jyu * idet, a11 = jxu * idet;
     const float dx0 = float(xmin) - x, dy0 = float(ymin) - y;
@@ -290,6 +299,10 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
     omask[u] = drawn ? (small ? mask : kBigCell) : 0;
     ox0[u] = xmin;
     oy0[u] = ymin;
+    ox1[u] = xmax;
+    oy1[u] = ymax;
+    osides[u] = (open_right ? kOpenRight : 0) | (open_left ? kOpenLeft : 0) | (open_down ? kOpenDown : 0) |
+                (open_up ? kOpenUp : 0);
     const float w = pw[u] / std::sqrt(std::max(area, 1.0f));
     ow[u] = int32_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f));
   }
@@ -559,56 +572,42 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
         link_neighbours(size_t(W), W, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
                         float(emin), kDown, out);
     };
-    // A cell the view magnifies: every virtual pixel of its bounding box tested.
-    auto splat_big_cell = [&](int u, int v) {
-      const size_t i = size_t(v) * W + u;
-      const float zi = PZ[i];
-      const uint32_t* links = links_row(v);
-      const uint32_t nb = links[u];
-      const bool right = nb & kRight, down = nb & kDown;
-      const bool left = u > 0 && (links[u - 1] & kRight), up = v > 0 && (links_row(v - 1)[u] & kDown);
-      float jxu = 0, jyu = 0, jxv = 0, jyv = 0;
-      if (right) jxu = PX[i + 1] - PX[i], jyu = PY[i + 1] - PY[i];
-      else if (left) jxu = PX[i] - PX[i - 1], jyu = PY[i] - PY[i - 1];
-      if (down) jxv = PX[i + W] - PX[i], jyv = PY[i + W] - PY[i];
-      else if (up) jxv = PX[i] - PX[i - W], jyv = PY[i] - PY[i - W];
-      if (!(right || left)) jxu = jyv, jyu = -jxv;
-      if (!(down || up)) jxv = -jyu, jyv = jxu;
-      const float det = jxu * jyv - jxv * jyu;
-      const float x = PX[i], y = PY[i];
-      const float hx = kCell * (std::fabs(jxu) + std::fabs(jxv)), hy = kCell * (std::fabs(jyu) + std::fabs(jyv));
-      const int xmin = std::max(0, fast_ceil(x - hx)), xmax = std::min(VW - 1, fast_floor(x + hx));
-      const int ymin = std::max(0, fast_ceil(y - hy)), ymax = std::min(VH - 1, fast_floor(y + hy));
-      const float umax = right || u + 1 >= W ? kCell : kEdge, umin = left || u == 0 ? -kCell : -kEdge;
-      const float vmax = down || v + 1 >= H ? kCell : kEdge, vmin = up || v == 0 ? -kCell : -kEdge;
-      const float idet = 1.0f / det;
-      const float a00 = jyv * idet, a01 = -jxv * idet, a10 = -jyu * idet, a11 = jxu * idet;
-      const uint8_t wq = weight_byte(PW[i] / std::sqrt(std::max(std::fabs(det), 1.0f)));
-      const uint8_t lab = src_label_[i];
-      const uint16_t zmm = depth_mm(zi);
-      const float fu = float(u), fv = float(v);
-      for (int yi = ymin; yi <= ymax; ++yi) {
-        const float dy = float(yi) - y;
-        Sample* row = zbuf + size_t(yi) * VW;
-        for (int xi = xmin; xi <= xmax; ++xi) {
-          const float dx = float(xi) - x;
-          const float du = a00 * dx + a01 * dy, dv = a10 * dx + a11 * dy;
-          if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
-          Sample& s = row[xi];
-          if (zmm >= s.z) continue;
-          store(s, zmm, to_fixed(fu + du, max_u), to_fixed(fv + dv, max_v), color, wq, lab);
-        }
-      }
-    };
     cell_x0_.resize(W);
     cell_y0_.resize(W);
+    cell_x1_.resize(W);
+    cell_y1_.resize(W);
+    cell_sides_.resize(W);
     cell_mask_.resize(W);
     cell_weight_.resize(W);
     cell_pos_.resize(size_t(W) * 6);
     float* const pos = cell_pos_.data();
-    const CellRow cells{cell_x0_.data(), cell_y0_.data(), cell_mask_.data(), cell_weight_.data(),
-                        pos,             pos + W,         pos + 2 * W,       pos + 3 * W,
-                        pos + 4 * W,     pos + 5 * W};
+    const CellRow cells{cell_x0_.data(), cell_y0_.data(), cell_x1_.data(), cell_y1_.data(), cell_sides_.data(),
+                        cell_mask_.data(), cell_weight_.data(), pos, pos + W, pos + 2 * W, pos + 3 * W,
+                        pos + 4 * W, pos + 5 * W};
+    // A cell the view magnifies: every virtual pixel of its bounding box
+    // tested against the cell as prepare_cells set it up.
+    auto splat_big_cell = [&](int u, int v, uint16_t zmm, uint8_t label) {
+      const int32_t sides = cell_sides_[u];
+      const float umax = sides & kOpenRight ? kCell : kEdge, umin = sides & kOpenLeft ? -kCell : -kEdge;
+      const float vmax = sides & kOpenDown ? kCell : kEdge, vmin = sides & kOpenUp ? -kCell : -kEdge;
+      const float fu = float(u), fv = float(v);
+      const float su0 = cells.su[u], sv0 = cells.sv[u];
+      const float a00 = cells.dsu_dx[u], a10 = cells.dsv_dx[u], a01 = cells.dsu_dy[u], a11 = cells.dsv_dy[u];
+      const int x0 = cell_x0_[u], y0 = cell_y0_[u];
+      for (int yi = y0; yi <= cell_y1_[u]; ++yi) {
+        const float ky = float(yi - y0);
+        Sample* row = zbuf + size_t(yi) * VW;
+        for (int xi = x0; xi <= cell_x1_[u]; ++xi) {
+          const float kx = float(xi - x0);
+          const float su = su0 + a00 * kx + a01 * ky, sv = sv0 + a10 * kx + a11 * ky;
+          const float du = su - fu, dv = sv - fv;
+          if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
+          Sample& s = row[xi];
+          if (zmm >= s.z) continue;
+          store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, uint8_t(cell_weight_[u]), label);
+        }
+      }
+    };
     const CellGeometry geom{W, H, VW, VH, max_area2};
     for (int v = 0; v < H; ++v) {
       const size_t row = size_t(v) * W;
@@ -619,11 +618,11 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       for (int u = 0; u < W; ++u) {
         const int32_t m = cell_mask_[u];
         if (!m) continue;
+        const uint16_t zmm = depth_mm(PZ[row + u]);
         if (m == kBigCell) {
-          splat_big_cell(u, v);
+          splat_big_cell(u, v, zmm, lab[u]);
           continue;
         }
-        const uint16_t zmm = depth_mm(PZ[row + u]);
         Sample* const first = zbuf + size_t(cell_y0_[u]) * VW + cell_x0_[u];
         // Usually one candidate: a loop over the set bits costs one predictable
         // branch, where testing each bit mispredicts.
