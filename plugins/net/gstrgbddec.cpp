@@ -73,10 +73,7 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
   }
   const gsize coded_size = gst_buffer_get_size(in);
   if (!ok) {
-    codec_stats_count(GST_ELEMENT(self), &self->stats, coded_size, true);
-    GST_OBJECT_LOCK(self);
-    const guint64 dropped = self->stats.dropped;
-    GST_OBJECT_UNLOCK(self);
+    const guint64 dropped = codec_stats_count(GST_ELEMENT(self), &self->stats, coded_size, true).dropped;
     GST_ELEMENT_WARNING(self, STREAM, DECODE,
                         ("dropping a damaged frame at %" GST_TIME_FORMAT ": %s", GST_TIME_ARGS(GST_BUFFER_PTS(in)),
                          err.c_str()),

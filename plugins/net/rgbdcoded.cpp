@@ -90,14 +90,14 @@ bool codec_stats_set_property(GstObject* self, CodecStats* st, guint prop_id, co
   return true;
 }
 
-void codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped) {
+CodecStats codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped) {
   GST_OBJECT_LOCK(self);
   if (dropped) st->dropped++;
   else st->frames++, st->bytes += bytes;
-  const guint64 seen = st->frames + st->dropped;
-  const bool due = st->interval && seen % st->interval == 0;
+  const CodecStats now = *st;
   GST_OBJECT_UNLOCK(self);
-  if (due) codec_stats_post(self, st);
+  if (now.interval && (now.frames + now.dropped) % now.interval == 0) codec_stats_post(self, &now);
+  return now;
 }
 
 void codec_stats_post(GstElement* self, const CodecStats* st) {

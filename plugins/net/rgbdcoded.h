@@ -35,8 +35,9 @@ void codec_stats_install_properties(GObjectClass* klass, const char* frames_blur
 // For the properties above; false when prop_id is not one of them.
 bool codec_stats_get_property(GstObject* self, const CodecStats& st, guint prop_id, GValue* value);
 bool codec_stats_set_property(GstObject* self, CodecStats* st, guint prop_id, const GValue* value);
-// Counts one frame (or a dropped one) and posts the message when due. Takes the object lock.
-void codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped);
+// Counts one frame (or a dropped one) and posts the message when due. Takes
+// the object lock; returns the counts after this frame.
+CodecStats codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped);
 // Posts the message now (at end of stream, so the last count is exact), when the interval is not 0.
 void codec_stats_post(GstElement* self, const CodecStats* st);
 // sink_event for rgbdenc / rgbddec: posts the final count at EOS, then chains up.

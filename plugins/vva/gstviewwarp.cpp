@@ -170,16 +170,13 @@ static GstFlowReturn gst_view_warp_prepare_output_buffer(GstBaseTransform* trans
 static gboolean gst_view_warp_start(GstBaseTransform* trans) {
   GstViewWarp* self = GST_VIEW_WARP(trans);
   WarpState* st = self->st;
-  std::string path;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    path = st->prior_path;
-  }
-  std::string rig_path;
+  std::string path, rig_path, trace_path;
   int ref;
   {
     std::lock_guard<std::mutex> g(st->lock);
+    path = st->prior_path;
     rig_path = st->rig_path;
+    trace_path = st->trace_path;
     ref = st->reference_id;
   }
   // Until the first pose event: the reference camera's view.
@@ -199,11 +196,6 @@ static gboolean gst_view_warp_start(GstBaseTransform* trans) {
   } catch (const Error& e) {
     GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("property rig of %s", GST_OBJECT_NAME(self)));
     return FALSE;
-  }
-  std::string trace_path;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    trace_path = st->trace_path;
   }
   st->trace.clear();
   st->frames = 0;
