@@ -3,20 +3,22 @@
 # (mouse, keys, SLIDERS or a POSE_TRACE) go back to the server through posesend.
 # Variables: SERVER (host, default 127.0.0.1), VIDEO_PORT (default 5010), POSE_PORT (default 5011),
 #   RIG (rig file the sliders refer to; empty: the rig origin), SLIDERS (start view, default [50,50,50,50,50,50]),
-#   POSE_TRACE (CSV; empty: interactive), SINK (default autovideosink; e.g. "fakesink" or a file branch).
+#   POSE_TRACE (CSV; empty: interactive), SINK (default autovideosink; e.g. "fakesink" or a file branch),
+#   MTU (largest RTP packet from the server, default 1400; as server.sh).
 set -euo pipefail
 SERVER=${SERVER:-127.0.0.1}
 VIDEO_PORT=${VIDEO_PORT:-5010}
 POSE_PORT=${POSE_PORT:-5011}
 SLIDERS=${SLIDERS:-"[50,50,50,50,50,50]"}
 SINK=${SINK:-autovideosink}
+MTU=${MTU:-1400}
 nav="sliders=\"$SLIDERS\""
 [ -n "${RIG:-}" ] && nav="$nav rig=$RIG"
 [ -n "${POSE_TRACE:-}" ] && nav="$nav pose-trace=$POSE_TRACE"
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
-desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
+desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
   rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! posenav $nav ! $SINK \
   back.rtp ! udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
 # shellcheck disable=SC2086

@@ -6,7 +6,8 @@
 #   LECTURER (host, default 127.0.0.1), VIDEO_PORT (default 5010), POSE_PORT (default 5011),
 #   MODEL (folder from vclassroom-build-model; empty: no V-DA), RIG (rig file; empty: the default classroom rig),
 #   WIDTH/HEIGHT (virtual view, default 960x540), QUALITY (JPEG quality of the lecturer's video, default 90).
-#   STATS (0: quiet; N: every N frames each camera's decoder posts vclassroom-codec-stats, printed by -m).
+#   STATS (0: quiet; N: every N frames each camera's decoder posts vclassroom-codec-stats, printed by -m),
+#   MTU (largest RTP packet received from the cameras and sent to the lecturer, default 1400; as classroom.sh).
 set -euo pipefail
 CAMERAS=${CAMERAS:-"0 1 2"}
 BASE_PORT=${BASE_PORT:-5000}
@@ -21,6 +22,7 @@ QUALITY=${QUALITY:-90}
 # A 960x540 RGB-D frame is ~400 packets sent at once: the socket must hold a few frames.
 UDP_BUFFER=${UDP_BUFFER:-33554432}
 STATS=${STATS:-0}
+MTU=${MTU:-1400}
 POSE_EXT="extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose"
 
 read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
@@ -35,15 +37,15 @@ for k in $CAMERAS; do
   [ -n "$MODEL" ] && prior="prior-depth=$MODEL/prior-depth/cam$k.png"
   rig=""
   [ -n "$RIG" ] && rig="rig=$RIG"
-  branches="$branches udpsrc port=$port buffer-size=$UDP_BUFFER caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST\" ! \
-    rtpjitterbuffer latency=50 drop-on-latency=true ! rtpgstdepay ! rgbddec name=dec$k stats-interval=$STATS ! queue max-size-buffers=2 leaky=downstream ! \
+  branches="$branches udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST\" ! \
+    rtpjitterbuffer latency=50 drop-on-latency=true ! rtpgstdepay ! queue max-size-buffers=1 leaky=downstream ! rgbddec name=dec$k stats-interval=$STATS ! \
     $vda learnerseg $prior ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
 desc="viewfuse name=fuse latency=100000000 ! poserecv name=poses ! \
-  jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=1400 ! application/x-rtp,$POSE_EXT ! \
+  jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=$MTU ! application/x-rtp,$POSE_EXT ! \
   udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
   udpsrc port=$POSE_PORT caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! poses.rtp \
   $branches"

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <gst/app/gstappsrc.h>
+#include <gst/vclassroom/checksum.h>
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/rgbd_codec.h>
@@ -78,6 +79,48 @@ TEST(DepthCodec, DamagedDataIsRejectedNotMisread) {
   for (size_t cut = 0; cut < bytes.size(); cut += 7)
     EXPECT_FALSE(decode_depth_lossless(bytes.data(), cut, d.cols, d.rows, &back)) << "cut at " << cut;
   EXPECT_FALSE(decode_depth_lossless(bytes.data(), bytes.size(), d.cols + 1, d.rows, &back));
+}
+
+TEST(DepthCodec, WireFormatIsPinned) {
+  // 2x2 depth {5, 0; 0, 0}: a run of 0 zeros and 1 valid pixel (residual 5,
+  // zigzag 10 = nibbles 0xA 0x1), then 3 zeros and no valid pixel. Nibbles
+  // 0 1 A 1 3 0, low nibble first. A faster coder must still read and write this.
+  cv::Mat d = cv::Mat::zeros(2, 2, CV_16UC1);
+  d.at<uint16_t>(0, 0) = 5;
+  const std::vector<uint8_t> wire = {0x10, 0x1A, 0x03};
+  std::vector<uint8_t> bytes;
+  encode_depth_lossless(d, &bytes);
+  EXPECT_EQ(bytes, wire);
+  cv::Mat back;
+  ASSERT_TRUE(decode_depth_lossless(wire.data(), wire.size(), 2, 2, &back));
+  EXPECT_TRUE(vctest::same_image(back, d));
+}
+
+TEST(DepthCodec, ValuesLongerThan32BitsAreRejected) {
+  // Every nibble says "more": no value ever ends, near the end of the data or far from it.
+  const std::vector<uint8_t> endless(64, 0xFF);
+  cv::Mat back;
+  for (size_t size : {size_t(3), size_t(7), size_t(64)})
+    EXPECT_FALSE(decode_depth_lossless(endless.data(), size, 4, 4, &back)) << size << " bytes";
+}
+
+TEST(Checksum, Crc32MatchesTheStandardAndTheBytewiseDefinition) {
+  const char* check = "123456789";
+  EXPECT_EQ(crc32(reinterpret_cast<const uint8_t*>(check), 9), 0xCBF43926u);
+  EXPECT_EQ(crc32(nullptr, 0), 0u);
+  std::vector<uint8_t> data(64);
+  for (size_t i = 0; i < data.size(); ++i) data[i] = static_cast<uint8_t>(i * 131 + 7);
+  auto bytewise = [](const uint8_t* p, size_t n) {
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; ++i) {
+      c ^= p[i];
+      for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    }
+    return c ^ 0xFFFFFFFFu;
+  };
+  for (size_t offset = 0; offset < 8; ++offset)
+    for (size_t n = 0; offset + n <= 40; ++n)
+      EXPECT_EQ(crc32(data.data() + offset, n), bytewise(data.data() + offset, n)) << offset << "+" << n;
 }
 
 TEST(LabelCodec, RoundTrip) {
