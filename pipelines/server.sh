@@ -7,7 +7,9 @@
 #   MODEL (folder from vclassroom-build-model; empty: no V-DA), RIG (rig file; empty: the default classroom rig),
 #   WIDTH/HEIGHT (virtual view, default 960x540), QUALITY (JPEG quality of the lecturer's video, default 90).
 #   STATS (0: quiet; N: every N frames each camera's decoder posts vclassroom-codec-stats, printed by -m),
-#   MTU (largest RTP packet received from the cameras and sent to the lecturer, default 1400; as classroom.sh).
+#   MTU (largest RTP packet received from the cameras and sent to the lecturer, default 1400; as classroom.sh),
+#   PREP_NICE (nice value of the threads that decode, complete and segment camera frames, default 10: when
+#   the CPU is short, warping, fusing and sending the lecturer's view go first; 0 shares it evenly).
 set -euo pipefail
 CAMERAS=${CAMERAS:-"0 1 2"}
 BASE_PORT=${BASE_PORT:-5000}
@@ -23,6 +25,7 @@ QUALITY=${QUALITY:-90}
 UDP_BUFFER=${UDP_BUFFER:-33554432}
 STATS=${STATS:-0}
 MTU=${MTU:-1400}
+PREP_NICE=${PREP_NICE:-10}
 POSE_EXT="extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose"
 
 read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
@@ -38,8 +41,9 @@ for k in $CAMERAS; do
   rig=""
   [ -n "$RIG" ] && rig="rig=$RIG"
   branches="$branches udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST\" ! \
-    rtpjitterbuffer latency=50 drop-on-latency=true ! rtpgstdepay ! queue max-size-buffers=1 leaky=downstream ! rgbddec name=dec$k stats-interval=$STATS ! \
-    $vda learnerseg $prior ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
+    rtpjitterbuffer latency=50 drop-on-latency=true ! rtpgstdepay ! \
+    queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k stats-interval=$STATS ! \
+    $vda learnerseg $prior ! queue max-size-buffers=1 leaky=downstream ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.

@@ -4,6 +4,13 @@
 
 #include <cstring>
 #include <set>
+#include <thread>
+
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
 
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
@@ -35,7 +42,8 @@ TEST(Plugins, EveryElementIsDocumented) {
   std::set<std::string> names;
   for (GstElementFactory* f : factories) names.insert(GST_OBJECT_NAME(f));
   for (const char* expected : {"rgbdmux", "rgbddemux", "rgbdfilesrc", "rgbdfilesink", "rgbdtestsrc", "depthcolorize",
-                               "rgbdenc", "rgbddec", "posesend", "poserecv", "rtphdrextvcpose", "posenav"})
+                               "rgbdenc", "rgbddec", "posesend", "poserecv", "rtphdrextvcpose", "posenav",
+                               "threadpriority"})
     EXPECT_TRUE(names.count(expected)) << expected << " is not registered";
 
   for (GstElementFactory* f : factories) {
@@ -44,8 +52,9 @@ TEST(Plugins, EveryElementIsDocumented) {
     EXPECT_TRUE(desc && strlen(desc) > 30) << name << ": description too short";
     // RTP header extensions are helpers that payloaders load, not pipeline elements: no pads.
     const char* klass = gst_element_factory_get_metadata(f, GST_ELEMENT_METADATA_KLASS);
-    if (!g_strrstr(klass, "Network/Extension/RTPHeader"))
+    if (!g_strrstr(klass, "Network/Extension/RTPHeader")) {
       EXPECT_GT(gst_element_factory_get_num_pad_templates(f), 0u) << name << ": no pad templates";
+    }
     GstElement* e = gst_element_factory_create(f, nullptr);
     ASSERT_NE(e, nullptr) << name;
     guint n = 0;
@@ -60,6 +69,45 @@ TEST(Plugins, EveryElementIsDocumented) {
     gst_object_unref(e);
     gst_object_unref(f);
   }
+}
+
+// threadpriority through a harness, in a thread of its own (the harness
+// pushes from the calling thread, whose nice value it changes): buffers pass
+// untouched and the pushing thread, only that one, runs at the nice value;
+// a new value applies from the next buffer.
+TEST(ThreadPriority, LowersThePushingThreadOnly) {
+#ifdef __linux__
+  const int before = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+  // Raising a thread back needs privileges some runs have and others lack.
+  if (before > 7) {
+    GTEST_SKIP() << "the tests already run at nice " << before;
+  }
+  int seen_first = -100, seen_second = -100;
+  bool same_buffer = false;
+  std::thread pusher([&] {
+    GstHarness* h = gst_harness_new("threadpriority");
+    g_object_set(h->element, "nice", 7, nullptr);
+    gst_harness_set_src_caps_str(h, "video/x-raw,format=GRAY8,width=2,height=2,framerate=30/1");
+    GstBuffer* in = gst_harness_create_buffer(h, 4);
+    GstBuffer* out = gst_harness_push_and_pull(h, gst_buffer_ref(in));
+    same_buffer = out == in;
+    seen_first = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+    if (out) gst_buffer_unref(out);
+    gst_buffer_unref(in);
+    g_object_set(h->element, "nice", 12, nullptr);
+    out = gst_harness_push_and_pull(h, gst_harness_create_buffer(h, 4));
+    seen_second = getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+    if (out) gst_buffer_unref(out);
+    gst_harness_teardown(h);
+  });
+  pusher.join();
+  EXPECT_TRUE(same_buffer) << "the buffer did not pass through untouched";
+  EXPECT_EQ(seen_first, 7);
+  EXPECT_EQ(seen_second, 12);
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid))), before) << "another thread changed";
+#else
+  GTEST_SKIP() << "thread priorities are set on Linux only";
+#endif
 }
 
 // depthcolorize through a harness: GRAY16_LE in, RGB out, 0 stays black, near

@@ -49,6 +49,8 @@ struct Options {
   // Largest RTP packet on every link (pipelines' MTU): 1400 fits an Ethernet
   // frame; loopback carries up to 64 KiB, which saves ~45 packets per camera frame.
   int mtu = 1400;
+  // Nice value of the server's camera-preparing threads (server.sh's PREP_NICE); -1: the script's default.
+  int prep_nice = -1;
 };
 
 std::string cpu_model() {
@@ -221,6 +223,7 @@ int main(int argc, char** argv) {
     else if (a == "--drop") o.drop = std::atof(next().c_str());
     else if (a == "--live-cameras") o.live_cameras = true;
     else if (a == "--mtu") o.mtu = std::atoi(next().c_str());
+    else if (a == "--prep-nice") o.prep_nice = std::atoi(next().c_str());
     else if (a == "--cameras") {
       o.cameras.clear();
       std::istringstream is(next());
@@ -229,13 +232,14 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: vclassroom-measure-flow [--seconds N] [--cameras \"0 1 2\"] [--model DIR] [--drop P]\n"
-                   "                              [--live-cameras] [--mtu BYTES] [--pipelines DIR]\n"
+                   "                              [--live-cameras] [--mtu BYTES] [--prep-nice N]\n"
+                   "                              [--pipelines DIR]\n"
                    "Runs pipelines/server.sh as a process on loopback, acts as the lecturer, and prints\n"
                    "pose-to-display latency p50/p99, frames sent and decoded per camera, frames displayed,\n"
                    "bitrate per link and CPU per process. The cameras' coded streams are recorded first and\n"
                    "replayed at 30 fps by this program; --live-cameras runs pipelines/classroom.sh per camera\n"
                    "instead (rendering live on this machine). --mtu sets the largest RTP packet on every link\n"
-                   "(default 1400; loopback takes up to 65000). Run inside `meson devenv -C build`.\n");
+                   "(default 1400; loopback takes up to 65000); --prep-nice sets server.sh's PREP_NICE. Run inside `meson devenv -C build`.\n");
       return 2;
     }
   }
@@ -262,8 +266,10 @@ int main(int argc, char** argv) {
   const std::string server_log = std::string(log_dir) + "/server.log";
   std::vector<std::string> camera_logs;
   std::vector<pid_t> children;
-  const pid_t server =
-      spawn(o.pipelines + "/server.sh", {{"CAMERAS", cams}, {"MODEL", o.model}, {"STATS", "30"}, {"MTU", std::to_string(o.mtu)}}, server_log);
+  std::map<std::string, std::string> server_env = {
+      {"CAMERAS", cams}, {"MODEL", o.model}, {"STATS", "30"}, {"MTU", std::to_string(o.mtu)}};
+  if (o.prep_nice >= 0) server_env["PREP_NICE"] = std::to_string(o.prep_nice);
+  const pid_t server = spawn(o.pipelines + "/server.sh", server_env, server_log);
   children.push_back(server);
 
   // The lecturer: as pipelines/lecturer.sh, with a probe before the sink.
@@ -384,10 +390,11 @@ int main(int argc, char** argv) {
     for (const auto& [seq, shown] : d.first_shown)
       latency_ms.push_back((static_cast<double>(shown) - static_cast<double>(d.viewer_time[seq])) / 1e6);
   }
-  std::printf("machine: %s, %ld cores; %zu synthetic cameras 960x540 at 30 fps on loopback (%s), %d s, V-DA %s, MTU %d\n",
+  std::printf("machine: %s, %ld cores; %zu synthetic cameras 960x540 at 30 fps on loopback (%s), %d s, V-DA %s, MTU %d, PREP_NICE %s\n",
               cpu_model().c_str(), sysconf(_SC_NPROCESSORS_ONLN), o.cameras.size(),
               o.live_cameras ? "live: pipelines/classroom.sh processes" : "coded streams replayed by this program",
-              o.seconds, o.model.empty() ? "off" : "on", o.mtu);
+              o.seconds, o.model.empty() ? "off" : "on", o.mtu,
+              o.prep_nice >= 0 ? std::to_string(o.prep_nice).c_str() : "default");
   std::printf("poses sent: %lu; distinct poses displayed: %zu\n", static_cast<unsigned long>(poses_sent), latency_ms.size());
   std::printf("pose-to-display latency: p50 %.1f ms, p99 %.1f ms\n", percentile(latency_ms, 0.5),
               percentile(latency_ms, 0.99));
