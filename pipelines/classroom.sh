@@ -4,8 +4,8 @@
 #   SOURCE (default: the synthetic classroom's camera CAMERA, live), QUALITY (JPEG, default 90),
 #   DROP (share of packets to drop on purpose, to test a bad link; default 0).
 #   STATS (0: quiet; N: every N frames rgbdenc posts vclassroom-codec-stats, printed by -m),
-#   MTU (largest RTP packet, default 1400 for an Ethernet link; loopback or a jumbo-frame LAN
-#   takes more, up to 65000, and the server's MTU must be as large).
+#   MTU (largest RTP packet, default 1400 for an Ethernet link; a jumbo-frame LAN takes about 9000,
+#   loopback up to 65000; the server's MTU must be as large).
 set -euo pipefail
 CAMERA=${CAMERA:-0}
 SERVER=${SERVER:-127.0.0.1}
@@ -14,6 +14,10 @@ QUALITY=${QUALITY:-90}
 DROP=${DROP:-0}
 STATS=${STATS:-0}
 MTU=${MTU:-1400}
+if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
+  echo "classroom.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
+  exit 2
+fi
 SOURCE=${SOURCE:-"rgbdtestsrc camera-id=$CAMERA is-live=true ground-truth=false"}
 # STATS > 0: every STATS frames the encoder posts what it sent (printed by -m).
 verbose=""

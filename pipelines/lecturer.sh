@@ -12,6 +12,10 @@ POSE_PORT=${POSE_PORT:-5011}
 SLIDERS=${SLIDERS:-"[50,50,50,50,50,50]"}
 SINK=${SINK:-autovideosink}
 MTU=${MTU:-1400}
+if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
+  echo "lecturer.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
+  exit 2
+fi
 nav="sliders=\"$SLIDERS\""
 [ -n "${RIG:-}" ] && nav="$nav rig=$RIG"
 [ -n "${POSE_TRACE:-}" ] && nav="$nav pose-trace=$POSE_TRACE"

@@ -25,7 +25,15 @@ QUALITY=${QUALITY:-90}
 UDP_BUFFER=${UDP_BUFFER:-33554432}
 STATS=${STATS:-0}
 MTU=${MTU:-1400}
+if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
+  echo "server.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
+  exit 2
+fi
 PREP_NICE=${PREP_NICE:-10}
+if ! [[ $PREP_NICE =~ ^[0-9]+$ ]] || [ "$PREP_NICE" -gt 19 ]; then
+  echo "server.sh: PREP_NICE must be a nice value, 0 to 19 (got '$PREP_NICE')" >&2
+  exit 2
+fi
 POSE_EXT="extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose"
 
 read -r -a camera_ports <<< "${CAMERA_PORTS:-}"

@@ -96,6 +96,28 @@ TEST(DepthCodec, WireFormatIsPinned) {
   EXPECT_TRUE(vctest::same_image(back, d));
 }
 
+TEST(DepthCodec, LongRunsAndTrailingBytesDecodeAlike) {
+  // A 1000x1000 empty image is one run of 10^6 zeros: a 7-nibble value. It
+  // decodes the same with bytes after it (read by the 64-bit fast path) and
+  // without (the nibble-by-nibble path at the end of the data).
+  const cv::Mat empty = cv::Mat::zeros(1000, 1000, CV_16UC1);
+  std::vector<uint8_t> bytes;
+  encode_depth_lossless(empty, &bytes);
+  ASSERT_LT(bytes.size(), 8u);
+  cv::Mat back;
+  ASSERT_TRUE(decode_depth_lossless(bytes.data(), bytes.size(), 1000, 1000, &back));
+  EXPECT_TRUE(vctest::same_image(back, empty));
+  std::vector<uint8_t> padded = bytes;
+  padded.resize(bytes.size() + 16, 0);
+  ASSERT_TRUE(decode_depth_lossless(padded.data(), padded.size(), 1000, 1000, &back));
+  EXPECT_TRUE(vctest::same_image(back, empty));
+  // The same length of run far from the end of the data: a full last row follows it.
+  cv::Mat framed = empty.clone();
+  framed.at<uint16_t>(0, 0) = 1234;
+  for (int x = 0; x < 1000; ++x) framed.at<uint16_t>(999, x) = uint16_t(1000 + 37 * x);
+  EXPECT_TRUE(vctest::same_image(depth_round_trip(framed), framed));
+}
+
 TEST(DepthCodec, ValuesLongerThan32BitsAreRejected) {
   // Every nibble says "more": no value ever ends, near the end of the data or far from it.
   const std::vector<uint8_t> endless(64, 0xFF);

@@ -244,6 +244,10 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (o.mtu < 200 || o.mtu > 65000 || o.prep_nice > 19 || o.seconds < 1) {
+    std::fprintf(stderr, "vclassroom-measure-flow: --mtu takes 200..65000 bytes, --prep-nice 0..19, --seconds 1 or more\n");
+    return 2;
+  }
   const double cam_rate = camera_link_rate(o);
   // Each camera's coded stream, as classroom.sh sends it, recorded once.
   std::vector<vclassroom_tools::Recording> recordings(o.live_cameras ? 0 : o.cameras.size());

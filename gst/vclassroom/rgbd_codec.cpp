@@ -57,7 +57,9 @@ class NibbleReader {
       // bits of each are packed together in four shift-and-mask steps.
       uint64_t w;
       std::memcpy(&w, data_ + byte, 8);
-#if __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+#if !defined(__BYTE_ORDER__) || !defined(__ORDER_BIG_ENDIAN__)
+#error "the depth codec needs the compiler's __BYTE_ORDER__"
+#elif __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
       w = __builtin_bswap64(w);
 #endif
       w >>= (pos_ & 1) * 4;
@@ -69,6 +71,7 @@ class NibbleReader {
         x = (x & 0x003F003F003F003Full) | ((x >> 2) & 0x0FC00FC00FC00FC0ull);
         x = (x & 0x00000FFF00000FFFull) | ((x >> 4) & 0x00FFF00000FFF000ull);
         x = (x & 0xFFFFFFull) | ((x >> 8) & 0xFFFFFF000000ull);
+        if (nibbles == 11 && ((x >> 32) & 1)) return false;  // bit 32 set: over 32 bits
         *v = static_cast<uint32_t>(x & ((uint64_t(1) << (3 * nibbles)) - 1));
         pos_ += nibbles;
         return true;
@@ -79,6 +82,7 @@ class NibbleReader {
       if (pos_ >= 2 * size_) return false;
       const uint32_t n = (data_[pos_ >> 1] >> ((pos_ & 1) * 4)) & 15;
       ++pos_;
+      if (shift == 30 && (n & 4)) return false;  // over 32 bits
       value |= (n & 7) << shift;
       if (!(n & 8)) {
         *v = value;

@@ -12,9 +12,9 @@
 
 #include "gstthreadpriority.h"
 
-#include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <mutex>
 
 #ifdef __linux__
 #include <sys/resource.h>
@@ -29,17 +29,22 @@ enum { PROP_0, PROP_NICE };
 
 namespace {
 constexpr int kDefaultNice = 10;
-}
+
+struct PriorityState {
+  std::mutex lock;
+  int nice = kDefaultNice;
+  // The thread last set, and the value asked for then: a queue's thread
+  // lives as long as the stream, so the system call is made once, and again
+  // only when the thread or the property changes.
+  long applied_thread = -1;
+  int applied_nice = -1;
+  bool warned = false;
+};
+}  // namespace
 
 struct _GstThreadPriority {
   GstBaseTransform parent;
-  std::atomic<int> nice;
-  // The thread last set, and to which value: a queue's thread lives as long
-  // as the stream, so the system call is made once, and again only when the
-  // thread or the property changes.
-  std::atomic<long> applied_thread;
-  std::atomic<int> applied_nice;
-  std::atomic<bool> warned;
+  PriorityState* st;
 };
 
 G_DEFINE_TYPE(GstThreadPriority, gst_thread_priority, GST_TYPE_BASE_TRANSFORM)
@@ -50,25 +55,43 @@ static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
 
 static void apply_to_current_thread(GstThreadPriority* self) {
+  PriorityState* st = self->st;
 #ifdef __linux__
   const long thread = syscall(SYS_gettid);
-  const int nice = self->nice.load();
-  if (thread == self->applied_thread.load() && nice == self->applied_nice.load()) return;
-  self->applied_thread = thread;
-  self->applied_nice = nice;
-  // On Linux, PRIO_PROCESS with a thread id sets that one thread's nice value.
+  int nice;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    if (thread == st->applied_thread && st->nice == st->applied_nice) return;
+    st->applied_thread = thread;
+    st->applied_nice = nice = st->nice;
+  }
+  // On Linux, PRIO_PROCESS with a thread id is that one thread. Only ever
+  // lowered: a thread already nicer (a server started with `nice`) stays so.
+  errno = 0;
+  const int current = getpriority(PRIO_PROCESS, static_cast<id_t>(thread));
+  if (errno == 0 && current >= nice) return;
   if (setpriority(PRIO_PROCESS, static_cast<id_t>(thread), nice) != 0) {
     const int err = errno;
-    if (!self->warned.exchange(true))
+    bool first;
+    {
+      std::lock_guard<std::mutex> g(st->lock);
+      first = !st->warned;
+      st->warned = true;
+    }
+    if (first)
       GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS, ("Could not set the streaming thread's nice value to %d", nice),
-                          ("setpriority: %s (lowering priority needs no privileges; raising it back does)",
-                           std::strerror(err)));
+                          ("setpriority: %s", std::strerror(err)));
     return;
   }
   GST_DEBUG_OBJECT(self, "thread %ld now runs at nice %d", thread, nice);
 #else
-  if (!self->warned.exchange(true))
-    GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS, ("Thread priorities are only set on Linux"), (nullptr));
+  bool first;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    first = !st->warned;
+    st->warned = true;
+  }
+  if (first) GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS, ("Thread priorities are only set on Linux"), (nullptr));
 #endif
 }
 
@@ -80,9 +103,11 @@ static GstFlowReturn gst_thread_priority_transform_ip(GstBaseTransform* trans, G
 static void gst_thread_priority_set_property(GObject* object, guint id, const GValue* value, GParamSpec* pspec) {
   GstThreadPriority* self = GST_THREAD_PRIORITY(object);
   switch (id) {
-    case PROP_NICE:
-      self->nice = g_value_get_int(value);
+    case PROP_NICE: {
+      std::lock_guard<std::mutex> g(self->st->lock);
+      self->st->nice = g_value_get_int(value);
       break;
+    }
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
   }
@@ -91,12 +116,19 @@ static void gst_thread_priority_set_property(GObject* object, guint id, const GV
 static void gst_thread_priority_get_property(GObject* object, guint id, GValue* value, GParamSpec* pspec) {
   GstThreadPriority* self = GST_THREAD_PRIORITY(object);
   switch (id) {
-    case PROP_NICE:
-      g_value_set_int(value, self->nice.load());
+    case PROP_NICE: {
+      std::lock_guard<std::mutex> g(self->st->lock);
+      g_value_set_int(value, self->st->nice);
       break;
+    }
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
   }
+}
+
+static void gst_thread_priority_finalize(GObject* object) {
+  delete GST_THREAD_PRIORITY(object)->st;
+  G_OBJECT_CLASS(gst_thread_priority_parent_class)->finalize(object);
 }
 
 static void gst_thread_priority_class_init(GstThreadPriorityClass* klass) {
@@ -105,11 +137,14 @@ static void gst_thread_priority_class_init(GstThreadPriorityClass* klass) {
   GstBaseTransformClass* trans_class = GST_BASE_TRANSFORM_CLASS(klass);
   gobject_class->set_property = gst_thread_priority_set_property;
   gobject_class->get_property = gst_thread_priority_get_property;
+  gobject_class->finalize = gst_thread_priority_finalize;
   g_object_class_install_property(
       gobject_class, PROP_NICE,
       g_param_spec_int("nice", "Nice value",
                        "Nice value given to the streaming thread that pushes through this element (0 = normal, 19 = "
-                       "lowest priority). Put it after a queue so it applies to that queue's thread only",
+                       "lowest priority); a thread already nicer is left as it is. Put it after a queue so it applies "
+                       "to that queue's thread only. The thread keeps the value until it ends (raising a priority "
+                       "back needs privileges), also when its pool gives it to another task after a stop",
                        0, 19, kDefaultNice,
                        GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
@@ -125,9 +160,6 @@ static void gst_thread_priority_class_init(GstThreadPriorityClass* klass) {
 }
 
 static void gst_thread_priority_init(GstThreadPriority* self) {
-  self->nice = kDefaultNice;
-  self->applied_thread = -1;
-  self->applied_nice = -1;
-  self->warned = false;
+  self->st = new PriorityState();
   gst_base_transform_set_passthrough(GST_BASE_TRANSFORM(self), TRUE);
 }
