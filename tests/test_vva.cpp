@@ -146,6 +146,47 @@ TEST(ViewWarp, SidewaysMoveOfAFrontoParallelPlaneShiftsByTheDisparity) {
   }
 }
 
+// Inside one smooth surface 2x2 blocks of pixels are drawn as one cell
+// (WarpParams::coarse_cells): a slanted plane seen from a moved and turned
+// view comes out as from every pixel's own cell, without a hole.
+TEST(ViewWarp, CoarseCellsOnASmoothPlaneMatchTheFineCells) {
+  const int w = 161, h = 91;  // odd: the last column and row are not in a block
+  const CameraCalib src = pinhole(w, h, 120);
+  WarpSource in = fronto_plane(w, h, 2000);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) in.depth.at<uint16_t>(y, x) = uint16_t(1800 + 3 * x + 2 * y);
+  CameraCalib virt = src;
+  virt.cam_to_rig = Eigen::Translation3d(0.07, -0.03, 0.05) * Eigen::AngleAxisd(0.04, Eigen::Vector3d::UnitY()) *
+                    Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitX());
+  for (double f : {120.0, 150.0}) {  // 150: the view magnifies, some block cells take the big-cell path
+    virt.fx = virt.fy = f;
+    WarpParams fine_prm, coarse_prm;
+    fine_prm.coarse_cells = false;
+    coarse_prm.coarse_cells = true;
+    const WarpedView fine = warp_view(src, in, virt, fine_prm), coarse = warp_view(src, in, virt, coarse_prm);
+    ASSERT_GT(cv::countNonZero(fine.weight), w * h / 2);
+    int only_fine = 0, only_coarse = 0;
+    double max_color = 0;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const bool a = fine.weight.at<uint8_t>(y, x) > 0, b = coarse.weight.at<uint8_t>(y, x) > 0;
+        only_fine += a && !b;
+        only_coarse += b && !a;
+        if (a && b) {
+          for (int ch = 0; ch < 3; ++ch)
+            max_color = std::max(max_color, std::abs(double(fine.color.at<cv::Vec3b>(y, x)[ch]) -
+                                                     coarse.color.at<cv::Vec3b>(y, x)[ch]));
+          // One depth for the block: its pixels' differ by 3 + 2 mm (and the view's scale).
+          EXPECT_NEAR(fine.depth.at<uint16_t>(y, x), coarse.depth.at<uint16_t>(y, x), 10) << x << "," << y;
+          EXPECT_NEAR(fine.weight.at<uint8_t>(y, x), coarse.weight.at<uint8_t>(y, x), 2) << x << "," << y;
+        }
+      }
+    EXPECT_EQ(only_fine, 0) << "holes the fine cells do not leave, f " << f;
+    EXPECT_EQ(only_coarse, 0) << "f " << f;
+    EXPECT_LE(max_color, 1.0) << "f " << f;
+  }
+}
+
 // A warper keeps its buffers between frames (the z-buffer is emptied as the
 // result is read out): a frame must come out the same as from a fresh warper,
 // whatever the frames before it were, at any virtual size.

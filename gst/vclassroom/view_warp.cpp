@@ -196,7 +196,7 @@ constexpr float kEdge = 0.02f;          // how far a cell reaches past its centr
 // not magnify) is fully prepared here: which of the 2x2 candidates it covers
 // and the source position of each, in remap fixed point. Others are marked
 // kBigCell and handled one by one.
-constexpr int32_t kBigCell = 16;
+constexpr int32_t kBigCell = 1 << 12;  // above every candidate mask
 // A cell side that borders its surface's neighbour (or the image border)
 // reaches half a pixel; towards a depth edge only kEdge.
 constexpr int32_t kOpenRight = 1, kOpenLeft = 2, kOpenDown = 4, kOpenUp = 8;
@@ -226,9 +226,9 @@ struct CellGeometry {
 // px..links point at the row's first pixel; the arrays are padded by a row
 // and a pixel on both sides, so the neighbours of border pixels can be read.
 VCLASSROOM_SIMD_CLONES
-void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, const float* __restrict py,
-                   const float* __restrict pz, const float* __restrict pw, const uint32_t* __restrict links,
-                   const uint32_t* __restrict links_up, const CellRow& out) {
+void prepare_cells(const CellGeometry& g, int v, int u_begin, int u_end, const float* __restrict px,
+                   const float* __restrict py, const float* __restrict pz, const float* __restrict pw,
+                   const uint32_t* __restrict links, const uint32_t* __restrict links_up, const CellRow& out) {
   const int W = g.W, H = g.H;
   const float VWf = float(g.VW), VHf = float(g.VH), max_area = g.max_area;
   const int VW1 = g.VW - 1, VH1 = g.VH - 1;
@@ -244,7 +244,7 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
   // The outputs are distinct arrays (GCC does not take __restrict on locals
   // as proof).
 #pragma GCC ivdep
-  for (int u = 0; u < W; ++u) {
+  for (int u = u_begin; u < u_end; ++u) {
     const float zi = pz[u], x = px[u], y = py[u];
     const bool right = (links[u] & kRight) != 0, down = (links[u] & kDown) != 0;
     const bool left = (u > 0) & ((links[u - 1] & kRight) != 0);
@@ -310,6 +310,126 @@ void prepare_cells(const CellGeometry& g, int v, const float* __restrict px, con
 
 // The mesh path extrapolates a little beyond its triangles: clamped both ways.
 inline uint16_t depth_mm(float z_m) { return uint16_t(std::clamp(z_m * 1000.0f + 0.5f, 0.0f, 65534.0f)); }
+
+// A 2x2 block's cell: a source pixel and a hair on every side of the block's centre.
+constexpr float kBlock = 1.0f + 1e-3f;
+// Which of the 3x3 candidates a block cell covers: bit k is
+// (x0 + k % 3, y0 + k / 3).
+constexpr int kBlockCandidates = 9;
+constexpr float kBlockKx[kBlockCandidates] = {0, 1, 2, 0, 1, 2, 0, 1, 2};
+constexpr float kBlockKy[kBlockCandidates] = {0, 0, 0, 1, 1, 1, 2, 2, 2};
+// Runs of pixels without a block cell this close (px) are set up as one.
+constexpr int kRunGap = 8;
+// How much the step to the next pixel may differ from the step within the
+// block (px in the view) for the block to be one cell.
+constexpr float kBlockBend = 0.5f;
+
+// The 2x2 blocks (u, u + 1) x (v, v + 1), u = 2j, of a pair of source rows
+// (v even): a block whose four pixels are linked to each other and to all
+// their neighbours outside (one surface, no edge, not at the image border) is
+// one cell of twice the size, mapped by the mean of the block's differences
+// around the mean of its four points; out.sides[j] says which blocks are
+// (their four pixels then get no cell of their own). The rest as
+// prepare_cells, with out.z the block's depth in mm.
+VCLASSROOM_SIMD_CLONES
+void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __restrict px, const float* __restrict py,
+                    const float* __restrict pz, const float* __restrict pw, const uint32_t* __restrict links,
+                    const uint32_t* __restrict links_down, const uint32_t* __restrict links_up,
+                    const CellRow& out, int32_t* __restrict oz) {
+  const int W = g.W;
+  const float VWf = float(g.VW), VHf = float(g.VH), max_area = g.max_area;
+  const int VW1 = g.VW - 1, VH1 = g.VH - 1;
+  const float fv = float(v) + 0.5f;
+  int32_t* __restrict ox0 = out.x0;
+  int32_t* __restrict oy0 = out.y0;
+  int32_t *__restrict ox1 = out.x1, *__restrict oy1 = out.y1, *__restrict ocoarse = out.sides;
+  int32_t* __restrict omask = out.mask;
+  int32_t* __restrict ow = out.weight;
+  float *__restrict osu = out.su, *__restrict osv = out.sv, *__restrict oa00 = out.dsu_dx,
+        *__restrict oa10 = out.dsv_dx, *__restrict oa01 = out.dsu_dy, *__restrict oa11 = out.dsv_dy;
+#pragma GCC ivdep
+  for (int j = 0; j < blocks; ++j) {
+    const int u = 2 * j;
+    const uint32_t inside_links = links[u] & links[u + 1] & links_down[u] & links_down[u + 1];
+    const uint32_t from_left = links[u - 1] & links_down[u - 1], from_up = links_up[u] & links_up[u + 1];
+    const bool linked = ((inside_links & kRight) != 0) & ((inside_links & kDown) != 0) &
+                        ((from_left & kRight) != 0) & ((from_up & kDown) != 0);
+    const float x00 = px[u], x10 = px[u + 1], x01 = px[u + W], x11 = px[u + W + 1];
+    const float y00 = py[u], y10 = py[u + 1], y01 = py[u + W], y11 = py[u + W + 1];
+    const float x = 0.25f * ((x00 + x10) + (x01 + x11)), y = 0.25f * ((y00 + y10) + (y01 + y11));
+    const float jxu = 0.5f * ((x10 - x00) + (x11 - x01)), jyu = 0.5f * ((y10 - y00) + (y11 - y01));
+    const float jxv = 0.5f * ((x01 - x00) + (x11 - x10)), jyv = 0.5f * ((y01 - y00) + (y11 - y10));
+    // Smooth in the view too: the fine cells of the block's right column and
+    // lower row reach towards the next pixels with the differences to them
+    // (across a gap the view opens within a surface); the block's cell only
+    // where those equal its own.
+    const float x20 = px[u + 2], x21 = px[u + W + 2], x02 = px[u + 2 * W], x12 = px[u + 2 * W + 1];
+    const float y20 = py[u + 2], y21 = py[u + W + 2], y02 = py[u + 2 * W], y12 = py[u + 2 * W + 1];
+    // (Shorter is harmless: the cells overlap and the z-buffer keeps one.)
+    auto l1 = [](float dx, float dy) { return std::fabs(dx) + std::fabs(dy); };
+    const bool smooth = (l1(x20 - x10, y20 - y10) <= l1(x10 - x00, y10 - y00) + kBlockBend) &
+                        (l1(x21 - x11, y21 - y11) <= l1(x11 - x01, y11 - y01) + kBlockBend) &
+                        (l1(x02 - x01, y02 - y01) <= l1(x01 - x00, y01 - y00) + kBlockBend) &
+                        (l1(x12 - x11, y12 - y11) <= l1(x11 - x10, y11 - y10) + kBlockBend);
+    const bool coarse = linked & smooth;
+    const float z00 = pz[u], z10 = pz[u + 1], z01 = pz[u + W], z11 = pz[u + W + 1];
+    // The four's mean (their nearest gives the same figures to 0.01 dB).
+    const float z = 0.25f * ((z00 + z10) + (z01 + z11));
+    const float det = jxu * jyv - jxv * jyu;
+    const float area = std::fabs(det);
+    const float hx = kBlock * (std::fabs(jxu) + std::fabs(jxv)), hy = kBlock * (std::fabs(jyu) + std::fabs(jyv));
+    const bool in_view = (x + hx >= 0) & (y + hy >= 0) & (x - hx <= VWf) & (y - hy <= VHf);
+    bool drawn = coarse & (area >= 1e-6f) & (area <= max_area) & in_view;
+    const float xl = std::clamp(x - hx, -2.0f, VWf + 2), xh = std::clamp(x + hx, -2.0f, VWf + 2);
+    const float yl = std::clamp(y - hy, -2.0f, VHf + 2), yh = std::clamp(y + hy, -2.0f, VHf + 2);
+    const int xmin = std::max(0, fast_ceil(xl)), xmax = std::min(VW1, fast_floor(xh));
+    const int ymin = std::max(0, fast_ceil(yl)), ymax = std::min(VH1, fast_floor(yh));
+    drawn = drawn & (xmin <= xmax) & (ymin <= ymax);
+    const bool small = (xmax - xmin <= 2) & (ymax - ymin <= 2);
+    const float idet = 1.0f / (drawn ? det : 1.0f);
+    const float a00 = jyv * idet, a01 = -jxv * idet, a10 = -jyu * idet, a11 = jxu * idet;
+    const float dx0 = float(xmin) - x, dy0 = float(ymin) - y;
+    const float du0 = a00 * dx0 + a01 * dy0, dv0 = a10 * dx0 + a11 * dy0;
+    osu[j] = float(u) + 0.5f + du0;
+    osv[j] = fv + dv0;
+    oa00[j] = a00;
+    oa10[j] = a10;
+    oa01[j] = a01;
+    oa11[j] = a11;
+    omask[j] = drawn ? (small ? -1 : kBigCell) : 0;  // -1: the candidates below
+    ocoarse[j] = coarse ? 1 : 0;
+    ox0[j] = xmin;
+    oy0[j] = ymin;
+    ox1[j] = xmax;
+    oy1[j] = ymax;
+    oz[j] = int32_t(std::clamp(z * 1000.0f + 0.5f, 0.0f, 65534.0f));  // depth_mm
+    const float pwm = 0.25f * ((pw[u] + pw[u + 1]) + (pw[u + W] + pw[u + W + 1]));
+    const float w = pwm / std::sqrt(std::max(area, 1.0f));
+    ow[j] = int32_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f));
+  }
+  // Which candidates each cell covers, in a second pass (one pass needs more
+  // vector registers than there are).
+#pragma GCC ivdep
+  for (int j = 0; j < blocks; ++j) {
+    const float du0 = osu[j] - (float(2 * j) + 0.5f), dv0 = osv[j] - fv;
+    const float a00 = oa00[j], a10 = oa10[j], a01 = oa01[j], a11 = oa11[j];
+    const int nx = ox1[j] - ox0[j], ny = oy1[j] - oy0[j];
+    // The pre-image of candidate (kx, ky): that of candidate 0 plus kx and ky
+    // steps (2 a = a + a exactly).
+    const float dux[3] = {0.0f, a00, a00 + a00}, dvx[3] = {0.0f, a10, a10 + a10};
+    const float duy[3] = {0.0f, a01, a01 + a01}, dvy[3] = {0.0f, a11, a11 + a11};
+    int mask = 0;
+    for (int k = 0; k < kBlockCandidates; ++k) {
+      const int kx = k % 3, ky = k / 3;
+      const float du = (du0 + duy[ky]) + dux[kx], dv = (dv0 + dvy[ky]) + dvx[kx];
+      const bool exists = (kx <= nx) & (ky <= ny);
+      const bool inside = exists & (std::fabs(du) <= kBlock) & (std::fabs(dv) <= kBlock);
+      mask |= inside ? (1 << k) : 0;
+    }
+    const int32_t m = omask[j];
+    omask[j] = m == -1 ? mask : m;
+  }
+}
 
 // Bilinear colour of the source at a fixed-point position (1/32 px) inside the image.
 struct ColorSampler {
@@ -558,10 +678,11 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     // without its per-triangle set-up. Pixels with no neighbour on their
     // surface (flying pixels, speckle) are not drawn.
     // Which neighbours lie on the same surface, a row at a time just before
-    // its cells are set up (two rows kept: a cell also looks at the row above).
-    links_.assign(3 * size_t(W + 2), 0);
-    uint32_t* const no_links = links_.data() + 2 * size_t(W + 2) + 1;  // the row above row 0
-    auto links_row = [&](int v) { return links_.data() + size_t(v & 1) * (W + 2) + 1; };
+    // its cells are set up (three rows kept: the rows are taken in pairs, and
+    // a cell also looks at the row above).
+    links_.assign(4 * size_t(W + 2), 0);
+    uint32_t* const no_links = links_.data() + 3 * size_t(W + 2) + 1;  // the row above row 0
+    auto links_row = [&](int v) { return links_.data() + size_t(v % 3) * (W + 2) + 1; };
     auto link_row = [&](int v) {
       const size_t row = size_t(v) * W;
       uint32_t* out = links_row(v);
@@ -584,56 +705,156 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     const CellRow cells{cell_x0_.data(), cell_y0_.data(), cell_x1_.data(), cell_y1_.data(), cell_sides_.data(),
                         cell_mask_.data(), cell_weight_.data(), pos, pos + W, pos + 2 * W, pos + 3 * W,
                         pos + 4 * W, pos + 5 * W};
+    const int NB = W / 2 + 1;
+    for (auto* a : {&block_x0_, &block_y0_, &block_x1_, &block_y1_, &block_coarse_, &block_mask_, &block_weight_,
+                    &block_z_})
+      a->resize(NB);
+    block_pos_.resize(size_t(NB) * 6);
+    float* const bpos = block_pos_.data();
+    const CellRow blocks{block_x0_.data(),   block_y0_.data(),   block_x1_.data(),   block_y1_.data(),
+                         block_coarse_.data(), block_mask_.data(), block_weight_.data(), bpos,
+                         bpos + NB,          bpos + 2 * NB,      bpos + 3 * NB,      bpos + 4 * NB,
+                         bpos + 5 * NB};
     // A cell the view magnifies: every virtual pixel of its bounding box
-    // tested against the cell as prepare_cells set it up.
-    auto splat_big_cell = [&](int u, int v, uint16_t zmm, uint8_t label) {
-      const int32_t sides = cell_sides_[u];
-      const float umax = sides & kOpenRight ? kCell : kEdge, umin = sides & kOpenLeft ? -kCell : -kEdge;
-      const float vmax = sides & kOpenDown ? kCell : kEdge, vmin = sides & kOpenUp ? -kCell : -kEdge;
-      const float fu = float(u), fv = float(v);
-      const float su0 = cells.su[u], sv0 = cells.sv[u];
-      const float a00 = cells.dsu_dx[u], a10 = cells.dsv_dx[u], a01 = cells.dsu_dy[u], a11 = cells.dsv_dy[u];
-      const int x0 = cell_x0_[u], y0 = cell_y0_[u];
-      for (int yi = y0; yi <= cell_y1_[u]; ++yi) {
+    // tested against the cell as prepared (centre (fu, fv), reaching
+    // umin..umax, vmin..vmax source px from it).
+    auto splat_big_cell = [&](const CellRow& c, int i, float fu, float fv, float umin, float umax, float vmin,
+                              float vmax, uint16_t zmm, uint8_t label) {
+      const float su0 = c.su[i], sv0 = c.sv[i];
+      const float a00 = c.dsu_dx[i], a10 = c.dsv_dx[i], a01 = c.dsu_dy[i], a11 = c.dsv_dy[i];
+      const int x0 = c.x0[i], y0 = c.y0[i];
+      const uint8_t wq = uint8_t(c.weight[i]);
+      for (int yi = y0; yi <= c.y1[i]; ++yi) {
         const float ky = float(yi - y0);
         Sample* row = zbuf + size_t(yi) * VW;
-        for (int xi = x0; xi <= cell_x1_[u]; ++xi) {
+        for (int xi = x0; xi <= c.x1[i]; ++xi) {
           const float kx = float(xi - x0);
           const float su = su0 + a00 * kx + a01 * ky, sv = sv0 + a10 * kx + a11 * ky;
           const float du = su - fu, dv = sv - fv;
           if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
           Sample& s = row[xi];
           if (zmm >= s.z) continue;
-          store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, uint8_t(cell_weight_[u]), label);
+          store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, wq, label);
         }
       }
     };
     const CellGeometry geom{W, H, VW, VH, max_area2};
-    for (int v = 0; v < H; ++v) {
+    // The cells of pixels u_begin..u_end - 1 of row v, set up and splatted.
+    // Pixels of blocks drawn as one cell (skip[u / 2]) are skipped.
+    auto fine_cells = [&](int v, int u_begin, int u_end, const int32_t* skip) {
       const size_t row = size_t(v) * W;
-      link_row(v);
-      prepare_cells(geom, v, PX + row, PY + row, PZ + row, PW + row, links_row(v), v > 0 ? links_row(v - 1) : no_links,
-                    cells);
-      const uint8_t* lab = &src_label_[row];
-      for (int u = 0; u < W; ++u) {
-        const int32_t m = cell_mask_[u];
-        if (!m) continue;
-        const uint16_t zmm = depth_mm(PZ[row + u]);
+      prepare_cells(geom, v, u_begin, u_end, PX + row, PY + row, PZ + row, PW + row, links_row(v),
+                    v > 0 ? links_row(v - 1) : no_links, cells);
+      // Everything a cell's writes need in locals: a byte store may alias
+      // anything the lambda reaches by reference.
+      const uint8_t* const lab = &src_label_[row];
+      const float* const pz_row = PZ + row;
+      const int32_t *const mask = cell_mask_.data(), *const x0 = cell_x0_.data(), *const y0 = cell_y0_.data(),
+                    *const wt = cell_weight_.data();
+      const float *const su0 = cells.su, *const sv0 = cells.sv, *const a00 = cells.dsu_dx,
+                  *const a10 = cells.dsv_dx, *const a01 = cells.dsu_dy, *const a11 = cells.dsv_dy;
+      Sample* const zb = zbuf;
+      const ptrdiff_t vw = VW;
+      const ColorSampler col = color;
+      const float mu = max_u, mv = max_v;
+      for (int u = u_begin; u < u_end; ++u) {
+        const int32_t m = mask[u];
+        if (!m || skip[u >> 1]) continue;
+        const uint16_t zmm = depth_mm(pz_row[u]);
+        const uint8_t label = lab[u];
         if (m == kBigCell) {
-          splat_big_cell(u, v, zmm, lab[u]);
+          const int32_t sides = cell_sides_[u];
+          splat_big_cell(cells, u, float(u), float(v), sides & kOpenLeft ? -kCell : -kEdge,
+                         sides & kOpenRight ? kCell : kEdge, sides & kOpenUp ? -kCell : -kEdge,
+                         sides & kOpenDown ? kCell : kEdge, zmm, label);
           continue;
         }
-        Sample* const first = zbuf + size_t(cell_y0_[u]) * VW + cell_x0_[u];
+        Sample* const first = zb + y0[u] * vw + x0[u];
+        const float cu = su0[u], cv = sv0[u], cux = a00[u], cvx = a10[u], cuy = a01[u], cvy = a11[u];
+        const uint8_t weight = uint8_t(wt[u]);
         // Usually one candidate: a loop over the set bits costs one predictable
         // branch, where testing each bit mispredicts.
         for (unsigned bits = m; bits; bits &= bits - 1) {
           const int k = __builtin_ctz(bits);
-          Sample& s = first[(k >> 1) * VW + (k & 1)];
+          Sample& s = first[(k >> 1) * vw + (k & 1)];
           if (zmm >= s.z) continue;
           const float kx = float(k & 1), ky = float(k >> 1);
-          const float su = cells.su[u] + cells.dsu_dx[u] * kx + cells.dsu_dy[u] * ky;
-          const float sv = cells.sv[u] + cells.dsv_dx[u] * kx + cells.dsv_dy[u] * ky;
-          store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, uint8_t(cell_weight_[u]), lab[u]);
+          const float su = cu + cux * kx + cuy * ky;
+          const float sv = cv + cvx * kx + cvy * ky;
+          store(s, zmm, to_fixed(su, mu), to_fixed(sv, mv), col, weight, label);
+        }
+      }
+    };
+    // Candidate k of a block cell, relative to its first.
+    ptrdiff_t block_offset[kBlockCandidates];
+    for (int k = 0; k < kBlockCandidates; ++k) block_offset[k] = ptrdiff_t(k / 3) * VW + k % 3;
+    const bool coarse = prm.coarse_cells && W >= 2;
+    no_blocks_.assign(size_t(W / 2 + 1), 0);
+    const int32_t* const no_blocks = no_blocks_.data();
+    for (int v = 0; v < H; v += 2) {
+      link_row(v);
+      if (v + 1 < H) link_row(v + 1);
+      if (!coarse || v + 1 >= H) {
+        fine_cells(v, 0, W, no_blocks);
+        if (v + 1 < H) fine_cells(v + 1, 0, W, no_blocks);
+        continue;
+      }
+      const size_t row = size_t(v) * W;
+      const int nb = W / 2;
+      prepare_blocks(geom, v, nb, PX + row, PY + row, PZ + row, PW + row, links_row(v), links_row(v + 1),
+                     v > 0 ? links_row(v - 1) : no_links, blocks, block_z_.data());
+      // The pixels of the blocks that are not one cell, in runs.
+      const int32_t* is_block = block_coarse_.data();
+      // Runs a few blocks apart are set up as one (a short run costs a call
+      // and a scalar loop); the pixels of block cells in between are skipped.
+      block_coarse_[nb] = 0;  // the last column when W is odd
+      fine_runs_.clear();
+      for (int j = 0; j < nb;) {
+        if (is_block[j]) {
+          ++j;
+          continue;
+        }
+        const int j0 = j;
+        while (j < nb && !is_block[j]) ++j;
+        const int u0 = 2 * j0, u1 = j == nb ? W : 2 * j;
+        if (!fine_runs_.empty() && u0 - fine_runs_.back().second <= kRunGap) fine_runs_.back().second = u1;
+        else fine_runs_.emplace_back(u0, u1);
+      }
+      if ((W & 1) && is_block[nb - 1]) {
+        if (!fine_runs_.empty() && W - 1 - fine_runs_.back().second <= kRunGap) fine_runs_.back().second = W;
+        else fine_runs_.emplace_back(W - 1, W);
+      }
+      for (int r = v; r <= v + 1; ++r)
+        for (const auto& run : fine_runs_) fine_cells(r, run.first, run.second, is_block);
+      const uint8_t* const lab = &src_label_[row];
+      const int32_t *const mask = block_mask_.data(), *const x0 = block_x0_.data(), *const y0 = block_y0_.data(),
+                    *const wt = block_weight_.data(), *const bz = block_z_.data();
+      const float *const su0 = blocks.su, *const sv0 = blocks.sv, *const a00 = blocks.dsu_dx,
+                  *const a10 = blocks.dsv_dx, *const a01 = blocks.dsu_dy, *const a11 = blocks.dsv_dy;
+      const ptrdiff_t vw = VW;
+      const ColorSampler col = color;
+      const float mu = max_u, mv = max_v;
+      for (int j = 0; j < nb; ++j) {
+        const int32_t m = mask[j];
+        if (!m) continue;
+        const uint16_t zmm = uint16_t(bz[j]);
+        const int u = 2 * j;
+        const uint8_t label = lab[u];
+        if (m == kBigCell) {
+          splat_big_cell(blocks, j, float(u) + 0.5f, float(v) + 0.5f, -kBlock, kBlock, -kBlock, kBlock, zmm, label);
+          continue;
+        }
+        Sample* const first = zbuf + y0[j] * vw + x0[j];
+        const float cu = su0[j], cv = sv0[j], cux = a00[j], cvx = a10[j], cuy = a01[j], cvy = a11[j];
+        const uint8_t weight = uint8_t(wt[j]);
+        for (unsigned bits = m; bits; bits &= bits - 1) {
+          const int k = __builtin_ctz(bits);
+          Sample& s = first[block_offset[k]];
+          if (zmm >= s.z) continue;
+          const float kx = kBlockKx[k], ky = kBlockKy[k];
+          const float su = cu + cux * kx + cuy * ky;
+          const float sv = cv + cvx * kx + cvy * ky;
+          store(s, zmm, to_fixed(su, mu), to_fixed(sv, mv), col, weight, label);
         }
       }
     }

@@ -11,6 +11,7 @@
 // background and disoccluded areas stay holes for the fusion to fill.
 #pragma once
 
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -48,6 +49,10 @@ struct WarpParams {
   // about 1.7x slower); false: map every pixel's cell with the local affine
   // map of its same-surface neighbours (same coverage away from edges).
   bool mesh = false;
+  // Cell warp only: a 2x2 block of pixels inside one surface (every pixel
+  // linked to all its neighbours) is drawn as one cell of twice the size, a
+  // quarter of the set-up; false: every pixel its own cell (the reference).
+  bool coarse_cells = true;
   // Learner pixels without live depth take their learner's median depth.
   bool fill_learner_depth = true;
 };
@@ -80,12 +85,18 @@ class ViewWarper {
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint8_t> src_label_;
   std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
-  std::vector<uint32_t> links_;            // two rows of link flags (same surface as right / below), a spare zero row
+  std::vector<uint32_t> links_;            // three rows of link flags (same surface as right / below), a spare zero row
   std::vector<uint64_t> zbuf_;             // per virtual pixel: z-buffer record (view_warp.cpp)
   // One source row of splat cells (view_warp.cpp, prepare_cells).
   std::vector<int32_t> cell_x0_, cell_y0_, cell_x1_, cell_y1_, cell_sides_;
   std::vector<float> cell_pos_;
   std::vector<int32_t> cell_mask_, cell_weight_;
+  // The 2x2 blocks of a pair of source rows drawn as one cell (prepare_blocks).
+  std::vector<int32_t> block_x0_, block_y0_, block_x1_, block_y1_, block_coarse_, block_mask_, block_weight_,
+      block_z_;
+  std::vector<float> block_pos_;
+  std::vector<int32_t> no_blocks_;              // all zero: a row pair without block cells
+  std::vector<std::pair<int, int>> fine_runs_;  // pixels [first, second) of a row pair without block cells
 };
 
 // Convenience: one-shot warp.
