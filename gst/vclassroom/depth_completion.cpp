@@ -8,6 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "depth_tolerance.h"
 #include "simd.h"
 
 namespace vclassroom {
@@ -16,19 +17,13 @@ namespace vclassroom {
 // vectorises them. External linkage: GCC's target_clones needs it.
 namespace detail {
 
-// "Within tolerance" of depth d: max(min_mm, ratio * d), the ratio in 1/65536
-// steps (integer lanes vectorise better than float ones).
-inline uint32_t ratio_q16(double ratio) {
-  return static_cast<uint32_t>(std::clamp(ratio, 0.0, 65535.0 / 65536.0) * 65536.0 + 0.5);
-}
-
 // 255 where live depth is clearly in front of the prior (a learner).
 VCLASSROOM_SIMD_CLONES
 void prior_front_row(const uint16_t* live, const uint16_t* prior, int n, uint32_t tol_min, uint32_t rq16,
                      uint8_t* front) {
   for (int x = 0; x < n; ++x) {
     const uint32_t l = live[x], p = prior[x];
-    const uint32_t t = std::max(tol_min, (p * rq16 + 32768u) >> 16);
+    const uint32_t t = depth_tolerance(p, tol_min, rq16);
     front[x] = (l != 0) & (l + t < p) ? 255 : 0;
   }
 }
@@ -51,7 +46,7 @@ void prior_select_row(const uint16_t* live, const uint16_t* prior, const uint8_t
                       int n, uint32_t tol_min, uint32_t rq16, uint16_t* out) {
   for (int x = 0; x < n; ++x) {
     const uint32_t l = live[x], p = prior[x];
-    const uint32_t t = std::max(tol_min, (p * rq16 + 32768u) >> 16);
+    const uint32_t t = depth_tolerance(p, tol_min, rq16);
     const uint32_t diff = l > p ? l - p : p - l;
     const bool agree = (l != 0) & (diff <= t);
     const bool hole = (l == 0) & (keep_live[x] == 0);
@@ -101,6 +96,14 @@ int grow_agreeing(cv::Mat& d, std::vector<cv::Point>& holes, const std::vector<c
   thread_local std::vector<ptrdiff_t> lin;
   lin.clear();
   for (const cv::Point& o : kernel) lin.push_back(o.y * step + o.x);
+  // near_inv = maxd - the nearest valid depth around the hole (0: none), far =
+  // the farthest: the hole takes their mean where they agree (one surface).
+  auto fill_if_one_surface = [&](const cv::Point& h, int near_inv, int far) {
+    if (!near_inv) return;
+    const int nearest = maxd - near_inv;
+    if (far - nearest <= agree_tol(nearest, p.agree_min_mm, p.agree_ratio))
+      fills.emplace_back(h, static_cast<uint16_t>((nearest + far + 1) / 2));
+  };
   for (const cv::Point& h : holes) {
     if (h.x >= radius && h.y >= radius && h.x + radius < d.cols && h.y + radius < d.rows) {
       const uint16_t* c = d.ptr<uint16_t>(h.y) + h.x;
@@ -117,10 +120,7 @@ int grow_agreeing(cv::Mat& d, std::vector<cv::Point>& holes, const std::vector<c
         near_inv = std::max(near_inv, std::max(1, maxd - v));
         far = std::max(far, v);
       }
-      if (!near_inv) continue;
-      const int nearest = maxd - near_inv;
-      if (far - nearest <= agree_tol(nearest, p.agree_min_mm, p.agree_ratio))
-        fills.emplace_back(h, static_cast<uint16_t>((nearest + far + 1) / 2));
+      fill_if_one_surface(h, near_inv, far);
       continue;
     }
     bool enclosed = true;
@@ -147,10 +147,7 @@ int grow_agreeing(cv::Mat& d, std::vector<cv::Point>& holes, const std::vector<c
       near_inv = std::max(near_inv, std::max(1, maxd - v));
       far = std::max(far, v);
     }
-    if (!near_inv) continue;
-    const int nearest = maxd - near_inv;
-    if (far - nearest <= agree_tol(nearest, p.agree_min_mm, p.agree_ratio))
-      fills.emplace_back(h, static_cast<uint16_t>((nearest + far + 1) / 2));
+    fill_if_one_surface(h, near_inv, far);
   }
   // Applied after the pass, as a dilation reads only its input.
   for (const auto& [pt, v] : fills) d.at<uint16_t>(pt) = v;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "depth_tolerance.h"
 #include "error.h"
 #include "simd.h"
 
@@ -18,7 +19,7 @@ void plane_snap_row(const uint16_t* in, const uint16_t* plane_depth, const uint8
                     int n, uint32_t tol_min, uint32_t rq16, uint16_t* out) {
   for (int x = 0; x < n; ++x) {
     const uint32_t d = in[x], pd = plane_depth[x];
-    const uint32_t t = std::max(tol_min, (pd * rq16 + 32768u) >> 16);
+    const uint32_t t = depth_tolerance(pd, tol_min, rq16);
     const uint32_t diff = d > pd ? d - pd : pd - d;
     const bool snap = (d != 0) & (index[x] != PlaneMaps::kNoPlane) & (diff <= t) & (label[x] == 0);
     out[x] = snap ? static_cast<uint16_t>(pd) : static_cast<uint16_t>(d);
@@ -84,7 +85,7 @@ void plane_refine(const cv::Mat& depth, const PlaneMaps& maps, const cv::Mat& la
   CV_Assert(label.empty() || (label.type() == CV_8UC1 && label.size() == depth.size()));
   out.create(depth.size(), CV_16UC1);  // no reallocation when `out` is `depth`
   const uint32_t tol_min = static_cast<uint32_t>(std::max(0, tol.min_mm));
-  const uint32_t rq16 = static_cast<uint32_t>(std::clamp(tol.ratio, 0.0, 65535.0 / 65536.0) * 65536.0 + 0.5);
+  const uint32_t rq16 = detail::ratio_q16(tol.ratio);
   thread_local std::vector<uint8_t> zeros;
   zeros.assign(depth.cols, 0);
   for (int y = 0; y < depth.rows; ++y)

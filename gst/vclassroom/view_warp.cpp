@@ -218,10 +218,40 @@ struct CellRow {
   float* dsv_dy;
 };
 
+// Depth in mm and weight in 1..255 as the z-buffer keeps them. The row
+// kernels convert to 32-bit lanes (narrower conversions cost them shuffles).
+// The mesh path extrapolates a little beyond its triangles: clamped both ways.
+inline int32_t depth_mm_lane(float z_m) { return int32_t(std::clamp(z_m * 1000.0f + 0.5f, 0.0f, 65534.0f)); }
+inline uint16_t depth_mm(float z_m) { return uint16_t(depth_mm_lane(z_m)); }
+inline int32_t weight_lane(float w) { return int32_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f)); }
+inline uint8_t weight_byte(float w) { return uint8_t(weight_lane(w)); }
+
 struct CellGeometry {
   int W, H, VW, VH;
   float max_area;
 };
+
+// The virtual pixels a cell centred at (x, y) reaching hx, hy may cover,
+// clipped to the view; `drawable` false when that leaves none.
+struct CellBox {
+  int xmin, xmax, ymin, ymax;
+  bool drawable;
+};
+
+inline CellBox cell_box(const CellGeometry& g, float x, float y, float hx, float hy) {
+  const float VWf = float(g.VW), VHf = float(g.VH);
+  const bool in_view = (x + hx >= 0) & (y + hy >= 0) & (x - hx <= VWf) & (y - hy <= VHf);
+  // Clamped before the integer conversion: off-view points can be far out.
+  const float xl = std::clamp(x - hx, -2.0f, VWf + 2), xh = std::clamp(x + hx, -2.0f, VWf + 2);
+  const float yl = std::clamp(y - hy, -2.0f, VHf + 2), yh = std::clamp(y + hy, -2.0f, VHf + 2);
+  CellBox b;
+  b.xmin = std::max(0, fast_ceil(xl));
+  b.xmax = std::min(g.VW - 1, fast_floor(xh));
+  b.ymin = std::max(0, fast_ceil(yl));
+  b.ymax = std::min(g.VH - 1, fast_floor(yh));
+  b.drawable = in_view & (b.xmin <= b.xmax) & (b.ymin <= b.ymax);
+  return b;
+}
 
 // px..links point at the row's first pixel; the arrays are padded by a row
 // and a pixel on both sides, so the neighbours of border pixels can be read.
@@ -230,8 +260,7 @@ void prepare_cells(const CellGeometry& g, int v, int u_begin, int u_end, const f
                    const float* __restrict py, const float* __restrict pz, const float* __restrict pw,
                    const uint32_t* __restrict links, const uint32_t* __restrict links_up, const CellRow& out) {
   const int W = g.W, H = g.H;
-  const float VWf = float(g.VW), VHf = float(g.VH), max_area = g.max_area;
-  const int VW1 = g.VW - 1, VH1 = g.VH - 1;
+  const float max_area = g.max_area;
   const float fv = float(v);
   const bool has_up = v > 0, has_down_border = v + 1 >= H, top = v == 0;
   int32_t* __restrict ox0 = out.x0;
@@ -262,14 +291,9 @@ void prepare_cells(const CellGeometry& g, int v, int u_begin, int u_end, const f
     const float det = jxu * jyv - jxv * jyu;
     const float area = std::fabs(det);
     const float hx = kCell * (std::fabs(jxu) + std::fabs(jxv)), hy = kCell * (std::fabs(jyu) + std::fabs(jyv));
-    const bool in_view = (x + hx >= 0) & (y + hy >= 0) & (x - hx <= VWf) & (y - hy <= VHf);
-    bool drawn = (zi > 0) & (hu | hv) & (area >= 1e-6f) & (area <= max_area) & in_view;
-    // Clamped before the integer conversion: off-view points can be far out.
-    const float xl = std::clamp(x - hx, -2.0f, VWf + 2), xh = std::clamp(x + hx, -2.0f, VWf + 2);
-    const float yl = std::clamp(y - hy, -2.0f, VHf + 2), yh = std::clamp(y + hy, -2.0f, VHf + 2);
-    const int xmin = std::max(0, fast_ceil(xl)), xmax = std::min(VW1, fast_floor(xh));
-    const int ymin = std::max(0, fast_ceil(yl)), ymax = std::min(VH1, fast_floor(yh));
-    drawn = drawn & (xmin <= xmax) & (ymin <= ymax);
+    const CellBox box = cell_box(g, x, y, hx, hy);
+    const int xmin = box.xmin, xmax = box.xmax, ymin = box.ymin, ymax = box.ymax;
+    const bool drawn = (zi > 0) & (hu | hv) & (area >= 1e-6f) & (area <= max_area) & box.drawable;
     const bool small = (xmax - xmin <= 1) & (ymax - ymin <= 1);
     // Towards a depth edge the cell ends at the pixel centre, like the mesh:
     // the surface is not known to go on beyond it.
@@ -304,12 +328,10 @@ void prepare_cells(const CellGeometry& g, int v, int u_begin, int u_end, const f
     osides[u] = (open_right ? kOpenRight : 0) | (open_left ? kOpenLeft : 0) | (open_down ? kOpenDown : 0) |
                 (open_up ? kOpenUp : 0);
     const float w = pw[u] / std::sqrt(std::max(area, 1.0f));
-    ow[u] = int32_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f));
+    ow[u] = weight_lane(w);
   }
 }
 
-// The mesh path extrapolates a little beyond its triangles: clamped both ways.
-inline uint16_t depth_mm(float z_m) { return uint16_t(std::clamp(z_m * 1000.0f + 0.5f, 0.0f, 65534.0f)); }
 
 // A 2x2 block's cell: a source pixel and a hair on every side of the block's centre.
 constexpr float kBlock = 1.0f + 1e-3f;
@@ -337,8 +359,7 @@ void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __res
                     const uint32_t* __restrict links_down, const uint32_t* __restrict links_up,
                     const CellRow& out, int32_t* __restrict oz) {
   const int W = g.W;
-  const float VWf = float(g.VW), VHf = float(g.VH), max_area = g.max_area;
-  const int VW1 = g.VW - 1, VH1 = g.VH - 1;
+  const float max_area = g.max_area;
   const float fv = float(v) + 0.5f;
   int32_t* __restrict ox0 = out.x0;
   int32_t* __restrict oy0 = out.y0;
@@ -378,13 +399,9 @@ void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __res
     const float det = jxu * jyv - jxv * jyu;
     const float area = std::fabs(det);
     const float hx = kBlock * (std::fabs(jxu) + std::fabs(jxv)), hy = kBlock * (std::fabs(jyu) + std::fabs(jyv));
-    const bool in_view = (x + hx >= 0) & (y + hy >= 0) & (x - hx <= VWf) & (y - hy <= VHf);
-    bool drawn = coarse & (area >= 1e-6f) & (area <= max_area) & in_view;
-    const float xl = std::clamp(x - hx, -2.0f, VWf + 2), xh = std::clamp(x + hx, -2.0f, VWf + 2);
-    const float yl = std::clamp(y - hy, -2.0f, VHf + 2), yh = std::clamp(y + hy, -2.0f, VHf + 2);
-    const int xmin = std::max(0, fast_ceil(xl)), xmax = std::min(VW1, fast_floor(xh));
-    const int ymin = std::max(0, fast_ceil(yl)), ymax = std::min(VH1, fast_floor(yh));
-    drawn = drawn & (xmin <= xmax) & (ymin <= ymax);
+    const CellBox box = cell_box(g, x, y, hx, hy);
+    const int xmin = box.xmin, xmax = box.xmax, ymin = box.ymin, ymax = box.ymax;
+    const bool drawn = coarse & (area >= 1e-6f) & (area <= max_area) & box.drawable;
     const bool small = (xmax - xmin <= 2) & (ymax - ymin <= 2);
     const float idet = 1.0f / (drawn ? det : 1.0f);
     const float a00 = jyv * idet, a01 = -jxv * idet, a10 = -jyu * idet, a11 = jxu * idet;
@@ -402,10 +419,10 @@ void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __res
     oy0[j] = ymin;
     ox1[j] = xmax;
     oy1[j] = ymax;
-    oz[j] = int32_t(std::clamp(z * 1000.0f + 0.5f, 0.0f, 65534.0f));  // depth_mm
+    oz[j] = depth_mm_lane(z);
     const float pwm = 0.25f * ((pw[u] + pw[u + 1]) + (pw[u + W] + pw[u + W + 1]));
     const float w = pwm / std::sqrt(std::max(area, 1.0f));
-    ow[j] = int32_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f));
+    ow[j] = weight_lane(w);
   }
   // Which candidates each cell covers, in a second pass (one pass needs more
   // vector registers than there are).
@@ -458,7 +475,6 @@ inline void store(Sample& s, uint16_t zmm, int32_t fu, int32_t fv, const ColorSa
   s.label = label;
 }
 
-inline uint8_t weight_byte(float w) { return uint8_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f)); }
 
 // Holes keep the initial record: colour, weight and label 0, depth "none".
 VCLASSROOM_SIMD_CLONES

@@ -54,6 +54,14 @@ static GstStaticPadTemplate sink_template =
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
 
+// True the first time only: one warning per element, not one per buffer.
+static bool first_warning(PriorityState* st) {
+  std::lock_guard<std::mutex> g(st->lock);
+  const bool first = !st->warned;
+  st->warned = true;
+  return first;
+}
+
 static void apply_to_current_thread(GstThreadPriority* self) {
   PriorityState* st = self->st;
 #ifdef __linux__
@@ -72,26 +80,15 @@ static void apply_to_current_thread(GstThreadPriority* self) {
   if (errno == 0 && current >= nice) return;
   if (setpriority(PRIO_PROCESS, static_cast<id_t>(thread), nice) != 0) {
     const int err = errno;
-    bool first;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      first = !st->warned;
-      st->warned = true;
-    }
-    if (first)
+    if (first_warning(st))
       GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS, ("Could not set the streaming thread's nice value to %d", nice),
                           ("setpriority: %s", std::strerror(err)));
     return;
   }
   GST_DEBUG_OBJECT(self, "thread %ld now runs at nice %d", thread, nice);
 #else
-  bool first;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    first = !st->warned;
-    st->warned = true;
-  }
-  if (first) GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS, ("Thread priorities are only set on Linux"), (nullptr));
+  if (first_warning(st))
+    GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS, ("Thread priorities are only set on Linux"), (nullptr));
 #endif
 }
 
