@@ -233,6 +233,8 @@ inline int32_t depth_mm_lane(float z_m) { return int32_t(std::clamp(z_m * 1000.0
 inline uint16_t depth_mm(float z_m) { return uint16_t(depth_mm_lane(z_m)); }
 inline int32_t weight_lane(float w) { return int32_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f)); }
 inline uint8_t weight_byte(float w) { return uint8_t(weight_lane(w)); }
+// A source position in remap fixed point (1/32 px), clamped into the image.
+inline int32_t to_fixed(float s, float max) { return int32_t(std::clamp(s, 0.0f, max) * kSub + 0.5f); }
 
 struct CellGeometry {
   int W, H, VW, VH;
@@ -365,7 +367,8 @@ VCLASSROOM_SIMD_CLONES
 void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __restrict px, const float* __restrict py,
                     const float* __restrict pz, const float* __restrict pw, const uint32_t* __restrict links,
                     const uint32_t* __restrict links_down, const uint32_t* __restrict links_up,
-                    const CellRow& out, int32_t* __restrict oz) {
+                    const CellRow& out, int32_t* __restrict oz, float max_u, float max_v,
+                    int32_t* __restrict ofixed) {
   const int W = g.W;
   const float max_area = g.max_area;
   const float fv = float(v) + 0.5f;
@@ -454,6 +457,19 @@ void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __res
     const int32_t m = omask[j];
     omask[j] = m == -1 ? mask : m;
   }
+  // Every candidate's source position in fixed point, u of candidate k of
+  // block j at ofixed[k * blocks + j], v kBlockCandidates * blocks further:
+  // here all in vectors, where the splat would convert them one by one.
+  for (int k = 0; k < kBlockCandidates; ++k) {
+    const float kx = kBlockKx[k], ky = kBlockKy[k];
+    int32_t* __restrict ofu = ofixed + size_t(k) * blocks;
+    int32_t* __restrict ofv = ofu + size_t(kBlockCandidates) * blocks;
+#pragma GCC ivdep
+    for (int j = 0; j < blocks; ++j) {
+      ofu[j] = to_fixed(osu[j] + oa00[j] * kx + oa01[j] * ky, max_u);
+      ofv[j] = to_fixed(osv[j] + oa10[j] * kx + oa11[j] * ky, max_v);
+    }
+  }
 }
 
 // Bilinear colour of the source at a fixed-point position (1/32 px) inside
@@ -503,7 +519,6 @@ struct ColorSampler {
   }
 };
 
-inline int32_t to_fixed(float s, float max) { return int32_t(std::clamp(s, 0.0f, max) * kSub + 0.5f); }
 
 inline void store(Sample& s, uint16_t zmm, int32_t fu, int32_t fv, const ColorSampler& color, uint8_t weight,
                   uint8_t label) {
@@ -773,6 +788,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
                     &block_z_})
       a->resize(NB);
     block_pos_.resize(size_t(NB) * 6);
+    block_fixed_.resize(size_t(NB) * 2 * kBlockCandidates);
     float* const bpos = block_pos_.data();
     const CellRow blocks{block_x0_.data(),   block_y0_.data(),   block_x1_.data(),   block_y1_.data(),
                          block_coarse_.data(), block_mask_.data(), block_weight_.data(), bpos,
@@ -865,7 +881,8 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       const size_t row = size_t(v) * W;
       const int nb = W / 2;
       prepare_blocks(geom, v, nb, PX + row, PY + row, PZ + row, PW + row, links_row(v), links_row(v + 1),
-                     v > 0 ? links_row(v - 1) : no_links, blocks, block_z_.data());
+                     v > 0 ? links_row(v - 1) : no_links, blocks, block_z_.data(), max_u, max_v,
+                     block_fixed_.data());
       // The pixels of the blocks that are not one cell, in runs.
       const int32_t* is_block = block_coarse_.data();
       // Runs a few blocks apart are set up as one (a short run costs a call
@@ -892,11 +909,10 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       const uint8_t* const lab = &src_label_[row];
       const int32_t *const mask = block_mask_.data(), *const x0 = block_x0_.data(), *const y0 = block_y0_.data(),
                     *const wt = block_weight_.data(), *const bz = block_z_.data();
-      const float *const su0 = blocks.su, *const sv0 = blocks.sv, *const a00 = blocks.dsu_dx,
-                  *const a10 = blocks.dsv_dx, *const a01 = blocks.dsu_dy, *const a11 = blocks.dsv_dy;
+      const int32_t* const fixed_u = block_fixed_.data();
+      const int32_t* const fixed_v = fixed_u + size_t(kBlockCandidates) * nb;
       const ptrdiff_t vw = VW;
       const ColorSampler col = color;
-      const float mu = max_u, mv = max_v;
       for (int j = 0; j < nb; ++j) {
         const int32_t m = mask[j];
         if (!m) continue;
@@ -908,16 +924,13 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
           continue;
         }
         Sample* const first = zbuf + y0[j] * vw + x0[j];
-        const float cu = su0[j], cv = sv0[j], cux = a00[j], cvx = a10[j], cuy = a01[j], cvy = a11[j];
         const uint8_t weight = uint8_t(wt[j]);
         for (unsigned bits = m; bits; bits &= bits - 1) {
           const int k = __builtin_ctz(bits);
           Sample& s = first[block_offset[k]];
           if (zmm >= s.z) continue;
-          const float kx = kBlockKx[k], ky = kBlockKy[k];
-          const float su = cu + cux * kx + cuy * ky;
-          const float sv = cv + cvx * kx + cvy * ky;
-          store(s, zmm, to_fixed(su, mu), to_fixed(sv, mv), col, weight, label);
+          const size_t at = size_t(k) * nb + j;
+          store(s, zmm, fixed_u[at], fixed_v[at], col, weight, label);
         }
       }
     }

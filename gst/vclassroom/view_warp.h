@@ -95,6 +95,7 @@ class ViewWarper {
   std::vector<int32_t> block_x0_, block_y0_, block_x1_, block_y1_, block_coarse_, block_mask_, block_weight_,
       block_z_;
   std::vector<float> block_pos_;
+  std::vector<int32_t> block_fixed_;  // each candidate's source position, fixed point
   std::vector<int32_t> no_blocks_;              // all zero: a row pair without block cells
   std::vector<std::pair<int, int>> fine_runs_;  // pixels [first, second) of a row pair without block cells
 };
