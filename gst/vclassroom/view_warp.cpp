@@ -350,8 +350,11 @@ constexpr float kBlock = 1.0f + 1e-3f;
 constexpr int kBlockCandidates = 9;
 constexpr float kBlockKx[kBlockCandidates] = {0, 1, 2, 0, 1, 2, 0, 1, 2};
 constexpr float kBlockKy[kBlockCandidates] = {0, 0, 0, 1, 1, 1, 2, 2, 2};
-// Runs of pixels without a block cell this close (px) are set up as one.
-constexpr int kRunGap = 8;
+// Runs of pixels without a block cell are set up in whole chunks of this
+// many pixels (a multiple of every vector width), so that prepare_cells never
+// ends in its scalar remainder loop; runs in the same or adjacent chunks are
+// set up as one. The block pixels this adds are skipped in the splat.
+constexpr int kRunChunk = 16;
 // How much the step to the next pixel may differ from the step within the
 // block (px in the view) for the block to be one cell.
 constexpr float kBlockBend = 0.5f;
@@ -605,7 +608,8 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   float *const PX = px_.data() + pad, *const PY = py_.data() + pad, *const PZ = pz_.data() + pad,
                *const PW = pw_.data() + pad, *const PL = plim_.data() + pad;
   src_depth_.resize(n);
-  src_label_.resize(n);
+  src_label_.resize(n + 1);  // + 1: read as the last pixel's right neighbour
+  src_label_[n] = 0;
   // The z-buffer is left empty by the last frame's unpack: only a new size
   // needs a fill (one pass less over 8 bytes per virtual pixel).
   if (zbuf_.size() != vn) {
@@ -649,10 +653,13 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     uint16_t* D = src_depth_.data();
     uint8_t* const code = edge_code_.data();
     uint8_t* const drop = drop_.data();
-    // Along rows; the far side and the b - 1 pixels beyond it, within the row.
+    // Along rows; the far side and the b - 1 pixels beyond it, within the
+    // row. One pass over the image (a vector loop has no remainder to speak
+    // of), then the steps whose four pixels straddle two rows cleared.
+    depth_edges(int(n - 3), D + 1, 1, ratio, min_mm, code + 1);
     for (int v = 0; v < H; ++v) {
       const size_t row = size_t(v) * W;
-      depth_edges(W - 3, D + row + 1, 1, ratio, min_mm, code + row + 1);
+      code[row] = code[row + W - 2] = code[row + W - 1] = 0;
       for (int k = 0; k < b && k < W; ++k) mark_far_side(W, k, 1, code + row, drop + row);
     }
     // Along columns.
@@ -765,8 +772,11 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       const size_t row = size_t(v) * W;
       uint32_t* out = links_row(v);
       std::fill_n(out, W, 0u);
-      link_neighbours(size_t(W - 1), 1, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
+      // The last pixel too (its "right neighbour" is the next row's first,
+      // or padding), then unlinked: a whole number of vectors.
+      link_neighbours(size_t(W), 1, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
                       float(emin), kRight, out);
+      out[W - 1] &= ~kRight;
       if (v + 1 < H)
         link_neighbours(size_t(W), W, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
                         float(emin), kDown, out);
@@ -889,6 +899,12 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       // and a scalar loop); the pixels of block cells in between are skipped.
       block_coarse_[nb] = 0;  // the last column when W is odd
       fine_runs_.clear();
+      auto add_fine_run = [&](int u0, int u1) {
+        u0 -= u0 % kRunChunk;
+        u1 = std::min(W, u1 + (kRunChunk - u1 % kRunChunk) % kRunChunk);
+        if (!fine_runs_.empty() && u0 <= fine_runs_.back().second) fine_runs_.back().second = u1;
+        else fine_runs_.emplace_back(u0, u1);
+      };
       for (int j = 0; j < nb;) {
         if (is_block[j]) {
           ++j;
@@ -896,14 +912,9 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
         }
         const int j0 = j;
         while (j < nb && !is_block[j]) ++j;
-        const int u0 = 2 * j0, u1 = j == nb ? W : 2 * j;
-        if (!fine_runs_.empty() && u0 - fine_runs_.back().second <= kRunGap) fine_runs_.back().second = u1;
-        else fine_runs_.emplace_back(u0, u1);
+        add_fine_run(2 * j0, j == nb ? W : 2 * j);
       }
-      if ((W & 1) && is_block[nb - 1]) {
-        if (!fine_runs_.empty() && W - 1 - fine_runs_.back().second <= kRunGap) fine_runs_.back().second = W;
-        else fine_runs_.emplace_back(W - 1, W);
-      }
+      if ((W & 1) && is_block[nb - 1]) add_fine_run(W - 1, W);
       for (int r = v; r <= v + 1; ++r)
         for (const auto& run : fine_runs_) fine_cells(r, run.first, run.second, is_block);
       const uint8_t* const lab = &src_label_[row];
@@ -940,8 +951,13 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   out->depth.create(VH, VW, CV_16UC1);
   out->label.create(VH, VW, CV_8UC1);
   out->weight.create(VH, VW, CV_8UC1);
-  for (int y = 0; y < VH; ++y)
-    unpack_samples(VW, zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
+  // In one pass where the planes have no row padding (a vector loop per row
+  // would spend a good part of its time in the row's remainder).
+  const bool continuous = out->color.isContinuous() && out->depth.isContinuous() && out->label.isContinuous() &&
+                          out->weight.isContinuous();
+  const int rows = continuous ? 1 : VH, per_row = continuous ? int(vn) : VW;
+  for (int y = 0; y < rows; ++y)
+    unpack_samples(per_row, zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
                    out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
 }
 
