@@ -38,8 +38,14 @@ struct Sample {
   uint8_t unused;
 };
 constexpr uint16_t kNoSample = 0xffff;
-constexpr Sample kEmptySample{kNoSample, {0, 0, 0}, 0, 0, 0};
 static_assert(sizeof(Sample) == 8, "one z-buffer record is 8 bytes");
+// An empty record as the z-buffer stores it (one word): z = kNoSample, the
+// rest 0.
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+constexpr uint64_t kEmptyRecord = uint64_t(kNoSample) << 48;
+#else
+constexpr uint64_t kEmptyRecord = kNoSample;
+#endif
 
 // floor/ceil without a libm call (x86-64 baseline has no SSE4.1 round).
 inline int fast_floor(float x) {
@@ -542,6 +548,8 @@ inline void store(Sample& s, uint16_t zmm, int32_t fu, int32_t fv, const ColorSa
 
 
 // Holes keep the initial record: colour, weight and label 0, depth "none".
+// (The caller empties the records again: a store of Samples in this loop
+// would keep it from vectorising.)
 VCLASSROOM_SIMD_CLONES
 void unpack_samples(int n, Sample* __restrict s, uint8_t* __restrict rgb, uint16_t* __restrict depth,
                     uint8_t* __restrict label, uint8_t* __restrict weight) {
@@ -553,8 +561,6 @@ void unpack_samples(int n, Sample* __restrict s, uint8_t* __restrict rgb, uint16
     label[i] = s[i].label;
     weight[i] = s[i].weight;
   }
-  // Empty again for the next frame, while the records are in cache.
-  std::fill_n(s, n, kEmptySample);
 }
 
 }  // namespace
@@ -614,7 +620,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   // needs a fill (one pass less over 8 bytes per virtual pixel).
   if (zbuf_.size() != vn) {
     zbuf_.resize(vn);
-    std::fill_n(reinterpret_cast<Sample*>(zbuf_.data()), vn, kEmptySample);
+    std::fill(zbuf_.begin(), zbuf_.end(), kEmptyRecord);
   }
   Sample* const zbuf = reinterpret_cast<Sample*>(zbuf_.data());
   const ColorSampler color{in.color.data, in.color.step, W - 1, H - 1};
@@ -951,14 +957,18 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   out->depth.create(VH, VW, CV_16UC1);
   out->label.create(VH, VW, CV_8UC1);
   out->weight.create(VH, VW, CV_8UC1);
-  // In one pass where the planes have no row padding (a vector loop per row
-  // would spend a good part of its time in the row's remainder).
+  // In bands of rows where the planes have no row padding (a vector loop
+  // per row would spend a good part of its time in the row's remainder);
+  // each band's records emptied for the next frame while they are in cache.
   const bool continuous = out->color.isContinuous() && out->depth.isContinuous() && out->label.isContinuous() &&
                           out->weight.isContinuous();
-  const int rows = continuous ? 1 : VH, per_row = continuous ? int(vn) : VW;
-  for (int y = 0; y < rows; ++y)
-    unpack_samples(per_row, zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
+  const int band = continuous ? 32 : 1;
+  for (int y = 0; y < VH; y += band) {
+    const int rows = std::min(band, VH - y);
+    unpack_samples(rows * VW, zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
                    out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
+    std::fill_n(zbuf_.data() + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
+  }
 }
 
 WarpedView warp_view(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,
