@@ -83,7 +83,8 @@ void learner_median_depths(const uint16_t* depth, const uint8_t* label, int W, i
 }
 
 // The per-pixel loops below are written branch-free so the compiler
-// vectorises them; the AVX2 clone is picked at run time where the CPU has it.
+// vectorises them; the loader picks the AVX-512 or AVX2 clone where the CPU
+// has it (simd.h).
 
 // Layered depth of one row: learners keep their live depth, the room takes
 // its static depth where known.
