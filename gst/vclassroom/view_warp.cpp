@@ -902,8 +902,8 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
                      block_fixed_.data());
       // The pixels of the blocks that are not one cell, in runs.
       const int32_t* is_block = block_coarse_.data();
-      // Runs a few blocks apart are set up as one (a short run costs a call
-      // and a scalar loop); the pixels of block cells in between are skipped.
+      // Each run widened to whole kRunChunk chunks, runs that then touch
+      // joined; the pixels of block cells inside them are skipped.
       block_coarse_[nb] = 0;  // the last column when W is odd
       fine_runs_.clear();
       auto add_fine_run = [&](int u0, int u1) {
