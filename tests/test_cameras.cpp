@@ -1,0 +1,334 @@
+// Cameras that change or vanish: a camera switching its frame size, frames and
+// caps declaring sizes beyond what the server accepts, cameras that fall
+// silent and come back, and a viewfuse that sleeps while nothing arrives.
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include <gst/app/gstappsink.h>
+#include <gst/app/gstappsrc.h>
+#include <gst/gst.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <gst/vclassroom/camera_liveness.h>
+#include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/rgbd_codec.h>
+
+#include "test_util.h"
+
+using namespace vclassroom;
+
+namespace {
+
+// The default classroom camera `id` at w x h, as video/x-rgbd (colour, depth).
+RgbdInfo camera_info(int id, int w, int h) {
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(id), w, h);
+  info.camera.id = id;
+  return info;
+}
+
+// One rendered frame of the classroom as a video/x-rgbd buffer.
+GstBuffer* rgbd_frame(const RgbdInfo& info, int n) {
+  static Classroom room;
+  const RenderOutput r = render(room, n / 30.0, info.camera);
+  GstBuffer* b = rgbd_buffer_new(info);
+  RgbdFrame f;
+  std::string err;
+  EXPECT_TRUE(f.map(b, info, GST_MAP_WRITE, &err)) << err;
+  r.color.copyTo(f.color());
+  r.depth.copyTo(f.depth());
+  f.unmap();
+  GST_BUFFER_PTS(b) = n * GST_SECOND / 30;
+  GST_BUFFER_DURATION(b) = GST_SECOND / 30;
+  return b;
+}
+
+// The caps of rgbdenc's stream for a camera.
+GstCaps* coded_caps(const RgbdInfo& info) {
+  GstCaps* caps = rgbd_caps_new(info);
+  gst_structure_set_name(gst_caps_get_structure(caps, 0), "video/x-rgbd-coded");
+  gst_caps_set_simple(caps, "codec", G_TYPE_STRING, "vcrd1", nullptr);
+  return caps;
+}
+
+// One rendered frame of the classroom as rgbdenc codes it.
+GstBuffer* coded_frame(const RgbdInfo& info, int n) {
+  static Classroom room;
+  const RenderOutput r = render(room, n / 30.0, info.camera);
+  std::vector<uint8_t> bytes;
+  encode_rgbd_frame({r.color, r.depth, cv::Mat()}, 80, &bytes);
+  GstBuffer* b = gst_buffer_new_memdup(bytes.data(), bytes.size());
+  GST_BUFFER_PTS(b) = n * GST_SECOND / 30;
+  GST_BUFFER_DURATION(b) = GST_SECOND / 30;
+  return b;
+}
+
+GstElement* by_name(GstElement* bin, const char* name) { return gst_bin_get_by_name(GST_BIN(bin), name); }
+
+// Plays three cameras as appsrc (rgbdenc's stream) -> rgbddec -> `branch` ->
+// viewfuse -> appsink; camera 2 switches from 96x54 to 64x48 halfway.
+struct SwitchRun {
+  vctest::RunResult result;
+  size_t outputs = 0;
+};
+SwitchRun play_size_switch(const std::string& branch, const std::string& branch2) {
+  constexpr int kFrames = 8;
+  std::string desc = "viewfuse name=f ! appsink name=out sync=false ";
+  for (int k = 0; k < 3; ++k)
+    desc += "appsrc name=src" + std::to_string(k) + " format=time ! rgbddec ! " + (k == 2 ? branch2 : branch) +
+            " ! f.cam_" + std::to_string(k) + " ";
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  EXPECT_EQ(err, nullptr) << err->message;
+  GstElement* sink = by_name(p, "out");
+  SwitchRun run;
+  {
+    vctest::SampleCollector got(sink);
+    GstElement* src[3];
+    for (int k = 0; k < 3; ++k) {
+      src[k] = by_name(p, ("src" + std::to_string(k)).c_str());
+      GstCaps* caps = coded_caps(camera_info(k, 96, 54));
+      gst_app_src_set_caps(GST_APP_SRC(src[k]), caps);
+      gst_caps_unref(caps);
+    }
+    for (int n = 0; n < kFrames; ++n)
+      for (int k = 0; k < 3; ++k) {
+        RgbdInfo info = camera_info(k, 96, 54);
+        if (k == 2 && n >= kFrames / 2) {
+          // Camera 2 comes back at another size (another sensor mode, another sender).
+          info = camera_info(k, 64, 48);
+          if (n == kFrames / 2) {
+            GstCaps* caps = coded_caps(info);
+            gst_app_src_set_caps(GST_APP_SRC(src[k]), caps);
+            gst_caps_unref(caps);
+          }
+        }
+        gst_app_src_push_buffer(GST_APP_SRC(src[k]), coded_frame(info, n));
+      }
+    for (int k = 0; k < 3; ++k) {
+      gst_app_src_end_of_stream(GST_APP_SRC(src[k]));
+      gst_object_unref(src[k]);
+    }
+    run.result = vctest::run_pipeline(p);
+    run.outputs = got.size();
+  }
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  return run;
+}
+
+bool any_contains(const std::vector<std::string>& texts, const std::string& part) {
+  return std::any_of(texts.begin(), texts.end(), [&](const std::string& t) { return t.find(part) != std::string::npos; });
+}
+
+// The appsrc -> rgbddec -> appsink pipeline of the decoder tests.
+struct DecoderRun {
+  vctest::RunResult result;
+  size_t outputs = 0;
+  std::vector<std::string> caps_seen;  // caps events downstream of rgbddec
+  guint64 frames = 0, dropped = 0;
+};
+struct Pushed {
+  GstCaps* caps;       // owned; nullptr: keep the previous caps
+  GstBuffer* buffer;   // owned
+};
+GstPadProbeReturn record_caps(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  GstEvent* e = GST_PAD_PROBE_INFO_EVENT(info);
+  if (GST_EVENT_TYPE(e) == GST_EVENT_CAPS) {
+    GstCaps* caps;
+    gst_event_parse_caps(e, &caps);
+    gchar* text = gst_caps_to_string(caps);
+    static_cast<std::vector<std::string>*>(data)->push_back(text);
+    g_free(text);
+  }
+  return GST_PAD_PROBE_OK;
+}
+DecoderRun run_decoder(const std::string& dec_props, const std::vector<Pushed>& pushed) {
+  DecoderRun run;
+  GError* err = nullptr;
+  const std::string desc =
+      "appsrc name=src format=time ! rgbddec name=dec stats-interval=1000 " + dec_props + " ! appsink name=out sync=false";
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  EXPECT_EQ(err, nullptr) << err->message;
+  GstElement* src = by_name(p, "src");
+  GstElement* dec = by_name(p, "dec");
+  GstElement* sink = by_name(p, "out");
+  GstPad* dec_src = gst_element_get_static_pad(dec, "src");
+  gst_pad_add_probe(dec_src, GST_PAD_PROBE_TYPE_EVENT_DOWNSTREAM, record_caps, &run.caps_seen, nullptr);
+  gst_object_unref(dec_src);
+  {
+    vctest::SampleCollector got(sink);
+    for (const Pushed& x : pushed) {
+      if (x.caps) {
+        gst_app_src_set_caps(GST_APP_SRC(src), x.caps);
+        gst_caps_unref(x.caps);
+      }
+      gst_app_src_push_buffer(GST_APP_SRC(src), x.buffer);
+    }
+    gst_app_src_end_of_stream(GST_APP_SRC(src));
+    run.result = vctest::run_pipeline(p);
+    run.outputs = got.size();
+  }
+  g_object_get(dec, "frames", &run.frames, "frames-dropped", &run.dropped, nullptr);
+  gst_object_unref(src);
+  gst_object_unref(dec);
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  return run;
+}
+
+// The last vclassroom-codec-stats message's count `field`.
+guint64 last_stat(const vctest::RunResult& r, const char* field) {
+  guint64 v = G_MAXUINT64;
+  for (const std::string& m : r.element_messages) {
+    GstStructure* st = gst_structure_from_string(m.c_str(), nullptr);
+    if (st && gst_structure_has_name(st, "vclassroom-codec-stats")) {
+      guint64 x;
+      v = gst_structure_get_uint64(st, field, &x) ? x : G_MAXUINT64 - 1;
+    }
+    if (st) gst_structure_free(st);
+  }
+  return v;
+}
+
+}  // namespace
+
+
+// A camera that switches to another frame size mid-stream is renegotiated on
+// its own branch, even when its viewwarp holds a prior depth made for the old
+// size (that used to stop the whole server with an error): the other cameras
+// and the lecturer's view go on, and a warning says what happened.
+TEST(CameraCaps, ACameraSwitchingSizeIsRenegotiatedAloneDespiteItsPrior) {
+  vctest::TempDir dir;
+  Classroom room;
+  const std::string prior = dir / "prior2.png";
+  ASSERT_TRUE(cv::imwrite(prior, render(room, 0, camera_info(2, 96, 54).camera).depth));
+  const SwitchRun run = play_size_switch("viewwarp width=96 height=54",
+                                         "viewwarp width=96 height=54 prior-depth=" + prior);
+  EXPECT_EQ(run.result.error, "") << "from " << run.result.error_source;
+  EXPECT_EQ(run.outputs, 8u) << "the lecturer's view stopped";
+  EXPECT_TRUE(any_contains(run.result.warnings, "now streams 64x48")) << "no warning about camera 2's new size";
+}
+
+// A camera whose warped view no longer has the others' size is left out of
+// the fusion with a warning; the others go on.
+TEST(CameraCaps, AViewOfAnotherSizeIsLeftOutWithAWarning) {
+  // viewwarp without a size renders the virtual view at the camera's size.
+  const SwitchRun run = play_size_switch("viewwarp", "viewwarp");
+  EXPECT_EQ(run.result.error, "") << "from " << run.result.error_source;
+  EXPECT_EQ(run.outputs, 8u) << "the lecturer's view stopped";
+  std::string all;
+  for (const auto& w : run.result.warnings) all += w + "\n";
+  EXPECT_TRUE(any_contains(run.result.warnings, "left out: its view is 64x48, the others' 96x54")) << "warnings:\n" << all;
+  EXPECT_TRUE(any_contains(run.result.warnings, "a frame left out from camera 2")) << "dropped frames not said";
+}
+
+// In-band caps declaring a 16384x16384 camera (a crafted 8 KB packet used to
+// make rgbddec allocate 1.2 GB per frame) are refused before anything is
+// allocated: never passed downstream, the frames dropped and counted, one
+// warning; good caps afterwards are decoded.
+TEST(CameraCaps, OversizedCapsAreRefusedBeforeAnyAllocation) {
+  const RgbdInfo good = camera_info(2, 64, 36);
+  RgbdInfo huge = good;
+  huge.camera.width = huge.camera.height = 16384;
+  std::vector<Pushed> pushed;
+  for (int n = 0; n < 5; ++n) pushed.push_back({n == 0 ? coded_caps(huge) : nullptr, coded_frame(good, n)});
+  for (int n = 5; n < 8; ++n) pushed.push_back({n == 5 ? coded_caps(good) : nullptr, coded_frame(good, n)});
+  const DecoderRun run = run_decoder("", pushed);
+  EXPECT_EQ(run.result.error, "");
+  EXPECT_EQ(run.outputs, 3u);
+  for (const std::string& c : run.caps_seen) EXPECT_EQ(c.find("16384"), std::string::npos) << c;
+  EXPECT_EQ(run.dropped, 5u);
+  EXPECT_EQ(last_stat(run.result, "dropped-rejected-caps"), 5u);
+  EXPECT_EQ(last_stat(run.result, "dropped-damaged"), 0u);
+  EXPECT_TRUE(any_contains(run.result.warnings, "refusing the caps of camera 2: caps declare 16384x16384"));
+  // Refused caps, then one warning for the first dropped frame; the other 4 within 5 s are counted only.
+  EXPECT_EQ(run.result.warnings.size(), 2u);
+}
+
+// A frame whose header declares another size than its caps is dropped
+// before decoding (the decoder checks the header first) and counted as such.
+TEST(CameraCaps, AFrameDeclaringAnotherSizeThanItsCapsIsDropped) {
+  const RgbdInfo caps_info = camera_info(2, 64, 36);
+  const RgbdInfo bigger = camera_info(2, 256, 144);
+  std::vector<Pushed> pushed{{coded_caps(caps_info), coded_frame(caps_info, 0)},
+                             {nullptr, coded_frame(bigger, 1)},
+                             {nullptr, coded_frame(caps_info, 2)}};
+  const DecoderRun run = run_decoder("", pushed);
+  EXPECT_EQ(run.result.error, "");
+  EXPECT_EQ(run.outputs, 2u);
+  EXPECT_EQ(last_stat(run.result, "dropped-wrong-size"), 1u);
+  EXPECT_EQ(last_stat(run.result, "dropped-damaged"), 0u);
+  EXPECT_TRUE(any_contains(run.result.warnings, "a frame of the wrong size from camera 2"));
+}
+
+// With a rig, a camera's caps must be the rig's camera at the rig's size.
+TEST(CameraCaps, TheRigRefusesACameraAtAnotherSize) {
+  vctest::TempDir dir;
+  Rig rig = default_classroom_rig();
+  for (auto& c : rig.cameras) c = scale_camera(c, 64, 36);
+  save_rig(rig, dir / "rig.yaml");
+  std::vector<Pushed> pushed;
+  for (int n = 0; n < 3; ++n)
+    pushed.push_back({n == 0 ? coded_caps(camera_info(2, 96, 54)) : nullptr, coded_frame(camera_info(2, 96, 54), n)});
+  for (int n = 3; n < 5; ++n)
+    pushed.push_back({n == 3 ? coded_caps(camera_info(2, 64, 36)) : nullptr, coded_frame(camera_info(2, 64, 36), n)});
+  const DecoderRun run = run_decoder("rig=" + dir / "rig.yaml", pushed);
+  EXPECT_EQ(run.result.error, "");
+  EXPECT_EQ(run.outputs, 2u);
+  EXPECT_EQ(last_stat(run.result, "dropped-rejected-caps"), 3u);
+  EXPECT_TRUE(any_contains(run.result.warnings, "has camera 2 at 64x36"));
+}
+
+TEST(CameraLiveness, LostAfterTheTimeoutAndBackWithItsNextFrame) {
+  CameraLiveness live(1000);
+  EXPECT_FALSE(live.seen(0, 0));
+  EXPECT_FALSE(live.seen(2, 0));
+  EXPECT_TRUE(live.newly_lost(1000).empty());  // silent for exactly the timeout: not yet
+  live.seen(0, 1500);
+  EXPECT_EQ(live.newly_lost(1001), std::vector<int>{2});
+  EXPECT_TRUE(live.newly_lost(1200).empty());  // reported once
+  EXPECT_EQ(live.missing(), std::vector<int>{2});
+  EXPECT_FALSE(live.all_lost());
+  EXPECT_EQ(live.silent_for(2, 1700), 1700);
+  EXPECT_TRUE(live.seen(2, 1800));  // its return
+  EXPECT_TRUE(live.missing().empty());
+  EXPECT_EQ(live.newly_lost(5000), (std::vector<int>{0, 2}));
+  EXPECT_TRUE(live.all_lost());
+  CameraLiveness never(0);
+  never.seen(1, 0);
+  EXPECT_TRUE(never.newly_lost(int64_t(1) << 60).empty());
+}
+
+TEST(CameraLiveness, TheBannerNamesTheMissingCameras) {
+  EXPECT_EQ(missing_cameras_text({}), "");
+  EXPECT_EQ(missing_cameras_text({2}), "camera 2 missing");
+  EXPECT_EQ(missing_cameras_text({0, 2}), "cameras 0, 2 missing");
+  cv::Mat img(540, 960, CV_8UC3, cv::Scalar(10, 20, 30));
+  const cv::Mat before = img.clone();
+  EXPECT_TRUE(draw_missing_banner(img, "").empty());
+  EXPECT_TRUE(vctest::same_image(img, before));
+  const cv::Rect box = draw_missing_banner(img, "camera 2 missing");
+  ASSERT_FALSE(box.empty());
+  EXPECT_EQ(box.x, 0);
+  EXPECT_EQ(box.y, 0);
+  EXPECT_LT(box.width, img.cols / 2);
+  EXPECT_LT(box.height, img.rows / 8);
+  int white = 0;  // anti-aliased: count the near-white pixels of the text
+  for (int y = box.y; y < box.y + box.height; ++y)
+    for (int x = box.x; x < box.x + box.width; ++x) {
+      const cv::Vec3b c = img.at<cv::Vec3b>(y, x);
+      white += c[0] > 200 && c[1] > 200 && c[2] > 200;
+    }
+  EXPECT_GT(white, 50) << "no text drawn";
+  EXPECT_TRUE(vctest::same_image(img(cv::Rect(0, box.height, img.cols, img.rows - box.height)),
+                                 before(cv::Rect(0, box.height, img.cols, img.rows - box.height))));
+}
