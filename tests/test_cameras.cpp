@@ -2,7 +2,6 @@
 // caps declaring sizes beyond what the server accepts, cameras that fall
 // silent and come back, and a viewfuse that sleeps while nothing arrives.
 #include <gtest/gtest.h>
-#include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
@@ -13,6 +12,7 @@
 #include <gst/app/gstappsink.h>
 #include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
+#include <gst/video/video.h>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -331,4 +331,238 @@ TEST(CameraLiveness, TheBannerNamesTheMissingCameras) {
   EXPECT_GT(white, 50) << "no text drawn";
   EXPECT_TRUE(vctest::same_image(img(cv::Rect(0, box.height, img.cols, img.rows - box.height)),
                                  before(cv::Rect(0, box.height, img.cols, img.rows - box.height))));
+}
+
+namespace {
+
+// A live fusion of cameras 1 and 2 of the small classroom, each behind a valve
+// (v1, v2) that can silence it without end-of-stream.
+struct LiveFusion {
+  vctest::TempDir dir;
+  GstElement* pipe = nullptr;
+  GstElement* sink = nullptr;
+  GstBus* bus = nullptr;
+  std::vector<std::string> warnings;
+
+  explicit LiveFusion(const std::string& fuse_props) {
+    Rig rig = default_classroom_rig();
+    for (auto& c : rig.cameras) c = scale_camera(c, 96, 54);
+    const std::string r = dir / "rig.yaml";
+    save_rig(rig, r);
+    std::string desc = "viewfuse name=f latency=50000000 camera-timeout=300000000 " + fuse_props +
+                       " ! appsink name=out sync=false max-buffers=2 drop=true ";
+    for (int k = 1; k <= 2; ++k)
+      desc += "rgbdtestsrc is-live=true rig=" + r + " camera-id=" + std::to_string(k) + " ! valve name=v" +
+              std::to_string(k) + " ! viewwarp rig=" + r + " ! queue ! f.cam_" + std::to_string(k) + " ";
+    GError* err = nullptr;
+    pipe = gst_parse_launch(desc.c_str(), &err);
+    EXPECT_EQ(err, nullptr) << err->message;
+    sink = by_name(pipe, "out");
+    bus = gst_element_get_bus(pipe);
+    gst_element_set_state(pipe, GST_STATE_PLAYING);
+  }
+  ~LiveFusion() {
+    gst_element_set_state(pipe, GST_STATE_NULL);
+    gst_object_unref(bus);
+    gst_object_unref(sink);
+    gst_object_unref(pipe);
+  }
+  void silence(int camera, bool silent) {
+    GstElement* v = by_name(pipe, ("v" + std::to_string(camera)).c_str());
+    g_object_set(v, "drop", silent, nullptr);
+    gst_object_unref(v);
+  }
+  // The next output frame (fails the test after 20 s without one: a stall).
+  GstSample* pull() { return gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND); }
+  // Waits for viewfuse's vclassroom-camera-status about `camera` saying
+  // `status`, keeping the warnings seen on the way. False on an error or
+  // when none comes within 30 s.
+  bool wait_status(int camera, const std::string& status) {
+    while (GstMessage* m = gst_bus_timed_pop_filtered(
+               bus, 30 * GST_SECOND, GstMessageType(GST_MESSAGE_ELEMENT | GST_MESSAGE_WARNING | GST_MESSAGE_ERROR))) {
+      bool found = false, failed = GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR;
+      if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING) {
+        GError* e = nullptr;
+        gst_message_parse_warning(m, &e, nullptr);
+        warnings.push_back(e ? e->message : "");
+        g_clear_error(&e);
+      }
+      const GstStructure* s = gst_message_get_structure(m);
+      int id = -1;
+      if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ELEMENT && gst_structure_has_name(s, "vclassroom-camera-status") &&
+          gst_structure_get_int(s, "camera-id", &id) && id == camera)
+        found = status == gst_structure_get_string(s, "status");
+      gst_message_unref(m);
+      if (failed) return false;
+      if (found) return true;
+    }
+    return false;
+  }
+};
+
+// True when the frame's top-left corner shows the missing-camera banner.
+bool has_banner(GstSample* sample) {
+  GstVideoInfo vi;
+  EXPECT_TRUE(gst_video_info_from_caps(&vi, gst_sample_get_caps(sample)));
+  GstMapInfo map;
+  GstBuffer* b = gst_sample_get_buffer(sample);
+  EXPECT_TRUE(gst_buffer_map(b, &map, GST_MAP_READ));
+  const cv::Mat img(GST_VIDEO_INFO_HEIGHT(&vi), GST_VIDEO_INFO_WIDTH(&vi), CV_8UC3, map.data,
+                    GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0));
+  bool banner = true;  // the banner's top rows are its plain colour, above the text
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 24; ++x) banner = banner && img.at<cv::Vec3b>(y, x) == kMissingBannerColor;
+  gst_buffer_unmap(b, &map);
+  return banner;
+}
+
+// Pulls up to `n` frames until one has (or has not) the banner.
+bool frame_with_banner_comes(LiveFusion& f, bool banner, int n = 60) {
+  for (int i = 0; i < n; ++i) {
+    GstSample* s = f.pull();
+    if (!s) return false;
+    const bool has = has_banner(s);
+    gst_sample_unref(s);
+    if (has == banner) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+// A camera silent past camera-timeout is reported lost (a warning and a
+// status message), the view goes on with the other and says which camera is
+// missing; when it sends again, its return is reported and the banner goes.
+TEST(CameraLivenessElement, ASilentCameraIsReportedLostAndItsReturnReported) {
+  LiveFusion f("");
+  for (int i = 0; i < 3; ++i) {
+    GstSample* s = f.pull();
+    ASSERT_NE(s, nullptr) << "no output at the start";
+    EXPECT_FALSE(has_banner(s));
+    gst_sample_unref(s);
+  }
+  f.silence(2, true);
+  ASSERT_TRUE(f.wait_status(2, "lost")) << "camera 2 never reported lost";
+  EXPECT_TRUE(any_contains(f.warnings, "camera 2 lost")) << "no bus warning";
+  EXPECT_TRUE(frame_with_banner_comes(f, true)) << "the view does not say camera 2 is missing";
+  f.silence(2, false);
+  ASSERT_TRUE(f.wait_status(2, "returned")) << "camera 2's return not reported";
+  EXPECT_TRUE(frame_with_banner_comes(f, false)) << "the banner stays after camera 2 came back";
+}
+
+TEST(CameraLivenessElement, TheMissingCameraBannerCanBeTurnedOff) {
+  LiveFusion f("show-missing=false");
+  GstSample* s = f.pull();
+  ASSERT_NE(s, nullptr);
+  gst_sample_unref(s);
+  f.silence(2, true);
+  ASSERT_TRUE(f.wait_status(2, "lost"));
+  for (int i = 0; i < 10; ++i) {
+    s = f.pull();
+    ASSERT_NE(s, nullptr) << "the view stalled without camera 2";
+    EXPECT_FALSE(has_banner(s)) << "frame " << i;
+    gst_sample_unref(s);
+  }
+}
+
+// With every camera gone the lecturer keeps getting the last picture, marked,
+// rather than a silently frozen one.
+TEST(CameraLivenessElement, WithEveryCameraGoneTheLastPictureKeepsComingMarked) {
+  LiveFusion f("");
+  GstSample* s = f.pull();
+  ASSERT_NE(s, nullptr);
+  gst_sample_unref(s);
+  f.silence(1, true);
+  f.silence(2, true);
+  ASSERT_TRUE(f.wait_status(1, "lost"));
+  ASSERT_TRUE(f.wait_status(2, "lost") || any_contains(f.warnings, "camera 2 lost"));
+  EXPECT_TRUE(any_contains(f.warnings, "no camera left"));
+  ASSERT_TRUE(frame_with_banner_comes(f, true)) << "no marked picture with every camera gone";
+  for (int i = 0; i < 3; ++i) {
+    s = f.pull();
+    ASSERT_NE(s, nullptr) << "the picture froze";
+    EXPECT_TRUE(has_banner(s));
+    gst_sample_unref(s);
+  }
+}
+
+namespace {
+
+// A system clock that notes, at every wait an element makes on it, the
+// waiting thread's CPU time (CLOCK_THREAD_CPUTIME_ID, to the nanosecond) and
+// the clock's time.
+struct WaitRecord {
+  long thread;
+  GstClockTime cpu, clock;
+};
+struct WaitLog {
+  GMutex lock;
+  GCond cond;
+  std::vector<WaitRecord> waits;
+};
+WaitLog g_waits;
+
+struct CountingClock {
+  GstSystemClock parent;
+};
+struct CountingClockClass {
+  GstSystemClockClass parent_class;
+};
+G_DEFINE_TYPE(CountingClock, counting_clock, GST_TYPE_SYSTEM_CLOCK)
+
+GstClockReturn counting_clock_wait(GstClock* clock, GstClockEntry* entry, GstClockTimeDiff* jitter) {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  const GstClockTime cpu = GST_TIMESPEC_TO_TIME(ts);
+  const WaitRecord r{long(syscall(SYS_gettid)), cpu, gst_clock_get_time(clock)};
+  g_mutex_lock(&g_waits.lock);
+  g_waits.waits.push_back(r);
+  g_cond_broadcast(&g_waits.cond);
+  g_mutex_unlock(&g_waits.lock);
+  return GST_CLOCK_CLASS(counting_clock_parent_class)->wait(clock, entry, jitter);
+}
+void counting_clock_class_init(CountingClockClass* klass) { GST_CLOCK_CLASS(klass)->wait = counting_clock_wait; }
+void counting_clock_init(CountingClock*) {}
+
+}  // namespace
+
+// Live and without any input, viewfuse's thread sleeps between its timeouts:
+// over 20 of them (each a wait on the pipeline's clock) the thread's CPU time
+// stays far below the clock time they span. The old code waited for a time
+// already past, again and again: 100 % of a core.
+TEST(IdleFusion, WithoutInputTheFuseThreadSleeps) {
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(
+      "appsrc is-live=true format=time min-latency=0 ! viewfuse latency=20000000 ! fakesink sync=false async=false",
+      &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstClock* clock = GST_CLOCK(g_object_new(counting_clock_get_type(), nullptr));
+  gst_pipeline_use_clock(GST_PIPELINE(p), clock);
+  g_mutex_lock(&g_waits.lock);
+  g_waits.waits.clear();
+  g_mutex_unlock(&g_waits.lock);
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  constexpr size_t kSkip = 3, kTimeouts = 20;
+  std::vector<WaitRecord> waits;
+  g_mutex_lock(&g_waits.lock);
+  const gint64 give_up = g_get_monotonic_time() + 60 * G_TIME_SPAN_SECOND;  // a guard against a hang only
+  while (g_waits.waits.size() < kSkip + kTimeouts + 1 && g_cond_wait_until(&g_waits.cond, &g_waits.lock, give_up)) {
+  }
+  waits = g_waits.waits;
+  g_mutex_unlock(&g_waits.lock);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(clock);
+  gst_object_unref(p);
+  ASSERT_GE(waits.size(), kSkip + kTimeouts + 1) << "viewfuse never waited on the clock";
+  // Every wait on this pipeline's clock is the aggregator thread's (the sink does not sync).
+  const WaitRecord &first = waits[kSkip], &last = waits[kSkip + kTimeouts];
+  ASSERT_EQ(first.thread, last.thread);
+  const double cpu_per_timeout = double(last.cpu - first.cpu) / kTimeouts;
+  const double clock_per_timeout = double(last.clock - first.clock) / kTimeouts;
+  RecordProperty("cpu_ns_per_timeout", std::to_string(cpu_per_timeout));
+  RecordProperty("clock_ns_per_timeout", std::to_string(clock_per_timeout));
+  // A generous bound: sleeping, a wake-up costs microseconds against a timeout of ~100 ms.
+  EXPECT_LT(cpu_per_timeout, 0.05 * clock_per_timeout)
+      << "the fuse thread used " << cpu_per_timeout / 1e3 << " us of CPU per timeout of " << clock_per_timeout / 1e3
+      << " us: it spins";
 }

@@ -256,7 +256,6 @@ static void post_camera_status(GstViewFuse* self, int id, bool lost, int64_t sil
                                       lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(silent_ns),
                                       "missing", G_TYPE_STRING, id_list(missing).c_str(), "cameras-missing",
                                       G_TYPE_UINT, guint(missing.size()), nullptr);
-  gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), s));
   const double silent_s = double(silent_ns) / GST_SECOND;
   if (lost && all_lost)
     GST_ELEMENT_WARNING(self, STREAM, FAILED,
@@ -269,6 +268,8 @@ static void post_camera_status(GstViewFuse* self, int id, bool lost, int64_t sil
                         ("camera %d lost (no frame for %.1f s): the view goes on without it", id, silent_s), (nullptr));
   else
     GST_ELEMENT_INFO(self, RESOURCE, READ, ("camera %d is back after %.1f s without frames", id, silent_s), (nullptr));
+  // After the text for people, so that a program seeing the status has the text too.
+  gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), s));
 }
 
 // Sends st->fused.color, with the banner naming the missing cameras when
