@@ -267,7 +267,9 @@ static void post_camera_status(GstViewFuse* self, int id, bool lost, int64_t sil
     GST_ELEMENT_WARNING(self, STREAM, FAILED,
                         ("camera %d lost (no frame for %.1f s): the view goes on without it", id, silent_s), (nullptr));
   else
-    GST_ELEMENT_INFO(self, RESOURCE, READ, ("camera %d is back after %.1f s without frames", id, silent_s), (nullptr));
+    // gst-launch-1.0 prints only an info's debug text: the same words there.
+    GST_ELEMENT_INFO(self, RESOURCE, READ, ("camera %d is back after %.1f s without frames", id, silent_s),
+                     ("camera %d is back after %.1f s without frames", id, silent_s));
   // After the text for people, so that a program seeing the status has the text too.
   gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), s));
 }
