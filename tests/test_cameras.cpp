@@ -2,6 +2,7 @@
 // caps declaring sizes beyond what the server accepts, cameras that fall
 // silent and come back, and a viewfuse that sleeps while nothing arrives.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
 
@@ -17,6 +18,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <gst/vclassroom/camera_liveness.h>
+#include <gst/vclassroom/checksum.h>
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/rgbd_codec.h>
@@ -231,6 +233,35 @@ TEST(CameraCaps, AViewOfAnotherSizeIsLeftOutWithAWarning) {
   EXPECT_TRUE(any_contains(run.result.warnings, "a frame left out from camera 2")) << "dropped frames not said";
 }
 
+namespace {
+
+// The attack: a small frame whose header declares 16384x16384 (matching its
+// caps) with one valid depth section, so a decoder that trusts the caps
+// allocates the whole image before finding the data short.
+GstBuffer* crafted_huge_frame() {
+  std::vector<uint8_t> depth;
+  encode_depth_lossless(cv::Mat(36, 64, CV_16UC1, cv::Scalar(1500)), &depth);
+  std::vector<uint8_t> f = {'V', 'C', 'R', 'D', 1, 1, 0, 0};
+  auto put_u32 = [&f](uint32_t v) {
+    for (int i = 0; i < 4; ++i) f.push_back(uint8_t(v >> (8 * i)));
+  };
+  put_u32(16384);
+  put_u32(16384);
+  f.insert(f.end(), {1, 2, 0, 0});  // plane depth, codec depth-med (docs/rgbd-codec.md)
+  put_u32(uint32_t(depth.size()));
+  put_u32(crc32(depth.data(), depth.size()));
+  f.insert(f.end(), depth.begin(), depth.end());
+  return gst_buffer_new_memdup(f.data(), f.size());
+}
+
+long peak_rss_kb() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return ru.ru_maxrss;
+}
+
+}  // namespace
+
 // In-band caps declaring a 16384x16384 camera (a crafted 8 KB packet used to
 // make rgbddec allocate 1.2 GB per frame) are refused before anything is
 // allocated: never passed downstream, the frames dropped and counted, one
@@ -240,9 +271,12 @@ TEST(CameraCaps, OversizedCapsAreRefusedBeforeAnyAllocation) {
   RgbdInfo huge = good;
   huge.camera.width = huge.camera.height = 16384;
   std::vector<Pushed> pushed;
-  for (int n = 0; n < 5; ++n) pushed.push_back({n == 0 ? coded_caps(huge) : nullptr, coded_frame(good, n)});
+  for (int n = 0; n < 5; ++n) pushed.push_back({n == 0 ? coded_caps(huge) : nullptr, crafted_huge_frame()});
   for (int n = 5; n < 8; ++n) pushed.push_back({n == 5 ? coded_caps(good) : nullptr, coded_frame(good, n)});
+  const long rss_before = peak_rss_kb();
   const DecoderRun run = run_decoder("", pushed);
+  // One 16384x16384 depth plane alone is 512 MB.
+  EXPECT_LT(peak_rss_kb() - rss_before, 128 * 1024) << "the process grew by a huge frame";
   EXPECT_EQ(run.result.error, "");
   EXPECT_EQ(run.outputs, 3u);
   for (const std::string& c : run.caps_seen) EXPECT_EQ(c.find("16384"), std::string::npos) << c;
