@@ -600,3 +600,19 @@ TEST(IdleFusion, WithoutInputTheFuseThreadSleeps) {
       << "the fuse thread used " << cpu_per_timeout / 1e3 << " us of CPU per timeout of " << clock_per_timeout / 1e3
       << " us: it spins";
 }
+
+// Caps that do not describe a camera (no calibration) used to stop the
+// pipeline with a negotiation error; now they are refused like oversized ones.
+TEST(CameraCaps, UnusableCapsAreRefusedWithoutStoppingThePipeline) {
+  const RgbdInfo good = camera_info(1, 64, 36);
+  std::vector<Pushed> pushed;
+  pushed.push_back({gst_caps_from_string("video/x-rgbd-coded, codec=(string)vcrd1, width=(int)64, height=(int)36, "
+                                         "framerate=(fraction)30/1"),
+                    coded_frame(good, 0)});
+  pushed.push_back({coded_caps(good), coded_frame(good, 1)});
+  const DecoderRun run = run_decoder("", pushed);
+  EXPECT_EQ(run.result.error, "");
+  EXPECT_EQ(run.outputs, 1u);
+  EXPECT_EQ(last_stat(run.result, "dropped-rejected-caps"), 1u);
+  EXPECT_TRUE(any_contains(run.result.warnings, "unusable caps"));
+}
