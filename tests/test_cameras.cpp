@@ -76,7 +76,8 @@ GstBuffer* coded_frame(const RgbdInfo& info, int n) {
 GstElement* by_name(GstElement* bin, const char* name) { return gst_bin_get_by_name(GST_BIN(bin), name); }
 
 // Plays three cameras as appsrc (rgbdenc's stream) -> rgbddec -> `branch` ->
-// viewfuse -> appsink; camera 2 switches from 96x54 to 64x48 halfway.
+// viewfuse -> appsink; camera 2 switches from 96x54 at 30 fps to 64x48 at 15
+// fps halfway.
 struct SwitchRun {
   vctest::RunResult result;
   size_t outputs = 0;
@@ -105,8 +106,9 @@ SwitchRun play_size_switch(const std::string& branch, const std::string& branch2
       for (int k = 0; k < 3; ++k) {
         RgbdInfo info = camera_info(k, 96, 54);
         if (k == 2 && n >= kFrames / 2) {
-          // Camera 2 comes back at another size (another sensor mode, another sender).
+          // Camera 2 comes back at another size and rate (another sensor mode, another sender).
           info = camera_info(k, 64, 48);
+          info.fps_n = 15;
           if (n == kFrames / 2) {
             GstCaps* caps = coded_caps(info);
             gst_app_src_set_caps(GST_APP_SRC(src[k]), caps);
