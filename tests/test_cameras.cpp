@@ -618,3 +618,21 @@ TEST(CameraCaps, UnusableCapsAreRefusedWithoutStoppingThePipeline) {
   EXPECT_EQ(last_stat(run.result, "dropped-rejected-caps"), 1u);
   EXPECT_TRUE(any_contains(run.result.warnings, "unusable caps"));
 }
+
+// A sender alternating bad and good caps gets one warning per kind, not one per event.
+TEST(CameraCaps, AlternatingRefusedCapsWarnOnce) {
+  const RgbdInfo good = camera_info(2, 64, 36);
+  RgbdInfo huge = good;
+  huge.camera.width = huge.camera.height = 16384;
+  std::vector<Pushed> pushed;
+  for (int n = 0; n < 10; ++n) {
+    pushed.push_back({coded_caps(huge), crafted_huge_frame()});
+    pushed.push_back({coded_caps(good), coded_frame(good, n)});
+  }
+  const DecoderRun run = run_decoder("", pushed);
+  EXPECT_EQ(run.result.error, "");
+  EXPECT_EQ(run.outputs, 10u);
+  EXPECT_EQ(last_stat(run.result, "dropped-rejected-caps"), 10u);
+  // The first refused caps event and the first frame dropped for them; the rest within 5 s only counted.
+  EXPECT_EQ(run.result.warnings.size(), 2u);
+}

@@ -44,6 +44,7 @@ struct DecState {
   std::string caps_refused;
   int refused_camera = -1;
   WarningLimiter warnings[kDropKinds];
+  WarningLimiter caps_warnings;  // refused caps events (a sender may alternate them)
 };
 
 }  // namespace
@@ -222,15 +223,28 @@ static gboolean gst_rgbd_dec_sink_event(GstBaseTransform* trans, GstEvent* event
       // its caps and this camera's frames are dropped until good caps come.
       std::string why;
       int camera;
+      uint64_t count = 0;
+      int64_t span = 0;
+      bool due;
       {
         std::lock_guard<std::mutex> g(self->st->lock);
         why = self->st->caps_refused;
         camera = self->st->refused_camera;
+        due = self->st->caps_warnings.note(g_get_monotonic_time() * 1000, &count, &span);
       }
-      GST_ELEMENT_WARNING(self, STREAM, FORMAT,
-                          ("refusing the caps of camera %d: %s; its frames are dropped until acceptable caps come",
-                           camera, why.c_str()),
-                          (nullptr));
+      if (due && count == 1)
+        GST_ELEMENT_WARNING(self, STREAM, FORMAT,
+                            ("refusing the caps of camera %d: %s; its frames are dropped until acceptable caps come",
+                             camera, why.c_str()),
+                            (nullptr));
+      else if (due)
+        GST_ELEMENT_WARNING(self, STREAM, FORMAT,
+                            ("refused %s; the last: %s",
+                             describe_occurrences(count, "a caps event", "caps events",
+                                                  "camera " + std::to_string(camera), span)
+                                 .c_str(),
+                             why.c_str()),
+                            (nullptr));
       // The refused caps stay the sink pad's current caps; a pending
       // reconfiguration would negotiate them with downstream at the next buffer.
       gst_pad_check_reconfigure(GST_BASE_TRANSFORM_SRC_PAD(trans));
@@ -251,6 +265,7 @@ static gboolean gst_rgbd_dec_start(GstBaseTransform* trans) {
   DecState* st = self->st;
   st->caps_refused.clear();
   for (auto& w : st->warnings) w.reset();
+  st->caps_warnings.reset();
   st->rig.reset();
   if (!st->rig_path.empty()) {
     try {
