@@ -143,7 +143,9 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "RGB-D decoder", "Codec/Decoder/Video",
       "Decodes rgbdenc's frames back to video/x-rgbd (depth and labels bit-exact); a damaged or truncated frame "
-      "is dropped with a warning and the stream goes on",
+      "is dropped with a warning and the stream goes on. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc ! rgbddec ! rgbddemux name=d d.depth ! "
+      "depthcolorize ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   trans_class->transform_caps = GST_DEBUG_FUNCPTR(gst_rgbd_dec_transform_caps);
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_dec_set_caps);
