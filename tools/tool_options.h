@@ -42,6 +42,19 @@ inline void parse_command_line(int* argc, char*** argv, const char* parameters, 
   std::exit(2);
 }
 
+// A --size WxH value: each side 16 to 16384 (the project's image limit).
+inline void parse_size_or_exit(const char* option, const char* text, int* width, int* height) {
+  int w = 0, h = 0;
+  char end = 0;
+  if (std::sscanf(text, "%dx%d%c", &w, &h, &end) != 2 || w < 16 || h < 16 || w > 16384 || h > 16384)
+    usage_error(std::string(option) + " must be WxH, 16 to 16384 each (got '" + text + "')");
+  *width = w;
+  *height = h;
+}
+
+// A string option's value, "" when not given.
+inline std::string text_of(const gchar* value) { return value ? value : ""; }
+
 // Makes `path` and its missing parents; false, with the reason on stderr, when it cannot.
 inline bool make_folder(const std::string& path) {
   if (g_mkdir_with_parents(path.c_str(), 0755) == 0) return true;

@@ -43,14 +43,12 @@ int main(int argc, char** argv) {
   vclassroom_tools::parse_command_line(&argc, &argv, "", "Builds V-DA's static classroom model (docs/vda.md).",
                                        entries);
   if (argc > 1) vclassroom_tools::usage_error(std::string("unexpected argument ") + argv[1]);
-  const std::string out = out_arg ? out_arg : "", dataset = dataset_arg ? dataset_arg : "";
+  const std::string out = vclassroom_tools::text_of(out_arg), dataset = vclassroom_tools::text_of(dataset_arg);
   if (out.empty()) vclassroom_tools::usage_error("--out FOLDER is required");
   if (synthetic == !dataset.empty()) vclassroom_tools::usage_error("give exactly one of --dataset FOLDER and --synthetic");
   if (frames < 1 || start < 0 || seed < 0 || !(o.voxel_m > 0))
     vclassroom_tools::usage_error("--frames must be at least 1, --start, --seed at least 0, --voxel above 0");
-  if (size_arg && (std::sscanf(size_arg, "%dx%d", &width, &height) != 2 || width < 16 || height < 16 ||
-                   width > 16384 || height > 16384))
-    vclassroom_tools::usage_error(std::string("--size must be WxH, 16 to 16384 each (got '") + size_arg + "')");
+  if (size_arg) vclassroom_tools::parse_size_or_exit("--size", size_arg, &width, &height);
   o.refine_extrinsics = !no_icp;
   o.snap_planes = !no_plane_snap;
   // Before hours of work, not after: the folder must be writable.
