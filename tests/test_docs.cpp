@@ -21,6 +21,9 @@
 #include <string>
 #include <vector>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <gst/base/gstbasesrc.h>
 #include <gst/gst.h>
 #include <gtest/gtest.h>
@@ -504,4 +507,70 @@ TEST(Docs, EveryElementsInspectTextCarriesAnExampleThatRuns) {
   RecordProperty("element_examples_run", ran);
   EXPECT_EQ(ran + skipped, static_cast<int>(elements.size()));
   EXPECT_GT(ran, 0);
+}
+
+namespace {
+
+struct Exit {
+  int status = -1;
+  std::string out, err;
+};
+
+Exit run_tool(const std::vector<std::string>& argv) {
+  std::vector<gchar*> cargv;
+  for (const std::string& a : argv) cargv.push_back(const_cast<gchar*>(a.c_str()));
+  cargv.push_back(nullptr);
+  gchar *out = nullptr, *err = nullptr;
+  gint wait_status = 0;
+  Exit e;
+  if (g_spawn_sync(nullptr, cargv.data(), nullptr, G_SPAWN_DEFAULT, nullptr, nullptr, &out, &err, &wait_status,
+                   nullptr) &&
+      WIFEXITED(wait_status))
+    e.status = WEXITSTATUS(wait_status);
+  e.out = out ? out : "";
+  e.err = err ? err : "";
+  g_free(out);
+  g_free(err);
+  return e;
+}
+
+// Every program the build made in tools/ (vclassroom-*).
+std::vector<std::string> built_tools() {
+  std::vector<std::string> tools;
+  const std::string dir = env_or_empty("VCLASSROOM_TOOLS_DIR");
+  if (dir.empty()) return tools;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file() && starts_with(name, "vclassroom-") && access(e.path().c_str(), X_OK) == 0)
+      tools.push_back(e.path().string());
+  }
+  std::sort(tools.begin(), tools.end());
+  return tools;
+}
+
+}  // namespace
+
+TEST(Tools, HelpGoesToStdoutWithStatus0AndABadOptionToStderrWithStatus2) {
+  const std::vector<std::string> tools = built_tools();
+  ASSERT_GE(tools.size(), 9u) << "the tools are missing from VCLASSROOM_TOOLS_DIR";
+  for (const std::string& t : tools) {
+    const Exit help = run_tool({t, "--help"});
+    EXPECT_EQ(help.status, 0) << t << " --help";
+    EXPECT_NE(help.out.find("Usage:"), std::string::npos) << t << " --help printed: " << help.out;
+    EXPECT_EQ(help.err, "") << t << " --help";
+    const Exit bad = run_tool({t, "--no-such-option"});
+    EXPECT_EQ(bad.status, 2) << t << " --no-such-option";
+    EXPECT_EQ(bad.out, "") << t;
+    EXPECT_NE(bad.err.find("--no-such-option"), std::string::npos) << t << " said: " << bad.err;
+  }
+}
+
+TEST(Tools, BuildModelMakesItsOutputFolderWithTheParents) {
+  vctest::TempDir dir;
+  const std::string out = dir / "not/there/yet/model";
+  const Exit e = run_tool({env_or_empty("VCLASSROOM_TOOLS_DIR") + "/vclassroom-build-model", "--synthetic",
+                           "--frames", "1", "--size", "160x90", "--out", out});
+  ASSERT_EQ(e.status, 0) << e.err;
+  EXPECT_TRUE(fs::exists(out + "/rig.yaml"));
+  EXPECT_TRUE(fs::exists(out + "/planes.csv"));
 }

@@ -15,12 +15,16 @@
 
 namespace vclassroom_tools {
 
+[[noreturn]] inline void usage_error(const std::string& message);
+
 // Parses argv with `entries` (NULL-terminated) and, when given, another
 // option group (e.g. gst_init_get_option_group(), which also initialises
-// GStreamer). What is left in argv are the positional arguments. Exits 0
-// after --help, 2 after a bad option.
+// GStreamer). What is left in argv are the `positional` arguments named in
+// `parameters`; another count is a usage error. Exits 0 after --help, 2
+// after a bad option.
 inline void parse_command_line(int* argc, char*** argv, const char* parameters, const char* summary,
-                               const GOptionEntry* entries, GOptionGroup* extra_group = nullptr) {
+                               const GOptionEntry* entries, GOptionGroup* extra_group = nullptr,
+                               int positional = 0) {
   GOptionContext* ctx = g_option_context_new(parameters);
   g_option_context_set_summary(ctx, summary);
   g_option_context_add_main_entries(ctx, entries, nullptr);
@@ -32,6 +36,9 @@ inline void parse_command_line(int* argc, char*** argv, const char* parameters, 
     std::exit(2);
   }
   g_option_context_free(ctx);
+  if (*argc - 1 != positional)
+    usage_error(positional == 0 ? std::string("unexpected argument ") + (*argv)[1]
+                                : std::string("expected ") + parameters);
 }
 
 // A command line that parsed but makes no sense (a missing or out-of-range

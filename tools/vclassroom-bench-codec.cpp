@@ -116,7 +116,6 @@ int main(int argc, char** argv) {
       "Codes N frames of each of the 3 synthetic cameras (960x540, sensor model on) and prints ms per frame\n"
       "(one thread), bytes per frame and Mbit/s per camera at 30 fps.",
       entries, gst_init_get_option_group());
-  if (argc > 1) vclassroom_tools::usage_error(std::string("unexpected argument ") + argv[1]);
   if (frames < 1 || quality < 1 || quality > 100)
     vclassroom_tools::usage_error("--frames must be at least 1, --quality 1 to 100");
   Classroom room;

@@ -95,7 +95,6 @@ int main(int argc, char** argv) {
       "the virtual view following a lecturer's walk (a new pose every frame). Needs the plugins: run it inside\n"
       "`meson devenv -C build` or after `meson install`.",
       entries, gst_init_get_option_group());
-  if (argc > 1) vclassroom_tools::usage_error(std::string("unexpected argument ") + argv[1]);
   if (frames < 40 || runs < 1 || learners < 0 || cameras < 1 || cameras > 3)
     vclassroom_tools::usage_error("--frames must be at least 40, --runs at least 1, --cameras 1 to 3");
   for (const char* e : {"rgbdtestsrc", "learnerseg", "viewwarp", "viewfuse"})

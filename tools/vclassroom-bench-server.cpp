@@ -126,7 +126,6 @@ int main(int argc, char** argv) {
       "on, 6 learners); the virtual view starts at camera 0's pose moved 0.2 m left and walks on sideways with a\n"
       "head turn, a new pose every frame.",
       entries);
-  if (argc > 1) vclassroom_tools::usage_error(std::string("unexpected argument ") + argv[1]);
   if (frames < 1 || threads < 1) vclassroom_tools::usage_error("--frames and --threads must be at least 1");
   cv::setNumThreads(1);  // our threads are the cameras
   const Rig rig = default_classroom_rig();

@@ -122,7 +122,6 @@ int main(int argc, char** argv) {
       "Renders N frames per camera of the default rig at 960x540 on one thread, without and with the sensor\n"
       "model, and prints frames per second per camera.",
       entries);
-  if (argc > 1) vclassroom_tools::usage_error(std::string("unexpected argument ") + argv[1]);
   if (frames < 1 || learners < 0 || seed < 0)
     vclassroom_tools::usage_error("--frames must be at least 1, --learners and --seed at least 0");
   const std::string png_dir = vclassroom_tools::text_of(png_arg);

@@ -42,7 +42,6 @@ int main(int argc, char** argv) {
       {}};
   vclassroom_tools::parse_command_line(&argc, &argv, "", "Builds V-DA's static classroom model (docs/vda.md).",
                                        entries);
-  if (argc > 1) vclassroom_tools::usage_error(std::string("unexpected argument ") + argv[1]);
   const std::string out = vclassroom_tools::text_of(out_arg), dataset = vclassroom_tools::text_of(dataset_arg);
   if (out.empty()) vclassroom_tools::usage_error("--out FOLDER is required");
   if (synthetic == !dataset.empty()) vclassroom_tools::usage_error("give exactly one of --dataset FOLDER and --synthetic");

@@ -355,7 +355,6 @@ int main(int argc, char** argv) {
   vclassroom_tools::parse_command_line(
       &argc, &argv, "", "Quality of the view algorithm (V-VA) on the synthetic classroom and Middlebury scenes.",
       entries);
-  if (argc > 1) vclassroom_tools::usage_error(std::string("unexpected argument ") + argv[1]);
   if (shared) opt.shared = shared;
   opt.images = vclassroom_tools::text_of(images);
   opt.only = vclassroom_tools::text_of(only);

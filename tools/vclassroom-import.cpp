@@ -19,8 +19,7 @@ int main(int argc, char** argv) {
       "  f = 3740 px); view 1 gets depth from disp1 (or disp1_noholes with --noholes).\n"
       "middlebury-2003: quarter-size pair (im2/im6.png, disp2/disp6.pgm), e.g. teddy.\n"
       "OUT_DIR is made with its parents. See docs/datasets.md for the geometry.",
-      entries);
-  if (argc != 4) vclassroom_tools::usage_error("expected a format, SCENE_DIR and OUT_DIR");
+      entries, nullptr, 3);
   const std::string format = argv[1], scene = argv[2], out = argv[3];
   if (format != "middlebury-multiview" && format != "middlebury-2003")
     vclassroom_tools::usage_error("unknown format '" + format + "': middlebury-multiview or middlebury-2003");
