@@ -299,45 +299,52 @@ class DocRunner {
 
  private:
   // Makes each out/... path the command names and the folder lacks, with the
-  // first documented tool command that writes it and succeeds.
+  // first documented tool command that writes it and succeeds. Returns the
+  // failure, or sets *skip; each path is tried once, its outcome kept.
   std::string make_prerequisites(const std::string& text, std::string* skip) {
     static const std::regex out_path(R"(\bout/[A-Za-z0-9_.-]+)");
     for (std::sregex_iterator it(text.begin(), text.end(), out_path), end; it != end; ++it) {
       const std::string need = it->str();
-      if (fs::exists(need) || !made_.insert(need).second) continue;
-      std::string failures;
-      bool made = false;
-      for (const DocCommand& t : tools_) {
-        std::string error;
-        std::vector<std::string> argv = split_argv(t.text, &error);
-        if (!error.empty() || std::find(argv.begin(), argv.end(), need) == argv.end()) continue;
-        if (t.text.find("[") != std::string::npos) continue;  // a synopsis with optional parts, not a command
-        const std::string shared_prefix = "../shared/data/";
-        bool needs_absent_data = false;
-        for (std::string& a : argv) {
-          if (starts_with(a, "build/tools/")) a = env_or_empty("VCLASSROOM_TOOLS_DIR") + "/" + a.substr(12);
-          if (starts_with(a, shared_prefix)) {
-            if (vctest::shared_data().empty()) needs_absent_data = true;
-            a = vctest::shared_data() + "/" + a.substr(shared_prefix.size());
-          }
-        }
-        if (needs_absent_data) {
-          *skip = "needs " + need + ", which " + t.where + " makes from ../shared/data, absent here";
-          return "";
-        }
-        const std::string result = run_program(argv);
-        if (result.empty()) {
-          made = true;
-          std::printf("[ docs     ] made %s with %s\n", need.c_str(), t.where.c_str());
-          break;
-        }
-        failures += "\n  " + t.where + ": " + result;
-      }
-      if (!made)
-        return "needs " + need + ", and no documented command made it" +
-               (failures.empty() ? std::string(" (none writes it)") : failures);
+      if (!outcomes_.count(need) && fs::exists(need)) continue;
+      if (!outcomes_.count(need)) outcomes_[need] = make(need);
+      const Outcome& o = outcomes_[need];
+      if (!o.skip.empty()) *skip = o.skip;
+      if (!o.failure.empty() || !o.skip.empty()) return o.failure;
     }
     return "";
+  }
+
+  struct Outcome {
+    std::string failure, skip;
+  };
+
+  Outcome make(const std::string& need) {
+    std::string failures;
+    for (const DocCommand& t : tools_) {
+      if (t.text.find('[') != std::string::npos) continue;  // a synopsis with optional parts, not a command
+      std::string error;
+      std::vector<std::string> argv = split_argv(t.text, &error);
+      if (!error.empty() || std::find(argv.begin(), argv.end(), need) == argv.end()) continue;
+      const std::string shared_prefix = "../shared/data/";
+      bool needs_absent_data = false;
+      for (std::string& a : argv) {
+        if (starts_with(a, "build/tools/")) a = env_or_empty("VCLASSROOM_TOOLS_DIR") + "/" + a.substr(12);
+        if (starts_with(a, shared_prefix)) {
+          if (vctest::shared_data().empty()) needs_absent_data = true;
+          a = vctest::shared_data() + "/" + a.substr(shared_prefix.size());
+        }
+      }
+      if (needs_absent_data) return {"", "needs " + need + ", which " + t.where + " makes from ../shared/data, absent here"};
+      const std::string result = run_program(argv);
+      if (result.empty()) {
+        std::printf("[ docs     ] made %s with %s\n", need.c_str(), t.where.c_str());
+        return {};
+      }
+      failures += "\n  " + t.where + ": " + result;
+    }
+    return {"needs " + need + ", and no documented command made it" +
+                (failures.empty() ? std::string(" (none writes it)") : failures),
+            ""};
   }
 
   static std::string run_program(const std::vector<std::string>& argv) {
@@ -361,7 +368,7 @@ class DocRunner {
   vctest::TempDir scratch_;
   fs::path old_cwd_;
   std::vector<DocCommand> tools_;
-  std::set<std::string> made_;
+  std::map<std::string, Outcome> outcomes_;
 };
 
 // Runs every command, failing the test for each that fails; returns how many
