@@ -25,6 +25,8 @@ namespace vclassroom_tools {
 inline void parse_command_line(int* argc, char*** argv, const char* parameters, const char* summary,
                                const GOptionEntry* entries, GOptionGroup* extra_group = nullptr,
                                int positional = 0) {
+  // Result lines are progress too: shown as they come, also through a pipe (| tee).
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
   GOptionContext* ctx = g_option_context_new(parameters);
   g_option_context_set_summary(ctx, summary);
   g_option_context_add_main_entries(ctx, entries, nullptr);
