@@ -275,7 +275,7 @@ static void gst_depth_complete_class_init(GstDepthCompleteClass* klass) {
       element_class, "V-DA depth completion", "Filter/Effect/Video",
       "Fills the holes of an RGB-D stream's depth from the static classroom model's prior depth, image-guided "
       "completion (Ku et al. style) and colorization (Levin et al. style); caps, timestamps and the other planes "
-      "pass unchanged. Example: "
+      "pass unchanged. The model folder is made by vclassroom-build-model (docs/vda.md). Example: "
       "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! depthcomplete model=out/classroom-model ! "
       "rgbddemux name=d d.depth ! depthcolorize ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
