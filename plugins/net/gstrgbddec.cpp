@@ -344,7 +344,9 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
       "Decodes rgbdenc's frames back to video/x-rgbd (depth and labels bit-exact). Caps beyond max-width, "
       "max-height or max-pixels, unusable or not the rig's are refused before anything is allocated; refused, "
       "damaged, truncated or wrongly sized frames are dropped with rate-limited warnings (the first at once, then "
-      "one per 5 s with the count) and counted by kind, and the stream goes on",
+      "one per 5 s with the count) and counted by kind, and the stream goes on. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc ! rgbddec ! rgbddemux name=d d.depth ! "
+      "depthcolorize ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   trans_class->transform_caps = GST_DEBUG_FUNCPTR(gst_rgbd_dec_transform_caps);
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_dec_set_caps);

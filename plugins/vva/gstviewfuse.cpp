@@ -708,7 +708,10 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
       "background side. Outputs video/x-raw RGB with the pose meta of the pose rendered. Forwards vclassroom/pose "
       "events to every input; cameras that are EOS (or, when live, late past the latency) are left out, so is a "
       "camera whose view has another size (with a warning); live, a camera silent for camera-timeout is reported "
-      "lost and named on the picture",
+      "lost and named on the picture. Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=300 ! learnerseg ! viewwarp ! queue ! "
+      "f.cam_0 rgbdtestsrc camera-id=2 num-buffers=300 ! learnerseg ! viewwarp ! queue ! "
+      "f.cam_2 viewfuse name=f ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   agg_class->aggregate = GST_DEBUG_FUNCPTR(gst_view_fuse_aggregate);
   agg_class->sink_event = GST_DEBUG_FUNCPTR(gst_view_fuse_sink_event);

@@ -450,7 +450,9 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
       "virtual view of the latest vclassroom/pose event (highest seq wins; the rig's reference camera until one "
       "arrives) as a triangle mesh with depth-edge rejection and bilinear colour. Output: video/x-rgbd of the "
       "virtual camera with planes color,depth,label,weight; camera-id stays the source camera's, virtual-view = "
-      "true; each buffer carries the pose meta (seq, viewer time). Pose events are consumed, not forwarded",
+      "true; each buffer carries the pose meta (seq, viewer time). Pose events are consumed, not forwarded. Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! learnerseg ! "
+      "viewwarp reference-camera=0 ! rgbddemux name=d d.color ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   bt->transform_caps = GST_DEBUG_FUNCPTR(gst_view_warp_transform_caps);
   bt->set_caps = GST_DEBUG_FUNCPTR(gst_view_warp_set_caps);
