@@ -4,6 +4,7 @@
 
 #include <gst/app/gstappsrc.h>
 #include <gst/vclassroom/checksum.h>
+#include <gst/vclassroom/pose_stamp.h>
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/rgbd_codec.h>
@@ -202,6 +203,27 @@ TEST(ColorCodec, JpegDeclaringAHugeSizeIsRejectedBeforeDecoding) {
   EXPECT_NE(err.find("60000x60000"), std::string::npos) << err;
   // And an intact one still decodes.
   EXPECT_TRUE(decode_jpeg(jpeg.data(), jpeg.size(), 16, 16, &back, &err)) << err;
+}
+
+TEST(PoseStamp, WireFormatIsPinnedAndReadAtAnyAlignment) {
+  // The pose header extension's 16 bytes, big-endian, read and written at
+  // every offset of a buffer (packet data has no alignment: issue 14's UBSan
+  // report of misaligned 64-bit loads through GST_READ_UINT64_BE).
+  const PoseStamp stamp{0x0102030405060708ull, -1};
+  const uint8_t pinned[16] = {1, 2, 3, 4, 5, 6, 7, 8, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF};
+  uint8_t buf[32];
+  for (size_t at = 0; at < 8; ++at) {
+    pose_stamp_to_wire(stamp, buf + at);
+    EXPECT_EQ(std::memcmp(buf + at, pinned, 16), 0) << "offset " << at;
+    PoseStamp back;
+    ASSERT_TRUE(pose_stamp_from_wire(buf + at, 16, &back));
+    EXPECT_EQ(back.seq, stamp.seq);
+    EXPECT_EQ(back.viewer_time_ns, -1);
+  }
+  PoseStamp back;
+  EXPECT_FALSE(pose_stamp_from_wire(buf, 15, &back));
+  EXPECT_FALSE(pose_stamp_from_wire(buf, 17, &back));
+  EXPECT_FALSE(pose_stamp_from_wire(nullptr, 16, &back));
 }
 
 TEST(Checksum, Crc32MatchesTheStandardAndTheBytewiseDefinition) {
