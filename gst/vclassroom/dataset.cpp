@@ -1,6 +1,7 @@
 #include "dataset.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -45,17 +46,83 @@ std::mutex& rig_file_mutex() {
 
 }  // namespace
 
-static bool png_header_size(const uint8_t* data, size_t size, cv::Size* out) {
+namespace {
+
+uint32_t be32(const uint8_t* p) { return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | p[3]; }
+uint32_t be16(const uint8_t* p) { return uint32_t{p[0]} << 8 | p[1]; }
+
+bool png_header(const uint8_t* data, size_t size, uint32_t* w, uint32_t* h) {
   static const uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  // Signature, then the IHDR chunk: length (13), "IHDR", width, height (big-endian).
+  // The signature, then the IHDR chunk: length, "IHDR", width, height (big-endian).
   if (size < 24 || std::memcmp(data, kSignature, 8) != 0 || std::memcmp(data + 12, "IHDR", 4) != 0) return false;
-  auto be32 = [](const uint8_t* p) {
-    return uint32_t{p[0]} << 24 | uint32_t{p[1]} << 16 | uint32_t{p[2]} << 8 | uint32_t{p[3]};
-  };
-  const uint32_t w = be32(data + 16), h = be32(data + 20);
-  // PNG allows up to 2^31 - 1 per side; anything past an image side's limit is refused as 0x0.
-  *out = (w > kMaxImageSide || h > kMaxImageSide) ? cv::Size(0, 0) : cv::Size(int(w), int(h));
+  *w = be32(data + 16);
+  *h = be32(data + 20);
   return true;
+}
+
+// Walks the JPEG's marker segments to its frame header (SOFn). Each step moves
+// forward by the segment's length, so the walk ends.
+bool jpeg_header(const uint8_t* data, size_t size, uint32_t* w, uint32_t* h) {
+  if (size < 4 || data[0] != 0xFF || data[1] != 0xD8) return false;
+  size_t at = 2;
+  while (at + 4 <= size) {
+    if (data[at] != 0xFF) return false;
+    const uint8_t marker = data[at + 1];
+    if (marker == 0xFF) {  // fill byte
+      ++at;
+      continue;
+    }
+    const size_t length = be16(data + at + 2);
+    if (length < 2) return false;
+    const bool sof = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+    if (sof) {
+      if (at + 9 > size) return false;
+      *h = be16(data + at + 5);
+      *w = be16(data + at + 7);
+      return true;
+    }
+    if (marker == 0xD9 || marker == 0xDA) return false;  // end of image or scan data before any frame header
+    at += 2 + length;
+  }
+  return false;
+}
+
+// Netpbm (P1..P6): magic, then width and height as decimal text, with
+// whitespace and '#' comments between.
+bool pnm_header(const uint8_t* data, size_t size, uint32_t* w, uint32_t* h) {
+  if (size < 3 || data[0] != 'P' || data[1] < '1' || data[1] > '6') return false;
+  size_t at = 2;
+  uint32_t values[2];
+  for (uint32_t& v : values) {
+    for (;;) {  // whitespace and comments
+      if (at >= size) return false;
+      if (data[at] == '#') {
+        while (at < size && data[at] != '\n') ++at;
+      } else if (std::isspace(data[at])) {
+        ++at;
+      } else {
+        break;
+      }
+    }
+    if (!std::isdigit(data[at])) return false;
+    uint64_t x = 0;
+    while (at < size && std::isdigit(data[at])) {
+      x = x * 10 + (data[at++] - '0');
+      if (x > 0xFFFFFFFFu) return false;  // no side is that large: refused below as unknown
+    }
+    v = static_cast<uint32_t>(x);
+  }
+  *w = values[0];
+  *h = values[1];
+  return true;
+}
+
+}  // namespace
+
+bool image_header_size(const uint8_t* data, size_t size, uint32_t* width, uint32_t* height) {
+  if (!data) return false;
+  return png_header(data, size, width, height) || jpeg_header(data, size, width, height) ||
+         pnm_header(data, size, width, height);
 }
 
 cv::Mat decode_image(const uint8_t* data, size_t size, int flags, const std::string& what, const std::string& name,
@@ -69,12 +136,15 @@ cv::Mat decode_image(const uint8_t* data, size_t size, int flags, const std::str
   if (size > kMaxImageFileBytes)
     throw Error(name + ": " + what + " image file of " + std::to_string(size) + " bytes (expected at most " +
                 std::to_string(kMaxImageFileBytes) + ")");
-  cv::Size declared;
-  if (png_header_size(data, size, &declared)) {
-    if (declared.area() == 0)
-      throw Error(name + ": " + what + " image declares a side beyond " + std::to_string(kMaxImageSide) + " pixels");
-    if (!expected.empty() && declared != expected) throw wrong_size(declared);
-  }
+  // The size from the header, checked before OpenCV decodes and allocates:
+  // a few bytes may declare 30000x30000. Only the formats datasets use are read.
+  uint32_t w = 0, h = 0;
+  if (!image_header_size(data, size, &w, &h))
+    throw Error(name + ": cannot decode " + what + " image (not a PNG, JPEG or PNM image, or a damaged header)");
+  if (w < 1 || h < 1 || w > static_cast<uint32_t>(kMaxImageSide) || h > static_cast<uint32_t>(kMaxImageSide))
+    throw Error(name + ": " + what + " image declares " + std::to_string(w) + "x" + std::to_string(h) +
+                " (expected sides 1.." + std::to_string(kMaxImageSide) + ")");
+  if (!expected.empty() && cv::Size(int(w), int(h)) != expected) throw wrong_size(cv::Size(int(w), int(h)));
   cv::Mat m;
   try {
     // imdecode takes a Mat header over the bytes: no copy.

@@ -71,6 +71,9 @@ cv::Mat read_depth_mm(const std::string& path, double depth_scale, cv::Size expe
 // plane ("colour", "depth").
 cv::Mat read_image(const std::string& path, int flags, const std::string& what, cv::Size expected = {},
                    const std::string& expected_from = "");
+// The width and height a PNG, JPEG or PNM image declares in its header; false
+// when the bytes are none of these (or the header is cut short).
+bool image_header_size(const uint8_t* data, size_t size, uint32_t* width, uint32_t* height);
 // The same from bytes in memory; `name` stands for the file in messages.
 cv::Mat decode_image(const uint8_t* data, size_t size, int flags, const std::string& what, const std::string& name,
                      cv::Size expected = {}, const std::string& expected_from = "");
