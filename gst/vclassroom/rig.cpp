@@ -283,19 +283,45 @@ std::string number_text(double v) {
   return std::string(buf, r.ptr);
 }
 
+// A YAML double-quoted string that reads back as `s`: printable ASCII as it
+// is, everything else as a \u or \U escape of its code point (YAML folds raw
+// line breaks such as U+0085 or U+2028, so they must not appear unescaped).
+// Bytes that are not UTF-8 become U+FFFD: YAML text is Unicode.
 std::string quoted(const std::string& s) {
   std::string out = "\"";
-  for (unsigned char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
+  char buf[16];
+  for (size_t i = 0; i < s.size();) {
+    const unsigned char c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      if (c == '"' || c == '\\') out += '\\';
       out += static_cast<char>(c);
-    } else if (c < 0x20 || c == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", c);
-      out += buf;
-    } else {
-      out += static_cast<char>(c);
+      ++i;
+      continue;
     }
+    // Decode one UTF-8 sequence (shortest form, no surrogates).
+    uint32_t cp = 0xFFFD;
+    size_t len = 1;
+    const size_t need = c < 0x80 ? 1 : (c >> 5) == 6 ? 2 : (c >> 4) == 14 ? 3 : (c >> 3) == 30 ? 4 : 0;
+    if (need == 1) {
+      cp = c;
+    } else if (need && i + need <= s.size()) {
+      uint32_t v = c & (0x7f >> need);
+      bool ok = true;
+      for (size_t k = 1; k < need; ++k) {
+        const unsigned char cc = static_cast<unsigned char>(s[i + k]);
+        ok = ok && (cc >> 6) == 2;
+        v = (v << 6) | (cc & 0x3f);
+      }
+      static const uint32_t kMin[5] = {0, 0, 0x80, 0x800, 0x10000};
+      if (ok && v >= kMin[need] && v <= 0x10FFFF && !(v >= 0xD800 && v <= 0xDFFF)) {
+        cp = v;
+        len = need;
+      }
+    }
+    if (cp <= 0xFFFF) std::snprintf(buf, sizeof buf, "\\u%04X", static_cast<unsigned>(cp));
+    else std::snprintf(buf, sizeof buf, "\\U%08X", static_cast<unsigned>(cp));
+    out += buf;
+    i += len;
   }
   return out + "\"";
 }
