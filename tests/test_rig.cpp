@@ -305,3 +305,35 @@ TEST(Rig, SavedTextRoundTripsOddNamesAndNumbers) {
   EXPECT_EQ(back.cameras[1].fx, rig.cameras[1].fx);
   EXPECT_EQ(back.cameras[1].cy, rig.cameras[1].cy);
 }
+
+// Issue 14: a valid rig made rgbdtestsrc spin at full CPU for minutes — a
+// 16384x16384 camera costs about 4 GB and tens of seconds per synthetic frame.
+// The element now stops at once with a bus error naming the camera's size.
+TEST(RigThroughElements, HugeCameraStopsRgbdTestSrcWithAnError) {
+  vctest::TempDir dir;
+  Rig rig = vctest::make_rig(1, 64, 48);
+  rig.cameras[0].width = rig.cameras[0].height = 16384;
+  save_rig(rig, dir / "huge.yaml");
+  // 30 s: far beyond what the refusal takes, far below the minutes the old code spun.
+  const vctest::RunResult r = vctest::run_launch(
+      "rgbdtestsrc rig=" + (dir / "huge.yaml") + " camera-id=0 num-buffers=3 ! fakesink", 30 * GST_SECOND);
+  EXPECT_NE(r.error, "timeout");
+  EXPECT_NE(r.error.find("16384x16384"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("at most"), std::string::npos) << r.error;
+}
+
+TEST(RigThroughElements, ExtremeIntrinsicsRenderWithoutError) {
+  // Focal lengths and principal points far outside any real camera (yet finite,
+  // so the rig is valid) render empty frames instead of overflowing.
+  vctest::TempDir dir;
+  Rig rig = vctest::make_rig(2, 64, 48);
+  rig.cameras[0].fx = rig.cameras[0].fy = 1e-300;
+  rig.cameras[1].fx = rig.cameras[1].fy = 1e300;
+  rig.cameras[1].cx = -1e300;
+  save_rig(rig, dir / "extreme.yaml");
+  for (int id : {0, 1}) {
+    const vctest::RunResult r = vctest::run_launch("rgbdtestsrc rig=" + (dir / "extreme.yaml") + " camera-id=" +
+                                                   std::to_string(id) + " num-buffers=2 ! fakesink", 30 * GST_SECOND);
+    EXPECT_EQ(r.error, "") << "camera " << id;
+  }
+}
