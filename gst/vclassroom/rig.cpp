@@ -1,13 +1,12 @@
 #include "rig.h"
 
-#include <cerrno>
+#include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <iterator>
 #include <limits>
-#include <memory>
 #include <set>
 #include <sstream>
 
