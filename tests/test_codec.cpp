@@ -4,6 +4,7 @@
 
 #include <gst/app/gstappsrc.h>
 #include <gst/vclassroom/checksum.h>
+#include <gst/vclassroom/pose_stamp.h>
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/rgbd_codec.h>
@@ -124,6 +125,105 @@ TEST(DepthCodec, ValuesLongerThan32BitsAreRejected) {
   cv::Mat back;
   for (size_t size : {size_t(3), size_t(7), size_t(64)})
     EXPECT_FALSE(decode_depth_lossless(endless.data(), size, 4, 4, &back)) << size << " bytes";
+}
+
+namespace {
+
+// The depth coder's wire form of a list of values, written here by hand
+// (3 value bits and a "more" bit per nibble, low nibble first).
+std::vector<uint8_t> nibble_values(const std::vector<uint32_t>& values) {
+  std::vector<uint8_t> nibbles;
+  for (uint32_t v : values) {
+    for (; v >= 8; v >>= 3) nibbles.push_back(static_cast<uint8_t>((v & 7) | 8));
+    nibbles.push_back(static_cast<uint8_t>(v));
+  }
+  std::vector<uint8_t> bytes((nibbles.size() + 1) / 2, 0);
+  for (size_t i = 0; i < nibbles.size(); ++i) bytes[i / 2] |= static_cast<uint8_t>(nibbles[i] << (4 * (i & 1)));
+  return bytes;
+}
+
+}  // namespace
+
+TEST(DepthCodec, HugeResidualsAreRejectedWithoutOverflow) {
+  // Issue 14: a residual near 2^32 added to a prediction of 65535 overflowed
+  // a signed int (undefined behaviour, reported by UBSan and the fuzzer; the
+  // corpus keeps the input as rgbd_frame/depth-residual-overflow).
+  // Run: 0 zeros, 2 valid pixels; 65535 (zigzag 131070), then 0xFFFFFFFE (unzigzag 2^31 - 1).
+  cv::Mat back;
+  for (uint32_t residual : {0xFFFFFFFEu, 0xFFFFFFFFu, 0xFFFFFFFDu}) {
+    std::vector<uint8_t> wire = nibble_values({0, 2, 131070, residual});
+    EXPECT_FALSE(decode_depth_lossless(wire.data(), wire.size(), 2, 1, &back)) << residual;
+    wire.resize(wire.size() + 16, 0);  // the same through the 64-bit fast path
+    EXPECT_FALSE(decode_depth_lossless(wire.data(), wire.size(), 2, 1, &back)) << residual;
+  }
+  // The largest residual that still gives a valid pixel decodes: 65535 then 1.
+  const std::vector<uint8_t> wire = nibble_values({0, 2, 131070, 131067});
+  ASSERT_TRUE(decode_depth_lossless(wire.data(), wire.size(), 2, 1, &back));
+  EXPECT_EQ(back.at<uint16_t>(0, 1), 1);
+}
+
+TEST(DepthCodec, ImpossibleSizesAreRejected) {
+  const std::vector<uint8_t> wire = nibble_values({0, 1, 10});
+  cv::Mat back;
+  for (auto [w, h] : std::vector<std::pair<int, int>>{{0, 1}, {1, 0}, {-1, 1}, {16385, 1}, {1, -7}})
+    EXPECT_FALSE(decode_depth_lossless(wire.data(), wire.size(), w, h, &back)) << w << "x" << h;
+}
+
+TEST(ColorCodec, JpegDeclaringAHugeSizeIsRejectedBeforeDecoding) {
+  // A 16x16 JPEG whose header is edited to declare 60000x60000: refused from
+  // the header, naming the declared size, before libjpeg allocates for it.
+  cv::Mat rgb(16, 16, CV_8UC3, cv::Scalar(10, 200, 30));
+  std::vector<uint8_t> jpeg;
+  encode_jpeg(rgb, 90, &jpeg);
+  size_t sof = 0;
+  for (size_t i = 0; i + 9 < jpeg.size(); ++i)
+    if (jpeg[i] == 0xFF && jpeg[i + 1] == 0xC0) {
+      sof = i;
+      break;
+    }
+  ASSERT_NE(sof, 0u) << "no baseline SOF marker";
+  std::vector<uint8_t> huge = jpeg;
+  // Height and width 60000 (libjpeg itself refuses more than 65500 in its header).
+  for (size_t k = sof + 5; k < sof + 9; k += 2) huge[k] = 0xEA, huge[k + 1] = 0x60;
+  cv::Mat back;
+  std::string err;
+  EXPECT_FALSE(decode_jpeg(huge.data(), huge.size(), 16, 16, &back, &err));
+  EXPECT_NE(err.find("60000x60000"), std::string::npos) << "[" << err << "]";
+  EXPECT_TRUE(back.empty());
+  // Through the frame container too: a JPEG section declaring another size.
+  RgbdCodedFrame f{rgb, cv::Mat(16, 16, CV_16UC1, cv::Scalar(1000)), {}};
+  std::vector<uint8_t> frame;
+  encode_rgbd_frame(f, 90, &frame);
+  const size_t at = 16 + 12 + sof;  // header, colour section header, then the JPEG
+  for (size_t k = at + 5; k < at + 9; k += 2) frame[k] = 0xEA, frame[k + 1] = 0x60;
+  const uint32_t crc = crc32(frame.data() + 28, jpeg.size());  // keep the section's checksum right
+  for (int i = 0; i < 4; ++i) frame[24 + i] = static_cast<uint8_t>(crc >> (8 * i));
+  RgbdCodedFrame out;
+  EXPECT_FALSE(decode_rgbd_frame(frame.data(), frame.size(), 16, 16, &out, &err));
+  EXPECT_NE(err.find("60000x60000"), std::string::npos) << err;
+  // And an intact one still decodes.
+  EXPECT_TRUE(decode_jpeg(jpeg.data(), jpeg.size(), 16, 16, &back, &err)) << err;
+}
+
+TEST(PoseStamp, WireFormatIsPinnedAndReadAtAnyAlignment) {
+  // The pose header extension's 16 bytes, big-endian, read and written at
+  // every offset of a buffer (packet data has no alignment: issue 14's UBSan
+  // report of misaligned 64-bit loads through GST_READ_UINT64_BE).
+  const PoseStamp stamp{0x0102030405060708ull, -1};
+  const uint8_t pinned[16] = {1, 2, 3, 4, 5, 6, 7, 8, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF};
+  uint8_t buf[32];
+  for (size_t at = 0; at < 8; ++at) {
+    pose_stamp_to_wire(stamp, buf + at);
+    EXPECT_EQ(std::memcmp(buf + at, pinned, 16), 0) << "offset " << at;
+    PoseStamp back;
+    ASSERT_TRUE(pose_stamp_from_wire(buf + at, 16, &back));
+    EXPECT_EQ(back.seq, stamp.seq);
+    EXPECT_EQ(back.viewer_time_ns, -1);
+  }
+  PoseStamp back;
+  EXPECT_FALSE(pose_stamp_from_wire(buf, 15, &back));
+  EXPECT_FALSE(pose_stamp_from_wire(buf, 17, &back));
+  EXPECT_FALSE(pose_stamp_from_wire(nullptr, 16, &back));
 }
 
 TEST(Checksum, Crc32MatchesTheStandardAndTheBytewiseDefinition) {
