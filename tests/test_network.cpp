@@ -28,17 +28,50 @@ Pose pose_with_seq(uint64_t seq) {
   return p;
 }
 
-// Collects what a pad receives, synchronously.
+// Collects what a pad receives (posesend pushes from its rtp pad's own
+// thread: wait_for() waits, bounded, for a number of buffers).
 struct Capture {
   GstPad* pad = nullptr;
   std::vector<GstBuffer*> buffers;
+  bool eos = false;
+  GMutex lock;
+  GCond cond;
+  Capture() {
+    g_mutex_init(&lock);
+    g_cond_init(&cond);
+  }
   static GstFlowReturn chain(GstPad* pad, GstObject*, GstBuffer* buf) {
-    static_cast<Capture*>(gst_pad_get_element_private(pad))->buffers.push_back(buf);
+    auto* self = static_cast<Capture*>(gst_pad_get_element_private(pad));
+    g_mutex_lock(&self->lock);
+    self->buffers.push_back(buf);
+    g_cond_broadcast(&self->cond);
+    g_mutex_unlock(&self->lock);
     return GST_FLOW_OK;
   }
-  static gboolean event(GstPad*, GstObject*, GstEvent* ev) {
+  static gboolean event(GstPad* pad, GstObject*, GstEvent* ev) {
+    auto* self = static_cast<Capture*>(gst_pad_get_element_private(pad));
+    g_mutex_lock(&self->lock);
+    if (GST_EVENT_TYPE(ev) == GST_EVENT_EOS) self->eos = true;
+    g_cond_broadcast(&self->cond);
+    g_mutex_unlock(&self->lock);
     gst_event_unref(ev);
     return TRUE;
+  }
+  // True when `n` buffers (or EOS, with want_eos) arrived within 20 s.
+  bool wait_for(size_t n, bool want_eos = false) {
+    const gint64 deadline = g_get_monotonic_time() + 20 * G_TIME_SPAN_SECOND;
+    g_mutex_lock(&lock);
+    while (buffers.size() < n || (want_eos && !eos))
+      if (!g_cond_wait_until(&cond, &lock, deadline)) break;
+    const bool ok = buffers.size() >= n && (!want_eos || eos);
+    g_mutex_unlock(&lock);
+    return ok;
+  }
+  void clear() {
+    g_mutex_lock(&lock);
+    for (GstBuffer* b : buffers) gst_buffer_unref(b);
+    buffers.clear();
+    g_mutex_unlock(&lock);
   }
   void attach(GstElement* element, const char* pad_name) {
     pad = gst_pad_new("capture", GST_PAD_SINK);
@@ -53,6 +86,8 @@ struct Capture {
   ~Capture() {
     for (GstBuffer* b : buffers) gst_buffer_unref(b);
     if (pad) gst_object_unref(pad);
+    g_mutex_clear(&lock);
+    g_cond_clear(&cond);
   }
 };
 
@@ -110,7 +145,7 @@ TEST(PoseWire, RoundTripAndRejects) {
   wire[0] = 'X';
   EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
   wire[0] = 'V';
-  wire[30] ^= 0x01;  // one bit of y
+  wire[48] ^= 0x01;  // one bit of y
   EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
   EXPECT_NE(err.find("checksum"), std::string::npos) << err;
 }
@@ -130,6 +165,7 @@ TEST(PoseBackChannel, LatestWinsThroughLossReorderingAndDamage) {
 
   for (uint64_t seq = 1; seq <= 10; ++seq)
     EXPECT_TRUE(gst_harness_push_upstream_event(lect, pose_event_new(pose_with_seq(seq))));
+  ASSERT_TRUE(packets.wait_for(10));
   ASSERT_EQ(packets.buffers.size(), 10u);
   // The network loses packets 4 and 10, swaps 6 and 7, repeats 5 and damages 8.
   std::vector<GstBuffer*> wire;
@@ -143,8 +179,9 @@ TEST(PoseBackChannel, LatestWinsThroughLossReorderingAndDamage) {
   EXPECT_EQ(injected_seqs(serv), (std::vector<uint64_t>{1, 2, 3, 5, 7, 9}));
 
   // Pose 10 was lost; the next video frame on the lecturer's side repeats it.
-  packets.buffers.clear();
+  packets.clear();
   gst_buffer_unref(gst_harness_push_and_pull(lect, gst_harness_create_buffer(lect, 48)));
+  ASSERT_TRUE(packets.wait_for(1));
   ASSERT_EQ(packets.buffers.size(), 1u);
   EXPECT_EQ(gst_pad_push(link.pad, gst_buffer_ref(packets.buffers[0])), GST_FLOW_OK);
   EXPECT_EQ(injected_seqs(serv), (std::vector<uint64_t>{10}));
