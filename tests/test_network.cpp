@@ -419,6 +419,7 @@ struct Server {
                                    "encoding-name=X-VCLASSROOM-POSE,payload=96");
   }
   ~Server() {
+    for (GstStructure* s : stats_) gst_structure_free(s);
     gst_object_unref(clock);
     gst_harness_teardown(h);
     gst_object_unref(bus);
@@ -512,7 +513,9 @@ TEST(PoseSessions, ARestartedLecturerIsObeyedWithinASecond) {
   for (uint64_t seq = 1; seq <= 60; ++seq, t += kFrameTime) {
     const std::vector<uint64_t> got = send(seq);
     if (!got.empty() && obeyed_at == GST_CLOCK_TIME_NONE) obeyed_at = t;
-    if (obeyed_at != GST_CLOCK_TIME_NONE) EXPECT_EQ(got, std::vector<uint64_t>{seq});  // and from then on, every pose
+    if (obeyed_at != GST_CLOCK_TIME_NONE) {
+      EXPECT_EQ(got, std::vector<uint64_t>{seq});  // and from then on, every pose
+    }
   }
   ASSERT_NE(obeyed_at, GST_CLOCK_TIME_NONE) << "the restarted lecturer was never obeyed";
   EXPECT_LE(obeyed_at - stopped, GST_SECOND);

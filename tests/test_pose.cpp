@@ -367,3 +367,50 @@ TEST(PoseWire, TaggedPacketsNeedTheRightKey) {
   EXPECT_FALSE(pose_from_wire(nan_wire, kPoseWireMaxSize, &back, &err, &key, &info));
   EXPECT_EQ(info.error, PoseWireError::kInvalid);
 }
+
+TEST(PoseChannel, CountsEachKindAndWarnsOncePerIntervalWithTheRestAtTheEnd) {
+  PoseChannelConfig c;
+  c.key.bytes.assign(32, 3);
+  PoseChannel ch(c);
+  PoseKey wrong;
+  wrong.bytes.assign(32, 4);
+  uint8_t wire[kPoseWireMaxSize];
+  Pose p = sample_pose();
+  p.position = Eigen::Vector3d(1, 0, 2);
+  p.seq = 1;
+  pose_to_wire(p, wire, 5, &c.key);
+  PoseChannel::Outcome o = ch.receive(wire, kPoseWireMaxSize, "ssrc 1", 0);
+  EXPECT_TRUE(o.obey);
+  EXPECT_TRUE(o.warning.empty());
+  // Ten poses tagged with another key within a second: one warning, ten counted.
+  int warnings = 0;
+  for (int i = 0; i < 10; ++i) {
+    p.seq = 2 + i;
+    pose_to_wire(p, wire, 5, &wrong);
+    o = ch.receive(wire, kPoseWireMaxSize, "ssrc 1", i * 100 * kMs);
+    EXPECT_FALSE(o.obey);
+    warnings += !o.warning.empty();
+  }
+  EXPECT_EQ(warnings, 1);
+  // A far pose and a far-ahead seq, rightly tagged; and garbage.
+  Pose far = p;
+  far.position = Eigen::Vector3d(0, 0, 999);
+  far.seq = 20;
+  pose_to_wire(far, wire, 5, &c.key);
+  EXPECT_FALSE(ch.receive(wire, kPoseWireMaxSize, "ssrc 1", kMs).obey);
+  p.seq = UINT64_MAX;
+  pose_to_wire(p, wire, 5, &c.key);
+  EXPECT_FALSE(ch.receive(wire, kPoseWireMaxSize, "ssrc 1", kMs).obey);
+  EXPECT_FALSE(ch.receive(wire, 7, "ssrc 1", kMs).obey);
+  const PoseChannelCounts n = ch.counts();
+  EXPECT_EQ(n.received, 14u);
+  EXPECT_EQ(n.injected, 1u);
+  EXPECT_EQ(n.unauthenticated, 10u);
+  EXPECT_EQ(n.implausible, 1u);
+  EXPECT_EQ(n.rejected, 1u);
+  EXPECT_EQ(n.damaged, 1u);
+  EXPECT_EQ(ch.last_seq(), 1u);
+  const std::vector<std::string> rest = ch.final_warnings();
+  ASSERT_EQ(rest.size(), 1u);  // the 9 unauthenticated ones after the first message
+  EXPECT_NE(rest[0].find("9 unauthenticated pose packets"), std::string::npos) << rest[0];
+}

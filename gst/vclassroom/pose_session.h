@@ -5,10 +5,14 @@
 // need no sleeps. Not thread-safe: callers lock.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "pose.h"
+#include "warning_limiter.h"
 
 namespace vclassroom {
 
@@ -67,5 +71,58 @@ class PoseSession {
 // The room's plausible volume: false, with a message for a person, when the
 // pose's position is more than max_distance_m from the rig origin.
 bool pose_is_plausible(const Pose& pose, double max_distance_m, std::string* why);
+
+// What a pose channel's receiver counted.
+struct PoseChannelCounts {
+  uint64_t received = 0;         // packets, good or not
+  uint64_t injected = 0;         // poses obeyed
+  uint64_t damaged = 0;          // wrong size, version, flags or checksum; not a packet at all
+  uint64_t unauthenticated = 0;  // a key is set and the tag is missing or wrong
+  uint64_t implausible = 0;      // invalid (NaN, not a unit quaternion, ...) or beyond max_distance_m
+  uint64_t rejected = 0;         // seq far ahead, or another session while the obeyed one is alive
+  uint64_t session_switches = 0;
+};
+
+struct PoseChannelConfig {
+  PoseSessionConfig session;
+  double max_distance_m = 20.0;  // the room's plausible volume: a sphere around the rig origin
+  PoseKey key;                   // empty: poses are not authenticated
+};
+
+// The receiving end of the pose back channel as a whole: wire format and tag,
+// plausibility, the session rule, counts, and rate-limited warnings (one
+// WarningLimiter per kind of refused packet). Not thread-safe: callers lock.
+class PoseChannel {
+ public:
+  struct Outcome {
+    bool obey = false;    // send `pose` on
+    Pose pose;
+    std::string warning;  // non-empty: post it (already rate-limited)
+  };
+  explicit PoseChannel(PoseChannelConfig config = {}) : config_(std::move(config)), session_(config_.session) {}
+
+  // One packet's payload from `sender`, the transport's identity of the
+  // stream (on RTP its SSRC); the payload's own session number is added to it.
+  Outcome receive(const uint8_t* payload, size_t size, const std::string& sender, int64_t now_ns);
+  // A packet the transport could not read at all (e.g. not RTP).
+  Outcome damaged(const std::string& why, int64_t now_ns);
+  // Refused packets not yet reported (a burst just before the end), one
+  // message per kind; call at the end of the stream.
+  std::vector<std::string> final_warnings();
+
+  PoseChannelCounts counts() const;
+  uint64_t last_seq() const { return session_.last_seq(); }
+  void set_max_distance(double metres) { config_.max_distance_m = metres; }
+
+ private:
+  enum Kind { kDamaged, kUnauthenticated, kImplausible, kRejected, kKinds };
+  Outcome refuse(Kind kind, const std::string& why, int64_t now_ns);
+
+  PoseChannelConfig config_;
+  PoseSession session_;
+  uint64_t received_ = 0, injected_ = 0;
+  std::array<uint64_t, kKinds> refused_{};
+  std::array<WarningLimiter, kKinds> limiters_;
+};
 
 }  // namespace vclassroom

@@ -13,13 +13,13 @@
 
 #include <gst/rtp/gstrtpbuffer.h>
 
-#include <array>
 #include <cstdio>
 #include <mutex>
+#include <string>
+#include <vector>
 
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_session.h>
-#include <gst/vclassroom/warning_limiter.h>
 
 #include "poseback.h"
 
@@ -34,13 +34,6 @@ enum {
 };
 
 namespace {
-// The kinds of refused packets, each warned about through its own limiter.
-enum Problem { kDamaged, kUnauthenticated, kImplausible, kRejected, kProblems };
-constexpr const char* kSingular[kProblems] = {"a damaged pose packet", "an unauthenticated pose packet",
-                                              "an implausible pose", "a rejected pose"};
-constexpr const char* kPlural[kProblems] = {"damaged pose packets", "unauthenticated pose packets",
-                                            "implausible poses", "rejected poses"};
-
 struct RecvState {
   std::mutex lock;
   std::string key_file;
@@ -48,10 +41,7 @@ struct RecvState {
   double max_distance = 20.0;
   guint session_timeout_ms = 500;
   guint stats_interval = 0;
-  PoseSession session;
-  guint64 received = 0, injected = 0;
-  std::array<guint64, kProblems> refused{};
-  std::array<WarningLimiter, kProblems> limiters;
+  PoseChannel channel;
 };
 }  // namespace
 
@@ -85,94 +75,60 @@ static int64_t now_ns(GstPoseRecv* self) {
 
 // Called with the lock held.
 static GstMessage* stats_message_locked(GstPoseRecv* self) {
-  RecvState* st = self->st;
+  const PoseChannelCounts c = self->st->channel.counts();
   GstStructure* s = gst_structure_new(
-      "vclassroom-pose-stats", "received", G_TYPE_UINT64, st->received, "injected", G_TYPE_UINT64, st->injected,
-      "damaged", G_TYPE_UINT64, st->refused[kDamaged], "unauthenticated", G_TYPE_UINT64, st->refused[kUnauthenticated],
-      "implausible", G_TYPE_UINT64, st->refused[kImplausible], "rejected", G_TYPE_UINT64, st->refused[kRejected],
-      "session-switches", G_TYPE_UINT64, st->session.switches(), "last-seq", G_TYPE_UINT64, st->session.last_seq(),
-      nullptr);
+      "vclassroom-pose-stats", "received", G_TYPE_UINT64, c.received, "injected", G_TYPE_UINT64, c.injected,
+      "damaged", G_TYPE_UINT64, c.damaged, "unauthenticated", G_TYPE_UINT64, c.unauthenticated, "implausible",
+      G_TYPE_UINT64, c.implausible, "rejected", G_TYPE_UINT64, c.rejected, "session-switches", G_TYPE_UINT64,
+      c.session_switches, "last-seq", G_TYPE_UINT64, self->st->channel.last_seq(), nullptr);
   return gst_message_new_element(GST_OBJECT(self), s);
 }
 
 static GstFlowReturn gst_pose_recv_rtp_chain(GstPad*, GstObject* parent, GstBuffer* buf) {
   GstPoseRecv* self = GST_POSE_RECV(parent);
   RecvState* st = self->st;
-  Pose pose;
-  PoseWireInfo info;
-  info.error = PoseWireError::kDamaged;
-  std::string why = "not an RTP packet";
-  bool ok = false;
-  guint32 ssrc = 0;
   const int64_t now = now_ns(self);
-  std::string warning;
+  PoseChannel::Outcome out;
   GstMessage* stats = nullptr;
   {
     std::lock_guard<std::mutex> g(st->lock);
     GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
     if (gst_rtp_buffer_map(buf, GST_MAP_READ, &rtp)) {
-      ssrc = gst_rtp_buffer_get_ssrc(&rtp);
-      ok = pose_from_wire(static_cast<const uint8_t*>(gst_rtp_buffer_get_payload(&rtp)),
-                          gst_rtp_buffer_get_payload_len(&rtp), &pose, &why, &st->key, &info);
+      char ssrc[16];
+      std::snprintf(ssrc, sizeof ssrc, "ssrc %08x", gst_rtp_buffer_get_ssrc(&rtp));
+      out = st->channel.receive(static_cast<const uint8_t*>(gst_rtp_buffer_get_payload(&rtp)),
+                                gst_rtp_buffer_get_payload_len(&rtp), ssrc, now);
       gst_rtp_buffer_unmap(&rtp);
+    } else {
+      out = st->channel.damaged("not an RTP packet", now);
     }
-    st->received++;
-    int problem = kProblems;
-    if (!ok)
-      problem = info.error == PoseWireError::kUnauthenticated ? kUnauthenticated
-                : info.error == PoseWireError::kInvalid       ? kImplausible
-                                                              : kDamaged;
-    else if (!pose_is_plausible(pose, st->max_distance, &why))
-      problem = kImplausible;
-    if (problem == kProblems) {
-      char key[32];
-      std::snprintf(key, sizeof key, "%08x/%016llx", ssrc, static_cast<unsigned long long>(info.session));
-      const PoseVerdict v = st->session.offer(key, pose.seq, pose.viewer_time_ns, now);
-      if (v == PoseVerdict::kAheadOfWindow || v == PoseVerdict::kOtherSession) {
-        problem = kRejected;
-        why = "seq " + std::to_string(pose.seq) + " of SSRC " + key + ": " + pose_verdict_name(v) +
-              " (the session obeyed is SSRC " + st->session.current() + " at seq " +
-              std::to_string(st->session.last_seq()) + ")";
-      } else if (pose_verdict_obeys(v)) {
-        ok = true;
-        st->injected++;
-        if (v == PoseVerdict::kTookOver)
-          GST_INFO_OBJECT(self, "pose session %s took over at seq %" G_GUINT64_FORMAT, key, pose.seq);
-      } else {
-        ok = false;  // a repeat, late or reordered: normal, latest wins
-      }
-    }
-    if (problem != kProblems) {
-      ok = false;
-      st->refused[problem]++;
-      uint64_t count = 0;
-      int64_t span = 0;
-      // Refused packets are not fatal: the next good pose replaces them.
-      if (st->limiters[problem].note(now, &count, &span))
-        warning = describe_occurrences(count, kSingular[problem], kPlural[problem], "the pose link", span) +
-                  " (dropped; latest: " + why + ")";
-    }
-    if (st->stats_interval > 0 && st->received % st->stats_interval == 0) stats = stats_message_locked(self);
+    const guint64 received = st->channel.counts().received;
+    if (st->stats_interval > 0 && received % st->stats_interval == 0) stats = stats_message_locked(self);
   }
   gst_buffer_unref(buf);
-  if (!warning.empty()) GST_ELEMENT_WARNING(self, STREAM, DECODE, ("%s", warning.c_str()), (nullptr));
+  // Refused packets are not fatal: the next good pose replaces them.
+  if (!out.warning.empty()) GST_ELEMENT_WARNING(self, STREAM, DECODE, ("%s", out.warning.c_str()), (nullptr));
   if (stats) gst_element_post_message(GST_ELEMENT(self), stats);
-  if (ok) {
-    GST_LOG_OBJECT(self, "injecting pose %" G_GUINT64_FORMAT, pose.seq);
-    gst_pad_push_event(self->sinkpad, pose_event_new(pose));
+  if (out.obey) {
+    GST_LOG_OBJECT(self, "injecting pose %" G_GUINT64_FORMAT, out.pose.seq);
+    gst_pad_push_event(self->sinkpad, pose_event_new(out.pose));
   }
   return GST_FLOW_OK;
 }
 
 // The pose stream's own events (caps, EOS, ...) end here: the video goes on.
-// At its end the statistics are posted once more.
+// At its end the refused packets not yet reported and the statistics are
+// posted once more.
 static gboolean gst_pose_recv_rtp_event(GstPad*, GstObject* parent, GstEvent* event) {
   GstPoseRecv* self = GST_POSE_RECV(parent);
   GstMessage* stats = nullptr;
+  std::vector<std::string> warnings;
   if (GST_EVENT_TYPE(event) == GST_EVENT_EOS) {
     std::lock_guard<std::mutex> g(self->st->lock);
+    warnings = self->st->channel.final_warnings();
     if (self->st->stats_interval > 0) stats = stats_message_locked(self);
   }
+  for (const std::string& w : warnings) GST_ELEMENT_WARNING(self, STREAM, DECODE, ("%s", w.c_str()), (nullptr));
   if (stats) gst_element_post_message(GST_ELEMENT(self), stats);
   gst_event_unref(event);
   return TRUE;
@@ -190,7 +146,7 @@ static GstIterator* gst_pose_recv_iterate_links(GstPad* pad, GstObject* parent) 
 static GstStateChangeReturn gst_pose_recv_change_state(GstElement* element, GstStateChange transition) {
   GstPoseRecv* self = GST_POSE_RECV(element);
   RecvState* st = self->st;
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
+  if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {  // the key file as set now
     std::lock_guard<std::mutex> g(st->lock);
     st->key = PoseKey();
     if (!st->key_file.empty()) {
@@ -204,12 +160,11 @@ static GstStateChangeReturn gst_pose_recv_change_state(GstElement* element, GstS
   }
   if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {
     std::lock_guard<std::mutex> g(st->lock);
-    PoseSessionConfig c;
-    c.timeout_ns = static_cast<int64_t>(st->session_timeout_ms) * 1'000'000;
-    st->session = PoseSession(c);
-    st->received = st->injected = 0;
-    st->refused.fill(0);
-    for (WarningLimiter& l : st->limiters) l.reset();
+    PoseChannelConfig c;
+    c.session.timeout_ns = static_cast<int64_t>(st->session_timeout_ms) * 1'000'000;
+    c.max_distance_m = st->max_distance;
+    c.key = st->key;
+    st->channel = PoseChannel(c);
   }
   return GST_ELEMENT_CLASS(gst_pose_recv_parent_class)->change_state(element, transition);
 }
@@ -225,6 +180,7 @@ static void gst_pose_recv_set_property(GObject* object, guint prop_id, const GVa
     }
     case PROP_MAX_DISTANCE:
       st->max_distance = g_value_get_double(value);
+      st->channel.set_max_distance(st->max_distance);
       break;
     case PROP_SESSION_TIMEOUT:
       st->session_timeout_ms = g_value_get_uint(value);
@@ -241,14 +197,14 @@ static void gst_pose_recv_get_property(GObject* object, guint prop_id, GValue* v
   RecvState* st = GST_POSE_RECV(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
   switch (prop_id) {
-    case PROP_RECEIVED: g_value_set_uint64(value, st->received); break;
-    case PROP_INJECTED: g_value_set_uint64(value, st->injected); break;
-    case PROP_LAST_SEQ: g_value_set_uint64(value, st->session.last_seq()); break;
-    case PROP_DAMAGED: g_value_set_uint64(value, st->refused[kDamaged]); break;
-    case PROP_UNAUTHENTICATED: g_value_set_uint64(value, st->refused[kUnauthenticated]); break;
-    case PROP_IMPLAUSIBLE: g_value_set_uint64(value, st->refused[kImplausible]); break;
-    case PROP_REJECTED: g_value_set_uint64(value, st->refused[kRejected]); break;
-    case PROP_SESSION_SWITCHES: g_value_set_uint64(value, st->session.switches()); break;
+    case PROP_RECEIVED: g_value_set_uint64(value, st->channel.counts().received); break;
+    case PROP_INJECTED: g_value_set_uint64(value, st->channel.counts().injected); break;
+    case PROP_LAST_SEQ: g_value_set_uint64(value, st->channel.last_seq()); break;
+    case PROP_DAMAGED: g_value_set_uint64(value, st->channel.counts().damaged); break;
+    case PROP_UNAUTHENTICATED: g_value_set_uint64(value, st->channel.counts().unauthenticated); break;
+    case PROP_IMPLAUSIBLE: g_value_set_uint64(value, st->channel.counts().implausible); break;
+    case PROP_REJECTED: g_value_set_uint64(value, st->channel.counts().rejected); break;
+    case PROP_SESSION_SWITCHES: g_value_set_uint64(value, st->channel.counts().session_switches); break;
     case PROP_KEY_FILE: g_value_set_string(value, st->key_file.c_str()); break;
     case PROP_MAX_DISTANCE: g_value_set_double(value, st->max_distance); break;
     case PROP_SESSION_TIMEOUT: g_value_set_uint(value, st->session_timeout_ms); break;

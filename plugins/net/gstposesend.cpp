@@ -219,7 +219,7 @@ static GstIterator* gst_pose_send_iterate_links(GstPad* pad, GstObject* parent) 
 static GstStateChangeReturn gst_pose_send_change_state(GstElement* element, GstStateChange transition) {
   GstPoseSend* self = GST_POSE_SEND(element);
   SendState* st = self->st;
-  if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
+  if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {  // the key file as set now
     std::lock_guard<std::mutex> g(st->lock);
     st->key = PoseKey();
     if (!st->key_file.empty()) {
