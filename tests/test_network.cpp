@@ -420,6 +420,8 @@ struct Server {
   }
   ~Server() {
     for (GstStructure* s : stats_) gst_structure_free(s);
+    // Messages hold the element and the element holds the bus: drop them all.
+    gst_bus_set_flushing(bus, TRUE);
     gst_object_unref(clock);
     gst_harness_teardown(h);
     gst_object_unref(bus);
