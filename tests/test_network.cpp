@@ -156,6 +156,10 @@ TEST(PoseWire, RoundTripAndRejects) {
   wire[48] ^= 0x01;  // one bit of y
   EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
   EXPECT_NE(err.find("checksum"), std::string::npos) << err;
+  // Version 1 is refused with a message that says so.
+  std::memcpy(wire, "VCP1", 4);
+  EXPECT_FALSE(pose_from_wire(wire, 88, &back, &err));
+  EXPECT_NE(err.find("version 1"), std::string::npos) << err;
 }
 
 TEST(PoseBackChannel, LatestWinsThroughLossReorderingAndDamage) {
