@@ -295,9 +295,10 @@ TEST(RgbdEncDec, DamagedFramesAreDroppedWithAWarning) {
   ASSERT_EQ(got.size(), 2u);
   EXPECT_EQ(GST_BUFFER_PTS(got.buffer(0)), 0u);
   EXPECT_EQ(GST_BUFFER_PTS(got.buffer(1)), 3 * GST_SECOND / 30);
-  ASSERT_EQ(r.warnings.size(), 2u);
+  // Rate-limited: the first damaged frame at once, the second within 5 s only counted.
+  ASSERT_EQ(r.warnings.size(), 1u);
   EXPECT_NE(r.warnings[0].find("truncated"), std::string::npos) << r.warnings[0];
-  EXPECT_NE(r.warnings[1].find("damaged"), std::string::npos) << r.warnings[1];
+  EXPECT_NE(r.warnings[0].find("a damaged frame from camera 0"), std::string::npos) << r.warnings[0];
   // What was lost is counted, on the properties and every 2 frames on the bus.
   GstElement* dec = gst_bin_get_by_name(GST_BIN(p), "dec");
   guint64 decoded = 0, dropped = 0, bytes = 0;
@@ -322,5 +323,50 @@ TEST(RgbdEncDec, DamagedFramesAreDroppedWithAWarning) {
   gst_caps_unref(caps);
   gst_object_unref(src);
   gst_object_unref(out);
+  gst_object_unref(p);
+}
+
+// Garbage on a camera's port (a flood of damaged frames) gives one warning for
+// a person, not one per frame; every frame is counted in the stats, by kind.
+TEST(RgbdEncDec, AHundredGarbageFramesPostOneWarningAndAreAllCounted) {
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(2), 64, 36);
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(
+      "appsrc name=src format=time ! rgbddec name=dec stats-interval=1000 ! appsink name=out sync=false", &err);
+  ASSERT_EQ(err, nullptr);
+  GstElement* src = gst_bin_get_by_name(GST_BIN(p), "src");
+  GstCaps* caps = rgbd_caps_new(info);
+  gst_structure_set_name(gst_caps_get_structure(caps, 0), "video/x-rgbd-coded");
+  gst_caps_set_simple(caps, "codec", G_TYPE_STRING, "vcrd1", nullptr);
+  gst_app_src_set_caps(GST_APP_SRC(src), caps);
+  gst_caps_unref(caps);
+  uint32_t seed = 17;  // a seeded LCG (no new includes in this shared file)
+  auto rng = [&seed] { return seed = seed * 1664525u + 1013904223u, seed >> 8; };
+  for (int i = 0; i < 100; ++i) {
+    std::vector<uint8_t> junk(200 + rng() % 2000);
+    for (auto& b : junk) b = uint8_t(rng());
+    if (i % 2) junk[0] = 'V', junk[1] = 'C', junk[2] = 'R', junk[3] = 'D';  // half look like frames at first sight
+    GstBuffer* b = gst_buffer_new_memdup(junk.data(), junk.size());
+    GST_BUFFER_PTS(b) = i * GST_SECOND / 30;
+    gst_app_src_push_buffer(GST_APP_SRC(src), b);
+  }
+  gst_app_src_end_of_stream(GST_APP_SRC(src));
+  const auto r = vctest::run_pipeline(p);
+  EXPECT_EQ(r.error, "");
+  ASSERT_EQ(r.warnings.size(), 1u) << "one warning, then one per 5 s with the count";
+  EXPECT_NE(r.warnings[0].find("dropped a damaged frame from camera 2"), std::string::npos) << r.warnings[0];
+  guint64 dropped = 0, damaged = 0;
+  for (const std::string& m : r.element_messages) {
+    GstStructure* st = gst_structure_from_string(m.c_str(), nullptr);
+    if (st && gst_structure_has_name(st, "vclassroom-codec-stats")) {
+      gst_structure_get_uint64(st, "frames-dropped", &dropped);
+      EXPECT_TRUE(gst_structure_get_uint64(st, "dropped-damaged", &damaged)) << m;
+    }
+    if (st) gst_structure_free(st);
+  }
+  EXPECT_EQ(dropped, 100u);
+  EXPECT_EQ(damaged, 100u);
+  gst_object_unref(src);
   gst_object_unref(p);
 }

@@ -279,7 +279,11 @@ static void gst_pose_recv_class_init(GstPoseRecvClass* klass) {
       "Server side of the pose back channel: put it after viewfuse; video passes through, and pose packets "
       "arriving on the 'rtp' pad (from udpsrc) go upstream as vclassroom/pose events. One lecturer's session at a "
       "time, latest seq wins; damaged, unauthenticated (key-file), implausible (max-distance) and out-of-window "
-      "packets are dropped, counted and warned about (rate-limited)",
+      "packets are dropped, counted and warned about (rate-limited). Example: "
+      "gst-launch-1.0 udpsrc port=5006 "
+      "caps=application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE ! "
+      "r.rtp rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! poserecv name=r ! "
+      "videoconvert ! autovideosink",
       "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(pose_recv_debug, "poserecv", 0, "pose back-channel receiver");
 }

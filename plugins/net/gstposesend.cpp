@@ -322,7 +322,10 @@ static void gst_pose_send_class_init(GstPoseSendClass* klass) {
       element_class, "Pose back-channel sender", "Network/Filter",
       "Lecturer side of the pose back channel: video passes through; the vclassroom/pose events that reach it "
       "from downstream (posenav) leave as RTP packets on the 'rtp' pad (link it to udpsink); the latest pose is "
-      "repeated with each frame so loss heals",
+      "repeated with each frame so loss heals. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! "
+      "posesend name=s ! posenav ! videoconvert ! autovideosink s.rtp ! "
+      "udpsink host=127.0.0.1 port=5006",
       "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(pose_send_debug, "posesend", 0, "pose back-channel sender");
 }

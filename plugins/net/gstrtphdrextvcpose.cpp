@@ -53,7 +53,10 @@ static void gst_rtp_header_extension_vc_pose_class_init(GstRTPHeaderExtensionVcP
   gst_element_class_set_static_metadata(
       element_class, "vclassroom pose RTP header extension", GST_RTP_HDREXT_ELEMENT_CLASS,
       "Carries the seq and viewer time of the lecturer pose a frame was rendered for (" VCLASSROOM_RTP_HDREXT_POSE_URI
-      "), for motion-to-photon latency; payloaders and depayloaders enable it from an extmap-N caps field",
+      "), for motion-to-photon latency; payloaders and depayloaders enable it from an extmap-N caps field. Example: "
+      "gst-launch-1.0 videotestsrc num-buffers=300 ! jpegenc ! rtpgstpay ! "
+      "\"application/x-rtp,extmap-3=(string)" VCLASSROOM_RTP_HDREXT_POSE_URI "\" ! rtpgstdepay ! jpegdec ! "
+      "videoconvert ! autovideosink",
       "gst-vclassroom developers");
   gst_rtp_header_extension_class_set_uri(ext_class, VCLASSROOM_RTP_HDREXT_POSE_URI);
 }

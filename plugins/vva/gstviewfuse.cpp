@@ -10,24 +10,40 @@
 
 #include <gst/video/video.h>
 
+#include <algorithm>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 #include <vector>
 
+#include <gst/vclassroom/camera_liveness.h>
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/view_fuse.h>
+#include <gst/vclassroom/warning_limiter.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_fuse_debug);
 #define GST_CAT_DEFAULT view_fuse_debug
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_POSE_TRACE, PROP_DEPTH_TOLERANCE, PROP_FILL_HOLES, PROP_FRAMES_FUSED, PROP_POSE_WINDOW };
+enum {
+  PROP_0,
+  PROP_POSE_TRACE,
+  PROP_DEPTH_TOLERANCE,
+  PROP_FILL_HOLES,
+  PROP_FRAMES_FUSED,
+  PROP_POSE_WINDOW,
+  PROP_CAMERA_TIMEOUT,
+  PROP_SHOW_MISSING
+};
 constexpr guint64 kDefaultPoseWindow = 50 * GST_MSECOND;
+constexpr guint64 kDefaultCameraTimeout = GST_SECOND;
+// Live and without any input, the fuse thread wakes this often to notice lost
+// cameras and to keep the lecturer's picture saying so; otherwise it sleeps.
+constexpr GstClockTime kIdleWake = 100 * GST_MSECOND;
 
 namespace {
 
@@ -36,8 +52,14 @@ struct FuseState {
   std::string trace_path;
   FuseParams params;
   std::map<GstPad*, RgbdInfo> pad_info;
+  // Pads whose view has another size than the others': their frames are left
+  // out (with a rate-limited warning) until they bring matching caps.
+  std::map<GstPad*, std::string> pad_rejected;
+  std::map<GstPad*, WarningLimiter> pad_warnings;
   guint64 frames = 0;
   guint64 pose_window = kDefaultPoseWindow;  // ns
+  bool show_missing = true;
+  CameraLiveness liveness{int64_t(kDefaultCameraTimeout)};
 
   // Streaming thread only.
   std::vector<PoseSample> trace;
@@ -45,6 +67,7 @@ struct FuseState {
   GstVideoInfo out_info{};
   bool have_out = false;
   FusedView fused;
+  bool have_fused = false;  // fused holds the last picture sent
   GstClockTime last_out = GST_CLOCK_TIME_NONE;  // running time of the last output frame
 };
 
@@ -109,21 +132,29 @@ static gboolean gst_view_fuse_sink_event(GstAggregator* agg, GstAggregatorPad* p
       gst_event_unref(event);
       return FALSE;
     }
+    // A camera whose view changes size (another sender, another mode) must
+    // not stop the others: its frames are left out until its size matches.
+    std::string rejected;
     {
       std::lock_guard<std::mutex> g(self->st->lock);
       for (const auto& [p, other] : self->st->pad_info)
-        if (p != GST_PAD(pad) && (other.width() != info.width() || other.height() != info.height())) {
-          GST_ELEMENT_ERROR(self, CORE, NEGOTIATION,
-                            ("pad %s brings a %dx%d virtual view, another pad %dx%d: every viewwarp must render the "
-                             "same virtual size",
-                             GST_PAD_NAME(pad), info.width(), info.height(), other.width(), other.height()),
-                            (nullptr));
-          gst_event_unref(event);
-          return FALSE;
+        if (p != GST_PAD(pad) && !self->st->pad_rejected.count(p) &&
+            (other.width() != info.width() || other.height() != info.height())) {
+          rejected = "its view is " + std::to_string(info.width()) + "x" + std::to_string(info.height()) +
+                     ", the others' " + std::to_string(other.width()) + "x" + std::to_string(other.height()) +
+                     " (every viewwarp must render the same virtual size)";
+          break;
         }
       self->st->pad_info[GST_PAD(pad)] = info;
+      if (rejected.empty()) self->st->pad_rejected.erase(GST_PAD(pad));
+      else self->st->pad_rejected[GST_PAD(pad)] = rejected;
     }
-    gst_pad_mark_reconfigure(agg->srcpad);
+    if (!rejected.empty())
+      GST_ELEMENT_WARNING(self, STREAM, FORMAT,
+                          ("camera %d (pad %s) left out: %s", info.camera.id, GST_PAD_NAME(pad), rejected.c_str()),
+                          (nullptr));
+    else
+      gst_pad_mark_reconfigure(agg->srcpad);
     gst_event_unref(event);
     return TRUE;
   }
@@ -135,8 +166,14 @@ static GstFlowReturn gst_view_fuse_update_src_caps(GstAggregator* agg, GstCaps* 
   RgbdInfo info;
   {
     std::lock_guard<std::mutex> g(self->st->lock);
-    if (self->st->pad_info.empty()) return GST_AGGREGATOR_FLOW_NEED_DATA;
-    info = self->st->pad_info.begin()->second;
+    bool found = false;
+    for (const auto& [p, i] : self->st->pad_info)
+      if (!self->st->pad_rejected.count(p)) {
+        info = i;
+        found = true;
+        break;
+      }
+    if (!found) return GST_AGGREGATOR_FLOW_NEED_DATA;
   }
   GstVideoInfo vi;
   gst_video_info_set_format(&vi, GST_VIDEO_FORMAT_RGB, info.width(), info.height());
@@ -171,6 +208,115 @@ static void send_trace_pose(GstViewFuse* self) {
   }
 }
 
+// Running time on the element's clock now; GST_CLOCK_TIME_NONE without a clock.
+static GstClockTime running_time_now(GstElement* element) {
+  GstClock* clock = gst_element_get_clock(element);
+  if (!clock) return GST_CLOCK_TIME_NONE;
+  const GstClockTime now = gst_clock_get_time(clock);
+  gst_object_unref(clock);
+  const GstClockTime base = gst_element_get_base_time(element);
+  return now > base ? now - base : 0;
+}
+
+static bool any_pad_has_buffer(GstAggregator* agg) {
+  bool any = false;
+  GST_OBJECT_LOCK(agg);
+  for (GList* l = GST_ELEMENT(agg)->sinkpads; l && !any; l = l->next)
+    any = gst_aggregator_pad_has_buffer(GST_AGGREGATOR_PAD(l->data));
+  GST_OBJECT_UNLOCK(agg);
+  return any;
+}
+
+// Live, the aggregator waits until this running time plus the latency. The
+// simple rule (the end of the last output) lies in the past once inputs stop,
+// and a wait for a past time ends at once: without input the thread would
+// wake again and again at full CPU. So while no pad holds data the next
+// wake-up is at least kIdleWake away (data arriving ends the wait anyway).
+// Called with the aggregator's source lock held: gst_aggregator_get_latency()
+// would deadlock here.
+static GstClockTime gst_view_fuse_get_next_time(GstAggregator* agg) {
+  const GstClockTime next = gst_aggregator_simple_get_next_time(agg);
+  const GstClockTime now = running_time_now(GST_ELEMENT(agg));
+  if (!GST_CLOCK_TIME_IS_VALID(next) || !GST_CLOCK_TIME_IS_VALID(now) || any_pad_has_buffer(agg)) return next;
+  return std::max(next, now + kIdleWake);
+}
+
+// "0,2": the ids of `ids` for messages.
+static std::string id_list(const std::vector<int>& ids) {
+  std::string s;
+  for (int id : ids) s += (s.empty() ? "" : ",") + std::to_string(id);
+  return s;
+}
+
+// A camera lost or back: a bus warning (lost) or info (back) for a person and
+// a vclassroom-camera-status element message for programs.
+static void post_camera_status(GstViewFuse* self, int id, bool lost, int64_t silent_ns, const std::vector<int>& missing,
+                               bool all_lost) {
+  GstStructure* s = gst_structure_new("vclassroom-camera-status", "camera-id", G_TYPE_INT, id, "status", G_TYPE_STRING,
+                                      lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(silent_ns),
+                                      "missing", G_TYPE_STRING, id_list(missing).c_str(), "cameras-missing",
+                                      G_TYPE_UINT, guint(missing.size()), nullptr);
+  const double silent_s = double(silent_ns) / GST_SECOND;
+  if (lost && all_lost)
+    GST_ELEMENT_WARNING(self, STREAM, FAILED,
+                        ("camera %d lost (no frame for %.1f s): no camera left, the lecturer sees the last picture "
+                         "marked '%s'",
+                         id, silent_s, missing_cameras_text(missing).c_str()),
+                        (nullptr));
+  else if (lost)
+    GST_ELEMENT_WARNING(self, STREAM, FAILED,
+                        ("camera %d lost (no frame for %.1f s): the view goes on without it", id, silent_s), (nullptr));
+  else
+    // gst-launch-1.0 prints only an info's debug text: the same words there.
+    GST_ELEMENT_INFO(self, RESOURCE, READ, ("camera %d is back after %.1f s without frames", id, silent_s),
+                     ("camera %d is back after %.1f s without frames", id, silent_s));
+  // After the text for people, so that a program seeing the status has the text too.
+  gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), s));
+}
+
+// Sends st->fused.color, with the banner naming the missing cameras when
+// `banner` is not empty, at running time `rt` (or just after the last output).
+static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, GstClockTime rt,
+                                  GstClockTime duration, const PoseMeta* pose) {
+  GstAggregator* agg = GST_AGGREGATOR(self);
+  FuseState* st = self->st;
+  const int w = GST_VIDEO_INFO_WIDTH(&st->out_info), h = GST_VIDEO_INFO_HEIGHT(&st->out_info);
+  if (st->fused.color.cols != w || st->fused.color.rows != h || st->fused.color.type() != CV_8UC3)
+    return GST_FLOW_OK;  // the output size changed since that picture
+  GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out_info), nullptr);
+  GstMapInfo map;
+  if (!gst_buffer_map(out, &map, GST_MAP_WRITE)) {
+    gst_buffer_unref(out);
+    GST_ELEMENT_ERROR(self, RESOURCE, FAILED, ("cannot map an output buffer"), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  cv::Mat dst(h, w, CV_8UC3, map.data, GST_VIDEO_INFO_PLANE_STRIDE(&st->out_info, 0));
+  st->fused.color.copyTo(dst);
+  draw_missing_banner(dst, banner);
+  gst_buffer_unmap(out, &map);
+  // Never back in time, whatever the inputs' timing.
+  if (GST_CLOCK_TIME_IS_VALID(st->last_out) && (!GST_CLOCK_TIME_IS_VALID(rt) || rt <= st->last_out))
+    rt = st->last_out + 1;
+  st->last_out = rt;
+  // Running time back into the output segment (it starts at a seek's position).
+  GstClockTime pts = rt;
+  GST_OBJECT_LOCK(agg);
+  const GstClockTime in_segment =
+      gst_segment_position_from_running_time(&GST_AGGREGATOR_PAD(agg->srcpad)->segment, GST_FORMAT_TIME, rt);
+  GST_OBJECT_UNLOCK(agg);
+  if (GST_CLOCK_TIME_IS_VALID(in_segment)) pts = in_segment;
+  GST_BUFFER_PTS(out) = pts;
+  GST_BUFFER_DURATION(out) = duration;
+  if (pose) buffer_add_pose_meta(out, pose->seq, pose->viewer_time_ns);
+  {
+    GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
+    GST_OBJECT_LOCK(agg);
+    if (GST_CLOCK_TIME_IS_VALID(pts)) seg->position = pts + (GST_CLOCK_TIME_IS_VALID(duration) ? duration : 0);
+    GST_OBJECT_UNLOCK(agg);
+  }
+  return gst_aggregator_finish_buffer(agg, out);
+}
+
 static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeout) {
   GstViewFuse* self = GST_VIEW_FUSE(agg);
   FuseState* st = self->st;
@@ -196,10 +342,72 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     }
   }
   GST_OBJECT_UNLOCK(agg);
-  if (inputs.empty()) return all_eos ? GST_FLOW_EOS : GST_AGGREGATOR_FLOW_NEED_DATA;
+  if (inputs.empty() && all_eos) return GST_FLOW_EOS;
+  const bool live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
+  // Live, a camera silent for camera-timeout is lost until its next frame.
+  const GstClockTime now = live ? running_time_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
+  struct StatusChange {
+    int id;
+    bool lost;
+    int64_t silent_ns;
+  };
+  std::vector<StatusChange> changes;
+  std::vector<int> missing;
+  std::vector<std::string> left_out;  // warnings about frames of a camera of another size
+  bool all_lost = false, show_missing;
   {
     std::lock_guard<std::mutex> g(st->lock);
-    for (auto& in : inputs) in.info = st->pad_info[GST_PAD(in.pad)];
+    for (auto& in : inputs) {
+      in.info = st->pad_info[GST_PAD(in.pad)];
+      if (!GST_CLOCK_TIME_IS_VALID(now)) continue;
+      const int id = in.info.camera.id;
+      const int64_t silent = st->liveness.silent_for(id, int64_t(now));
+      if (st->liveness.seen(id, int64_t(now))) changes.push_back({id, false, silent});
+    }
+    if (GST_CLOCK_TIME_IS_VALID(now))
+      for (int id : st->liveness.newly_lost(int64_t(now)))
+        changes.push_back({id, true, st->liveness.silent_for(id, int64_t(now))});
+    missing = st->liveness.missing();
+    all_lost = st->liveness.all_lost();
+    show_missing = st->show_missing;
+    for (auto it = inputs.begin(); it != inputs.end();) {
+      const auto rejected = st->pad_rejected.find(GST_PAD(it->pad));
+      if (rejected == st->pad_rejected.end()) {
+        ++it;
+        continue;
+      }
+      uint64_t count;
+      int64_t span;
+      if (st->pad_warnings[GST_PAD(it->pad)].note(g_get_monotonic_time() * 1000, &count, &span))
+        left_out.push_back(describe_occurrences(count, "a frame left out", "frames left out",
+                                                "camera " + std::to_string(it->info.camera.id), span) +
+                           ": " + rejected->second);
+      it->info = RgbdInfo();
+      it->info.camera.id = -1;  // marks it for dropping below
+      ++it;
+    }
+  }
+  for (const auto& c : changes) post_camera_status(self, c.id, c.lost, c.silent_ns, missing, all_lost);
+  for (const auto& w : left_out) GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("%s", w.c_str()), (nullptr));
+  for (auto it = inputs.begin(); it != inputs.end();) {
+    if (it->info.camera.id != -1) {
+      ++it;
+      continue;
+    }
+    gst_aggregator_pad_drop_buffer(it->pad);
+    gst_buffer_unref(it->buf);
+    gst_object_unref(it->pad);
+    it = inputs.erase(it);
+  }
+  const std::string banner = show_missing ? missing_cameras_text(missing) : "";
+  if (inputs.empty()) {
+    // Every camera gone: the lecturer keeps getting the last picture, marked,
+    // rather than a silently frozen one.
+    if (timeout && all_lost && !banner.empty() && st->have_fused && st->have_out && GST_CLOCK_TIME_IS_VALID(now)) {
+      const GstClockTime latency = gst_aggregator_get_latency(agg);
+      return push_picture(self, banner, now > latency ? now - latency : 0, kIdleWake, nullptr);
+    }
+    return GST_AGGREGATOR_FLOW_NEED_DATA;
   }
   // One output frame shows one pose. Live, a camera's frame warped for an
   // older pose than the others (or older than the last output) is stale:
@@ -219,7 +427,6 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
       window = int64_t(st->pose_window);
     }
     const std::vector<bool> stale = stale_poses(poses, window);
-    const bool live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
     bool dropped = false;
     size_t index = 0;
     for (auto it = inputs.begin(); live && it != inputs.end(); ++index) {
@@ -286,47 +493,15 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     }
   }
   if (!ptrs.empty() && st->have_out) {
-    const int w = GST_VIDEO_INFO_WIDTH(&st->out_info), h = GST_VIDEO_INFO_HEIGHT(&st->out_info);
-    GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out_info), nullptr);
-    GstMapInfo map;
-    if (!gst_buffer_map(out, &map, GST_MAP_WRITE)) {
-      gst_buffer_unref(out);
-      GST_ELEMENT_ERROR(self, RESOURCE, FAILED, ("cannot map an output buffer"), (nullptr));
-      ret = GST_FLOW_ERROR;
-      goto done;
-    }
     try {
       fuse_views(ptrs, params, &st->fused);
-      cv::Mat dst(h, w, CV_8UC3, map.data, GST_VIDEO_INFO_PLANE_STRIDE(&st->out_info, 0));
-      st->fused.color.copyTo(dst);
     } catch (const cv::Exception& e) {
-      gst_buffer_unmap(out, &map);
-      gst_buffer_unref(out);
       GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
+      st->have_fused = false;
       ret = GST_FLOW_ERROR;
       goto done;
     }
-    gst_buffer_unmap(out, &map);
-    // Never back in time, whatever the inputs' timing.
-    if (GST_CLOCK_TIME_IS_VALID(st->last_out) && (!GST_CLOCK_TIME_IS_VALID(rt) || rt <= st->last_out))
-      rt = st->last_out + 1;
-    st->last_out = rt;
-    // Running time back into the output segment (it starts at a seek's position).
-    GstClockTime pts = rt;
-    GST_OBJECT_LOCK(agg);
-    const GstClockTime in_segment = gst_segment_position_from_running_time(
-        &GST_AGGREGATOR_PAD(agg->srcpad)->segment, GST_FORMAT_TIME, rt);
-    GST_OBJECT_UNLOCK(agg);
-    if (GST_CLOCK_TIME_IS_VALID(in_segment)) pts = in_segment;
-    GST_BUFFER_PTS(out) = pts;
-    GST_BUFFER_DURATION(out) = duration;
-    if (have_pose) buffer_add_pose_meta(out, pose.seq, pose.viewer_time_ns);
-    {
-      GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
-      GST_OBJECT_LOCK(agg);
-      if (GST_CLOCK_TIME_IS_VALID(pts)) seg->position = pts + (GST_CLOCK_TIME_IS_VALID(duration) ? duration : 0);
-      GST_OBJECT_UNLOCK(agg);
-    }
+    st->have_fused = true;
     {
       std::lock_guard<std::mutex> g(st->lock);
       ++st->frames;
@@ -334,7 +509,7 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     frames.clear();
     for (auto& in : inputs) gst_aggregator_pad_drop_buffer(in.pad);
     send_trace_pose(self);
-    ret = gst_aggregator_finish_buffer(agg, out);
+    ret = push_picture(self, banner, rt, duration, have_pose ? &pose : nullptr);
   } else {
     for (auto& in : inputs) gst_aggregator_pad_drop_buffer(in.pad);
   }
@@ -367,11 +542,15 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     // Request pads outlive a restart; their caps (maybe a new virtual size) come again.
     std::lock_guard<std::mutex> g(st->lock);
     st->pad_info.clear();
+    st->pad_rejected.clear();
+    st->pad_warnings.clear();
+    st->liveness.clear();
   }
   st->trace.clear();
   st->trace_next = 0;
   st->last_out = GST_CLOCK_TIME_NONE;
   st->have_out = false;
+  st->have_fused = false;
   if (!path.empty()) {
     try {
       st->trace = load_pose_trace(path);
@@ -396,7 +575,11 @@ static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
   GstViewFuse* self = GST_VIEW_FUSE(element);
   {
     std::lock_guard<std::mutex> g(self->st->lock);
+    const auto it = self->st->pad_info.find(pad);
+    if (it != self->st->pad_info.end()) self->st->liveness.forget(it->second.camera.id);
     self->st->pad_info.erase(pad);
+    self->st->pad_rejected.erase(pad);
+    self->st->pad_warnings.erase(pad);
   }
   GST_ELEMENT_CLASS(gst_view_fuse_parent_class)->release_pad(element, pad);
 }
@@ -416,6 +599,12 @@ static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GVa
       break;
     case PROP_POSE_WINDOW:
       st->pose_window = g_value_get_uint64(value);
+      break;
+    case PROP_CAMERA_TIMEOUT:
+      st->liveness.set_timeout(int64_t(g_value_get_uint64(value)));
+      break;
+    case PROP_SHOW_MISSING:
+      st->show_missing = g_value_get_boolean(value);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
@@ -437,6 +626,12 @@ static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_POSE_WINDOW:
       g_value_set_uint64(value, st->pose_window);
+      break;
+    case PROP_CAMERA_TIMEOUT:
+      g_value_set_uint64(value, guint64(st->liveness.timeout()));
+      break;
+    case PROP_SHOW_MISSING:
+      g_value_set_boolean(value, st->show_missing);
       break;
     case PROP_FRAMES_FUSED:
       g_value_set_uint64(value, st->frames);
@@ -487,6 +682,20 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           0, G_MAXINT64, kDefaultPoseWindow,
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
+      gobject_class, PROP_CAMERA_TIMEOUT,
+      g_param_spec_uint64("camera-timeout", "Camera timeout",
+                          "Live: a camera without a frame for this many ns is lost: a bus warning and a "
+                          "vclassroom-camera-status element message (camera-id, status lost/returned, silent-ns, "
+                          "missing), the same when it returns; the view goes on with the others (0: never lost)",
+                          0, G_MAXINT64, kDefaultCameraTimeout,
+                          GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
+      gobject_class, PROP_SHOW_MISSING,
+      g_param_spec_boolean("show-missing", "Show missing cameras",
+                           "Draw a banner naming the lost cameras ('camera 2 missing') into the top-left corner of "
+                           "the output; with every camera lost, keep sending the last picture so marked",
+                           TRUE, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
       gobject_class, PROP_FRAMES_FUSED,
       g_param_spec_uint64("frames-fused", "Frames fused", "Output frames produced since start", 0, G_MAXUINT64, 0,
                           GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
@@ -497,7 +706,12 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
       "Fuses the cameras warped to the virtual view (viewwarp outputs on cam_%u): z-buffer visibility, blending "
       "weighted by viewing angle, distance and warp quality, learners composited by depth, holes filled from the "
       "background side. Outputs video/x-raw RGB with the pose meta of the pose rendered. Forwards vclassroom/pose "
-      "events to every input; cameras that are EOS (or, when live, late past the latency) are left out",
+      "events to every input; cameras that are EOS (or, when live, late past the latency) are left out, so is a "
+      "camera whose view has another size (with a warning); live, a camera silent for camera-timeout is reported "
+      "lost and named on the picture. Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=300 ! learnerseg ! viewwarp ! queue ! "
+      "f.cam_0 rgbdtestsrc camera-id=2 num-buffers=300 ! learnerseg ! viewwarp ! queue ! "
+      "f.cam_2 viewfuse name=f ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   agg_class->aggregate = GST_DEBUG_FUNCPTR(gst_view_fuse_aggregate);
   agg_class->sink_event = GST_DEBUG_FUNCPTR(gst_view_fuse_sink_event);
@@ -506,7 +720,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   agg_class->start = GST_DEBUG_FUNCPTR(gst_view_fuse_start);
   agg_class->flush = GST_DEBUG_FUNCPTR(gst_view_fuse_flush);
   agg_class->create_new_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_create_new_pad);
-  agg_class->get_next_time = gst_aggregator_simple_get_next_time;
+  agg_class->get_next_time = GST_DEBUG_FUNCPTR(gst_view_fuse_get_next_time);
   element_class->release_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_release_pad);
   GST_DEBUG_CATEGORY_INIT(view_fuse_debug, "viewfuse", 0, "view fusion");
 }

@@ -55,6 +55,7 @@ struct WarpState {
   // Streaming thread only.
   RgbdInfo in_info, out_info;
   cv::Mat prior;
+  bool use_prior = false;  // the prior fits the negotiated camera size
   std::vector<PoseSample> trace;  // pose-trace, loaded at start
   uint64_t frames = 0;
   ViewWarper warper;
@@ -140,12 +141,17 @@ static gboolean gst_view_warp_set_caps(GstBaseTransform* trans, GstCaps* incaps,
     GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("%s", err.c_str()), (nullptr));
     return FALSE;
   }
-  if (!st->prior.empty() && (st->prior.cols != st->in_info.width() || st->prior.rows != st->in_info.height())) {
-    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS,
-                      ("prior-depth is %dx%d but camera %d streams %dx%d", st->prior.cols, st->prior.rows,
-                       st->in_info.camera.id, st->in_info.width(), st->in_info.height()),
-                      (nullptr));
-    return FALSE;
+  // A camera may change its size mid-stream (another mode, another sender):
+  // it is renegotiated, and warped from its live depth alone while the prior
+  // made for the other size does not fit, rather than stopping the server.
+  st->use_prior = !st->prior.empty();
+  if (st->use_prior && (st->prior.cols != st->in_info.width() || st->prior.rows != st->in_info.height())) {
+    st->use_prior = false;
+    GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS,
+                        ("prior-depth is %dx%d but camera %d now streams %dx%d: warping it without the prior",
+                         st->prior.cols, st->prior.rows, st->in_info.camera.id, st->in_info.width(),
+                         st->in_info.height()),
+                        (nullptr));
   }
   GST_INFO_OBJECT(self, "camera %d %dx%d -> virtual view %dx%d (fx %.1f)", st->in_info.camera.id,
                   st->in_info.width(), st->in_info.height(), st->out_info.width(), st->out_info.height(),
@@ -267,7 +273,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   src.color = in.color();
   src.depth = in.depth();
   src.label = in.label();
-  src.static_depth = st->prior;
+  if (st->use_prior) src.static_depth = st->prior;
   // Warp straight into the output planes.
   st->warped.color = out.color();
   st->warped.depth = out.depth();
@@ -444,7 +450,9 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
       "virtual view of the latest vclassroom/pose event (highest seq wins; the rig's reference camera until one "
       "arrives) as a triangle mesh with depth-edge rejection and bilinear colour. Output: video/x-rgbd of the "
       "virtual camera with planes color,depth,label,weight; camera-id stays the source camera's, virtual-view = "
-      "true; each buffer carries the pose meta (seq, viewer time). Pose events are consumed, not forwarded",
+      "true; each buffer carries the pose meta (seq, viewer time). Pose events are consumed, not forwarded. Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! learnerseg ! "
+      "viewwarp reference-camera=0 ! rgbddemux name=d d.color ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   bt->transform_caps = GST_DEBUG_FUNCPTR(gst_view_warp_transform_caps);
   bt->set_caps = GST_DEBUG_FUNCPTR(gst_view_warp_set_caps);
