@@ -402,7 +402,8 @@ void encode_rgbd_frame(const RgbdCodedFrame& f, int quality, std::vector<uint8_t
 }
 
 bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, RgbdCodedFrame* f,
-                       std::string* error) {
+                       std::string* error, RgbdFrameFault* fault) {
+  if (fault) *fault = RgbdFrameFault::kDamaged;
   auto fail = [&](const std::string& why) {
     if (error) *error = why;
     return false;
@@ -413,9 +414,11 @@ bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, 
   if (!data || size < kHeaderSize || std::memcmp(data, "VCRD", 4) != 0) return fail("not an rgbdenc frame (bad magic)");
   if (data[4] != kVersion) return fail("unsupported frame version " + std::to_string(data[4]));
   const int n = data[5];
-  if (get_u32(data + 8) != static_cast<uint32_t>(width) || get_u32(data + 12) != static_cast<uint32_t>(height))
+  if (get_u32(data + 8) != static_cast<uint32_t>(width) || get_u32(data + 12) != static_cast<uint32_t>(height)) {
+    if (fault) *fault = RgbdFrameFault::kWrongSize;
     return fail("frame size " + std::to_string(get_u32(data + 8)) + "x" + std::to_string(get_u32(data + 12)) +
                 " differs from the caps' " + std::to_string(width) + "x" + std::to_string(height));
+  }
   size_t at = kHeaderSize;
   bool have_color = false, have_depth = false;
   unsigned seen = 0;
@@ -446,6 +449,7 @@ bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, 
     }
   }
   if (!have_color || !have_depth) return fail("frame lacks its colour or depth section");
+  if (fault) *fault = RgbdFrameFault::kNone;
   return true;
 }
 

@@ -171,12 +171,13 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
   const RgbdInfo& info = *self->info;
   RgbdCodedFrame f;
   std::string err;
+  RgbdFrameFault fault = RgbdFrameFault::kDamaged;
   GstMapInfo map;
   bool ok = gst_buffer_map(in, &map, GST_MAP_READ);
   if (ok) {
     // The frame's header must declare the caps' size; the decoder checks
     // that before it allocates anything.
-    ok = decode_rgbd_frame(map.data, map.size, info.width(), info.height(), &f, &err);
+    ok = decode_rgbd_frame(map.data, map.size, info.width(), info.height(), &f, &err, &fault);
     gst_buffer_unmap(in, &map);
   } else {
     err = "cannot map the input buffer";
@@ -187,8 +188,7 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
   }
   const gsize coded_size = gst_buffer_get_size(in);
   if (!ok) {
-    const bool wrong_size = err.find("size differs") != std::string::npos;
-    drop_frame(self, wrong_size ? DropKind::WrongSize : DropKind::Damaged, info.camera.id,
+    drop_frame(self, fault == RgbdFrameFault::kWrongSize ? DropKind::WrongSize : DropKind::Damaged, info.camera.id,
                err + " (at " + std::to_string(GST_BUFFER_PTS(in)) + " ns)");
     gst_buffer_unref(in);
     return GST_FLOW_OK;
