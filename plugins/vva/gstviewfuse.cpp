@@ -18,6 +18,7 @@
 #include <vector>
 
 #include <gst/vclassroom/camera_liveness.h>
+#include <gst/vclassroom/fuse_inputs.h>
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/rgbd.h>
@@ -48,18 +49,13 @@ constexpr GstClockTime kIdleWake = 100 * GST_MSECOND;
 namespace {
 
 struct FuseState {
-  std::mutex lock;  // guards the properties and pad_info
+  std::mutex lock;  // guards the properties, pad_info and inputs
   std::string trace_path;
   FuseParams params;
-  std::map<GstPad*, RgbdInfo> pad_info;
-  // Pads whose view has another size than the others': their frames are left
-  // out (with a rate-limited warning) until they bring matching caps.
-  std::map<GstPad*, std::string> pad_rejected;
-  std::map<GstPad*, WarningLimiter> pad_warnings;
+  std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
+  // Which pads are left out, lost, stale (the decisions of each round).
+  FuseInputs inputs{FuseInputsParams{int64_t(kDefaultPoseWindow), int64_t(kDefaultCameraTimeout), true}};
   guint64 frames = 0;
-  guint64 pose_window = kDefaultPoseWindow;  // ns
-  bool show_missing = true;
-  CameraLiveness liveness{int64_t(kDefaultCameraTimeout)};
 
   // Streaming thread only.
   std::vector<PoseSample> trace;
@@ -137,17 +133,8 @@ static gboolean gst_view_fuse_sink_event(GstAggregator* agg, GstAggregatorPad* p
     std::string rejected;
     {
       std::lock_guard<std::mutex> g(self->st->lock);
-      for (const auto& [p, other] : self->st->pad_info)
-        if (p != GST_PAD(pad) && !self->st->pad_rejected.count(p) &&
-            (other.width() != info.width() || other.height() != info.height())) {
-          rejected = "its view is " + std::to_string(info.width()) + "x" + std::to_string(info.height()) +
-                     ", the others' " + std::to_string(other.width()) + "x" + std::to_string(other.height()) +
-                     " (every viewwarp must render the same virtual size)";
-          break;
-        }
-      self->st->pad_info[GST_PAD(pad)] = info;
-      if (rejected.empty()) self->st->pad_rejected.erase(GST_PAD(pad));
-      else self->st->pad_rejected[GST_PAD(pad)] = rejected;
+      self->st->pad_info[pad] = info;
+      rejected = self->st->inputs.configure(pad, info.camera.id, info.width(), info.height());
     }
     if (!rejected.empty())
       GST_ELEMENT_WARNING(self, STREAM, FORMAT,
@@ -166,14 +153,9 @@ static GstFlowReturn gst_view_fuse_update_src_caps(GstAggregator* agg, GstCaps* 
   RgbdInfo info;
   {
     std::lock_guard<std::mutex> g(self->st->lock);
-    bool found = false;
-    for (const auto& [p, i] : self->st->pad_info)
-      if (!self->st->pad_rejected.count(p)) {
-        info = i;
-        found = true;
-        break;
-      }
-    if (!found) return GST_AGGREGATOR_FLOW_NEED_DATA;
+    const InputKey first = self->st->inputs.first_accepted();
+    if (!first) return GST_AGGREGATOR_FLOW_NEED_DATA;
+    info = self->st->pad_info[first];
   }
   GstVideoInfo vi;
   gst_video_info_set_format(&vi, GST_VIDEO_FORMAT_RGB, info.width(), info.height());
@@ -241,6 +223,17 @@ static GstClockTime gst_view_fuse_get_next_time(GstAggregator* agg) {
   return std::max(next, now + kIdleWake);
 }
 
+// GstClockTime as the library's nanoseconds (< 0: unknown) and back.
+static int64_t time_ns(GstClockTime t) { return GST_CLOCK_TIME_IS_VALID(t) ? int64_t(t) : -1; }
+static GstClockTime clock_time(int64_t ns) { return ns < 0 ? GST_CLOCK_TIME_NONE : GstClockTime(ns); }
+
+// Drops the queued frame of every pad whose verdict is `which`.
+static void drop_buffers(const std::vector<GstAggregatorPad*>& pads, const std::vector<FrameVerdict>& verdicts,
+                         FrameVerdict which) {
+  for (size_t i = 0; i < pads.size(); ++i)
+    if (verdicts[i] == which) gst_aggregator_pad_drop_buffer(pads[i]);
+}
+
 // "0,2": the ids of `ids` for messages.
 static std::string id_list(const std::vector<int>& ids) {
   std::string s;
@@ -250,8 +243,11 @@ static std::string id_list(const std::vector<int>& ids) {
 
 // A camera lost or back: a bus warning (lost) or info (back) for a person and
 // a vclassroom-camera-status element message for programs.
-static void post_camera_status(GstViewFuse* self, int id, bool lost, int64_t silent_ns, const std::vector<int>& missing,
+static void post_camera_status(GstViewFuse* self, const CameraStatusChange& change, const std::vector<int>& missing,
                                bool all_lost) {
+  const int id = change.camera_id;
+  const bool lost = change.lost;
+  const int64_t silent_ns = change.silent_ns;
   GstStructure* s = gst_structure_new("vclassroom-camera-status", "camera-id", G_TYPE_INT, id, "status", G_TYPE_STRING,
                                       lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(silent_ns),
                                       "missing", G_TYPE_STRING, id_list(missing).c_str(), "cameras-missing",
@@ -294,9 +290,7 @@ static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, 
   st->fused.color.copyTo(dst);
   draw_missing_banner(dst, banner);
   gst_buffer_unmap(out, &map);
-  // Never back in time, whatever the inputs' timing.
-  if (GST_CLOCK_TIME_IS_VALID(st->last_out) && (!GST_CLOCK_TIME_IS_VALID(rt) || rt <= st->last_out))
-    rt = st->last_out + 1;
+  rt = clock_time(next_output_time(time_ns(st->last_out), time_ns(rt)));
   st->last_out = rt;
   // Running time back into the output segment (it starts at a seek's position).
   GstClockTime pts = rt;
@@ -317,189 +311,50 @@ static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, 
   return gst_aggregator_finish_buffer(agg, out);
 }
 
-static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeout) {
-  GstViewFuse* self = GST_VIEW_FUSE(agg);
+// Maps the frames to fuse, fuses them and sends the picture, stamped with the
+// newest input's time and the oldest pose among them (the one it fully shows).
+static GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPad*>& pads,
+                                   const std::vector<GstBuffer*>& bufs, const std::vector<RgbdInfo>& infos,
+                                   const FuseRound& round, const FuseParams& params) {
   FuseState* st = self->st;
-  if (st->trace_next == 0) send_trace_pose(self);
-
-  struct Input {
-    GstAggregatorPad* pad = nullptr;
-    GstBuffer* buf = nullptr;
-    RgbdInfo info;
-  };
-  std::vector<Input> inputs;
-  bool all_eos = true;
-  GST_OBJECT_LOCK(agg);
-  for (GList* l = GST_ELEMENT(agg)->sinkpads; l; l = l->next) {
-    GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
-    GstBuffer* buf = gst_aggregator_pad_peek_buffer(pad);
-    if (!gst_aggregator_pad_is_eos(pad) || buf) all_eos = false;
-    if (buf) {
-      Input in;
-      in.pad = GST_AGGREGATOR_PAD(gst_object_ref(pad));
-      in.buf = buf;
-      inputs.push_back(std::move(in));
-    }
-  }
-  GST_OBJECT_UNLOCK(agg);
-  if (inputs.empty() && all_eos) return GST_FLOW_EOS;
-  const bool live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
-  // Live, a camera silent for camera-timeout is lost until its next frame.
-  const GstClockTime now = live ? running_time_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
-  struct StatusChange {
-    int id;
-    bool lost;
-    int64_t silent_ns;
-  };
-  std::vector<StatusChange> changes;
-  std::vector<int> missing;
-  std::vector<std::string> left_out;  // warnings about frames of a camera of another size
-  bool all_lost = false, show_missing;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    for (auto& in : inputs) {
-      in.info = st->pad_info[GST_PAD(in.pad)];
-      if (!GST_CLOCK_TIME_IS_VALID(now)) continue;
-      const int id = in.info.camera.id;
-      const int64_t silent = st->liveness.silent_for(id, int64_t(now));
-      if (st->liveness.seen(id, int64_t(now))) changes.push_back({id, false, silent});
-    }
-    if (GST_CLOCK_TIME_IS_VALID(now))
-      for (int id : st->liveness.newly_lost(int64_t(now)))
-        changes.push_back({id, true, st->liveness.silent_for(id, int64_t(now))});
-    missing = st->liveness.missing();
-    all_lost = st->liveness.all_lost();
-    show_missing = st->show_missing;
-    for (auto it = inputs.begin(); it != inputs.end();) {
-      const auto rejected = st->pad_rejected.find(GST_PAD(it->pad));
-      if (rejected == st->pad_rejected.end()) {
-        ++it;
-        continue;
-      }
-      uint64_t count;
-      int64_t span;
-      if (st->pad_warnings[GST_PAD(it->pad)].note(g_get_monotonic_time() * 1000, &count, &span))
-        left_out.push_back(describe_occurrences(count, "a frame left out", "frames left out",
-                                                "camera " + std::to_string(it->info.camera.id), span) +
-                           ": " + rejected->second);
-      it->info = RgbdInfo();
-      it->info.camera.id = -1;  // marks it for dropping below
-      ++it;
-    }
-  }
-  for (const auto& c : changes) post_camera_status(self, c.id, c.lost, c.silent_ns, missing, all_lost);
-  for (const auto& w : left_out) GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("%s", w.c_str()), (nullptr));
-  for (auto it = inputs.begin(); it != inputs.end();) {
-    if (it->info.camera.id != -1) {
-      ++it;
-      continue;
-    }
-    gst_aggregator_pad_drop_buffer(it->pad);
-    gst_buffer_unref(it->buf);
-    gst_object_unref(it->pad);
-    it = inputs.erase(it);
-  }
-  const std::string banner = show_missing ? missing_cameras_text(missing) : "";
-  if (inputs.empty()) {
-    // Every camera gone: the lecturer keeps getting the last picture, marked,
-    // rather than a silently frozen one.
-    if (timeout && all_lost && !banner.empty() && st->have_fused && st->have_out && GST_CLOCK_TIME_IS_VALID(now)) {
-      const GstClockTime latency = gst_aggregator_get_latency(agg);
-      return push_picture(self, banner, now > latency ? now - latency : 0, kIdleWake, nullptr);
-    }
-    return GST_AGGREGATOR_FLOW_NEED_DATA;
-  }
-  // One output frame shows one pose. Live, a camera's frame warped for an
-  // older pose than the others (or older than the last output) is stale:
-  // drop it and wait for its fresh one, fusing only the consistent ones when
-  // the latency runs out. Not live, everything is fused and the frame is
-  // stamped with the oldest pose in it, the one it fully shows.
-  {
-    std::vector<WarpedPose> poses;
-    for (auto& in : inputs) {
-      WarpedPose p;
-      if (const PoseMeta* m = buffer_get_pose_meta(in.buf)) p = WarpedPose{true, m->seq, m->viewer_time_ns};
-      poses.push_back(p);
-    }
-    int64_t window;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      window = int64_t(st->pose_window);
-    }
-    const std::vector<bool> stale = stale_poses(poses, window);
-    bool dropped = false;
-    size_t index = 0;
-    for (auto it = inputs.begin(); live && it != inputs.end(); ++index) {
-      const GstClockTime t = aggregator_pad_running_time(it->pad, it->buf);
-      const bool old_pose = stale[index];
-      const bool old_time = GST_CLOCK_TIME_IS_VALID(st->last_out) && GST_CLOCK_TIME_IS_VALID(t) && t <= st->last_out;
-      if (old_pose || old_time) {
-        GST_LOG_OBJECT(self, "%s: dropping a stale frame (%s)", GST_PAD_NAME(it->pad), old_pose ? "older pose" : "late");
-        gst_aggregator_pad_drop_buffer(it->pad);
-        gst_buffer_unref(it->buf);
-        gst_object_unref(it->pad);
-        it = inputs.erase(it);
-        dropped = true;
-      } else {
-        ++it;
-      }
-    }
-    if (dropped && !timeout) {
-      for (auto& in : inputs) {
-        gst_buffer_unref(in.buf);
-        gst_object_unref(in.pad);
-      }
-      return GST_AGGREGATOR_FLOW_NEED_DATA;
-    }
-    if (inputs.empty()) return GST_AGGREGATOR_FLOW_NEED_DATA;
-  }
-
-  GstFlowReturn ret = GST_FLOW_OK;
   GstClockTime rt = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
-  std::vector<WarpedView> views(inputs.size());
+  std::vector<WarpedView> views(pads.size());
   std::vector<const WarpedView*> ptrs;
   std::vector<std::unique_ptr<RgbdFrame>> frames;
   PoseMeta pose{};
   bool have_pose = false;
-  FuseParams params;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    params = st->params;
-  }
-  for (size_t i = 0; i < inputs.size(); ++i) {
+  for (size_t i = 0; i < pads.size(); ++i) {
+    if (round.verdicts[i] != FrameVerdict::kFuse) continue;
     auto f = std::make_unique<RgbdFrame>();
     std::string err;
     // A gap (a camera that said it has nothing for this time) is normal: skip it quietly.
-    if (GST_BUFFER_FLAG_IS_SET(inputs[i].buf, GST_BUFFER_FLAG_GAP) || gst_buffer_get_size(inputs[i].buf) == 0)
-      continue;
-    if (!f->map(inputs[i].buf, inputs[i].info, GST_MAP_READ, &err)) {
-      GST_ELEMENT_WARNING(self, STREAM, FAILED, ("pad %s: %s (frame skipped)", GST_PAD_NAME(inputs[i].pad),
-                                                 err.c_str()),
+    if (GST_BUFFER_FLAG_IS_SET(bufs[i], GST_BUFFER_FLAG_GAP) || gst_buffer_get_size(bufs[i]) == 0) continue;
+    if (!f->map(bufs[i], infos[i], GST_MAP_READ, &err)) {
+      GST_ELEMENT_WARNING(self, STREAM, FAILED, ("pad %s: %s (frame skipped)", GST_PAD_NAME(pads[i]), err.c_str()),
                           (nullptr));
       continue;
     }
     views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
     ptrs.push_back(&views[i]);
     frames.push_back(std::move(f));
-    // The newest input is what the frame is as fresh as.
-    const GstClockTime t = aggregator_pad_running_time(inputs[i].pad, inputs[i].buf);
+    const GstClockTime t = aggregator_pad_running_time(pads[i], bufs[i]);
     if (GST_CLOCK_TIME_IS_VALID(t) && (!GST_CLOCK_TIME_IS_VALID(rt) || t > rt)) {
       rt = t;
-      duration = GST_BUFFER_DURATION(inputs[i].buf);
+      duration = GST_BUFFER_DURATION(bufs[i]);
     }
-    if (PoseMeta* m = buffer_get_pose_meta(inputs[i].buf); m && (!have_pose || m->seq < pose.seq)) {
+    if (PoseMeta* m = buffer_get_pose_meta(bufs[i]); m && (!have_pose || m->seq < pose.seq)) {
       pose = *m;
       have_pose = true;
     }
   }
+  GstFlowReturn ret = GST_FLOW_OK;
   if (!ptrs.empty() && st->have_out) {
     try {
       fuse_views(ptrs, params, &st->fused);
     } catch (const cv::Exception& e) {
       GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
       st->have_fused = false;
-      ret = GST_FLOW_ERROR;
-      goto done;
+      return GST_FLOW_ERROR;
     }
     st->have_fused = true;
     {
@@ -507,19 +362,80 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
       ++st->frames;
     }
     frames.clear();
-    for (auto& in : inputs) gst_aggregator_pad_drop_buffer(in.pad);
+    drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
     send_trace_pose(self);
-    ret = push_picture(self, banner, rt, duration, have_pose ? &pose : nullptr);
+    ret = push_picture(self, round.banner, rt, duration, have_pose ? &pose : nullptr);
   } else {
-    for (auto& in : inputs) gst_aggregator_pad_drop_buffer(in.pad);
+    drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
   }
-done:
-  frames.clear();
-  for (auto& in : inputs) {
-    gst_buffer_unref(in.buf);
-    gst_object_unref(in.pad);
+  GST_LOG_OBJECT(self, "fused %zu inputs", ptrs.size());
+  return ret;
+}
+
+// FuseInputs decides (docs/vva.md); this posts, drops and fuses as it says.
+static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeout) {
+  GstViewFuse* self = GST_VIEW_FUSE(agg);
+  FuseState* st = self->st;
+  if (st->trace_next == 0) send_trace_pose(self);
+
+  std::vector<GstAggregatorPad*> pads;
+  std::vector<GstBuffer*> bufs;
+  bool all_eos = true;
+  GST_OBJECT_LOCK(agg);
+  for (GList* l = GST_ELEMENT(agg)->sinkpads; l; l = l->next) {
+    GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
+    GstBuffer* buf = gst_aggregator_pad_peek_buffer(pad);
+    if (!gst_aggregator_pad_is_eos(pad) || buf) all_eos = false;
+    if (buf) {
+      pads.push_back(GST_AGGREGATOR_PAD(gst_object_ref(pad)));
+      bufs.push_back(buf);
+    }
   }
-  GST_LOG_OBJECT(self, "fused %zu inputs (timeout %d)", ptrs.size(), timeout);
+  GST_OBJECT_UNLOCK(agg);
+  if (pads.empty() && all_eos) return GST_FLOW_EOS;
+  RoundContext ctx;
+  ctx.live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
+  const GstClockTime now = ctx.live ? running_time_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
+  ctx.now_ns = time_ns(now);
+  ctx.timeout = timeout;
+  ctx.last_out_ns = time_ns(st->last_out);
+  ctx.have_picture = st->have_fused && st->have_out;
+  ctx.monotonic_ns = g_get_monotonic_time() * 1000;
+  std::vector<PendingFrame> pending(pads.size());
+  for (size_t i = 0; i < pads.size(); ++i) {
+    pending[i].key = pads[i];
+    pending[i].running_time_ns = time_ns(aggregator_pad_running_time(pads[i], bufs[i]));
+    if (const PoseMeta* m = buffer_get_pose_meta(bufs[i])) pending[i].pose = WarpedPose{true, m->seq, m->viewer_time_ns};
+  }
+  FuseRound round;
+  std::vector<RgbdInfo> infos;
+  FuseParams params;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    round = st->inputs.decide(pending, ctx);
+    for (GstAggregatorPad* pad : pads) infos.push_back(st->pad_info[pad]);
+    params = st->params;
+  }
+  for (const auto& c : round.status_changes) post_camera_status(self, c, round.missing, round.all_lost);
+  for (const auto& w : round.warnings) GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("%s", w.c_str()), (nullptr));
+  drop_buffers(pads, round.verdicts, FrameVerdict::kLeftOut);
+  for (size_t i = 0; i < pads.size(); ++i)
+    if (round.verdicts[i] == FrameVerdict::kOlderPose || round.verdicts[i] == FrameVerdict::kLate) {
+      GST_LOG_OBJECT(self, "%s: dropping a stale frame (%s)", GST_PAD_NAME(pads[i]),
+                     round.verdicts[i] == FrameVerdict::kOlderPose ? "older pose" : "late");
+      gst_aggregator_pad_drop_buffer(pads[i]);
+    }
+  GstFlowReturn ret = GST_AGGREGATOR_FLOW_NEED_DATA;
+  if (round.action == RoundAction::kRepeatLast) {
+    const GstClockTime latency = gst_aggregator_get_latency(agg);
+    ret = push_picture(self, round.banner, now > latency ? now - latency : 0, kIdleWake, nullptr);
+  } else if (round.action == RoundAction::kFuse) {
+    ret = fuse_and_push(self, pads, bufs, infos, round, params);
+  }
+  for (size_t i = 0; i < pads.size(); ++i) {
+    gst_buffer_unref(bufs[i]);
+    gst_object_unref(pads[i]);
+  }
   return ret;
 }
 
@@ -542,9 +458,7 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     // Request pads outlive a restart; their caps (maybe a new virtual size) come again.
     std::lock_guard<std::mutex> g(st->lock);
     st->pad_info.clear();
-    st->pad_rejected.clear();
-    st->pad_warnings.clear();
-    st->liveness.clear();
+    st->inputs.clear();
   }
   st->trace.clear();
   st->trace_next = 0;
@@ -575,11 +489,8 @@ static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
   GstViewFuse* self = GST_VIEW_FUSE(element);
   {
     std::lock_guard<std::mutex> g(self->st->lock);
-    const auto it = self->st->pad_info.find(pad);
-    if (it != self->st->pad_info.end()) self->st->liveness.forget(it->second.camera.id);
     self->st->pad_info.erase(pad);
-    self->st->pad_rejected.erase(pad);
-    self->st->pad_warnings.erase(pad);
+    self->st->inputs.release(pad);
   }
   GST_ELEMENT_CLASS(gst_view_fuse_parent_class)->release_pad(element, pad);
 }
@@ -587,6 +498,7 @@ static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
 static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
   FuseState* st = GST_VIEW_FUSE(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
+  FuseInputsParams inputs = st->inputs.params();
   switch (prop_id) {
     case PROP_POSE_TRACE:
       st->trace_path = g_value_get_string(value) ? g_value_get_string(value) : "";
@@ -598,17 +510,18 @@ static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GVa
       st->params.fill_holes = g_value_get_boolean(value);
       break;
     case PROP_POSE_WINDOW:
-      st->pose_window = g_value_get_uint64(value);
+      inputs.pose_window_ns = int64_t(g_value_get_uint64(value));
       break;
     case PROP_CAMERA_TIMEOUT:
-      st->liveness.set_timeout(int64_t(g_value_get_uint64(value)));
+      inputs.camera_timeout_ns = int64_t(g_value_get_uint64(value));
       break;
     case PROP_SHOW_MISSING:
-      st->show_missing = g_value_get_boolean(value);
+      inputs.show_missing = g_value_get_boolean(value);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
+  st->inputs.set_params(inputs);
 }
 
 static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
@@ -625,13 +538,13 @@ static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* v
       g_value_set_boolean(value, st->params.fill_holes);
       break;
     case PROP_POSE_WINDOW:
-      g_value_set_uint64(value, st->pose_window);
+      g_value_set_uint64(value, guint64(st->inputs.params().pose_window_ns));
       break;
     case PROP_CAMERA_TIMEOUT:
-      g_value_set_uint64(value, guint64(st->liveness.timeout()));
+      g_value_set_uint64(value, guint64(st->inputs.params().camera_timeout_ns));
       break;
     case PROP_SHOW_MISSING:
-      g_value_set_boolean(value, st->show_missing);
+      g_value_set_boolean(value, st->inputs.params().show_missing);
       break;
     case PROP_FRAMES_FUSED:
       g_value_set_uint64(value, st->frames);
