@@ -518,6 +518,39 @@ TEST(FuseInputs, LiveAFrameOfAnOlderPoseOrNotNewerThanTheLastOutputIsDroppedAndT
   EXPECT_EQ(round.action, RoundAction::kFuse);
 }
 
+TEST(FuseInputs, StatusTextsSayWhatHappensToTheView) {
+  EXPECT_EQ(camera_status_text(CameraStatusChange{2, true, 1'250'000'000}, {2}, false),
+            "camera 2 lost (no frame for 1.2 s): the view goes on without it");
+  EXPECT_EQ(camera_status_text(CameraStatusChange{2, true, 1'000'000'000}, {0, 2}, true),
+            "camera 2 lost (no frame for 1.0 s): no camera left, the lecturer sees the last picture marked "
+            "'cameras 0, 2 missing'");
+  EXPECT_EQ(camera_status_text(CameraStatusChange{1, false, 3'000'000'000}, {}, false),
+            "camera 1 is back after 3.0 s without frames");
+  EXPECT_EQ(camera_id_list({}), "");
+  EXPECT_EQ(camera_id_list({0, 2}), "0,2");
+}
+
+TEST(FuseInputs, TheOutputTakesTheNewestTimeAndTheOldestPose) {
+  const WarpedPose none, seq5{true, 5, 0}, seq3{true, 3, 0};
+  OutputStamp stamp = output_stamp({FrameStamp{100, seq5}, FrameStamp{300, seq3}, FrameStamp{200, seq3}});
+  EXPECT_EQ(stamp.time_from, 1);
+  EXPECT_EQ(stamp.pose_from, 1);  // the first of the oldest
+  stamp = output_stamp({FrameStamp{-1, none}, FrameStamp{-1, seq5}});
+  EXPECT_EQ(stamp.time_from, -1);
+  EXPECT_EQ(stamp.pose_from, 1);
+  EXPECT_EQ(output_stamp({}).time_from, -1);
+  EXPECT_EQ(output_stamp({}).pose_from, -1);
+}
+
+TEST(FuseInputs, IdleTheNextWakeUpIsNotInThePast) {
+  const int64_t wake = 100'000'000;
+  EXPECT_EQ(fuse_wake_time(1000, 5'000'000'000, false, wake), 5'100'000'000);  // a past time: later
+  EXPECT_EQ(fuse_wake_time(1000, 5'000'000'000, true, wake), 1000);            // data waits: at once
+  EXPECT_EQ(fuse_wake_time(9'000'000'000, 5'000'000'000, false, wake), 9'000'000'000);
+  EXPECT_EQ(fuse_wake_time(-1, 5'000'000'000, false, wake), -1);
+  EXPECT_EQ(fuse_wake_time(1000, -1, false, wake), 1000);  // without a clock
+}
+
 TEST(FuseInputs, TheOutputNeverGoesBackInTime) {
   EXPECT_EQ(next_output_time(-1, -1), -1);
   EXPECT_EQ(next_output_time(-1, 5), 5);

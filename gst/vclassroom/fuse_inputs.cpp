@@ -1,5 +1,8 @@
 #include "fuse_inputs.h"
 
+#include <algorithm>
+#include <cstdio>
+
 namespace vclassroom {
 
 FuseInputs::FuseInputs(const FuseInputsParams& params) : params_(params), liveness_(params.camera_timeout_ns) {}
@@ -119,6 +122,39 @@ FuseRound FuseInputs::decide(const std::vector<PendingFrame>& frames, const Roun
   if ((dropped && !ctx.timeout) || kept == 0) return round;
   round.action = RoundAction::kFuse;
   return round;
+}
+
+std::string camera_status_text(const CameraStatusChange& change, const std::vector<int>& missing, bool all_lost) {
+  char silent[32];
+  std::snprintf(silent, sizeof silent, "%.1f", double(change.silent_ns) / 1e9);
+  const std::string camera = "camera " + std::to_string(change.camera_id);
+  if (!change.lost) return camera + " is back after " + silent + " s without frames";
+  const std::string lost = camera + " lost (no frame for " + silent + " s): ";
+  if (all_lost)
+    return lost + "no camera left, the lecturer sees the last picture marked '" + missing_cameras_text(missing) + "'";
+  return lost + "the view goes on without it";
+}
+
+std::string camera_id_list(const std::vector<int>& ids) {
+  std::string s;
+  for (int id : ids) s += (s.empty() ? "" : ",") + std::to_string(id);
+  return s;
+}
+
+OutputStamp output_stamp(const std::vector<FrameStamp>& fused) {
+  OutputStamp out;
+  for (size_t i = 0; i < fused.size(); ++i) {
+    const FrameStamp& f = fused[i];
+    if (f.running_time_ns >= 0 && (out.time_from < 0 || f.running_time_ns > fused[out.time_from].running_time_ns))
+      out.time_from = int(i);
+    if (f.pose.known && (out.pose_from < 0 || f.pose.seq < fused[out.pose_from].pose.seq)) out.pose_from = int(i);
+  }
+  return out;
+}
+
+int64_t fuse_wake_time(int64_t next_ns, int64_t now_ns, bool any_input, int64_t idle_wake_ns) {
+  if (next_ns < 0 || now_ns < 0 || any_input) return next_ns;
+  return std::max(next_ns, now_ns + idle_wake_ns);
 }
 
 int64_t next_output_time(int64_t last_out_ns, int64_t rt_ns) {

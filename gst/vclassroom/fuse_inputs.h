@@ -114,6 +114,35 @@ class FuseInputs {
   CameraLiveness liveness_;
 };
 
+// The bus text for a person about a camera lost or back: "camera 2 lost (no
+// frame for 1.0 s): the view goes on without it", or with every camera lost
+// what the lecturer sees, or "camera 2 is back after 3.0 s without frames".
+std::string camera_status_text(const CameraStatusChange& change, const std::vector<int>& missing, bool all_lost);
+// "0,2": the ids for the status message's `missing` field.
+std::string camera_id_list(const std::vector<int>& ids);
+
+// A fused frame's running time (< 0 unknown) and pose.
+struct FrameStamp {
+  int64_t running_time_ns = -1;
+  WarpedPose pose;
+};
+// Of the frames fused, the one whose time (and duration) the output takes: the
+// newest, as fresh as the output is; and the one whose pose it carries: the
+// oldest pose, the one it fully shows (so a latency measured from it is not
+// flattered). -1 when none has a time, or a pose.
+struct OutputStamp {
+  int time_from = -1;
+  int pose_from = -1;
+};
+OutputStamp output_stamp(const std::vector<FrameStamp>& fused);
+
+// Live, the aggregator waits until the running time its get_next_time gives
+// (plus the latency). The simple rule (the end of the last output) lies in
+// the past once inputs stop, and a wait for a past time ends at once: the
+// thread would spin at full CPU. So while no input holds a frame the next
+// wake-up is at least `idle_wake_ns` after `now_ns` (data ends the wait anyway).
+int64_t fuse_wake_time(int64_t next_ns, int64_t now_ns, bool any_input, int64_t idle_wake_ns);
+
 // The running time of the next output: `rt`, but never at or before the last
 // output's `last_out_ns`, whatever the inputs' timing (< 0: unknown).
 int64_t next_output_time(int64_t last_out_ns, int64_t rt_ns);

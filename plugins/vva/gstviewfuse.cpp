@@ -23,7 +23,6 @@
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/view_fuse.h>
-#include <gst/vclassroom/warning_limiter.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_fuse_debug);
 #define GST_CAT_DEFAULT view_fuse_debug
@@ -84,27 +83,13 @@ static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(GST_VIDEO_CAPS_MAKE("RGB")));
 
 // Sends a pose upstream to every camera branch.
+static gboolean push_pose_to_pad(GstElement*, GstPad* pad, gpointer event) {
+  gst_pad_push_event(pad, gst_event_ref(GST_EVENT(event)));
+  return TRUE;
+}
+
 static void forward_pose(GstViewFuse* self, GstEvent* event) {
-  GstIterator* it = gst_element_iterate_sink_pads(GST_ELEMENT(self));
-  GValue item = G_VALUE_INIT;
-  bool done = false;
-  while (!done) {
-    switch (gst_iterator_next(it, &item)) {
-      case GST_ITERATOR_OK: {
-        GstPad* pad = GST_PAD(g_value_get_object(&item));
-        gst_pad_push_event(pad, gst_event_ref(event));
-        g_value_reset(&item);
-        break;
-      }
-      case GST_ITERATOR_RESYNC:
-        gst_iterator_resync(it);
-        break;
-      default:
-        done = true;
-    }
-  }
-  g_value_unset(&item);
-  gst_iterator_free(it);
+  gst_element_foreach_sink_pad(GST_ELEMENT(self), push_pose_to_pad, event);
   gst_event_unref(event);
 }
 
@@ -190,6 +175,10 @@ static void send_trace_pose(GstViewFuse* self) {
   }
 }
 
+// GstClockTime as the library's nanoseconds (< 0: unknown) and back.
+static int64_t time_ns(GstClockTime t) { return GST_CLOCK_TIME_IS_VALID(t) ? int64_t(t) : -1; }
+static GstClockTime clock_time(int64_t ns) { return ns < 0 ? GST_CLOCK_TIME_NONE : GstClockTime(ns); }
+
 // Running time on the element's clock now; GST_CLOCK_TIME_NONE without a clock.
 static GstClockTime running_time_now(GstElement* element) {
   GstClock* clock = gst_element_get_clock(element);
@@ -209,23 +198,13 @@ static bool any_pad_has_buffer(GstAggregator* agg) {
   return any;
 }
 
-// Live, the aggregator waits until this running time plus the latency. The
-// simple rule (the end of the last output) lies in the past once inputs stop,
-// and a wait for a past time ends at once: without input the thread would
-// wake again and again at full CPU. So while no pad holds data the next
-// wake-up is at least kIdleWake away (data arriving ends the wait anyway).
-// Called with the aggregator's source lock held: gst_aggregator_get_latency()
-// would deadlock here.
+// Live and idle, it sleeps (fuse_wake_time()). Called with the aggregator's
+// source lock held: gst_aggregator_get_latency() would deadlock here.
 static GstClockTime gst_view_fuse_get_next_time(GstAggregator* agg) {
   const GstClockTime next = gst_aggregator_simple_get_next_time(agg);
   const GstClockTime now = running_time_now(GST_ELEMENT(agg));
-  if (!GST_CLOCK_TIME_IS_VALID(next) || !GST_CLOCK_TIME_IS_VALID(now) || any_pad_has_buffer(agg)) return next;
-  return std::max(next, now + kIdleWake);
+  return clock_time(fuse_wake_time(time_ns(next), time_ns(now), any_pad_has_buffer(agg), int64_t(kIdleWake)));
 }
-
-// GstClockTime as the library's nanoseconds (< 0: unknown) and back.
-static int64_t time_ns(GstClockTime t) { return GST_CLOCK_TIME_IS_VALID(t) ? int64_t(t) : -1; }
-static GstClockTime clock_time(int64_t ns) { return ns < 0 ? GST_CLOCK_TIME_NONE : GstClockTime(ns); }
 
 // Drops the queued frame of every pad whose verdict is `which`.
 static void drop_buffers(const std::vector<GstAggregatorPad*>& pads, const std::vector<FrameVerdict>& verdicts,
@@ -234,38 +213,19 @@ static void drop_buffers(const std::vector<GstAggregatorPad*>& pads, const std::
     if (verdicts[i] == which) gst_aggregator_pad_drop_buffer(pads[i]);
 }
 
-// "0,2": the ids of `ids` for messages.
-static std::string id_list(const std::vector<int>& ids) {
-  std::string s;
-  for (int id : ids) s += (s.empty() ? "" : ",") + std::to_string(id);
-  return s;
-}
-
 // A camera lost or back: a bus warning (lost) or info (back) for a person and
 // a vclassroom-camera-status element message for programs.
 static void post_camera_status(GstViewFuse* self, const CameraStatusChange& change, const std::vector<int>& missing,
                                bool all_lost) {
-  const int id = change.camera_id;
-  const bool lost = change.lost;
-  const int64_t silent_ns = change.silent_ns;
-  GstStructure* s = gst_structure_new("vclassroom-camera-status", "camera-id", G_TYPE_INT, id, "status", G_TYPE_STRING,
-                                      lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(silent_ns),
-                                      "missing", G_TYPE_STRING, id_list(missing).c_str(), "cameras-missing",
-                                      G_TYPE_UINT, guint(missing.size()), nullptr);
-  const double silent_s = double(silent_ns) / GST_SECOND;
-  if (lost && all_lost)
-    GST_ELEMENT_WARNING(self, STREAM, FAILED,
-                        ("camera %d lost (no frame for %.1f s): no camera left, the lecturer sees the last picture "
-                         "marked '%s'",
-                         id, silent_s, missing_cameras_text(missing).c_str()),
-                        (nullptr));
-  else if (lost)
-    GST_ELEMENT_WARNING(self, STREAM, FAILED,
-                        ("camera %d lost (no frame for %.1f s): the view goes on without it", id, silent_s), (nullptr));
-  else
-    // gst-launch-1.0 prints only an info's debug text: the same words there.
-    GST_ELEMENT_INFO(self, RESOURCE, READ, ("camera %d is back after %.1f s without frames", id, silent_s),
-                     ("camera %d is back after %.1f s without frames", id, silent_s));
+  GstStructure* s = gst_structure_new(
+      "vclassroom-camera-status", "camera-id", G_TYPE_INT, change.camera_id, "status", G_TYPE_STRING,
+      change.lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(change.silent_ns), "missing",
+      G_TYPE_STRING, camera_id_list(missing).c_str(), "cameras-missing", G_TYPE_UINT, guint(missing.size()), nullptr);
+  const std::string text = camera_status_text(change, missing, all_lost);
+  if (change.lost)
+    GST_ELEMENT_WARNING(self, STREAM, FAILED, ("%s", text.c_str()), (nullptr));
+  else  // gst-launch-1.0 prints only an info's debug text: the same words there.
+    GST_ELEMENT_INFO(self, RESOURCE, READ, ("%s", text.c_str()), ("%s", text.c_str()));
   // After the text for people, so that a program seeing the status has the text too.
   gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), s));
 }
@@ -273,7 +233,7 @@ static void post_camera_status(GstViewFuse* self, const CameraStatusChange& chan
 // Sends st->fused.color, with the banner naming the missing cameras when
 // `banner` is not empty, at running time `rt` (or just after the last output).
 static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, GstClockTime rt,
-                                  GstClockTime duration, const PoseMeta* pose) {
+                                  GstClockTime duration, const WarpedPose* pose) {
   GstAggregator* agg = GST_AGGREGATOR(self);
   FuseState* st = self->st;
   const int w = GST_VIDEO_INFO_WIDTH(&st->out_info), h = GST_VIDEO_INFO_HEIGHT(&st->out_info);
@@ -311,18 +271,17 @@ static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, 
   return gst_aggregator_finish_buffer(agg, out);
 }
 
-// Maps the frames to fuse, fuses them and sends the picture, stamped with the
-// newest input's time and the oldest pose among them (the one it fully shows).
+// Maps the frames to fuse, fuses them and sends the picture (stamped as output_stamp() says).
 static GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPad*>& pads,
                                    const std::vector<GstBuffer*>& bufs, const std::vector<RgbdInfo>& infos,
-                                   const FuseRound& round, const FuseParams& params) {
+                                   const std::vector<PendingFrame>& pending, const FuseRound& round,
+                                   const FuseParams& params) {
   FuseState* st = self->st;
-  GstClockTime rt = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
   std::vector<WarpedView> views(pads.size());
   std::vector<const WarpedView*> ptrs;
   std::vector<std::unique_ptr<RgbdFrame>> frames;
-  PoseMeta pose{};
-  bool have_pose = false;
+  std::vector<FrameStamp> stamps;
+  std::vector<size_t> fused;  // the index of each of them among the pads
   for (size_t i = 0; i < pads.size(); ++i) {
     if (round.verdicts[i] != FrameVerdict::kFuse) continue;
     auto f = std::make_unique<RgbdFrame>();
@@ -337,39 +296,33 @@ static GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggre
     views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
     ptrs.push_back(&views[i]);
     frames.push_back(std::move(f));
-    const GstClockTime t = aggregator_pad_running_time(pads[i], bufs[i]);
-    if (GST_CLOCK_TIME_IS_VALID(t) && (!GST_CLOCK_TIME_IS_VALID(rt) || t > rt)) {
-      rt = t;
-      duration = GST_BUFFER_DURATION(bufs[i]);
-    }
-    if (PoseMeta* m = buffer_get_pose_meta(bufs[i]); m && (!have_pose || m->seq < pose.seq)) {
-      pose = *m;
-      have_pose = true;
-    }
+    stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
+    fused.push_back(i);
   }
-  GstFlowReturn ret = GST_FLOW_OK;
-  if (!ptrs.empty() && st->have_out) {
-    try {
-      fuse_views(ptrs, params, &st->fused);
-    } catch (const cv::Exception& e) {
-      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
-      st->have_fused = false;
-      return GST_FLOW_ERROR;
-    }
-    st->have_fused = true;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      ++st->frames;
-    }
-    frames.clear();
+  if (ptrs.empty() || !st->have_out) {
     drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
-    send_trace_pose(self);
-    ret = push_picture(self, round.banner, rt, duration, have_pose ? &pose : nullptr);
-  } else {
-    drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
+    return GST_FLOW_OK;
   }
+  try {
+    fuse_views(ptrs, params, &st->fused);
+  } catch (const cv::Exception& e) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
+    st->have_fused = false;
+    return GST_FLOW_ERROR;
+  }
+  st->have_fused = true;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    ++st->frames;
+  }
+  frames.clear();
+  drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
+  send_trace_pose(self);
+  const OutputStamp stamp = output_stamp(stamps);
+  const GstClockTime rt = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : clock_time(stamps[stamp.time_from].running_time_ns);
+  const GstClockTime duration = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : GST_BUFFER_DURATION(bufs[fused[stamp.time_from]]);
   GST_LOG_OBJECT(self, "fused %zu inputs", ptrs.size());
-  return ret;
+  return push_picture(self, round.banner, rt, duration, stamp.pose_from < 0 ? nullptr : &stamps[stamp.pose_from].pose);
 }
 
 // FuseInputs decides (docs/vva.md); this posts, drops and fuses as it says.
@@ -430,7 +383,7 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     const GstClockTime latency = gst_aggregator_get_latency(agg);
     ret = push_picture(self, round.banner, now > latency ? now - latency : 0, kIdleWake, nullptr);
   } else if (round.action == RoundAction::kFuse) {
-    ret = fuse_and_push(self, pads, bufs, infos, round, params);
+    ret = fuse_and_push(self, pads, bufs, infos, pending, round, params);
   }
   for (size_t i = 0; i < pads.size(); ++i) {
     gst_buffer_unref(bufs[i]);
@@ -453,10 +406,7 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     std::lock_guard<std::mutex> g(st->lock);
     path = st->trace_path;
     st->frames = 0;
-  }
-  {
     // Request pads outlive a restart; their caps (maybe a new virtual size) come again.
-    std::lock_guard<std::mutex> g(st->lock);
     st->pad_info.clear();
     st->inputs.clear();
   }
@@ -478,11 +428,6 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     }
   }
   return TRUE;
-}
-
-static GstAggregatorPad* gst_view_fuse_create_new_pad(GstAggregator* agg, GstPadTemplate* templ,
-                                                      const gchar* req_name, const GstCaps* caps) {
-  return GST_AGGREGATOR_CLASS(gst_view_fuse_parent_class)->create_new_pad(agg, templ, req_name, caps);
 }
 
 static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
@@ -632,7 +577,6 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   agg_class->update_src_caps = GST_DEBUG_FUNCPTR(gst_view_fuse_update_src_caps);
   agg_class->start = GST_DEBUG_FUNCPTR(gst_view_fuse_start);
   agg_class->flush = GST_DEBUG_FUNCPTR(gst_view_fuse_flush);
-  agg_class->create_new_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_create_new_pad);
   agg_class->get_next_time = GST_DEBUG_FUNCPTR(gst_view_fuse_get_next_time);
   element_class->release_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_release_pad);
   GST_DEBUG_CATEGORY_INIT(view_fuse_debug, "viewfuse", 0, "view fusion");
