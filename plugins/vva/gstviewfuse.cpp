@@ -10,7 +10,6 @@
 
 #include <gst/video/video.h>
 
-#include <algorithm>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -23,6 +22,7 @@
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/view_fuse.h>
+#include <gst/vclassroom/virtual_view.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_fuse_debug);
 #define GST_CAT_DEFAULT view_fuse_debug
@@ -163,15 +163,12 @@ static GstFlowReturn gst_view_fuse_update_src_caps(GstAggregator* agg, GstCaps* 
 static void send_trace_pose(GstViewFuse* self) {
   FuseState* st = self->st;
   if (st->trace.empty()) return;
-  const size_t i = std::min(st->trace_next, st->trace.size() - 1);
-  Pose pose = st->trace[i].pose;
-  pose.seq = i + 1;
+  Pose pose = trace_pose_in_turn(st->trace, st->trace_next++);
   pose.viewer_time_ns = g_get_monotonic_time() * 1000;
-  ++st->trace_next;
   try {
     forward_pose(self, pose_event_new(pose));
   } catch (const Error& e) {
-    GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("pose trace line %zu: %s", i + 1, e.what()), (nullptr));
+    GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("pose trace line %zu: %s", size_t(pose.seq), e.what()), (nullptr));
   }
 }
 
