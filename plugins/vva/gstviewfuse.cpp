@@ -39,8 +39,6 @@ enum {
   PROP_CAMERA_TIMEOUT,
   PROP_SHOW_MISSING
 };
-constexpr guint64 kDefaultPoseWindow = 50 * GST_MSECOND;
-constexpr guint64 kDefaultCameraTimeout = GST_SECOND;
 // Live and without any input, the fuse thread wakes this often to notice lost
 // cameras and to keep the lecturer's picture saying so; otherwise it sleeps.
 constexpr GstClockTime kIdleWake = 100 * GST_MSECOND;
@@ -53,7 +51,7 @@ struct FuseState {
   FuseParams params;
   std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
   // Which pads are left out, lost, stale (the decisions of each round).
-  FuseInputs inputs{FuseInputsParams{int64_t(kDefaultPoseWindow), int64_t(kDefaultCameraTimeout), true}};
+  FuseInputs inputs;
   guint64 frames = 0;
 
   // Streaming thread only.
@@ -509,6 +507,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   gobject_class->get_property = gst_view_fuse_get_property;
   gobject_class->finalize = gst_view_fuse_finalize;
   const FuseParams d;
+  const FuseInputsParams di;
   g_object_class_install_property(
       gobject_class, PROP_POSE_TRACE,
       g_param_spec_string("pose-trace", "Pose trace",
@@ -534,7 +533,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           "Live: cameras' frames warped for poses the viewer took at most this many ns apart are "
                           "fused together; a frame warped for an older pose is dropped and its fresh one awaited "
                           "(0: only frames of exactly the same pose). The output is stamped with the oldest pose",
-                          0, G_MAXINT64, kDefaultPoseWindow,
+                          0, G_MAXINT64, guint64(di.pose_window_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_CAMERA_TIMEOUT,
@@ -542,14 +541,15 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           "Live: a camera without a frame for this many ns is lost: a bus warning and a "
                           "vclassroom-camera-status element message (camera-id, status lost/returned, silent-ns, "
                           "missing), the same when it returns; the view goes on with the others (0: never lost)",
-                          0, G_MAXINT64, kDefaultCameraTimeout,
+                          0, G_MAXINT64, guint64(di.camera_timeout_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_SHOW_MISSING,
       g_param_spec_boolean("show-missing", "Show missing cameras",
                            "Draw a banner naming the lost cameras ('camera 2 missing') into the top-left corner of "
                            "the output; with every camera lost, keep sending the last picture so marked",
-                           TRUE, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+                           di.show_missing,
+                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_FRAMES_FUSED,
       g_param_spec_uint64("frames-fused", "Frames fused", "Output frames produced since start", 0, G_MAXUINT64, 0,
