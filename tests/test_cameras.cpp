@@ -20,6 +20,7 @@
 #include <gst/vclassroom/camera_liveness.h>
 #include <gst/vclassroom/checksum.h>
 #include <gst/vclassroom/classroom.h>
+#include <gst/vclassroom/fuse_inputs.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/rgbd_codec.h>
 
@@ -367,6 +368,196 @@ TEST(CameraLiveness, TheBannerNamesTheMissingCameras) {
   EXPECT_GT(white, 50) << "no text drawn";
   EXPECT_TRUE(vctest::same_image(img(cv::Rect(0, box.height, img.cols, img.rows - box.height)),
                                  before(cv::Rect(0, box.height, img.cols, img.rows - box.height))));
+}
+
+// viewfuse's decisions, without GStreamer: the keys stand for its pads (in
+// address order, as its pads are kept), times are nanoseconds.
+namespace {
+int fuse_pads[3];
+const InputKey kPadA = &fuse_pads[0], kPadB = &fuse_pads[1], kPadC = &fuse_pads[2];
+
+PendingFrame pending(InputKey key, int64_t running_time_ns = -1, WarpedPose pose = {}) {
+  PendingFrame f;
+  f.key = key;
+  f.running_time_ns = running_time_ns;
+  f.pose = pose;
+  return f;
+}
+
+RoundContext live_round(int64_t now_ns, bool timeout = false) {
+  RoundContext ctx;
+  ctx.live = true;
+  ctx.now_ns = now_ns;
+  ctx.timeout = timeout;
+  return ctx;
+}
+}  // namespace
+
+TEST(FuseInputs, AViewOfAnotherSizeIsLeftOutWithRateLimitedWarningsUntilItsSizeMatches) {
+  FuseInputs inputs;
+  EXPECT_EQ(inputs.first_accepted(), nullptr);
+  EXPECT_EQ(inputs.configure(kPadA, 0, 64, 36), "");
+  EXPECT_EQ(inputs.configure(kPadB, 1, 64, 36), "");
+  EXPECT_EQ(inputs.configure(kPadC, 2, 32, 18),
+            "its view is 32x18, the others' 64x36 (every viewwarp must render the same virtual size)");
+  EXPECT_EQ(inputs.first_accepted(), kPadA);
+  RoundContext ctx;  // not live
+  ctx.monotonic_ns = 1'000'000'000;
+  FuseRound round = inputs.decide({pending(kPadA), pending(kPadB), pending(kPadC)}, ctx);
+  EXPECT_EQ(round.verdicts, (std::vector<FrameVerdict>{FrameVerdict::kFuse, FrameVerdict::kFuse,
+                                                        FrameVerdict::kLeftOut}));
+  EXPECT_EQ(round.action, RoundAction::kFuse);
+  EXPECT_EQ(round.warnings, std::vector<std::string>{"a frame left out from camera 2: its view is 32x18, the others' "
+                                                     "64x36 (every viewwarp must render the same virtual size)"});
+  ctx.monotonic_ns += 1'000'000'000;  // within the 5 s: counted, not posted
+  EXPECT_TRUE(inputs.decide({pending(kPadC)}, ctx).warnings.empty());
+  ctx.monotonic_ns += 5'000'000'000;
+  round = inputs.decide({pending(kPadC)}, ctx);
+  ASSERT_EQ(round.warnings.size(), 1u);
+  EXPECT_EQ(round.warnings[0].rfind("2 frames left out from camera 2 in the last 6 s: its view is 32x18", 0), 0u)
+      << round.warnings[0];
+  EXPECT_EQ(round.action, RoundAction::kWait);  // nothing left to fuse
+  // Its size matches again: fused again. A released pad is forgotten.
+  EXPECT_EQ(inputs.configure(kPadC, 2, 64, 36), "");
+  EXPECT_EQ(inputs.decide({pending(kPadC)}, ctx).verdicts, std::vector<FrameVerdict>{FrameVerdict::kFuse});
+  inputs.release(kPadA);
+  EXPECT_EQ(inputs.first_accepted(), kPadB);
+  // The size first accepted wins: a later input of another size is left out,
+  // whatever its pad's place.
+  FuseInputs later;
+  EXPECT_EQ(later.configure(kPadC, 2, 32, 18), "");
+  EXPECT_NE(later.configure(kPadA, 0, 64, 36), "");
+  EXPECT_EQ(later.first_accepted(), kPadC);
+}
+
+TEST(FuseInputs, ALiveSilentCameraIsReportedLostOnceThenBackAndNamedOnTheBanner) {
+  FuseInputs inputs(FuseInputsParams{50'000'000, 1000, true});
+  inputs.configure(kPadA, 0, 64, 36);
+  inputs.configure(kPadB, 1, 64, 36);
+  FuseRound round = inputs.decide({pending(kPadA), pending(kPadB)}, live_round(0));
+  EXPECT_TRUE(round.status_changes.empty());
+  EXPECT_EQ(round.banner, "");
+  round = inputs.decide({pending(kPadA)}, live_round(1500));
+  ASSERT_EQ(round.status_changes.size(), 1u);
+  EXPECT_EQ(round.status_changes[0].camera_id, 1);
+  EXPECT_TRUE(round.status_changes[0].lost);
+  EXPECT_EQ(round.status_changes[0].silent_ns, 1500);
+  EXPECT_EQ(round.missing, std::vector<int>{1});
+  EXPECT_FALSE(round.all_lost);
+  EXPECT_EQ(round.banner, "camera 1 missing");
+  EXPECT_EQ(round.action, RoundAction::kFuse);  // the view goes on with camera 0
+  EXPECT_TRUE(inputs.decide({pending(kPadA)}, live_round(1600)).status_changes.empty());  // reported once
+  round = inputs.decide({pending(kPadB)}, live_round(1700));
+  ASSERT_EQ(round.status_changes.size(), 1u);
+  EXPECT_EQ(round.status_changes[0].camera_id, 1);
+  EXPECT_FALSE(round.status_changes[0].lost);
+  EXPECT_EQ(round.status_changes[0].silent_ns, 1700);
+  EXPECT_TRUE(round.missing.empty());
+  EXPECT_EQ(round.banner, "");
+  // show-missing off: still reported, never drawn.
+  inputs.set_params(FuseInputsParams{50'000'000, 1000, false});
+  round = inputs.decide({pending(kPadA)}, live_round(4000));
+  EXPECT_EQ(round.missing, std::vector<int>{1});
+  EXPECT_EQ(round.banner, "");
+  // Not live, nobody is ever lost.
+  FuseInputs offline(FuseInputsParams{50'000'000, 1000, true});
+  offline.configure(kPadA, 0, 64, 36);
+  offline.decide({pending(kPadA)}, RoundContext{});
+  RoundContext later;
+  later.now_ns = 1'000'000;
+  EXPECT_TRUE(offline.decide({}, later).status_changes.empty());
+}
+
+TEST(FuseInputs, WithEveryCameraLostTheLastPictureIsRepeatedMarkedWhenTheLatencyRunsOut) {
+  const auto round_after_all_lost = [](bool show_missing, bool timeout, bool have_picture) {
+    FuseInputs inputs(FuseInputsParams{50'000'000, 1000, show_missing});
+    inputs.configure(kPadA, 0, 64, 36);
+    inputs.configure(kPadB, 1, 64, 36);
+    inputs.decide({pending(kPadA), pending(kPadB)}, live_round(0));
+    RoundContext ctx = live_round(2000, timeout);
+    ctx.have_picture = have_picture;
+    return inputs.decide({}, ctx);
+  };
+  const FuseRound round = round_after_all_lost(true, true, true);
+  ASSERT_EQ(round.status_changes.size(), 2u);
+  EXPECT_EQ(round.status_changes[0].camera_id, 0);
+  EXPECT_EQ(round.status_changes[1].camera_id, 1);
+  EXPECT_TRUE(round.all_lost);
+  EXPECT_EQ(round.banner, "cameras 0, 1 missing");
+  EXPECT_EQ(round.action, RoundAction::kRepeatLast);
+  EXPECT_EQ(round_after_all_lost(true, false, true).action, RoundAction::kWait);   // before the latency ran out
+  EXPECT_EQ(round_after_all_lost(true, true, false).action, RoundAction::kWait);   // no picture yet
+  EXPECT_EQ(round_after_all_lost(false, true, true).action, RoundAction::kWait);   // show-missing off
+}
+
+TEST(FuseInputs, LiveAFrameOfAnOlderPoseOrNotNewerThanTheLastOutputIsDroppedAndTheRestAwaited) {
+  FuseInputs inputs(FuseInputsParams{50'000'000, 0, true});
+  inputs.configure(kPadA, 0, 64, 36);
+  inputs.configure(kPadB, 1, 64, 36);
+  const WarpedPose old_pose{true, 10, 0}, new_pose{true, 13, 100'000'000};
+  const std::vector<PendingFrame> frames{pending(kPadA, 400, old_pose), pending(kPadB, 600, new_pose)};
+  FuseRound round = inputs.decide(frames, live_round(1000));
+  EXPECT_EQ(round.verdicts, (std::vector<FrameVerdict>{FrameVerdict::kOlderPose, FrameVerdict::kFuse}));
+  EXPECT_EQ(round.action, RoundAction::kWait);  // camera 0's fresh frame may still come
+  EXPECT_EQ(inputs.decide(frames, live_round(1000, true)).action, RoundAction::kFuse);  // not any more
+  // Within the window both are fused; a frame not newer than the last output is late.
+  const std::vector<PendingFrame> close{pending(kPadA, 400, WarpedPose{true, 12, 60'000'000}),
+                                        pending(kPadB, 600, new_pose)};
+  RoundContext ctx = live_round(1000);
+  EXPECT_EQ(inputs.decide(close, ctx).action, RoundAction::kFuse);
+  ctx.last_out_ns = 400;
+  round = inputs.decide(close, ctx);
+  EXPECT_EQ(round.verdicts, (std::vector<FrameVerdict>{FrameVerdict::kLate, FrameVerdict::kFuse}));
+  EXPECT_EQ(round.action, RoundAction::kWait);
+  ctx.last_out_ns = 600;
+  ctx.timeout = true;
+  EXPECT_EQ(inputs.decide(close, ctx).action, RoundAction::kWait);  // nothing fresh at all
+  // Not live, everything is fused.
+  round = inputs.decide(frames, RoundContext{});
+  EXPECT_EQ(round.verdicts, (std::vector<FrameVerdict>{FrameVerdict::kFuse, FrameVerdict::kFuse}));
+  EXPECT_EQ(round.action, RoundAction::kFuse);
+}
+
+TEST(FuseInputs, StatusTextsSayWhatHappensToTheView) {
+  EXPECT_EQ(camera_status_text(CameraStatusChange{2, true, 1'250'000'000}, {2}, false),
+            "camera 2 lost (no frame for 1.2 s): the view goes on without it");
+  EXPECT_EQ(camera_status_text(CameraStatusChange{2, true, 1'000'000'000}, {0, 2}, true),
+            "camera 2 lost (no frame for 1.0 s): no camera left, the lecturer sees the last picture marked "
+            "'cameras 0, 2 missing'");
+  EXPECT_EQ(camera_status_text(CameraStatusChange{1, false, 3'000'000'000}, {}, false),
+            "camera 1 is back after 3.0 s without frames");
+  EXPECT_EQ(camera_id_list({}), "");
+  EXPECT_EQ(camera_id_list({0, 2}), "0,2");
+}
+
+TEST(FuseInputs, TheOutputTakesTheNewestTimeAndTheOldestPose) {
+  const WarpedPose none, seq5{true, 5, 0}, seq3{true, 3, 0};
+  OutputStamp stamp = output_stamp({FrameStamp{100, seq5}, FrameStamp{300, seq3}, FrameStamp{200, seq3}});
+  EXPECT_EQ(stamp.time_from, 1);
+  EXPECT_EQ(stamp.pose_from, 1);  // the first of the oldest
+  stamp = output_stamp({FrameStamp{-1, none}, FrameStamp{-1, seq5}});
+  EXPECT_EQ(stamp.time_from, -1);
+  EXPECT_EQ(stamp.pose_from, 1);
+  EXPECT_EQ(output_stamp({}).time_from, -1);
+  EXPECT_EQ(output_stamp({}).pose_from, -1);
+}
+
+TEST(FuseInputs, IdleTheNextWakeUpIsNotInThePast) {
+  const int64_t wake = 100'000'000;
+  EXPECT_EQ(fuse_wake_time(1000, 5'000'000'000, false, wake), 5'100'000'000);  // a past time: later
+  EXPECT_EQ(fuse_wake_time(1000, 5'000'000'000, true, wake), 1000);            // data waits: at once
+  EXPECT_EQ(fuse_wake_time(9'000'000'000, 5'000'000'000, false, wake), 9'000'000'000);
+  EXPECT_EQ(fuse_wake_time(-1, 5'000'000'000, false, wake), -1);
+  EXPECT_EQ(fuse_wake_time(1000, -1, false, wake), 1000);  // without a clock
+}
+
+TEST(FuseInputs, TheOutputNeverGoesBackInTime) {
+  EXPECT_EQ(next_output_time(-1, -1), -1);
+  EXPECT_EQ(next_output_time(-1, 5), 5);
+  EXPECT_EQ(next_output_time(10, 20), 20);
+  EXPECT_EQ(next_output_time(10, 10), 11);
+  EXPECT_EQ(next_output_time(10, 5), 11);
+  EXPECT_EQ(next_output_time(10, -1), 11);
 }
 
 namespace {

@@ -10,7 +10,6 @@
 
 #include <gst/video/video.h>
 
-#include <algorithm>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -18,11 +17,12 @@
 #include <vector>
 
 #include <gst/vclassroom/camera_liveness.h>
+#include <gst/vclassroom/fuse_inputs.h>
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/view_fuse.h>
-#include <gst/vclassroom/warning_limiter.h>
+#include <gst/vclassroom/virtual_view.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_fuse_debug);
 #define GST_CAT_DEFAULT view_fuse_debug
@@ -39,8 +39,6 @@ enum {
   PROP_CAMERA_TIMEOUT,
   PROP_SHOW_MISSING
 };
-constexpr guint64 kDefaultPoseWindow = 50 * GST_MSECOND;
-constexpr guint64 kDefaultCameraTimeout = GST_SECOND;
 // Live and without any input, the fuse thread wakes this often to notice lost
 // cameras and to keep the lecturer's picture saying so; otherwise it sleeps.
 constexpr GstClockTime kIdleWake = 100 * GST_MSECOND;
@@ -48,18 +46,13 @@ constexpr GstClockTime kIdleWake = 100 * GST_MSECOND;
 namespace {
 
 struct FuseState {
-  std::mutex lock;  // guards the properties and pad_info
+  std::mutex lock;  // guards the properties, pad_info and inputs
   std::string trace_path;
   FuseParams params;
-  std::map<GstPad*, RgbdInfo> pad_info;
-  // Pads whose view has another size than the others': their frames are left
-  // out (with a rate-limited warning) until they bring matching caps.
-  std::map<GstPad*, std::string> pad_rejected;
-  std::map<GstPad*, WarningLimiter> pad_warnings;
+  std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
+  // Which pads are left out, lost, stale (the decisions of each round).
+  FuseInputs inputs;
   guint64 frames = 0;
-  guint64 pose_window = kDefaultPoseWindow;  // ns
-  bool show_missing = true;
-  CameraLiveness liveness{int64_t(kDefaultCameraTimeout)};
 
   // Streaming thread only.
   std::vector<PoseSample> trace;
@@ -88,27 +81,13 @@ static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(GST_VIDEO_CAPS_MAKE("RGB")));
 
 // Sends a pose upstream to every camera branch.
+static gboolean push_pose_to_pad(GstElement*, GstPad* pad, gpointer event) {
+  gst_pad_push_event(pad, gst_event_ref(GST_EVENT(event)));
+  return TRUE;
+}
+
 static void forward_pose(GstViewFuse* self, GstEvent* event) {
-  GstIterator* it = gst_element_iterate_sink_pads(GST_ELEMENT(self));
-  GValue item = G_VALUE_INIT;
-  bool done = false;
-  while (!done) {
-    switch (gst_iterator_next(it, &item)) {
-      case GST_ITERATOR_OK: {
-        GstPad* pad = GST_PAD(g_value_get_object(&item));
-        gst_pad_push_event(pad, gst_event_ref(event));
-        g_value_reset(&item);
-        break;
-      }
-      case GST_ITERATOR_RESYNC:
-        gst_iterator_resync(it);
-        break;
-      default:
-        done = true;
-    }
-  }
-  g_value_unset(&item);
-  gst_iterator_free(it);
+  gst_element_foreach_sink_pad(GST_ELEMENT(self), push_pose_to_pad, event);
   gst_event_unref(event);
 }
 
@@ -137,17 +116,8 @@ static gboolean gst_view_fuse_sink_event(GstAggregator* agg, GstAggregatorPad* p
     std::string rejected;
     {
       std::lock_guard<std::mutex> g(self->st->lock);
-      for (const auto& [p, other] : self->st->pad_info)
-        if (p != GST_PAD(pad) && !self->st->pad_rejected.count(p) &&
-            (other.width() != info.width() || other.height() != info.height())) {
-          rejected = "its view is " + std::to_string(info.width()) + "x" + std::to_string(info.height()) +
-                     ", the others' " + std::to_string(other.width()) + "x" + std::to_string(other.height()) +
-                     " (every viewwarp must render the same virtual size)";
-          break;
-        }
-      self->st->pad_info[GST_PAD(pad)] = info;
-      if (rejected.empty()) self->st->pad_rejected.erase(GST_PAD(pad));
-      else self->st->pad_rejected[GST_PAD(pad)] = rejected;
+      self->st->pad_info[pad] = info;
+      rejected = self->st->inputs.configure(pad, info.camera.id, info.width(), info.height());
     }
     if (!rejected.empty())
       GST_ELEMENT_WARNING(self, STREAM, FORMAT,
@@ -166,14 +136,9 @@ static GstFlowReturn gst_view_fuse_update_src_caps(GstAggregator* agg, GstCaps* 
   RgbdInfo info;
   {
     std::lock_guard<std::mutex> g(self->st->lock);
-    bool found = false;
-    for (const auto& [p, i] : self->st->pad_info)
-      if (!self->st->pad_rejected.count(p)) {
-        info = i;
-        found = true;
-        break;
-      }
-    if (!found) return GST_AGGREGATOR_FLOW_NEED_DATA;
+    const InputKey first = self->st->inputs.first_accepted();
+    if (!first) return GST_AGGREGATOR_FLOW_NEED_DATA;
+    info = self->st->pad_info[first];
   }
   GstVideoInfo vi;
   gst_video_info_set_format(&vi, GST_VIDEO_FORMAT_RGB, info.width(), info.height());
@@ -196,17 +161,18 @@ static GstFlowReturn gst_view_fuse_update_src_caps(GstAggregator* agg, GstCaps* 
 static void send_trace_pose(GstViewFuse* self) {
   FuseState* st = self->st;
   if (st->trace.empty()) return;
-  const size_t i = std::min(st->trace_next, st->trace.size() - 1);
-  Pose pose = st->trace[i].pose;
-  pose.seq = i + 1;
+  Pose pose = trace_pose_in_turn(st->trace, st->trace_next++);
   pose.viewer_time_ns = g_get_monotonic_time() * 1000;
-  ++st->trace_next;
   try {
     forward_pose(self, pose_event_new(pose));
   } catch (const Error& e) {
-    GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("pose trace line %zu: %s", i + 1, e.what()), (nullptr));
+    GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("pose trace line %zu: %s", size_t(pose.seq), e.what()), (nullptr));
   }
 }
+
+// GstClockTime as the library's nanoseconds (< 0: unknown) and back.
+static int64_t time_ns(GstClockTime t) { return GST_CLOCK_TIME_IS_VALID(t) ? int64_t(t) : -1; }
+static GstClockTime clock_time(int64_t ns) { return ns < 0 ? GST_CLOCK_TIME_NONE : GstClockTime(ns); }
 
 // Running time on the element's clock now; GST_CLOCK_TIME_NONE without a clock.
 static GstClockTime running_time_now(GstElement* element) {
@@ -227,49 +193,34 @@ static bool any_pad_has_buffer(GstAggregator* agg) {
   return any;
 }
 
-// Live, the aggregator waits until this running time plus the latency. The
-// simple rule (the end of the last output) lies in the past once inputs stop,
-// and a wait for a past time ends at once: without input the thread would
-// wake again and again at full CPU. So while no pad holds data the next
-// wake-up is at least kIdleWake away (data arriving ends the wait anyway).
-// Called with the aggregator's source lock held: gst_aggregator_get_latency()
-// would deadlock here.
+// Live and idle, it sleeps (fuse_wake_time()). Called with the aggregator's
+// source lock held: gst_aggregator_get_latency() would deadlock here.
 static GstClockTime gst_view_fuse_get_next_time(GstAggregator* agg) {
   const GstClockTime next = gst_aggregator_simple_get_next_time(agg);
   const GstClockTime now = running_time_now(GST_ELEMENT(agg));
-  if (!GST_CLOCK_TIME_IS_VALID(next) || !GST_CLOCK_TIME_IS_VALID(now) || any_pad_has_buffer(agg)) return next;
-  return std::max(next, now + kIdleWake);
+  return clock_time(fuse_wake_time(time_ns(next), time_ns(now), any_pad_has_buffer(agg), int64_t(kIdleWake)));
 }
 
-// "0,2": the ids of `ids` for messages.
-static std::string id_list(const std::vector<int>& ids) {
-  std::string s;
-  for (int id : ids) s += (s.empty() ? "" : ",") + std::to_string(id);
-  return s;
+// Drops the queued frame of every pad whose verdict is `which`.
+static void drop_buffers(const std::vector<GstAggregatorPad*>& pads, const std::vector<FrameVerdict>& verdicts,
+                         FrameVerdict which) {
+  for (size_t i = 0; i < pads.size(); ++i)
+    if (verdicts[i] == which) gst_aggregator_pad_drop_buffer(pads[i]);
 }
 
 // A camera lost or back: a bus warning (lost) or info (back) for a person and
 // a vclassroom-camera-status element message for programs.
-static void post_camera_status(GstViewFuse* self, int id, bool lost, int64_t silent_ns, const std::vector<int>& missing,
+static void post_camera_status(GstViewFuse* self, const CameraStatusChange& change, const std::vector<int>& missing,
                                bool all_lost) {
-  GstStructure* s = gst_structure_new("vclassroom-camera-status", "camera-id", G_TYPE_INT, id, "status", G_TYPE_STRING,
-                                      lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(silent_ns),
-                                      "missing", G_TYPE_STRING, id_list(missing).c_str(), "cameras-missing",
-                                      G_TYPE_UINT, guint(missing.size()), nullptr);
-  const double silent_s = double(silent_ns) / GST_SECOND;
-  if (lost && all_lost)
-    GST_ELEMENT_WARNING(self, STREAM, FAILED,
-                        ("camera %d lost (no frame for %.1f s): no camera left, the lecturer sees the last picture "
-                         "marked '%s'",
-                         id, silent_s, missing_cameras_text(missing).c_str()),
-                        (nullptr));
-  else if (lost)
-    GST_ELEMENT_WARNING(self, STREAM, FAILED,
-                        ("camera %d lost (no frame for %.1f s): the view goes on without it", id, silent_s), (nullptr));
-  else
-    // gst-launch-1.0 prints only an info's debug text: the same words there.
-    GST_ELEMENT_INFO(self, RESOURCE, READ, ("camera %d is back after %.1f s without frames", id, silent_s),
-                     ("camera %d is back after %.1f s without frames", id, silent_s));
+  GstStructure* s = gst_structure_new(
+      "vclassroom-camera-status", "camera-id", G_TYPE_INT, change.camera_id, "status", G_TYPE_STRING,
+      change.lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(change.silent_ns), "missing",
+      G_TYPE_STRING, camera_id_list(missing).c_str(), "cameras-missing", G_TYPE_UINT, guint(missing.size()), nullptr);
+  const std::string text = camera_status_text(change, missing, all_lost);
+  if (change.lost)
+    GST_ELEMENT_WARNING(self, STREAM, FAILED, ("%s", text.c_str()), (nullptr));
+  else  // gst-launch-1.0 prints only an info's debug text: the same words there.
+    GST_ELEMENT_INFO(self, RESOURCE, READ, ("%s", text.c_str()), ("%s", text.c_str()));
   // After the text for people, so that a program seeing the status has the text too.
   gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), s));
 }
@@ -277,7 +228,7 @@ static void post_camera_status(GstViewFuse* self, int id, bool lost, int64_t sil
 // Sends st->fused.color, with the banner naming the missing cameras when
 // `banner` is not empty, at running time `rt` (or just after the last output).
 static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, GstClockTime rt,
-                                  GstClockTime duration, const PoseMeta* pose) {
+                                  GstClockTime duration, const WarpedPose* pose) {
   GstAggregator* agg = GST_AGGREGATOR(self);
   FuseState* st = self->st;
   const int w = GST_VIDEO_INFO_WIDTH(&st->out_info), h = GST_VIDEO_INFO_HEIGHT(&st->out_info);
@@ -294,9 +245,7 @@ static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, 
   st->fused.color.copyTo(dst);
   draw_missing_banner(dst, banner);
   gst_buffer_unmap(out, &map);
-  // Never back in time, whatever the inputs' timing.
-  if (GST_CLOCK_TIME_IS_VALID(st->last_out) && (!GST_CLOCK_TIME_IS_VALID(rt) || rt <= st->last_out))
-    rt = st->last_out + 1;
+  rt = clock_time(next_output_time(time_ns(st->last_out), time_ns(rt)));
   st->last_out = rt;
   // Running time back into the output segment (it starts at a seek's position).
   GstClockTime pts = rt;
@@ -317,17 +266,68 @@ static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, 
   return gst_aggregator_finish_buffer(agg, out);
 }
 
+// Maps the frames to fuse, fuses them and sends the picture (stamped as output_stamp() says).
+static GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPad*>& pads,
+                                   const std::vector<GstBuffer*>& bufs, const std::vector<RgbdInfo>& infos,
+                                   const std::vector<PendingFrame>& pending, const FuseRound& round,
+                                   const FuseParams& params) {
+  FuseState* st = self->st;
+  std::vector<WarpedView> views(pads.size());
+  std::vector<const WarpedView*> ptrs;
+  std::vector<std::unique_ptr<RgbdFrame>> frames;
+  std::vector<FrameStamp> stamps;
+  std::vector<size_t> fused;  // the index of each of them among the pads
+  for (size_t i = 0; i < pads.size(); ++i) {
+    if (round.verdicts[i] != FrameVerdict::kFuse) continue;
+    auto f = std::make_unique<RgbdFrame>();
+    std::string err;
+    // A gap (a camera that said it has nothing for this time) is normal: skip it quietly.
+    if (GST_BUFFER_FLAG_IS_SET(bufs[i], GST_BUFFER_FLAG_GAP) || gst_buffer_get_size(bufs[i]) == 0) continue;
+    if (!f->map(bufs[i], infos[i], GST_MAP_READ, &err)) {
+      GST_ELEMENT_WARNING(self, STREAM, FAILED, ("pad %s: %s (frame skipped)", GST_PAD_NAME(pads[i]), err.c_str()),
+                          (nullptr));
+      continue;
+    }
+    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
+    ptrs.push_back(&views[i]);
+    frames.push_back(std::move(f));
+    stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
+    fused.push_back(i);
+  }
+  if (ptrs.empty() || !st->have_out) {
+    drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
+    return GST_FLOW_OK;
+  }
+  try {
+    fuse_views(ptrs, params, &st->fused);
+  } catch (const cv::Exception& e) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
+    st->have_fused = false;
+    return GST_FLOW_ERROR;
+  }
+  st->have_fused = true;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    ++st->frames;
+  }
+  frames.clear();
+  drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
+  send_trace_pose(self);
+  const OutputStamp stamp = output_stamp(stamps);
+  const GstClockTime rt = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : clock_time(stamps[stamp.time_from].running_time_ns);
+  const GstClockTime duration = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : GST_BUFFER_DURATION(bufs[fused[stamp.time_from]]);
+  GST_LOG_OBJECT(self, "fused %zu inputs", ptrs.size());
+  return push_picture(self, round.banner, rt, duration, stamp.pose_from < 0 ? nullptr : &stamps[stamp.pose_from].pose);
+}
+
+// FuseInputs decides (docs/vva.md); this posts, drops and fuses as it says.
 static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeout) {
   GstViewFuse* self = GST_VIEW_FUSE(agg);
   FuseState* st = self->st;
   if (st->trace_next == 0) send_trace_pose(self);
 
-  struct Input {
-    GstAggregatorPad* pad = nullptr;
-    GstBuffer* buf = nullptr;
-    RgbdInfo info;
-  };
-  std::vector<Input> inputs;
+  std::vector<GstAggregatorPad*> pads;
+  std::vector<GstBuffer*> bufs;
   bool all_eos = true;
   GST_OBJECT_LOCK(agg);
   for (GList* l = GST_ELEMENT(agg)->sinkpads; l; l = l->next) {
@@ -335,191 +335,55 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     GstBuffer* buf = gst_aggregator_pad_peek_buffer(pad);
     if (!gst_aggregator_pad_is_eos(pad) || buf) all_eos = false;
     if (buf) {
-      Input in;
-      in.pad = GST_AGGREGATOR_PAD(gst_object_ref(pad));
-      in.buf = buf;
-      inputs.push_back(std::move(in));
+      pads.push_back(GST_AGGREGATOR_PAD(gst_object_ref(pad)));
+      bufs.push_back(buf);
     }
   }
   GST_OBJECT_UNLOCK(agg);
-  if (inputs.empty() && all_eos) return GST_FLOW_EOS;
-  const bool live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
-  // Live, a camera silent for camera-timeout is lost until its next frame.
-  const GstClockTime now = live ? running_time_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
-  struct StatusChange {
-    int id;
-    bool lost;
-    int64_t silent_ns;
-  };
-  std::vector<StatusChange> changes;
-  std::vector<int> missing;
-  std::vector<std::string> left_out;  // warnings about frames of a camera of another size
-  bool all_lost = false, show_missing;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    for (auto& in : inputs) {
-      in.info = st->pad_info[GST_PAD(in.pad)];
-      if (!GST_CLOCK_TIME_IS_VALID(now)) continue;
-      const int id = in.info.camera.id;
-      const int64_t silent = st->liveness.silent_for(id, int64_t(now));
-      if (st->liveness.seen(id, int64_t(now))) changes.push_back({id, false, silent});
-    }
-    if (GST_CLOCK_TIME_IS_VALID(now))
-      for (int id : st->liveness.newly_lost(int64_t(now)))
-        changes.push_back({id, true, st->liveness.silent_for(id, int64_t(now))});
-    missing = st->liveness.missing();
-    all_lost = st->liveness.all_lost();
-    show_missing = st->show_missing;
-    for (auto it = inputs.begin(); it != inputs.end();) {
-      const auto rejected = st->pad_rejected.find(GST_PAD(it->pad));
-      if (rejected == st->pad_rejected.end()) {
-        ++it;
-        continue;
-      }
-      uint64_t count;
-      int64_t span;
-      if (st->pad_warnings[GST_PAD(it->pad)].note(g_get_monotonic_time() * 1000, &count, &span))
-        left_out.push_back(describe_occurrences(count, "a frame left out", "frames left out",
-                                                "camera " + std::to_string(it->info.camera.id), span) +
-                           ": " + rejected->second);
-      it->info = RgbdInfo();
-      it->info.camera.id = -1;  // marks it for dropping below
-      ++it;
-    }
+  if (pads.empty() && all_eos) return GST_FLOW_EOS;
+  RoundContext ctx;
+  ctx.live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
+  const GstClockTime now = ctx.live ? running_time_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
+  ctx.now_ns = time_ns(now);
+  ctx.timeout = timeout;
+  ctx.last_out_ns = time_ns(st->last_out);
+  ctx.have_picture = st->have_fused && st->have_out;
+  ctx.monotonic_ns = g_get_monotonic_time() * 1000;
+  std::vector<PendingFrame> pending(pads.size());
+  for (size_t i = 0; i < pads.size(); ++i) {
+    pending[i].key = pads[i];
+    pending[i].running_time_ns = time_ns(aggregator_pad_running_time(pads[i], bufs[i]));
+    if (const PoseMeta* m = buffer_get_pose_meta(bufs[i])) pending[i].pose = WarpedPose{true, m->seq, m->viewer_time_ns};
   }
-  for (const auto& c : changes) post_camera_status(self, c.id, c.lost, c.silent_ns, missing, all_lost);
-  for (const auto& w : left_out) GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("%s", w.c_str()), (nullptr));
-  for (auto it = inputs.begin(); it != inputs.end();) {
-    if (it->info.camera.id != -1) {
-      ++it;
-      continue;
-    }
-    gst_aggregator_pad_drop_buffer(it->pad);
-    gst_buffer_unref(it->buf);
-    gst_object_unref(it->pad);
-    it = inputs.erase(it);
-  }
-  const std::string banner = show_missing ? missing_cameras_text(missing) : "";
-  if (inputs.empty()) {
-    // Every camera gone: the lecturer keeps getting the last picture, marked,
-    // rather than a silently frozen one.
-    if (timeout && all_lost && !banner.empty() && st->have_fused && st->have_out && GST_CLOCK_TIME_IS_VALID(now)) {
-      const GstClockTime latency = gst_aggregator_get_latency(agg);
-      return push_picture(self, banner, now > latency ? now - latency : 0, kIdleWake, nullptr);
-    }
-    return GST_AGGREGATOR_FLOW_NEED_DATA;
-  }
-  // One output frame shows one pose. Live, a camera's frame warped for an
-  // older pose than the others (or older than the last output) is stale:
-  // drop it and wait for its fresh one, fusing only the consistent ones when
-  // the latency runs out. Not live, everything is fused and the frame is
-  // stamped with the oldest pose in it, the one it fully shows.
-  {
-    std::vector<WarpedPose> poses;
-    for (auto& in : inputs) {
-      WarpedPose p;
-      if (const PoseMeta* m = buffer_get_pose_meta(in.buf)) p = WarpedPose{true, m->seq, m->viewer_time_ns};
-      poses.push_back(p);
-    }
-    int64_t window;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      window = int64_t(st->pose_window);
-    }
-    const std::vector<bool> stale = stale_poses(poses, window);
-    bool dropped = false;
-    size_t index = 0;
-    for (auto it = inputs.begin(); live && it != inputs.end(); ++index) {
-      const GstClockTime t = aggregator_pad_running_time(it->pad, it->buf);
-      const bool old_pose = stale[index];
-      const bool old_time = GST_CLOCK_TIME_IS_VALID(st->last_out) && GST_CLOCK_TIME_IS_VALID(t) && t <= st->last_out;
-      if (old_pose || old_time) {
-        GST_LOG_OBJECT(self, "%s: dropping a stale frame (%s)", GST_PAD_NAME(it->pad), old_pose ? "older pose" : "late");
-        gst_aggregator_pad_drop_buffer(it->pad);
-        gst_buffer_unref(it->buf);
-        gst_object_unref(it->pad);
-        it = inputs.erase(it);
-        dropped = true;
-      } else {
-        ++it;
-      }
-    }
-    if (dropped && !timeout) {
-      for (auto& in : inputs) {
-        gst_buffer_unref(in.buf);
-        gst_object_unref(in.pad);
-      }
-      return GST_AGGREGATOR_FLOW_NEED_DATA;
-    }
-    if (inputs.empty()) return GST_AGGREGATOR_FLOW_NEED_DATA;
-  }
-
-  GstFlowReturn ret = GST_FLOW_OK;
-  GstClockTime rt = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
-  std::vector<WarpedView> views(inputs.size());
-  std::vector<const WarpedView*> ptrs;
-  std::vector<std::unique_ptr<RgbdFrame>> frames;
-  PoseMeta pose{};
-  bool have_pose = false;
+  FuseRound round;
+  std::vector<RgbdInfo> infos;
   FuseParams params;
   {
     std::lock_guard<std::mutex> g(st->lock);
+    round = st->inputs.decide(pending, ctx);
+    for (GstAggregatorPad* pad : pads) infos.push_back(st->pad_info[pad]);
     params = st->params;
   }
-  for (size_t i = 0; i < inputs.size(); ++i) {
-    auto f = std::make_unique<RgbdFrame>();
-    std::string err;
-    // A gap (a camera that said it has nothing for this time) is normal: skip it quietly.
-    if (GST_BUFFER_FLAG_IS_SET(inputs[i].buf, GST_BUFFER_FLAG_GAP) || gst_buffer_get_size(inputs[i].buf) == 0)
-      continue;
-    if (!f->map(inputs[i].buf, inputs[i].info, GST_MAP_READ, &err)) {
-      GST_ELEMENT_WARNING(self, STREAM, FAILED, ("pad %s: %s (frame skipped)", GST_PAD_NAME(inputs[i].pad),
-                                                 err.c_str()),
-                          (nullptr));
-      continue;
+  for (const auto& c : round.status_changes) post_camera_status(self, c, round.missing, round.all_lost);
+  for (const auto& w : round.warnings) GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("%s", w.c_str()), (nullptr));
+  drop_buffers(pads, round.verdicts, FrameVerdict::kLeftOut);
+  for (size_t i = 0; i < pads.size(); ++i)
+    if (round.verdicts[i] == FrameVerdict::kOlderPose || round.verdicts[i] == FrameVerdict::kLate) {
+      GST_LOG_OBJECT(self, "%s: dropping a stale frame (%s)", GST_PAD_NAME(pads[i]),
+                     round.verdicts[i] == FrameVerdict::kOlderPose ? "older pose" : "late");
+      gst_aggregator_pad_drop_buffer(pads[i]);
     }
-    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
-    ptrs.push_back(&views[i]);
-    frames.push_back(std::move(f));
-    // The newest input is what the frame is as fresh as.
-    const GstClockTime t = aggregator_pad_running_time(inputs[i].pad, inputs[i].buf);
-    if (GST_CLOCK_TIME_IS_VALID(t) && (!GST_CLOCK_TIME_IS_VALID(rt) || t > rt)) {
-      rt = t;
-      duration = GST_BUFFER_DURATION(inputs[i].buf);
-    }
-    if (PoseMeta* m = buffer_get_pose_meta(inputs[i].buf); m && (!have_pose || m->seq < pose.seq)) {
-      pose = *m;
-      have_pose = true;
-    }
+  GstFlowReturn ret = GST_AGGREGATOR_FLOW_NEED_DATA;
+  if (round.action == RoundAction::kRepeatLast) {
+    const GstClockTime latency = gst_aggregator_get_latency(agg);
+    ret = push_picture(self, round.banner, now > latency ? now - latency : 0, kIdleWake, nullptr);
+  } else if (round.action == RoundAction::kFuse) {
+    ret = fuse_and_push(self, pads, bufs, infos, pending, round, params);
   }
-  if (!ptrs.empty() && st->have_out) {
-    try {
-      fuse_views(ptrs, params, &st->fused);
-    } catch (const cv::Exception& e) {
-      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
-      st->have_fused = false;
-      ret = GST_FLOW_ERROR;
-      goto done;
-    }
-    st->have_fused = true;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      ++st->frames;
-    }
-    frames.clear();
-    for (auto& in : inputs) gst_aggregator_pad_drop_buffer(in.pad);
-    send_trace_pose(self);
-    ret = push_picture(self, banner, rt, duration, have_pose ? &pose : nullptr);
-  } else {
-    for (auto& in : inputs) gst_aggregator_pad_drop_buffer(in.pad);
+  for (size_t i = 0; i < pads.size(); ++i) {
+    gst_buffer_unref(bufs[i]);
+    gst_object_unref(pads[i]);
   }
-done:
-  frames.clear();
-  for (auto& in : inputs) {
-    gst_buffer_unref(in.buf);
-    gst_object_unref(in.pad);
-  }
-  GST_LOG_OBJECT(self, "fused %zu inputs (timeout %d)", ptrs.size(), timeout);
   return ret;
 }
 
@@ -537,14 +401,9 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     std::lock_guard<std::mutex> g(st->lock);
     path = st->trace_path;
     st->frames = 0;
-  }
-  {
     // Request pads outlive a restart; their caps (maybe a new virtual size) come again.
-    std::lock_guard<std::mutex> g(st->lock);
     st->pad_info.clear();
-    st->pad_rejected.clear();
-    st->pad_warnings.clear();
-    st->liveness.clear();
+    st->inputs.clear();
   }
   st->trace.clear();
   st->trace_next = 0;
@@ -566,20 +425,12 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
   return TRUE;
 }
 
-static GstAggregatorPad* gst_view_fuse_create_new_pad(GstAggregator* agg, GstPadTemplate* templ,
-                                                      const gchar* req_name, const GstCaps* caps) {
-  return GST_AGGREGATOR_CLASS(gst_view_fuse_parent_class)->create_new_pad(agg, templ, req_name, caps);
-}
-
 static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
   GstViewFuse* self = GST_VIEW_FUSE(element);
   {
     std::lock_guard<std::mutex> g(self->st->lock);
-    const auto it = self->st->pad_info.find(pad);
-    if (it != self->st->pad_info.end()) self->st->liveness.forget(it->second.camera.id);
     self->st->pad_info.erase(pad);
-    self->st->pad_rejected.erase(pad);
-    self->st->pad_warnings.erase(pad);
+    self->st->inputs.release(pad);
   }
   GST_ELEMENT_CLASS(gst_view_fuse_parent_class)->release_pad(element, pad);
 }
@@ -587,6 +438,7 @@ static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
 static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
   FuseState* st = GST_VIEW_FUSE(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
+  FuseInputsParams inputs = st->inputs.params();
   switch (prop_id) {
     case PROP_POSE_TRACE:
       st->trace_path = g_value_get_string(value) ? g_value_get_string(value) : "";
@@ -598,17 +450,18 @@ static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GVa
       st->params.fill_holes = g_value_get_boolean(value);
       break;
     case PROP_POSE_WINDOW:
-      st->pose_window = g_value_get_uint64(value);
+      inputs.pose_window_ns = int64_t(g_value_get_uint64(value));
       break;
     case PROP_CAMERA_TIMEOUT:
-      st->liveness.set_timeout(int64_t(g_value_get_uint64(value)));
+      inputs.camera_timeout_ns = int64_t(g_value_get_uint64(value));
       break;
     case PROP_SHOW_MISSING:
-      st->show_missing = g_value_get_boolean(value);
+      inputs.show_missing = g_value_get_boolean(value);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
+  st->inputs.set_params(inputs);
 }
 
 static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
@@ -625,13 +478,13 @@ static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* v
       g_value_set_boolean(value, st->params.fill_holes);
       break;
     case PROP_POSE_WINDOW:
-      g_value_set_uint64(value, st->pose_window);
+      g_value_set_uint64(value, guint64(st->inputs.params().pose_window_ns));
       break;
     case PROP_CAMERA_TIMEOUT:
-      g_value_set_uint64(value, guint64(st->liveness.timeout()));
+      g_value_set_uint64(value, guint64(st->inputs.params().camera_timeout_ns));
       break;
     case PROP_SHOW_MISSING:
-      g_value_set_boolean(value, st->show_missing);
+      g_value_set_boolean(value, st->inputs.params().show_missing);
       break;
     case PROP_FRAMES_FUSED:
       g_value_set_uint64(value, st->frames);
@@ -654,6 +507,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   gobject_class->get_property = gst_view_fuse_get_property;
   gobject_class->finalize = gst_view_fuse_finalize;
   const FuseParams d;
+  const FuseInputsParams di;
   g_object_class_install_property(
       gobject_class, PROP_POSE_TRACE,
       g_param_spec_string("pose-trace", "Pose trace",
@@ -679,7 +533,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           "Live: cameras' frames warped for poses the viewer took at most this many ns apart are "
                           "fused together; a frame warped for an older pose is dropped and its fresh one awaited "
                           "(0: only frames of exactly the same pose). The output is stamped with the oldest pose",
-                          0, G_MAXINT64, kDefaultPoseWindow,
+                          0, G_MAXINT64, guint64(di.pose_window_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_CAMERA_TIMEOUT,
@@ -687,14 +541,15 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           "Live: a camera without a frame for this many ns is lost: a bus warning and a "
                           "vclassroom-camera-status element message (camera-id, status lost/returned, silent-ns, "
                           "missing), the same when it returns; the view goes on with the others (0: never lost)",
-                          0, G_MAXINT64, kDefaultCameraTimeout,
+                          0, G_MAXINT64, guint64(di.camera_timeout_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_SHOW_MISSING,
       g_param_spec_boolean("show-missing", "Show missing cameras",
                            "Draw a banner naming the lost cameras ('camera 2 missing') into the top-left corner of "
                            "the output; with every camera lost, keep sending the last picture so marked",
-                           TRUE, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+                           di.show_missing,
+                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_FRAMES_FUSED,
       g_param_spec_uint64("frames-fused", "Frames fused", "Output frames produced since start", 0, G_MAXUINT64, 0,
@@ -719,7 +574,6 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   agg_class->update_src_caps = GST_DEBUG_FUNCPTR(gst_view_fuse_update_src_caps);
   agg_class->start = GST_DEBUG_FUNCPTR(gst_view_fuse_start);
   agg_class->flush = GST_DEBUG_FUNCPTR(gst_view_fuse_flush);
-  agg_class->create_new_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_create_new_pad);
   agg_class->get_next_time = GST_DEBUG_FUNCPTR(gst_view_fuse_get_next_time);
   element_class->release_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_release_pad);
   GST_DEBUG_CATEGORY_INIT(view_fuse_debug, "viewfuse", 0, "view fusion");

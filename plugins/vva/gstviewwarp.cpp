@@ -17,6 +17,7 @@
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/view_warp.h>
+#include <gst/vclassroom/virtual_view.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_warp_debug);
 #define GST_CAT_DEFAULT view_warp_debug
@@ -62,18 +63,6 @@ struct WarpState {
   WarpedView warped;
 };
 
-// The virtual camera's intrinsics at the negotiated size.
-CameraCalib virtual_base(const CameraCalib& src, int width, int height, double fov) {
-  CameraCalib v = (width > 0 && height > 0 && (width != src.width || height != src.height))
-                      ? scale_camera(src, width, height)
-                      : src;
-  v.distortion = {0, 0, 0, 0, 0};
-  v.depth_to_color.reset();
-  if (fov > 0) v.fx = v.fy = 0.5 * v.width / std::tan(0.5 * fov * M_PI / 180.0);
-  v.cam_to_rig = Eigen::Isometry3d::Identity();
-  return v;
-}
-
 }  // namespace
 
 struct _GstViewWarp {
@@ -102,7 +91,7 @@ static bool output_info(GstViewWarp* self, const RgbdInfo& in, RgbdInfo* out) {
     initial = self->st->pose.cam_to_rig();
   }
   *out = in;
-  out->camera = virtual_base(in.camera, w, h, fov);
+  out->camera = virtual_view_base(in.camera, w, h, fov);
   // The caps show the view at negotiation time; each buffer's pose meta says which pose it shows.
   out->camera.cam_to_rig = initial;
   out->planes = {Plane::Color, Plane::Depth, Plane::Label, Plane::Weight};
@@ -241,21 +230,11 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     params.boundary_px = st->boundary_px;
   }
   if (!st->trace.empty()) {
-    // The frame's own moment of the trace: every camera's frame of one
-    // instant gets the same pose, however far apart their threads run.
+    // The frame's own moment of the trace (trace_pose_for_frame()).
     const bool timed = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf);
     const GstClockTime rt =
         timed ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf)) : GST_CLOCK_TIME_NONE;
-    // Without a running time the trace goes by frame number, whatever its t column.
-    const size_t i = GST_CLOCK_TIME_IS_VALID(rt) && !std::isnan(st->trace.front().t)
-                         ? pose_trace_index(st->trace, double(rt) / GST_SECOND, st->frames)
-                         : std::min<size_t>(st->frames, st->trace.size() - 1);
-    pose = st->trace[i].pose;
-    pose.seq = i + 1;
-    // The trace's own time as the viewer time: viewfuse's pose window then
-    // compares the poses of two cameras by how far apart the trace has them.
-    const double t = st->trace[i].t;
-    pose.viewer_time_ns = std::isnan(t) ? -1 : int64_t(std::llround(t * 1e9));
+    pose = trace_pose_for_frame(st->trace, GST_CLOCK_TIME_IS_VALID(rt) ? double(rt) / GST_SECOND : NAN, st->frames);
   }
   ++st->frames;
   RgbdFrame in, out;
