@@ -10,6 +10,7 @@
 #include "gstposerecv.h"
 #include "gstposesend.h"
 #include "gstrtphdrextvcpose.h"
+#include "gstsenderfilter.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
@@ -18,6 +19,7 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok &= gst_element_register(plugin, "posesend", GST_RANK_NONE, GST_TYPE_POSE_SEND);
   ok &= gst_element_register(plugin, "poserecv", GST_RANK_NONE, GST_TYPE_POSE_RECV);
   ok &= gst_element_register(plugin, "rtphdrextvcpose", GST_RANK_MARGINAL, GST_TYPE_RTP_HEADER_EXTENSION_VC_POSE);
+  ok &= gst_element_register(plugin, "senderfilter", GST_RANK_NONE, GST_TYPE_SENDER_FILTER);
   return ok;
 }
 
