@@ -5,6 +5,8 @@
 #   RIG (rig file the sliders refer to; empty: the rig origin), SLIDERS (start view, default [50,50,50,50,50,50]),
 #   POSE_TRACE (CSV; empty: interactive), SINK (default autovideosink; e.g. "fakesink" or a file branch),
 #   MTU (largest RTP packet from the server, default 1400; as server.sh).
+#   VIDEO_SENDERS (addresses the video is taken from, default SERVER): packets from elsewhere, or a second
+#   video stream, are dropped and counted (senderfilter, docs/network.md).
 set -euo pipefail
 SERVER=${SERVER:-127.0.0.1}
 VIDEO_PORT=${VIDEO_PORT:-5010}
@@ -12,6 +14,13 @@ POSE_PORT=${POSE_PORT:-5011}
 SLIDERS=${SLIDERS:-"[50,50,50,50,50,50]"}
 SINK=${SINK:-autovideosink}
 MTU=${MTU:-1400}
+VIDEO_SENDERS=${VIDEO_SENDERS:-$SERVER}
+for p in "$VIDEO_PORT" "$POSE_PORT"; do
+  if ! [[ $p =~ ^[0-9]+$ ]] || [ "$p" -lt 1 ] || [ "$p" -gt 65535 ]; then
+    echo "lecturer.sh: ports must be 1 to 65535 (got '$p')" >&2
+    exit 2
+  fi
+done
 if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "lecturer.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
   exit 2
@@ -23,7 +32,7 @@ nav="sliders=\"$SLIDERS\""
 # argument and handles the quotes inside them itself.
 set -f
 desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
-  rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! posenav $nav ! $SINK \
+  senderfilter name=from_server allow=$VIDEO_SENDERS ! rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! posenav $nav ! $SINK \
   back.rtp ! udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $desc

@@ -45,9 +45,9 @@ struct _GstSenderFilter {
 G_DEFINE_TYPE(GstSenderFilter, gst_sender_filter, GST_TYPE_BASE_TRANSFORM)
 
 static GstStaticPadTemplate sink_template =
-    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp"));
+    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp; application/x-rtcp"));
 static GstStaticPadTemplate src_template =
-    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp"));
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp; application/x-rtcp"));
 
 static GstMessage* stats_message(GstSenderFilter* self, const SenderFilter& f) {
   return gst_message_new_element(
@@ -260,8 +260,8 @@ static void gst_sender_filter_class_init(GstSenderFilterClass* klass) {
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(
       element_class, "RTP sender filter", "Network/Filter",
-      "Put it right after udpsrc: passes RTP only from the allowed source addresses and, with lock-ssrc, one "
-      "SSRC per payload type; counts and drops the rest (vclassroom-sender-stats messages, rate-limited "
+      "Put it right after udpsrc: passes RTP (or RTCP, with lock-ssrc=false) only from the allowed source "
+      "addresses and, with lock-ssrc, one SSRC per payload type; counts and drops the rest (vclassroom-sender-stats messages, rate-limited "
       "warnings). Example: gst-launch-1.0 udpsrc port=5000 caps=application/x-rtp ! "
       "senderfilter allow=127.0.0.1,10.0.0.7 ! fakesink",
       "gst-vclassroom developers");
