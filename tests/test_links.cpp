@@ -449,3 +449,115 @@ TEST(CameraLink, NoLossDeliversEveryFrameAfterTheFirstCaps) {
   // may be cut.
   EXPECT_GE(r.delivered, frames - first_second - 1) << r.detail;
 }
+
+namespace {
+
+struct ScriptRun {
+  bool ended = false;
+  int status = -1;
+  std::string output;
+};
+
+// Runs bash SCRIPT from pipelines/ with extra environment, waiting at most `limit` for it to end (a
+// bounded wait on the child, not a sleep); a script still running then is killed and reported as not ended.
+ScriptRun run_script(const std::string& script, const std::vector<std::string>& env, guint limit_s) {
+  ScriptRun r;
+  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
+  const std::string path = std::string(source_dir ? source_dir : ".") + "/pipelines/" + script;
+  GSubprocessLauncher* launcher =
+      g_subprocess_launcher_new(GSubprocessFlags(G_SUBPROCESS_FLAGS_STDOUT_PIPE | G_SUBPROCESS_FLAGS_STDERR_MERGE));
+  for (const std::string& e : env) {
+    const size_t eq = e.find('=');
+    g_subprocess_launcher_setenv(launcher, e.substr(0, eq).c_str(), e.substr(eq + 1).c_str(), TRUE);
+  }
+  GError* err = nullptr;
+  GSubprocess* child = g_subprocess_launcher_spawn(launcher, &err, "bash", path.c_str(), nullptr);
+  g_object_unref(launcher);
+  if (!child) {
+    ADD_FAILURE() << "cannot start " << path << ": " << (err ? err->message : "");
+    g_clear_error(&err);
+    return r;
+  }
+  GMainContext* context = g_main_context_new();
+  g_main_context_push_thread_default(context);
+  GMainLoop* loop = g_main_loop_new(context, FALSE);
+  struct Wait {
+    GMainLoop* loop;
+    std::string output;
+  } wait{loop, ""};
+  g_subprocess_communicate_utf8_async(
+      child, nullptr, nullptr,
+      [](GObject* source, GAsyncResult* res, gpointer data) {
+        auto* w = static_cast<Wait*>(data);
+        gchar* out = nullptr;
+        if (g_subprocess_communicate_utf8_finish(G_SUBPROCESS(source), res, &out, nullptr, nullptr) && out)
+          w->output = out;
+        g_free(out);
+        g_main_loop_quit(w->loop);
+      },
+      &wait);
+  GSource* timeout = g_timeout_source_new_seconds(limit_s);
+  g_source_set_callback(
+      timeout, [](gpointer l) -> gboolean {
+        g_main_loop_quit(static_cast<GMainLoop*>(l));
+        return G_SOURCE_REMOVE;
+      },
+      loop, nullptr);
+  g_source_attach(timeout, context);
+  g_main_loop_run(loop);
+  g_source_destroy(timeout);
+  g_source_unref(timeout);
+  r.ended = g_subprocess_get_if_exited(child);
+  if (r.ended) {
+    r.status = g_subprocess_get_exit_status(child);
+  } else {
+    g_subprocess_force_exit(child);
+    g_subprocess_wait(child, nullptr, nullptr);
+    // Let the cancelled read finish before the loop goes.
+    while (g_main_context_iteration(context, FALSE)) {
+    }
+  }
+  r.output = wait.output;
+  g_main_loop_unref(loop);
+  g_main_context_pop_thread_default(context);
+  g_main_context_unref(context);
+  g_object_unref(child);
+  return r;
+}
+
+std::string port_base() { return std::to_string(10000 + vctest::free_udp_port() % 50000); }
+
+}  // namespace
+
+// A camera whose source ends (end-of-stream) ends classroom.sh, retransmission session and all.
+TEST(Scripts, ClassroomEndsAtEndOfStream) {
+  ScriptRun r = run_script("classroom.sh",
+                           {"SOURCE=rgbdtestsrc num-buffers=3 ground-truth=false",
+                            "PORT=" + std::to_string(vctest::free_udp_port()),
+                            "NACK_PORT=" + std::to_string(vctest::free_udp_port())},
+                           120);
+  EXPECT_TRUE(r.ended) << r.output;
+  EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// loopback.sh with a server that cannot start returns (with the server's status) instead of waiting forever
+// for the lecturer and the cameras.
+TEST(Scripts, LoopbackReturnsWhenTheServerFailsToStart) {
+  ScriptRun r = run_script("loopback.sh",
+                           {"PREP_NICE=99", "CAMERAS=0", "SINK=fakesink", "PORT_BASE=" + port_base(),
+                            "STOP_GRACE=3"},
+                           120);
+  EXPECT_TRUE(r.ended) << r.output;
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("PREP_NICE"), std::string::npos) << r.output;
+}
+
+// Ports are checked before anything starts.
+TEST(Scripts, BadPortsAreRefused) {
+  ScriptRun r = run_script("server.sh", {"POSE_PORT=70000"}, 60);
+  EXPECT_TRUE(r.ended);
+  EXPECT_EQ(r.status, 2) << r.output;
+  r = run_script("classroom.sh", {"NACK_PORT=x"}, 60);
+  EXPECT_TRUE(r.ended);
+  EXPECT_EQ(r.status, 2) << r.output;
+}
