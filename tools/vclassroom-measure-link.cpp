@@ -159,7 +159,7 @@ GstPadProbeReturn on_frame(GstPad*, GstPadProbeInfo*, gpointer data) {
 }
 
 struct Row {
-  size_t sent = 0, delivered = 0;
+  size_t sent = 0, delivered = 0, frames_timed = 0;
   double p50 = 0, p99 = 0, mbit = 0;
   bool ok = true;
 };
@@ -253,6 +253,7 @@ Row run(const Scheme& scheme, const vclassroom_tools::Recording& rec, double los
   gst_object_unref(rx);
   row.sent = frames;
   row.delivered = decoded;
+  row.frames_timed = probes.latency_ms.size();
   row.p50 = percentile(probes.latency_ms, 0.5);
   row.p99 = percentile(probes.latency_ms, 0.99);
   row.mbit = probes.wire_bytes * 8 / 1e6 / std::max(seconds, 1e-3);
@@ -311,8 +312,10 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s, %g %% loss, %d s...\n", scheme.name, loss, seconds);
       Row r = run(scheme, rec, loss / 100, frames, guint32(seed));
       if (!r.ok) status = 1;
-      std::printf("| %s | %g %% | %zu / %zu (%.0f %%) | %.1f / %.1f | %.1f |\n", scheme.name, loss, r.delivered,
-                  r.sent, 100.0 * r.delivered / std::max<size_t>(r.sent, 1), r.p50, r.p99, r.mbit);
+      char latency[64] = "–";
+      if (r.frames_timed > 0) std::snprintf(latency, sizeof latency, "%.1f / %.1f", r.p50, r.p99);
+      std::printf("| %s | %g %% | %zu / %zu (%.0f %%) | %s | %.1f |\n", scheme.name, loss, r.delivered, r.sent,
+                  100.0 * r.delivered / std::max<size_t>(r.sent, 1), latency, r.mbit);
       std::fflush(stdout);
     }
   return status;
