@@ -561,3 +561,29 @@ TEST(Scripts, BadPortsAreRefused) {
   EXPECT_TRUE(r.ended);
   EXPECT_EQ(r.status, 2) << r.output;
 }
+
+// What a person reads: the element, what was dropped, from where, and what is allowed.
+TEST(SenderFilterElement, WarningSaysWhatWhereAndWhatIsAllowed) {
+  GstHarness* h = gst_harness_new("senderfilter");
+  GstBus* bus = gst_bus_new();
+  gst_element_set_bus(h->element, bus);
+  gst_element_set_state(h->element, GST_STATE_NULL);
+  gst_harness_set(h, "senderfilter", "allow", "10.0.0.7", nullptr);
+  gst_harness_play(h);
+  gst_harness_set_src_caps_str(h, "application/x-rtp");
+  EXPECT_EQ(gst_harness_push(h, rtp_from("10.0.0.9", 1, 1)), GST_FLOW_OK);
+  EXPECT_EQ(gst_harness_buffers_received(h), 0u);
+  std::string text;
+  while (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_WARNING)) {
+    GError* err = nullptr;
+    gst_message_parse_warning(m, &err, nullptr);
+    text = err ? err->message : "";
+    g_clear_error(&err);
+    gst_message_unref(m);
+  }
+  gst_object_unref(bus);
+  EXPECT_NE(text.find("a packet dropped from a sender not allowed"), std::string::npos) << text;
+  EXPECT_NE(text.find("10.0.0.9"), std::string::npos) << text;
+  EXPECT_NE(text.find("allowed: 10.0.0.7"), std::string::npos) << text;
+  gst_harness_teardown(h);
+}

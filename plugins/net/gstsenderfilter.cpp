@@ -118,25 +118,26 @@ static GstFlowReturn gst_sender_filter_transform_ip(GstBaseTransform* trans, Gst
         break;
       case SenderFilter::Verdict::kForeignAddress:
         limiter = &st->address_warnings;
-        one = "a packet from a sender not allowed";
-        many = "packets from senders not allowed";
+        one = "a packet dropped from a sender not allowed";
+        many = "packets dropped from senders not allowed";
         break;
       case SenderFilter::Verdict::kForeignSsrc:
         limiter = &st->ssrc_warnings;
-        one = "a packet of a second RTP stream (another SSRC)";
-        many = "packets of a second RTP stream (another SSRC)";
+        one = "a packet dropped as a second RTP stream (another SSRC)";
+        many = "packets dropped as a second RTP stream (another SSRC)";
         break;
       case SenderFilter::Verdict::kNotRtp:
         limiter = &st->malformed_warnings;
-        one = "a packet that is not RTP";
-        many = "packets that are not RTP";
+        one = "a packet dropped as not RTP";
+        many = "packets dropped as not RTP";
         break;
     }
     uint64_t count = 0;
     int64_t span = 0;
     if (limiter && limiter->note(now, &count, &span)) {
-      warning = describe_occurrences(count, one, many, GST_OBJECT_NAME(self), span) + " dropped (the latest from " +
-                source_text + "; allowed: " + (st->allow.empty() ? std::string("any") : st->allow) + ")";
+      warning = std::string(GST_OBJECT_NAME(self)) + ": " + describe_occurrences(count, one, many, "", span) +
+                " (the latest from " + source_text + "; allowed: " +
+                (st->allow.empty() ? std::string("any") : st->allow) + ")";
       stats = stats_message(self, *st->filter);
     }
   }
