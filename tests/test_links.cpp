@@ -15,6 +15,7 @@
 
 #include <gst/vclassroom/error.h>
 #include <gst/vclassroom/sender_filter.h>
+#include <gst/vclassroom/srtp_key.h>
 
 #include "test_util.h"
 
@@ -266,6 +267,7 @@ std::string wait_for_sink_eos(GstElement* pipeline, GstElement* appsink, GstCloc
 // end-of-stream and drains.
 struct Scheme {
   std::string sender, sender_rtcp, receiver, receiver_rtcp;
+  std::string media_type = "application/x-rtp";  // application/x-srtp for an encrypted link
 };
 
 LinkResult run_link(const Scheme& scheme, double loss, size_t frames, uint32_t seed) {
@@ -284,8 +286,8 @@ LinkResult run_link(const Scheme& scheme, double loss, size_t frames, uint32_t s
       scheme.sender + " udpsink name=net host=127.0.0.1 port=" + std::to_string(rtp_port) + " sync=false");
   const std::string rx_desc = ports(
       scheme.receiver_rtcp + " udpsrc port=" + std::to_string(rtp_port) +
-      " buffer-size=33554432 mtu=1500 caps=\"application/x-rtp,media=application,clock-rate=90000,"
-      "encoding-name=X-GST,payload=96\" ! " +
+      " buffer-size=33554432 mtu=1500 caps=\"" + scheme.media_type +
+      ",media=application,clock-rate=90000,encoding-name=X-GST,payload=96\" ! " +
       scheme.receiver + " rtpgstdepay ! rgbddec ! appsink name=out sync=false");
   GError* err = nullptr;
   GstElement* tx = gst_parse_launch(tx_desc.c_str(), &err);
@@ -586,4 +588,63 @@ TEST(SenderFilterElement, WarningSaysWhatWhereAndWhatIsAllowed) {
   EXPECT_NE(text.find("10.0.0.9"), std::string::npos) << text;
   EXPECT_NE(text.find("allowed: 10.0.0.7"), std::string::npos) << text;
   gst_harness_teardown(h);
+}
+
+namespace {
+
+// A key file as the docs make one (30 bytes), and the hex that srtpenc takes.
+std::string write_key(const vctest::TempDir& dir, const std::string& name, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::string bytes;
+  for (size_t i = 0; i < vclassroom::kSrtpKeyBytes; ++i) bytes += char(rng() & 0xff);
+  vctest::write_text(dir / name, bytes);
+  return dir / name;
+}
+
+std::string key_hex(const std::string& path) { return vclassroom::to_hex(vclassroom::read_srtp_key(path)); }
+
+Scheme encrypted(Scheme s, const std::string& sender_key_hex, const std::string& receiver_key_file) {
+  s.sender += " srtpenc key=" + sender_key_hex + " !";
+  s.receiver = "srtpfiledec key-file=" + receiver_key_file + " ! " + s.receiver;
+  s.media_type = "application/x-srtp";
+  return s;
+}
+
+bool have_srtp() {
+  GstElementFactory* f = gst_element_factory_find("srtpenc");
+  if (f) gst_object_unref(f);
+  return f != nullptr;
+}
+
+}  // namespace
+
+TEST(SrtpKey, ReadsExactlyThirtyBytes) {
+  vctest::TempDir dir;
+  const std::string good = write_key(dir, "good.key", 1);
+  EXPECT_EQ(vclassroom::read_srtp_key(good).size(), 30u);
+  EXPECT_EQ(key_hex(good).size(), 60u);
+  vctest::write_text(dir / "short.key", "0123456789");
+  EXPECT_THROW(vclassroom::read_srtp_key(dir / "short.key"), vclassroom::Error);
+  vctest::write_text(dir / "long.key", std::string(31, 'x'));
+  EXPECT_THROW(vclassroom::read_srtp_key(dir / "long.key"), vclassroom::Error);
+  EXPECT_THROW(vclassroom::read_srtp_key(dir / "missing.key"), vclassroom::Error);
+}
+
+// An SRTP camera link (retransmission included: the resent packets are another SSRC, which srtpfiledec
+// keys too) carries the frames; packets encrypted with another key are all dropped.
+TEST(SrtpLink, CarriesFramesWithTheKeyAndNoneWithAnother) {
+  if (!have_srtp()) GTEST_SKIP() << "srtpenc/srtpdec (gstreamer1.0-plugins-bad) are not installed";
+  vctest::TempDir dir;
+  const std::string key = write_key(dir, "srtp.key", 7), other = write_key(dir, "other.key", 8);
+  const size_t frames = 90, first_second = 30;
+  LinkResult r = run_link(encrypted(kRetransmission, key_hex(key), key), 0.05, frames, 17);
+  EXPECT_EQ(r.error, "");
+  EXPECT_GE(r.delivered, (frames - first_second) * 9 / 10) << r.detail;
+  LinkResult wrong = run_link(encrypted(kPlain, key_hex(other), key), 0.0, 60, 1);
+  EXPECT_EQ(wrong.error, "");
+  EXPECT_EQ(wrong.delivered, 0u);
+  LinkResult right = run_link(encrypted(kPlain, key_hex(key), key), 0.0, 60, 1);
+  EXPECT_GE(right.delivered, 60u - first_second - 1);
+  std::printf("SRTP: %zu of %zu frames at 5 %% loss with retransmission; another key %zu, same key %zu of 60\n",
+              r.delivered, frames, wrong.delivered, right.delivered);
 }

@@ -45,9 +45,9 @@ struct _GstSenderFilter {
 G_DEFINE_TYPE(GstSenderFilter, gst_sender_filter, GST_TYPE_BASE_TRANSFORM)
 
 static GstStaticPadTemplate sink_template =
-    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp; application/x-rtcp"));
+    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp; application/x-rtcp; application/x-srtp; application/x-srtcp"));
 static GstStaticPadTemplate src_template =
-    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp; application/x-rtcp"));
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp; application/x-rtcp; application/x-srtp; application/x-srtcp"));
 
 static GstMessage* stats_message(GstSenderFilter* self, const SenderFilter& f) {
   return gst_message_new_element(
