@@ -10,8 +10,11 @@
 #   MTU (largest RTP packet, default 1400 for an Ethernet link; a jumbo-frame LAN takes about 9000,
 #   loopback up to 65000; the server's MTU must be as large),
 #   RTX (1: retransmit lost packets on request, default; 0: plain RTP as before, for comparisons; the
-#   server's RTX must match), RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500).
+#   server's RTX must match), RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
+#   SRTP_KEY (a 30-byte key file: the frames leave encrypted with SRTP; the server needs the same file).
 set -euo pipefail
+# shellcheck source=pipelines/srtp.sh
+. "$(dirname "$0")/srtp.sh"
 CAMERA=${CAMERA:-0}
 SERVER=${SERVER:-127.0.0.1}
 PORT=${PORT:-$((5000 + CAMERA))}
@@ -45,9 +48,9 @@ if [ "$RTX" = 1 ]; then
   send_session="rtpsession name=session rtp-profile=avpf \
     udpsrc port=$NACK_PORT caps=application/x-rtcp ! senderfilter lock-ssrc=false allow=$SERVER ! session.recv_rtcp_sink"
   to_session="rtprtxsend payload-type-map=application/x-rtp-pt-map,96=(uint)97 max-size-time=$RTX_KEEP_MS max-size-packets=0 ! \
-    session.send_rtp_sink session.send_rtp_src ! identity drop-probability=$DROP ! udpsink host=$SERVER port=$PORT sync=false"
+    session.send_rtp_sink session.send_rtp_src ! identity drop-probability=$DROP ! $SRTP_ENC udpsink host=$SERVER port=$PORT sync=false"
 else
-  to_session="identity drop-probability=$DROP ! $to_session"
+  to_session="identity drop-probability=$DROP ! $SRTP_ENC $to_session"
 fi
 set -f
 # shellcheck disable=SC2086

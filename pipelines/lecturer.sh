@@ -7,7 +7,10 @@
 #   MTU (largest RTP packet from the server, default 1400; as server.sh).
 #   VIDEO_SENDERS (addresses the video is taken from, default SERVER): packets from elsewhere, or a second
 #   video stream, are dropped and counted (senderfilter, docs/network.md).
+#   SRTP_KEY (a 30-byte key file: video in and poses out are SRTP; the server needs the same file).
 set -euo pipefail
+# shellcheck source=pipelines/srtp.sh
+. "$(dirname "$0")/srtp.sh"
 SERVER=${SERVER:-127.0.0.1}
 VIDEO_PORT=${VIDEO_PORT:-5010}
 POSE_PORT=${POSE_PORT:-5011}
@@ -31,8 +34,8 @@ nav="sliders=\"$SLIDERS\""
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
-desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
-  senderfilter name=from_server allow=$VIDEO_SENDERS ! rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! posenav $nav ! $SINK \
-  back.rtp ! udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
+desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
+  senderfilter name=from_server allow=$VIDEO_SENDERS ! $(srtp_dec) rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! posenav $nav ! $SINK \
+  back.rtp ! $SRTP_ENC udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $desc

@@ -17,7 +17,11 @@
 #   RTX_LATENCY (ms a camera packet may wait for its retransmission, default 300).
 #   Packets from other addresses, or a second RTP stream on a camera port, are dropped and counted
 #   (senderfilter, docs/network.md); the pose port takes packets only from LECTURER.
+#   SRTP_KEY (a 30-byte key file: every RTP link in and out is SRTP, with the cameras' and the lecturer's
+#   same file; docs/network.md).
 set -euo pipefail
+# shellcheck source=pipelines/srtp.sh
+. "$(dirname "$0")/srtp.sh"
 CAMERAS=${CAMERAS:-"0 1 2"}
 BASE_PORT=${BASE_PORT:-5000}
 LECTURER=${LECTURER:-127.0.0.1}
@@ -55,7 +59,7 @@ read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
 read -r -a camera_hosts <<< "${CAMERA_HOSTS:-127.0.0.1}"
 read -r -a nack_ports <<< "${CAMERA_NACK_PORTS:-}"
 for p in "$VIDEO_PORT" "$POSE_PORT"; do check_port "$p"; done
-RTP_CAPS="application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,payload=96"
+RTP_CAPS="$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,payload=96"
 branches=""
 i=0
 host=${camera_hosts[0]}
@@ -75,7 +79,7 @@ for k in $CAMERAS; do
   # out at once; rtcp-min-interval and bandwidth let it send one every few ms, as a LAN's RTT is tiny) whose
   # requests rtprtxreceive matches with the resent packets before the jitter buffer. probation=0: the first
   # packet carries the stream's caps and must not be dropped while the session validates the sender.
-  receive="udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host !"
+  receive="udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host ! $(srtp_dec)"
   if [ "$RTX" = 1 ]; then
     branches="$branches rtpsession name=link$k probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 \
       link$k.send_rtcp_src ! udpsink host=$host port=$nack_port sync=false async=false"
@@ -94,9 +98,9 @@ done
 set -f
 desc="viewfuse name=fuse latency=100000000 ! poserecv name=poses ! \
   jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=$MTU ! application/x-rtp,$POSE_EXT ! \
-  udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
-  udpsrc port=$POSE_PORT caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! \
-    senderfilter name=from_lecturer lock-ssrc=false allow=$LECTURER ! poses.rtp \
+  $SRTP_ENC udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
+  udpsrc port=$POSE_PORT caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! \
+    senderfilter name=from_lecturer lock-ssrc=false allow=$LECTURER ! $(srtp_dec) poses.rtp \
   $branches"
 # shellcheck disable=SC2086
 # STATS > 0: every STATS frames each decoder posts what it got (printed by -m).

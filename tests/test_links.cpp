@@ -648,3 +648,39 @@ TEST(SrtpLink, CarriesFramesWithTheKeyAndNoneWithAnother) {
   std::printf("SRTP: %zu of %zu frames at 5 %% loss with retransmission; another key %zu, same key %zu of 60\n",
               r.delivered, frames, wrong.delivered, right.delivered);
 }
+
+// classroom.sh with SRTP_KEY sends what srtpfiledec with the same key file decrypts into whole frames.
+TEST(SrtpLink, ClassroomScriptEncryptsItsFrames) {
+  if (!have_srtp()) GTEST_SKIP() << "srtpenc/srtpdec (gstreamer1.0-plugins-bad) are not installed";
+  vctest::TempDir dir;
+  const std::string key = write_key(dir, "srtp.key", 11);
+  const int port = vctest::free_udp_port();
+  const std::string desc = "udpsrc port=" + std::to_string(port) +
+                           " buffer-size=33554432 mtu=1500 caps=\"application/x-srtp,media=application,"
+                           "clock-rate=90000,encoding-name=X-GST,payload=96\" ! senderfilter allow=127.0.0.1 ! "
+                           "srtpfiledec key-file=" + key +
+                           " ! rtpjitterbuffer latency=300 ! rtpgstdepay ! rgbddec ! appsink name=out sync=false";
+  GError* err = nullptr;
+  GstElement* rx = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_TRUE(rx && !err) << (err ? err->message : "");
+  GstElement* out = gst_bin_get_by_name(GST_BIN(rx), "out");
+  vctest::SampleCollector got(out);
+  gst_element_set_state(rx, GST_STATE_PLAYING);
+  const size_t frames = 45;
+  ScriptRun r = run_script("classroom.sh",
+                           {"SOURCE=rgbdtestsrc num-buffers=" + std::to_string(frames) + " ground-truth=false",
+                            "PORT=" + std::to_string(port), "NACK_PORT=" + std::to_string(vctest::free_udp_port()),
+                            "SRTP_KEY=" + key},
+                           120);
+  EXPECT_TRUE(r.ended && r.status == 0) << r.output;
+  gst_element_send_event(rx, gst_event_new_eos());
+  EXPECT_EQ(wait_for_sink_eos(rx, out, 60 * GST_SECOND), "");
+  gst_element_set_state(rx, GST_STATE_NULL);
+  EXPECT_GE(got.size(), frames - 31) << "whole frames decrypted and decoded";
+  gst_object_unref(out);
+  gst_object_unref(rx);
+  // A key file of the wrong size is refused before anything starts.
+  vctest::write_text(dir / "bad.key", "too short");
+  r = run_script("classroom.sh", {"SRTP_KEY=" + (dir / "bad.key")}, 60);
+  EXPECT_EQ(r.status, 2) << r.output;
+}
