@@ -9,8 +9,8 @@
 #   STATS (0: quiet; N: every N frames rgbdenc posts vclassroom-codec-stats, printed by -m),
 #   MTU (largest RTP packet, default 1400 for an Ethernet link; a jumbo-frame LAN takes about 9000,
 #   loopback up to 65000; the server's MTU must be as large),
-#   RTX (1: retransmit lost packets on request, default; 0: plain RTP as before, for comparisons; the
-#   server's RTX must match), RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
+#   RTX (1: retransmit lost packets on request; 0: plain RTP, default for now (docs/network.md: a camera
+#   that restarts is not taken back by an RTX server); the server's RTX must match), RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
 #   SRTP_KEY (a 30-byte key file: the frames leave encrypted with SRTP; the server needs the same file).
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
@@ -23,7 +23,7 @@ QUALITY=${QUALITY:-90}
 DROP=${DROP:-0}
 STATS=${STATS:-0}
 MTU=${MTU:-1400}
-RTX=${RTX:-1}
+RTX=${RTX:-0}
 RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "classroom.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2

@@ -251,7 +251,7 @@ static void gst_sender_filter_class_init(GstSenderFilterClass* klass) {
                         "A kept SSRC silent this long gives way to a new one (a restarted sender)", 1, 600000,
                         1000, rw));
   g_object_class_install_property(gobject_class, PROP_ACCEPTED,
-                                  g_param_spec_uint64("accepted", "Accepted", "Packets passed", 0, G_MAXUINT64,
+                                  g_param_spec_uint64("accepted", "Accepted", "Packets passed on since the element started", 0, G_MAXUINT64,
                                                       0, ro));
   g_object_class_install_property(gobject_class, PROP_DROPPED,
                                   g_param_spec_uint64("dropped", "Dropped",
