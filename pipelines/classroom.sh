@@ -1,26 +1,58 @@
 #!/usr/bin/env bash
-# Classroom side, one camera: source -> rgbdenc -> RTP -> UDP to the server.
+# Classroom side, one camera: source -> rgbdenc -> RTP -> UDP to the server, with retransmission of lost
+# packets (RFC 4588): the server's RTCP NACKs come back on NACK_PORT and rtprtxsend resends (docs/network.md).
 # Variables: CAMERA (id, default 0), SERVER (host, default 127.0.0.1), PORT (default 5000 + CAMERA),
+#   NACK_PORT (port here for the server's RTCP, i.e. its retransmission requests, default PORT + 100;
+#   only packets from SERVER are taken there),
 #   SOURCE (default: the synthetic classroom's camera CAMERA, live), QUALITY (JPEG, default 90),
 #   DROP (share of packets to drop on purpose, to test a bad link; default 0).
 #   STATS (0: quiet; N: every N frames rgbdenc posts vclassroom-codec-stats, printed by -m),
 #   MTU (largest RTP packet, default 1400 for an Ethernet link; a jumbo-frame LAN takes about 9000,
-#   loopback up to 65000; the server's MTU must be as large).
+#   loopback up to 65000; the server's MTU must be as large),
+#   RTX (1: retransmit lost packets on request; 0: plain RTP, default for now (docs/network.md: a camera
+#   that restarts is not taken back by an RTX server); the server's RTX must match), RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
+#   SRTP_KEY (a 30-byte key file: the frames leave encrypted with SRTP; the server needs the same file).
 set -euo pipefail
+# shellcheck source=pipelines/srtp.sh
+. "$(dirname "$0")/srtp.sh"
 CAMERA=${CAMERA:-0}
 SERVER=${SERVER:-127.0.0.1}
 PORT=${PORT:-$((5000 + CAMERA))}
+NACK_PORT=${NACK_PORT:-$((PORT + 100))}
 QUALITY=${QUALITY:-90}
 DROP=${DROP:-0}
 STATS=${STATS:-0}
 MTU=${MTU:-1400}
+RTX=${RTX:-0}
+RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "classroom.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
   exit 2
 fi
+for p in "$PORT" "$NACK_PORT"; do
+  if ! [[ $p =~ ^[0-9]+$ ]] || [ "$p" -lt 1 ] || [ "$p" -gt 65535 ]; then
+    echo "classroom.sh: ports must be 1 to 65535 (got '$p')" >&2
+    exit 2
+  fi
+done
 SOURCE=${SOURCE:-"rgbdtestsrc camera-id=$CAMERA is-live=true ground-truth=false"}
 # STATS > 0: every STATS frames the encoder posts what it sent (printed by -m).
 verbose=""
 [ "$STATS" -gt 0 ] && verbose="-m"
-exec gst-launch-1.0 -e $verbose $SOURCE ! rgbdenc name=enc quality=$QUALITY stats-interval=$STATS ! rtpgstpay config-interval=1 mtu=$MTU ! \
-  identity drop-probability=$DROP ! udpsink host=$SERVER port=$PORT sync=false
+# The RTCP session takes the server's NACKs in (only from SERVER) and asks rtprtxsend for the packets. It
+# sends no reports of its own: the server does not need them, and rtpsession would hold end-of-stream on
+# its RTCP output (so the script would not end when the source does).
+send_session=""
+to_session="udpsink host=$SERVER port=$PORT sync=false"
+if [ "$RTX" = 1 ]; then
+  send_session="rtpsession name=session rtp-profile=avpf \
+    udpsrc port=$NACK_PORT caps=application/x-rtcp ! senderfilter lock-ssrc=false allow=$SERVER ! session.recv_rtcp_sink"
+  to_session="rtprtxsend payload-type-map=application/x-rtp-pt-map,96=(uint)97 max-size-time=$RTX_KEEP_MS max-size-packets=0 ! \
+    session.send_rtp_sink session.send_rtp_src ! identity drop-probability=$DROP ! $SRTP_ENC udpsink host=$SERVER port=$PORT sync=false"
+else
+  to_session="identity drop-probability=$DROP ! $SRTP_ENC $to_session"
+fi
+set -f
+# shellcheck disable=SC2086
+exec gst-launch-1.0 -e $verbose $send_session $SOURCE ! rgbdenc name=enc quality=$QUALITY stats-interval=$STATS ! \
+  rtpgstpay config-interval=1 mtu=$MTU pt=96 ! $to_session

@@ -5,14 +5,26 @@
 #   RIG (rig file the sliders refer to; empty: the rig origin), SLIDERS (start view, default [50,50,50,50,50,50]),
 #   POSE_TRACE (CSV; empty: interactive), SINK (default autovideosink; e.g. "fakesink" or a file branch),
 #   MTU (largest RTP packet from the server, default 1400; as server.sh),
-#   POSE_KEY (file holding the pose key shared with server.sh: every pose is tagged with it; empty: untagged).
+#   POSE_KEY (file holding the pose key shared with server.sh: every pose is tagged with it; empty: untagged),
+#   VIDEO_SENDERS (addresses the video is taken from, default SERVER): packets from elsewhere, or a second
+#   video stream, are dropped and counted (senderfilter, docs/network.md).
+#   SRTP_KEY (a 30-byte key file: video in and poses out are SRTP; the server needs the same file).
 set -euo pipefail
+# shellcheck source=pipelines/srtp.sh
+. "$(dirname "$0")/srtp.sh"
 SERVER=${SERVER:-127.0.0.1}
 VIDEO_PORT=${VIDEO_PORT:-5010}
 POSE_PORT=${POSE_PORT:-5011}
 SLIDERS=${SLIDERS:-"[50,50,50,50,50,50]"}
 SINK=${SINK:-autovideosink}
 MTU=${MTU:-1400}
+VIDEO_SENDERS=${VIDEO_SENDERS:-$SERVER}
+for p in "$VIDEO_PORT" "$POSE_PORT"; do
+  if ! [[ $p =~ ^[0-9]+$ ]] || [ "$p" -lt 1 ] || [ "$p" -gt 65535 ]; then
+    echo "lecturer.sh: ports must be 1 to 65535 (got '$p')" >&2
+    exit 2
+  fi
+done
 if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "lecturer.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
   exit 2
@@ -25,8 +37,8 @@ pose_key=""
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
-desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
-  rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back $pose_key ! videoconvert ! posenav $nav ! $SINK \
-  back.rtp ! udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
+desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
+  senderfilter name=from_server allow=$VIDEO_SENDERS ! $(srtp_dec) rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back $pose_key ! videoconvert ! posenav $nav ! $SINK \
+  back.rtp ! $SRTP_ENC udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $desc

@@ -1,21 +1,53 @@
 #!/usr/bin/env bash
 # The three worlds on one machine, joined by UDP on loopback: the server, the lecturer (a window, or
-# SINK) and one classroom process per camera. Ctrl-C stops everything.
+# SINK) and one classroom process per camera. Ctrl-C stops everything; so does any of them ending (the
+# server failing to start, say): the others are stopped and the script returns its status.
 # Variables: those of classroom.sh, server.sh and lecturer.sh (MODEL, RIG, SLIDERS, POSE_TRACE, SINK, ...),
 #   CAMERAS (default "0 1 2"), SECONDS_TO_RUN (stop by itself after that many seconds; default: until Ctrl-C),
-#   MTU (default 65000: loopback carries 64 KiB packets, ~45 times fewer than Ethernet's 1400 bytes).
+#   MTU (default 65000: loopback carries 64 KiB packets, ~45 times fewer than Ethernet's 1400 bytes),
+#   PORT_BASE (default 5000): this flow's ports are PORT_BASE + camera id (RTP), + 100 + id (each camera's
+#   retransmission requests), PORT_BASE + 10 (video) and + 11 (poses): a second flow on the same host runs
+#   without crosstalk with e.g. PORT_BASE=6000.
+#   STOP_GRACE (seconds each process gets to end after Ctrl-C or end-of-stream before it is killed, default 5).
 # Run it inside `meson devenv -C build` (or after `meson install`) so GStreamer finds the plugins.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
 export CAMERAS=${CAMERAS:-"0 1 2"}
 export MTU=${MTU:-65000}
+PORT_BASE=${PORT_BASE:-5000}
+STOP_GRACE=${STOP_GRACE:-5}
+if ! [[ $PORT_BASE =~ ^[0-9]+$ ]] || [ "$PORT_BASE" -lt 1024 ] || [ "$PORT_BASE" -gt 65000 ]; then
+  echo "loopback.sh: PORT_BASE must be 1024 to 65000 (got '$PORT_BASE')" >&2
+  exit 2
+fi
+export BASE_PORT=$PORT_BASE VIDEO_PORT=$((PORT_BASE + 10)) POSE_PORT=$((PORT_BASE + 11))
 pids=()
+stopping=0
+# Asks every process still running to end (SIGINT: gst-launch-1.0 -e sends end-of-stream), waits at most
+# STOP_GRACE seconds, then kills what is left.
 stop() {
+  [ "$stopping" = 1 ] && return
+  stopping=1
   for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null || true; done
+  local waited=0
+  while [ "$waited" -lt $((STOP_GRACE * 10)) ]; do
+    local alive=0
+    for p in "${pids[@]}"; do kill -0 "$p" 2>/dev/null && alive=1; done
+    [ "$alive" = 0 ] && break
+    sleep 0.1
+    waited=$((waited + 1))
+  done
+  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
   wait 2>/dev/null || true
 }
-trap stop EXIT INT TERM
+trap stop EXIT
+trap 'stop; exit 130' INT TERM
 "$here/server.sh" & pids+=($!)
 "$here/lecturer.sh" & pids+=($!)
-for k in $CAMERAS; do CAMERA=$k "$here/classroom.sh" & pids+=($!); done
-if [ -n "${SECONDS_TO_RUN:-}" ]; then sleep "$SECONDS_TO_RUN"; else wait; fi
+for k in $CAMERAS; do CAMERA=$k PORT=$((PORT_BASE + k)) "$here/classroom.sh" & pids+=($!); done
+if [ -n "${SECONDS_TO_RUN:-}" ]; then sleep "$SECONDS_TO_RUN" & pids+=($!); fi
+# Whichever ends first (a process, or the timer) ends the flow.
+status=0
+wait -n || status=$?
+stop
+exit "$status"

@@ -12,7 +12,19 @@
 #   the CPU is short, warping, fusing and sending the lecturer's view go first; 0 shares it evenly).
 #   POSE_KEY (file holding the pose key shared with lecturer.sh, e.g. `head -c 32 /dev/urandom > pose.key`:
 #   only poses tagged with it steer the view; empty: anyone who can reach POSE_PORT can steer it).
+#   CAMERA_HOSTS (one address per camera in CAMERAS order, default 127.0.0.1 each; a missing entry repeats the
+#   last): only packets from camera k's host are taken on its ports, and its retransmission requests go there.
+#   CAMERA_NACK_PORTS (each camera's port for our RTCP, i.e. retransmission requests, default camera port + 100).
+#   RTX (1: request lost camera packets again; 0: plain RTP, default for now, docs/network.md; the cameras'
+#   RTX must match),
+#   RTX_LATENCY (ms a camera packet may wait for its retransmission, default 300).
+#   Packets from other addresses, or a second RTP stream on a camera port, are dropped and counted
+#   (senderfilter, docs/network.md); the pose port takes packets only from LECTURER.
+#   SRTP_KEY (a 30-byte key file: every RTP link in and out is SRTP, with the cameras' and the lecturer's
+#   same file; docs/network.md).
 set -euo pipefail
+# shellcheck source=pipelines/srtp.sh
+. "$(dirname "$0")/srtp.sh"
 CAMERAS=${CAMERAS:-"0 1 2"}
 BASE_PORT=${BASE_PORT:-5000}
 LECTURER=${LECTURER:-127.0.0.1}
@@ -31,6 +43,8 @@ if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "server.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
   exit 2
 fi
+RTX=${RTX:-0}
+RTX_LATENCY=${RTX_LATENCY:-300}
 PREP_NICE=${PREP_NICE:-10}
 if ! [[ $PREP_NICE =~ ^[0-9]+$ ]] || [ "$PREP_NICE" -gt 19 ]; then
   echo "server.sh: PREP_NICE must be a nice value, 0 to 19 (got '$PREP_NICE')" >&2
@@ -40,11 +54,25 @@ pose_key=""
 [ -n "${POSE_KEY:-}" ] && pose_key="key-file=$POSE_KEY"
 POSE_EXT="extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose"
 
+check_port() {
+  if ! [[ $1 =~ ^[0-9]+$ ]] || [ "$1" -lt 1 ] || [ "$1" -gt 65535 ]; then
+    echo "server.sh: ports must be 1 to 65535 (got '$1')" >&2
+    exit 2
+  fi
+}
 read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
+read -r -a camera_hosts <<< "${CAMERA_HOSTS:-127.0.0.1}"
+read -r -a nack_ports <<< "${CAMERA_NACK_PORTS:-}"
+for p in "$VIDEO_PORT" "$POSE_PORT"; do check_port "$p"; done
+RTP_CAPS="$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,payload=96"
 branches=""
 i=0
+host=${camera_hosts[0]}
 for k in $CAMERAS; do
   port=${camera_ports[$i]:-$((BASE_PORT + k))}
+  nack_port=${nack_ports[$i]:-$((port + 100))}
+  host=${camera_hosts[$i]:-$host}
+  for p in "$port" "$nack_port"; do check_port "$p"; done
   i=$((i + 1))
   vda=""
   [ -n "$MODEL" ] && vda="depthcomplete model=$MODEL ! planerefine model=$MODEL !"
@@ -52,9 +80,22 @@ for k in $CAMERAS; do
   [ -n "$MODEL" ] && prior="prior-depth=$MODEL/prior-depth/cam$k.png"
   rig=""
   [ -n "$RIG" ] && rig="rig=$RIG"
-  branches="$branches udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST\" ! \
-    rtpjitterbuffer latency=50 drop-on-latency=true ! rtpgstdepay ! \
-    queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k stats-interval=$STATS ! \
+  # Camera k's link: only its host, one stream (senderfilter); with RTX an RTCP session (AVPF: a NACK goes
+  # out at once; rtcp-min-interval and bandwidth let it send one every few ms, as a LAN's RTT is tiny) whose
+  # requests rtprtxreceive matches with the resent packets before the jitter buffer. probation=0: the first
+  # packet carries the stream's caps and must not be dropped while the session validates the sender.
+  receive="udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host ! $(srtp_dec)"
+  if [ "$RTX" = 1 ]; then
+    branches="$branches rtpsession name=link$k probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 \
+      link$k.send_rtcp_src ! udpsink host=$host port=$nack_port sync=false async=false"
+    receive="$receive link$k.recv_rtp_sink link$k.recv_rtp_src ! \
+      rtprtxreceive payload-type-map=application/x-rtp-pt-map,96=(uint)97 ! rtpssrcdemux ! \
+      rtpjitterbuffer latency=$RTX_LATENCY do-retransmission=true drop-on-latency=true !"
+  else
+    receive="$receive rtpjitterbuffer latency=50 drop-on-latency=true !"
+  fi
+  branches="$branches $receive rtpgstdepay ! \
+    queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k $rig stats-interval=$STATS ! \
     $vda learnerseg $prior ! queue max-size-buffers=1 leaky=downstream ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
@@ -62,8 +103,9 @@ done
 set -f
 desc="viewfuse name=fuse latency=100000000 ! poserecv name=poses $pose_key ! \
   jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=$MTU ! application/x-rtp,$POSE_EXT ! \
-  udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
-  udpsrc port=$POSE_PORT caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! poses.rtp \
+  $SRTP_ENC udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
+  udpsrc port=$POSE_PORT caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! \
+    senderfilter name=from_lecturer lock-ssrc=false allow=$LECTURER ! $(srtp_dec) poses.rtp \
   $branches"
 # shellcheck disable=SC2086
 # STATS > 0: every STATS frames each decoder posts what it got (printed by -m).

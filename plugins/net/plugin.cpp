@@ -10,6 +10,8 @@
 #include "gstposerecv.h"
 #include "gstposesend.h"
 #include "gstrtphdrextvcpose.h"
+#include "gstsenderfilter.h"
+#include "gstsrtpfiledec.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
@@ -18,6 +20,8 @@ static gboolean plugin_init(GstPlugin* plugin) {
   ok &= gst_element_register(plugin, "posesend", GST_RANK_NONE, GST_TYPE_POSE_SEND);
   ok &= gst_element_register(plugin, "poserecv", GST_RANK_NONE, GST_TYPE_POSE_RECV);
   ok &= gst_element_register(plugin, "rtphdrextvcpose", GST_RANK_MARGINAL, GST_TYPE_RTP_HEADER_EXTENSION_VC_POSE);
+  ok &= gst_element_register(plugin, "senderfilter", GST_RANK_NONE, GST_TYPE_SENDER_FILTER);
+  ok &= gst_element_register(plugin, "srtpfiledec", GST_RANK_NONE, GST_TYPE_SRTP_FILE_DEC);
   return ok;
 }
 
