@@ -9,8 +9,10 @@
 #   STATS (0: quiet; N: every N frames rgbdenc posts vclassroom-codec-stats, printed by -m),
 #   MTU (largest RTP packet, default 1400 for an Ethernet link; a jumbo-frame LAN takes about 9000,
 #   loopback up to 65000; the server's MTU must be as large),
-#   RTX (1: retransmit lost packets on request; 0: plain RTP, default for now (docs/network.md: a camera
-#   that restarts is not taken back by an RTX server); the server's RTX must match), RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
+#   RTX (1, default: retransmit lost packets on request; 0: plain RTP; the server's RTX must match),
+#   RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
+#   SSRC (the camera's RTP stream id, default 0x56430000 + CAMERA: fixed, so that a camera that restarts
+#   is the same stream to the server, which then takes it back at once; docs/network.md),
 #   SRTP_KEY (a 30-byte key file: the frames leave encrypted with SRTP; the server needs the same file).
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
@@ -23,8 +25,13 @@ QUALITY=${QUALITY:-90}
 DROP=${DROP:-0}
 STATS=${STATS:-0}
 MTU=${MTU:-1400}
-RTX=${RTX:-0}
+RTX=${RTX:-1}
 RTX_KEEP_MS=${RTX_KEEP_MS:-500}
+SSRC=${SSRC:-$((0x56430000 + CAMERA))}
+if ! [[ $SSRC =~ ^[0-9]+$ ]] || [ "$SSRC" -gt 4294967294 ]; then
+  echo "classroom.sh: SSRC must be a number, 0 to 4294967294 (got '$SSRC')" >&2
+  exit 2
+fi
 if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "classroom.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
   exit 2
@@ -55,4 +62,4 @@ fi
 set -f
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $verbose $send_session $SOURCE ! rgbdenc name=enc quality=$QUALITY stats-interval=$STATS ! \
-  rtpgstpay config-interval=1 mtu=$MTU pt=96 ! $to_session
+  rtpgstpay config-interval=1 mtu=$MTU pt=96 ssrc=$SSRC ! $to_session
