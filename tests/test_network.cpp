@@ -143,6 +143,7 @@ TEST(PoseBackChannel, LatestWinsThroughLossReorderingAndDamage) {
   EXPECT_EQ(injected_seqs(serv), (std::vector<uint64_t>{1, 2, 3, 5, 7, 9}));
 
   // Pose 10 was lost; the next video frame on the lecturer's side repeats it.
+  for (GstBuffer* b : packets.buffers) gst_buffer_unref(b);
   packets.buffers.clear();
   gst_buffer_unref(gst_harness_push_and_pull(lect, gst_harness_create_buffer(lect, 48)));
   ASSERT_EQ(packets.buffers.size(), 1u);
