@@ -8,8 +8,6 @@
 
 #include "gstrtphdrextvcpose.h"
 
-#include <cstring>
-
 #include <gst/vclassroom/pose_meta.h>
 
 using namespace vclassroom;
@@ -26,19 +24,6 @@ static GstRTPHeaderExtensionFlags get_supported_flags(GstRTPHeaderExtension*) {
   return GstRTPHeaderExtensionFlags(GST_RTP_HEADER_EXTENSION_ONE_BYTE | GST_RTP_HEADER_EXTENSION_TWO_BYTE);
 }
 
-// The extension's bytes sit at any offset inside the RTP header, while
-// GStreamer's GST_READ/WRITE_UINT64_BE access them through a 64-bit pointer on
-// x86: undefined behaviour at an unaligned address (UBSan: misaligned load).
-static void write_u64_be(guint8* data, guint64 value) {
-  value = GUINT64_TO_BE(value);
-  std::memcpy(data, &value, sizeof value);
-}
-static guint64 read_u64_be(const guint8* data) {
-  guint64 value;
-  std::memcpy(&value, data, sizeof value);
-  return GUINT64_FROM_BE(value);
-}
-
 static gsize get_max_size(GstRTPHeaderExtension*, const GstBuffer*) { return kSize; }
 
 static gssize write_ext(GstRTPHeaderExtension*, const GstBuffer* input, GstRTPHeaderExtensionFlags, GstBuffer*,
@@ -46,15 +31,15 @@ static gssize write_ext(GstRTPHeaderExtension*, const GstBuffer* input, GstRTPHe
   const PoseMeta* meta = buffer_get_pose_meta(const_cast<GstBuffer*>(input));
   if (!meta) return 0;  // a frame rendered before any pose: nothing to say
   if (size < kSize) return -1;
-  write_u64_be(data, meta->seq);
-  write_u64_be(data + 8, static_cast<guint64>(meta->viewer_time_ns));
+  GST_WRITE_UINT64_BE(data, meta->seq);
+  GST_WRITE_UINT64_BE(data + 8, static_cast<guint64>(meta->viewer_time_ns));
   return kSize;
 }
 
 static gboolean read_ext(GstRTPHeaderExtension*, GstRTPHeaderExtensionFlags, const guint8* data, gsize size,
                          GstBuffer* buffer) {
   if (size != kSize) return FALSE;
-  buffer_add_pose_meta(buffer, read_u64_be(data), static_cast<gint64>(read_u64_be(data + 8)));
+  buffer_add_pose_meta(buffer, GST_READ_UINT64_BE(data), static_cast<gint64>(GST_READ_UINT64_BE(data + 8)));
   return TRUE;
 }
 
