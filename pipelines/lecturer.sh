@@ -4,7 +4,8 @@
 # Variables: SERVER (host, default 127.0.0.1), VIDEO_PORT (default 5010), POSE_PORT (default 5011),
 #   RIG (rig file the sliders refer to; empty: the rig origin), SLIDERS (start view, default [50,50,50,50,50,50]),
 #   POSE_TRACE (CSV; empty: interactive), SINK (default autovideosink; e.g. "fakesink" or a file branch),
-#   MTU (largest RTP packet from the server, default 1400; as server.sh).
+#   MTU (largest RTP packet from the server, default 1400; as server.sh),
+#   POSE_KEY (file holding the pose key shared with server.sh: every pose is tagged with it; empty: untagged).
 set -euo pipefail
 SERVER=${SERVER:-127.0.0.1}
 VIDEO_PORT=${VIDEO_PORT:-5010}
@@ -19,11 +20,13 @@ fi
 nav="sliders=\"$SLIDERS\""
 [ -n "${RIG:-}" ] && nav="$nav rig=$RIG"
 [ -n "${POSE_TRACE:-}" ] && nav="$nav pose-trace=$POSE_TRACE"
+pose_key=""
+[ -n "${POSE_KEY:-}" ] && pose_key="key-file=$POSE_KEY"
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
 desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
-  rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! posenav $nav ! $SINK \
+  rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back $pose_key ! videoconvert ! posenav $nav ! $SINK \
   back.rtp ! udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $desc

@@ -11,6 +11,8 @@
 #   PREP_NICE (nice value of the threads that decode, complete and segment camera frames, default 10: when
 #   the CPU is short, warping, fusing and sending the lecturer's view go first; 0 shares it evenly),
 #   FUSE_LATENCY (ns the fuse waits for a late camera's frame before rendering without it, default 100000000).
+#   POSE_KEY (file holding the pose key shared with lecturer.sh, e.g. `head -c 32 /dev/urandom > pose.key`:
+#   only poses tagged with it steer the view; empty: anyone who can reach POSE_PORT can steer it).
 set -euo pipefail
 CAMERAS=${CAMERAS:-"0 1 2"}
 BASE_PORT=${BASE_PORT:-5000}
@@ -35,6 +37,8 @@ if ! [[ $PREP_NICE =~ ^[0-9]+$ ]] || [ "$PREP_NICE" -gt 19 ]; then
   echo "server.sh: PREP_NICE must be a nice value, 0 to 19 (got '$PREP_NICE')" >&2
   exit 2
 fi
+pose_key=""
+[ -n "${POSE_KEY:-}" ] && pose_key="key-file=$POSE_KEY"
 POSE_EXT="extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose"
 
 read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
@@ -58,7 +62,7 @@ done
 # argument and handles the quotes inside them itself.
 set -f
 FUSE_LATENCY=${FUSE_LATENCY:-100000000}
-desc="viewfuse name=fuse latency=$FUSE_LATENCY ! poserecv name=poses ! \
+desc="viewfuse name=fuse latency=$FUSE_LATENCY ! poserecv name=poses $pose_key ! \
   jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=$MTU ! application/x-rtp,$POSE_EXT ! \
   udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
   udpsrc port=$POSE_PORT caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! poses.rtp \

@@ -9,8 +9,9 @@ PACKAGES=(
   g++ meson ninja-build pkg-config
   libgstreamer1.0-dev libgstreamer-plugins-base1.0-dev
   gstreamer1.0-tools gstreamer1.0-plugins-base gstreamer1.0-plugins-good gstreamer1.0-plugins-ugly
-  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-calib3d-dev libopencv-video-dev
-  libeigen3-dev libjpeg62-turbo-dev libgtest-dev
+  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev
+  libeigen3-dev libjpeg62-turbo-dev zlib1g-dev libyaml-dev libgtest-dev
+  gstreamer1.0-x gstreamer1.0-gl
   ccache
 )
 

@@ -185,11 +185,65 @@ TEST(Datasets, BadInputPostsClearErrors) {
   EXPECT_NE(r.error.find("no cameras"), std::string::npos) << r.error;
   EXPECT_EQ(r.error_source, "src");
 
-  // Frame counts that disagree between colour and depth.
+  // Frame counts that disagree between colour and depth: the colour frame without a partner is named.
   write_small_dataset(dir.path(), 2);
   fs::remove(dataset_camera_dir(dir.path(), 0) + "/depth/000001.png");
   play(dir.path(), 0, nullptr, &r);
-  EXPECT_NE(r.error.find("1 images, but color/ has 2"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("color/000001.png has no depth image of the same name"), std::string::npos) << r.error;
+}
+
+TEST(Datasets, ColourAndDepthPairByNameNotByPosition) {
+  // Issue 17: a renamed depth file silently shifted the pairing (frames paired
+  // by sorted position). Now a name without a partner is an error naming both files.
+  vctest::TempDir dir;
+  write_small_dataset(dir.path(), 3);
+  const std::string cam = dataset_camera_dir(dir.path(), 1);
+  fs::rename(cam + "/depth/000001.png", cam + "/depth/000005.png");
+  vctest::RunResult r;
+  auto frames = play(dir.path(), 1, nullptr, &r);
+  EXPECT_TRUE(frames.empty());
+  EXPECT_NE(r.error.find(cam + "/color/000001.png"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find(cam + "/depth/000005.png"), std::string::npos) << r.error;
+  EXPECT_EQ(r.error_source, "src");
+  try {
+    Dataset::open(dir.path());
+    FAIL() << "a dataset with a renamed depth file opened";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("000005.png"), std::string::npos) << e.what();
+  }
+
+  // Pairing follows names whatever their sort order or extension: frame "10"
+  // sorts before "2" and its colour is a JPEG.
+  const std::vector<std::string> color = {"c/color/1.png", "c/color/10.jpg", "c/color/2.png"};
+  const std::vector<std::string> depth = {"c/depth/2.png", "c/depth/10.png", "c/depth/1.pgm"};
+  EXPECT_EQ(pair_by_name(color, depth, "depth"),
+            (std::vector<std::string>{"c/depth/1.pgm", "c/depth/10.png", "c/depth/2.png"}));
+  EXPECT_TRUE(pair_by_name(color, {}, "label").empty());
+  EXPECT_THROW(pair_by_name(color, {"c/depth/1.png", "c/depth/1.pgm", "c/depth/2.png"}, "depth"), Error);
+  EXPECT_THROW(pair_by_name(color, {"c/depth/1.png", "c/depth/2.png", "c/depth/10.png", "c/depth/11.png"}, "depth"),
+               Error);
+}
+
+TEST(Datasets, ImageDeclaringAHugeSizeIsRefusedFromItsHeader) {
+  // A PNG's header declaring another size than the rig camera's is refused
+  // before OpenCV decodes (and allocates for) it; OpenCV's exceptions never escape.
+  std::vector<uchar> png;
+  cv::imencode(".png", cv::Mat(30, 40, CV_16UC1, cv::Scalar(5)), png);
+  std::vector<uchar> huge = png;
+  for (int i = 16; i < 24; i += 4) huge[i] = 0, huge[i + 1] = 0, huge[i + 2] = 0x40, huge[i + 3] = 0;  // 16384
+  try {
+    decode_image(huge.data(), huge.size(), cv::IMREAD_UNCHANGED, "depth", "d.png", cv::Size(40, 30), "rig camera 1");
+    FAIL() << "a PNG declaring 16384x16384 decoded";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("d.png: depth image is 16384x16384, but rig camera 1 is 40x30"),
+              std::string::npos) << e.what();
+  }
+  for (int i = 16; i < 24; i += 4) huge[i] = 0x7f, huge[i + 1] = 0xff;  // beyond any side
+  EXPECT_THROW(decode_image(huge.data(), huge.size(), cv::IMREAD_UNCHANGED, "depth", "d.png"), Error);
+  const uchar garbage[] = {'P', '5', '\n', '9', '9', '9', '9', '9', '9', '9', '9', '9', '9', ' ', '1', '\n', '2', '5', '5'};
+  EXPECT_THROW(decode_image(garbage, sizeof garbage, cv::IMREAD_UNCHANGED, "depth", "g.pgm"), Error);
+  EXPECT_EQ(decode_image(png.data(), png.size(), cv::IMREAD_UNCHANGED, "depth", "ok.png", cv::Size(40, 30)).size(),
+            cv::Size(40, 30));
 }
 
 TEST(Middlebury, DisparityToDepth) {

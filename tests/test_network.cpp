@@ -4,13 +4,16 @@
 
 #include <gio/gio.h>
 #include <gst/check/gstharness.h>
+#include <gst/check/gsttestclock.h>
 #include <gst/app/gstappsrc.h>
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/warning_limiter.h>
 
 #include <algorithm>
+#include <cstring>
 #include <random>
+#include <utility>
 
 #include "test_util.h"
 
@@ -28,20 +31,58 @@ Pose pose_with_seq(uint64_t seq) {
   return p;
 }
 
-// Collects what a pad receives, synchronously.
+// Collects what a pad receives (posesend pushes from its rtp pad's own
+// thread: wait_for() waits, bounded, for a number of buffers).
 struct Capture {
   GstPad* pad = nullptr;
   std::vector<GstBuffer*> buffers;
+  bool eos = false;
+  GMutex lock;
+  GCond cond;
+  Capture() {
+    g_mutex_init(&lock);
+    g_cond_init(&cond);
+  }
   static GstFlowReturn chain(GstPad* pad, GstObject*, GstBuffer* buf) {
-    static_cast<Capture*>(gst_pad_get_element_private(pad))->buffers.push_back(buf);
+    auto* self = static_cast<Capture*>(gst_pad_get_element_private(pad));
+    g_mutex_lock(&self->lock);
+    self->buffers.push_back(buf);
+    g_cond_broadcast(&self->cond);
+    g_mutex_unlock(&self->lock);
     return GST_FLOW_OK;
   }
-  static gboolean event(GstPad*, GstObject*, GstEvent* ev) {
+  static gboolean event(GstPad* pad, GstObject*, GstEvent* ev) {
+    auto* self = static_cast<Capture*>(gst_pad_get_element_private(pad));
+    g_mutex_lock(&self->lock);
+    if (GST_EVENT_TYPE(ev) == GST_EVENT_EOS) self->eos = true;
+    g_cond_broadcast(&self->cond);
+    g_mutex_unlock(&self->lock);
     gst_event_unref(ev);
     return TRUE;
   }
+  // True when `n` buffers (or EOS, with want_eos) arrived within 20 s.
+  bool wait_for(size_t n, bool want_eos = false) {
+    const gint64 deadline = g_get_monotonic_time() + 20 * G_TIME_SPAN_SECOND;
+    g_mutex_lock(&lock);
+    while (buffers.size() < n || (want_eos && !eos))
+      if (!g_cond_wait_until(&cond, &lock, deadline)) break;
+    const bool ok = buffers.size() >= n && (!want_eos || eos);
+    g_mutex_unlock(&lock);
+    return ok;
+  }
+  void clear() {
+    g_mutex_lock(&lock);
+    for (GstBuffer* b : buffers) gst_buffer_unref(b);
+    buffers.clear();
+    g_mutex_unlock(&lock);
+  }
   void attach(GstElement* element, const char* pad_name) {
-    pad = gst_pad_new("capture", GST_PAD_SINK);
+    // Any caps, as udpsink takes: a restarted posesend sends a new SSRC in its caps.
+    GstCaps* any = gst_caps_new_any();
+    GstPadTemplate* templ = gst_pad_template_new("capture", GST_PAD_SINK, GST_PAD_ALWAYS, any);
+    gst_caps_unref(any);
+    pad = gst_pad_new_from_template(templ, "capture");
+    gst_object_unref(templ);
     gst_pad_set_element_private(pad, this);
     gst_pad_set_chain_function(pad, chain);
     gst_pad_set_event_function(pad, event);
@@ -53,6 +94,8 @@ struct Capture {
   ~Capture() {
     for (GstBuffer* b : buffers) gst_buffer_unref(b);
     if (pad) gst_object_unref(pad);
+    g_mutex_clear(&lock);
+    g_cond_clear(&cond);
   }
 };
 
@@ -110,9 +153,13 @@ TEST(PoseWire, RoundTripAndRejects) {
   wire[0] = 'X';
   EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
   wire[0] = 'V';
-  wire[30] ^= 0x01;  // one bit of y
+  wire[48] ^= 0x01;  // one bit of y
   EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
   EXPECT_NE(err.find("checksum"), std::string::npos) << err;
+  // Version 1 is refused with a message that says so.
+  std::memcpy(wire, "VCP1", 4);
+  EXPECT_FALSE(pose_from_wire(wire, 88, &back, &err));
+  EXPECT_NE(err.find("version 1"), std::string::npos) << err;
 }
 
 TEST(PoseBackChannel, LatestWinsThroughLossReorderingAndDamage) {
@@ -130,6 +177,7 @@ TEST(PoseBackChannel, LatestWinsThroughLossReorderingAndDamage) {
 
   for (uint64_t seq = 1; seq <= 10; ++seq)
     EXPECT_TRUE(gst_harness_push_upstream_event(lect, pose_event_new(pose_with_seq(seq))));
+  ASSERT_TRUE(packets.wait_for(10));
   ASSERT_EQ(packets.buffers.size(), 10u);
   // The network loses packets 4 and 10, swaps 6 and 7, repeats 5 and damages 8.
   std::vector<GstBuffer*> wire;
@@ -143,9 +191,9 @@ TEST(PoseBackChannel, LatestWinsThroughLossReorderingAndDamage) {
   EXPECT_EQ(injected_seqs(serv), (std::vector<uint64_t>{1, 2, 3, 5, 7, 9}));
 
   // Pose 10 was lost; the next video frame on the lecturer's side repeats it.
-  for (GstBuffer* b : packets.buffers) gst_buffer_unref(b);
-  packets.buffers.clear();
+  packets.clear();
   gst_buffer_unref(gst_harness_push_and_pull(lect, gst_harness_create_buffer(lect, 48)));
+  ASSERT_TRUE(packets.wait_for(1));
   ASSERT_EQ(packets.buffers.size(), 1u);
   EXPECT_EQ(gst_pad_push(link.pad, gst_buffer_ref(packets.buffers[0])), GST_FLOW_OK);
   EXPECT_EQ(injected_seqs(serv), (std::vector<uint64_t>{10}));
@@ -326,4 +374,308 @@ TEST(WarningLimiter, PendingAfterABurstCanBeTakenForAFinalMessage) {
   EXPECT_EQ(lim.total(), 0u);
   ASSERT_TRUE(lim.note(30, &count, &span));  // after a reset the first is posted again
   EXPECT_EQ(count, 1u);
+}
+
+// ---- Pose sessions, authentication, plausibility and messages through poserecv
+
+namespace {
+constexpr GstClockTime kFrameTime = 33 * GST_MSECOND;  // a lecturer at 30 poses per second
+
+// An RTP packet (12-byte header, version 2, payload type 96) around `payload`.
+GstBuffer* rtp_packet(const uint8_t* payload, size_t size, guint32 ssrc) {
+  static guint16 rtp_seq = 0;
+  std::vector<uint8_t> bytes(12 + size, 0);
+  bytes[0] = 0x80;
+  bytes[1] = 0x80 | 96;  // marker, payload type
+  bytes[2] = static_cast<uint8_t>(rtp_seq >> 8);
+  bytes[3] = static_cast<uint8_t>(rtp_seq++);
+  for (int i = 0; i < 4; ++i) bytes[8 + i] = static_cast<uint8_t>(ssrc >> (24 - 8 * i));
+  std::memcpy(bytes.data() + 12, payload, size);
+  return gst_buffer_new_memdup(bytes.data(), bytes.size());
+}
+
+// One pose packet as a lecturer with this SSRC and session number sends it.
+GstBuffer* pose_packet(const Pose& p, guint32 ssrc, uint64_t session, const PoseKey* key = nullptr) {
+  uint8_t wire[kPoseWireMaxSize];
+  const size_t n = pose_to_wire(p, wire, session, key);
+  return rtp_packet(wire, n, ssrc);
+}
+
+// poserecv in a harness whose clock is a test clock (the session timeout runs
+// on injected time) and whose messages land on a bus of ours.
+struct Server {
+  GstHarness* h = nullptr;
+  GstBus* bus = nullptr;
+  GstTestClock* clock = nullptr;
+  Feeder link;
+  using Props = std::vector<std::pair<const char*, std::string>>;
+  explicit Server(const Props& props = Props()) {
+    GstElement* e = gst_element_factory_make("poserecv", nullptr);
+    for (const auto& [name, value] : props) gst_util_set_object_arg(G_OBJECT(e), name, value.c_str());
+    bus = gst_bus_new();
+    gst_element_set_bus(e, bus);
+    h = gst_harness_new_with_element(e, "sink", "src");
+    gst_object_unref(e);
+    gst_harness_use_testclock(h);
+    clock = gst_harness_get_testclock(h);
+    gst_harness_set_src_caps_str(h, kVideoCaps);
+    link.attach(h->element, "rtp", "application/x-rtp,media=application,clock-rate=90000,"
+                                   "encoding-name=X-VCLASSROOM-POSE,payload=96");
+  }
+  ~Server() {
+    for (GstStructure* s : stats_) gst_structure_free(s);
+    // Messages hold the element and the element holds the bus: drop them all.
+    gst_bus_set_flushing(bus, TRUE);
+    gst_object_unref(clock);
+    gst_harness_teardown(h);
+    gst_object_unref(bus);
+  }
+  void at(GstClockTime t) { gst_test_clock_set_time(clock, t); }
+  // Pushes one packet; the seqs of the poses it made poserecv send upstream.
+  std::vector<uint64_t> push(GstBuffer* packet) {
+    EXPECT_EQ(gst_pad_push(link.pad, packet), GST_FLOW_OK);
+    return injected_seqs(h);
+  }
+  guint64 count(const char* property) {
+    guint64 v = 0;
+    g_object_get(h->element, property, &v, nullptr);
+    return v;
+  }
+  // The warnings and vclassroom-pose-stats structures posted since the last call.
+  std::vector<std::string> warnings() {
+    drain();
+    return std::exchange(warnings_, {});
+  }
+  std::vector<GstStructure*> stats() {  // caller frees
+    drain();
+    return std::exchange(stats_, {});
+  }
+
+ private:
+  std::vector<std::string> warnings_;
+  std::vector<GstStructure*> stats_;
+  void drain() {
+    while (GstMessage* m = gst_bus_pop(bus)) {
+      if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING) {
+        GError* err = nullptr;
+        gst_message_parse_warning(m, &err, nullptr);
+        warnings_.push_back(err->message);
+        g_clear_error(&err);
+      } else if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ELEMENT &&
+                 gst_structure_has_name(gst_message_get_structure(m), "vclassroom-pose-stats")) {
+        stats_.push_back(gst_structure_copy(gst_message_get_structure(m)));
+      }
+      gst_message_unref(m);
+    }
+  }
+};
+}  // namespace
+
+TEST(PoseSessions, ASeqOf2To64Minus1DoesNotLockOutTheLecturer) {
+  Server srv;
+  GstClockTime t = 0;
+  for (uint64_t seq = 1; seq <= 5; ++seq, t += kFrameTime) {
+    srv.at(t);
+    EXPECT_EQ(srv.push(pose_packet(pose_with_seq(seq), 0x1111, 77)), std::vector<uint64_t>{seq});
+  }
+  // A forged packet in the lecturer's own stream (SSRC and session copied).
+  EXPECT_TRUE(srv.push(pose_packet(pose_with_seq(UINT64_MAX), 0x1111, 77)).empty());
+  for (uint64_t seq = 6; seq <= 10; ++seq, t += kFrameTime) {
+    srv.at(t);
+    EXPECT_EQ(srv.push(pose_packet(pose_with_seq(seq), 0x1111, 77)), std::vector<uint64_t>{seq});
+  }
+  EXPECT_EQ(srv.count("rejected"), 1u);
+  EXPECT_EQ(srv.count("last-seq"), 10u);
+  EXPECT_EQ(srv.count("injected"), 10u);
+}
+
+TEST(PoseSessions, ARestartedLecturerIsObeyedWithinASecond) {
+  // The lecturer is a real posesend; restarting it (READY and back) is what
+  // restarting lecturer.sh does: a new SSRC and session, seq from 1 again.
+  GstHarness* lect = gst_harness_new("posesend");
+  gst_harness_set_src_caps_str(lect, kVideoCaps);
+  Capture packets;
+  packets.attach(lect->element, "rtp");
+  Server srv;
+  GstClockTime t = 0;
+  size_t forwarded = 0;
+  // Sends pose `seq` from the lecturer and forwards its packet at time t.
+  auto send = [&](uint64_t seq) {
+    Pose p = pose_with_seq(seq);
+    p.viewer_time_ns = static_cast<int64_t>(t);
+    EXPECT_TRUE(gst_harness_push_upstream_event(lect, pose_event_new(p)));
+    if (!packets.wait_for(forwarded + 1)) {
+      ADD_FAILURE() << "posesend sent no packet for pose " << seq;
+      return std::vector<uint64_t>{};
+    }
+    srv.at(t);
+    return srv.push(gst_buffer_ref(packets.buffers[forwarded++]));
+  };
+  for (uint64_t seq = 1; seq <= 300; ++seq, t += kFrameTime) EXPECT_EQ(send(seq), std::vector<uint64_t>{seq});
+  const GstClockTime stopped = t - kFrameTime;  // the last pose before the restart
+  ASSERT_EQ(gst_element_set_state(lect->element, GST_STATE_READY), GST_STATE_CHANGE_SUCCESS);
+  ASSERT_EQ(gst_element_set_state(lect->element, GST_STATE_PLAYING), GST_STATE_CHANGE_SUCCESS);
+  GstClockTime obeyed_at = GST_CLOCK_TIME_NONE;
+  for (uint64_t seq = 1; seq <= 60; ++seq, t += kFrameTime) {
+    const std::vector<uint64_t> got = send(seq);
+    if (!got.empty() && obeyed_at == GST_CLOCK_TIME_NONE) obeyed_at = t;
+    if (obeyed_at != GST_CLOCK_TIME_NONE) {
+      EXPECT_EQ(got, std::vector<uint64_t>{seq});  // and from then on, every pose
+    }
+  }
+  ASSERT_NE(obeyed_at, GST_CLOCK_TIME_NONE) << "the restarted lecturer was never obeyed";
+  EXPECT_LE(obeyed_at - stopped, GST_SECOND);
+  EXPECT_EQ(srv.count("session-switches"), 1u);
+  gst_harness_teardown(lect);
+}
+
+TEST(PoseSessions, ASecondSsrcCannotStealAnActiveSessionButTakesOverWhenItFallsSilent) {
+  Server srv;
+  GstClockTime t = 0;
+  for (uint64_t i = 1; i <= 60; ++i, t += kFrameTime) {
+    srv.at(t);
+    EXPECT_EQ(srv.push(pose_packet(pose_with_seq(i), 0xAAAA, 1)), std::vector<uint64_t>{i});
+    EXPECT_TRUE(srv.push(pose_packet(pose_with_seq(1000 + i), 0xBBBB, 2)).empty());  // seq far newer: still not obeyed
+  }
+  EXPECT_EQ(srv.count("rejected"), 60u);
+  EXPECT_EQ(srv.count("session-switches"), 0u);
+  // The first lecturer falls silent: the second is obeyed within a second.
+  const GstClockTime silent_since = t - kFrameTime;
+  GstClockTime obeyed_at = GST_CLOCK_TIME_NONE;
+  for (uint64_t i = 61; i <= 120 && obeyed_at == GST_CLOCK_TIME_NONE; ++i, t += kFrameTime) {
+    srv.at(t);
+    if (!srv.push(pose_packet(pose_with_seq(1000 + i), 0xBBBB, 2)).empty()) obeyed_at = t;
+  }
+  ASSERT_NE(obeyed_at, GST_CLOCK_TIME_NONE);
+  EXPECT_LE(obeyed_at - silent_since, GST_SECOND);
+  EXPECT_EQ(srv.count("session-switches"), 1u);
+}
+
+TEST(PoseAuthentication, WithAKeyOnlyTaggedPosesAreObeyed) {
+  vctest::TempDir dir;
+  const std::string key_file = dir / "pose.key", other_file = dir / "other.key";
+  vctest::write_text(key_file, "the classroom's 32-byte pose key");
+  vctest::write_text(other_file, "somebody else's 32-byte pose key");
+  const PoseKey other = load_pose_key(other_file);
+  Server srv(Server::Props{{"key-file", key_file}});
+  // Foreign poses first, while no session exists (they would be adopted otherwise).
+  EXPECT_TRUE(srv.push(pose_packet(pose_with_seq(1), 0x5555, 9)).empty());          // no tag
+  EXPECT_TRUE(srv.push(pose_packet(pose_with_seq(2), 0x5555, 9, &other)).empty());  // another key
+  EXPECT_EQ(srv.count("unauthenticated"), 2u);
+  EXPECT_EQ(srv.count("injected"), 0u);
+  // The lecturer's posesend, given the same key file, is obeyed.
+  GstElement* e = gst_element_factory_make("posesend", nullptr);
+  g_object_set(e, "key-file", key_file.c_str(), nullptr);
+  GstHarness* lect = gst_harness_new_with_element(e, "sink", "src");
+  gst_object_unref(e);
+  gst_harness_set_src_caps_str(lect, kVideoCaps);
+  Capture packets;
+  packets.attach(lect->element, "rtp");
+  EXPECT_TRUE(gst_harness_push_upstream_event(lect, pose_event_new(pose_with_seq(3))));
+  ASSERT_TRUE(packets.wait_for(1));
+  EXPECT_EQ(srv.push(gst_buffer_ref(packets.buffers[0])), std::vector<uint64_t>{3});
+  gst_harness_teardown(lect);
+}
+
+TEST(PoseAuthentication, AMissingOrShortKeyFileIsAnErrorAtStart) {
+  vctest::TempDir dir;
+  vctest::write_text(dir / "short.key", "0123456789");
+  for (const char* element : {"posesend", "poserecv"})
+    for (const std::string& file : {dir / "missing.key", dir / "short.key"}) {
+      const auto r = vctest::run_launch("videotestsrc num-buffers=1 ! " + std::string(element) + " key-file=" + file +
+                                            " ! fakesink",
+                                        10 * GST_SECOND);
+      EXPECT_NE(r.error.find(file), std::string::npos) << element << ": '" << r.error << "'";
+    }
+}
+
+TEST(PosePlausibility, APose999MetresAwayIsRejected) {
+  Server srv;
+  Pose far = pose_with_seq(1);
+  far.position = Eigen::Vector3d(999, 0, 0);
+  EXPECT_TRUE(srv.push(pose_packet(far, 1, 1)).empty());
+  EXPECT_EQ(srv.count("implausible"), 1u);
+  Pose near = pose_with_seq(2);
+  near.position = Eigen::Vector3d(3, -1, 4);
+  EXPECT_EQ(srv.push(pose_packet(near, 1, 1)), std::vector<uint64_t>{2});
+  g_object_set(srv.h->element, "max-distance", 2.0, nullptr);
+  near.seq = 3;
+  EXPECT_TRUE(srv.push(pose_packet(near, 1, 1)).empty());
+  EXPECT_EQ(srv.count("implausible"), 2u);
+  const auto w = srv.warnings();
+  ASSERT_EQ(w.size(), 1u);  // the second within 5 s is counted, not posted
+  EXPECT_NE(w[0].find("999"), std::string::npos) << w[0];
+}
+
+TEST(PoseMessages, BadPacketsWarnOncePerIntervalWithCountsAndStats) {
+  Server srv(Server::Props{{"stats-interval", "10"}});
+  std::mt19937 rng(17);
+  const auto garbage = [&] {
+    std::vector<uint8_t> bytes(kPoseWireSize);
+    for (uint8_t& b : bytes) b = static_cast<uint8_t>(rng());
+    std::memcpy(bytes.data(), "VCP2", 4);  // looks like a pose, but the flags/checksum do not add up
+    return rtp_packet(bytes.data(), bytes.size(), 1);
+  };
+  for (int i = 0; i < 50; ++i) {
+    srv.at(i * GST_MSECOND);
+    EXPECT_TRUE(srv.push(garbage()).empty());
+  }
+  std::vector<std::string> w = srv.warnings();
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("a damaged pose packet from the pose link"), std::string::npos) << w[0];
+  EXPECT_EQ(srv.count("damaged"), 50u);
+  srv.at(5 * GST_SECOND);
+  EXPECT_TRUE(srv.push(garbage()).empty());
+  w = srv.warnings();
+  ASSERT_EQ(w.size(), 1u);
+  EXPECT_NE(w[0].find("50 damaged pose packets from the pose link in the last 5 s"), std::string::npos) << w[0];
+  // A good pose, then the stats: one message per 10 packets.
+  srv.at(6 * GST_SECOND);
+  EXPECT_EQ(srv.push(pose_packet(pose_with_seq(8), 1, 1)), std::vector<uint64_t>{8});
+  std::vector<GstStructure*> stats = srv.stats();
+  ASSERT_EQ(stats.size(), 5u);
+  guint64 received = 0, damaged = 0, injected = 1;
+  gst_structure_get_uint64(stats.back(), "received", &received);
+  gst_structure_get_uint64(stats.back(), "damaged", &damaged);
+  gst_structure_get_uint64(stats.back(), "injected", &injected);
+  EXPECT_EQ(received, 50u);
+  EXPECT_EQ(damaged, 50u);
+  EXPECT_EQ(injected, 0u);
+  for (const char* f : {"unauthenticated", "implausible", "rejected", "session-switches"})
+    EXPECT_TRUE(gst_structure_has_field(stats.back(), f)) << f;
+  for (GstStructure* s : stats) gst_structure_free(s);
+  EXPECT_EQ(srv.count("received"), 52u);
+}
+
+// ---- posesend starting and stopping
+
+TEST(PoseSendLifecycle, EndOfStreamReachesThePoseSinkWhenNoPoseWasEverSent) {
+  for (const char* live : {"false", "true"}) {
+    const auto r = vctest::run_launch(std::string("videotestsrc num-buffers=3 is-live=") + live +
+                                          " ! video/x-raw,width=32,height=24 ! posesend name=s ! fakesink  "
+                                          "s.rtp ! fakesink",
+                                      10 * GST_SECOND);
+    EXPECT_EQ(r.error, "") << "is-live=" << live;
+  }
+}
+
+TEST(PoseSendLifecycle, RunsToTheEndInANonLivePipelineWithoutAQueueAfterItsRtpPad) {
+  vctest::TempDir dir;
+  std::vector<PoseSample> trace(3);
+  for (size_t i = 0; i < trace.size(); ++i) trace[i].pose = pose_with_seq(i);
+  save_pose_trace(trace, dir / "walk.csv");
+  GstElement* p = gst_parse_launch(("videotestsrc num-buffers=20 ! video/x-raw,width=32,height=24 ! posesend name=s ! "
+                                    "videoconvert ! posenav pose-trace=" + (dir / "walk.csv") +
+                                    " ! fakesink  s.rtp ! fakesink name=poses")
+                                       .c_str(),
+                                   nullptr);
+  ASSERT_NE(p, nullptr);
+  const auto r = vctest::run_pipeline(p, 10 * GST_SECOND);
+  EXPECT_EQ(r.error, "");
+  GstElement* s = gst_bin_get_by_name(GST_BIN(p), "s");
+  guint64 sent = 0;
+  g_object_get(s, "sent", &sent, nullptr);
+  EXPECT_GE(sent, 20u);  // a pose per frame from posenav (plus repeats)
+  gst_object_unref(s);
+  gst_object_unref(p);
 }

@@ -5,6 +5,7 @@
 #include <random>
 
 #include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/pose_session.h>
 
 #include "test_util.h"
 
@@ -223,4 +224,193 @@ TEST(PoseTrace, TheSampleForAFrameComesFromItsTimeOrItsNumber) {
   std::vector<PoseSample> untimed(3);
   EXPECT_EQ(pose_trace_index(untimed, 5.0, 1), 1u);
   EXPECT_EQ(pose_trace_index(untimed, 0.0, 9), 2u);
+}
+
+// ---- Pose sessions (gst/vclassroom/pose_session.h): times are given, no sleeps.
+
+namespace {
+constexpr int64_t kMs = 1'000'000;
+constexpr int64_t kFrame = 33 * kMs;  // a lecturer repeating its pose with every frame at 30 fps
+}  // namespace
+
+TEST(PoseSession, SeqFarAheadIsRejectedNeverAdopted) {
+  PoseSession s;
+  int64_t t = 0;
+  for (uint64_t seq = 1; seq <= 5; ++seq, t += kFrame) ASSERT_TRUE(pose_verdict_obeys(s.offer("A", seq, t, t)));
+  EXPECT_EQ(s.offer("A", UINT64_MAX, t, t), PoseVerdict::kAheadOfWindow);
+  EXPECT_EQ(s.offer("A", 5 + s.config().seq_window + 1, t, t), PoseVerdict::kAheadOfWindow);
+  EXPECT_EQ(s.last_seq(), 5u);
+  // The real lecturer goes on, obeyed at once.
+  for (uint64_t seq = 6; seq <= 10; ++seq, t += kFrame) EXPECT_EQ(s.offer("A", seq, t, t), PoseVerdict::kAccepted);
+  EXPECT_EQ(s.offer("A", 10 + s.config().seq_window, t, t), PoseVerdict::kAccepted);  // the window's edge
+  EXPECT_EQ(s.switches(), 0u);
+}
+
+TEST(PoseSession, LateRepeatedAndReorderedPosesAreNotObeyed) {
+  PoseSession s;
+  EXPECT_EQ(s.offer("A", 10, 100, 0), PoseVerdict::kAccepted);
+  EXPECT_EQ(s.offer("A", 10, 100, kFrame), PoseVerdict::kRepeat);
+  EXPECT_EQ(s.offer("A", 12, 120, 2 * kFrame), PoseVerdict::kAccepted);
+  EXPECT_EQ(s.offer("A", 11, 110, 2 * kFrame), PoseVerdict::kStale);  // reordered: sampled before 12
+  EXPECT_EQ(s.offer("A", 3, -1, 2 * kFrame), PoseVerdict::kStale);     // no viewer time: nothing says restart
+  EXPECT_EQ(s.last_seq(), 12u);
+}
+
+TEST(PoseSession, AnotherSessionCannotStealAnAliveOne) {
+  PoseSession s;
+  int64_t t = 0;
+  uint64_t seq = 1;
+  // An idle lecturer sends only repeats of one pose: still alive.
+  s.offer("A", seq, 0, t);
+  for (int i = 0; i < 100; ++i) {
+    t += kFrame;
+    EXPECT_EQ(s.offer("B", 1000 + i, t, t), PoseVerdict::kOtherSession);
+    EXPECT_EQ(s.offer("A", seq, 0, t), PoseVerdict::kRepeat);
+  }
+  EXPECT_EQ(s.current(), "A");
+  EXPECT_EQ(s.switches(), 0u);
+}
+
+TEST(PoseSession, ASilentSessionGivesWayAfterTheTimeout) {
+  PoseSessionConfig c;
+  c.timeout_ns = 500 * kMs;
+  PoseSession s(c);
+  EXPECT_EQ(s.offer("A", 900, 0, 0), PoseVerdict::kAccepted);
+  // A stops (it restarted as B, counting from 1 again).
+  EXPECT_EQ(s.offer("B", 1, 1, 499 * kMs), PoseVerdict::kOtherSession);
+  EXPECT_EQ(s.offer("B", 2, 2, 500 * kMs), PoseVerdict::kTookOver);
+  EXPECT_EQ(s.current(), "B");
+  EXPECT_EQ(s.switches(), 1u);
+  EXPECT_EQ(s.offer("B", 3, 3, 510 * kMs), PoseVerdict::kAccepted);
+  // The old session is now the other one.
+  EXPECT_EQ(s.offer("A", 901, 4, 520 * kMs), PoseVerdict::kOtherSession);
+}
+
+TEST(PoseSession, ARestartUnderTheSameKeyIsSeenByItsViewerTime) {
+  PoseSession s;
+  EXPECT_EQ(s.offer("A", 500, 5'000 * kMs, 0), PoseVerdict::kAccepted);
+  // seq back to 1 but sampled later: the sender restarted; obeyed at once.
+  EXPECT_EQ(s.offer("A", 1, 5'100 * kMs, kFrame), PoseVerdict::kTookOver);
+  EXPECT_EQ(s.offer("A", 2, 5'133 * kMs, 2 * kFrame), PoseVerdict::kAccepted);
+  EXPECT_EQ(s.last_seq(), 2u);
+}
+
+TEST(PoseSession, AfterAnOutageTheLecturerIsObeyedWhereverItsSeqStands) {
+  PoseSession s;
+  s.offer("A", 10, 0, 0);
+  // 10 s without packets; meanwhile the lecturer moved on far beyond the window.
+  const uint64_t far = 10 + 10 * s.config().seq_window;
+  EXPECT_EQ(s.offer("A", far, 1, 10'000 * kMs), PoseVerdict::kTookOver);
+  EXPECT_EQ(s.last_seq(), far);
+}
+
+TEST(PosePlausibility, FarAwayPosesAreImplausible) {
+  Pose p;
+  p.position = Eigen::Vector3d(999, 0, 0);
+  std::string why;
+  EXPECT_FALSE(pose_is_plausible(p, 20.0, &why));
+  EXPECT_NE(why.find("999 m"), std::string::npos) << why;
+  p.position = Eigen::Vector3d(3, -1.5, 19);
+  EXPECT_TRUE(pose_is_plausible(p, 20.0, nullptr));
+}
+
+TEST(PoseKey, LoadsRawBytesAndRejectsBadFiles) {
+  vctest::TempDir dir;
+  const std::string good = dir / "pose.key", short_key = dir / "short.key", huge = dir / "huge.key";
+  vctest::write_text(good, std::string("0123456789abcdef0123456789abcdef"));
+  vctest::write_text(short_key, "tooshort");
+  vctest::write_text(huge, std::string(kPoseKeyMaxSize + 1, 'k'));
+  EXPECT_EQ(load_pose_key(good).bytes.size(), 32u);
+  for (const std::string& bad : {dir / "missing.key", short_key, huge}) {
+    try {
+      load_pose_key(bad);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(PoseWire, TaggedPacketsNeedTheRightKey) {
+  PoseKey key, other;
+  key.bytes.assign(32, 7);
+  other.bytes.assign(32, 8);
+  Pose p = sample_pose();
+  uint8_t tagged[kPoseWireMaxSize], plain[kPoseWireMaxSize];
+  ASSERT_EQ(pose_to_wire(p, tagged, 42, &key), kPoseWireMaxSize);
+  ASSERT_EQ(pose_to_wire(p, plain, 42), kPoseWireSize);
+  Pose back;
+  std::string err;
+  PoseWireInfo info;
+  ASSERT_TRUE(pose_from_wire(tagged, kPoseWireMaxSize, &back, &err, &key, &info)) << err;
+  expect_same_pose(back, p);
+  EXPECT_EQ(info.session, 42u);
+  EXPECT_TRUE(info.tagged);
+  EXPECT_FALSE(pose_from_wire(tagged, kPoseWireMaxSize, &back, &err, &other, &info));
+  EXPECT_EQ(info.error, PoseWireError::kUnauthenticated);
+  EXPECT_FALSE(pose_from_wire(plain, kPoseWireSize, &back, &err, &key, &info));
+  EXPECT_EQ(info.error, PoseWireError::kUnauthenticated);
+  // Without a key, both are read (the documented risk: anyone can steer).
+  EXPECT_TRUE(pose_from_wire(tagged, kPoseWireMaxSize, &back, &err));
+  EXPECT_TRUE(pose_from_wire(plain, kPoseWireSize, &back, &err));
+  // A flipped bit of the tag, and a tag cut short.
+  tagged[kPoseWireMaxSize - 1] ^= 0x80;
+  EXPECT_FALSE(pose_from_wire(tagged, kPoseWireMaxSize, &back, &err, &key, &info));
+  EXPECT_EQ(info.error, PoseWireError::kUnauthenticated);
+  EXPECT_FALSE(pose_from_wire(tagged, kPoseWireMaxSize - 1, &back, &err, &key, &info));
+  EXPECT_EQ(info.error, PoseWireError::kDamaged);
+  // A NaN pose with a right checksum and tag is invalid, not damaged.
+  Pose bad = sample_pose();
+  bad.position.x() = std::numeric_limits<double>::quiet_NaN();
+  uint8_t nan_wire[kPoseWireMaxSize];
+  pose_to_wire(bad, nan_wire, 1, &key);
+  EXPECT_FALSE(pose_from_wire(nan_wire, kPoseWireMaxSize, &back, &err, &key, &info));
+  EXPECT_EQ(info.error, PoseWireError::kInvalid);
+}
+
+TEST(PoseChannel, CountsEachKindAndWarnsOncePerIntervalWithTheRestAtTheEnd) {
+  PoseChannelConfig c;
+  c.key.bytes.assign(32, 3);
+  PoseChannel ch(c);
+  PoseKey wrong;
+  wrong.bytes.assign(32, 4);
+  uint8_t wire[kPoseWireMaxSize];
+  Pose p = sample_pose();
+  p.position = Eigen::Vector3d(1, 0, 2);
+  p.seq = 1;
+  pose_to_wire(p, wire, 5, &c.key);
+  PoseChannel::Outcome o = ch.receive(wire, kPoseWireMaxSize, "ssrc 1", 0);
+  EXPECT_TRUE(o.obey);
+  EXPECT_TRUE(o.warning.empty());
+  // Ten poses tagged with another key within a second: one warning, ten counted.
+  int warnings = 0;
+  for (int i = 0; i < 10; ++i) {
+    p.seq = 2 + i;
+    pose_to_wire(p, wire, 5, &wrong);
+    o = ch.receive(wire, kPoseWireMaxSize, "ssrc 1", i * 100 * kMs);
+    EXPECT_FALSE(o.obey);
+    warnings += !o.warning.empty();
+  }
+  EXPECT_EQ(warnings, 1);
+  // A far pose and a far-ahead seq, rightly tagged; and garbage.
+  Pose far = p;
+  far.position = Eigen::Vector3d(0, 0, 999);
+  far.seq = 20;
+  pose_to_wire(far, wire, 5, &c.key);
+  EXPECT_FALSE(ch.receive(wire, kPoseWireMaxSize, "ssrc 1", kMs).obey);
+  p.seq = UINT64_MAX;
+  pose_to_wire(p, wire, 5, &c.key);
+  EXPECT_FALSE(ch.receive(wire, kPoseWireMaxSize, "ssrc 1", kMs).obey);
+  EXPECT_FALSE(ch.receive(wire, 7, "ssrc 1", kMs).obey);
+  const PoseChannelCounts n = ch.counts();
+  EXPECT_EQ(n.received, 14u);
+  EXPECT_EQ(n.injected, 1u);
+  EXPECT_EQ(n.unauthenticated, 10u);
+  EXPECT_EQ(n.implausible, 1u);
+  EXPECT_EQ(n.rejected, 1u);
+  EXPECT_EQ(n.damaged, 1u);
+  EXPECT_EQ(ch.last_seq(), 1u);
+  const std::vector<std::string> rest = ch.final_warnings();
+  ASSERT_EQ(rest.size(), 1u);  // the 9 unauthenticated ones after the first message
+  EXPECT_NE(rest[0].find("9 unauthenticated pose packets"), std::string::npos) << rest[0];
 }

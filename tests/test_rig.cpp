@@ -226,3 +226,114 @@ TEST(Rig, SidewaysCamerasShiftByTheDisparity) {
   EXPECT_NEAR(uv->x(), 300 - c0.fx * 0.1 / z, 1e-9);
   EXPECT_NEAR(uv->y(), 200, 1e-9);
 }
+
+// Issue 14/17: hostile rig files are refused with the project's error (never an
+// abort, a hang or a silently truncated number), and syntax errors name the line.
+TEST(Rig, HostileFilesFailWithAnErrorNotAnAbort) {
+  vctest::TempDir dir;
+  // Each aborted the process through OpenCV's reader (a cv::Exception escaped).
+  for (const std::string text : {"-\n", " i:0\n :\n", "\xff\xfe\x00x", "[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[[1]]",
+                                 "a: &x [1]\nb: *x\n", "cameras: [*a]\n", "name: x\nname: y\n"}) {
+    std::string msg;
+    EXPECT_NO_THROW(msg = load_error(dir, text)) << text;
+    EXPECT_FALSE(msg.empty()) << "loaded: " << text;
+    EXPECT_NE(msg.find(dir / "rig.yaml"), std::string::npos) << msg;
+  }
+  EXPECT_NE(load_error(dir, "-\n").find("expected a mapping"), std::string::npos);
+  EXPECT_NE(load_error(dir, "a: &x [1]\nb: *x\n").find("not supported"), std::string::npos);
+  // Far larger than any rig: refused before parsing.
+  EXPECT_NE(load_error(dir, std::string(2 << 20, '#')).find("larger than"), std::string::npos);
+}
+
+TEST(Rig, IntegersAreRangeCheckedBeforeConversion) {
+  vctest::TempDir dir;
+  const std::string msg = load_error(dir, replace_once(kGoodRig, "    width: 640\n    height: 480\n    fx: 500",
+                                                         "    width: 4294967552\n    height: 480\n    fx: 500"));
+  // 4294967552 is 2^32 + 256: it must never become a 256-pixel-wide camera.
+  EXPECT_NE(msg.find("'width'"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("out of range"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("camera 0"), std::string::npos) << msg;
+  EXPECT_NE(load_error(dir, replace_once(kGoodRig, "  - id: 1\n", "  - id: 1.5\n")).find("expected an integer"),
+            std::string::npos);
+}
+
+TEST(Rig, ErrorsNameTheLine) {
+  vctest::TempDir dir;
+  const std::string file = dir / "rig.yaml";
+  // fx of camera 1 is on line 16 of kGoodRig (the comment is line 1).
+  std::string msg = load_error(dir, replace_once(kGoodRig, "    fx: 510.5\n", "    fx: -1\n"));
+  EXPECT_NE(msg.find(file + ":16: camera 1 (id 1): field 'fx'"), std::string::npos) << msg;
+  // A syntax error: line and column, not an OpenCV function.
+  msg = load_error(dir, "name: lab\ncameras:\n  - id: 0\n   width: [3\n");
+  EXPECT_NE(msg.find(file + ":"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("not a valid rig YAML"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find("cv::"), std::string::npos) << msg;
+  // A missing field names the line where its camera starts.
+  msg = load_error(dir, replace_once(kGoodRig, "    cy: 240\n", ""));
+  EXPECT_NE(msg.find(file + ":13: camera 1 (id 1): field 'cy': missing"), std::string::npos) << msg;
+}
+
+TEST(Rig, ReadsFilesOpenCvWrote) {
+  // Rig files written by earlier versions (OpenCV's FileStorage) keep loading.
+  vctest::TempDir dir;
+  const char* opencv_written = "%YAML:1.0\n---\n# gst-vclassroom rig\nrig_version: 1\nname: \"lab\"\ncameras:\n"
+                               "   -\n      id: 0\n      name: \"\"\n      width: 64\n      height: 48\n"
+                               "      fx: 5.0000000000000000e+01\n      fy: 50.\n      cx: 3.1500000000000000e+01\n"
+                               "      cy: 2.3500000000000000e+01\n      distortion: [ 0., 0., 0., 0., 0. ]\n"
+                               "      depth_scale: 1.\n      rotation: [ 1., 0., 0., 0., -1., 0., 0., 0., -1. ]\n"
+                               "      translation: [ 0., 0., 0. ]\n";
+  vctest::write_text(dir / "rig.yaml", opencv_written);
+  Rig rig = load_rig(dir / "rig.yaml");
+  ASSERT_EQ(rig.cameras.size(), 1u);
+  EXPECT_EQ(rig.name, "lab");
+  EXPECT_EQ(rig.cameras[0].width, 64);
+  EXPECT_EQ(rig.cameras[0].fy, 50.0);
+  EXPECT_EQ(rig.cameras[0].cx, 31.5);
+}
+
+TEST(Rig, SavedTextRoundTripsOddNamesAndNumbers) {
+  Rig rig = vctest::make_rig(2, 64, 48);
+  rig.name = "room \"7\": a\\b\n#x";
+  rig.cameras[0].name = "- [weird] {name}";
+  rig.cameras[0].cx = -0.0;
+  rig.cameras[1].fx = 5e-324 + 1e-300;
+  rig.cameras[1].cy = 0.1 + 0.2;
+  Rig back = parse_rig_text(rig_to_text(rig), "mem");
+  EXPECT_EQ(back.name, rig.name);
+  EXPECT_EQ(back.cameras[0].name, rig.cameras[0].name);
+  EXPECT_TRUE(std::signbit(back.cameras[0].cx));
+  EXPECT_EQ(back.cameras[1].fx, rig.cameras[1].fx);
+  EXPECT_EQ(back.cameras[1].cy, rig.cameras[1].cy);
+}
+
+// Issue 14: a valid rig made rgbdtestsrc spin at full CPU for minutes — a
+// 16384x16384 camera costs about 4 GB and tens of seconds per synthetic frame.
+// The element now stops at once with a bus error naming the camera's size.
+TEST(RigThroughElements, HugeCameraStopsRgbdTestSrcWithAnError) {
+  vctest::TempDir dir;
+  Rig rig = vctest::make_rig(1, 64, 48);
+  rig.cameras[0].width = rig.cameras[0].height = 16384;
+  save_rig(rig, dir / "huge.yaml");
+  // 30 s: far beyond what the refusal takes, far below the minutes the old code spun.
+  const vctest::RunResult r = vctest::run_launch(
+      "rgbdtestsrc rig=" + (dir / "huge.yaml") + " camera-id=0 num-buffers=3 ! fakesink", 30 * GST_SECOND);
+  EXPECT_NE(r.error, "timeout");
+  EXPECT_NE(r.error.find("16384x16384"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("at most"), std::string::npos) << r.error;
+}
+
+TEST(RigThroughElements, ExtremeIntrinsicsRenderWithoutError) {
+  // Focal lengths and principal points far outside any real camera (yet finite,
+  // so the rig is valid) render empty frames instead of overflowing.
+  vctest::TempDir dir;
+  Rig rig = vctest::make_rig(2, 64, 48);
+  rig.cameras[0].fx = rig.cameras[0].fy = 1e-300;
+  rig.cameras[1].fx = rig.cameras[1].fy = 1e300;
+  rig.cameras[1].cx = -1e300;
+  save_rig(rig, dir / "extreme.yaml");
+  for (int id : {0, 1}) {
+    const vctest::RunResult r = vctest::run_launch("rgbdtestsrc rig=" + (dir / "extreme.yaml") + " camera-id=" +
+                                                   std::to_string(id) + " num-buffers=2 ! fakesink", 30 * GST_SECOND);
+    EXPECT_EQ(r.error, "") << "camera " << id;
+  }
+}

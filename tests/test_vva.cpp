@@ -18,6 +18,7 @@
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/view_fuse.h>
 #include <gst/vclassroom/view_warp.h>
+#include <gst/vclassroom/virtual_view.h>
 
 #include "test_util.h"
 
@@ -279,6 +280,46 @@ TEST(ViewFuse, NearestSurfaceWinsWhateverTheWeights) {
   other.weight = cv::Mat(4, 4, CV_8UC1, cv::Scalar(5));
   fuse_views({&near_view, &other}, FuseParams(), &f);
   EXPECT_EQ(f.color.at<cv::Vec3b>(1, 1), cv::Vec3b(150, 0, 0));
+}
+
+TEST(VirtualView, TheBaseCameraIsTheSourceAtTheNegotiatedSizeAndFieldOfViewWithoutDistortion) {
+  CameraCalib src = pinhole(640, 480, 500);
+  src.distortion[0] = 0.1;
+  src.cam_to_rig.translation() = Eigen::Vector3d(1, 2, 3);
+  CameraCalib v = virtual_view_base(src, 320, 240, 0);
+  EXPECT_EQ(v.width, 320);
+  EXPECT_EQ(v.height, 240);
+  EXPECT_NEAR(v.fx, 250, 1e-9);
+  EXPECT_EQ(v.distortion[0], 0);
+  EXPECT_TRUE(v.cam_to_rig.isApprox(Eigen::Isometry3d::Identity()));
+  v = virtual_view_base(src, 0, 0, 90);  // the source's size, 90 degrees across
+  EXPECT_EQ(v.width, 640);
+  EXPECT_NEAR(v.fx, 320, 1e-9);
+  EXPECT_NEAR(v.fy, 320, 1e-9);
+  EXPECT_NEAR(virtual_view_base(src, 640, 480, 0).fx, 500, 1e-9);
+}
+
+TEST(VirtualView, ATracePosesEachFrameByItsMomentOrItsNumber) {
+  std::vector<PoseSample> trace(3);
+  for (int i = 0; i < 3; ++i) {
+    trace[i].t = 0.5 * i;
+    trace[i].pose.position = Eigen::Vector3d(i, 0, 0);
+  }
+  Pose p = trace_pose_for_frame(trace, 0.6, 0);  // the last sample at or before 0.6 s
+  EXPECT_EQ(p.seq, 2u);
+  EXPECT_EQ(p.viewer_time_ns, 500'000'000);
+  EXPECT_EQ(p.position.x(), 1);
+  EXPECT_EQ(trace_pose_for_frame(trace, NAN, 1).seq, 2u);  // no running time: by frame number
+  EXPECT_EQ(trace_pose_for_frame(trace, NAN, 10).seq, 3u);  // the last pose held
+  EXPECT_EQ(trace_pose_for_frame(trace, 5.0, 0).seq, 3u);
+  std::vector<PoseSample> untimed = trace;
+  for (auto& s : untimed) s.t = NAN;
+  p = trace_pose_for_frame(untimed, 0.6, 2);  // without a t column: by frame number
+  EXPECT_EQ(p.seq, 3u);
+  EXPECT_EQ(p.viewer_time_ns, -1);
+  EXPECT_EQ(trace_pose_in_turn(trace, 0).seq, 1u);
+  EXPECT_EQ(trace_pose_in_turn(trace, 7).seq, 3u);
+  EXPECT_EQ(trace_pose_in_turn(trace, 7).position.x(), 2);
 }
 
 TEST(ViewFuse, LivePairingToleratesPosesTakenCloseTogether) {

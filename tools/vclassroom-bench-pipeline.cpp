@@ -25,6 +25,7 @@
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/pose.h>
 
+#include "tool_options.h"
 #include "tool_support.h"
 
 using namespace vclassroom;
@@ -81,24 +82,21 @@ GstPadProbeReturn count_frame(GstPad*, GstPadProbeInfo*, gpointer data) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  gst_init(&argc, &argv);
   int frames = 300, learners = 6, cameras = 3, runs = 3;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--frames" && i + 1 < argc) frames = std::max(40, std::atoi(argv[++i]));
-    else if (a == "--learners" && i + 1 < argc) learners = std::atoi(argv[++i]);
-    else if (a == "--cameras" && i + 1 < argc) cameras = std::clamp(std::atoi(argv[++i]), 1, 3);
-    else if (a == "--runs" && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
-    else {
-      std::fprintf(stderr,
-                   "usage: vclassroom-bench-pipeline [--frames N] [--runs R] [--learners L] [--cameras C]\n"
-                   "  Frames per second of `appsrc ! learnerseg ! viewwarp ! queue` x C into viewfuse -> fakesink\n"
-                   "  at 960x540, the virtual view following a lecturer's walk (a new pose every frame);\n"
-                   "  R runs (default 3) of N frames (default 300), each printed, then the median.\n"
-                   "  Needs the plugins: run it inside `meson devenv -C build` or after `meson install`.\n");
-      return 2;
-    }
-  }
+  const GOptionEntry entries[] = {
+      {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames per run (default 300, at least 40)", "N"},
+      {"runs", 0, 0, G_OPTION_ARG_INT, &runs, "runs, each printed, then the median (default 3)", "R"},
+      {"learners", 0, 0, G_OPTION_ARG_INT, &learners, "learners in the synthetic classroom (default 6)", "L"},
+      {"cameras", 0, 0, G_OPTION_ARG_INT, &cameras, "cameras, 1 to 3 (default 3)", "C"},
+      {}};
+  vclassroom_tools::parse_command_line(
+      &argc, &argv, "",
+      "Frames per second of `appsrc ! learnerseg ! viewwarp ! queue` x C into viewfuse -> fakesink at 960x540,\n"
+      "the virtual view following a lecturer's walk (a new pose every frame). Needs the plugins: run it inside\n"
+      "`meson devenv -C build` or after `meson install`.",
+      entries, gst_init_get_option_group());
+  if (frames < 40 || runs < 1 || learners < 0 || cameras < 1 || cameras > 3)
+    vclassroom_tools::usage_error("--frames must be at least 40, --runs at least 1, --cameras 1 to 3");
   for (const char* e : {"rgbdtestsrc", "learnerseg", "viewwarp", "viewfuse"})
     if (!gst_element_factory_find(e)) {
       std::fprintf(stderr, "element %s not found: run inside `meson devenv -C build` or install the plugins\n", e);

@@ -21,6 +21,8 @@
 #include <gst/vclassroom/view_fuse.h>
 #include <gst/vclassroom/view_warp.h>
 
+#include "tool_options.h"
+
 using namespace vclassroom;
 using Clock = std::chrono::steady_clock;
 
@@ -114,20 +116,17 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
 
 int main(int argc, char** argv) {
   int frames = 60, threads = 2;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--frames" && i + 1 < argc) frames = std::atoi(argv[++i]);
-    else if (a == "--threads" && i + 1 < argc) threads = std::atoi(argv[++i]);
-    else {
-      std::fprintf(stderr,
-                   "usage: vclassroom-bench-server [--frames N] [--threads T]\n"
-                   "  Times learnerseg + viewwarp per camera and viewfuse on 960x540 synthetic classroom frames\n"
-                   "  (sensor model on, 6 learners); the virtual view starts at camera 0's pose moved 0.2 m left and\n"
-                   "  walks on sideways with a head turn, a new pose every frame.\n"
-                   "  T threads share the cameras (default 2: this machine's cores).\n");
-      return 2;
-    }
-  }
+  const GOptionEntry entries[] = {
+      {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
+      {"threads", 0, 0, G_OPTION_ARG_INT, &threads, "threads sharing the cameras (default 2: this machine's cores)", "T"},
+      {}};
+  vclassroom_tools::parse_command_line(
+      &argc, &argv, "",
+      "Times learnerseg + viewwarp per camera and viewfuse on 960x540 synthetic classroom frames (sensor model\n"
+      "on, 6 learners); the virtual view starts at camera 0's pose moved 0.2 m left and walks on sideways with a\n"
+      "head turn, a new pose every frame.",
+      entries);
+  if (frames < 1 || threads < 1) vclassroom_tools::usage_error("--frames and --threads must be at least 1");
   cv::setNumThreads(1);  // our threads are the cameras
   const Rig rig = default_classroom_rig();
   const Classroom room(ClassroomConfig{1, 6, 2.0}), empty(ClassroomConfig{1, 0, 2.0});

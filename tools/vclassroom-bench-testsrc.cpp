@@ -16,6 +16,8 @@
 #include <gst/vclassroom/classroom.h>
 #include <gst/vclassroom/visualize.h>
 
+#include "tool_options.h"
+
 using namespace vclassroom;
 
 namespace {
@@ -98,41 +100,42 @@ void print_sensor_ranges(const Classroom& room, const SensorParams& sp, uint64_t
   }
 }
 
-int usage() {
-  std::fprintf(stderr,
-               "usage: vclassroom-bench-testsrc [--frames N] [--learners N] [--seed S] [--time T]\n"
-               "                                [--write-png DIR] [--write-rig FILE]\n"
-               "Renders N frames (default 150) per camera of the default rig at 960x540 on one thread,\n"
-               "without and with the sensor model, and prints frames per second per camera.\n"
-               "--write-png DIR writes the documentation pictures (at scene time T, default 4 s) instead.\n"
-               "--write-rig FILE writes the default rig (rgbdtestsrc's rig when none is given) as YAML.\n");
-  return 2;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   int frames = 150, learners = 3;
-  uint64_t seed = 1;
+  gint64 seed = 1;
   double t_png = 4.0;
-  std::string png_dir;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> const char* {
-      if (i + 1 >= argc) std::exit(usage());
-      return argv[++i];
-    };
-    if (a == "--frames") frames = std::atoi(next());
-    else if (a == "--learners") learners = std::atoi(next());
-    else if (a == "--seed") seed = std::strtoull(next(), nullptr, 10);
-    else if (a == "--time") t_png = std::atof(next());
-    else if (a == "--write-png") png_dir = next();
-    else if (a == "--write-rig") {
-      save_rig(default_classroom_rig(), next());
-      return 0;
+  gchar *png_arg = nullptr, *rig_arg = nullptr;
+  const GOptionEntry entries[] = {
+      {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames per camera (default 150)", "N"},
+      {"learners", 0, 0, G_OPTION_ARG_INT, &learners, "learners in the classroom (default 3)", "N"},
+      {"seed", 0, 0, G_OPTION_ARG_INT64, &seed, "scene and noise seed (default 1)", "S"},
+      {"time", 0, 0, G_OPTION_ARG_DOUBLE, &t_png, "scene time of the pictures of --write-png (default 4 s)", "T"},
+      {"write-png", 0, 0, G_OPTION_ARG_FILENAME, &png_arg,
+       "write the documentation pictures there (made if missing) instead of timing", "DIR"},
+      {"write-rig", 0, 0, G_OPTION_ARG_FILENAME, &rig_arg,
+       "write the default rig (rgbdtestsrc's rig when none is given) as YAML and stop", "FILE"},
+      {}};
+  vclassroom_tools::parse_command_line(
+      &argc, &argv, "",
+      "Renders N frames per camera of the default rig at 960x540 on one thread, without and with the sensor\n"
+      "model, and prints frames per second per camera.",
+      entries);
+  if (frames < 1 || learners < 0 || seed < 0)
+    vclassroom_tools::usage_error("--frames must be at least 1, --learners and --seed at least 0");
+  const std::string png_dir = vclassroom_tools::text_of(png_arg);
+  if (rig_arg) {
+    if (!vclassroom_tools::make_parent_folder(rig_arg)) return 1;
+    try {
+      save_rig(default_classroom_rig(), rig_arg);
+    } catch (const Error& e) {
+      std::fprintf(stderr, "%s\n", e.what());
+      return 1;
     }
-    else return usage();
+    return 0;
   }
+  if (!png_dir.empty() && !vclassroom_tools::make_folder(png_dir)) return 1;
   try {
     ClassroomConfig cfg;
     cfg.seed = seed;

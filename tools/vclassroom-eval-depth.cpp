@@ -31,6 +31,8 @@
 #include <gst/vclassroom/static_model.h>
 #include <gst/vclassroom/visualize.h>
 
+#include "tool_options.h"
+
 using namespace vclassroom;
 
 
@@ -48,14 +50,6 @@ struct Args {
   bool synthetic = true, middlebury = true;
   DepthCompleteOptions vda;  // the V-DA settings evaluated (the elements' defaults unless changed)
 };
-
-void usage() {
-  std::cerr << "usage: vclassroom-eval-depth [--shared DIR] [--images DIR] [--model-frames N] [--eval-times N]\n"
-               "                             [--learners N] [--seed N] [--knockout-seed N]\n"
-               "                             [--only synthetic|middlebury] [--bench FRAMES]\n"
-               "                             [--colorize-iterations N] [--median-size 3|5] [--color-sigma X]\n"
-               "                             [--prior-measured-only]\n";
-}
 
 // Times are the CPU time of this thread: the figure for one core, and less
 // disturbed by other processes on a shared machine than wall time.
@@ -212,6 +206,7 @@ using Method = std::function<void(const cv::Mat& depth, const cv::Mat& color, cv
 void eval_middlebury(const Args& a) {
   const std::vector<std::string> scenes = {"art", "aloe"};
   for (const std::string& scene : scenes) {
+    std::fprintf(stderr, "vclassroom-eval-depth: Middlebury %s\n", scene.c_str());
     const std::string dir = a.shared + "/middlebury-2005-2006-multiview/" + scene;
     cv::Mat bgr = cv::imread(dir + "/view1.png", cv::IMREAD_COLOR);
     cv::Mat disp = cv::imread(dir + "/disp1.png", cv::IMREAD_GRAYSCALE);
@@ -403,6 +398,7 @@ void eval_synthetic(const Args& a) {
   double ms_complete = 0, ms_planes = 0;
   int timed = 0;
   for (int ti = 0; ti < a.eval_times; ++ti) {
+    std::fprintf(stderr, "vclassroom-eval-depth: synthetic classroom, scene time %d of %d\n", ti + 1, a.eval_times);
     const double t = 2.0 + 7.5 * ti;
     for (const CameraCalib& cam0 : s.rig.cameras) {
       const CameraCalib& cam = s.model.rig.camera(cam0.id);
@@ -674,48 +670,49 @@ void bench(const Args& a, const std::string& argv0) {
 
 int main(int argc, char** argv) {
   Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        usage();
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (k == "--shared")
-      a.shared = next();
-    else if (k == "--images")
-      a.images = next();
-    else if (k == "--model-frames")
-      a.model_frames = std::stoi(next());
-    else if (k == "--eval-times")
-      a.eval_times = std::stoi(next());
-    else if (k == "--learners")
-      a.learners = std::stoi(next());
-    else if (k == "--seed")
-      a.seed = std::stoull(next());
-    else if (k == "--knockout-seed")
-      a.knockout_seed = std::stoull(next());
-    else if (k == "--colorize-iterations")
-      a.vda.colorize.iterations = std::stoi(next());
-    else if (k == "--median-size")
-      a.vda.guided.median_size = std::stoi(next());
-    else if (k == "--color-sigma")
-      a.vda.colorize.color_sigma = std::stod(next());
-    else if (k == "--prior-measured-only")
-      a.vda.prior.measured_only = true;
-    else if (k == "--bench")
-      a.bench = std::stoi(next());
-    else if (k == "--only") {
-      const std::string w = next();
-      a.synthetic = w == "synthetic";
-      a.middlebury = w == "middlebury";
-    } else {
-      usage();
-      return 2;
-    }
+  gchar *shared = nullptr, *images = nullptr, *only = nullptr;
+  gint64 seed = 1, knockout_seed = 7;
+  gboolean measured_only = FALSE;
+  const GOptionEntry entries[] = {
+      {"shared", 0, 0, G_OPTION_ARG_FILENAME, &shared,
+       "the shared data folder (default ../shared/data, relative to the repo root)", "DIR"},
+      {"images", 0, 0, G_OPTION_ARG_FILENAME, &images, "write before/after pictures there (made if missing)", "DIR"},
+      {"only", 0, 0, G_OPTION_ARG_STRING, &only, "one evaluation: synthetic or middlebury (default both)", "NAME"},
+      {"model-frames", 0, 0, G_OPTION_ARG_INT, &a.model_frames, "frames per camera for the static model (default 8)",
+       "N"},
+      {"eval-times", 0, 0, G_OPTION_ARG_INT, &a.eval_times, "scene times evaluated (default 4)", "N"},
+      {"learners", 0, 0, G_OPTION_ARG_INT, &a.learners, "learners in the synthetic classroom (default 6)", "N"},
+      {"seed", 0, 0, G_OPTION_ARG_INT64, &seed, "synthetic classroom seed (default 1)", "N"},
+      {"knockout-seed", 0, 0, G_OPTION_ARG_INT64, &knockout_seed, "seed of the Middlebury knock-outs (default 7)", "N"},
+      {"bench", 0, 0, G_OPTION_ARG_INT, &a.bench, "time V-DA on this many frames instead of evaluating", "FRAMES"},
+      {"colorize-iterations", 0, 0, G_OPTION_ARG_INT, &a.vda.colorize.iterations,
+       "colorization iterations per frame (default 10)", "N"},
+      {"median-size", 0, 0, G_OPTION_ARG_INT, &a.vda.guided.median_size, "median filter size, 3 or 5 (default 3)",
+       "N"},
+      {"color-sigma", 0, 0, G_OPTION_ARG_DOUBLE, &a.vda.colorize.color_sigma,
+       "colorization colour distance (8-bit RGB, default 12)", "X"},
+      {"prior-measured-only", 0, 0, G_OPTION_ARG_NONE, &measured_only,
+       "use only the prior depth that some camera measured", nullptr},
+      {}};
+  vclassroom_tools::parse_command_line(
+      &argc, &argv, "", "Quality and speed of the depth algorithm (V-DA) on the synthetic classroom and Middlebury.",
+      entries);
+  if (shared) a.shared = shared;
+  a.images = vclassroom_tools::text_of(images);
+  a.seed = static_cast<uint64_t>(seed);
+  a.knockout_seed = static_cast<uint64_t>(knockout_seed);
+  a.vda.prior.measured_only = measured_only;
+  if (only) {
+    const std::string w = only;
+    if (w != "synthetic" && w != "middlebury")
+      vclassroom_tools::usage_error("--only must be synthetic or middlebury (got '" + w + "')");
+    a.synthetic = w == "synthetic";
+    a.middlebury = w == "middlebury";
   }
+  if (a.model_frames < 1 || a.eval_times < 1 || a.learners < 0 || a.bench < 0 || seed < 0 || knockout_seed < 0 ||
+      a.vda.colorize.iterations < 0 || (a.vda.guided.median_size != 3 && a.vda.guided.median_size != 5))
+    vclassroom_tools::usage_error("a value is out of range (see --help)");
+  if (!a.images.empty() && !vclassroom_tools::make_folder(a.images)) return 1;
   cv::setNumThreads(0);  // one core: the per-frame budget is per core
   try {
     if (a.bench > 0) {

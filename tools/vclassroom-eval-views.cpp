@@ -27,6 +27,8 @@
 #include <gst/vclassroom/view_fuse.h>
 #include <gst/vclassroom/view_warp.h>
 
+#include "tool_options.h"
+
 using namespace vclassroom;
 
 namespace {
@@ -42,27 +44,6 @@ struct Options {
   std::string write_priors;  // folder: write the empty room's depth per camera and exit
   std::string model;         // V-DA model folder: the full system runs V-DA on the sensor depth
 };
-
-int usage() {
-  std::fprintf(stderr,
-               "usage: vclassroom-eval-views [--shared DIR] [--only classroom|middlebury|teddy] [--frames N]\n"
-               "                             [--size WxH] [--images DIR] [--boundary PX] [--model DIR]\n"
-               "       vclassroom-eval-views --write-priors DIR [--size WxH]\n"
-               "  --shared DIR   the shared data folder (default ../shared/data, relative to the repo root)\n"
-               "  --images DIR   write side-by-side PNGs (synthesised | real | error x4) there\n"
-               "  --frames N     synthetic classroom frames to average over (default 20)\n"
-               "  --size WxH     synthetic classroom camera size (default 960x540)\n"
-               "  --boundary PX  source pixels dropped next to depth edges (default 1)\n"
-               "  --mesh         warp with the triangle mesh rasteriser (reference) instead of the cell splat\n"
-               "  --model DIR    V-DA's static model (vclassroom-build-model --synthetic, 960x540): the\n"
-               "                 static layer is its prior depth and the sensor depth goes through\n"
-               "                 depthcomplete + planerefine first, as in the live pipeline; without it\n"
-               "                 the static layer is the empty room's exact depth (a stand-in)\n"
-               "  --write-priors DIR  write the empty classroom's clean depth for cameras 0..2 of the\n"
-               "                 default rig as DIR/prior-cam<K>.png (16-bit mm): the stand-in for V-DA's\n"
-               "                 static model that learnerseg/viewwarp's prior-depth property reads\n");
-  return 2;
-}
 
 struct Stats {
   std::vector<double> v;
@@ -250,7 +231,9 @@ void eval_classroom(const Options& opt) {
   const double fps = 10.0;  // segmentation sees consecutive frames at 10 fps
   FusedView fused;
   cv::Mat last_synth, last_real;
+  vclassroom_tools::Progress progress("synthetic classroom frames", opt.frames);
   for (int f = 0; f < opt.frames; ++f) {
+    progress.step(f + 1);
     const double t = f / fps;
     std::vector<RgbdImages> imgs(3);
     std::vector<cv::Mat> labels(3), truth(3), raw_depth(3);
@@ -342,24 +325,48 @@ void write_priors(const Options& opt) {
 
 int main(int argc, char** argv) {
   Options opt;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) std::exit(usage());
-      return argv[++i];
-    };
-    if (a == "--shared") opt.shared = next();
-    else if (a == "--images") opt.images = next();
-    else if (a == "--only") opt.only = next();
-    else if (a == "--frames") opt.frames = std::atoi(next().c_str());
-    else if (a == "--boundary") opt.boundary_px = std::atoi(next().c_str());
-    else if (a == "--mesh") opt.mesh = true;
-    else if (a == "--write-priors") opt.write_priors = next();
-    else if (a == "--model") opt.model = next();
-    else if (a == "--size") {
-      if (std::sscanf(next().c_str(), "%dx%d", &opt.width, &opt.height) != 2) return usage();
-    } else return usage();
-  }
+  gchar *shared = nullptr, *images = nullptr, *only = nullptr, *size = nullptr, *priors_dir = nullptr,
+        *model = nullptr;
+  gboolean mesh = FALSE;
+  const GOptionEntry entries[] = {
+      {"shared", 0, 0, G_OPTION_ARG_FILENAME, &shared,
+       "the shared data folder (default ../shared/data, relative to the repo root)", "DIR"},
+      {"only", 0, 0, G_OPTION_ARG_STRING, &only, "one evaluation: classroom, middlebury or teddy (default all)",
+       "NAME"},
+      {"images", 0, 0, G_OPTION_ARG_FILENAME, &images,
+       "write side-by-side PNGs (synthesised | real | error x4) there (made if missing)", "DIR"},
+      {"frames", 0, 0, G_OPTION_ARG_INT, &opt.frames, "synthetic classroom frames to average over (default 20)",
+       "N"},
+      {"size", 0, 0, G_OPTION_ARG_STRING, &size, "synthetic classroom camera size (default 960x540)", "WxH"},
+      {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 1)",
+       "PX"},
+      {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,
+       "warp with the triangle mesh rasteriser (reference) instead of the cell splat", nullptr},
+      {"model", 0, 0, G_OPTION_ARG_FILENAME, &model,
+       "V-DA's static model (vclassroom-build-model --synthetic, 960x540): the static layer is its prior depth "
+       "and the sensor depth goes through depthcomplete + planerefine first, as in the live pipeline; without it "
+       "the static layer is the empty room's exact depth (a stand-in)",
+       "DIR"},
+      {"write-priors", 0, 0, G_OPTION_ARG_FILENAME, &priors_dir,
+       "only write the empty classroom's clean depth for cameras 0..2 of the default rig as DIR/prior-cam<K>.png "
+       "(16-bit mm), the stand-in for V-DA's model that learnerseg/viewwarp's prior-depth reads (made if missing)",
+       "DIR"},
+      {}};
+  vclassroom_tools::parse_command_line(
+      &argc, &argv, "", "Quality of the view algorithm (V-VA) on the synthetic classroom and Middlebury scenes.",
+      entries);
+  if (shared) opt.shared = shared;
+  opt.images = vclassroom_tools::text_of(images);
+  opt.only = vclassroom_tools::text_of(only);
+  opt.mesh = mesh;
+  opt.write_priors = vclassroom_tools::text_of(priors_dir);
+  opt.model = vclassroom_tools::text_of(model);
+  if (size) vclassroom_tools::parse_size_or_exit("--size", size, &opt.width, &opt.height);
+  if (!opt.only.empty() && opt.only != "classroom" && opt.only != "middlebury" && opt.only != "teddy")
+    vclassroom_tools::usage_error("--only must be classroom, middlebury or teddy (got '" + opt.only + "')");
+  if (opt.frames < 1 || opt.boundary_px < 0) vclassroom_tools::usage_error("--frames must be at least 1, --boundary at least 0");
+  for (const std::string& dir : {opt.images, opt.write_priors})
+    if (!dir.empty() && !vclassroom_tools::make_folder(dir)) return 1;
   try {
     if (!opt.write_priors.empty()) {
       write_priors(opt);

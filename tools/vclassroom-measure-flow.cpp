@@ -29,6 +29,7 @@
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
 
+#include "tool_options.h"
 #include "tool_support.h"
 
 using namespace vclassroom;
@@ -213,41 +214,43 @@ double percentile(std::vector<double> v, double q) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  gst_init(&argc, &argv);
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() { return i + 1 < argc ? std::string(argv[++i]) : std::string(); };
-    if (a == "--seconds") o.seconds = std::atoi(next().c_str());
-    else if (a == "--model") o.model = next();
-    else if (a == "--pipelines") o.pipelines = next();
-    else if (a == "--drop") o.drop = std::atof(next().c_str());
-    else if (a == "--live-cameras") o.live_cameras = true;
-    else if (a == "--mtu") o.mtu = std::atoi(next().c_str());
-    else if (a == "--prep-nice") o.prep_nice = std::atoi(next().c_str());
-    else if (a == "--cameras") {
-      o.cameras.clear();
-      std::istringstream is(next());
-      int k;
-      while (is >> k) o.cameras.push_back(k);
-    } else {
-      std::fprintf(stderr,
-                   "usage: vclassroom-measure-flow [--seconds N] [--cameras \"0 1 2\"] [--model DIR] [--drop P]\n"
-                   "                              [--live-cameras] [--mtu BYTES] [--prep-nice N]\n"
-                   "                              [--pipelines DIR]\n"
-                   "Runs pipelines/server.sh as a process on loopback, acts as the lecturer, and prints\n"
-                   "pose-to-display latency p50/p99, frames sent and decoded per camera, frames displayed,\n"
-                   "bitrate per link and CPU per process. The cameras' coded streams are recorded first and\n"
-                   "replayed at 30 fps by this program; --live-cameras runs pipelines/classroom.sh per camera\n"
-                   "instead (rendering live on this machine). --mtu sets the largest RTP packet on every link\n"
-                   "(default 65000, loopback's; 1400 fits Ethernet); --prep-nice sets server.sh's PREP_NICE. Run inside `meson devenv -C build`.\n");
-      return 2;
-    }
+  gchar *cameras = nullptr, *model = nullptr, *pipelines = nullptr;
+  gboolean live_cameras = FALSE;
+  const GOptionEntry entries[] = {
+      {"seconds", 0, 0, G_OPTION_ARG_INT, &o.seconds, "measured seconds (default 20)", "N"},
+      {"cameras", 0, 0, G_OPTION_ARG_STRING, &cameras, "rig cameras to stream (default \"0 1 2\")", "\"K ...\""},
+      {"model", 0, 0, G_OPTION_ARG_FILENAME, &model, "V-DA model folder for server.sh (MODEL)", "DIR"},
+      {"drop", 0, 0, G_OPTION_ARG_DOUBLE, &o.drop, "probability that a camera packet is dropped (identity drop-probability), 0 to 1", "P"},
+      {"live-cameras", 0, 0, G_OPTION_ARG_NONE, &live_cameras,
+       "run pipelines/classroom.sh per camera (rendering live) instead of replaying recorded streams", nullptr},
+      {"mtu", 0, 0, G_OPTION_ARG_INT, &o.mtu,
+       "largest RTP packet on every link (default 65000, loopback's; 1400 fits Ethernet)", "BYTES"},
+      {"prep-nice", 0, 0, G_OPTION_ARG_INT, &o.prep_nice, "server.sh's PREP_NICE (default: the script's)", "N"},
+      {"pipelines", 0, 0, G_OPTION_ARG_FILENAME, &pipelines, "folder of server.sh and classroom.sh (default pipelines)",
+       "DIR"},
+      {}};
+  vclassroom_tools::parse_command_line(
+      &argc, &argv, "",
+      "Runs pipelines/server.sh as a process on loopback, acts as the lecturer, and prints pose-to-display\n"
+      "latency p50/p99, frames sent and decoded per camera, frames displayed, bitrate per link and CPU per\n"
+      "process. The cameras' coded streams are recorded first and replayed at 30 fps by this program.\n"
+      "Run inside `meson devenv -C build`.",
+      entries, gst_init_get_option_group());
+  if (model) o.model = model;
+  if (pipelines) o.pipelines = pipelines;
+  o.live_cameras = live_cameras;
+  if (cameras) {
+    o.cameras.clear();
+    std::istringstream is(cameras);
+    int k;
+    while (is >> k) o.cameras.push_back(k);
+    if (!is.eof() || o.cameras.empty())
+      vclassroom_tools::usage_error(std::string("--cameras must be camera ids, e.g. \"0 1 2\" (got '") + cameras + "')");
   }
-  if (o.mtu < 200 || o.mtu > 65000 || o.prep_nice > 19 || o.seconds < 1) {
-    std::fprintf(stderr, "vclassroom-measure-flow: --mtu takes 200..65000 bytes, --prep-nice 0..19, --seconds 1 or more\n");
-    return 2;
-  }
+  if (o.seconds < 1 || !(o.drop >= 0 && o.drop <= 1) || o.mtu < 200 || o.mtu > 65000 || o.prep_nice < -1 ||
+      o.prep_nice > 19)
+    vclassroom_tools::usage_error("--seconds at least 1, --drop 0 to 1, --mtu 200 to 65000, --prep-nice 0 to 19");
   const double cam_rate = camera_link_rate(o);
   // Each camera's coded stream, as classroom.sh sends it, recorded once.
   std::vector<vclassroom_tools::Recording> recordings(o.live_cameras ? 0 : o.cameras.size());
@@ -363,7 +366,11 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::milliseconds(33));  // a tool's pacing, not a test
     }
   });
-  std::this_thread::sleep_for(std::chrono::seconds(o.seconds));
+  vclassroom_tools::Progress progress("measuring (s)", o.seconds);
+  for (int t = 1; t <= o.seconds; ++t) {
+    std::this_thread::sleep_for(std::chrono::seconds(1));  // the measured span, in steps that show progress
+    progress.step(t);
+  }
   std::vector<double> cpu;
   for (pid_t c : children) cpu.push_back(cpu_seconds(c));
   running = false;

@@ -32,6 +32,7 @@ struct Draw {
 
 constexpr double kNear = 0.02;  // metres
 constexpr int kMaxDraws = 65535;
+constexpr int64_t kMaxRenderPixels = int64_t(4096) * 4096;
 
 }  // namespace
 
@@ -77,14 +78,19 @@ void raster_face(const Face& f, const Classroom::Impl& scene, const Camera& c, f
   for (int i = 0; i < n; ++i) {
     sx[i] = c.fx * poly[i].x() / poly[i].z() + c.cx;
     sy[i] = c.fy * poly[i].y() / poly[i].z() + c.cy;
+    // Extreme intrinsics from a rig file can overflow to inf or NaN: such a face is not drawn.
+    if (!std::isfinite(sx[i]) || !std::isfinite(sy[i])) return;
     ymin = std::min(ymin, sy[i]);
     ymax = std::max(ymax, sy[i]);
     xmin = std::min(xmin, sx[i]);
     xmax = std::max(xmax, sx[i]);
   }
-  const int row0 = std::max(0, int(std::ceil(ymin)));
-  const int row1 = std::min(c.H, int(std::ceil(ymax)));  // exclusive
-  if (row0 >= row1 || xmax < 0 || xmin > c.W - 1) return;
+  if (xmax < 0 || xmin > c.W - 1) return;
+  // Clamped as doubles before converting: a coordinate beyond int's range
+  // would make the conversion undefined.
+  const int row0 = int(std::ceil(std::clamp(ymin, 0.0, double(c.H))));
+  const int row1 = int(std::ceil(std::clamp(ymax, 0.0, double(c.H))));  // exclusive
+  if (row0 >= row1) return;
 
   // Plane n.P = d in camera coordinates; on the ray P = z (xn, yn, 1):
   // 1/z = n.(xn, yn, 1) / d, affine in the pixel position.
@@ -129,8 +135,8 @@ void raster_face(const Face& f, const Classroom::Impl& scene, const Camera& c, f
       }
     }
     if (xl > xr) continue;
-    const int x0 = std::max(0, int(std::ceil(xl)));
-    const int x1 = std::min(c.W, int(std::ceil(xr)));
+    const int x0 = int(std::ceil(std::clamp(xl, 0.0, double(c.W))));
+    const int x1 = int(std::ceil(std::clamp(xr, 0.0, double(c.W))));
     if (x0 >= x1) continue;
     float* zr = invz + size_t(y) * c.W;
     uint16_t* sr = sid + size_t(y) * c.W;
@@ -157,8 +163,16 @@ void raster_face(const Face& f, const Classroom::Impl& scene, const Camera& c, f
 }  // namespace
 
 void ClassroomRenderer::render(const Classroom& scene, double t, const CameraCalib& cam, RenderOutput* out) {
-  if (cam.width <= 0 || cam.height <= 0 || !(cam.fx > 0) || !(cam.fy > 0))
+  if (cam.width <= 0 || cam.height <= 0 || !(cam.fx > 0) || !(cam.fy > 0) || !std::isfinite(cam.fx) ||
+      !std::isfinite(cam.fy) || !std::isfinite(cam.cx) || !std::isfinite(cam.cy))
     throw Error("classroom render: camera " + std::to_string(cam.id) + " has no valid size/focal length");
+  // A rig may hold cameras up to 16384x16384 (docs/rig-format.md), but one
+  // such synthetic frame takes about 4 GB and tens of seconds of CPU: rgbdtestsrc
+  // would spin for minutes. Refused before anything is allocated.
+  if (int64_t(cam.width) * cam.height > kMaxRenderPixels)
+    throw Error("classroom render: camera " + std::to_string(cam.id) + " is " + std::to_string(cam.width) + "x" +
+                std::to_string(cam.height) + "; the synthetic classroom renders at most " +
+                std::to_string(kMaxRenderPixels) + " pixels (4096x4096) per frame");
   const Classroom::Impl& im = scene.impl();
   Camera c;
   c.W = cam.width;

@@ -31,13 +31,7 @@ CameraCalib rectified_camera(int id, const cv::Size& size, double focal_px, doub
   return c;
 }
 
-cv::Mat read_checked(const fs::path& p, int flags) {
-  std::error_code ec;
-  if (!fs::exists(p, ec)) throw Error(p.string() + ": file is missing");
-  cv::Mat m = cv::imread(p.string(), flags);
-  if (m.empty()) throw Error(p.string() + ": cannot decode image");
-  return m;
-}
+cv::Mat read_checked(const fs::path& p, int flags) { return read_image(p.string(), flags, "Middlebury"); }
 
 cv::Mat disparity_to_depth(const cv::Mat& disp8, double scale_to_px, double focal_px, double baseline_m,
                            ImportSummary* sum) {

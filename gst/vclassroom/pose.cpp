@@ -249,28 +249,99 @@ T get_le(const uint8_t*& p) {
 }
 }  // namespace
 
-void pose_to_wire(const Pose& pose, uint8_t out[kPoseWireSize]) {
+namespace {
+constexpr char kPoseWireMagic[4] = {'V', 'C', 'P', '2'};
+
+// HMAC-SHA256 of data through GLib, truncated to kPoseTagSize bytes.
+void pose_tag(const PoseKey& key, const uint8_t* data, size_t size, uint8_t tag[kPoseTagSize]) {
+  GHmac* hmac = g_hmac_new(G_CHECKSUM_SHA256, key.bytes.data(), key.bytes.size());
+  g_hmac_update(hmac, data, static_cast<gssize>(size));
+  guint8 digest[32];
+  gsize len = sizeof digest;
+  g_hmac_get_digest(hmac, digest, &len);
+  g_hmac_unref(hmac);
+  std::memcpy(tag, digest, kPoseTagSize);
+}
+
+// Compares all bytes whatever the first difference, so the time taken tells
+// a forger nothing about how much of a tag was right.
+bool same_tag(const uint8_t* a, const uint8_t* b) {
+  uint8_t diff = 0;
+  for (size_t i = 0; i < kPoseTagSize; ++i) diff |= static_cast<uint8_t>(a[i] ^ b[i]);
+  return diff == 0;
+}
+}  // namespace
+
+PoseKey load_pose_key(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path + ": cannot open the pose key file (missing or unreadable)");
+  PoseKey key;
+  key.bytes.resize(kPoseKeyMaxSize + 1);
+  in.read(reinterpret_cast<char*>(key.bytes.data()), static_cast<std::streamsize>(key.bytes.size()));
+  if (in.bad()) throw Error(path + ": cannot read the pose key file");
+  const size_t n = static_cast<size_t>(in.gcount());
+  if (n < kPoseKeyMinSize || n > kPoseKeyMaxSize)
+    throw Error(path + ": pose key file holds " + (n > kPoseKeyMaxSize ? "more than " + std::to_string(kPoseKeyMaxSize)
+                                                                        : std::to_string(n)) +
+                " bytes (expected " + std::to_string(kPoseKeyMinSize) + " to " + std::to_string(kPoseKeyMaxSize) +
+                " random bytes, e.g. head -c 32 /dev/urandom > pose.key)");
+  key.bytes.resize(n);
+  return key;
+}
+
+size_t pose_to_wire(const Pose& pose, uint8_t* out, uint64_t session, const PoseKey* key) {
+  const bool tagged = key && !key->empty();
   uint8_t* p = out;
-  for (char c : {'V', 'C', 'P', '1'}) *p++ = static_cast<uint8_t>(c);
+  for (char c : kPoseWireMagic) *p++ = static_cast<uint8_t>(c);
+  put_le<uint32_t>(p, tagged ? kPoseWireFlagTagged : 0u);
+  put_le<uint64_t>(p, session);
   put_le<uint64_t>(p, pose.seq);
   put_le<int64_t>(p, pose.viewer_time_ns);
   const Eigen::Quaterniond q = pose.orientation.normalized();
   for (double v : {pose.position.x(), pose.position.y(), pose.position.z(), q.w(), q.x(), q.y(), q.z(), pose.fov_deg})
     put_le<double>(p, v);
   put_le<uint32_t>(p, crc32(out, kPoseWireSize - 4));
+  if (!tagged) return kPoseWireSize;
+  pose_tag(*key, out, kPoseWireSize, out + kPoseWireSize);
+  return kPoseWireMaxSize;
 }
 
-bool pose_from_wire(const uint8_t* data, size_t size, Pose* out, std::string* error) {
-  if (size != kPoseWireSize || std::memcmp(data, "VCP1", 4) != 0) {
-    if (error) *error = "not a pose packet (size " + std::to_string(size) + ")";
+bool pose_from_wire(const uint8_t* data, size_t size, Pose* out, std::string* error, const PoseKey* key,
+                    PoseWireInfo* info) {
+  PoseWireInfo dummy_info;
+  if (!info) info = &dummy_info;
+  *info = PoseWireInfo();
+  auto fail = [&](PoseWireError why, const std::string& what) {
+    info->error = why;
+    if (error) *error = what;
     return false;
-  }
-  const uint8_t* check = data + kPoseWireSize - 4;
-  if (get_le<uint32_t>(check) != crc32(data, kPoseWireSize - 4)) {
-    if (error) *error = "damaged pose packet (checksum)";
-    return false;
+  };
+  if (size < 8 || std::memcmp(data, kPoseWireMagic, 4) != 0) {
+    if (size >= 4 && std::memcmp(data, "VCP1", 4) == 0)
+      return fail(PoseWireError::kDamaged, "pose packet of version 1 (VCP1): this receiver reads version 2 (VCP2); "
+                                           "update the lecturer's side");
+    return fail(PoseWireError::kDamaged, "not a pose packet (size " + std::to_string(size) + ")");
   }
   const uint8_t* p = data + 4;
+  const uint32_t flags = get_le<uint32_t>(p);
+  if (flags & ~kPoseWireFlagTagged)
+    return fail(PoseWireError::kDamaged, "pose packet with unknown flags " + std::to_string(flags));
+  info->tagged = (flags & kPoseWireFlagTagged) != 0;
+  const size_t expected = info->tagged ? kPoseWireMaxSize : kPoseWireSize;
+  if (size != expected)
+    return fail(PoseWireError::kDamaged, "pose packet of " + std::to_string(size) + " bytes (expected " +
+                                             std::to_string(expected) + ")");
+  const uint8_t* check = data + kPoseWireSize - 4;
+  if (get_le<uint32_t>(check) != crc32(data, kPoseWireSize - 4))
+    return fail(PoseWireError::kDamaged, "damaged pose packet (checksum)");
+  if (key && !key->empty()) {
+    if (!info->tagged) return fail(PoseWireError::kUnauthenticated, "pose packet without an authentication tag");
+    uint8_t tag[kPoseTagSize];
+    pose_tag(*key, data, kPoseWireSize, tag);
+    if (!same_tag(tag, data + kPoseWireSize))
+      return fail(PoseWireError::kUnauthenticated, "pose packet with a wrong authentication tag (another key?)");
+  }
+  info->session = get_le<uint64_t>(p);
   Pose pose;
   pose.seq = get_le<uint64_t>(p);
   pose.viewer_time_ns = get_le<int64_t>(p);
@@ -282,8 +353,7 @@ bool pose_from_wire(const uint8_t* data, size_t size, Pose* out, std::string* er
   try {
     validate_pose(pose);
   } catch (const Error& e) {
-    if (error) *error = e.what();
-    return false;
+    return fail(PoseWireError::kInvalid, e.what());
   }
   pose.orientation.normalize();
   *out = pose;

@@ -79,13 +79,52 @@ Sliders pose_to_sliders(const Pose& pose, const CameraCalib& reference);
 Sliders parse_sliders(const std::string& text);
 std::string format_sliders(const Sliders& s);
 
-// The pose on the wire (RTP payload of the back channel, docs/pose.md):
-// "VCP1", seq u64, viewer-time i64, x y z qw qx qy qz fov as IEEE doubles
-// (fov NaN = none), CRC-32 of all before it; little-endian.
-inline constexpr size_t kPoseWireSize = 4 + 8 + 8 + 8 * 8 + 4;
-void pose_to_wire(const Pose& pose, uint8_t out[kPoseWireSize]);
-// False on a wrong size or magic, or a pose validate_pose() rejects.
-bool pose_from_wire(const uint8_t* data, size_t size, Pose* pose, std::string* error);
+// The pose on the wire: the RTP payload of the back channel, version 2
+// (docs/network.md), little-endian:
+//   "VCP2", flags u32 (bit 0: a tag follows), session u64 (the sender's
+//   random number for this run: a restarted lecturer is a new session),
+//   seq u64, viewer-time i64, x y z qw qx qy qz fov as IEEE doubles (fov NaN
+//   = none), CRC-32 of all before it; then, with flag bit 0, a 16-byte tag:
+//   HMAC-SHA256 (key from a file) of all before it, truncated.
+inline constexpr size_t kPoseWireSize = 4 + 4 + 8 + 8 + 8 + 8 * 8 + 4;  // untagged
+inline constexpr size_t kPoseTagSize = 16;
+inline constexpr size_t kPoseWireMaxSize = kPoseWireSize + kPoseTagSize;  // tagged
+inline constexpr uint32_t kPoseWireFlagTagged = 1u;
+
+// The shared secret that authenticates poses: a file's whole content, raw
+// bytes (e.g. `head -c 32 /dev/urandom > pose.key`).
+inline constexpr size_t kPoseKeyMinSize = 16;
+inline constexpr size_t kPoseKeyMaxSize = 1024;
+struct PoseKey {
+  std::vector<uint8_t> bytes;
+  bool empty() const { return bytes.empty(); }
+};
+// Throws Error naming the file when it is missing, unreadable, shorter than
+// kPoseKeyMinSize or longer than kPoseKeyMaxSize bytes.
+PoseKey load_pose_key(const std::string& path);
+
+// Why pose_from_wire() refused a packet.
+enum class PoseWireError {
+  kNone,
+  kDamaged,          // wrong size, version, flags or checksum
+  kUnauthenticated,  // a key is set and the tag is missing or wrong
+  kInvalid,          // well-formed but a pose validate_pose() rejects (NaN, not a unit quaternion, ...)
+};
+struct PoseWireInfo {
+  uint64_t session = 0;  // the sender's session number
+  bool tagged = false;   // whether the packet carried a tag (checked only when a key is given)
+  PoseWireError error = PoseWireError::kNone;
+};
+
+// Writes the packet into `out` (room for kPoseWireMaxSize bytes); returns its
+// size: kPoseWireSize, or kPoseWireMaxSize when a non-empty key tags it.
+size_t pose_to_wire(const Pose& pose, uint8_t* out, uint64_t session = 0, const PoseKey* key = nullptr);
+// False with a message on a wrong size, version, flags or checksum, a pose
+// validate_pose() rejects, or, when `key` is non-empty, a missing or wrong
+// tag (without a key a tag is not checked: anyone can steer, docs/network.md).
+// `info` (optional) receives the session and why the packet was refused.
+bool pose_from_wire(const uint8_t* data, size_t size, Pose* pose, std::string* error, const PoseKey* key = nullptr,
+                    PoseWireInfo* info = nullptr);
 
 // A pose trace: CSV with a header naming the columns, one pose per frame.
 // Required columns x,y,z,qw,qx,qy,qz; optional t (seconds), fov (deg), seq.

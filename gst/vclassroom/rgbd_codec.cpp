@@ -14,6 +14,8 @@ namespace vclassroom {
 
 namespace {
 
+constexpr int kMaxSide = 16384;  // image sides, as rig cameras (docs/rig-format.md)
+
 // ---- 4-bit variable-length integers: 3 value bits + 1 "more" bit per nibble.
 class NibbleWriter {
  public:
@@ -188,6 +190,7 @@ void encode_depth_lossless(const cv::Mat& depth, std::vector<uint8_t>* out) {
 }
 
 bool decode_depth_lossless(const uint8_t* data, size_t size, int width, int height, cv::Mat* depth) {
+  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide) return false;
   depth->create(height, width, CV_16UC1);  // freshly created: continuous
   uint16_t* base = depth->ptr<uint16_t>(0);
   NibbleReader r(data, size);
@@ -210,10 +213,12 @@ bool decode_depth_lossless(const uint8_t* data, size_t size, int width, int heig
       uint16_t* row = base + static_cast<size_t>(y) * width;
       uint32_t u;
       if (!r.get(&u)) return false;
-      const int v = predict(row, y > 0 ? row - width : nullptr, x, last) + unzigzag(u);
+      // In 64 bits: a residual may be anything up to +-2^31 in damaged data, and
+      // the sum must not overflow before it is checked.
+      const int64_t v = int64_t{predict(row, y > 0 ? row - width : nullptr, x, last)} + unzigzag(u);
       if (v < 1 || v > 65535) return false;  // a valid pixel is never 0: damaged data
       row[x] = static_cast<uint16_t>(v);
-      last = v;
+      last = static_cast<int>(v);
       if (++x == width) {
         x = 0;
         ++y;
@@ -253,6 +258,7 @@ void encode_labels(const cv::Mat& labels, std::vector<uint8_t>* out) {
 }
 
 bool decode_labels(const uint8_t* data, size_t size, int width, int height, cv::Mat* labels) {
+  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide) return false;
   labels->create(height, width, CV_8UC1);
   NibbleReader r(data, size);
   const size_t total = static_cast<size_t>(width) * height;
@@ -317,7 +323,27 @@ bool decode_jpeg(const uint8_t* data, size_t size, int width, int height, cv::Ma
   }
   jpeg_create_decompress(&cinfo);
   jpeg_mem_src(&cinfo, data, static_cast<unsigned long>(size));
-  jpeg_read_header(&cinfo, TRUE);
+  if (jpeg_read_header(&cinfo, TRUE) != JPEG_HEADER_OK) {
+    jpeg_destroy_decompress(&cinfo);
+    if (error) *error = "JPEG: no image in the colour section";
+    return false;
+  }
+  // Checked before jpeg_start_decompress, which allocates for the declared
+  // size: a few bytes may declare 65535x65535. Only what encode_jpeg writes is
+  // accepted (3 components, sequential): a progressive stream could make the
+  // decoder spend seconds on a thousand scans.
+  if (cinfo.image_width != static_cast<JDIMENSION>(width) || cinfo.image_height != static_cast<JDIMENSION>(height)) {
+    jpeg_destroy_decompress(&cinfo);
+    if (error)
+      *error = "JPEG: image is " + std::to_string(cinfo.image_width) + "x" + std::to_string(cinfo.image_height) +
+               ", the stream's " + std::to_string(width) + "x" + std::to_string(height);
+    return false;
+  }
+  if (cinfo.num_components != 3 || cinfo.progressive_mode || cinfo.arith_code) {
+    jpeg_destroy_decompress(&cinfo);
+    if (error) *error = "JPEG: not a 3-component sequential Huffman JPEG (as rgbdenc writes)";
+    return false;
+  }
   cinfo.out_color_space = JCS_RGB;
   cinfo.dct_method = JDCT_ISLOW;
   jpeg_start_decompress(&cinfo);
@@ -376,18 +402,26 @@ void encode_rgbd_frame(const RgbdCodedFrame& f, int quality, std::vector<uint8_t
 }
 
 bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, RgbdCodedFrame* f,
-                       std::string* error) {
+                       std::string* error, RgbdFrameFault* fault) {
+  if (fault) *fault = RgbdFrameFault::kDamaged;
   auto fail = [&](const std::string& why) {
     if (error) *error = why;
     return false;
   };
-  if (size < kHeaderSize || std::memcmp(data, "VCRD", 4) != 0) return fail("not an rgbdenc frame (bad magic)");
+  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide)
+    return fail("stream size " + std::to_string(width) + "x" + std::to_string(height) + " out of range (1.." +
+                std::to_string(kMaxSide) + " per side)");
+  if (!data || size < kHeaderSize || std::memcmp(data, "VCRD", 4) != 0) return fail("not an rgbdenc frame (bad magic)");
   if (data[4] != kVersion) return fail("unsupported frame version " + std::to_string(data[4]));
   const int n = data[5];
-  if (static_cast<int>(get_u32(data + 8)) != width || static_cast<int>(get_u32(data + 12)) != height)
-    return fail("frame size differs from the caps");
+  if (get_u32(data + 8) != static_cast<uint32_t>(width) || get_u32(data + 12) != static_cast<uint32_t>(height)) {
+    if (fault) *fault = RgbdFrameFault::kWrongSize;
+    return fail("frame size " + std::to_string(get_u32(data + 8)) + "x" + std::to_string(get_u32(data + 12)) +
+                " differs from the caps' " + std::to_string(width) + "x" + std::to_string(height));
+  }
   size_t at = kHeaderSize;
   bool have_color = false, have_depth = false;
+  unsigned seen = 0;
   f->label.release();
   for (int i = 0; i < n; ++i) {
     if (size - at < kSectionHeaderSize) return fail("truncated frame (section header)");
@@ -398,6 +432,9 @@ bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, 
     const uint8_t* payload = data + at;
     if (crc32(payload, len) != crc) return fail("damaged frame (checksum of section " + std::to_string(i) + ")");
     at += len;
+    // Each plane once: a repeated section would only make the decoder work twice.
+    if (plane < 3 && (seen & (1u << plane))) return fail("plane " + std::to_string(plane) + " appears twice");
+    if (plane < 3) seen |= 1u << plane;
     std::string why;
     if (plane == kPlaneColor && codec == kCodecJpeg) {
       if (!decode_jpeg(payload, len, width, height, &f->color, &why)) return fail(why);
@@ -412,6 +449,7 @@ bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, 
     }
   }
   if (!have_color || !have_depth) return fail("frame lacks its colour or depth section");
+  if (fault) *fault = RgbdFrameFault::kNone;
   return true;
 }
 

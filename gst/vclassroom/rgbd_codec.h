@@ -38,7 +38,9 @@ struct RgbdCodedFrame {
 // section per plane (plane id, codec, length, CRC-32 of the payload).
 void encode_rgbd_frame(const RgbdCodedFrame& frame, int jpeg_quality, std::vector<uint8_t>* out);
 // Decodes and checks everything; false with a reason on any damage.
+// What made decode_rgbd_frame() refuse a frame, for counting by kind.
+enum class RgbdFrameFault { kNone, kDamaged, kWrongSize };
 bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, RgbdCodedFrame* frame,
-                       std::string* error);
+                       std::string* error, RgbdFrameFault* fault = nullptr);
 
 }  // namespace vclassroom

@@ -58,8 +58,13 @@ struct Rig {
   Eigen::Isometry3d transform(int from, int to) const;
 };
 
-// Reads and validates a rig file. Throws Error naming file, camera, field.
+// Reads and validates a rig file (at most 1 MiB). Throws Error naming file,
+// line, camera, field and what was expected (docs/rig-format.md).
 Rig load_rig(const std::string& path);
+// The same from text in memory; `file` names it in messages.
+Rig parse_rig_text(const std::string& text, const std::string& file);
+// The YAML that save_rig writes.
+std::string rig_to_text(const Rig& rig);
 // Checks one camera; `where` prefixes messages (e.g. "rig.yaml: camera 1").
 void validate_camera(const CameraCalib& cam, const std::string& where);
 // Checks the whole rig (1..8 cameras, unique ids, each camera valid).

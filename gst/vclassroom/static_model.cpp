@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "dataset.h"
 #include "error.h"
 
 namespace vclassroom {
@@ -506,13 +507,18 @@ StaticModel load_static_model(const std::string& folder) {
   std::string line;
   std::getline(f, line);
   int n = 1;
+  // A room has a handful of planes; a file with thousands is not a model.
+  constexpr size_t kMaxPlanes = 1000;
   while (std::getline(f, line)) {
     ++n;
     if (line.empty()) continue;
+    if (m.planes.size() >= kMaxPlanes)
+      throw Error(where + ": planes.csv line " + std::to_string(n) + ": more than " + std::to_string(kMaxPlanes) +
+                  " planes");
     std::stringstream ss(line);
     std::string field;
     std::vector<std::string> fields;
-    while (std::getline(ss, field, ',')) fields.push_back(field);
+    while (fields.size() <= 6 && std::getline(ss, field, ',')) fields.push_back(field);
     RoomPlane p;
     try {
       if (fields.size() != 6) throw std::invalid_argument("fields");
@@ -520,42 +526,46 @@ StaticModel load_static_model(const std::string& folder) {
       p.normal = Eigen::Vector3d(std::stod(fields[1]), std::stod(fields[2]), std::stod(fields[3]));
       p.offset = std::stod(fields[4]);
       p.inliers = std::stoi(fields[5]);
-    } catch (const std::exception&) {
+    } catch (const std::exception&) {  // std::stod/stoi: invalid_argument, out_of_range
       throw Error(where + ": planes.csv line " + std::to_string(n) +
-                  ": expected name,nx,ny,nz,offset_m,inliers, got '" + line + "'");
+                  ": expected name,nx,ny,nz,offset_m,inliers, got '" + line.substr(0, 200) + "'");
     }
+    if (!p.normal.allFinite() || !std::isfinite(p.offset) || p.inliers < 0)
+      throw Error(where + ": planes.csv line " + std::to_string(n) + ": expected finite numbers and inliers >= 0");
     if (std::abs(p.normal.norm() - 1.0) > 1e-3)
       throw Error(where + ": planes.csv line " + std::to_string(n) + ": the normal is not a unit vector");
     m.planes.push_back(p);
   }
+  // Images through the dataset reader: sizes checked (a PNG from its header,
+  // before decoding), OpenCV's exceptions turned into Errors naming the file.
+  auto exists = [](const std::string& p) {
+    struct stat st;
+    return stat(p.c_str(), &st) == 0;
+  };
   for (const CameraCalib& cam : m.rig.cameras) {
+    const cv::Size size(cam.width, cam.height);
+    const std::string camera_name = "rig.yaml's camera " + std::to_string(cam.id);
     const std::string path = prior_path(folder, cam.id);
-    cv::Mat prior = cv::imread(path, cv::IMREAD_UNCHANGED);
-    if (prior.empty()) throw Error(where + ": prior depth of camera " + std::to_string(cam.id) + " (" + path +
-                                   ") is missing or unreadable");
-    if (prior.type() != CV_16UC1)
-      throw Error(where + ": " + path + " is not a 16-bit single-channel depth image (mm)");
-    if (prior.cols != cam.width || prior.rows != cam.height)
-      throw Error(where + ": " + path + " is " + std::to_string(prior.cols) + "x" + std::to_string(prior.rows) +
-                  " but rig.yaml gives camera " + std::to_string(cam.id) + " " + std::to_string(cam.width) + "x" +
-                  std::to_string(cam.height));
-    m.prior_depth[cam.id] = prior;
-    const cv::Mat measured = cv::imread(measured_path(folder, cam.id), cv::IMREAD_GRAYSCALE);
-    if (!measured.empty()) {  // optional: without it every prior pixel counts as measured
-      if (measured.size() != prior.size())
-        throw Error(where + ": " + measured_path(folder, cam.id) + " is not " + std::to_string(cam.width) + "x" +
-                    std::to_string(cam.height));
-      m.prior_measured[cam.id] = measured;
+    if (!exists(path))
+      throw Error(where + ": prior depth of camera " + std::to_string(cam.id) + " (" + path + ") is missing");
+    try {
+      cv::Mat prior = read_image(path, cv::IMREAD_UNCHANGED, "prior depth", size, camera_name);
+      if (prior.type() != CV_16UC1) throw Error(path + " is not a 16-bit single-channel depth image (mm)");
+      m.prior_depth[cam.id] = prior;
+      // Optional: without it every prior pixel counts as measured.
+      if (exists(measured_path(folder, cam.id)))
+        m.prior_measured[cam.id] =
+            read_image(measured_path(folder, cam.id), cv::IMREAD_GRAYSCALE, "measured mask", size, camera_name);
+      // Optional: without it depthcomplete skips its colour test.
+      if (exists(color_path(folder, cam.id))) {
+        const cv::Mat bgr = read_image(color_path(folder, cam.id), cv::IMREAD_COLOR, "prior colour", size, camera_name);
+        cv::Mat rgb;
+        cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+        m.prior_color[cam.id] = rgb;
+      }
+    } catch (const Error& e) {
+      throw Error(where + ": " + e.what());
     }
-    const cv::Mat bgr = cv::imread(color_path(folder, cam.id), cv::IMREAD_COLOR);
-    if (bgr.empty()) continue;  // optional: without it depthcomplete skips its colour test
-    if (bgr.cols != cam.width || bgr.rows != cam.height)
-      throw Error(where + ": " + color_path(folder, cam.id) + " is " + std::to_string(bgr.cols) + "x" +
-                  std::to_string(bgr.rows) + " but rig.yaml gives camera " + std::to_string(cam.id) + " " +
-                  std::to_string(cam.width) + "x" + std::to_string(cam.height));
-    cv::Mat rgb;
-    cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
-    m.prior_color[cam.id] = rgb;
   }
   return m;
 }

@@ -349,7 +349,9 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
       "The lecturer's mouse interface: put it before the video sink. Dragging with the left button looks around, "
       "the wheel and the arrow/WASD keys move (Q/E or PageUp/PageDown up and down), Home or R returns to the start "
       "pose; each change goes upstream as a vclassroom/pose event. The navigation events it uses stop here. Also "
-      "drives the view from the six-slider notation or a pose trace",
+      "drives the view from the six-slider notation or a pose trace. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! posenav ! "
+      "videoconvert ! autovideosink",
       "gst-vclassroom developers");
   trans_class->src_event = GST_DEBUG_FUNCPTR(gst_pose_nav_src_event);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR(gst_pose_nav_transform_ip);

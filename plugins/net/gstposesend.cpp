@@ -2,6 +2,20 @@
 // downstream (posenav) leave as RTP packets on its `rtp` pad (to udpsink);
 // video passes through untouched. The latest pose is repeated with every
 // video frame, so a lost packet costs at most one frame of staleness.
+//
+// Pose packets leave from the rtp pad's own thread (a pad task), never from
+// the thread that made them. Pose events arrive from downstream in the video
+// streaming thread (posenav sends them while it handles a frame), and the
+// video frames themselves push repeats in that thread too. Pushed there, a
+// packet went synchronously into the rtp branch's sink; in a non-live
+// pipeline that sink blocks every buffer in its preroll wait until the
+// pipeline is PLAYING, and the pipeline reaches PLAYING only when the video
+// sink has prerolled too, which it never does, since its only streaming
+// thread is the one held in the other sink: a deadlock (a queue after the rtp
+// pad used to hide it by giving the branch a thread of its own). The task
+// is that thread. It also starts the rtp stream at once (stream-start, caps,
+// segment and a GAP event, which prerolls a sink without any packet), so
+// end-of-stream can always follow, whether or not a pose was ever sent.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -10,6 +24,8 @@
 
 #include <gst/rtp/gstrtpbuffer.h>
 
+#include <condition_variable>
+#include <deque>
 #include <mutex>
 #include <optional>
 
@@ -22,17 +38,29 @@ GST_DEBUG_CATEGORY_STATIC(pose_send_debug);
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_PT, PROP_REPEAT, PROP_SENT };
+enum { PROP_0, PROP_PT, PROP_REPEAT, PROP_SENT, PROP_KEY_FILE };
 
 namespace {
+// Packets made but not yet pushed: a handful is plenty (a newer pose makes the
+// older ones moot), so beyond this the oldest is dropped.
+constexpr size_t kOutboxLimit = 32;
+
 struct SendState {
-  std::mutex lock;  // serialises pushes on the rtp pad (navigation and streaming threads) and guards all below
+  std::mutex lock;  // guards all below; never held while pushing
+  std::condition_variable wake;  // the rtp task waits on it for packets, EOS or flushing
   guint pt = 96;
   bool repeat = true;
-  bool rtp_started = false;
+  std::string key_file;
+  PoseKey key;
   guint16 rtp_seq = 0;
   guint32 ssrc = 0;
+  guint64 session = 0;  // this run's number in every packet: a restarted lecturer is a new session
   std::optional<Pose> latest;
+  std::deque<GstBuffer*> outbox;
+  bool started = false;      // the task has sent stream-start, caps, segment and GAP
+  bool eos_pending = false;  // EOS is to follow the packets in the outbox
+  bool eos_sent = false;
+  bool flushing = true;      // the rtp pad is inactive: the task stops
   guint64 sent = 0;
 };
 }  // namespace
@@ -54,23 +82,13 @@ static GstStaticPadTemplate src_template =
 static GstStaticPadTemplate rtp_template =
     GST_STATIC_PAD_TEMPLATE("rtp", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kPoseRtpCaps));
 
-// Sends `pose` as one RTP packet; called with the lock held.
+// Makes `pose` into one RTP packet for the rtp task; called with the lock held.
 static void send_locked(GstPoseSend* self, const Pose& pose) {
   SendState* st = self->st;
-  if (!st->rtp_started) {
-    gchar* id = gst_pad_create_stream_id(self->rtppad, GST_ELEMENT(self), "pose");
-    gst_pad_push_event(self->rtppad, gst_event_new_stream_start(id));
-    g_free(id);
-    GstCaps* caps = gst_caps_from_string(kPoseRtpCaps);
-    gst_caps_set_simple(caps, "payload", G_TYPE_INT, static_cast<int>(st->pt), "ssrc", G_TYPE_UINT, st->ssrc, nullptr);
-    gst_pad_push_event(self->rtppad, gst_event_new_caps(caps));
-    gst_caps_unref(caps);
-    GstSegment seg;
-    gst_segment_init(&seg, GST_FORMAT_TIME);
-    gst_pad_push_event(self->rtppad, gst_event_new_segment(&seg));
-    st->rtp_started = true;
-  }
-  GstBuffer* buf = gst_rtp_buffer_new_allocate(kPoseWireSize, 0, 0);
+  if (st->flushing || st->eos_pending || st->eos_sent) return;
+  const PoseKey* key = st->key.empty() ? nullptr : &st->key;
+  const guint size = key ? kPoseWireMaxSize : kPoseWireSize;
+  GstBuffer* buf = gst_rtp_buffer_new_allocate(size, 0, 0);
   GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
   gst_rtp_buffer_map(buf, GST_MAP_WRITE, &rtp);
   gst_rtp_buffer_set_payload_type(&rtp, static_cast<guint8>(st->pt));
@@ -79,11 +97,78 @@ static void send_locked(GstPoseSend* self, const Pose& pose) {
   const guint64 t = pose.viewer_time_ns >= 0 ? static_cast<guint64>(pose.viewer_time_ns) : gst_util_get_timestamp();
   gst_rtp_buffer_set_timestamp(&rtp, static_cast<guint32>(gst_util_uint64_scale(t, 90000, GST_SECOND)));
   gst_rtp_buffer_set_marker(&rtp, TRUE);
-  pose_to_wire(pose, static_cast<uint8_t*>(gst_rtp_buffer_get_payload(&rtp)));
+  pose_to_wire(pose, static_cast<uint8_t*>(gst_rtp_buffer_get_payload(&rtp)), st->session, key);
   gst_rtp_buffer_unmap(&rtp);
-  const GstFlowReturn r = gst_pad_push(self->rtppad, buf);
-  if (r != GST_FLOW_OK && r != GST_FLOW_NOT_LINKED) GST_DEBUG_OBJECT(self, "pose push: %s", gst_flow_get_name(r));
-  st->sent++;
+  if (st->outbox.size() >= kOutboxLimit) {
+    gst_buffer_unref(st->outbox.front());
+    st->outbox.pop_front();
+  }
+  st->outbox.push_back(buf);
+  st->wake.notify_one();
+}
+
+// The rtp pad's task: starts the stream, then pushes what the outbox holds,
+// then EOS; the lock is released while pushing.
+static void gst_pose_send_rtp_loop(gpointer data) {
+  GstPoseSend* self = GST_POSE_SEND(data);
+  SendState* st = self->st;
+  std::unique_lock<std::mutex> lk(st->lock);
+  if (!st->started) {
+    st->started = true;
+    GstCaps* caps = gst_caps_from_string(kPoseRtpCaps);
+    gst_caps_set_simple(caps, "payload", G_TYPE_INT, static_cast<int>(st->pt), "ssrc", G_TYPE_UINT, st->ssrc, nullptr);
+    lk.unlock();
+    gchar* id = gst_pad_create_stream_id(self->rtppad, GST_ELEMENT(self), "pose");
+    gst_pad_push_event(self->rtppad, gst_event_new_stream_start(id));
+    g_free(id);
+    gst_pad_push_event(self->rtppad, gst_event_new_caps(caps));
+    gst_caps_unref(caps);
+    GstSegment seg;
+    gst_segment_init(&seg, GST_FORMAT_TIME);
+    gst_pad_push_event(self->rtppad, gst_event_new_segment(&seg));
+    // A sparse stream: the GAP lets a sink preroll before the first pose.
+    gst_pad_push_event(self->rtppad, gst_event_new_gap(0, GST_CLOCK_TIME_NONE));
+    return;
+  }
+  st->wake.wait(lk, [st] { return st->flushing || !st->outbox.empty() || st->eos_pending; });
+  if (st->flushing) {
+    lk.unlock();
+    gst_pad_pause_task(self->rtppad);
+    return;
+  }
+  if (!st->outbox.empty()) {
+    GstBuffer* buf = st->outbox.front();
+    st->outbox.pop_front();
+    lk.unlock();
+    const GstFlowReturn r = gst_pad_push(self->rtppad, buf);
+    if (r == GST_FLOW_OK) {
+      std::lock_guard<std::mutex> g(st->lock);
+      st->sent++;
+    } else if (r != GST_FLOW_NOT_LINKED) {
+      GST_DEBUG_OBJECT(self, "pose push: %s", gst_flow_get_name(r));
+    }
+    return;
+  }
+  st->eos_pending = false;
+  st->eos_sent = true;
+  lk.unlock();
+  gst_pad_push_event(self->rtppad, gst_event_new_eos());
+  gst_pad_pause_task(self->rtppad);
+}
+
+static gboolean gst_pose_send_rtp_activate_mode(GstPad* pad, GstObject* parent, GstPadMode mode, gboolean active) {
+  GstPoseSend* self = GST_POSE_SEND(parent);
+  SendState* st = self->st;
+  if (mode != GST_PAD_MODE_PUSH) return FALSE;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    st->flushing = !active;
+    st->started = st->eos_pending = st->eos_sent = false;
+    for (GstBuffer* b : st->outbox) gst_buffer_unref(b);
+    st->outbox.clear();
+    st->wake.notify_all();
+  }
+  return active ? gst_pad_start_task(pad, gst_pose_send_rtp_loop, self, nullptr) : gst_pad_stop_task(pad);
 }
 
 static gboolean gst_pose_send_src_event(GstPad* pad, GstObject* parent, GstEvent* event) {
@@ -117,8 +202,11 @@ static GstFlowReturn gst_pose_send_chain(GstPad*, GstObject* parent, GstBuffer* 
 static gboolean gst_pose_send_sink_event(GstPad* pad, GstObject* parent, GstEvent* event) {
   GstPoseSend* self = GST_POSE_SEND(parent);
   if (GST_EVENT_TYPE(event) == GST_EVENT_EOS) {
+    // The pose stream ends with the video, whether or not a pose was sent
+    // (a sink waiting for it would keep the pipeline from ending).
     std::lock_guard<std::mutex> g(self->st->lock);
-    if (self->st->rtp_started) gst_pad_push_event(self->rtppad, gst_event_new_eos());
+    if (!self->st->eos_sent) self->st->eos_pending = true;
+    self->st->wake.notify_one();
   }
   return gst_pad_event_default(pad, parent, event);
 }
@@ -130,12 +218,26 @@ static GstIterator* gst_pose_send_iterate_links(GstPad* pad, GstObject* parent) 
 
 static GstStateChangeReturn gst_pose_send_change_state(GstElement* element, GstStateChange transition) {
   GstPoseSend* self = GST_POSE_SEND(element);
-  if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {
-    std::lock_guard<std::mutex> g(self->st->lock);
-    self->st->rtp_started = false;
-    self->st->latest.reset();
-    self->st->ssrc = g_random_int();
-    self->st->rtp_seq = static_cast<guint16>(g_random_int());
+  SendState* st = self->st;
+  if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {  // the key file as set now
+    std::string key_error;
+    std::unique_lock<std::mutex> g(st->lock);
+    st->key = PoseKey();
+    try {
+      if (!st->key_file.empty()) st->key = load_pose_key(st->key_file);
+    } catch (const Error& e) {
+      key_error = e.what();
+    }
+    if (!key_error.empty()) {
+      g.unlock();  // nothing of ours is locked while the message is posted
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", key_error.c_str()), ("property key-file"));
+      return GST_STATE_CHANGE_FAILURE;
+    }
+    // A new session each start: the server tells a restarted lecturer by it.
+    st->latest.reset();
+    st->ssrc = g_random_int();
+    st->session = (static_cast<guint64>(g_random_int()) << 32) | g_random_int();
+    st->rtp_seq = static_cast<guint16>(g_random_int());
   }
   return GST_ELEMENT_CLASS(gst_pose_send_parent_class)->change_state(element, transition);
 }
@@ -150,6 +252,11 @@ static void gst_pose_send_set_property(GObject* object, guint prop_id, const GVa
     case PROP_REPEAT:
       st->repeat = g_value_get_boolean(value);
       break;
+    case PROP_KEY_FILE: {
+      const gchar* f = g_value_get_string(value);
+      st->key_file = f ? f : "";
+      break;
+    }
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -168,12 +275,16 @@ static void gst_pose_send_get_property(GObject* object, guint prop_id, GValue* v
     case PROP_SENT:
       g_value_set_uint64(value, st->sent);
       break;
+    case PROP_KEY_FILE:
+      g_value_set_string(value, st->key_file.c_str());
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
 }
 
 static void gst_pose_send_finalize(GObject* object) {
+  for (GstBuffer* b : GST_POSE_SEND(object)->st->outbox) gst_buffer_unref(b);
   delete GST_POSE_SEND(object)->st;
   G_OBJECT_CLASS(gst_pose_send_parent_class)->finalize(object);
 }
@@ -198,6 +309,12 @@ static void gst_pose_send_class_init(GstPoseSendClass* klass) {
                                   g_param_spec_uint64("sent", "Packets sent", "Pose packets sent so far", 0,
                                                       G_MAXUINT64, 0,
                                                       GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  g_object_class_install_property(
+      gobject_class, PROP_KEY_FILE,
+      g_param_spec_string("key-file", "Key file",
+                          "File holding the shared pose key (16 to 1024 raw bytes, e.g. head -c 32 /dev/urandom > "
+                          "pose.key): every pose packet carries an HMAC-SHA256 tag made with it. Unset: untagged",
+                          nullptr, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_add_static_pad_template(element_class, &rtp_template);
@@ -205,7 +322,10 @@ static void gst_pose_send_class_init(GstPoseSendClass* klass) {
       element_class, "Pose back-channel sender", "Network/Filter",
       "Lecturer side of the pose back channel: video passes through; the vclassroom/pose events that reach it "
       "from downstream (posenav) leave as RTP packets on the 'rtp' pad (link it to udpsink); the latest pose is "
-      "repeated with each frame so loss heals",
+      "repeated with each frame so loss heals. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! "
+      "posesend name=s ! posenav ! videoconvert ! autovideosink s.rtp ! "
+      "udpsink host=127.0.0.1 port=5006",
       "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(pose_send_debug, "posesend", 0, "pose back-channel sender");
 }
@@ -226,5 +346,6 @@ static void gst_pose_send_init(GstPoseSend* self) {
   gst_element_add_pad(GST_ELEMENT(self), self->srcpad);
   self->rtppad = gst_pad_new_from_static_template(&rtp_template, "rtp");
   gst_pad_use_fixed_caps(self->rtppad);
+  gst_pad_set_activatemode_function(self->rtppad, GST_DEBUG_FUNCPTR(gst_pose_send_rtp_activate_mode));
   gst_element_add_pad(GST_ELEMENT(self), self->rtppad);
 }

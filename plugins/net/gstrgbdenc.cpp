@@ -157,7 +157,9 @@ static void gst_rgbd_enc_class_init(GstRgbdEncClass* klass) {
       element_class, "RGB-D encoder", "Codec/Encoder/Video",
       "Compresses each video/x-rgbd frame into one buffer: colour as JPEG (libjpeg-turbo), depth and labels "
       "lossless, every part checksummed; the calibration stays in the caps (video/x-rgbd-coded) so it crosses "
-      "rtpgstpay",
+      "rtpgstpay. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc quality=80 ! rtpgstpay mtu=1400 ! "
+      "rtpgstdepay ! rgbddec ! rgbddemux name=d d.color ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   trans_class->transform_caps = GST_DEBUG_FUNCPTR(gst_rgbd_enc_transform_caps);
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_enc_set_caps);

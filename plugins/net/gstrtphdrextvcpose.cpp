@@ -9,10 +9,11 @@
 #include "gstrtphdrextvcpose.h"
 
 #include <gst/vclassroom/pose_meta.h>
+#include <gst/vclassroom/pose_stamp.h>
 
 using namespace vclassroom;
 
-constexpr gsize kSize = 16;
+constexpr gsize kSize = kPoseStampSize;
 
 struct _GstRTPHeaderExtensionVcPose {
   GstRTPHeaderExtension parent;
@@ -31,15 +32,17 @@ static gssize write_ext(GstRTPHeaderExtension*, const GstBuffer* input, GstRTPHe
   const PoseMeta* meta = buffer_get_pose_meta(const_cast<GstBuffer*>(input));
   if (!meta) return 0;  // a frame rendered before any pose: nothing to say
   if (size < kSize) return -1;
-  GST_WRITE_UINT64_BE(data, meta->seq);
-  GST_WRITE_UINT64_BE(data + 8, static_cast<guint64>(meta->viewer_time_ns));
+  // The wire form lives in the library (pose_stamp.h): byte by byte, as
+  // packet data has no alignment.
+  pose_stamp_to_wire(PoseStamp{meta->seq, meta->viewer_time_ns}, data);
   return kSize;
 }
 
 static gboolean read_ext(GstRTPHeaderExtension*, GstRTPHeaderExtensionFlags, const guint8* data, gsize size,
                          GstBuffer* buffer) {
-  if (size != kSize) return FALSE;
-  buffer_add_pose_meta(buffer, GST_READ_UINT64_BE(data), static_cast<gint64>(GST_READ_UINT64_BE(data + 8)));
+  PoseStamp stamp;
+  if (!pose_stamp_from_wire(data, size, &stamp)) return FALSE;
+  buffer_add_pose_meta(buffer, stamp.seq, stamp.viewer_time_ns);
   return TRUE;
 }
 
@@ -53,7 +56,10 @@ static void gst_rtp_header_extension_vc_pose_class_init(GstRTPHeaderExtensionVcP
   gst_element_class_set_static_metadata(
       element_class, "vclassroom pose RTP header extension", GST_RTP_HDREXT_ELEMENT_CLASS,
       "Carries the seq and viewer time of the lecturer pose a frame was rendered for (" VCLASSROOM_RTP_HDREXT_POSE_URI
-      "), for motion-to-photon latency; payloaders and depayloaders enable it from an extmap-N caps field",
+      "), for motion-to-photon latency; payloaders and depayloaders enable it from an extmap-N caps field. Example: "
+      "gst-launch-1.0 videotestsrc num-buffers=300 ! jpegenc ! rtpgstpay ! "
+      "\"application/x-rtp,extmap-3=(string)" VCLASSROOM_RTP_HDREXT_POSE_URI "\" ! rtpgstdepay ! jpegdec ! "
+      "videoconvert ! autovideosink",
       "gst-vclassroom developers");
   gst_rtp_header_extension_class_set_uri(ext_class, VCLASSROOM_RTP_HDREXT_POSE_URI);
 }

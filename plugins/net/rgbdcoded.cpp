@@ -62,8 +62,9 @@ void codec_stats_install_properties(GObjectClass* klass, const char* frames_blur
   g_object_class_install_property(
       klass, kPropStatsInterval,
       g_param_spec_uint("stats-interval", "Statistics interval",
-                        "Post a vclassroom-codec-stats element message (frames, bytes, frames-dropped) every this "
-                        "many frames; 0: never",
+                        "Post a vclassroom-codec-stats element message (frames, bytes, frames-dropped, "
+                        "dropped-damaged, dropped-wrong-size, dropped-rejected-caps) every this many frames and at "
+                        "the end of the stream; 0: never",
                         0, G_MAXUINT, 0,
                         GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
 }
@@ -91,9 +92,19 @@ bool codec_stats_set_property(GstObject* self, CodecStats* st, guint prop_id, co
 }
 
 CodecStats codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped) {
+  if (dropped) return codec_stats_drop(self, st, DropKind::Damaged);
   GST_OBJECT_LOCK(self);
-  if (dropped) st->dropped++;
-  else st->frames++, st->bytes += bytes;
+  st->frames++, st->bytes += bytes;
+  const CodecStats now = *st;
+  GST_OBJECT_UNLOCK(self);
+  if (now.interval && (now.frames + now.dropped) % now.interval == 0) codec_stats_post(self, &now);
+  return now;
+}
+
+CodecStats codec_stats_drop(GstElement* self, CodecStats* st, DropKind kind) {
+  GST_OBJECT_LOCK(self);
+  st->dropped++;
+  st->dropped_by_kind[int(kind)]++;
   const CodecStats now = *st;
   GST_OBJECT_UNLOCK(self);
   if (now.interval && (now.frames + now.dropped) % now.interval == 0) codec_stats_post(self, &now);
@@ -105,8 +116,12 @@ void codec_stats_post(GstElement* self, const CodecStats* st) {
   const CodecStats now = *st;
   GST_OBJECT_UNLOCK(self);
   if (!now.interval) return;
-  GstStructure* s = gst_structure_new("vclassroom-codec-stats", "frames", G_TYPE_UINT64, now.frames, "bytes",
-                                      G_TYPE_UINT64, now.bytes, "frames-dropped", G_TYPE_UINT64, now.dropped, nullptr);
+  GstStructure* s = gst_structure_new(
+      "vclassroom-codec-stats", "frames", G_TYPE_UINT64, now.frames, "bytes", G_TYPE_UINT64, now.bytes,
+      "frames-dropped", G_TYPE_UINT64, now.dropped, "dropped-damaged", G_TYPE_UINT64,
+      now.dropped_by_kind[int(DropKind::Damaged)], "dropped-wrong-size", G_TYPE_UINT64,
+      now.dropped_by_kind[int(DropKind::WrongSize)], "dropped-rejected-caps", G_TYPE_UINT64,
+      now.dropped_by_kind[int(DropKind::RejectedCaps)], nullptr);
   gst_element_post_message(self, gst_message_new_element(GST_OBJECT(self), s));
 }
 

@@ -22,13 +22,22 @@ bool take_queued_input(GstBaseTransform* trans, gboolean negotiated, GstBuffer**
 
 // What rgbdenc / rgbddec have done, readable as properties and, every
 // `interval` frames when that is not 0, posted on the bus as an element
-// message "vclassroom-codec-stats" (frames, bytes, dropped): `gst-launch-1.0 -m`
-// prints it, so a deployment can see what each camera sent and the server got.
+// message "vclassroom-codec-stats" (frames, bytes, frames-dropped and the
+// drops by kind): `gst-launch-1.0 -m` prints it, so a deployment can see what
+// each camera sent and the server got.
+// Why a frame was dropped.
+enum class DropKind : int {
+  Damaged,       // truncated, checksum, malformed section
+  WrongSize,     // its header declares another size than its caps
+  RejectedCaps,  // its caps were refused (oversized, unparsable, not the rig's camera)
+};
+inline constexpr int kDropKinds = 3;
 struct CodecStats {
   guint64 frames = 0;   // frames coded or decoded
   guint64 bytes = 0;    // compressed bytes of those frames
-  guint64 dropped = 0;  // frames dropped as damaged
+  guint64 dropped = 0;  // frames dropped, whatever the kind
   guint interval = 0;
+  guint64 dropped_by_kind[kDropKinds] = {0, 0, 0};  // after interval: CodecStats{0, 0, 0, interval} resets
 };
 enum CodecStatsProp : guint { kPropFrames = 100, kPropBytes, kPropDropped, kPropStatsInterval };
 void codec_stats_install_properties(GObjectClass* klass, const char* frames_blurb);
@@ -38,6 +47,8 @@ bool codec_stats_set_property(GstObject* self, CodecStats* st, guint prop_id, co
 // Counts one frame (or a dropped one) and posts the message when due. Takes
 // the object lock; returns the counts after this frame.
 CodecStats codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped);
+// Counts one frame dropped for `kind`, as codec_stats_count.
+CodecStats codec_stats_drop(GstElement* self, CodecStats* st, DropKind kind);
 // Posts the message now (at end of stream, so the last count is exact), when the interval is not 0.
 void codec_stats_post(GstElement* self, const CodecStats* st);
 // sink_event for rgbdenc / rgbddec: posts the final count at EOS, then chains up.

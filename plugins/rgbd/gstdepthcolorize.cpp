@@ -107,7 +107,9 @@ static void gst_depth_colorize_class_init(GstDepthColorizeClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "Depth colouriser", "Filter/Converter/Video",
       "Draws a depth map (GRAY16_LE, mm) as RGB with the turbo colour map: near warm, far cool, no measurement "
-      "(0) black",
+      "(0) black. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.depth ! depthcolorize ! "
+      "videoconvert ! autovideosink",
       "gst-vclassroom developers");
   GST_BASE_TRANSFORM_CLASS(klass)->transform_caps = GST_DEBUG_FUNCPTR(gst_depth_colorize_transform_caps);
   GST_VIDEO_FILTER_CLASS(klass)->transform_frame = GST_DEBUG_FUNCPTR(gst_depth_colorize_transform_frame);

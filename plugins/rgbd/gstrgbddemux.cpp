@@ -218,7 +218,9 @@ static void gst_rgbd_demux_class_init(GstRgbdDemuxClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "RGB-D demuxer", "Demuxer/Video",
       "Splits video/x-rgbd into plain video/x-raw: color (RGB), depth (GRAY16_LE, mm), and, when the stream has "
-      "them, label (GRAY8 learner ids), weight (GRAY8) and depth-gt (GRAY16_LE ground truth). Zero copy.",
+      "them, label (GRAY8 learner ids), weight (GRAY8) and depth-gt (GRAY16_LE ground truth). Zero copy. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! videoconvert ! "
+      "autovideosink d.depth ! queue ! depthcolorize ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(rgbd_demux_debug, "rgbddemux", 0, "RGB-D demuxer");
 }

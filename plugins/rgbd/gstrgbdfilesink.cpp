@@ -158,7 +158,8 @@ static void gst_rgbd_file_sink_class_init(GstRgbdFileSinkClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "RGB-D dataset sink", "Sink/File/Video",
       "Records video/x-rgbd into a dataset folder that rgbdfilesrc plays: PNG colour, 16-bit PNG depth in mm, "
-      "and the label/depth-gt planes when present; the calibration from the caps goes into rig.yaml",
+      "and the label/depth-gt planes when present; the calibration from the caps goes into rig.yaml. Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=90 ! rgbdfilesink location=rec",
       "gst-vclassroom developers");
   basesink_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_start);
   basesink_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_set_caps);

@@ -236,7 +236,10 @@ static void gst_rgbd_file_src_class_init(GstRgbdFileSrcClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "RGB-D dataset source", "Source/File/Video",
       "Plays one camera of a recorded RGB-D dataset (rig.yaml + colour and 16-bit depth images) as video/x-rgbd "
-      "with the camera's calibration in the caps",
+      "with the camera's calibration in the caps. Datasets come from rgbdfilesink or "
+      "vclassroom-import (docs/datasets.md). Example: "
+      "gst-launch-1.0 rgbdfilesrc location=out/art camera-id=1 loop=true framerate=15/1 ! "
+      "rgbddemux name=d d.color ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
 
   basesrc_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_start);

@@ -322,7 +322,9 @@ static void gst_rgbd_mux_class_init(GstRgbdMuxClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "RGB-D muxer", "Muxer/Video",
       "Pairs a colour (RGB) and a registered depth (GRAY16_LE, mm) stream of one camera by running time into "
-      "video/x-rgbd, with the camera's calibration from a rig file in the caps. Zero copy.",
+      "video/x-rgbd, with the camera's calibration from a rig file in the caps. Zero copy. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! m.color d.depth ! "
+      "queue ! m.depth rgbdmux name=m ! rgbddemux name=e e.color ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
 
   agg_class->aggregate = GST_DEBUG_FUNCPTR(gst_rgbd_mux_aggregate);

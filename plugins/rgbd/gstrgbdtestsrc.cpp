@@ -364,7 +364,9 @@ static void gst_rgbd_test_src_class_init(GstRgbdTestSrcClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "Synthetic RGB-D classroom source", "Source/Video",
       "A synthetic classroom with moving learners seen from one camera of a rig, as video/x-rgbd with the camera's "
-      "calibration in the caps, an optional consumer depth-sensor model and exact ground truth",
+      "calibration in the caps, an optional consumer depth-sensor model and exact ground truth. Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! rgbddemux name=d d.color ! queue ! "
+      "videoconvert ! autovideosink d.depth ! queue ! depthcolorize ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
 
   basesrc_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_start);

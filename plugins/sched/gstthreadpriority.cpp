@@ -149,7 +149,9 @@ static void gst_thread_priority_class_init(GstThreadPriorityClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "Streaming thread priority", "Generic",
       "Passes everything through and lowers the scheduling priority of the thread that pushes it (Linux nice "
-      "value), so that work nobody waits for yields the CPU to work somebody does",
+      "value), so that work nobody waits for yields the CPU to work somebody does. Example: "
+      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! queue ! threadpriority nice=10 ! "
+      "rgbddemux name=d d.color ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   trans_class->transform_ip = GST_DEBUG_FUNCPTR(gst_thread_priority_transform_ip);
   trans_class->transform_ip_on_passthrough = TRUE;

@@ -275,7 +275,9 @@ static void gst_depth_complete_class_init(GstDepthCompleteClass* klass) {
       element_class, "V-DA depth completion", "Filter/Effect/Video",
       "Fills the holes of an RGB-D stream's depth from the static classroom model's prior depth, image-guided "
       "completion (Ku et al. style) and colorization (Levin et al. style); caps, timestamps and the other planes "
-      "pass unchanged",
+      "pass unchanged. The model folder is made by vclassroom-build-model (docs/vda.md). Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! depthcomplete model=out/classroom-model ! "
+      "rgbddemux name=d d.depth ! depthcolorize ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_depth_complete_set_caps);
   trans_class->prepare_output_buffer = GST_DEBUG_FUNCPTR(gst_depth_complete_prepare_output_buffer);

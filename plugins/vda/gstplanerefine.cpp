@@ -200,7 +200,11 @@ static void gst_plane_refine_class_init(GstPlaneRefineClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "V-DA planar refinement", "Filter/Effect/Video",
       "Snaps the depth of pixels on the static classroom's planes (floor, walls, desks, blackboard) to the plane's "
-      "depth along the pixel ray; caps, timestamps and the other planes pass unchanged",
+      "depth along the pixel ray; caps, timestamps and the other planes pass unchanged. The model folder is made "
+      "by vclassroom-build-model (docs/vda.md). Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! depthcomplete model=out/classroom-model ! "
+      "planerefine model=out/classroom-model ! rgbddemux name=d d.depth ! depthcolorize ! videoconvert ! "
+      "autovideosink",
       "gst-vclassroom developers");
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_plane_refine_set_caps);
   trans_class->prepare_output_buffer = GST_DEBUG_FUNCPTR(gst_plane_refine_prepare_output_buffer);

@@ -249,7 +249,9 @@ static void gst_learner_seg_class_init(GstLearnerSegClass* klass) {
       element_class, "Learner segmentation", "Filter/Analyzer/Video",
       "Finds the learners in a classroom camera's video/x-rgbd stream (depth in front of the empty room, colour "
       "change against a background model, temporal memory) and writes their masks with ids stable over time "
-      "into the label plane (0 static, k learner k)",
+      "into the label plane (0 static, k learner k). Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! learnerseg ! rgbddemux name=d d.label ! "
+      "videoconvert ! autovideosink",
       "gst-vclassroom developers");
   bt->transform_caps = GST_DEBUG_FUNCPTR(gst_learner_seg_transform_caps);
   bt->set_caps = GST_DEBUG_FUNCPTR(gst_learner_seg_set_caps);

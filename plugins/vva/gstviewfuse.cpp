@@ -16,28 +16,43 @@
 #include <string>
 #include <vector>
 
+#include <gst/vclassroom/camera_liveness.h>
+#include <gst/vclassroom/fuse_inputs.h>
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/view_fuse.h>
+#include <gst/vclassroom/virtual_view.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_fuse_debug);
 #define GST_CAT_DEFAULT view_fuse_debug
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_POSE_TRACE, PROP_DEPTH_TOLERANCE, PROP_FILL_HOLES, PROP_FRAMES_FUSED, PROP_POSE_WINDOW };
-constexpr guint64 kDefaultPoseWindow = 50 * GST_MSECOND;
+enum {
+  PROP_0,
+  PROP_POSE_TRACE,
+  PROP_DEPTH_TOLERANCE,
+  PROP_FILL_HOLES,
+  PROP_FRAMES_FUSED,
+  PROP_POSE_WINDOW,
+  PROP_CAMERA_TIMEOUT,
+  PROP_SHOW_MISSING
+};
+// Live and without any input, the fuse thread wakes this often to notice lost
+// cameras and to keep the lecturer's picture saying so; otherwise it sleeps.
+constexpr GstClockTime kIdleWake = 100 * GST_MSECOND;
 
 namespace {
 
 struct FuseState {
-  std::mutex lock;  // guards the properties and pad_info
+  std::mutex lock;  // guards the properties, pad_info and inputs
   std::string trace_path;
   FuseParams params;
-  std::map<GstPad*, RgbdInfo> pad_info;
+  std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
+  // Which pads are left out, lost, stale (the decisions of each round).
+  FuseInputs inputs;
   guint64 frames = 0;
-  guint64 pose_window = kDefaultPoseWindow;  // ns
 
   // Streaming thread only.
   std::vector<PoseSample> trace;
@@ -45,6 +60,7 @@ struct FuseState {
   GstVideoInfo out_info{};
   bool have_out = false;
   FusedView fused;
+  bool have_fused = false;  // fused holds the last picture sent
   GstClockTime last_out = GST_CLOCK_TIME_NONE;  // running time of the last output frame
 };
 
@@ -65,27 +81,13 @@ static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(GST_VIDEO_CAPS_MAKE("RGB")));
 
 // Sends a pose upstream to every camera branch.
+static gboolean push_pose_to_pad(GstElement*, GstPad* pad, gpointer event) {
+  gst_pad_push_event(pad, gst_event_ref(GST_EVENT(event)));
+  return TRUE;
+}
+
 static void forward_pose(GstViewFuse* self, GstEvent* event) {
-  GstIterator* it = gst_element_iterate_sink_pads(GST_ELEMENT(self));
-  GValue item = G_VALUE_INIT;
-  bool done = false;
-  while (!done) {
-    switch (gst_iterator_next(it, &item)) {
-      case GST_ITERATOR_OK: {
-        GstPad* pad = GST_PAD(g_value_get_object(&item));
-        gst_pad_push_event(pad, gst_event_ref(event));
-        g_value_reset(&item);
-        break;
-      }
-      case GST_ITERATOR_RESYNC:
-        gst_iterator_resync(it);
-        break;
-      default:
-        done = true;
-    }
-  }
-  g_value_unset(&item);
-  gst_iterator_free(it);
+  gst_element_foreach_sink_pad(GST_ELEMENT(self), push_pose_to_pad, event);
   gst_event_unref(event);
 }
 
@@ -109,21 +111,20 @@ static gboolean gst_view_fuse_sink_event(GstAggregator* agg, GstAggregatorPad* p
       gst_event_unref(event);
       return FALSE;
     }
+    // A camera whose view changes size (another sender, another mode) must
+    // not stop the others: its frames are left out until its size matches.
+    std::string rejected;
     {
       std::lock_guard<std::mutex> g(self->st->lock);
-      for (const auto& [p, other] : self->st->pad_info)
-        if (p != GST_PAD(pad) && (other.width() != info.width() || other.height() != info.height())) {
-          GST_ELEMENT_ERROR(self, CORE, NEGOTIATION,
-                            ("pad %s brings a %dx%d virtual view, another pad %dx%d: every viewwarp must render the "
-                             "same virtual size",
-                             GST_PAD_NAME(pad), info.width(), info.height(), other.width(), other.height()),
-                            (nullptr));
-          gst_event_unref(event);
-          return FALSE;
-        }
-      self->st->pad_info[GST_PAD(pad)] = info;
+      self->st->pad_info[pad] = info;
+      rejected = self->st->inputs.configure(pad, info.camera.id, info.width(), info.height());
     }
-    gst_pad_mark_reconfigure(agg->srcpad);
+    if (!rejected.empty())
+      GST_ELEMENT_WARNING(self, STREAM, FORMAT,
+                          ("camera %d (pad %s) left out: %s", info.camera.id, GST_PAD_NAME(pad), rejected.c_str()),
+                          (nullptr));
+    else
+      gst_pad_mark_reconfigure(agg->srcpad);
     gst_event_unref(event);
     return TRUE;
   }
@@ -135,8 +136,9 @@ static GstFlowReturn gst_view_fuse_update_src_caps(GstAggregator* agg, GstCaps* 
   RgbdInfo info;
   {
     std::lock_guard<std::mutex> g(self->st->lock);
-    if (self->st->pad_info.empty()) return GST_AGGREGATOR_FLOW_NEED_DATA;
-    info = self->st->pad_info.begin()->second;
+    const InputKey first = self->st->inputs.first_accepted();
+    if (!first) return GST_AGGREGATOR_FLOW_NEED_DATA;
+    info = self->st->pad_info[first];
   }
   GstVideoInfo vi;
   gst_video_info_set_format(&vi, GST_VIDEO_FORMAT_RGB, info.width(), info.height());
@@ -159,29 +161,173 @@ static GstFlowReturn gst_view_fuse_update_src_caps(GstAggregator* agg, GstCaps* 
 static void send_trace_pose(GstViewFuse* self) {
   FuseState* st = self->st;
   if (st->trace.empty()) return;
-  const size_t i = std::min(st->trace_next, st->trace.size() - 1);
-  Pose pose = st->trace[i].pose;
-  pose.seq = i + 1;
+  Pose pose = trace_pose_in_turn(st->trace, st->trace_next++);
   pose.viewer_time_ns = g_get_monotonic_time() * 1000;
-  ++st->trace_next;
   try {
     forward_pose(self, pose_event_new(pose));
   } catch (const Error& e) {
-    GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("pose trace line %zu: %s", i + 1, e.what()), (nullptr));
+    GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("pose trace line %zu: %s", size_t(pose.seq), e.what()), (nullptr));
   }
 }
 
+// GstClockTime as the library's nanoseconds (< 0: unknown) and back.
+static int64_t time_ns(GstClockTime t) { return GST_CLOCK_TIME_IS_VALID(t) ? int64_t(t) : -1; }
+static GstClockTime clock_time(int64_t ns) { return ns < 0 ? GST_CLOCK_TIME_NONE : GstClockTime(ns); }
+
+// Running time on the element's clock now; GST_CLOCK_TIME_NONE without a clock.
+static GstClockTime running_time_now(GstElement* element) {
+  GstClock* clock = gst_element_get_clock(element);
+  if (!clock) return GST_CLOCK_TIME_NONE;
+  const GstClockTime now = gst_clock_get_time(clock);
+  gst_object_unref(clock);
+  const GstClockTime base = gst_element_get_base_time(element);
+  return now > base ? now - base : 0;
+}
+
+static bool any_pad_has_buffer(GstAggregator* agg) {
+  bool any = false;
+  GST_OBJECT_LOCK(agg);
+  for (GList* l = GST_ELEMENT(agg)->sinkpads; l && !any; l = l->next)
+    any = gst_aggregator_pad_has_buffer(GST_AGGREGATOR_PAD(l->data));
+  GST_OBJECT_UNLOCK(agg);
+  return any;
+}
+
+// Live and idle, it sleeps (fuse_wake_time()). Called with the aggregator's
+// source lock held: gst_aggregator_get_latency() would deadlock here.
+static GstClockTime gst_view_fuse_get_next_time(GstAggregator* agg) {
+  const GstClockTime next = gst_aggregator_simple_get_next_time(agg);
+  const GstClockTime now = running_time_now(GST_ELEMENT(agg));
+  return clock_time(fuse_wake_time(time_ns(next), time_ns(now), any_pad_has_buffer(agg), int64_t(kIdleWake)));
+}
+
+// Drops the queued frame of every pad whose verdict is `which`.
+static void drop_buffers(const std::vector<GstAggregatorPad*>& pads, const std::vector<FrameVerdict>& verdicts,
+                         FrameVerdict which) {
+  for (size_t i = 0; i < pads.size(); ++i)
+    if (verdicts[i] == which) gst_aggregator_pad_drop_buffer(pads[i]);
+}
+
+// A camera lost or back: a bus warning (lost) or info (back) for a person and
+// a vclassroom-camera-status element message for programs.
+static void post_camera_status(GstViewFuse* self, const CameraStatusChange& change, const std::vector<int>& missing,
+                               bool all_lost) {
+  GstStructure* s = gst_structure_new(
+      "vclassroom-camera-status", "camera-id", G_TYPE_INT, change.camera_id, "status", G_TYPE_STRING,
+      change.lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(change.silent_ns), "missing",
+      G_TYPE_STRING, camera_id_list(missing).c_str(), "cameras-missing", G_TYPE_UINT, guint(missing.size()), nullptr);
+  const std::string text = camera_status_text(change, missing, all_lost);
+  if (change.lost)
+    GST_ELEMENT_WARNING(self, STREAM, FAILED, ("%s", text.c_str()), (nullptr));
+  else  // gst-launch-1.0 prints only an info's debug text: the same words there.
+    GST_ELEMENT_INFO(self, RESOURCE, READ, ("%s", text.c_str()), ("%s", text.c_str()));
+  // After the text for people, so that a program seeing the status has the text too.
+  gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), s));
+}
+
+// Sends st->fused.color, with the banner naming the missing cameras when
+// `banner` is not empty, at running time `rt` (or just after the last output).
+static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, GstClockTime rt,
+                                  GstClockTime duration, const WarpedPose* pose) {
+  GstAggregator* agg = GST_AGGREGATOR(self);
+  FuseState* st = self->st;
+  const int w = GST_VIDEO_INFO_WIDTH(&st->out_info), h = GST_VIDEO_INFO_HEIGHT(&st->out_info);
+  if (st->fused.color.cols != w || st->fused.color.rows != h || st->fused.color.type() != CV_8UC3)
+    return GST_FLOW_OK;  // the output size changed since that picture
+  GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out_info), nullptr);
+  GstMapInfo map;
+  if (!gst_buffer_map(out, &map, GST_MAP_WRITE)) {
+    gst_buffer_unref(out);
+    GST_ELEMENT_ERROR(self, RESOURCE, FAILED, ("cannot map an output buffer"), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  cv::Mat dst(h, w, CV_8UC3, map.data, GST_VIDEO_INFO_PLANE_STRIDE(&st->out_info, 0));
+  st->fused.color.copyTo(dst);
+  draw_missing_banner(dst, banner);
+  gst_buffer_unmap(out, &map);
+  rt = clock_time(next_output_time(time_ns(st->last_out), time_ns(rt)));
+  st->last_out = rt;
+  // Running time back into the output segment (it starts at a seek's position).
+  GstClockTime pts = rt;
+  GST_OBJECT_LOCK(agg);
+  const GstClockTime in_segment =
+      gst_segment_position_from_running_time(&GST_AGGREGATOR_PAD(agg->srcpad)->segment, GST_FORMAT_TIME, rt);
+  GST_OBJECT_UNLOCK(agg);
+  if (GST_CLOCK_TIME_IS_VALID(in_segment)) pts = in_segment;
+  GST_BUFFER_PTS(out) = pts;
+  GST_BUFFER_DURATION(out) = duration;
+  if (pose) buffer_add_pose_meta(out, pose->seq, pose->viewer_time_ns);
+  {
+    GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
+    GST_OBJECT_LOCK(agg);
+    if (GST_CLOCK_TIME_IS_VALID(pts)) seg->position = pts + (GST_CLOCK_TIME_IS_VALID(duration) ? duration : 0);
+    GST_OBJECT_UNLOCK(agg);
+  }
+  return gst_aggregator_finish_buffer(agg, out);
+}
+
+// Maps the frames to fuse, fuses them and sends the picture (stamped as output_stamp() says).
+static GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPad*>& pads,
+                                   const std::vector<GstBuffer*>& bufs, const std::vector<RgbdInfo>& infos,
+                                   const std::vector<PendingFrame>& pending, const FuseRound& round,
+                                   const FuseParams& params) {
+  FuseState* st = self->st;
+  std::vector<WarpedView> views(pads.size());
+  std::vector<const WarpedView*> ptrs;
+  std::vector<std::unique_ptr<RgbdFrame>> frames;
+  std::vector<FrameStamp> stamps;
+  std::vector<size_t> fused;  // the index of each of them among the pads
+  for (size_t i = 0; i < pads.size(); ++i) {
+    if (round.verdicts[i] != FrameVerdict::kFuse) continue;
+    auto f = std::make_unique<RgbdFrame>();
+    std::string err;
+    // A gap (a camera that said it has nothing for this time) is normal: skip it quietly.
+    if (GST_BUFFER_FLAG_IS_SET(bufs[i], GST_BUFFER_FLAG_GAP) || gst_buffer_get_size(bufs[i]) == 0) continue;
+    if (!f->map(bufs[i], infos[i], GST_MAP_READ, &err)) {
+      GST_ELEMENT_WARNING(self, STREAM, FAILED, ("pad %s: %s (frame skipped)", GST_PAD_NAME(pads[i]), err.c_str()),
+                          (nullptr));
+      continue;
+    }
+    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
+    ptrs.push_back(&views[i]);
+    frames.push_back(std::move(f));
+    stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
+    fused.push_back(i);
+  }
+  if (ptrs.empty() || !st->have_out) {
+    drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
+    return GST_FLOW_OK;
+  }
+  try {
+    fuse_views(ptrs, params, &st->fused);
+  } catch (const cv::Exception& e) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
+    st->have_fused = false;
+    return GST_FLOW_ERROR;
+  }
+  st->have_fused = true;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    ++st->frames;
+  }
+  frames.clear();
+  drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
+  send_trace_pose(self);
+  const OutputStamp stamp = output_stamp(stamps);
+  const GstClockTime rt = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : clock_time(stamps[stamp.time_from].running_time_ns);
+  const GstClockTime duration = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : GST_BUFFER_DURATION(bufs[fused[stamp.time_from]]);
+  GST_LOG_OBJECT(self, "fused %zu inputs", ptrs.size());
+  return push_picture(self, round.banner, rt, duration, stamp.pose_from < 0 ? nullptr : &stamps[stamp.pose_from].pose);
+}
+
+// FuseInputs decides (docs/vva.md); this posts, drops and fuses as it says.
 static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeout) {
   GstViewFuse* self = GST_VIEW_FUSE(agg);
   FuseState* st = self->st;
   if (st->trace_next == 0) send_trace_pose(self);
 
-  struct Input {
-    GstAggregatorPad* pad = nullptr;
-    GstBuffer* buf = nullptr;
-    RgbdInfo info;
-  };
-  std::vector<Input> inputs;
+  std::vector<GstAggregatorPad*> pads;
+  std::vector<GstBuffer*> bufs;
   bool all_eos = true;
   GST_OBJECT_LOCK(agg);
   for (GList* l = GST_ELEMENT(agg)->sinkpads; l; l = l->next) {
@@ -189,162 +335,55 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
     GstBuffer* buf = gst_aggregator_pad_peek_buffer(pad);
     if (!gst_aggregator_pad_is_eos(pad) || buf) all_eos = false;
     if (buf) {
-      Input in;
-      in.pad = GST_AGGREGATOR_PAD(gst_object_ref(pad));
-      in.buf = buf;
-      inputs.push_back(std::move(in));
+      pads.push_back(GST_AGGREGATOR_PAD(gst_object_ref(pad)));
+      bufs.push_back(buf);
     }
   }
   GST_OBJECT_UNLOCK(agg);
-  if (inputs.empty()) return all_eos ? GST_FLOW_EOS : GST_AGGREGATOR_FLOW_NEED_DATA;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    for (auto& in : inputs) in.info = st->pad_info[GST_PAD(in.pad)];
+  if (pads.empty() && all_eos) return GST_FLOW_EOS;
+  RoundContext ctx;
+  ctx.live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
+  const GstClockTime now = ctx.live ? running_time_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
+  ctx.now_ns = time_ns(now);
+  ctx.timeout = timeout;
+  ctx.last_out_ns = time_ns(st->last_out);
+  ctx.have_picture = st->have_fused && st->have_out;
+  ctx.monotonic_ns = g_get_monotonic_time() * 1000;
+  std::vector<PendingFrame> pending(pads.size());
+  for (size_t i = 0; i < pads.size(); ++i) {
+    pending[i].key = pads[i];
+    pending[i].running_time_ns = time_ns(aggregator_pad_running_time(pads[i], bufs[i]));
+    if (const PoseMeta* m = buffer_get_pose_meta(bufs[i])) pending[i].pose = WarpedPose{true, m->seq, m->viewer_time_ns};
   }
-  // One output frame shows one pose. Live, a camera's frame warped for an
-  // older pose than the others (or older than the last output) is stale:
-  // drop it and wait for its fresh one, fusing only the consistent ones when
-  // the latency runs out. Not live, everything is fused and the frame is
-  // stamped with the oldest pose in it, the one it fully shows.
-  {
-    std::vector<WarpedPose> poses;
-    for (auto& in : inputs) {
-      WarpedPose p;
-      if (const PoseMeta* m = buffer_get_pose_meta(in.buf)) p = WarpedPose{true, m->seq, m->viewer_time_ns};
-      poses.push_back(p);
-    }
-    int64_t window;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      window = int64_t(st->pose_window);
-    }
-    const std::vector<bool> stale = stale_poses(poses, window);
-    const bool live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
-    bool dropped = false;
-    size_t index = 0;
-    for (auto it = inputs.begin(); live && it != inputs.end(); ++index) {
-      const GstClockTime t = aggregator_pad_running_time(it->pad, it->buf);
-      const bool old_pose = stale[index];
-      const bool old_time = GST_CLOCK_TIME_IS_VALID(st->last_out) && GST_CLOCK_TIME_IS_VALID(t) && t <= st->last_out;
-      if (old_pose || old_time) {
-        GST_LOG_OBJECT(self, "%s: dropping a stale frame (%s)", GST_PAD_NAME(it->pad), old_pose ? "older pose" : "late");
-        gst_aggregator_pad_drop_buffer(it->pad);
-        gst_buffer_unref(it->buf);
-        gst_object_unref(it->pad);
-        it = inputs.erase(it);
-        dropped = true;
-      } else {
-        ++it;
-      }
-    }
-    if (dropped && !timeout) {
-      for (auto& in : inputs) {
-        gst_buffer_unref(in.buf);
-        gst_object_unref(in.pad);
-      }
-      return GST_AGGREGATOR_FLOW_NEED_DATA;
-    }
-    if (inputs.empty()) return GST_AGGREGATOR_FLOW_NEED_DATA;
-  }
-
-  GstFlowReturn ret = GST_FLOW_OK;
-  GstClockTime rt = GST_CLOCK_TIME_NONE, duration = GST_CLOCK_TIME_NONE;
-  std::vector<WarpedView> views(inputs.size());
-  std::vector<const WarpedView*> ptrs;
-  std::vector<std::unique_ptr<RgbdFrame>> frames;
-  PoseMeta pose{};
-  bool have_pose = false;
+  FuseRound round;
+  std::vector<RgbdInfo> infos;
   FuseParams params;
   {
     std::lock_guard<std::mutex> g(st->lock);
+    round = st->inputs.decide(pending, ctx);
+    for (GstAggregatorPad* pad : pads) infos.push_back(st->pad_info[pad]);
     params = st->params;
   }
-  for (size_t i = 0; i < inputs.size(); ++i) {
-    auto f = std::make_unique<RgbdFrame>();
-    std::string err;
-    // A gap (a camera that said it has nothing for this time) is normal: skip it quietly.
-    if (GST_BUFFER_FLAG_IS_SET(inputs[i].buf, GST_BUFFER_FLAG_GAP) || gst_buffer_get_size(inputs[i].buf) == 0)
-      continue;
-    if (!f->map(inputs[i].buf, inputs[i].info, GST_MAP_READ, &err)) {
-      GST_ELEMENT_WARNING(self, STREAM, FAILED, ("pad %s: %s (frame skipped)", GST_PAD_NAME(inputs[i].pad),
-                                                 err.c_str()),
-                          (nullptr));
-      continue;
+  for (const auto& c : round.status_changes) post_camera_status(self, c, round.missing, round.all_lost);
+  for (const auto& w : round.warnings) GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("%s", w.c_str()), (nullptr));
+  drop_buffers(pads, round.verdicts, FrameVerdict::kLeftOut);
+  for (size_t i = 0; i < pads.size(); ++i)
+    if (round.verdicts[i] == FrameVerdict::kOlderPose || round.verdicts[i] == FrameVerdict::kLate) {
+      GST_LOG_OBJECT(self, "%s: dropping a stale frame (%s)", GST_PAD_NAME(pads[i]),
+                     round.verdicts[i] == FrameVerdict::kOlderPose ? "older pose" : "late");
+      gst_aggregator_pad_drop_buffer(pads[i]);
     }
-    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
-    ptrs.push_back(&views[i]);
-    frames.push_back(std::move(f));
-    // The newest input is what the frame is as fresh as.
-    const GstClockTime t = aggregator_pad_running_time(inputs[i].pad, inputs[i].buf);
-    if (GST_CLOCK_TIME_IS_VALID(t) && (!GST_CLOCK_TIME_IS_VALID(rt) || t > rt)) {
-      rt = t;
-      duration = GST_BUFFER_DURATION(inputs[i].buf);
-    }
-    if (PoseMeta* m = buffer_get_pose_meta(inputs[i].buf); m && (!have_pose || m->seq < pose.seq)) {
-      pose = *m;
-      have_pose = true;
-    }
+  GstFlowReturn ret = GST_AGGREGATOR_FLOW_NEED_DATA;
+  if (round.action == RoundAction::kRepeatLast) {
+    const GstClockTime latency = gst_aggregator_get_latency(agg);
+    ret = push_picture(self, round.banner, now > latency ? now - latency : 0, kIdleWake, nullptr);
+  } else if (round.action == RoundAction::kFuse) {
+    ret = fuse_and_push(self, pads, bufs, infos, pending, round, params);
   }
-  if (!ptrs.empty() && st->have_out) {
-    const int w = GST_VIDEO_INFO_WIDTH(&st->out_info), h = GST_VIDEO_INFO_HEIGHT(&st->out_info);
-    GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out_info), nullptr);
-    GstMapInfo map;
-    if (!gst_buffer_map(out, &map, GST_MAP_WRITE)) {
-      gst_buffer_unref(out);
-      GST_ELEMENT_ERROR(self, RESOURCE, FAILED, ("cannot map an output buffer"), (nullptr));
-      ret = GST_FLOW_ERROR;
-      goto done;
-    }
-    try {
-      fuse_views(ptrs, params, &st->fused);
-      cv::Mat dst(h, w, CV_8UC3, map.data, GST_VIDEO_INFO_PLANE_STRIDE(&st->out_info, 0));
-      st->fused.color.copyTo(dst);
-    } catch (const cv::Exception& e) {
-      gst_buffer_unmap(out, &map);
-      gst_buffer_unref(out);
-      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
-      ret = GST_FLOW_ERROR;
-      goto done;
-    }
-    gst_buffer_unmap(out, &map);
-    // Never back in time, whatever the inputs' timing.
-    if (GST_CLOCK_TIME_IS_VALID(st->last_out) && (!GST_CLOCK_TIME_IS_VALID(rt) || rt <= st->last_out))
-      rt = st->last_out + 1;
-    st->last_out = rt;
-    // Running time back into the output segment (it starts at a seek's position).
-    GstClockTime pts = rt;
-    GST_OBJECT_LOCK(agg);
-    const GstClockTime in_segment = gst_segment_position_from_running_time(
-        &GST_AGGREGATOR_PAD(agg->srcpad)->segment, GST_FORMAT_TIME, rt);
-    GST_OBJECT_UNLOCK(agg);
-    if (GST_CLOCK_TIME_IS_VALID(in_segment)) pts = in_segment;
-    GST_BUFFER_PTS(out) = pts;
-    GST_BUFFER_DURATION(out) = duration;
-    if (have_pose) buffer_add_pose_meta(out, pose.seq, pose.viewer_time_ns);
-    {
-      GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
-      GST_OBJECT_LOCK(agg);
-      if (GST_CLOCK_TIME_IS_VALID(pts)) seg->position = pts + (GST_CLOCK_TIME_IS_VALID(duration) ? duration : 0);
-      GST_OBJECT_UNLOCK(agg);
-    }
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      ++st->frames;
-    }
-    frames.clear();
-    for (auto& in : inputs) gst_aggregator_pad_drop_buffer(in.pad);
-    send_trace_pose(self);
-    ret = gst_aggregator_finish_buffer(agg, out);
-  } else {
-    for (auto& in : inputs) gst_aggregator_pad_drop_buffer(in.pad);
+  for (size_t i = 0; i < pads.size(); ++i) {
+    gst_buffer_unref(bufs[i]);
+    gst_object_unref(pads[i]);
   }
-done:
-  frames.clear();
-  for (auto& in : inputs) {
-    gst_buffer_unref(in.buf);
-    gst_object_unref(in.pad);
-  }
-  GST_LOG_OBJECT(self, "fused %zu inputs (timeout %d)", ptrs.size(), timeout);
   return ret;
 }
 
@@ -362,16 +401,15 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     std::lock_guard<std::mutex> g(st->lock);
     path = st->trace_path;
     st->frames = 0;
-  }
-  {
     // Request pads outlive a restart; their caps (maybe a new virtual size) come again.
-    std::lock_guard<std::mutex> g(st->lock);
     st->pad_info.clear();
+    st->inputs.clear();
   }
   st->trace.clear();
   st->trace_next = 0;
   st->last_out = GST_CLOCK_TIME_NONE;
   st->have_out = false;
+  st->have_fused = false;
   if (!path.empty()) {
     try {
       st->trace = load_pose_trace(path);
@@ -387,16 +425,12 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
   return TRUE;
 }
 
-static GstAggregatorPad* gst_view_fuse_create_new_pad(GstAggregator* agg, GstPadTemplate* templ,
-                                                      const gchar* req_name, const GstCaps* caps) {
-  return GST_AGGREGATOR_CLASS(gst_view_fuse_parent_class)->create_new_pad(agg, templ, req_name, caps);
-}
-
 static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
   GstViewFuse* self = GST_VIEW_FUSE(element);
   {
     std::lock_guard<std::mutex> g(self->st->lock);
     self->st->pad_info.erase(pad);
+    self->st->inputs.release(pad);
   }
   GST_ELEMENT_CLASS(gst_view_fuse_parent_class)->release_pad(element, pad);
 }
@@ -404,6 +438,7 @@ static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
 static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
   FuseState* st = GST_VIEW_FUSE(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
+  FuseInputsParams inputs = st->inputs.params();
   switch (prop_id) {
     case PROP_POSE_TRACE:
       st->trace_path = g_value_get_string(value) ? g_value_get_string(value) : "";
@@ -415,11 +450,18 @@ static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GVa
       st->params.fill_holes = g_value_get_boolean(value);
       break;
     case PROP_POSE_WINDOW:
-      st->pose_window = g_value_get_uint64(value);
+      inputs.pose_window_ns = int64_t(g_value_get_uint64(value));
+      break;
+    case PROP_CAMERA_TIMEOUT:
+      inputs.camera_timeout_ns = int64_t(g_value_get_uint64(value));
+      break;
+    case PROP_SHOW_MISSING:
+      inputs.show_missing = g_value_get_boolean(value);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
+  st->inputs.set_params(inputs);
 }
 
 static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
@@ -436,7 +478,13 @@ static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* v
       g_value_set_boolean(value, st->params.fill_holes);
       break;
     case PROP_POSE_WINDOW:
-      g_value_set_uint64(value, st->pose_window);
+      g_value_set_uint64(value, guint64(st->inputs.params().pose_window_ns));
+      break;
+    case PROP_CAMERA_TIMEOUT:
+      g_value_set_uint64(value, guint64(st->inputs.params().camera_timeout_ns));
+      break;
+    case PROP_SHOW_MISSING:
+      g_value_set_boolean(value, st->inputs.params().show_missing);
       break;
     case PROP_FRAMES_FUSED:
       g_value_set_uint64(value, st->frames);
@@ -459,6 +507,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   gobject_class->get_property = gst_view_fuse_get_property;
   gobject_class->finalize = gst_view_fuse_finalize;
   const FuseParams d;
+  const FuseInputsParams di;
   g_object_class_install_property(
       gobject_class, PROP_POSE_TRACE,
       g_param_spec_string("pose-trace", "Pose trace",
@@ -484,8 +533,23 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           "Live: cameras' frames warped for poses the viewer took at most this many ns apart are "
                           "fused together; a frame warped for an older pose is dropped and its fresh one awaited "
                           "(0: only frames of exactly the same pose). The output is stamped with the oldest pose",
-                          0, G_MAXINT64, kDefaultPoseWindow,
+                          0, G_MAXINT64, guint64(di.pose_window_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
+      gobject_class, PROP_CAMERA_TIMEOUT,
+      g_param_spec_uint64("camera-timeout", "Camera timeout",
+                          "Live: a camera without a frame for this many ns is lost: a bus warning and a "
+                          "vclassroom-camera-status element message (camera-id, status lost/returned, silent-ns, "
+                          "missing), the same when it returns; the view goes on with the others (0: never lost)",
+                          0, G_MAXINT64, guint64(di.camera_timeout_ns),
+                          GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
+      gobject_class, PROP_SHOW_MISSING,
+      g_param_spec_boolean("show-missing", "Show missing cameras",
+                           "Draw a banner naming the lost cameras ('camera 2 missing') into the top-left corner of "
+                           "the output; with every camera lost, keep sending the last picture so marked",
+                           di.show_missing,
+                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_FRAMES_FUSED,
       g_param_spec_uint64("frames-fused", "Frames fused", "Output frames produced since start", 0, G_MAXUINT64, 0,
@@ -497,7 +561,12 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
       "Fuses the cameras warped to the virtual view (viewwarp outputs on cam_%u): z-buffer visibility, blending "
       "weighted by viewing angle, distance and warp quality, learners composited by depth, holes filled from the "
       "background side. Outputs video/x-raw RGB with the pose meta of the pose rendered. Forwards vclassroom/pose "
-      "events to every input; cameras that are EOS (or, when live, late past the latency) are left out",
+      "events to every input; cameras that are EOS (or, when live, late past the latency) are left out, so is a "
+      "camera whose view has another size (with a warning); live, a camera silent for camera-timeout is reported "
+      "lost and named on the picture. Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=300 ! learnerseg ! viewwarp ! queue ! "
+      "f.cam_0 rgbdtestsrc camera-id=2 num-buffers=300 ! learnerseg ! viewwarp ! queue ! "
+      "f.cam_2 viewfuse name=f ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   agg_class->aggregate = GST_DEBUG_FUNCPTR(gst_view_fuse_aggregate);
   agg_class->sink_event = GST_DEBUG_FUNCPTR(gst_view_fuse_sink_event);
@@ -505,8 +574,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   agg_class->update_src_caps = GST_DEBUG_FUNCPTR(gst_view_fuse_update_src_caps);
   agg_class->start = GST_DEBUG_FUNCPTR(gst_view_fuse_start);
   agg_class->flush = GST_DEBUG_FUNCPTR(gst_view_fuse_flush);
-  agg_class->create_new_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_create_new_pad);
-  agg_class->get_next_time = gst_aggregator_simple_get_next_time;
+  agg_class->get_next_time = GST_DEBUG_FUNCPTR(gst_view_fuse_get_next_time);
   element_class->release_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_release_pad);
   GST_DEBUG_CATEGORY_INIT(view_fuse_debug, "viewfuse", 0, "view fusion");
 }

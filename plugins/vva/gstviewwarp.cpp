@@ -17,6 +17,7 @@
 #include <gst/vclassroom/pose_meta.h>
 #include <gst/vclassroom/rgbd.h>
 #include <gst/vclassroom/view_warp.h>
+#include <gst/vclassroom/virtual_view.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_warp_debug);
 #define GST_CAT_DEFAULT view_warp_debug
@@ -55,23 +56,12 @@ struct WarpState {
   // Streaming thread only.
   RgbdInfo in_info, out_info;
   cv::Mat prior;
+  bool use_prior = false;  // the prior fits the negotiated camera size
   std::vector<PoseSample> trace;  // pose-trace, loaded at start
   uint64_t frames = 0;
   ViewWarper warper;
   WarpedView warped;
 };
-
-// The virtual camera's intrinsics at the negotiated size.
-CameraCalib virtual_base(const CameraCalib& src, int width, int height, double fov) {
-  CameraCalib v = (width > 0 && height > 0 && (width != src.width || height != src.height))
-                      ? scale_camera(src, width, height)
-                      : src;
-  v.distortion = {0, 0, 0, 0, 0};
-  v.depth_to_color.reset();
-  if (fov > 0) v.fx = v.fy = 0.5 * v.width / std::tan(0.5 * fov * M_PI / 180.0);
-  v.cam_to_rig = Eigen::Isometry3d::Identity();
-  return v;
-}
 
 }  // namespace
 
@@ -101,7 +91,7 @@ static bool output_info(GstViewWarp* self, const RgbdInfo& in, RgbdInfo* out) {
     initial = self->st->pose.cam_to_rig();
   }
   *out = in;
-  out->camera = virtual_base(in.camera, w, h, fov);
+  out->camera = virtual_view_base(in.camera, w, h, fov);
   // The caps show the view at negotiation time; each buffer's pose meta says which pose it shows.
   out->camera.cam_to_rig = initial;
   out->planes = {Plane::Color, Plane::Depth, Plane::Label, Plane::Weight};
@@ -140,12 +130,17 @@ static gboolean gst_view_warp_set_caps(GstBaseTransform* trans, GstCaps* incaps,
     GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("%s", err.c_str()), (nullptr));
     return FALSE;
   }
-  if (!st->prior.empty() && (st->prior.cols != st->in_info.width() || st->prior.rows != st->in_info.height())) {
-    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS,
-                      ("prior-depth is %dx%d but camera %d streams %dx%d", st->prior.cols, st->prior.rows,
-                       st->in_info.camera.id, st->in_info.width(), st->in_info.height()),
-                      (nullptr));
-    return FALSE;
+  // A camera may change its size mid-stream (another mode, another sender):
+  // it is renegotiated, and warped from its live depth alone while the prior
+  // made for the other size does not fit, rather than stopping the server.
+  st->use_prior = !st->prior.empty();
+  if (st->use_prior && (st->prior.cols != st->in_info.width() || st->prior.rows != st->in_info.height())) {
+    st->use_prior = false;
+    GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS,
+                        ("prior-depth is %dx%d but camera %d now streams %dx%d: warping it without the prior",
+                         st->prior.cols, st->prior.rows, st->in_info.camera.id, st->in_info.width(),
+                         st->in_info.height()),
+                        (nullptr));
   }
   GST_INFO_OBJECT(self, "camera %d %dx%d -> virtual view %dx%d (fx %.1f)", st->in_info.camera.id,
                   st->in_info.width(), st->in_info.height(), st->out_info.width(), st->out_info.height(),
@@ -235,21 +230,11 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     params.boundary_px = st->boundary_px;
   }
   if (!st->trace.empty()) {
-    // The frame's own moment of the trace: every camera's frame of one
-    // instant gets the same pose, however far apart their threads run.
+    // The frame's own moment of the trace (trace_pose_for_frame()).
     const bool timed = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf);
     const GstClockTime rt =
         timed ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf)) : GST_CLOCK_TIME_NONE;
-    // Without a running time the trace goes by frame number, whatever its t column.
-    const size_t i = GST_CLOCK_TIME_IS_VALID(rt) && !std::isnan(st->trace.front().t)
-                         ? pose_trace_index(st->trace, double(rt) / GST_SECOND, st->frames)
-                         : std::min<size_t>(st->frames, st->trace.size() - 1);
-    pose = st->trace[i].pose;
-    pose.seq = i + 1;
-    // The trace's own time as the viewer time: viewfuse's pose window then
-    // compares the poses of two cameras by how far apart the trace has them.
-    const double t = st->trace[i].t;
-    pose.viewer_time_ns = std::isnan(t) ? -1 : int64_t(std::llround(t * 1e9));
+    pose = trace_pose_for_frame(st->trace, GST_CLOCK_TIME_IS_VALID(rt) ? double(rt) / GST_SECOND : NAN, st->frames);
   }
   ++st->frames;
   RgbdFrame in, out;
@@ -267,7 +252,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   src.color = in.color();
   src.depth = in.depth();
   src.label = in.label();
-  src.static_depth = st->prior;
+  if (st->use_prior) src.static_depth = st->prior;
   // Warp straight into the output planes.
   st->warped.color = out.color();
   st->warped.depth = out.depth();
@@ -444,7 +429,9 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
       "virtual view of the latest vclassroom/pose event (highest seq wins; the rig's reference camera until one "
       "arrives) as a triangle mesh with depth-edge rejection and bilinear colour. Output: video/x-rgbd of the "
       "virtual camera with planes color,depth,label,weight; camera-id stays the source camera's, virtual-view = "
-      "true; each buffer carries the pose meta (seq, viewer time). Pose events are consumed, not forwarded",
+      "true; each buffer carries the pose meta (seq, viewer time). Pose events are consumed, not forwarded. Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! learnerseg ! "
+      "viewwarp reference-camera=0 ! rgbddemux name=d d.color ! videoconvert ! autovideosink",
       "gst-vclassroom developers");
   bt->transform_caps = GST_DEBUG_FUNCPTR(gst_view_warp_transform_caps);
   bt->set_caps = GST_DEBUG_FUNCPTR(gst_view_warp_set_caps);

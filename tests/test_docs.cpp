@@ -1,0 +1,612 @@
+// The documentation runs as written: every gst-launch-1.0 command in README.md
+// and docs/*.md, and the example launch line in every element's gst-inspect
+// text, is parsed as gst-launch-1.0 would parse it and run to the end, with
+// display sinks replaced by fakesink and sources bounded to a few buffers.
+// Any error (a missing element or property, not-negotiated, a missing file)
+// fails the test naming the doc file and line, or the element.
+//
+// Commands run from a scratch folder standing for the project root: what a
+// command needs under out/ (a model, an imported dataset) is made first by
+// the documented tool command that writes it (build/tools/... mapped to the
+// build's tools, ../shared/data to the shared data); where that tool needs
+// the shared data and it is absent, the command is skipped, saying why.
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gst/base/gstbasesrc.h>
+#include <gst/gst.h>
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Sources are bounded to this many buffers: enough to negotiate and to run
+// every element on real frames, few enough for a quick test.
+constexpr int kBuffersPerSource = 3;
+
+// Sinks that open a window or a sound device; a test machine has neither.
+const std::set<std::string> kDisplaySinks = {"autovideosink", "ximagesink", "xvimagesink", "glimagesink",
+                                             "gtksink",       "waylandsink", "autoaudiosink"};
+
+constexpr const char* kWindowCaps = "video/x-raw,format=BGRx";
+
+// A command found in a document: where, and its text with continuation lines joined.
+struct DocCommand {
+  std::string where;  // "docs/vda.md:28" or "gst-inspect-1.0 depthcomplete"
+  std::string text;
+};
+
+std::string trim(const std::string& s) {
+  const size_t a = s.find_first_not_of(" \t");
+  if (a == std::string::npos) return "";
+  const size_t b = s.find_last_not_of(" \t\r");
+  return s.substr(a, b - a + 1);
+}
+
+bool starts_with(const std::string& s, const std::string& prefix) { return s.rfind(prefix, 0) == 0; }
+
+// The command a code line starts, if any: after an optional "$ " prompt and
+// VAR=value assignments, the first word is `program`.
+bool starts_command(const std::string& line, const std::string& program) {
+  std::string t = trim(line);
+  if (starts_with(t, "$ ")) t = trim(t.substr(2));
+  static const std::regex assignment(R"(^[A-Za-z_][A-Za-z0-9_]*=\S*\s+)");
+  std::smatch m;
+  while (std::regex_search(t, m, assignment)) t = t.substr(m.length());
+  return starts_with(t, program + " ");
+}
+
+// Every command of `program` in a markdown text: lines inside ``` blocks
+// (joined with the lines they continue with a trailing backslash) and inline
+// code spans that hold a whole command.
+std::vector<DocCommand> extract_commands(const std::string& name, const std::string& markdown,
+                                         const std::string& program) {
+  std::vector<DocCommand> out;
+  std::vector<std::string> lines;
+  std::istringstream in(markdown);
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  bool in_fence = false;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const std::string t = trim(lines[i]);
+    if (starts_with(t, "```")) {
+      in_fence = !in_fence;
+      continue;
+    }
+    if (in_fence) {
+      if (!starts_command(t, program)) continue;
+      const size_t first = i;
+      std::string text = t;
+      while (!text.empty() && text.back() == '\\' && i + 1 < lines.size()) {
+        text.pop_back();
+        text += " " + trim(lines[++i]);
+      }
+      if (starts_with(text, "$ ")) text = text.substr(2);
+      out.push_back({name + ":" + std::to_string(first + 1), text});
+      continue;
+    }
+    // Inline code: `...` spans on one line.
+    for (size_t a = t.find('`'); a != std::string::npos;) {
+      const size_t b = t.find('`', a + 1);
+      if (b == std::string::npos) break;
+      const std::string span = t.substr(a + 1, b - a - 1);
+      if (starts_command(span, program)) out.push_back({name + ":" + std::to_string(i + 1), trim(span)});
+      a = t.find('`', b + 1);
+    }
+  }
+  return out;
+}
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string env_or_empty(const char* name) {
+  const char* v = std::getenv(name);
+  return v ? v : "";
+}
+
+// README.md and docs/*.md, in a fixed order.
+std::vector<std::pair<std::string, std::string>> project_documents() {
+  const fs::path root = env_or_empty("VCLASSROOM_SOURCE_DIR");
+  std::vector<std::pair<std::string, std::string>> docs;
+  if (root.empty()) return docs;
+  docs.emplace_back("README.md", read_text(root / "README.md"));
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(root / "docs"))
+    if (e.path().extension() == ".md") names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  for (const std::string& n : names) docs.emplace_back("docs/" + n, read_text(root / "docs" / n));
+  return docs;
+}
+
+std::vector<std::string> split_argv(const std::string& text, std::string* error) {
+  gchar** argv = nullptr;
+  GError* err = nullptr;
+  std::vector<std::string> out;
+  if (!g_shell_parse_argv(text.c_str(), nullptr, &argv, &err)) {
+    *error = err ? err->message : "cannot split into words";
+    g_clear_error(&err);
+    return out;
+  }
+  for (gchar** a = argv; *a; ++a) out.emplace_back(*a);
+  g_strfreev(argv);
+  return out;
+}
+
+// The pipeline words of a gst-launch-1.0 command (what gst-launch-1.0 hands to
+// gst_parse_launchv: after the environment assignments, the program and its
+// options), display sinks replaced by fakesink without their properties.
+std::vector<std::string> pipeline_words(const std::vector<std::string>& argv) {
+  size_t i = 0;
+  while (i < argv.size() && argv[i] != "gst-launch-1.0") ++i;
+  ++i;
+  while (i < argv.size() && starts_with(argv[i], "-")) ++i;
+  std::vector<std::string> words;
+  for (; i < argv.size(); ++i) {
+    if (kDisplaySinks.count(argv[i])) {
+      // A window takes only the formats the display does: what ximagesink (autovideosink's choice
+      // without Xv or OpenGL) takes on a usual 24-bit X display. A sink that accepts anything would
+      // hide a missing videoconvert.
+      if (argv[i] != "autoaudiosink") words.insert(words.end(), {"capsfilter", "caps=" + std::string(kWindowCaps), "!"});
+      words.push_back("fakesink");
+      // The display sink's own properties (sync=false, force-aspect-ratio=...) go with it; its name stays.
+      while (i + 1 < argv.size() && argv[i + 1].find('=') != std::string::npos &&
+             argv[i + 1].find('!') == std::string::npos && argv[i + 1].find('/') == std::string::npos) {
+        if (starts_with(argv[i + 1], "name=")) words.push_back(argv[i + 1]);
+        ++i;
+      }
+      continue;
+    }
+    words.push_back(argv[i]);
+  }
+  return words;
+}
+
+// Bounds every source that counts buffers to kBuffersPerSource.
+void bound_sources(GstElement* pipeline) {
+  GstIterator* it = gst_bin_iterate_recurse(GST_BIN(pipeline));
+  GValue v = G_VALUE_INIT;
+  while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
+    GstElement* e = GST_ELEMENT(g_value_get_object(&v));
+    if (GST_IS_BASE_SRC(e) && g_object_class_find_property(G_OBJECT_GET_CLASS(e), "num-buffers")) {
+      gint n = -1;
+      g_object_get(e, "num-buffers", &n, nullptr);
+      if (n < 0 || n > kBuffersPerSource) g_object_set(e, "num-buffers", kBuffersPerSource, nullptr);
+    }
+    g_value_reset(&v);
+  }
+  g_value_unset(&v);
+  gst_iterator_free(it);
+}
+
+// Whether a source of the pipeline is live (udpsrc, a camera): it may wait for ever for data.
+bool has_live_source(GstElement* pipeline) {
+  bool live = false;
+  GstIterator* it = gst_bin_iterate_sources(GST_BIN(pipeline));
+  GValue v = G_VALUE_INIT;
+  while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
+    GstElement* e = GST_ELEMENT(g_value_get_object(&v));
+    if (GST_IS_BASE_SRC(e) && gst_base_src_is_live(GST_BASE_SRC(e))) live = true;
+    g_value_reset(&v);
+  }
+  g_value_unset(&v);
+  gst_iterator_free(it);
+  return live;
+}
+
+// Runs the pipeline to its end. "" on EOS, else what went wrong (the error,
+// its source and GStreamer's debug text, which says e.g. not-negotiated).
+std::string run_to_end(GstElement* pipeline) {
+  GstBus* bus = gst_element_get_bus(pipeline);
+  std::string problem;
+  const GstStateChangeReturn started = gst_element_set_state(pipeline, GST_STATE_PLAYING);
+  if (started == GST_STATE_CHANGE_FAILURE) problem = "cannot start: ";
+  const auto types = GstMessageType(GST_MESSAGE_EOS | GST_MESSAGE_ERROR);
+  // A guard against a pipeline that never ends, not a measurement: a few buffers take well under it.
+  GstMessage* m = nullptr;
+  if (has_live_source(pipeline)) {
+    // Live (e.g. udpsrc waiting for a sender that is not there): what it gets in a while is checked, then
+    // it is stopped as gst-launch-1.0 -e stops it on Ctrl-C, and must end cleanly.
+    m = gst_bus_timed_pop_filtered(bus, 10 * GST_SECOND, types);
+    if (!m) {
+      gst_element_send_event(pipeline, gst_event_new_eos());
+      m = gst_bus_timed_pop_filtered(bus, 300 * GST_SECOND, types);
+    }
+  } else {
+    m = gst_bus_timed_pop_filtered(bus, 300 * GST_SECOND, types);
+  }
+  if (!m) {
+    problem += "did not end within 300 s with its sources bounded to a few buffers";
+  } else if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR) {
+    GError* err = nullptr;
+    gchar* debug = nullptr;
+    gst_message_parse_error(m, &err, &debug);
+    problem += std::string(GST_OBJECT_NAME(GST_MESSAGE_SRC(m))) + ": " + (err ? err->message : "error") + " (" +
+               (debug ? debug : "") + ")";
+    g_clear_error(&err);
+    g_free(debug);
+  }
+  if (m) gst_message_unref(m);
+  gst_element_set_state(pipeline, GST_STATE_NULL);
+  gst_object_unref(bus);
+  return problem;
+}
+
+// Runs documented commands in one scratch folder standing for the project root.
+class DocRunner {
+ public:
+  DocRunner() {
+    old_cwd_ = fs::current_path();
+    fs::current_path(scratch_.path());
+  }
+  ~DocRunner() { fs::current_path(old_cwd_); }
+
+  // The documented tool commands (build/tools/vclassroom-...) that may make what launch lines need.
+  void add_tools(const std::vector<DocCommand>& tools) { tools_ = tools; }
+
+  // Runs one command. Returns "" when it ran to the end, else the failure; a
+  // skip (with its reason in *skip) returns "".
+  std::string run(const DocCommand& c, std::string* skip) {
+    std::string error;
+    const std::vector<std::string> argv = split_argv(c.text, &error);
+    if (!error.empty()) return "cannot split into words as a shell would: " + error;
+    if (c.text.find('$') != std::string::npos) {
+      *skip = "uses shell variables";
+      return "";
+    }
+    const std::vector<std::string> words = pipeline_words(argv);
+    if (words.empty()) return "no pipeline description after gst-launch-1.0";
+    if (std::string why = make_prerequisites(c.text, skip); !why.empty() || !skip->empty()) return why;
+
+    std::vector<const gchar*> cwords;
+    for (const std::string& w : words) cwords.push_back(w.c_str());
+    cwords.push_back(nullptr);
+    GError* err = nullptr;
+    GstElement* p = gst_parse_launchv_full(cwords.data(), nullptr, GST_PARSE_FLAG_FATAL_ERRORS, &err);
+    if (!p || err) {
+      std::string msg = std::string("does not parse: ") + (err ? err->message : "?");
+      g_clear_error(&err);
+      if (p) gst_object_unref(p);
+      return msg;
+    }
+    if (!GST_IS_PIPELINE(p)) {  // gst-launch-1.0 puts a lone element into a pipeline too
+      GstElement* pipe = gst_pipeline_new(nullptr);
+      gst_bin_add(GST_BIN(pipe), p);
+      p = pipe;
+    }
+    bound_sources(p);
+    const std::string problem = run_to_end(p);
+    gst_object_unref(p);
+    return problem;
+  }
+
+ private:
+  // Makes each out/... path the command names and the folder lacks, with the
+  // first documented tool command that writes it and succeeds. Returns the
+  // failure, or sets *skip; each path is tried once, its outcome kept.
+  std::string make_prerequisites(const std::string& text, std::string* skip) {
+    static const std::regex out_path(R"(\bout/[A-Za-z0-9_.-]+)");
+    for (std::sregex_iterator it(text.begin(), text.end(), out_path), end; it != end; ++it) {
+      const std::string need = it->str();
+      if (!outcomes_.count(need) && fs::exists(need)) continue;
+      if (!outcomes_.count(need)) outcomes_[need] = make(need);
+      const Outcome& o = outcomes_[need];
+      if (!o.skip.empty()) *skip = o.skip;
+      if (!o.failure.empty() || !o.skip.empty()) return o.failure;
+    }
+    return "";
+  }
+
+  struct Outcome {
+    std::string failure, skip;
+  };
+
+  Outcome make(const std::string& need) {
+    std::string failures;
+    for (const DocCommand& t : tools_) {
+      if (t.text.find('[') != std::string::npos) continue;  // a synopsis with optional parts, not a command
+      std::string error;
+      std::vector<std::string> argv = split_argv(t.text, &error);
+      if (!error.empty() || std::find(argv.begin(), argv.end(), need) == argv.end()) continue;
+      const std::string shared_prefix = "../shared/data/";
+      bool needs_absent_data = false;
+      for (std::string& a : argv) {
+        if (starts_with(a, "build/tools/")) a = env_or_empty("VCLASSROOM_TOOLS_DIR") + "/" + a.substr(12);
+        if (starts_with(a, shared_prefix)) {
+          if (vctest::shared_data().empty()) needs_absent_data = true;
+          a = vctest::shared_data() + "/" + a.substr(shared_prefix.size());
+        }
+      }
+      if (needs_absent_data) return {"", "needs " + need + ", which " + t.where + " makes from ../shared/data, absent here"};
+      const std::string result = run_program(argv);
+      if (result.empty()) {
+        std::printf("[ docs     ] made %s with %s\n", need.c_str(), t.where.c_str());
+        return {};
+      }
+      failures += "\n  " + t.where + ": " + result;
+    }
+    return {"needs " + need + ", and no documented command made it" +
+                (failures.empty() ? std::string(" (none writes it)") : failures),
+            ""};
+  }
+
+  static std::string run_program(const std::vector<std::string>& argv) {
+    std::vector<gchar*> cargv;
+    for (const std::string& a : argv) cargv.push_back(const_cast<gchar*>(a.c_str()));
+    cargv.push_back(nullptr);
+    gchar *out = nullptr, *err_text = nullptr;
+    gint status = 0;
+    GError* err = nullptr;
+    std::string result;
+    if (!g_spawn_sync(nullptr, cargv.data(), nullptr, G_SPAWN_DEFAULT, nullptr, nullptr, &out, &err_text, &status,
+                      &err) ||
+        !g_spawn_check_wait_status(status, &err))
+      result = std::string(err ? err->message : "failed") + ": " + (err_text ? err_text : "");
+    g_clear_error(&err);
+    g_free(out);
+    g_free(err_text);
+    return result;
+  }
+
+  vctest::TempDir scratch_;
+  fs::path old_cwd_;
+  std::vector<DocCommand> tools_;
+  std::map<std::string, Outcome> outcomes_;
+};
+
+// Runs every command, failing the test for each that fails; returns how many
+// ran, and counts in *skipped those skipped (each printed with its reason).
+int run_all(DocRunner& runner, const std::vector<DocCommand>& commands, int* skipped) {
+  int ran = 0;
+  *skipped = 0;
+  for (const DocCommand& c : commands) {
+    std::string skip;
+    const std::string failure = runner.run(c, &skip);
+    if (!skip.empty()) {
+      std::printf("[ docs     ] skipped %s: %s\n", c.where.c_str(), skip.c_str());
+      ++*skipped;
+      continue;
+    }
+    ++ran;
+    if (failure.empty())
+      std::printf("[ docs     ] ran %s\n", c.where.c_str());
+    else
+      ADD_FAILURE() << c.where << ": " << failure << "\n  the command: " << c.text;
+  }
+  return ran;
+}
+
+std::vector<DocCommand> documented(const std::string& program) {
+  std::vector<DocCommand> all;
+  for (const auto& [name, text] : project_documents()) {
+    const std::vector<DocCommand> found = extract_commands(name, text, program);
+    all.insert(all.end(), found.begin(), found.end());
+  }
+  return all;
+}
+
+// The project's element factories (from its plugins, named vclassroom*), by name.
+std::map<std::string, GstElementFactory*> project_elements() {
+  std::map<std::string, GstElementFactory*> out;
+  GList* plugins = gst_registry_get_plugin_list(gst_registry_get());
+  for (GList* p = plugins; p; p = p->next) {
+    const gchar* plugin = gst_plugin_get_name(GST_PLUGIN(p->data));
+    if (!g_str_has_prefix(plugin, "vclassroom")) continue;
+    GList* features = gst_registry_get_feature_list_by_plugin(gst_registry_get(), plugin);
+    for (GList* f = features; f; f = f->next)
+      if (GST_IS_ELEMENT_FACTORY(f->data))
+        out[GST_OBJECT_NAME(f->data)] = GST_ELEMENT_FACTORY(f->data);
+    gst_plugin_feature_list_free(features);
+  }
+  gst_plugin_list_free(plugins);
+  return out;
+}
+
+}  // namespace
+
+TEST(DocsExtraction, FindsFencedContinuedAndInlineCommandsOnly) {
+  const std::string md =
+      "Intro with `gst-launch-1.0` alone and `gst-launch-1.0 -m`.\n"
+      "Inline: `gst-launch-1.0 videotestsrc ! fakesink` works.\n"
+      "```sh\n"
+      "# a comment\n"
+      "gst-launch-1.0 videotestsrc ! videoconvert \\\n"
+      "    ! autovideosink\n"
+      "$ GST_DEBUG=3 gst-launch-1.0 -v audiotestsrc ! fakesink\n"
+      "build/tools/vclassroom-build-model --out out/m\n"
+      "```\n"
+      "gst-launch-1.0 outside a block is prose\n";
+  const std::vector<DocCommand> c = extract_commands("x.md", md, "gst-launch-1.0");
+  ASSERT_EQ(c.size(), 4u);
+  EXPECT_EQ(c[0].where, "x.md:1");
+  EXPECT_EQ(c[0].text, "gst-launch-1.0 -m");  // found, then refused: no pipeline (tested below)
+  EXPECT_EQ(c[1].where, "x.md:2");
+  EXPECT_EQ(c[2].where, "x.md:5");
+  EXPECT_EQ(c[2].text, "gst-launch-1.0 videotestsrc ! videoconvert  ! autovideosink");
+  EXPECT_EQ(c[3].where, "x.md:7");
+  EXPECT_EQ(c[3].text, "GST_DEBUG=3 gst-launch-1.0 -v audiotestsrc ! fakesink");
+  const std::vector<DocCommand> tools = extract_commands("x.md", md, "build/tools/vclassroom-build-model");
+  ASSERT_EQ(tools.size(), 1u);
+  EXPECT_EQ(tools[0].where, "x.md:8");
+}
+
+TEST(DocsExtraction, DisplaySinksBecomeAFakesinkTakingAWindowsFormats) {
+  std::string error;
+  const std::vector<std::string> w = pipeline_words(split_argv(
+      "GST_DEBUG=2 gst-launch-1.0 -e -v videotestsrc ! d.sink ximagesink sync=false name=win d.src ! "
+      "\"video/x-raw,width=4\" ! autovideosink",
+      &error));
+  ASSERT_TRUE(error.empty()) << error;
+  const std::vector<std::string> expected = {
+      "videotestsrc", "!", "d.sink",         "capsfilter", "caps=video/x-raw,format=BGRx", "!",
+      "fakesink",     "name=win", "d.src", "!",          "video/x-raw,width=4",         "!",
+      "capsfilter",   "caps=video/x-raw,format=BGRx", "!", "fakesink"};
+  EXPECT_EQ(w, expected);
+  EXPECT_TRUE(pipeline_words(split_argv("gst-launch-1.0 -m", &error)).empty());
+}
+
+TEST(DocsExtraction, ALineThatCannotRunIsReportedWithItsError) {
+  // The test below must be able to fail: a launch line that cannot negotiate is caught as such.
+  DocRunner runner;
+  std::string skip;
+  EXPECT_NE(runner.run({"x.md:2", "gst-launch-1.0 videotestsrc ! nosuchelement ! fakesink"}, &skip), "");
+  // A live line that receives nothing is stopped as Ctrl-C would, and passes when it ends cleanly.
+  EXPECT_EQ(runner.run({"x.md:5", "gst-launch-1.0 -e udpsrc port=0 ! fakesink"}, &skip), "");
+  // docs/vda.md's line before its fix: depthcolorize's RGB straight into a window.
+  const std::string no_convert =
+      runner.run({"x.md:3", "gst-launch-1.0 rgbdtestsrc ! rgbddemux name=d d.depth ! depthcolorize ! autovideosink"},
+                 &skip);
+  // gst-launch-1.0 reports not-negotiated when the window opens; the stand-in's caps refuse the link at once.
+  EXPECT_TRUE(no_convert.find("not-negotiated") != std::string::npos ||
+              no_convert.find("could not link depthcolorize") != std::string::npos)
+      << no_convert;
+  EXPECT_EQ(runner.run({"x.md:4", "gst-launch-1.0 rgbdtestsrc ! rgbddemux name=d d.depth ! depthcolorize ! "
+                                  "videoconvert ! autovideosink"},
+                       &skip),
+            "");
+}
+
+TEST(Docs, EveryLaunchLineOfReadmeAndDocsRuns) {
+  ASSERT_FALSE(env_or_empty("VCLASSROOM_SOURCE_DIR").empty()) << "VCLASSROOM_SOURCE_DIR is not set";
+  const std::vector<DocCommand> lines = documented("gst-launch-1.0");
+  std::vector<DocCommand> commands;
+  for (const DocCommand& c : lines) {
+    std::string error;
+    if (pipeline_words(split_argv(c.text, &error)).empty() && error.empty())
+      std::printf("[ docs     ] %s mentions gst-launch-1.0 without a pipeline (not a command)\n", c.where.c_str());
+    else
+      commands.push_back(c);
+  }
+  DocRunner runner;
+  std::vector<DocCommand> tools = documented("build/tools/vclassroom-build-model");
+  const std::vector<DocCommand> imports = documented("build/tools/vclassroom-import");
+  tools.insert(tools.end(), imports.begin(), imports.end());
+  runner.add_tools(tools);
+  int skipped = 0;
+  const int ran = run_all(runner, commands, &skipped);
+  std::printf("[ docs     ] ran %d of %zu gst-launch-1.0 commands in README.md and docs/*.md (%d skipped)\n", ran,
+              commands.size(), skipped);
+  RecordProperty("doc_launch_lines_run", ran);
+  RecordProperty("doc_launch_lines_found", static_cast<int>(commands.size()));
+  EXPECT_GT(ran, 0) << "no gst-launch-1.0 command found in README.md and docs/*.md";
+}
+
+TEST(Docs, EveryElementsInspectTextCarriesAnExampleThatRuns) {
+  const std::map<std::string, GstElementFactory*> elements = project_elements();
+  ASSERT_FALSE(elements.empty()) << "no vclassroom plugin on GST_PLUGIN_PATH";
+  std::vector<DocCommand> examples;
+  for (const auto& [name, factory] : elements) {
+    const std::string description =
+        gst_element_factory_get_metadata(factory, GST_ELEMENT_METADATA_DESCRIPTION);
+    const size_t at = description.find("gst-launch-1.0 ");
+    if (at == std::string::npos) {
+      ADD_FAILURE() << "gst-inspect-1.0 " << name << ": the description has no example launch line";
+      continue;
+    }
+    DocCommand c{"gst-inspect-1.0 " + name, description.substr(at)};
+    std::string error;
+    const std::vector<std::string> words = pipeline_words(split_argv(c.text, &error));
+    // A header extension is used through a payloader's extmap caps field, not by name.
+    const bool header_extension =
+        g_str_has_prefix(gst_element_factory_get_metadata(factory, GST_ELEMENT_METADATA_KLASS), "Network/Extension");
+    if (header_extension ? c.text.find("extmap-") == std::string::npos
+                         : std::find(words.begin(), words.end(), name) == words.end())
+      ADD_FAILURE() << c.where << ": the example does not use " << name << ": " << c.text;
+    examples.push_back(c);
+  }
+  DocRunner runner;
+  std::vector<DocCommand> tools = documented("build/tools/vclassroom-build-model");
+  const std::vector<DocCommand> imports = documented("build/tools/vclassroom-import");
+  tools.insert(tools.end(), imports.begin(), imports.end());
+  runner.add_tools(tools);
+  int skipped = 0;
+  const int ran = run_all(runner, examples, &skipped);
+  std::printf("[ docs     ] ran %d example launch lines of %zu elements (%d skipped)\n", ran, elements.size(),
+              skipped);
+  RecordProperty("element_examples_run", ran);
+  EXPECT_EQ(ran + skipped, static_cast<int>(elements.size()));
+  EXPECT_GT(ran, 0);
+}
+
+namespace {
+
+struct Exit {
+  int status = -1;
+  std::string out, err;
+};
+
+Exit run_tool(const std::vector<std::string>& argv) {
+  std::vector<gchar*> cargv;
+  for (const std::string& a : argv) cargv.push_back(const_cast<gchar*>(a.c_str()));
+  cargv.push_back(nullptr);
+  gchar *out = nullptr, *err = nullptr;
+  gint wait_status = 0;
+  Exit e;
+  if (g_spawn_sync(nullptr, cargv.data(), nullptr, G_SPAWN_DEFAULT, nullptr, nullptr, &out, &err, &wait_status,
+                   nullptr) &&
+      WIFEXITED(wait_status))
+    e.status = WEXITSTATUS(wait_status);
+  e.out = out ? out : "";
+  e.err = err ? err : "";
+  g_free(out);
+  g_free(err);
+  return e;
+}
+
+// Every program the build made in tools/ (vclassroom-*).
+std::vector<std::string> built_tools() {
+  std::vector<std::string> tools;
+  const std::string dir = env_or_empty("VCLASSROOM_TOOLS_DIR");
+  if (dir.empty()) return tools;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (e.is_regular_file() && starts_with(name, "vclassroom-") && access(e.path().c_str(), X_OK) == 0)
+      tools.push_back(e.path().string());
+  }
+  std::sort(tools.begin(), tools.end());
+  return tools;
+}
+
+}  // namespace
+
+TEST(Tools, HelpGoesToStdoutWithStatus0AndABadOptionToStderrWithStatus2) {
+  const std::vector<std::string> tools = built_tools();
+  ASSERT_GE(tools.size(), 9u) << "the tools are missing from VCLASSROOM_TOOLS_DIR";
+  for (const std::string& t : tools) {
+    const Exit help = run_tool({t, "--help"});
+    EXPECT_EQ(help.status, 0) << t << " --help";
+    EXPECT_NE(help.out.find("Usage:"), std::string::npos) << t << " --help printed: " << help.out;
+    EXPECT_EQ(help.err, "") << t << " --help";
+    const Exit bad = run_tool({t, "--no-such-option"});
+    EXPECT_EQ(bad.status, 2) << t << " --no-such-option";
+    EXPECT_EQ(bad.out, "") << t;
+    EXPECT_NE(bad.err.find("--no-such-option"), std::string::npos) << t << " said: " << bad.err;
+  }
+}
+
+TEST(Tools, BuildModelMakesItsOutputFolderWithTheParents) {
+  vctest::TempDir dir;
+  const std::string out = dir / "not/there/yet/model";
+  const Exit e = run_tool({env_or_empty("VCLASSROOM_TOOLS_DIR") + "/vclassroom-build-model", "--synthetic",
+                           "--frames", "1", "--size", "160x90", "--out", out});
+  ASSERT_EQ(e.status, 0) << e.err;
+  EXPECT_TRUE(fs::exists(out + "/rig.yaml"));
+  EXPECT_TRUE(fs::exists(out + "/planes.csv"));
+}
