@@ -9,7 +9,8 @@
 #   STATS (0: quiet; N: every N frames each camera's decoder posts vclassroom-codec-stats, printed by -m),
 #   MTU (largest RTP packet received from the cameras and sent to the lecturer, default 1400; as classroom.sh),
 #   PREP_NICE (nice value of the threads that decode, complete and segment camera frames, default 10: when
-#   the CPU is short, warping, fusing and sending the lecturer's view go first; 0 shares it evenly).
+#   the CPU is short, warping, fusing and sending the lecturer's view go first; 0 shares it evenly),
+#   FUSE_LATENCY (ns the fuse waits for a late camera's frame before rendering without it, default 100000000).
 #   POSE_KEY (file holding the pose key shared with lecturer.sh, e.g. `head -c 32 /dev/urandom > pose.key`:
 #   only poses tagged with it steer the view; empty: anyone who can reach POSE_PORT can steer it).
 #   CAMERA_HOSTS (one address per camera in CAMERAS order, default 127.0.0.1 each; a missing entry repeats the
@@ -100,7 +101,8 @@ done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
-desc="viewfuse name=fuse latency=100000000 ! poserecv name=poses $pose_key ! \
+FUSE_LATENCY=${FUSE_LATENCY:-100000000}
+desc="viewfuse name=fuse latency=$FUSE_LATENCY ! poserecv name=poses $pose_key ! \
   jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=$MTU ! application/x-rtp,$POSE_EXT ! \
   $SRTP_ENC udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
   udpsrc port=$POSE_PORT caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! \

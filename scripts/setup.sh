@@ -13,6 +13,7 @@ PACKAGES=(
   libeigen3-dev libjpeg62-turbo-dev zlib1g-dev libyaml-dev libgtest-dev
   clang libclang-rt-14-dev
   gstreamer1.0-x gstreamer1.0-gl
+  ccache
 )
 
 missing=()
