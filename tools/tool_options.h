@@ -35,6 +35,8 @@ inline void parse_command_line(int* argc, char*** argv, const char* parameters, 
   if (!g_option_context_parse(ctx, argc, argv, &err)) {
     std::fprintf(stderr, "%s: %s\nRun '%s --help' to see the options.\n", g_get_prgname(), err->message,
                  g_get_prgname());
+    g_error_free(err);
+    g_option_context_free(ctx);
     std::exit(2);
   }
   g_option_context_free(ctx);

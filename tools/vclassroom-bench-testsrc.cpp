@@ -106,7 +106,7 @@ int main(int argc, char** argv) {
   int frames = 150, learners = 3;
   gint64 seed = 1;
   double t_png = 4.0;
-  gchar *png_arg = nullptr, *rig_arg = nullptr;
+  g_autofree gchar *png_arg = nullptr, *rig_arg = nullptr;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames per camera (default 150)", "N"},
       {"learners", 0, 0, G_OPTION_ARG_INT, &learners, "learners in the classroom (default 3)", "N"},

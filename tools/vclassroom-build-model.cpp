@@ -18,7 +18,7 @@
 using namespace vclassroom;
 
 int main(int argc, char** argv) {
-  gchar *out_arg = nullptr, *dataset_arg = nullptr, *size_arg = nullptr;
+  g_autofree gchar *out_arg = nullptr, *dataset_arg = nullptr, *size_arg = nullptr;
   gboolean synthetic = FALSE, align = FALSE, no_icp = FALSE, no_plane_snap = FALSE;
   int frames = 8, start = 0, width = 960, height = 540;
   gint64 seed = 1;

@@ -670,7 +670,7 @@ void bench(const Args& a, const std::string& argv0) {
 
 int main(int argc, char** argv) {
   Args a;
-  gchar *shared = nullptr, *images = nullptr, *only = nullptr;
+  g_autofree gchar *shared = nullptr, *images = nullptr, *only = nullptr;
   gint64 seed = 1, knockout_seed = 7;
   gboolean measured_only = FALSE;
   const GOptionEntry entries[] = {

@@ -325,7 +325,7 @@ void write_priors(const Options& opt) {
 
 int main(int argc, char** argv) {
   Options opt;
-  gchar *shared = nullptr, *images = nullptr, *only = nullptr, *size = nullptr, *priors_dir = nullptr,
+  g_autofree gchar *shared = nullptr, *images = nullptr, *only = nullptr, *size = nullptr, *priors_dir = nullptr,
         *model = nullptr;
   gboolean mesh = FALSE;
   const GOptionEntry entries[] = {

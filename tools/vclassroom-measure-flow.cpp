@@ -215,7 +215,7 @@ double percentile(std::vector<double> v, double q) {
 
 int main(int argc, char** argv) {
   Options o;
-  gchar *cameras = nullptr, *model = nullptr, *pipelines = nullptr;
+  g_autofree gchar *cameras = nullptr, *model = nullptr, *pipelines = nullptr;
   gboolean live_cameras = FALSE;
   const GOptionEntry entries[] = {
       {"seconds", 0, 0, G_OPTION_ARG_INT, &o.seconds, "measured seconds (default 20)", "N"},
