@@ -48,6 +48,7 @@ constexpr const char* kWindowCaps = "video/x-raw,format=BGRx";
 struct DocCommand {
   std::string where;  // "docs/vda.md:28" or "gst-inspect-1.0 depthcomplete"
   std::string text;
+  std::string context = {};  // the text around it that may say how to make what it reads
 };
 
 std::string trim(const std::string& s) {
@@ -273,7 +274,7 @@ class DocRunner {
     }
     const std::vector<std::string> words = pipeline_words(argv);
     if (words.empty()) return "no pipeline description after gst-launch-1.0";
-    if (std::string why = make_prerequisites(c.text, skip); !why.empty() || !skip->empty()) return why;
+    if (std::string why = make_prerequisites(c.text, c.context, skip); !why.empty() || !skip->empty()) return why;
 
     std::vector<const gchar*> cwords;
     for (const std::string& w : words) cwords.push_back(w.c_str());
@@ -301,7 +302,18 @@ class DocRunner {
   // Makes each out/... path the command names and the folder lacks, with the
   // first documented tool command that writes it and succeeds. Returns the
   // failure, or sets *skip; each path is tried once, its outcome kept.
-  std::string make_prerequisites(const std::string& text, std::string* skip) {
+  std::string make_prerequisites(const std::string& text, const std::string& context, std::string* skip) {
+    // A key file the command reads (key-file=F) is made as the text around
+    // it says: "head -c N /dev/urandom > F".
+    static const std::regex key_file(R"(key-file=([A-Za-z0-9_./-]+))");
+    for (std::sregex_iterator it(text.begin(), text.end(), key_file), end; it != end; ++it) {
+      const std::string file = (*it)[1].str();
+      if (fs::exists(file)) continue;
+      std::smatch made;
+      const std::regex making("head -c ([0-9]+) /dev/urandom > " + std::regex_replace(file, std::regex(R"([.])"), R"(\.)"));
+      if (!std::regex_search(context, made, making)) return "needs the key file " + file + ", and the text does not say how to make it";
+      std::ofstream(file, std::ios::binary) << std::string(std::stoul(made[1].str()), '\x5a');
+    }
     static const std::regex out_path(R"(\bout/[A-Za-z0-9_.-]+)");
     for (std::sregex_iterator it(text.begin(), text.end(), out_path), end; it != end; ++it) {
       const std::string need = it->str();
@@ -520,7 +532,7 @@ TEST(Docs, EveryElementsInspectTextCarriesAnExampleThatRuns) {
       ADD_FAILURE() << "gst-inspect-1.0 " << name << ": the description has no example launch line";
       continue;
     }
-    DocCommand c{"gst-inspect-1.0 " + name, description.substr(at)};
+    DocCommand c{"gst-inspect-1.0 " + name, description.substr(at), description};
     std::string error;
     const std::vector<std::string> words = pipeline_words(split_argv(c.text, &error));
     // A header extension is used through a payloader's extmap caps field, not by name.

@@ -117,7 +117,8 @@ static void gst_srtp_file_dec_class_init(GstSrtpFileDecClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "SRTP decoder with a key file", "Filter/Network/SRTP",
       "srtpdec whose every stream (SSRC) gets the key from key-file; packets failing authentication are "
-      "dropped. Example: gst-launch-1.0 udpsrc port=5000 caps=\"application/x-srtp,media=application,"
+      "dropped. The key: 30 bytes, made with head -c 30 /dev/urandom > srtp.key and given to both ends. "
+      "Example: gst-launch-1.0 udpsrc port=5000 caps=\"application/x-srtp,media=application,"
       "clock-rate=90000,encoding-name=X-GST,payload=96\" ! srtpfiledec key-file=srtp.key ! rtpgstdepay ! fakesink",
       "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(srtp_file_dec_debug, "srtpfiledec", 0, "SRTP decoder with a key file");
