@@ -102,6 +102,17 @@ GstBuffer* rtp_from(const std::string& address, uint32_t ssrc, uint16_t seq) {
 
 // The element as the server uses it: packets from another host, and a second camera stream on the same port
 // from an allowed host, are dropped and counted; the configured camera's packets pass.
+// Tears a harness down whose element posts on a bus of the test's: the bus
+// is flushed first, as the messages of the teardown's own state changes
+// would otherwise hold the element (and it the bus) for ever.
+void teardown_with_bus(GstHarness* h, GstBus* bus) {
+  gst_element_set_state(h->element, GST_STATE_NULL);
+  gst_bus_set_flushing(bus, TRUE);
+  gst_element_set_bus(h->element, nullptr);
+  gst_object_unref(bus);
+  gst_harness_teardown(h);
+}
+
 TEST(SenderFilterElement, DropsForeignAddressesAndSecondStreams) {
   GstHarness* h = gst_harness_new("senderfilter");
   GstBus* bus = gst_bus_new();
@@ -131,11 +142,10 @@ TEST(SenderFilterElement, DropsForeignAddressesAndSecondStreams) {
     }
     gst_message_unref(m);
   }
-  gst_object_unref(bus);
   EXPECT_EQ(warnings, 2);
   EXPECT_EQ(last_dropped_address, 3u);  // the stats posted with the first second-stream warning
   EXPECT_EQ(last_dropped_ssrc, 1u);
-  gst_harness_teardown(h);
+  teardown_with_bus(h, bus);
 }
 
 namespace {
@@ -146,8 +156,8 @@ struct CodedFrames {
   GstCaps* caps = nullptr;
 };
 
-const CodedFrames& coded_frames() {
-  static CodedFrames recorded = [] {
+CodedFrames record_coded_frames() {
+  {
     CodedFrames r;
     GError* err = nullptr;
     GstElement* p = gst_parse_launch(
@@ -162,8 +172,28 @@ const CodedFrames& coded_frames() {
     gst_object_unref(out);
     gst_object_unref(p);
     return r;
-  }();
-  return recorded;
+  }
+}
+
+// Made on first use and released when the tests end, before gst_deinit()
+// (whose leaks tracer would otherwise count them).
+CodedFrames* recorded_frames = nullptr;
+
+class ReleaseCodedFrames : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    if (!recorded_frames) return;
+    for (GstBuffer* b : recorded_frames->frames) gst_buffer_unref(b);
+    if (recorded_frames->caps) gst_caps_unref(recorded_frames->caps);
+    delete recorded_frames;
+    recorded_frames = nullptr;
+  }
+};
+const auto* const release_coded_frames = ::testing::AddGlobalTestEnvironment(new ReleaseCodedFrames);
+
+const CodedFrames& coded_frames() {
+  if (!recorded_frames) recorded_frames = new CodedFrames(record_coded_frames());
+  return *recorded_frames;
 }
 
 struct LinkResult {
@@ -589,11 +619,10 @@ TEST(SenderFilterElement, WarningSaysWhatWhereAndWhatIsAllowed) {
     g_clear_error(&err);
     gst_message_unref(m);
   }
-  gst_object_unref(bus);
   EXPECT_NE(text.find("a packet dropped from a sender not allowed"), std::string::npos) << text;
   EXPECT_NE(text.find("10.0.0.9"), std::string::npos) << text;
   EXPECT_NE(text.find("allowed: 10.0.0.7"), std::string::npos) << text;
-  gst_harness_teardown(h);
+  teardown_with_bus(h, bus);
 }
 
 namespace {
