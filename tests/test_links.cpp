@@ -157,22 +157,20 @@ struct CodedFrames {
 };
 
 CodedFrames record_coded_frames() {
-  {
-    CodedFrames r;
-    GError* err = nullptr;
-    GstElement* p = gst_parse_launch(
-        "rgbdtestsrc camera-id=0 num-buffers=6 ground-truth=false ! rgbdenc ! appsink name=out sync=false", &err);
-    EXPECT_NE(p, nullptr);
-    GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
-    vctest::SampleCollector got(out);
-    vctest::RunResult res = vctest::run_pipeline(p);
-    EXPECT_EQ(res.error, "");
-    for (size_t i = 0; i < got.size(); ++i) r.frames.push_back(gst_buffer_ref(got.buffer(i)));
-    if (got.size() > 0) r.caps = gst_caps_ref(got.caps(0));
-    gst_object_unref(out);
-    gst_object_unref(p);
-    return r;
-  }
+  CodedFrames r;
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(
+      "rgbdtestsrc camera-id=0 num-buffers=6 ground-truth=false ! rgbdenc ! appsink name=out sync=false", &err);
+  EXPECT_NE(p, nullptr);
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  vctest::SampleCollector got(out);
+  vctest::RunResult res = vctest::run_pipeline(p);
+  EXPECT_EQ(res.error, "");
+  for (size_t i = 0; i < got.size(); ++i) r.frames.push_back(gst_buffer_ref(got.buffer(i)));
+  if (got.size() > 0) r.caps = gst_caps_ref(got.caps(0));
+  gst_object_unref(out);
+  gst_object_unref(p);
+  return r;
 }
 
 // Made on first use and released when the tests end, before gst_deinit()
