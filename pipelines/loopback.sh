@@ -28,7 +28,10 @@ stopping=0
 stop() {
   [ "$stopping" = 1 ] && return
   stopping=1
-  for p in "${pids[@]}"; do kill -INT "$p" 2>/dev/null || true; done
+  # The server (first) ends on SIGTERM as on Ctrl-C (pipelines/launch.sh: a background script ignores
+  # SIGINT); the others are gst-launch-1.0 itself, which takes SIGINT.
+  kill -TERM "${pids[0]}" 2>/dev/null || true
+  for p in "${pids[@]:1}"; do kill -INT "$p" 2>/dev/null || true; done
   local waited=0
   while [ "$waited" -lt $((STOP_GRACE * 10)) ]; do
     local alive=0

@@ -22,9 +22,12 @@
 #   (senderfilter, docs/network.md); the pose port takes packets only from LECTURER.
 #   SRTP_KEY (a 30-byte key file: every RTP link in and out is SRTP, with the cameras' and the lecturer's
 #   same file; docs/network.md).
+#   STOP_GRACE (seconds the pipeline gets to end after Ctrl-C before it is killed, default 5).
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
+# shellcheck source=pipelines/launch.sh
+. "$(dirname "$0")/launch.sh"
 CAMERAS=${CAMERAS:-"0 1 2"}
 BASE_PORT=${BASE_PORT:-5000}
 LECTURER=${LECTURER:-127.0.0.1}
@@ -112,4 +115,4 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY ! poserecv name=poses $pose_key !
 # STATS > 0: every STATS frames each decoder posts what it got (printed by -m).
 verbose=""
 [ "$STATS" -gt 0 ] && verbose="-m"
-exec gst-launch-1.0 -e $verbose $desc
+run_launch -e $verbose $desc
