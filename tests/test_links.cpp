@@ -5,6 +5,8 @@
 // Loss comes from a seeded dropper (a pad probe), never from wall time.
 #include <gtest/gtest.h>
 
+#include <csignal>
+
 #include <gst/app/gstappsrc.h>
 #include <gst/check/gstharness.h>
 #include <gst/net/gstnetaddressmeta.h>
@@ -718,4 +720,80 @@ TEST(SrtpLink, ClassroomScriptEncryptsItsFrames) {
   vctest::write_text(dir / "bad.key", "too short");
   r = run_script("classroom.sh", {"SRTP_KEY=" + (dir / "bad.key")}, 60);
   EXPECT_EQ(r.status, 2) << r.output;
+}
+
+// server.sh asked to stop (SIGTERM, as loopback.sh does; Ctrl-C alike) while a camera port never received a
+// packet: rtpssrcdemux holds that camera's end-of-stream back for ever, so the script must still end, within
+// STOP_GRACE (pipelines/launch.sh). Waits on the script's own output for the pipeline to play, then on its exit
+// (bounded: a script still running after the limit is killed and the test fails).
+TEST(Scripts, ServerEndsWhenStoppedWhileACameraNeverSent) {
+  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
+  const std::string path = std::string(source_dir ? source_dir : ".") + "/pipelines/server.sh";
+  GSubprocessLauncher* launcher =
+      g_subprocess_launcher_new(GSubprocessFlags(G_SUBPROCESS_FLAGS_STDOUT_PIPE | G_SUBPROCESS_FLAGS_STDERR_MERGE));
+  const std::string base = port_base();
+  for (const auto& [k, v] : std::vector<std::pair<std::string, std::string>>{
+           {"CAMERAS", "0"}, {"BASE_PORT", base}, {"VIDEO_PORT", std::to_string(std::stoi(base) + 10)},
+           {"POSE_PORT", std::to_string(std::stoi(base) + 11)}, {"WIDTH", "256"}, {"HEIGHT", "144"},
+           {"STOP_GRACE", "2"}, {"RTX", "1"}})
+    g_subprocess_launcher_setenv(launcher, k.c_str(), v.c_str(), TRUE);
+  GError* err = nullptr;
+  GSubprocess* child = g_subprocess_launcher_spawn(launcher, &err, "bash", path.c_str(), nullptr);
+  g_object_unref(launcher);
+  ASSERT_NE(child, nullptr) << (err ? err->message : "");
+  // A watchdog ends the child if the pipeline never plays, so the read below cannot block for ever.
+  struct Watchdog {
+    GSubprocess* child;
+    GMutex lock;
+    GCond cond;
+    bool done = false;
+  } dog{child, {}, {}, false};
+  g_mutex_init(&dog.lock);
+  g_cond_init(&dog.cond);
+  GThread* watchdog = g_thread_new(
+      "watchdog",
+      [](gpointer data) -> gpointer {
+        auto* d = static_cast<Watchdog*>(data);
+        const gint64 until = g_get_monotonic_time() + 120 * G_TIME_SPAN_SECOND;
+        g_mutex_lock(&d->lock);
+        while (!d->done)
+          if (!g_cond_wait_until(&d->cond, &d->lock, until)) {
+            g_subprocess_force_exit(d->child);
+            break;
+          }
+        g_mutex_unlock(&d->lock);
+        return nullptr;
+      },
+      &dog);
+  GDataInputStream* out = g_data_input_stream_new(g_subprocess_get_stdout_pipe(child));
+  std::string output;
+  bool playing = false;
+  while (gchar* line = g_data_input_stream_read_line(out, nullptr, nullptr, nullptr)) {
+    output += std::string(line) + "\n";
+    g_free(line);
+    if (output.find("Setting pipeline to PLAYING") != std::string::npos) {
+      playing = true;
+      break;
+    }
+  }
+  EXPECT_TRUE(playing) << output;
+  g_subprocess_send_signal(child, SIGTERM);
+  while (gchar* line = g_data_input_stream_read_line(out, nullptr, nullptr, nullptr)) {  // to its end
+    output += std::string(line) + "\n";
+    g_free(line);
+  }
+  g_subprocess_wait(child, nullptr, nullptr);
+  g_mutex_lock(&dog.lock);
+  dog.done = true;
+  g_cond_signal(&dog.cond);
+  g_mutex_unlock(&dog.lock);
+  g_thread_join(watchdog);
+  g_mutex_clear(&dog.lock);
+  g_cond_clear(&dog.cond);
+  // Ended by itself (its run_launch), not by the watchdog's kill, and no gst-launch-1.0 left behind: its
+  // output reached its end only once every writer had gone.
+  EXPECT_TRUE(g_subprocess_get_if_exited(child)) << output;
+  EXPECT_NE(output.find("Interrupt: Stopping pipeline"), std::string::npos) << output;
+  g_object_unref(out);
+  g_object_unref(child);
 }
