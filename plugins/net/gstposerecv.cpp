@@ -147,19 +147,13 @@ static GstStateChangeReturn gst_pose_recv_change_state(GstElement* element, GstS
   GstPoseRecv* self = GST_POSE_RECV(element);
   RecvState* st = self->st;
   if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {  // the key file as set now
-    std::string key_error;
-    std::unique_lock<std::mutex> g(st->lock);
-    st->key = PoseKey();
-    try {
-      if (!st->key_file.empty()) st->key = load_pose_key(st->key_file);
-    } catch (const Error& e) {
-      key_error = e.what();
+    std::string key_file;
+    {
+      std::lock_guard<std::mutex> g(st->lock);
+      key_file = st->key_file;
     }
-    if (!key_error.empty()) {
-      g.unlock();  // nothing of ours is locked while the message is posted
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", key_error.c_str()), ("property key-file"));
-      return GST_STATE_CHANGE_FAILURE;
-    }
+    if (!load_key_file(element, st->lock, key_file, &st->key)) return GST_STATE_CHANGE_FAILURE;
+    std::lock_guard<std::mutex> g(st->lock);
     PoseChannelConfig c;
     c.session.timeout_ns = static_cast<int64_t>(st->session_timeout_ms) * 1'000'000;
     c.max_distance_m = st->max_distance;

@@ -3,6 +3,11 @@
 
 #include <gst/gst.h>
 
+#include <mutex>
+#include <string>
+
+#include <gst/vclassroom/pose.h>
+
 inline constexpr const char* kPoseRtpCaps =
     "application/x-rtp, media = (string) application, clock-rate = (int) 90000, "
     "encoding-name = (string) X-VCLASSROOM-POSE";
@@ -17,4 +22,25 @@ inline GstIterator* iterate_video_link(GstPad* pad, GstPad* other) {
   GstIterator* it = gst_iterator_new_single(GST_TYPE_PAD, &v);
   g_value_unset(&v);
   return it;
+}
+
+// The pose key of the element's key-file property ("" = none), loaded when the
+// element starts; `lock` guards both and is held while reading. False after
+// posting an error naming the file (the state change must then fail).
+inline bool load_key_file(GstElement* element, std::mutex& lock, const std::string& key_file,
+                          vclassroom::PoseKey* key) {
+  std::string error;
+  {
+    std::lock_guard<std::mutex> g(lock);
+    *key = vclassroom::PoseKey();
+    try {
+      if (!key_file.empty()) *key = vclassroom::load_pose_key(key_file);
+    } catch (const vclassroom::Error& e) {
+      error = e.what();
+    }
+  }
+  if (error.empty()) return true;
+  // Nothing of ours is locked while the message is posted.
+  GST_ELEMENT_ERROR(element, RESOURCE, OPEN_READ, ("%s", error.c_str()), ("property key-file"));
+  return false;
 }
