@@ -42,7 +42,8 @@ std::string source_dir() {
   return s ? s : "";
 }
 
-// A pipeline script run as its own process, stopped (SIGKILL) when destroyed.
+// A pipeline script run as its own process group, stopped (SIGKILL to the
+// whole group: the script and the gst-launch-1.0 it runs) when destroyed.
 // With `on_line`, each line the script prints on stdout is handed to it (from a
 // reader thread, until the process ends); otherwise stdout goes to /dev/null.
 class Process {
@@ -53,6 +54,7 @@ class Process {
     if (on_line && pipe2(out, O_CLOEXEC) != 0) ADD_FAILURE() << "pipe2() failed";
     pid_ = fork();
     if (pid_ == 0) {
+      setpgid(0, 0);
       for (const auto& [k, v] : env) setenv(k.c_str(), v.c_str(), 1);
       const int devnull = open("/dev/null", O_WRONLY);
       dup2(out[1] >= 0 ? out[1] : devnull, 1);
@@ -78,7 +80,7 @@ class Process {
   ~Process() { stop(); }
   void stop() {
     if (pid_ > 0) {
-      kill(pid_, SIGKILL);
+      kill(-pid_, SIGKILL);
       int status;
       waitpid(pid_, &status, 0);
       pid_ = -1;
