@@ -230,12 +230,13 @@ class Lecturer {
     if (walker_.joinable()) walker_.join();
   }
 
-  // The lecturer's own bus: warnings and errors so far, each printed to stderr.
+  // Counts the warnings and errors posted on the lecturer's own bus since the last call.
   void count_bus_messages() {
     if (!pipeline_) return;
     GstBus* bus = gst_element_get_bus(pipeline_);
     while (GstMessage* m = gst_bus_pop_filtered(bus, GstMessageType(GST_MESSAGE_WARNING | GST_MESSAGE_ERROR))) {
       (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ERROR ? errors : warnings)++;
+      if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING) warnings_by_element[GST_OBJECT_NAME(m->src)]++;
       gst_message_unref(m);
     }
     gst_object_unref(bus);
@@ -258,6 +259,7 @@ class Lecturer {
   Display shown;
   std::atomic<uint64_t> poses_sent{0};
   uint64_t warnings = 0, errors = 0;
+  std::map<std::string, uint64_t> warnings_by_element;
 
  private:
   GstElement* pipeline_ = nullptr;
@@ -271,6 +273,7 @@ struct LaunchLogCounts {
   long warnings = 0, errors = 0;
   long cameras_lost = 0, cameras_returned = 0;  // viewfuse's vclassroom-camera-status messages
   std::string first_warning, first_error;
+  std::map<std::string, long> warnings_by_element;  // element name -> warnings it posted
 };
 
 inline LaunchLogCounts count_launch_log(const std::string& log) {
@@ -280,6 +283,11 @@ inline LaunchLogCounts count_launch_log(const std::string& log) {
   while (std::getline(in, line)) {
     if (line.rfind("WARNING: from element", 0) == 0) {
       if (c.warnings++ == 0) c.first_warning = line;
+      // "WARNING: from element /GstPipeline:pipeline0/GstRgbdDec:dec0: ...": the name after the last ':' of the path.
+      const size_t path_end = line.find(": ", 22);
+      const size_t name_start = line.rfind(':', path_end - 1);
+      if (path_end != std::string::npos && name_start != std::string::npos && name_start > 22)
+        c.warnings_by_element[line.substr(name_start + 1, path_end - name_start - 1)]++;
     } else if (line.rfind("ERROR: from element", 0) == 0) {
       if (c.errors++ == 0) c.first_error = line;
     } else if (line.find("vclassroom-camera-status") != std::string::npos) {

@@ -136,10 +136,20 @@ struct Result {
   size_t poses_displayed = 0;
   vt::LaunchLogCounts server;
   uint64_t lecturer_warnings = 0, lecturer_errors = 0;
+  std::map<std::string, uint64_t> lecturer_warnings_by_element;
+  std::string load_start, load_end;  // load averages: what else the machine was doing
   bool server_died = false;
   std::vector<Process> processes;
   std::vector<std::pair<double, std::vector<long>>> rss_series;  // soak: seconds, RSS of each process
 };
+
+// The 1, 5 and 15 minute load averages (/proc/loadavg): what else the machine was doing.
+std::string load_average() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  in >> a >> b >> c;
+  return a + " " + b + " " + c;
+}
 
 std::string random_key_file(const std::string& dir, std::mt19937* rng) {
   const std::string path = dir + "/pose.key";
@@ -213,6 +223,8 @@ bool run_flow(const Options& o, const std::string& scenario, Result* r) {
   lecturer.shown.reset();
   lecturer.count_bus_messages();
   lecturer.warnings = lecturer.errors = 0;
+  lecturer.warnings_by_element.clear();
+  r->load_start = load_average();
 
   // The fault, on its own thread until `faulting` goes false.
   std::atomic<bool> faulting{true};
@@ -355,6 +367,8 @@ bool run_flow(const Options& o, const std::string& scenario, Result* r) {
   r->p99 = vt::percentile(latency, 0.99);
   r->lecturer_warnings = lecturer.warnings;
   r->lecturer_errors = lecturer.errors;
+  r->lecturer_warnings_by_element = lecturer.warnings_by_element;
+  r->load_end = load_average();
 
   lecturer.stop();
   std::vector<pid_t> children = cameras;
@@ -373,14 +387,6 @@ std::string mib(long kib) {
   char s[32];
   std::snprintf(s, sizeof s, "%.0f", kib / 1024.0);
   return s;
-}
-
-// The 1, 5 and 15 minute load averages (/proc/loadavg): what else the machine was doing.
-std::string load_average() {
-  std::ifstream in("/proc/loadavg");
-  std::string a, b, c;
-  in >> a >> b >> c;
-  return a + " " + b + " " + c;
 }
 
 // Least-squares slope of y over x (per unit of x).
@@ -479,8 +485,11 @@ int main(int argc, char** argv) {
       }
       std::printf("  %s: %+.0f KiB/min; %+.0f KiB/min\n", r.processes[i].name.c_str(), slope(x, y), slope(x2, y2));
     }
-    std::printf("displayed %.1f fps, latency p50 %.0f ms, p99 %.0f ms; server: %ld warnings, %ld errors%s\n", r.fps,
-                r.p50, r.p99, r.server.warnings, r.server.errors, r.server_died ? "; SERVER EXITED" : "");
+    std::printf("displayed %.1f fps, latency p50 %.0f ms, p99 %.0f ms; server: %ld warnings, %ld errors, cameras lost %ld "
+                "/ returned %ld%s; load average at start %s, at end %s\n",
+                r.fps, r.p50, r.p99, r.server.warnings, r.server.errors, r.server.cameras_lost,
+                r.server.cameras_returned, r.server_died ? "; SERVER EXITED" : "", r.load_start.c_str(),
+                r.load_end.c_str());
     return 0;
   }
 
@@ -507,9 +516,16 @@ int main(int argc, char** argv) {
       std::printf("%s: first server warning: %s\n", s.name.c_str(), r.server.first_warning.substr(0, 300).c_str());
     if (!r.server.first_error.empty())
       std::printf("%s: first server error: %s\n", s.name.c_str(), r.server.first_error.substr(0, 300).c_str());
+    std::string by;
+    for (const auto& [element, n] : r.server.warnings_by_element) by += " " + element + " " + std::to_string(n) + ";";
+    if (!by.empty()) std::printf("%s: server warnings by element:%s\n", s.name.c_str(), by.c_str());
+    by.clear();
+    for (const auto& [element, n] : r.lecturer_warnings_by_element) by += " " + element + " " + std::to_string(n) + ";";
     if (r.lecturer_warnings || r.lecturer_errors)
-      std::printf("%s: lecturer bus: %lu warnings, %lu errors\n", s.name.c_str(),
-                  static_cast<unsigned long>(r.lecturer_warnings), static_cast<unsigned long>(r.lecturer_errors));
+      std::printf("%s: lecturer bus: %lu warnings, %lu errors; warnings by element:%s\n", s.name.c_str(),
+                  static_cast<unsigned long>(r.lecturer_warnings), static_cast<unsigned long>(r.lecturer_errors),
+                  by.c_str());
+    std::printf("%s: load average at start %s, at end %s\n", s.name.c_str(), r.load_start.c_str(), r.load_end.c_str());
   }
   return 0;
 }
