@@ -29,10 +29,12 @@
 #include <gst/vclassroom/pose.h>
 #include <gst/vclassroom/pose_meta.h>
 
+#include "flow_harness.h"
 #include "tool_options.h"
 #include "tool_support.h"
 
 using namespace vclassroom;
+using vclassroom_tools::spawn;
 
 namespace {
 
@@ -54,76 +56,6 @@ struct Options {
   // Nice value of the server's camera-preparing threads (server.sh's PREP_NICE); -1: the script's default.
   int prep_nice = -1;
 };
-
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  return "unknown CPU";
-}
-
-// User + system CPU seconds of a process and its children that have exited.
-double cpu_seconds(pid_t pid) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-  std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const size_t close = s.rfind(')');
-  if (close == std::string::npos) return 0;
-  std::istringstream rest(s.substr(close + 2));
-  std::vector<std::string> f;
-  std::string tok;
-  while (rest >> tok) f.push_back(tok);
-  if (f.size() < 15) return 0;
-  const double tick = static_cast<double>(sysconf(_SC_CLK_TCK));
-  return (std::stod(f[11]) + std::stod(f[12]) + std::stod(f[13]) + std::stod(f[14])) / tick;
-}
-
-pid_t spawn(const std::string& script, const std::map<std::string, std::string>& env, const std::string& log) {
-  const pid_t pid = fork();
-  if (pid == 0) {
-    for (const auto& [k, v] : env) setenv(k.c_str(), v.c_str(), 1);
-    FILE* f = std::freopen(log.c_str(), "w", stdout);
-    (void)f;
-    dup2(fileno(stdout), fileno(stderr));
-    execl("/bin/bash", "bash", script.c_str(), static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  return pid;
-}
-
-struct Display {
-  std::mutex lock;
-  std::map<uint64_t, GstClockTime> first_shown;  // pose seq -> display time
-  std::map<uint64_t, int64_t> viewer_time;        // pose seq -> when it was taken
-  uint64_t frames = 0, frames_with_pose = 0;
-  uint64_t video_bytes = 0;
-};
-
-GstPadProbeReturn on_display(GstPad*, GstPadProbeInfo* info, gpointer data) {
-  auto* d = static_cast<Display*>(data);
-  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
-  const GstClockTime now = gst_util_get_timestamp();
-  std::lock_guard<std::mutex> g(d->lock);
-  d->frames++;
-  if (const PoseMeta* m = buffer_get_pose_meta(buf)) {
-    d->frames_with_pose++;
-    if (!d->first_shown.count(m->seq) && m->viewer_time_ns >= 0) {
-      d->first_shown[m->seq] = now;
-      d->viewer_time[m->seq] = m->viewer_time_ns;
-    }
-  }
-  return GST_PAD_PROBE_OK;
-}
-
-GstPadProbeReturn on_video_packet(GstPad*, GstPadProbeInfo* info, gpointer data) {
-  auto* d = static_cast<Display*>(data);
-  std::lock_guard<std::mutex> g(d->lock);
-  if (info->type & GST_PAD_PROBE_TYPE_BUFFER_LIST)
-    d->video_bytes += gst_buffer_list_calculate_size(GST_PAD_PROBE_INFO_BUFFER_LIST(info));
-  else
-    d->video_bytes += gst_buffer_get_size(GST_PAD_PROBE_INFO_BUFFER(info));
-  return GST_PAD_PROBE_OK;
-}
 
 // Bytes per second one classroom pipeline sends (measured in this process, before the run).
 double camera_link_rate(const Options& o) {
@@ -160,23 +92,6 @@ double camera_link_rate(const Options& o) {
   return bytes / 2.0;  // 60 frames = 2 s at 30 fps
 }
 
-// The last vclassroom-codec-stats message `element` posted, as gst-launch -m
-// printed it in `log`: {frames, frames-dropped}; {-1, -1} when there is none.
-std::pair<long long, long long> last_codec_stats(const std::string& log, const std::string& element) {
-  std::ifstream in(log);
-  std::string line;
-  std::pair<long long, long long> last{-1, -1};
-  const std::string from = "from element \"" + element + "\"";
-  auto field = [](const std::string& l, const std::string& name) -> long long {
-    const size_t at = l.find(" " + name + "=(guint64)");
-    return at == std::string::npos ? -1 : std::atoll(l.c_str() + at + name.size() + 11);
-  };
-  while (std::getline(in, line))
-    if (line.find(from) != std::string::npos && line.find("vclassroom-codec-stats") != std::string::npos)
-      last = {field(line, "frames"), field(line, "frames-dropped")};
-  return last;
-}
-
 // The classroom side of pipelines/classroom.sh after rgbdenc, fed from memory.
 struct Replay {
   GstElement* pipeline = nullptr;
@@ -202,13 +117,6 @@ bool start_replay(const vclassroom_tools::Recording& rec, int port, double drop,
   gst_app_src_set_caps(GST_APP_SRC(r->src), rec.caps);
   gst_element_set_state(r->pipeline, GST_STATE_PLAYING);
   return true;
-}
-
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  return v[i];
 }
 
 }  // namespace
@@ -280,28 +188,13 @@ int main(int argc, char** argv) {
   const pid_t server = spawn(o.pipelines + "/server.sh", server_env, server_log);
   children.push_back(server);
 
-  // The lecturer: as pipelines/lecturer.sh, with a probe before the sink.
-  GError* err = nullptr;
-  const std::string lecturer_desc =
-      "udpsrc name=video port=5010 buffer-size=8388608 mtu=" + std::to_string(o.mtu + 100) +
-      " caps=\"application/x-rtp,media=application,clock-rate=90000,"
-      "encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! "
-      "rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back ! videoconvert ! "
-      "fakesink name=display sync=false  back.rtp ! udpsink host=127.0.0.1 port=5011 sync=false async=false";
-  GstElement* lect = gst_parse_launch(lecturer_desc.c_str(), &err);
-  if (!lect || err) {
-    std::fprintf(stderr, "lecturer pipeline: %s\n", err ? err->message : "?");
+  // The lecturer: as pipelines/lecturer.sh, with probes before the sink.
+  vclassroom_tools::Lecturer lecturer;
+  if (!lecturer.start({5010, 5011, o.mtu, ""})) {
+    vclassroom_tools::stop_children({server});
     return 1;
   }
-  Display d;
-  GstElement* display = gst_bin_get_by_name(GST_BIN(lect), "display");
-  GstElement* video = gst_bin_get_by_name(GST_BIN(lect), "video");
-  GstPad* dpad = gst_element_get_static_pad(display, "sink");
-  gst_pad_add_probe(dpad, GST_PAD_PROBE_TYPE_BUFFER, on_display, &d, nullptr);
-  GstPad* vpad = gst_element_get_static_pad(video, "src");
-  gst_pad_add_probe(vpad, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
-                    on_video_packet, &d, nullptr);
-  gst_element_set_state(lect, GST_STATE_PLAYING);
+  vclassroom_tools::Display& d = lecturer.shown;
   std::vector<Replay> replays(recordings.size());
   std::atomic<bool> replaying{true};
   std::thread replayer;
@@ -321,7 +214,7 @@ int main(int argc, char** argv) {
           kill(c, SIGKILL);
           waitpid(c, nullptr, 0);
         }
-        gst_element_set_state(lect, GST_STATE_NULL);
+        lecturer.stop();
         for (auto& r : replays)
           if (r.pipeline) {
             gst_element_set_state(r.pipeline, GST_STATE_NULL);
@@ -345,36 +238,15 @@ int main(int argc, char** argv) {
     });
   }
 
-  // A slow walk along the front and a head turn: one pose every 33 ms.
-  const CameraCalib reference = rig_origin_reference();
-  std::atomic<bool> running{true};
-  uint64_t poses_sent = 0;
-  std::thread walker([&] {
-    uint64_t seq = 0;
-    const auto t0 = std::chrono::steady_clock::now();
-    while (running) {
-      const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      ViewOffset v;
-      v.right = 0.4 * std::sin(0.2 * t);
-      v.forward = -0.3 + 0.1 * std::sin(0.13 * t);
-      v.yaw = 15 * std::sin(0.3 * t);
-      Pose p = offset_to_pose(v, reference);
-      p.seq = ++seq;
-      p.viewer_time_ns = static_cast<int64_t>(gst_util_get_timestamp());
-      gst_element_send_event(display, pose_event_new(p));
-      poses_sent = seq;
-      std::this_thread::sleep_for(std::chrono::milliseconds(33));  // a tool's pacing, not a test
-    }
-  });
+  lecturer.start_walk();
   vclassroom_tools::Progress progress("measuring (s)", o.seconds);
   for (int t = 1; t <= o.seconds; ++t) {
     std::this_thread::sleep_for(std::chrono::seconds(1));  // the measured span, in steps that show progress
     progress.step(t);
   }
   std::vector<double> cpu;
-  for (pid_t c : children) cpu.push_back(cpu_seconds(c));
-  running = false;
-  walker.join();
+  for (pid_t c : children) cpu.push_back(vclassroom_tools::cpu_seconds(c));
+  lecturer.stop_walk();
   replaying = false;
   if (replayer.joinable()) replayer.join();
   for (auto& r : replays) {
@@ -383,41 +255,31 @@ int main(int argc, char** argv) {
     gst_object_unref(r.pipeline);
   }
 
-  for (pid_t c : children) kill(c, SIGINT);
-  gst_element_set_state(lect, GST_STATE_NULL);
-  for (pid_t c : children) {
-    int status;
-    for (int i = 0; i < 50 && waitpid(c, &status, WNOHANG) == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    kill(c, SIGKILL);
-    waitpid(c, &status, 0);
-  }
+  lecturer.stop();
+  vclassroom_tools::stop_children(children);
   struct rusage self_usage;
   getrusage(RUSAGE_SELF, &self_usage);
   const double lect_cpu = self_usage.ru_utime.tv_sec + self_usage.ru_utime.tv_usec / 1e6 + self_usage.ru_stime.tv_sec +
                           self_usage.ru_stime.tv_usec / 1e6;
 
-  std::vector<double> latency_ms;
-  {
-    std::lock_guard<std::mutex> g(d.lock);
-    for (const auto& [seq, shown] : d.first_shown)
-      latency_ms.push_back((static_cast<double>(shown) - static_cast<double>(d.viewer_time[seq])) / 1e6);
-  }
+  const std::vector<double> latency_ms = d.latencies_ms();
+  const uint64_t poses_sent = lecturer.poses_sent;
   std::printf("machine: %s, %ld cores; %zu synthetic cameras 960x540 at 30 fps on loopback (%s), %d s, V-DA %s, MTU %d, PREP_NICE %s\n",
-              cpu_model().c_str(), sysconf(_SC_NPROCESSORS_ONLN), o.cameras.size(),
+              vclassroom_tools::cpu_model().c_str(), sysconf(_SC_NPROCESSORS_ONLN), o.cameras.size(),
               o.live_cameras ? "live: pipelines/classroom.sh processes" : "coded streams replayed by this program",
               o.seconds, o.model.empty() ? "off" : "on", o.mtu,
               o.prep_nice >= 0 ? std::to_string(o.prep_nice).c_str() : "default");
   std::printf("poses sent: %lu; distinct poses displayed: %zu\n", static_cast<unsigned long>(poses_sent), latency_ms.size());
-  std::printf("pose-to-display latency: p50 %.1f ms, p99 %.1f ms\n", percentile(latency_ms, 0.5),
-              percentile(latency_ms, 0.99));
+  std::printf("pose-to-display latency: p50 %.1f ms, p99 %.1f ms\n", vclassroom_tools::percentile(latency_ms, 0.5),
+              vclassroom_tools::percentile(latency_ms, 0.99));
   std::printf("frames displayed: %lu of %d rendered-at-30-fps slots (%.1f fps); with a pose stamp: %lu\n",
               static_cast<unsigned long>(d.frames), 30 * o.seconds, d.frames / static_cast<double>(o.seconds),
               static_cast<unsigned long>(d.frames_with_pose));
   for (size_t i = 0; i < o.cameras.size(); ++i) {
     const int k = o.cameras[i];
-    const auto sent = o.live_cameras ? last_codec_stats(camera_logs[i], "enc")
+    const auto sent = o.live_cameras ? vclassroom_tools::last_codec_stats(camera_logs[i], "enc")
                                      : std::pair<long long, long long>{static_cast<long long>(replays[i].sent), 0};
-    const auto got = last_codec_stats(server_log, "dec" + std::to_string(k));
+    const auto got = vclassroom_tools::last_codec_stats(server_log, "dec" + std::to_string(k));
     if (sent.first < 0 || got.first < 0) {
       std::printf("camera %d: no frame counts in the logs\n", k);
       continue;
@@ -438,10 +300,5 @@ int main(int argc, char** argv) {
   for (const auto& f : camera_logs) std::remove(f.c_str());
   std::remove(server_log.c_str());
   rmdir(log_dir);
-  gst_object_unref(dpad);
-  gst_object_unref(vpad);
-  gst_object_unref(display);
-  gst_object_unref(video);
-  gst_object_unref(lect);
   return 0;
 }
