@@ -39,8 +39,33 @@ inline std::string cpu_model() {
   return "unknown CPU";
 }
 
+// A process and its live descendants (a pipeline script and the gst-launch-1.0
+// it runs), found through the parent pid in /proc/*/stat.
+inline std::vector<pid_t> process_tree(pid_t root) {
+  std::map<pid_t, std::vector<pid_t>> children;
+  if (GDir* dir = g_dir_open("/proc", 0, nullptr)) {
+    while (const gchar* name = g_dir_read_name(dir)) {
+      const pid_t pid = static_cast<pid_t>(std::atol(name));
+      if (pid <= 0) continue;
+      std::ifstream in(std::string("/proc/") + name + "/stat");
+      std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      const size_t close = s.rfind(')');
+      if (close == std::string::npos) continue;
+      std::istringstream rest(s.substr(close + 2));
+      std::string state;
+      long ppid = 0;
+      if (rest >> state >> ppid) children[static_cast<pid_t>(ppid)].push_back(pid);
+    }
+    g_dir_close(dir);
+  }
+  std::vector<pid_t> tree{root};
+  for (size_t i = 0; i < tree.size(); ++i)
+    for (pid_t c : children[tree[i]]) tree.push_back(c);
+  return tree;
+}
+
 // User + system CPU seconds of a process and its children that have exited.
-inline double cpu_seconds(pid_t pid) {
+inline double cpu_seconds_of(pid_t pid) {
   std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
   std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const size_t close = s.rfind(')');
@@ -54,8 +79,15 @@ inline double cpu_seconds(pid_t pid) {
   return (std::stod(f[11]) + std::stod(f[12]) + std::stod(f[13]) + std::stod(f[14])) / tick;
 }
 
-// Resident memory of a process in KiB (VmRSS in /proc/PID/status); -1 when
-// the process is gone.
+// ... and with its live descendants: the CPU of a script is its pipeline's.
+inline double cpu_seconds(pid_t pid) {
+  double total = 0;
+  for (pid_t p : process_tree(pid)) total += cpu_seconds_of(p);
+  return total;
+}
+
+// Resident memory of one process in KiB (VmRSS in /proc/PID/status); -1 when
+// it is gone.
 inline long rss_kib(pid_t pid) {
   std::ifstream in("/proc/" + std::to_string(pid) + "/status");
   std::string line;
@@ -64,9 +96,19 @@ inline long rss_kib(pid_t pid) {
   return -1;
 }
 
+// ... of a process and its live descendants (a script's is mostly its
+// gst-launch-1.0's); -1 when it is gone.
+inline long tree_rss_kib(pid_t pid) {
+  long total = -1;
+  for (pid_t p : process_tree(pid))
+    if (const long r = rss_kib(p); r >= 0) total = std::max(total, 0L) + r;
+  return total;
+}
+
 // Runs `script` with bash, `env` added to this program's environment, stdout
-// and stderr into `log`. The pipeline scripts exec gst-launch-1.0, so the
-// returned pid is the pipeline's own process.
+// and stderr into `log`. The returned pid is the script's: server.sh runs
+// gst-launch-1.0 as its child (pipelines/launch.sh), the others exec it; CPU
+// and memory are counted over the process tree.
 inline pid_t spawn(const std::string& script, const std::map<std::string, std::string>& env, const std::string& log) {
   const pid_t pid = fork();
   if (pid == 0) {

@@ -28,6 +28,13 @@ namespace vt = vclassroom_tools;
 
 namespace {
 
+// A script's memory is its process tree's (server.sh runs gst-launch-1.0 as a
+// child); this program's own (the lecturer) is its process alone, whose tree
+// holds every other.
+long process_rss(pid_t pid) {
+  return pid == getpid() ? vclassroom_tools::rss_kib(pid) : vclassroom_tools::tree_rss_kib(pid);
+}
+
 struct Options {
   int seconds = 25;
   int warmup = 8;
@@ -219,7 +226,7 @@ bool run_flow(const Options& o, const std::string& scenario, Result* r) {
     out.push_back({"lecturer", getpid()});  // this program
     return out;
   };
-  for (const auto& [name, pid] : all_pids()) r->processes.push_back({name, pid, vt::rss_kib(pid), -1});
+  for (const auto& [name, pid] : all_pids()) r->processes.push_back({name, pid, process_rss(pid), -1});
   lecturer.shown.reset();
   lecturer.count_bus_messages();
   lecturer.warnings = lecturer.errors = 0;
@@ -342,7 +349,7 @@ bool run_flow(const Options& o, const std::string& scenario, Result* r) {
     lecturer.count_bus_messages();
     if (o.soak > 0 && t % 10 == 0) {
       std::vector<long> rss;
-      for (const auto& [name, pid] : all_pids()) rss.push_back(vt::rss_kib(pid));
+      for (const auto& [name, pid] : all_pids()) rss.push_back(process_rss(pid));
       r->rss_series.push_back({static_cast<double>(t), rss});
     }
   }
@@ -352,7 +359,7 @@ bool run_flow(const Options& o, const std::string& scenario, Result* r) {
     const auto pids = all_pids();
     for (size_t i = 0; i < pids.size(); ++i) {
       r->processes[i].pid = pids[i].second;  // a restarted camera is a new process
-      r->processes[i].rss_end = vt::rss_kib(pids[i].second);
+      r->processes[i].rss_end = process_rss(pids[i].second);
     }
   }
   r->server_died = vt::has_exited(server);
