@@ -711,7 +711,7 @@ TEST(SrtpLink, ClassroomScriptEncryptsItsFrames) {
                            {"SOURCE=rgbdtestsrc num-buffers=" + std::to_string(frames) + " ground-truth=false",
                             "PORT=" + std::to_string(port), "NACK_PORT=" + std::to_string(vctest::free_udp_port()),
                             "SRTP_KEY=" + key},
-                           120);
+                           600);  // a hang guard: 45 frames rendered at 960x540 take minutes under the sanitizers
   EXPECT_TRUE(r.ended && r.status == 0) << r.output;
   gst_element_send_event(rx, gst_event_new_eos());
   EXPECT_EQ(wait_for_sink_eos(rx, out, 60 * GST_SECOND), "");
