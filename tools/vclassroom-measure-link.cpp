@@ -20,6 +20,7 @@
 #include <gst/app/gstappsrc.h>
 #include <gst/rtp/gstrtpbuffer.h>
 
+#include "tool_options.h"
 #include "tool_support.h"
 
 namespace {
@@ -266,37 +267,24 @@ Row run(const Scheme& scheme, const vclassroom_tools::Recording& rec, double los
 
 int main(int argc, char** argv) {
   gint seconds = 10, seed = 1;
-  gchar* losses_text = nullptr;
+  g_autofree gchar* losses_text = nullptr;
   const GOptionEntry entries[] = {
       {"seconds", 's', 0, G_OPTION_ARG_INT, &seconds, "Seconds of camera frames (30 fps) per run, default 10", "N"},
       {"loss", 'l', 0, G_OPTION_ARG_STRING, &losses_text, "Loss rates in percent, default 0,1,5,30", "LIST"},
       {"seed", 0, 0, G_OPTION_ARG_INT, &seed, "Seed of the packet dropper, default 1", "N"},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
-  GOptionContext* context = g_option_context_new("- one camera link at MTU 1400 under packet loss, before and after");
-  g_option_context_add_main_entries(context, entries, nullptr);
-  g_option_context_add_group(context, gst_init_get_option_group());
-  GError* err = nullptr;
-  if (!g_option_context_parse(context, &argc, &argv, &err)) {
-    std::fprintf(stderr, "%s\n", err->message);
-    return 2;
-  }
-  g_option_context_free(context);
-  if (seconds < 1 || seconds > 600) {
-    std::fprintf(stderr, "--seconds must be 1 to 600\n");
-    return 2;
-  }
+  vclassroom_tools::parse_command_line(&argc, &argv, "", "One camera link at MTU 1400 under packet loss, before and after.",
+                                       entries, gst_init_get_option_group());
+  if (seconds < 1 || seconds > 600) vclassroom_tools::usage_error("--seconds must be 1 to 600");
   std::vector<double> losses;
   std::stringstream list(losses_text ? losses_text : "0,1,5,30");
   for (std::string item; std::getline(list, item, ',');) {
     char* end = nullptr;
     const double v = g_ascii_strtod(item.c_str(), &end);
-    if (end == item.c_str() || *end != '\0' || v < 0 || v > 100) {
-      std::fprintf(stderr, "--loss: '%s' is not a percentage\n", item.c_str());
-      return 2;
-    }
+    if (end == item.c_str() || *end != '\0' || v < 0 || v > 100)
+      vclassroom_tools::usage_error("--loss: '" + item + "' is not a percentage");
     losses.push_back(v);
   }
-  g_free(losses_text);
 
   vclassroom_tools::Recording rec;
   std::fprintf(stderr, "recording 30 coded 960x540 camera frames...\n");
