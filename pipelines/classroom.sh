@@ -9,7 +9,8 @@
 #   STATS (0: quiet; N: every N frames rgbdenc posts vclassroom-codec-stats, printed by -m),
 #   MTU (largest RTP packet, default 1400 for an Ethernet link; a jumbo-frame LAN takes about 9000,
 #   loopback up to 65000; the server's MTU must be as large),
-#   RTX (1, default: retransmit lost packets on request; 0: plain RTP; the server's RTX must match),
+#   RTX (1: retransmit lost packets on request; 0, default for now: plain RTP (docs/network.md); the server's
+#   RTX must match),
 #   RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
 #   SSRC (the camera's RTP stream id, default 0x56430000 + CAMERA: fixed, so that a camera that restarts
 #   is the same stream to the server, which then takes it back at once; docs/network.md),
@@ -25,7 +26,7 @@ QUALITY=${QUALITY:-90}
 DROP=${DROP:-0}
 STATS=${STATS:-0}
 MTU=${MTU:-1400}
-RTX=${RTX:-1}
+RTX=${RTX:-0}
 RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 SSRC=${SSRC:-$((0x56430000 + CAMERA))}
 if ! [[ $SSRC =~ ^[0-9]+$ ]] || [ "$SSRC" -gt 4294967294 ]; then

@@ -16,7 +16,8 @@
 #   CAMERA_HOSTS (one address per camera in CAMERAS order, default 127.0.0.1 each; a missing entry repeats the
 #   last): only packets from camera k's host are taken on its ports, and its retransmission requests go there.
 #   CAMERA_NACK_PORTS (each camera's port for our RTCP, i.e. retransmission requests, default camera port + 100).
-#   RTX (1, default: request lost camera packets again; 0: plain RTP; the cameras' RTX must match),
+#   RTX (1: request lost camera packets again; 0, default for now: plain RTP (docs/network.md); the cameras'
+#   RTX must match),
 #   RTX_LATENCY (ms a camera packet may wait for its retransmission, default 300).
 #   Packets from other addresses, or a second RTP stream on a camera port, are dropped and counted
 #   (senderfilter, docs/network.md); the pose port takes packets only from LECTURER.
@@ -46,7 +47,7 @@ if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "server.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
   exit 2
 fi
-RTX=${RTX:-1}
+RTX=${RTX:-0}
 RTX_LATENCY=${RTX_LATENCY:-300}
 PREP_NICE=${PREP_NICE:-10}
 if ! [[ $PREP_NICE =~ ^[0-9]+$ ]] || [ "$PREP_NICE" -gt 19 ]; then
