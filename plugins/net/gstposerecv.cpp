@@ -147,12 +147,7 @@ static GstStateChangeReturn gst_pose_recv_change_state(GstElement* element, GstS
   GstPoseRecv* self = GST_POSE_RECV(element);
   RecvState* st = self->st;
   if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {  // the key file as set now
-    std::string key_file;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      key_file = st->key_file;
-    }
-    if (!load_key_file(element, st->lock, key_file, &st->key)) return GST_STATE_CHANGE_FAILURE;
+    if (!load_key_file(element, st->lock, st->key_file, &st->key)) return GST_STATE_CHANGE_FAILURE;
     std::lock_guard<std::mutex> g(st->lock);
     PoseChannelConfig c;
     c.session.timeout_ns = static_cast<int64_t>(st->session_timeout_ms) * 1'000'000;

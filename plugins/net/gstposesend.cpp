@@ -220,12 +220,7 @@ static GstStateChangeReturn gst_pose_send_change_state(GstElement* element, GstS
   GstPoseSend* self = GST_POSE_SEND(element);
   SendState* st = self->st;
   if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {  // the key file as set now
-    std::string key_file;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      key_file = st->key_file;
-    }
-    if (!load_key_file(element, st->lock, key_file, &st->key)) return GST_STATE_CHANGE_FAILURE;
+    if (!load_key_file(element, st->lock, st->key_file, &st->key)) return GST_STATE_CHANGE_FAILURE;
     std::lock_guard<std::mutex> g(st->lock);
     // A new session each start: the server tells a restarted lecturer by it.
     st->latest.reset();

@@ -24,9 +24,9 @@ inline GstIterator* iterate_video_link(GstPad* pad, GstPad* other) {
   return it;
 }
 
-// The pose key of the element's key-file property ("" = none), loaded when the
-// element starts; `lock` guards both and is held while reading. False after
-// posting an error naming the file (the state change must then fail).
+// Loads the pose key of the element's key-file property ("" = none) into
+// *key when the element starts; `lock` guards both. False after posting an
+// error naming the file (the state change must then fail).
 inline bool load_key_file(GstElement* element, std::mutex& lock, const std::string& key_file,
                           vclassroom::PoseKey* key) {
   std::string error;
