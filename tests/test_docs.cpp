@@ -495,6 +495,15 @@ TEST(DocsExtraction, ALineThatCannotRunIsReportedWithItsError) {
             "");
 }
 
+// The documented commands that make what launch lines read under out/ (a
+// model, an imported dataset).
+std::vector<DocCommand> documented_tool_commands() {
+  std::vector<DocCommand> tools = documented("build/tools/vclassroom-build-model");
+  const std::vector<DocCommand> imports = documented("build/tools/vclassroom-import");
+  tools.insert(tools.end(), imports.begin(), imports.end());
+  return tools;
+}
+
 TEST(Docs, EveryLaunchLineOfReadmeAndDocsRuns) {
   ASSERT_FALSE(env_or_empty("VCLASSROOM_SOURCE_DIR").empty()) << "VCLASSROOM_SOURCE_DIR is not set";
   const std::vector<DocCommand> lines = documented("gst-launch-1.0");
@@ -507,10 +516,7 @@ TEST(Docs, EveryLaunchLineOfReadmeAndDocsRuns) {
       commands.push_back(c);
   }
   DocRunner runner;
-  std::vector<DocCommand> tools = documented("build/tools/vclassroom-build-model");
-  const std::vector<DocCommand> imports = documented("build/tools/vclassroom-import");
-  tools.insert(tools.end(), imports.begin(), imports.end());
-  runner.add_tools(tools);
+  runner.add_tools(documented_tool_commands());
   int skipped = 0;
   const int ran = run_all(runner, commands, &skipped);
   std::printf("[ docs     ] ran %d of %zu gst-launch-1.0 commands in README.md and docs/*.md (%d skipped)\n", ran,
@@ -544,10 +550,7 @@ TEST(Docs, EveryElementsInspectTextCarriesAnExampleThatRuns) {
     examples.push_back(c);
   }
   DocRunner runner;
-  std::vector<DocCommand> tools = documented("build/tools/vclassroom-build-model");
-  const std::vector<DocCommand> imports = documented("build/tools/vclassroom-import");
-  tools.insert(tools.end(), imports.begin(), imports.end());
-  runner.add_tools(tools);
+  runner.add_tools(documented_tool_commands());
   int skipped = 0;
   const int ran = run_all(runner, examples, &skipped);
   std::printf("[ docs     ] ran %d example launch lines of %zu elements (%d skipped)\n", ran, elements.size(),
