@@ -17,12 +17,12 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include <gst/vclassroom/camera_liveness.h>
-#include <gst/vclassroom/checksum.h>
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/fuse_inputs.h>
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/rgbd_codec.h>
+#include <gst/vclassroom/vva/camera_liveness.h>
+#include <gst/vclassroom/core/checksum.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/vva/fuse_inputs.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/net/rgbd_codec.h>
 
 #include "test_util.h"
 

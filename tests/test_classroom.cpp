@@ -10,8 +10,8 @@
 
 #include <opencv2/core.hpp>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/rgbd.h>
 
 #include "test_util.h"
 

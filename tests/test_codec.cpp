@@ -3,11 +3,11 @@
 #include <gtest/gtest.h>
 
 #include <gst/app/gstappsrc.h>
-#include <gst/vclassroom/checksum.h>
-#include <gst/vclassroom/pose_stamp.h>
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/rgbd_codec.h>
+#include <gst/vclassroom/core/checksum.h>
+#include <gst/vclassroom/net/pose_stamp.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/net/rgbd_codec.h>
 #include <opencv2/imgproc.hpp>
 
 #include "test_util.h"

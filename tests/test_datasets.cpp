@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <fstream>
 
-#include <gst/vclassroom/dataset.h>
-#include <gst/vclassroom/middlebury.h>
-#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/datasets/dataset.h>
+#include <gst/vclassroom/datasets/middlebury.h>
+#include <gst/vclassroom/core/rgbd.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 

@@ -23,9 +23,9 @@
 
 #include <gst/app/gstappsink.h>
 #include <gst/video/video.h>
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_meta.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 

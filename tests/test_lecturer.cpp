@@ -4,7 +4,7 @@
 
 #include <gst/check/gstharness.h>
 #include <gst/video/navigation.h>
-#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/core/pose.h>
 
 #include "test_util.h"
 

@@ -15,9 +15,9 @@
 #include <random>
 #include <string>
 
-#include <gst/vclassroom/error.h>
-#include <gst/vclassroom/sender_filter.h>
-#include <gst/vclassroom/srtp_key.h>
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/net/sender_filter.h>
+#include <gst/vclassroom/net/srtp_key.h>
 
 #include "test_util.h"
 

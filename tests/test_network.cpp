@@ -6,9 +6,9 @@
 #include <gst/check/gstharness.h>
 #include <gst/check/gsttestclock.h>
 #include <gst/app/gstappsrc.h>
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_meta.h>
-#include <gst/vclassroom/warning_limiter.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/core/warning_limiter.h>
 
 #include <algorithm>
 #include <cstring>
@@ -338,7 +338,7 @@ TEST(PoseHeaderExtension, SeqAndViewerTimeCrossRtp) {
   gst_object_unref(p);
 }
 
-// ---- Rate-limited warnings (gst/vclassroom/warning_limiter.h)
+// ---- Rate-limited warnings (gst/vclassroom/core/warning_limiter.h)
 
 TEST(WarningLimiter, FirstAtOnceThenOnePerIntervalWithTheCount) {
   vclassroom::WarningLimiter lim(5'000'000'000);

@@ -14,7 +14,7 @@
 
 #include <gst/check/gstharness.h>
 #include <gst/video/video.h>
-#include <gst/vclassroom/visualize.h>
+#include <gst/vclassroom/core/visualize.h>
 
 #include "test_util.h"
 

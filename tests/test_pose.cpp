@@ -4,8 +4,8 @@
 #include <cmath>
 #include <random>
 
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_session.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/net/pose_session.h>
 
 #include "test_util.h"
 
@@ -226,7 +226,7 @@ TEST(PoseTrace, TheSampleForAFrameComesFromItsTimeOrItsNumber) {
   EXPECT_EQ(pose_trace_index(untimed, 0.0, 9), 2u);
 }
 
-// ---- Pose sessions (gst/vclassroom/pose_session.h): times are given, no sleeps.
+// ---- Pose sessions (gst/vclassroom/net/pose_session.h): times are given, no sleeps.
 
 namespace {
 constexpr int64_t kMs = 1'000'000;

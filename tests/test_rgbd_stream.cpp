@@ -5,8 +5,8 @@
 #include <random>
 
 #include <gst/app/gstappsrc.h>
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/rgbd.h>
 
 #include "test_util.h"
 

@@ -4,7 +4,7 @@
 
 #include <random>
 
-#include <gst/vclassroom/rig.h>
+#include <gst/vclassroom/core/rig.h>
 
 #include "test_util.h"
 

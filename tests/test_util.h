@@ -8,7 +8,7 @@
 #include <gst/gst.h>
 #include <opencv2/core.hpp>
 
-#include <gst/vclassroom/rig.h>
+#include <gst/vclassroom/core/rig.h>
 
 namespace vctest {
 

@@ -12,12 +12,12 @@
 #include <gst/check/gstharness.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/depth_completion.h>
-#include <gst/vclassroom/error.h>
-#include <gst/vclassroom/plane_refine.h>
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/static_model.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/vda/depth_completion.h>
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/vda/plane_refine.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/vda/static_model.h>
 
 #include "test_util.h"
 

@@ -10,15 +10,15 @@
 #include <gst/gst.h>
 #include <opencv2/imgproc.hpp>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/image_metrics.h>
-#include <gst/vclassroom/learner_seg.h>
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_meta.h>
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/view_fuse.h>
-#include <gst/vclassroom/view_warp.h>
-#include <gst/vclassroom/virtual_view.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/image_metrics.h>
+#include <gst/vclassroom/vva/learner_seg.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/vva/view_fuse.h>
+#include <gst/vclassroom/vva/view_warp.h>
+#include <gst/vclassroom/vva/virtual_view.h>
 
 #include "test_util.h"
 

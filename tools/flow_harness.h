@@ -26,8 +26,8 @@
 
 #include <gst/gst.h>
 
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_meta.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
 
 namespace vclassroom_tools {
 

@@ -13,9 +13,9 @@
 #include <gst/gst.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include <gst/vclassroom/checksum.h>
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/rgbd_codec.h>
+#include <gst/vclassroom/core/checksum.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/net/rgbd_codec.h>
 
 #include "tool_options.h"
 

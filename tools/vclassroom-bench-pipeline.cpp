@@ -22,8 +22,8 @@
 #include <gst/gst.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/pose.h>
 
 #include "tool_options.h"
 #include "tool_support.h"

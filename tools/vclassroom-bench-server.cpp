@@ -15,11 +15,11 @@
 
 #include <opencv2/core.hpp>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/learner_seg.h>
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/view_fuse.h>
-#include <gst/vclassroom/view_warp.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/vva/learner_seg.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/vva/view_fuse.h>
+#include <gst/vclassroom/vva/view_warp.h>
 
 #include "tool_options.h"
 

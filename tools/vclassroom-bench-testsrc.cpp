@@ -13,8 +13,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/visualize.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/visualize.h>
 
 #include "tool_options.h"
 

@@ -8,10 +8,10 @@
 #include <iostream>
 #include <string>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/dataset.h>
-#include <gst/vclassroom/error.h>
-#include <gst/vclassroom/static_model.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/datasets/dataset.h>
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/vda/static_model.h>
 
 #include "tool_options.h"
 

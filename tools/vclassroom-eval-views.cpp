@@ -15,17 +15,17 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/dataset.h>
-#include <gst/vclassroom/depth_completion.h>
-#include <gst/vclassroom/image_metrics.h>
-#include <gst/vclassroom/learner_seg.h>
-#include <gst/vclassroom/middlebury.h>
-#include <gst/vclassroom/plane_refine.h>
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/static_model.h>
-#include <gst/vclassroom/view_fuse.h>
-#include <gst/vclassroom/view_warp.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/datasets/dataset.h>
+#include <gst/vclassroom/vda/depth_completion.h>
+#include <gst/vclassroom/core/image_metrics.h>
+#include <gst/vclassroom/vva/learner_seg.h>
+#include <gst/vclassroom/datasets/middlebury.h>
+#include <gst/vclassroom/vda/plane_refine.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/vda/static_model.h>
+#include <gst/vclassroom/vva/view_fuse.h>
+#include <gst/vclassroom/vva/view_warp.h>
 
 #include "tool_options.h"
 

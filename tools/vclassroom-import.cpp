@@ -2,7 +2,7 @@
 #include <cstdio>
 #include <string>
 
-#include <gst/vclassroom/middlebury.h>
+#include <gst/vclassroom/datasets/middlebury.h>
 
 #include "tool_options.h"
 

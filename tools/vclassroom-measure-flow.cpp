@@ -26,8 +26,8 @@
 #include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
 
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_meta.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
 
 #include "flow_harness.h"
 #include "tool_options.h"

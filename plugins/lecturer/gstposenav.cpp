@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/core/pose.h>
 
 GST_DEBUG_CATEGORY_STATIC(pose_nav_debug);
 #define GST_CAT_DEFAULT pose_nav_debug

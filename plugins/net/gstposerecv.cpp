@@ -2,8 +2,8 @@
 // udpsrc) become vclassroom/pose events again, sent upstream from its video
 // sink pad towards viewfuse and every viewwarp. Which packets are obeyed is
 // library logic: the wire format and its authentication tag
-// (gst/vclassroom/pose.h), sessions and the seq window
-// (gst/vclassroom/pose_session.h); this element counts, warns (rate-limited)
+// (gst/vclassroom/core/pose.h), sessions and the seq window
+// (gst/vclassroom/net/pose_session.h); this element counts, warns (rate-limited)
 // and posts statistics.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_session.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/net/pose_session.h>
 
 #include "poseback.h"
 

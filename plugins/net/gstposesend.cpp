@@ -29,7 +29,7 @@
 #include <mutex>
 #include <optional>
 
-#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/core/pose.h>
 
 #include "poseback.h"
 

@@ -15,11 +15,11 @@
 #include <optional>
 #include <string>
 
-#include <gst/vclassroom/error.h>
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/rgbd_codec.h>
-#include <gst/vclassroom/rig.h>
-#include <gst/vclassroom/warning_limiter.h>
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/net/rgbd_codec.h>
+#include <gst/vclassroom/core/rig.h>
+#include <gst/vclassroom/core/warning_limiter.h>
 
 #include "rgbdcoded.h"
 

@@ -9,8 +9,8 @@
 
 #include <string>
 
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/rgbd_codec.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/net/rgbd_codec.h>
 
 #include "rgbdcoded.h"
 

@@ -8,8 +8,8 @@
 
 #include "gstrtphdrextvcpose.h"
 
-#include <gst/vclassroom/pose_meta.h>
-#include <gst/vclassroom/pose_stamp.h>
+#include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/net/pose_stamp.h>
 
 using namespace vclassroom;
 

@@ -2,7 +2,7 @@
 // configured source addresses (udpsrc's GstNetAddressMeta) and, with
 // lock-ssrc, one SSRC per payload type; drops and counts the rest, warns
 // through WarningLimiter and posts the counts as a vclassroom-sender-stats
-// element message. The decisions live in gst/vclassroom/sender_filter.h.
+// element message. The decisions live in gst/vclassroom/net/sender_filter.h.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -15,9 +15,9 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/error.h>
-#include <gst/vclassroom/sender_filter.h>
-#include <gst/vclassroom/warning_limiter.h>
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/net/sender_filter.h>
+#include <gst/vclassroom/core/warning_limiter.h>
 
 GST_DEBUG_CATEGORY_STATIC(sender_filter_debug);
 #define GST_CAT_DEFAULT sender_filter_debug

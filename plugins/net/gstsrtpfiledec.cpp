@@ -1,7 +1,7 @@
 // srtpfiledec: srtpdec (gst-plugins-bad) with the key of every stream from a file. srtpdec asks for each
 // new SSRC's key through its request-key signal, which a gst-launch-1.0 line cannot answer, and a camera
 // link has two SSRCs (the camera's and its retransmissions'), so this bin answers it: the same 30-byte key
-// (gst/vclassroom/srtp_key.h), AES_CM_128_HMAC_SHA1_80, for every SSRC. Packets that fail authentication
+// (gst/vclassroom/net/srtp_key.h), AES_CM_128_HMAC_SHA1_80, for every SSRC. Packets that fail authentication
 // (another key, tampering) are dropped by srtpdec.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
@@ -12,8 +12,8 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/error.h>
-#include <gst/vclassroom/srtp_key.h>
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/net/srtp_key.h>
 
 GST_DEBUG_CATEGORY_STATIC(srtp_file_dec_debug);
 #define GST_CAT_DEFAULT srtp_file_dec_debug

@@ -6,7 +6,7 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/core/pose.h>
 
 inline constexpr const char* kPoseRtpCaps =
     "application/x-rtp, media = (string) application, clock-rate = (int) 90000, "

@@ -5,7 +5,7 @@
 
 #include "gstdepthcolorize.h"
 
-#include <gst/vclassroom/visualize.h>
+#include <gst/vclassroom/core/visualize.h>
 
 GST_DEBUG_CATEGORY_STATIC(depth_colorize_debug);
 #define GST_CAT_DEFAULT depth_colorize_debug

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/core/rgbd.h>
 
 GST_DEBUG_CATEGORY_STATIC(rgbd_demux_debug);
 #define GST_CAT_DEFAULT rgbd_demux_debug

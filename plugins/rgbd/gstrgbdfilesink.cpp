@@ -9,8 +9,8 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/dataset.h>
-#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/datasets/dataset.h>
+#include <gst/vclassroom/core/rgbd.h>
 
 GST_DEBUG_CATEGORY_STATIC(rgbd_file_sink_debug);
 #define GST_CAT_DEFAULT rgbd_file_sink_debug

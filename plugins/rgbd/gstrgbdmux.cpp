@@ -11,7 +11,7 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/core/rgbd.h>
 
 GST_DEBUG_CATEGORY_STATIC(rgbd_mux_debug);
 #define GST_CAT_DEFAULT rgbd_mux_debug

@@ -10,8 +10,8 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/rgbd.h>
 
 GST_DEBUG_CATEGORY_STATIC(rgbd_test_src_debug);
 #define GST_CAT_DEFAULT rgbd_test_src_debug

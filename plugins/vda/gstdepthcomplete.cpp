@@ -11,10 +11,10 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/depth_completion.h>
-#include <gst/vclassroom/error.h>
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/static_model.h>
+#include <gst/vclassroom/vda/depth_completion.h>
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/vda/static_model.h>
 
 #include "vda_buffer.h"
 

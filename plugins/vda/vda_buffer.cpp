@@ -1,6 +1,6 @@
 #include "vda_buffer.h"
 
-#include <gst/vclassroom/error.h>
+#include <gst/vclassroom/core/error.h>
 
 using namespace vclassroom;
 

@@ -9,8 +9,8 @@
 #include <gst/gst.h>
 #include <opencv2/core.hpp>
 
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/static_model.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/vda/static_model.h>
 
 namespace vda {
 

@@ -11,8 +11,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include <gst/vclassroom/learner_seg.h>
-#include <gst/vclassroom/rgbd.h>
+#include <gst/vclassroom/vva/learner_seg.h>
+#include <gst/vclassroom/core/rgbd.h>
 
 GST_DEBUG_CATEGORY_STATIC(learner_seg_debug);
 #define GST_CAT_DEFAULT learner_seg_debug

@@ -16,13 +16,13 @@
 #include <string>
 #include <vector>
 
-#include <gst/vclassroom/camera_liveness.h>
-#include <gst/vclassroom/fuse_inputs.h>
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_meta.h>
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/view_fuse.h>
-#include <gst/vclassroom/virtual_view.h>
+#include <gst/vclassroom/vva/camera_liveness.h>
+#include <gst/vclassroom/vva/fuse_inputs.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/vva/view_fuse.h>
+#include <gst/vclassroom/vva/virtual_view.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_fuse_debug);
 #define GST_CAT_DEFAULT view_fuse_debug

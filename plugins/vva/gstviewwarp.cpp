@@ -12,12 +12,12 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include <gst/vclassroom/classroom.h>
-#include <gst/vclassroom/pose.h>
-#include <gst/vclassroom/pose_meta.h>
-#include <gst/vclassroom/rgbd.h>
-#include <gst/vclassroom/view_warp.h>
-#include <gst/vclassroom/virtual_view.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/vva/view_warp.h>
+#include <gst/vclassroom/vva/virtual_view.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_warp_debug);
 #define GST_CAT_DEFAULT view_warp_debug

@@ -10,7 +10,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include <gst/vclassroom/dataset.h>
+#include <gst/vclassroom/datasets/dataset.h>
 
 using namespace vclassroom;
 

@@ -5,7 +5,7 @@
 #include <cstring>
 #include <vector>
 
-#include <gst/vclassroom/pose_stamp.h>
+#include <gst/vclassroom/net/pose_stamp.h>
 
 using namespace vclassroom;
 

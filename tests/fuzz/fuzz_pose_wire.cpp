@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include <gst/vclassroom/checksum.h>
-#include <gst/vclassroom/pose.h>
+#include <gst/vclassroom/core/checksum.h>
+#include <gst/vclassroom/core/pose.h>
 
 using namespace vclassroom;
 

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include <gst/vclassroom/checksum.h>
-#include <gst/vclassroom/rgbd_codec.h>
+#include <gst/vclassroom/core/checksum.h>
+#include <gst/vclassroom/net/rgbd_codec.h>
 
 namespace {
 

@@ -6,7 +6,7 @@
 #include <cstdlib>
 #include <string>
 
-#include <gst/vclassroom/rig.h>
+#include <gst/vclassroom/core/rig.h>
 
 using namespace vclassroom;
 

@@ -1,0 +1,78 @@
+// Camera calibration and the rig file (DESIGN.md §2.2, docs/rig-format.md).
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include <gst/vclassroom/core/error.h>
+
+namespace vclassroom {
+
+// One pinhole camera of the rig. Camera frames follow OpenCV (x right,
+// y down, z forward); the rig frame is metric with Y up (DESIGN.md §2.2).
+struct CameraCalib {
+  int id = 0;
+  std::string name;
+  int width = 0;
+  int height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  // OpenCV order: k1, k2, p1, p2, k3.
+  std::array<double, 5> distortion{{0, 0, 0, 0, 0}};
+  // Millimetres per raw unit of this sensor's depth images (1 for mm,
+  // 0.2 for TUM-style 1/5000 m). The `video/x-rgbd` stream is always mm.
+  double depth_scale = 1.0;
+  // Maps camera coordinates to rig coordinates: p_rig = cam_to_rig * p_cam.
+  Eigen::Isometry3d cam_to_rig = Eigen::Isometry3d::Identity();
+  // Where the sensor's depth lens differs from its colour lens: maps depth
+  // camera coordinates to colour camera coordinates. Sources register depth
+  // to colour with it, so streams never carry it.
+  std::optional<Eigen::Isometry3d> depth_to_color;
+
+  bool has_distortion() const;
+  Eigen::Matrix3d K() const;
+  Eigen::Vector3d center_in_rig() const { return cam_to_rig.translation(); }
+
+  // Pixel (u, v) with depth z (metres, along the optical axis) to a point in
+  // this camera's frame. Undistorts when the camera has distortion.
+  Eigen::Vector3d unproject(double u, double v, double z) const;
+  // A point in this camera's frame to its pixel; nullopt behind the camera.
+  std::optional<Eigen::Vector2d> project(const Eigen::Vector3d& p_cam) const;
+  // Undistorted, normalised image coordinates of a pixel (z = 1 plane).
+  Eigen::Vector2d normalized(double u, double v) const;
+};
+
+struct Rig {
+  std::string name;
+  std::vector<CameraCalib> cameras;
+
+  static constexpr int kMaxCameras = 8;
+
+  // The camera whose `id` is `id`; throws Error if there is none.
+  const CameraCalib& camera(int id) const;
+  const CameraCalib* find(int id) const;
+  // Maps points of camera `from` to camera `to`: p_to = T * p_from.
+  Eigen::Isometry3d transform(int from, int to) const;
+};
+
+// Reads and validates a rig file (at most 1 MiB). Throws Error naming file,
+// line, camera, field and what was expected (docs/rig-format.md).
+Rig load_rig(const std::string& path);
+// The same from text in memory; `file` names it in messages.
+Rig parse_rig_text(const std::string& text, const std::string& file);
+// The YAML that save_rig writes.
+std::string rig_to_text(const Rig& rig);
+// Checks one camera; `where` prefixes messages (e.g. "rig.yaml: camera 1").
+void validate_camera(const CameraCalib& cam, const std::string& where);
+// Checks the whole rig (1..8 cameras, unique ids, each camera valid).
+void validate_rig(const Rig& rig, const std::string& where);
+// Writes a rig file that load_rig reads back exactly (doubles in full precision).
+void save_rig(const Rig& rig, const std::string& path);
+
+// Rotation helpers shared by rig files, caps and poses.
+bool is_rotation(const Eigen::Matrix3d& r, double tol = 1e-4);
+
+}  // namespace vclassroom

@@ -1,0 +1,88 @@
+// Recorded RGB-D datasets on disk (docs/dataset-format.md):
+//   <folder>/rig.yaml
+//   <folder>/cam<ID>/color/<frame>.png|jpg|ppm   8-bit colour
+//   <folder>/cam<ID>/depth/<frame>.png           16-bit, rig depth_scale mm per unit
+//   <folder>/cam<ID>/label/<frame>.png           8-bit learner labels (optional)
+//   <folder>/cam<ID>/depth-gt/<frame>.png        16-bit clean depth in mm (optional)
+// Frames pair by file name (without extension); a camera without depth/ has no measurements.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/core/rig.h>
+
+namespace vclassroom {
+
+// One frame of one camera. color is CV_8UC3 RGB; depth/depth_gt CV_16UC1 mm;
+// label CV_8UC1. Optional planes are empty when absent.
+struct RgbdImages {
+  cv::Mat color, depth, label, depth_gt;
+};
+
+class Dataset {
+ public:
+  // Reads <folder>/rig.yaml and lists every camera's frames. Throws Error.
+  static Dataset open(const std::string& folder);
+
+  const std::string& folder() const { return folder_; }
+  const Rig& rig() const { return rig_; }
+  size_t frame_count(int camera_id) const { return camera(camera_id).color.size(); }
+  bool has_label(int camera_id) const { return !camera(camera_id).label.empty(); }
+  bool has_depth_gt(int camera_id) const { return !camera(camera_id).depth_gt.empty(); }
+  // Loads frame `index` of a camera; depth is converted to mm. Throws Error
+  // naming the file on a missing, undecodable or wrongly sized image.
+  RgbdImages load(int camera_id, size_t index) const;
+
+ private:
+  struct Files {
+    int id;
+    std::vector<std::string> color, depth, label, depth_gt;
+  };
+  const Files& camera(int id) const;
+  std::string folder_;
+  Rig rig_;
+  std::vector<Files> cameras_;
+};
+
+// Path of a camera's folder inside a dataset.
+std::string dataset_camera_dir(const std::string& folder, int camera_id);
+// Writes one frame (PNG, depth in mm) as <frame index, 6 digits>.png. Creates folders. Throws Error.
+void dataset_write_frame(const std::string& folder, int camera_id, size_t index, const RgbdImages& images);
+// Adds or replaces one camera in <folder>/rig.yaml (depth_scale forced to 1: recordings are mm).
+void dataset_write_camera(const std::string& folder, const CameraCalib& camera, const std::string& rig_name);
+
+// Limits of what the readers accept from files (docs/dataset-format.md).
+inline constexpr int kMaxImageSide = 16384;
+inline constexpr size_t kMaxImageFileBytes = size_t(1) << 30;
+inline constexpr size_t kMaxFrames = 10000000;
+
+// Reads a 16-bit depth image (PNG/PGM) and converts it to mm with `depth_scale`.
+// With an `expected` size, another size is an error naming `expected_from`
+// (e.g. "rig camera 1"); a PNG is checked from its header before decoding.
+cv::Mat read_depth_mm(const std::string& path, double depth_scale, cv::Size expected = {},
+                      const std::string& expected_from = "");
+
+// The one image reader of files from outside (datasets, static models,
+// imports): a missing, oversized, undecodable or wrongly sized image is an
+// Error naming the file; OpenCV's exceptions never escape. `what` names the
+// plane ("colour", "depth").
+cv::Mat read_image(const std::string& path, int flags, const std::string& what, cv::Size expected = {},
+                   const std::string& expected_from = "");
+// The width and height a PNG, JPEG or PNM image declares in its header; false
+// when the bytes are none of these (or the header is cut short).
+bool image_header_size(const uint8_t* data, size_t size, uint32_t* width, uint32_t* height);
+// The same from bytes in memory; `name` stands for the file in messages.
+cv::Mat decode_image(const uint8_t* data, size_t size, int flags, const std::string& what, const std::string& name,
+                     cv::Size expected = {}, const std::string& expected_from = "");
+
+// The files of one plane (depth/, label/, depth-gt/) in the order of the
+// colour files they pair with, by file name without extension. Empty for an
+// empty plane. A colour frame without a partner, a plane file without one, or
+// two files of one frame is an Error naming the files.
+std::vector<std::string> pair_by_name(const std::vector<std::string>& color, const std::vector<std::string>& plane,
+                                      const std::string& plane_name);
+
+}  // namespace vclassroom

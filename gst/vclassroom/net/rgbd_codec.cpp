@@ -1,0 +1,456 @@
+#include <gst/vclassroom/net/rgbd_codec.h>
+
+#include <gst/vclassroom/core/checksum.h>
+
+#include <algorithm>
+#include <array>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
+
+#include <jpeglib.h>
+
+namespace vclassroom {
+
+namespace {
+
+constexpr int kMaxSide = 16384;  // image sides, as rig cameras (docs/rig-format.md)
+
+// ---- 4-bit variable-length integers: 3 value bits + 1 "more" bit per nibble.
+class NibbleWriter {
+ public:
+  explicit NibbleWriter(std::vector<uint8_t>* out) : out_(out) {}
+  void put(uint32_t v) {
+    while (v >= 8) {
+      nibble((v & 7) | 8);
+      v >>= 3;
+    }
+    nibble(v);
+  }
+  void flush() {
+    if (half_) out_->push_back(static_cast<uint8_t>(pending_));
+    half_ = false;
+  }
+
+ private:
+  void nibble(uint32_t n) {
+    if (half_) {
+      out_->push_back(static_cast<uint8_t>(pending_ | (n << 4)));
+      half_ = false;
+    } else {
+      pending_ = n;
+      half_ = true;
+    }
+  }
+  std::vector<uint8_t>* out_;
+  uint32_t pending_ = 0;
+  bool half_ = false;
+};
+
+class NibbleReader {
+ public:
+  NibbleReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+  // False on running out of data or a value longer than 32 bits.
+  bool get(uint32_t* v) {
+    const size_t byte = pos_ >> 1;
+    if (byte + 8 <= size_) {
+      // Fast path: the value's (at most 11) nibbles are all in one 64-bit
+      // load; the first nibble without the "more" bit ends it, and the 3 value
+      // bits of each are packed together in four shift-and-mask steps.
+      uint64_t w;
+      std::memcpy(&w, data_ + byte, 8);
+#if !defined(__BYTE_ORDER__) || !defined(__ORDER_BIG_ENDIAN__)
+#error "the depth codec needs the compiler's __BYTE_ORDER__"
+#elif __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+      w = __builtin_bswap64(w);
+#endif
+      w >>= (pos_ & 1) * 4;
+      const uint64_t ends = ~w & 0x88888888888ull;  // the "more" bits of nibbles 0..10
+      if (ends) {
+        const int nibbles = (__builtin_ctzll(ends) >> 2) + 1;
+        uint64_t x = w & 0x7777777777777777ull;
+        x = (x & 0x0707070707070707ull) | ((x >> 1) & 0x3838383838383838ull);
+        x = (x & 0x003F003F003F003Full) | ((x >> 2) & 0x0FC00FC00FC00FC0ull);
+        x = (x & 0x00000FFF00000FFFull) | ((x >> 4) & 0x00FFF00000FFF000ull);
+        x = (x & 0xFFFFFFull) | ((x >> 8) & 0xFFFFFF000000ull);
+        if (nibbles == 11 && ((x >> 32) & 1)) return false;  // bit 32 set: over 32 bits
+        *v = static_cast<uint32_t>(x & ((uint64_t(1) << (3 * nibbles)) - 1));
+        pos_ += nibbles;
+        return true;
+      }
+    }
+    uint32_t value = 0;
+    for (int shift = 0; shift < 33; shift += 3) {
+      if (pos_ >= 2 * size_) return false;
+      const uint32_t n = (data_[pos_ >> 1] >> ((pos_ & 1) * 4)) & 15;
+      ++pos_;
+      if (shift == 30 && (n & 4)) return false;  // over 32 bits
+      value |= (n & 7) << shift;
+      if (!(n & 8)) {
+        *v = value;
+        return true;
+      }
+    }
+    return false;
+  }
+
+ private:
+  const uint8_t* data_;
+  size_t size_;
+  size_t pos_ = 0;  // in nibbles
+};
+
+inline uint32_t zigzag(int32_t r) { return (static_cast<uint32_t>(r) << 1) ^ static_cast<uint32_t>(r >> 31); }
+inline int32_t unzigzag(uint32_t u) { return static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1); }
+
+// Prediction of a valid pixel from its decoded neighbours (LOCO-I's median
+// edge detector where all three are valid, else the nearest valid one).
+inline int predict(const uint16_t* row, const uint16_t* up, int x, int last) {
+  const int a = x > 0 ? row[x - 1] : 0;
+  const int b = up ? up[x] : 0;
+  const int c = (up && x > 0) ? up[x - 1] : 0;
+  // Written as selects, not branches: which case applies changes from pixel
+  // to pixel in noisy depth. The median edge detector is a + b - c clamped
+  // to [min(a, b), max(a, b)].
+  const int med = std::min(std::max(a + b - c, std::min(a, b)), std::max(a, b));
+  int p = b ? b : last;
+  p = a ? a : p;
+  return (a && b && c) ? med : p;
+}
+
+void put_u32(std::vector<uint8_t>* out, uint32_t v) {
+  for (int i = 0; i < 4; ++i) out->push_back(static_cast<uint8_t>(v >> (8 * i)));
+}
+uint32_t get_u32(const uint8_t* p) {
+  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 | static_cast<uint32_t>(p[2]) << 16 |
+         static_cast<uint32_t>(p[3]) << 24;
+}
+
+enum : uint8_t { kPlaneColor = 0, kPlaneDepth = 1, kPlaneLabel = 2 };
+enum : uint8_t { kCodecJpeg = 1, kCodecDepthMed = 2, kCodecLabelRuns = 3 };
+constexpr uint8_t kVersion = 1;
+constexpr size_t kHeaderSize = 16, kSectionHeaderSize = 12;
+
+// libjpeg reports errors through a callback that must not return.
+struct JpegError {
+  jpeg_error_mgr mgr;
+  jmp_buf jump;
+  int warnings = 0;
+  char message[JMSG_LENGTH_MAX] = {0};
+};
+
+void jpeg_fail(j_common_ptr cinfo) {
+  auto* err = reinterpret_cast<JpegError*>(cinfo->err);
+  (*cinfo->err->format_message)(cinfo, err->message);
+  longjmp(err->jump, 1);
+}
+
+void jpeg_note(j_common_ptr cinfo, int level) {
+  auto* err = reinterpret_cast<JpegError*>(cinfo->err);
+  if (level < 0) {  // corrupt-data warnings
+    if (!err->warnings) (*cinfo->err->format_message)(cinfo, err->message);
+    err->warnings++;
+  }
+}
+
+}  // namespace
+
+void encode_depth_lossless(const cv::Mat& depth, std::vector<uint8_t>* out) {
+  CV_Assert(depth.type() == CV_16UC1);
+  out->clear();
+  out->reserve(depth.total());
+  NibbleWriter w(out);
+  uint32_t zeros = 0;
+  std::vector<uint32_t> residuals;  // of the current run of valid pixels
+  residuals.reserve(depth.cols);
+  int last = 0;
+  auto flush_run = [&]() {
+    w.put(zeros);
+    w.put(static_cast<uint32_t>(residuals.size()));
+    for (uint32_t r : residuals) w.put(r);
+    zeros = 0;
+    residuals.clear();
+  };
+  for (int y = 0; y < depth.rows; ++y) {
+    const uint16_t* row = depth.ptr<uint16_t>(y);
+    const uint16_t* up = y > 0 ? depth.ptr<uint16_t>(y - 1) : nullptr;
+    for (int x = 0; x < depth.cols; ++x) {
+      const int v = row[x];
+      if (!v) {
+        if (!residuals.empty()) flush_run();
+        ++zeros;
+        continue;
+      }
+      residuals.push_back(zigzag(v - predict(row, up, x, last)));
+      last = v;
+    }
+  }
+  if (zeros || !residuals.empty()) flush_run();
+  w.flush();
+}
+
+bool decode_depth_lossless(const uint8_t* data, size_t size, int width, int height, cv::Mat* depth) {
+  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide) return false;
+  depth->create(height, width, CV_16UC1);  // freshly created: continuous
+  uint16_t* base = depth->ptr<uint16_t>(0);
+  NibbleReader r(data, size);
+  const size_t total = static_cast<size_t>(width) * height;
+  size_t i = 0;
+  int x = 0, y = 0, last = 0;
+  while (i < total) {
+    uint32_t zeros, valid;
+    if (!r.get(&zeros) || !r.get(&valid)) return false;
+    if (zeros > total - i || valid > total - i - zeros) return false;
+    std::memset(base + i, 0, zeros * sizeof(uint16_t));
+    i += zeros;
+    x += static_cast<int>(zeros % static_cast<uint32_t>(width));
+    y += static_cast<int>(zeros / static_cast<uint32_t>(width));
+    if (x >= width) {
+      x -= width;
+      ++y;
+    }
+    for (uint32_t k = 0; k < valid; ++k) {
+      uint16_t* row = base + static_cast<size_t>(y) * width;
+      uint32_t u;
+      if (!r.get(&u)) return false;
+      // In 64 bits: a residual may be anything up to +-2^31 in damaged data, and
+      // the sum must not overflow before it is checked.
+      const int64_t v = int64_t{predict(row, y > 0 ? row - width : nullptr, x, last)} + unzigzag(u);
+      if (v < 1 || v > 65535) return false;  // a valid pixel is never 0: damaged data
+      row[x] = static_cast<uint16_t>(v);
+      last = static_cast<int>(v);
+      if (++x == width) {
+        x = 0;
+        ++y;
+      }
+    }
+    i += valid;
+  }
+  return true;
+}
+
+void encode_labels(const cv::Mat& labels, std::vector<uint8_t>* out) {
+  CV_Assert(labels.type() == CV_8UC1);
+  out->clear();
+  NibbleWriter w(out);
+  int current = -1;
+  uint32_t run = 0;
+  for (int y = 0; y < labels.rows; ++y) {
+    const uint8_t* row = labels.ptr<uint8_t>(y);
+    for (int x = 0; x < labels.cols; ++x) {
+      if (row[x] == current) {
+        ++run;
+        continue;
+      }
+      if (run) {
+        w.put(static_cast<uint32_t>(current));
+        w.put(run);
+      }
+      current = row[x];
+      run = 1;
+    }
+  }
+  if (run) {
+    w.put(static_cast<uint32_t>(current));
+    w.put(run);
+  }
+  w.flush();
+}
+
+bool decode_labels(const uint8_t* data, size_t size, int width, int height, cv::Mat* labels) {
+  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide) return false;
+  labels->create(height, width, CV_8UC1);
+  NibbleReader r(data, size);
+  const size_t total = static_cast<size_t>(width) * height;
+  uint8_t* p = labels->ptr<uint8_t>(0);  // created continuous
+  size_t i = 0;
+  while (i < total) {
+    uint32_t value, run;
+    if (!r.get(&value) || !r.get(&run) || value > 255 || run == 0 || run > total - i) return false;
+    std::memset(p + i, static_cast<int>(value), run);
+    i += run;
+  }
+  return true;
+}
+
+void encode_jpeg(const cv::Mat& rgb, int quality, std::vector<uint8_t>* out) {
+  CV_Assert(rgb.type() == CV_8UC3);
+  jpeg_compress_struct cinfo;
+  JpegError err;
+  cinfo.err = jpeg_std_error(&err.mgr);
+  err.mgr.error_exit = jpeg_fail;
+  unsigned char* mem = nullptr;
+  unsigned long mem_size = 0;
+  if (setjmp(err.jump)) {
+    jpeg_destroy_compress(&cinfo);
+    free(mem);
+    throw std::runtime_error(std::string("JPEG encoder: ") + err.message);
+  }
+  jpeg_create_compress(&cinfo);
+  jpeg_mem_dest(&cinfo, &mem, &mem_size);
+  cinfo.image_width = static_cast<JDIMENSION>(rgb.cols);
+  cinfo.image_height = static_cast<JDIMENSION>(rgb.rows);
+  cinfo.input_components = 3;
+  cinfo.in_color_space = JCS_RGB;
+  jpeg_set_defaults(&cinfo);
+  jpeg_set_quality(&cinfo, quality, TRUE);
+  // At high quality, halving the chroma costs more than the bits it saves:
+  // the classroom's textures and the view synthesis downstream need the colour edges.
+  if (quality >= 90)
+    for (int c = 0; c < 3; ++c) cinfo.comp_info[c].h_samp_factor = cinfo.comp_info[c].v_samp_factor = 1;
+  cinfo.dct_method = JDCT_ISLOW;
+  jpeg_start_compress(&cinfo, TRUE);
+  while (cinfo.next_scanline < cinfo.image_height) {
+    JSAMPROW row = const_cast<JSAMPROW>(rgb.ptr<uint8_t>(static_cast<int>(cinfo.next_scanline)));
+    jpeg_write_scanlines(&cinfo, &row, 1);
+  }
+  jpeg_finish_compress(&cinfo);
+  jpeg_destroy_compress(&cinfo);
+  out->assign(mem, mem + mem_size);
+  free(mem);
+}
+
+bool decode_jpeg(const uint8_t* data, size_t size, int width, int height, cv::Mat* rgb, std::string* error) {
+  jpeg_decompress_struct cinfo;
+  JpegError err;
+  cinfo.err = jpeg_std_error(&err.mgr);
+  err.mgr.error_exit = jpeg_fail;
+  err.mgr.emit_message = jpeg_note;
+  if (setjmp(err.jump)) {
+    jpeg_destroy_decompress(&cinfo);
+    if (error) *error = std::string("JPEG: ") + err.message;
+    return false;
+  }
+  jpeg_create_decompress(&cinfo);
+  jpeg_mem_src(&cinfo, data, static_cast<unsigned long>(size));
+  if (jpeg_read_header(&cinfo, TRUE) != JPEG_HEADER_OK) {
+    jpeg_destroy_decompress(&cinfo);
+    if (error) *error = "JPEG: no image in the colour section";
+    return false;
+  }
+  // Checked before jpeg_start_decompress, which allocates for the declared
+  // size: a few bytes may declare 65535x65535. Only what encode_jpeg writes is
+  // accepted (3 components, sequential): a progressive stream could make the
+  // decoder spend seconds on a thousand scans.
+  if (cinfo.image_width != static_cast<JDIMENSION>(width) || cinfo.image_height != static_cast<JDIMENSION>(height)) {
+    jpeg_destroy_decompress(&cinfo);
+    if (error)
+      *error = "JPEG: image is " + std::to_string(cinfo.image_width) + "x" + std::to_string(cinfo.image_height) +
+               ", the stream's " + std::to_string(width) + "x" + std::to_string(height);
+    return false;
+  }
+  if (cinfo.num_components != 3 || cinfo.progressive_mode || cinfo.arith_code) {
+    jpeg_destroy_decompress(&cinfo);
+    if (error) *error = "JPEG: not a 3-component sequential Huffman JPEG (as rgbdenc writes)";
+    return false;
+  }
+  cinfo.out_color_space = JCS_RGB;
+  cinfo.dct_method = JDCT_ISLOW;
+  jpeg_start_decompress(&cinfo);
+  if (static_cast<int>(cinfo.output_width) != width || static_cast<int>(cinfo.output_height) != height ||
+      cinfo.output_components != 3) {
+    jpeg_destroy_decompress(&cinfo);
+    if (error) *error = "JPEG: image size differs from the stream's";
+    return false;
+  }
+  rgb->create(height, width, CV_8UC3);
+  while (cinfo.output_scanline < cinfo.output_height) {
+    JSAMPROW row = rgb->ptr<uint8_t>(static_cast<int>(cinfo.output_scanline));
+    jpeg_read_scanlines(&cinfo, &row, 1);
+  }
+  jpeg_finish_decompress(&cinfo);
+  jpeg_destroy_decompress(&cinfo);
+  if (err.warnings) {
+    if (error) *error = std::string("JPEG: corrupt data (") + err.message + ")";
+    return false;
+  }
+  return true;
+}
+
+void encode_rgbd_frame(const RgbdCodedFrame& f, int quality, std::vector<uint8_t>* out) {
+  CV_Assert(f.color.size() == f.depth.size());
+  struct Section {
+    uint8_t plane, codec;
+    std::vector<uint8_t> payload;
+  };
+  std::vector<Section> sections(f.label.empty() ? 2 : 3);
+  sections[0] = {kPlaneColor, kCodecJpeg, {}};
+  encode_jpeg(f.color, quality, &sections[0].payload);
+  sections[1] = {kPlaneDepth, kCodecDepthMed, {}};
+  encode_depth_lossless(f.depth, &sections[1].payload);
+  if (!f.label.empty()) {
+    sections[2] = {kPlaneLabel, kCodecLabelRuns, {}};
+    encode_labels(f.label, &sections[2].payload);
+  }
+  out->clear();
+  for (char c : {'V', 'C', 'R', 'D'}) out->push_back(static_cast<uint8_t>(c));
+  out->push_back(kVersion);
+  out->push_back(static_cast<uint8_t>(sections.size()));
+  out->push_back(0);
+  out->push_back(0);
+  put_u32(out, static_cast<uint32_t>(f.color.cols));
+  put_u32(out, static_cast<uint32_t>(f.color.rows));
+  for (const auto& s : sections) {
+    out->push_back(s.plane);
+    out->push_back(s.codec);
+    out->push_back(0);
+    out->push_back(0);
+    put_u32(out, static_cast<uint32_t>(s.payload.size()));
+    put_u32(out, crc32(s.payload.data(), s.payload.size()));
+    out->insert(out->end(), s.payload.begin(), s.payload.end());
+  }
+}
+
+bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, RgbdCodedFrame* f,
+                       std::string* error, RgbdFrameFault* fault) {
+  if (fault) *fault = RgbdFrameFault::kDamaged;
+  auto fail = [&](const std::string& why) {
+    if (error) *error = why;
+    return false;
+  };
+  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide)
+    return fail("stream size " + std::to_string(width) + "x" + std::to_string(height) + " out of range (1.." +
+                std::to_string(kMaxSide) + " per side)");
+  if (!data || size < kHeaderSize || std::memcmp(data, "VCRD", 4) != 0) return fail("not an rgbdenc frame (bad magic)");
+  if (data[4] != kVersion) return fail("unsupported frame version " + std::to_string(data[4]));
+  const int n = data[5];
+  if (get_u32(data + 8) != static_cast<uint32_t>(width) || get_u32(data + 12) != static_cast<uint32_t>(height)) {
+    if (fault) *fault = RgbdFrameFault::kWrongSize;
+    return fail("frame size " + std::to_string(get_u32(data + 8)) + "x" + std::to_string(get_u32(data + 12)) +
+                " differs from the caps' " + std::to_string(width) + "x" + std::to_string(height));
+  }
+  size_t at = kHeaderSize;
+  bool have_color = false, have_depth = false;
+  unsigned seen = 0;
+  f->label.release();
+  for (int i = 0; i < n; ++i) {
+    if (size - at < kSectionHeaderSize) return fail("truncated frame (section header)");
+    const uint8_t plane = data[at], codec = data[at + 1];
+    const uint32_t len = get_u32(data + at + 4), crc = get_u32(data + at + 8);
+    at += kSectionHeaderSize;
+    if (len > size - at) return fail("truncated frame (section " + std::to_string(i) + ")");
+    const uint8_t* payload = data + at;
+    if (crc32(payload, len) != crc) return fail("damaged frame (checksum of section " + std::to_string(i) + ")");
+    at += len;
+    // Each plane once: a repeated section would only make the decoder work twice.
+    if (plane < 3 && (seen & (1u << plane))) return fail("plane " + std::to_string(plane) + " appears twice");
+    if (plane < 3) seen |= 1u << plane;
+    std::string why;
+    if (plane == kPlaneColor && codec == kCodecJpeg) {
+      if (!decode_jpeg(payload, len, width, height, &f->color, &why)) return fail(why);
+      have_color = true;
+    } else if (plane == kPlaneDepth && codec == kCodecDepthMed) {
+      if (!decode_depth_lossless(payload, len, width, height, &f->depth)) return fail("malformed depth section");
+      have_depth = true;
+    } else if (plane == kPlaneLabel && codec == kCodecLabelRuns) {
+      if (!decode_labels(payload, len, width, height, &f->label)) return fail("malformed label section");
+    } else {
+      return fail("unknown section (plane " + std::to_string(plane) + ", codec " + std::to_string(codec) + ")");
+    }
+  }
+  if (!have_color || !have_depth) return fail("frame lacks its colour or depth section");
+  if (fault) *fault = RgbdFrameFault::kNone;
+  return true;
+}
+
+}  // namespace vclassroom

@@ -1,0 +1,573 @@
+#include <gst/vclassroom/vda/static_model.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <sys/stat.h>
+#include <unordered_map>
+
+#include <Eigen/Dense>
+#include <Eigen/Geometry>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/datasets/dataset.h>
+#include <gst/vclassroom/core/error.h>
+
+namespace vclassroom {
+
+namespace {
+
+bool is_dir(const std::string& p) {
+  struct stat st{};
+  return stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+void make_dir(const std::string& p) {
+  if (is_dir(p)) return;
+  if (mkdir(p.c_str(), 0755) != 0 && !is_dir(p)) throw Error(p + ": cannot create folder");
+}
+
+std::string prior_path(const std::string& folder, int id) {
+  return folder + "/prior-depth/cam" + std::to_string(id) + ".png";
+}
+
+std::string measured_path(const std::string& folder, int id) {
+  return folder + "/prior-measured/cam" + std::to_string(id) + ".png";
+}
+
+std::string color_path(const std::string& folder, int id) {
+  return folder + "/prior-color/cam" + std::to_string(id) + ".png";
+}
+
+// Camera-frame points of a depth image (metres), NaN where there is no depth.
+cv::Mat depth_points(const cv::Mat& depth, const CameraCalib& cam) {
+  cv::Mat pts(depth.size(), CV_32FC3, cv::Scalar::all(std::nanf("")));
+  for (int v = 0; v < depth.rows; ++v)
+    for (int u = 0; u < depth.cols; ++u) {
+      const int z = depth.at<uint16_t>(v, u);
+      if (!z) continue;
+      const Eigen::Vector3d p = cam.unproject(u, v, z * 0.001);
+      pts.at<cv::Vec3f>(v, u) = cv::Vec3f(float(p.x()), float(p.y()), float(p.z()));
+    }
+  return pts;
+}
+
+cv::Mat depth_normals(const cv::Mat& pts) {
+  cv::Mat n(pts.size(), CV_32FC3, cv::Scalar::all(std::nanf("")));
+  for (int v = 1; v + 1 < pts.rows; ++v)
+    for (int u = 1; u + 1 < pts.cols; ++u) {
+      const cv::Vec3f a = pts.at<cv::Vec3f>(v, u + 1) - pts.at<cv::Vec3f>(v, u - 1);
+      const cv::Vec3f b = pts.at<cv::Vec3f>(v + 1, u) - pts.at<cv::Vec3f>(v - 1, u);
+      if (std::isnan(a[0]) || std::isnan(b[0])) continue;
+      // Reject normals across depth edges.
+      if (cv::norm(a) > 0.05 || cv::norm(b) > 0.05) continue;
+      cv::Vec3f c = a.cross(b);
+      const float len = static_cast<float>(cv::norm(c));
+      if (len < 1e-9f) continue;
+      c /= len;
+      const cv::Vec3f p = pts.at<cv::Vec3f>(v, u);
+      if (c.dot(p) > 0) c = -c;  // towards the camera
+      n.at<cv::Vec3f>(v, u) = c;
+    }
+  return n;
+}
+
+RoomPlane fit_plane(const std::vector<Eigen::Vector3f>& pts, const std::vector<int>& idx) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int i : idx) c += pts[i].cast<double>();
+  c /= static_cast<double>(idx.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (int i : idx) {
+    const Eigen::Vector3d d = pts[i].cast<double>() - c;
+    cov += d * d.transpose();
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  RoomPlane p;
+  p.normal = es.eigenvectors().col(0).normalized();
+  p.offset = -p.normal.dot(c);
+  return p;
+}
+
+void name_planes(std::vector<RoomPlane>& planes) {
+  double lowest = 1e9, highest = -1e9;
+  int floor = -1, ceiling = -1;
+  for (size_t i = 0; i < planes.size(); ++i) {
+    const RoomPlane& p = planes[i];
+    if (std::abs(p.normal.y()) < 0.9) continue;
+    const double y = -p.offset / p.normal.y();
+    if (p.normal.y() > 0 && y < lowest) lowest = y, floor = static_cast<int>(i);
+    if (p.normal.y() < 0 && y > highest) highest = y, ceiling = static_cast<int>(i);
+  }
+  for (size_t i = 0; i < planes.size(); ++i) {
+    RoomPlane& p = planes[i];
+    if (static_cast<int>(i) == floor)
+      p.name = "floor";
+    else if (static_cast<int>(i) == ceiling)
+      p.name = "ceiling";
+    else if (p.normal.y() > 0.9)
+      p.name = "desk";
+    else if (std::abs(p.normal.y()) < 0.3)
+      p.name = "wall";
+    else
+      p.name = "plane";
+  }
+}
+
+}  // namespace
+
+const cv::Mat& StaticModel::prior(int id) const {
+  auto it = prior_depth.find(id);
+  if (it == prior_depth.end()) throw Error("static model: no prior depth for camera " + std::to_string(id));
+  return it->second;
+}
+
+cv::Mat StaticModel::color(int id) const {
+  auto it = prior_color.find(id);
+  return it == prior_color.end() ? cv::Mat() : it->second;
+}
+
+StaticPrior StaticModel::prior_for(int id) const {
+  StaticPrior p;
+  p.depth = prior(id);
+  p.color = color(id);
+  auto it = prior_measured.find(id);
+  if (it != prior_measured.end()) p.measured = it->second;
+  return p;
+}
+
+cv::Mat median_depth(const std::vector<cv::Mat>& frames, double min_share) {
+  if (frames.empty()) throw Error("median_depth: no frames");
+  const cv::Size size = frames[0].size();
+  for (const cv::Mat& f : frames)
+    if (f.type() != CV_16UC1 || f.size() != size) throw Error("median_depth: frames differ in size or type");
+  const size_t need = std::max<size_t>(1, static_cast<size_t>(std::ceil(min_share * frames.size())));
+  cv::Mat out(size, CV_16UC1, cv::Scalar(0));
+  std::vector<uint16_t> vals;
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      vals.clear();
+      for (const cv::Mat& f : frames)
+        if (uint16_t v = f.at<uint16_t>(y, x)) vals.push_back(v);
+      if (vals.size() < need) continue;
+      std::nth_element(vals.begin(), vals.begin() + vals.size() / 2, vals.end());
+      const int med = vals[vals.size() / 2];
+      // Flying pixels at depth edges jump between the surfaces from frame to
+      // frame: keep a pixel only when most measurements agree with the median.
+      const int tol = std::max(20, med / 50);
+      size_t agree = 0;
+      for (uint16_t v : vals) agree += std::abs(int(v) - med) <= tol;
+      if (agree < need) continue;
+      out.at<uint16_t>(y, x) = static_cast<uint16_t>(med);
+    }
+  return out;
+}
+
+std::vector<ExtrinsicsChange> refine_extrinsics(Rig& rig, const std::map<int, cv::Mat>& depth,
+                                                const StaticModelOptions& o) {
+  std::vector<ExtrinsicsChange> changes;
+  if (rig.cameras.empty()) return changes;
+  const CameraCalib& ref = rig.cameras[0];
+  auto rd = depth.find(ref.id);
+  if (rd == depth.end()) throw Error("refine_extrinsics: no depth for the reference camera " + std::to_string(ref.id));
+  const cv::Mat ref_pts = depth_points(rd->second, ref);
+  const cv::Mat ref_n = depth_normals(ref_pts);
+  for (size_t ci = 1; ci < rig.cameras.size(); ++ci) {
+    CameraCalib& cam = rig.cameras[ci];
+    auto d = depth.find(cam.id);
+    if (d == depth.end()) continue;
+    std::vector<Eigen::Vector3d> src;
+    for (int v = 0; v < d->second.rows; v += o.icp_stride)
+      for (int u = 0; u < d->second.cols; u += o.icp_stride)
+        if (int z = d->second.at<uint16_t>(v, u)) src.push_back(cam.unproject(u, v, z * 0.001));
+    Eigen::Isometry3d T = ref.cam_to_rig.inverse() * cam.cam_to_rig;  // cam -> ref
+    const Eigen::Isometry3d T0 = T;
+    ExtrinsicsChange ch;
+    ch.camera_id = cam.id;
+    double robust_c = o.icp_max_distance_m;
+    for (int it = 0; it < o.icp_iterations; ++it) {
+      const double maxd = std::max(0.03, o.icp_max_distance_m * std::pow(0.9, it));
+      Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+      Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+      double sse = 0;
+      int n = 0;
+      for (const Eigen::Vector3d& s : src) {
+        const Eigen::Vector3d q = T * s;
+        const auto px = ref.project(q);
+        if (!px) continue;
+        const int u = static_cast<int>(std::lround(px->x())), v = static_cast<int>(std::lround(px->y()));
+        if (u < 0 || v < 0 || u >= ref_pts.cols || v >= ref_pts.rows) continue;
+        const cv::Vec3f rp = ref_pts.at<cv::Vec3f>(v, u), rn = ref_n.at<cv::Vec3f>(v, u);
+        if (std::isnan(rp[0]) || std::isnan(rn[0])) continue;
+        const Eigen::Vector3d r(rp[0], rp[1], rp[2]), nn(rn[0], rn[1], rn[2]);
+        if ((q - r).norm() > maxd) continue;
+        const double e = nn.dot(q - r);
+        // Tukey weights: occlusion boundaries and flying pixels pair wrong surfaces.
+        const double ur = e / robust_c;
+        if (std::abs(ur) >= 1) continue;
+        const double wt = (1 - ur * ur) * (1 - ur * ur);
+        Eigen::Matrix<double, 6, 1> J;
+        J << q.cross(nn), nn;
+        A += wt * J * J.transpose();
+        b += wt * J * e;
+        sse += e * e;
+        ++n;
+      }
+      if (n < 6) break;
+      const double rms = std::sqrt(sse / n) * 1000.0;
+      robust_c = std::max(0.01, 3.0 * rms / 1000.0);
+      if (it == 0) ch.rms_before_mm = rms;
+      ch.rms_after_mm = rms;
+      ch.pairs = n;
+      const Eigen::Matrix<double, 6, 1> x = A.ldlt().solve(-b);
+      const Eigen::Vector3d w = x.head<3>();
+      Eigen::Isometry3d dT = Eigen::Isometry3d::Identity();
+      if (w.norm() > 1e-12) dT.linear() = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
+      dT.translation() = x.tail<3>();
+      T = dT * T;
+      if (x.norm() < 1e-7) break;
+    }
+    const Eigen::Isometry3d delta = T * T0.inverse();
+    ch.translation_mm = delta.translation().norm() * 1000.0;
+    ch.rotation_deg = Eigen::AngleAxisd(delta.linear()).angle() * 180.0 / M_PI;
+    cam.cam_to_rig = ref.cam_to_rig * T;
+    // Keep the rotation exactly orthonormal for the rig file.
+    cam.cam_to_rig.linear() = Eigen::Quaterniond(cam.cam_to_rig.linear()).normalized().toRotationMatrix();
+    changes.push_back(ch);
+  }
+  return changes;
+}
+
+std::vector<RoomPlane> find_planes(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& viewpoint,
+                                   const StaticModelOptions& o) {
+  std::vector<RoomPlane> planes;
+  std::vector<int> rest(points.size());
+  for (size_t i = 0; i < points.size(); ++i) rest[i] = static_cast<int>(i);
+  const size_t min_inliers = std::max<size_t>(200, static_cast<size_t>(o.min_plane_share * points.size()));
+  std::mt19937_64 rng(o.seed);
+  const float dist = static_cast<float>(o.plane_distance_m);
+  while (static_cast<int>(planes.size()) < o.max_planes && rest.size() >= min_inliers) {
+    // Score hypotheses on a subsample, then take inliers from all remaining points.
+    std::vector<int> sample = rest;
+    std::shuffle(sample.begin(), sample.end(), rng);
+    sample.resize(std::min<size_t>(sample.size(), 20000));
+    std::uniform_int_distribution<size_t> pick(0, rest.size() - 1);
+    Eigen::Vector3f best_n = Eigen::Vector3f::UnitY();
+    float best_d = 0;
+    size_t best_count = 0;
+    for (int it = 0; it < o.ransac_iterations; ++it) {
+      const Eigen::Vector3f a = points[rest[pick(rng)]], b = points[rest[pick(rng)]], c = points[rest[pick(rng)]];
+      Eigen::Vector3f n = (b - a).cross(c - a);
+      if (n.norm() < 1e-6f) continue;
+      n.normalize();
+      const float d = -n.dot(a);
+      size_t count = 0;
+      for (int i : sample) count += std::abs(n.dot(points[i]) + d) < dist;
+      if (count > best_count) best_count = count, best_n = n, best_d = d;
+    }
+    std::vector<int> in, out;
+    for (int i : rest) (std::abs(best_n.dot(points[i]) + best_d) < dist ? in : out).push_back(i);
+    if (in.size() < min_inliers) break;
+    RoomPlane p = fit_plane(points, in);
+    in.clear(), out.clear();
+    for (int i : rest)
+      (std::abs(p.normal.dot(points[i].cast<double>()) + p.offset) < o.plane_distance_m ? in : out).push_back(i);
+    if (in.size() < min_inliers) break;
+    p = fit_plane(points, in);
+    if (p.normal.dot(viewpoint) + p.offset < 0) p.normal = -p.normal, p.offset = -p.offset;
+    p.inliers = static_cast<int>(in.size());
+    planes.push_back(p);
+    rest.swap(out);
+  }
+  name_planes(planes);
+  return planes;
+}
+
+cv::Mat splat_depth(const std::vector<Eigen::Vector3f>& points, const CameraCalib& cam, double voxel_m) {
+  cv::Mat z(cam.height, cam.width, CV_16UC1, cv::Scalar(0));
+  const Eigen::Isometry3d to_cam = cam.cam_to_rig.inverse();
+  for (const Eigen::Vector3f& p : points) {
+    const Eigen::Vector3d q = to_cam * p.cast<double>();
+    if (q.z() <= 0.05) continue;
+    const auto px = cam.project(q);
+    if (!px) continue;
+    const int r = static_cast<int>(std::ceil(cam.fx * voxel_m / q.z() / 2.0));
+    const int u0 = static_cast<int>(std::lround(px->x())), v0 = static_cast<int>(std::lround(px->y()));
+    const int zmm = static_cast<int>(std::lround(q.z() * 1000.0));
+    if (zmm > 65535) continue;
+    for (int v = std::max(0, v0 - r); v <= std::min(cam.height - 1, v0 + r); ++v)
+      for (int u = std::max(0, u0 - r); u <= std::min(cam.width - 1, u0 + r); ++u) {
+        uint16_t& o = z.at<uint16_t>(v, u);
+        if (!o || zmm < o) o = static_cast<uint16_t>(zmm);
+      }
+  }
+  // Points of hidden surfaces show through the gaps between the splats of
+  // nearer ones: drop pixels much farther than the nearest splat around them.
+  cv::Mat inv(z.size(), CV_16UC1), near_inv;
+  for (int v = 0; v < z.rows; ++v)
+    for (int u = 0; u < z.cols; ++u) {
+      const int d = z.at<uint16_t>(v, u);
+      inv.at<uint16_t>(v, u) = d ? static_cast<uint16_t>(65535 - d) : 0;
+    }
+  cv::dilate(inv, near_inv, cv::Mat::ones(7, 7, CV_8U));
+  for (int v = 0; v < z.rows; ++v)
+    for (int u = 0; u < z.cols; ++u) {
+      uint16_t& d = z.at<uint16_t>(v, u);
+      const int nearest = 65535 - near_inv.at<uint16_t>(v, u);
+      if (d && d > nearest * 1.05 + 20) d = 0;
+    }
+  return z;
+}
+
+StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>& captures,
+                               const StaticModelOptions& o) {
+  StaticModel m;
+  m.rig = rig;
+  std::map<int, cv::Mat> depth;
+  std::map<int, cv::Mat> color;
+  for (const CameraCapture& c : captures) {
+    const CameraCalib* cam = rig.find(c.camera_id);
+    if (!cam) throw Error("static model: capture of camera " + std::to_string(c.camera_id) + " is not in the rig");
+    if (c.depth.empty()) throw Error("static model: camera " + std::to_string(c.camera_id) + " has no depth frames");
+    for (const cv::Mat& d : c.depth)
+      if (d.cols != cam->width || d.rows != cam->height || d.type() != CV_16UC1)
+        throw Error("static model: camera " + std::to_string(c.camera_id) + " depth is " + std::to_string(d.cols) +
+                    "x" + std::to_string(d.rows) + ", the rig says " + std::to_string(cam->width) + "x" +
+                    std::to_string(cam->height));
+    depth[c.camera_id] = median_depth(c.depth);
+    color[c.camera_id] = c.color;
+  }
+  for (const CameraCalib& cam : rig.cameras)
+    if (!depth.count(cam.id)) throw Error("static model: no capture of camera " + std::to_string(cam.id));
+  if (o.refine_extrinsics) m.refinement = refine_extrinsics(m.rig, depth, o);
+
+  // Fusion: every camera's median depth in the rig frame, averaged per voxel.
+  struct Acc {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    int n = 0;
+  };
+  std::unordered_map<int64_t, Acc> grid;
+  const double inv_voxel = 1.0 / o.voxel_m;
+  for (const CameraCalib& cam : m.rig.cameras) {
+    const cv::Mat& d = depth[cam.id];
+    const cv::Mat& col = color[cam.id];
+    for (int v = 0; v < d.rows; v += 2)
+      for (int u = 0; u < d.cols; u += 2) {
+        const int z = d.at<uint16_t>(v, u);
+        if (!z) continue;
+        const Eigen::Vector3d p = cam.cam_to_rig * cam.unproject(u, v, z * 0.001);
+        const int64_t ix = static_cast<int64_t>(std::floor(p.x() * inv_voxel)) + (1 << 20);
+        const int64_t iy = static_cast<int64_t>(std::floor(p.y() * inv_voxel)) + (1 << 20);
+        const int64_t iz = static_cast<int64_t>(std::floor(p.z() * inv_voxel)) + (1 << 20);
+        Acc& a = grid[(ix << 42) | (iy << 21) | iz];
+        a.p += p;
+        if (!col.empty()) {
+          const cv::Vec3b c = col.at<cv::Vec3b>(v, u);
+          a.c += Eigen::Vector3d(c[0], c[1], c[2]);
+        }
+        ++a.n;
+      }
+  }
+  m.points.reserve(grid.size());
+  m.colors.reserve(grid.size());
+  for (const auto& [key, a] : grid) {
+    (void)key;
+    m.points.push_back((a.p / a.n).cast<float>());
+    const Eigen::Vector3d c = a.c / a.n;
+    m.colors.emplace_back(cv::saturate_cast<uint8_t>(c.x()), cv::saturate_cast<uint8_t>(c.y()),
+                          cv::saturate_cast<uint8_t>(c.z()));
+  }
+  m.planes = find_planes(m.points, m.rig.cameras[0].center_in_rig(), o);
+
+  // Priors: the camera's own median depth, holes filled from the fused cloud,
+  // then offline completion guided by the camera's colour, then plane snapping.
+  for (const CameraCalib& cam : m.rig.cameras) {
+    cv::Mat prior = depth[cam.id].clone();
+    if (o.fill_from_other_cameras) {
+      const cv::Mat splat = splat_depth(m.points, cam, o.voxel_m);
+      for (int v = 0; v < prior.rows; ++v)
+        for (int u = 0; u < prior.cols; ++u)
+          if (!prior.at<uint16_t>(v, u)) prior.at<uint16_t>(v, u) = splat.at<uint16_t>(v, u);
+    }
+    cv::Mat unknown;
+    cv::compare(prior, 0, unknown, cv::CMP_EQ);
+    m.prior_measured[cam.id] = unknown == 0;
+    const cv::Mat& col = color[cam.id].empty() ? cv::Mat() : color[cam.id];
+    cv::Mat filled;
+    // The same order as per frame (depth_complete): the median last.
+    GuidedCompletionParams guided = o.guided;
+    guided.median = false;
+    guided_completion(prior, col, guided, filled);
+    colorization_fill(filled, col, unknown, o.colorize);
+    if (o.guided.median) filled_median(filled, unknown, o.guided.median_size, col, o.guided.median_color_distance);
+    if (o.snap_planes) {
+      const PlaneMaps maps = plane_maps_for_camera(m.planes, cam, filled, o.plane_tolerance);
+      plane_refine(filled, maps, cv::Mat(), o.plane_tolerance, filled);
+    }
+    m.prior_depth[cam.id] = filled;
+    if (!col.empty()) m.prior_color[cam.id] = col;
+  }
+  return m;
+}
+
+bool align_model_to_room(StaticModel& m) {
+  const RoomPlane* floor = nullptr;
+  const RoomPlane* wall = nullptr;
+  for (const RoomPlane& p : m.planes) {
+    if (p.name == "floor") floor = &p;
+    if (p.name == "wall" && (!wall || p.inliers > wall->inliers)) wall = &p;
+  }
+  if (!floor) return false;
+  const Eigen::Vector3d y = floor->normal.normalized();
+  Eigen::Vector3d x = Eigen::Vector3d::UnitX();
+  if (wall) x = y.cross(wall->normal);
+  x = (x - x.dot(y) * y).normalized();
+  if (x.x() < 0) x = -x;  // keep X roughly where it was
+  const Eigen::Vector3d z = x.cross(y);
+  Eigen::Matrix3d r;
+  r.row(0) = x.transpose();
+  r.row(1) = y.transpose();
+  r.row(2) = z.transpose();
+  Eigen::Isometry3d a = Eigen::Isometry3d::Identity();
+  a.linear() = r;
+  for (CameraCalib& c : m.rig.cameras) {
+    c.cam_to_rig = a * c.cam_to_rig;
+    c.cam_to_rig.linear() = Eigen::Quaterniond(c.cam_to_rig.linear()).normalized().toRotationMatrix();
+  }
+  for (RoomPlane& p : m.planes) p.normal = r * p.normal;
+  for (Eigen::Vector3f& p : m.points) p = (r * p.cast<double>()).cast<float>();
+  return true;
+}
+
+void write_ply(const std::string& path, const std::vector<Eigen::Vector3f>& points,
+               const std::vector<cv::Vec3b>& colors) {
+  std::ofstream f(path, std::ios::binary);
+  if (!f) throw Error(path + ": cannot write");
+  f << "ply\nformat binary_little_endian 1.0\ncomment gst-vclassroom static classroom model, rig frame, metres\n"
+    << "element vertex " << points.size()
+    << "\nproperty float x\nproperty float y\nproperty float z\n"
+    << "property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n";
+  for (size_t i = 0; i < points.size(); ++i) {
+    f.write(reinterpret_cast<const char*>(points[i].data()), 3 * sizeof(float));
+    const cv::Vec3b c = i < colors.size() ? colors[i] : cv::Vec3b(200, 200, 200);
+    f.write(reinterpret_cast<const char*>(&c[0]), 3);
+  }
+  if (!f) throw Error(path + ": write failed");
+}
+
+void save_static_model(const StaticModel& m, const std::string& folder) {
+  make_dir(folder);
+  make_dir(folder + "/prior-depth");
+  save_rig(m.rig, folder + "/rig.yaml");
+  {
+    std::ofstream f(folder + "/planes.csv");
+    if (!f) throw Error(folder + "/planes.csv: cannot write");
+    f.precision(17);
+    f << "name,nx,ny,nz,offset_m,inliers\n";
+    for (const RoomPlane& p : m.planes)
+      f << p.name << ',' << p.normal.x() << ',' << p.normal.y() << ',' << p.normal.z() << ',' << p.offset << ','
+        << p.inliers << '\n';
+  }
+  {
+    std::ofstream f(folder + "/refinement.csv");
+    f << "camera,translation_mm,rotation_deg,pairs,rms_before_mm,rms_after_mm\n";
+    for (const ExtrinsicsChange& c : m.refinement)
+      f << c.camera_id << ',' << c.translation_mm << ',' << c.rotation_deg << ',' << c.pairs << ',' << c.rms_before_mm
+        << ',' << c.rms_after_mm << '\n';
+  }
+  for (const auto& [id, prior] : m.prior_depth)
+    if (!cv::imwrite(prior_path(folder, id), prior)) throw Error(prior_path(folder, id) + ": cannot write");
+  if (!m.prior_measured.empty()) make_dir(folder + "/prior-measured");
+  for (const auto& [id, mask] : m.prior_measured)
+    if (!cv::imwrite(measured_path(folder, id), mask)) throw Error(measured_path(folder, id) + ": cannot write");
+  if (!m.prior_color.empty()) make_dir(folder + "/prior-color");
+  for (const auto& [id, col] : m.prior_color) {
+    cv::Mat bgr;
+    cv::cvtColor(col, bgr, cv::COLOR_RGB2BGR);
+    if (!cv::imwrite(color_path(folder, id), bgr)) throw Error(color_path(folder, id) + ": cannot write");
+  }
+  if (!m.points.empty()) write_ply(folder + "/fused.ply", m.points, m.colors);
+}
+
+StaticModel load_static_model(const std::string& folder) {
+  const std::string where = "static model folder '" + folder + "'";
+  if (folder.empty()) throw Error("static model: no model folder given");
+  if (!is_dir(folder)) throw Error(where + ": no such folder");
+  StaticModel m;
+  try {
+    m.rig = load_rig(folder + "/rig.yaml");
+  } catch (const Error& e) {
+    throw Error(where + ": " + e.what());
+  }
+  std::ifstream f(folder + "/planes.csv");
+  if (!f) throw Error(where + ": planes.csv is missing");
+  std::string line;
+  std::getline(f, line);
+  int n = 1;
+  // A room has a handful of planes; a file with thousands is not a model.
+  constexpr size_t kMaxPlanes = 1000;
+  while (std::getline(f, line)) {
+    ++n;
+    if (line.empty()) continue;
+    if (m.planes.size() >= kMaxPlanes)
+      throw Error(where + ": planes.csv line " + std::to_string(n) + ": more than " + std::to_string(kMaxPlanes) +
+                  " planes");
+    std::stringstream ss(line);
+    std::string field;
+    std::vector<std::string> fields;
+    while (fields.size() <= 6 && std::getline(ss, field, ',')) fields.push_back(field);
+    RoomPlane p;
+    try {
+      if (fields.size() != 6) throw std::invalid_argument("fields");
+      p.name = fields[0];
+      p.normal = Eigen::Vector3d(std::stod(fields[1]), std::stod(fields[2]), std::stod(fields[3]));
+      p.offset = std::stod(fields[4]);
+      p.inliers = std::stoi(fields[5]);
+    } catch (const std::exception&) {  // std::stod/stoi: invalid_argument, out_of_range
+      throw Error(where + ": planes.csv line " + std::to_string(n) +
+                  ": expected name,nx,ny,nz,offset_m,inliers, got '" + line.substr(0, 200) + "'");
+    }
+    if (!p.normal.allFinite() || !std::isfinite(p.offset) || p.inliers < 0)
+      throw Error(where + ": planes.csv line " + std::to_string(n) + ": expected finite numbers and inliers >= 0");
+    if (std::abs(p.normal.norm() - 1.0) > 1e-3)
+      throw Error(where + ": planes.csv line " + std::to_string(n) + ": the normal is not a unit vector");
+    m.planes.push_back(p);
+  }
+  // Images through the dataset reader: sizes checked (a PNG from its header,
+  // before decoding), OpenCV's exceptions turned into Errors naming the file.
+  auto exists = [](const std::string& p) {
+    struct stat st;
+    return stat(p.c_str(), &st) == 0;
+  };
+  for (const CameraCalib& cam : m.rig.cameras) {
+    const cv::Size size(cam.width, cam.height);
+    const std::string camera_name = "rig.yaml's camera " + std::to_string(cam.id);
+    const std::string path = prior_path(folder, cam.id);
+    if (!exists(path))
+      throw Error(where + ": prior depth of camera " + std::to_string(cam.id) + " (" + path + ") is missing");
+    try {
+      cv::Mat prior = read_image(path, cv::IMREAD_UNCHANGED, "prior depth", size, camera_name);
+      if (prior.type() != CV_16UC1) throw Error(path + " is not a 16-bit single-channel depth image (mm)");
+      m.prior_depth[cam.id] = prior;
+      // Optional: without it every prior pixel counts as measured.
+      if (exists(measured_path(folder, cam.id)))
+        m.prior_measured[cam.id] =
+            read_image(measured_path(folder, cam.id), cv::IMREAD_GRAYSCALE, "measured mask", size, camera_name);
+      // Optional: without it depthcomplete skips its colour test.
+      if (exists(color_path(folder, cam.id))) {
+        const cv::Mat bgr = read_image(color_path(folder, cam.id), cv::IMREAD_COLOR, "prior colour", size, camera_name);
+        cv::Mat rgb;
+        cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+        m.prior_color[cam.id] = rgb;
+      }
+    } catch (const Error& e) {
+      throw Error(where + ": " + e.what());
+    }
+  }
+  return m;
+}
+
+}  // namespace vclassroom

@@ -1,0 +1,323 @@
+#include <gst/vclassroom/vva/view_fuse.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/core/simd.h>
+
+namespace vclassroom {
+
+namespace {
+
+struct ViewRow {
+  const uint8_t* c;  // RGB
+  const uint16_t* d;
+  const uint8_t* l;  // a row of zeros for views without labels
+  const uint8_t* w;
+};
+
+// Per-row accumulators, kept in L1 while the views are added one by one.
+struct BlendScratch {
+  std::vector<int> zmin, lab, r, g, b, z;
+  std::vector<float> limit, weight, acc0, acc1, acc2, zsum, wsum, wbest;
+  std::vector<uint8_t> zeros;
+  void resize(int W) {
+    for (auto* v : {&limit, &weight, &acc0, &acc1, &acc2, &zsum, &wsum, &wbest}) v->resize(size_t(W));
+    for (auto* v : {&zmin, &lab, &r, &g, &b, &z}) v->resize(size_t(W));
+    zeros.assign(size_t(W), 0);
+  }
+};
+
+// A view's samples added to a row's accumulators; see blend_row. Separate
+// functions with restrict parameters, so that the compiler knows the rows do
+// not overlap and vectorises each loop.
+//
+// Every value is loaded whatever the selects decide and the label is picked
+// with a mask: a load the compiler may only do on one side of a condition
+// (the weight table, the label) keeps the loop from vectorising.
+VCLASSROOM_SIMD_INLINE void add_view(int W, const uint8_t* __restrict p, const uint16_t* __restrict d,
+                               const uint8_t* __restrict l, const float* __restrict wrow, const float* __restrict limit,
+                               float* __restrict a0, float* __restrict a1, float* __restrict a2, float* __restrict zs,
+                               float* __restrict ws, float* __restrict wb, int* __restrict lab) {
+  for (int x = 0; x < W; ++x) {
+    const int z = d[x];
+    const float zf = float(z);
+    const float wt = ((z != 0) & (zf <= limit[x])) ? wrow[x] : 0.f;
+    a0[x] += wt * float(p[3 * x]);
+    a1[x] += wt * float(p[3 * x + 1]);
+    a2[x] += wt * float(p[3 * x + 2]);
+    zs[x] += wt * zf;
+    ws[x] += wt;
+    const float wbx = wb[x];
+    const int labx = lab[x], lx = l[x];
+    const bool best = wt > wbx;
+    wb[x] = best ? wt : wbx;
+    lab[x] = labx ^ ((labx ^ lx) & -int(best));
+  }
+}
+
+VCLASSROOM_SIMD_INLINE void weights_of(int W, const uint8_t* __restrict w, const float* __restrict wlut,
+                                 float* __restrict wrow) {
+  for (int x = 0; x < W; ++x) wrow[x] = wlut[w[x]];
+}
+
+VCLASSROOM_SIMD_INLINE void nearest_of(int W, const uint16_t* __restrict d, const uint8_t* __restrict w,
+                                 int* __restrict zmin) {
+  for (int x = 0; x < W; ++x) {
+    const int z = d[x];
+    zmin[x] = ((z != 0) & (w[x] != 0) & (z < zmin[x])) ? z : zmin[x];
+  }
+}
+
+VCLASSROOM_SIMD_INLINE void start_row(int W, const int* __restrict zmin, float tol_mm, float tol_ratio,
+                                float* __restrict limit, float* __restrict a0, float* __restrict a1,
+                                float* __restrict a2, float* __restrict zs, float* __restrict ws, float* __restrict wb,
+                                int* __restrict lab) {
+  for (int x = 0; x < W; ++x) {
+    const float zf = float(zmin[x]), rel = tol_ratio * zf;
+    limit[x] = zf + (tol_mm < rel ? rel : tol_mm);
+    a0[x] = 0.f;
+    a1[x] = 0.f;
+    a2[x] = 0.f;
+    zs[x] = 0.f;
+    ws[x] = 0.f;
+    wb[x] = 0.f;  // every weight that counts is > 0
+    lab[x] = 0;
+  }
+}
+
+VCLASSROOM_SIMD_INLINE void finish_row(int W, const int* __restrict zmin, const float* __restrict a0,
+                                 const float* __restrict a1, const float* __restrict a2, const float* __restrict zs,
+                                 const float* __restrict ws, int* __restrict r, int* __restrict g, int* __restrict b,
+                                 int* __restrict z) {
+  for (int x = 0; x < W; ++x) {
+    const bool seen = zmin[x] != 65536;
+    const float iw = 1.0f / (ws[x] + (seen ? 0.f : 1.f));  // no weight where nothing is seen
+    const int keep = -int(seen);
+    r[x] = int(a0[x] * iw + 0.5f) & keep;
+    g[x] = int(a1[x] * iw + 0.5f) & keep;
+    b[x] = int(a2[x] * iw + 0.5f) & keep;
+    z[x] = int(zs[x] * iw + 0.5f) & keep;
+  }
+}
+
+// Narrowing and interleaving on their own: next to the float work above the
+// compiler does not vectorise them.
+VCLASSROOM_SIMD_INLINE void store_row(int W, const int* __restrict r, const int* __restrict g, const int* __restrict b,
+                                const int* __restrict z, const int* __restrict lab, uint8_t* __restrict oc,
+                                uint16_t* __restrict od, uint8_t* __restrict ol) {
+  for (int x = 0; x < W; ++x) {
+    oc[3 * x] = uint8_t(r[x]);
+    oc[3 * x + 1] = uint8_t(g[x]);
+    oc[3 * x + 2] = uint8_t(b[x]);
+    od[x] = uint16_t(z[x]);
+    ol[x] = uint8_t(lab[x]);  // 0 where nothing is seen: no view was best there
+  }
+}
+
+// One output row: the nearest sample's z-buffer test, then every view's
+// sample within the tolerance blended by weight. The views are added in the
+// same order and with the same float operations per pixel as a loop over the
+// views of each pixel would (a view that does not count adds exactly 0), so
+// the result does not depend on the vector width. `wlut` holds each weight
+// code's blending weight, 0 for code 0 (no sample).
+VCLASSROOM_SIMD_CLONES
+void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_mm, float tol_ratio, BlendScratch& s,
+               uint8_t* oc, uint16_t* od, uint8_t* ol) {
+  int* zmin = s.zmin.data();
+  for (int x = 0; x < W; ++x) zmin[x] = 65536;
+  for (int c = 0; c < k; ++c) nearest_of(W, rows[c].d, rows[c].w, zmin);
+  start_row(W, zmin, tol_mm, tol_ratio, s.limit.data(), s.acc0.data(), s.acc1.data(), s.acc2.data(), s.zsum.data(),
+            s.wsum.data(), s.wbest.data(), s.lab.data());
+  for (int c = 0; c < k; ++c) {
+    weights_of(W, rows[c].w, wlut, s.weight.data());
+    add_view(W, rows[c].c, rows[c].d, rows[c].l, s.weight.data(), s.limit.data(), s.acc0.data(), s.acc1.data(),
+             s.acc2.data(), s.zsum.data(), s.wsum.data(), s.wbest.data(), s.lab.data());
+  }
+  finish_row(W, zmin, s.acc0.data(), s.acc1.data(), s.acc2.data(), s.zsum.data(), s.wsum.data(), s.r.data(), s.g.data(),
+             s.b.data(), s.z.data());
+  store_row(W, s.r.data(), s.g.data(), s.b.data(), s.z.data(), s.lab.data(), oc, od, ol);
+}
+
+// Whether any of 4 depths packed in `v` is 0 (a hole).
+inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~v & 0x8000800080008000ull) != 0; }
+
+// The hole filling of fill_holes_from_background. Holes are few (a few % of
+// a fused view), so the work is arranged to cost little elsewhere: rows are
+// scanned four depths at a time for holes, a hole's left/right candidates are
+// the ends of its run in the row, and its up/down candidates come from a
+// per-column state (the known row above and below the column's current run
+// of holes, found by walking down the run once). Candidates are always known
+// pixels, which the filling never writes, so `color` is filled in place.
+// The smoothing box-blurs only the tiles holding filled pixels.
+void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px, cv::Mat* new_depth,
+                cv::Mat& mask) {
+  const int W = color.cols, H = color.rows;
+  constexpr int kTileW = 64, kTileH = 16;
+  const int tiles_x = (W + kTileW - 1) / kTileW, tiles_y = (H + kTileH - 1) / kTileH;
+  std::vector<uint8_t> tile_used(size_t(tiles_x) * tiles_y, 0);
+  // Per column: the known row above the current run of holes (-1: none) and
+  // the first known row below it (H: none); a run starts where below < y.
+  std::vector<int> above(size_t(W), -1), below(size_t(W), -1);
+  const float keep = float(1.0 - background_ratio);
+  bool any_hole = false;
+  struct Cand {
+    int z = 0, dist = 0;
+    const uint8_t* c = nullptr;
+  };
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* d = depth.ptr<uint16_t>(y);
+    uint8_t* c = color.ptr<uint8_t>(y);
+    uint16_t* nd = new_depth ? new_depth->ptr<uint16_t>(y) : nullptr;
+    uint8_t* m = mask.ptr<uint8_t>(y);
+    int x = 0;
+    while (x < W) {
+      if (x + 4 <= W) {
+        uint64_t v;
+        std::memcpy(&v, d + x, 8);
+        if (!any_zero_u16x4(v)) {
+          x += 4;
+          continue;
+        }
+      }
+      if (d[x]) {
+        ++x;
+        continue;
+      }
+      any_hole = true;
+      const int a = x;
+      while (x < W && !d[x]) ++x;
+      const int b = x - 1;  // holes a..b, known pixels (if any) at a - 1 and b + 1
+      for (int h = a; h <= b; ++h) {
+        if (below[h] < y) {
+          above[h] = y - 1;
+          int yb = y + 1;
+          while (yb < H && !depth.ptr<uint16_t>(yb)[h]) ++yb;
+          below[h] = yb;
+        }
+        Cand k[4];
+        if (a > 0) k[0] = Cand{d[a - 1], h - (a - 1), c + 3 * (a - 1)};
+        if (b + 1 < W) k[1] = Cand{d[b + 1], b + 1 - h, c + 3 * (b + 1)};
+        if (above[h] >= 0)
+          k[2] = Cand{depth.ptr<uint16_t>(above[h])[h], y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h};
+        if (below[h] < H)
+          k[3] = Cand{depth.ptr<uint16_t>(below[h])[h], below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h};
+        int zmax = 0;
+        for (const Cand& q : k) zmax = std::max(zmax, q.z);
+        if (!zmax) continue;
+        // Only the far (background) side counts, nearer candidates weighted more.
+        const float zlo = float(zmax) * keep;
+        float acc[3] = {0, 0, 0}, wsum = 0, zsum = 0;
+        for (const Cand& q : k) {
+          if (!q.z || q.z < zlo) continue;
+          const float w = 1.0f / float(q.dist);
+          acc[0] += w * q.c[0];
+          acc[1] += w * q.c[1];
+          acc[2] += w * q.c[2];
+          zsum += w * q.z;
+          wsum += w;
+        }
+        const float iw = 1.0f / wsum;
+        c[3 * h] = uint8_t(acc[0] * iw + 0.5f);
+        c[3 * h + 1] = uint8_t(acc[1] * iw + 0.5f);
+        c[3 * h + 2] = uint8_t(acc[2] * iw + 0.5f);
+        if (nd) nd[h] = uint16_t(zsum * iw + 0.5f);
+        m[h] = 255;
+        tile_used[size_t(y / kTileH) * tiles_x + h / kTileW] = 1;
+      }
+    }
+  }
+  if (!any_hole || smooth_px <= 0) return;
+  // Blur rects: runs of used tiles per band of rows. cv::blur on a view of
+  // the image reads the pixels around it from the whole image, so each rect
+  // comes out as the same part of a blur of the whole image; all are blurred
+  // before any is written back, as the blur reads the unblurred fill.
+  static thread_local cv::Mat blurred;
+  blurred.create(H, W, CV_8UC3);
+  std::vector<cv::Rect> rects;
+  for (int ty = 0; ty < tiles_y; ++ty)
+    for (int tx = 0; tx < tiles_x; ++tx) {
+      if (!tile_used[size_t(ty) * tiles_x + tx]) continue;
+      const int tx0 = tx;
+      while (tx + 1 < tiles_x && tile_used[size_t(ty) * tiles_x + tx + 1]) ++tx;
+      const int x0 = tx0 * kTileW, y0 = ty * kTileH;
+      rects.emplace_back(x0, y0, std::min(W, (tx + 1) * kTileW) - x0, std::min(H, y0 + kTileH) - y0);
+    }
+  const cv::Size box(2 * smooth_px + 1, 2 * smooth_px + 1);
+  for (const cv::Rect& r : rects) {
+    cv::Mat dst = blurred(r);
+    cv::blur(color(r), dst, box);
+  }
+  for (const cv::Rect& r : rects) blurred(r).copyTo(color(r), mask(r));
+}
+
+}  // namespace
+
+void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams& prm, FusedView* out) {
+  std::vector<const WarpedView*> views;
+  for (const WarpedView* v : views_in)
+    if (v && !v->color.empty()) views.push_back(v);
+  CV_Assert(!views.empty());
+  const cv::Size size = views[0]->color.size();
+  for (const WarpedView* v : views) CV_Assert(v->color.size() == size && v->depth.size() == size);
+  out->color.create(size, CV_8UC3);
+  out->depth.create(size, CV_16UC1);
+  out->label.create(size, CV_8UC1);
+  const int k = int(views.size());
+  float wlut[256];
+  wlut[0] = 0;  // no sample
+  for (int i = 1; i < 256; ++i) wlut[i] = float(std::pow(i / 255.0, prm.weight_power)) + 1e-6f;
+  const float tol_ratio = float(prm.depth_tol_ratio), tol_mm = float(prm.depth_tol_mm);
+  static thread_local BlendScratch scratch;
+  scratch.resize(size.width);
+  std::vector<ViewRow> rows(views.size());
+  for (int y = 0; y < size.height; ++y) {
+    for (int c = 0; c < k; ++c)
+      rows[c] = ViewRow{views[c]->color.ptr<uint8_t>(y), views[c]->depth.ptr<uint16_t>(y),
+                        views[c]->label.empty() ? scratch.zeros.data() : views[c]->label.ptr<uint8_t>(y),
+                        views[c]->weight.ptr<uint8_t>(y)};
+    blend_row(size.width, k, rows.data(), wlut, tol_mm, tol_ratio, scratch, out->color.ptr<uint8_t>(y),
+              out->depth.ptr<uint16_t>(y), out->label.ptr<uint8_t>(y));
+  }
+  // Reused like the other planes: a fresh 0.5 MB each frame costs page faults.
+  out->filled.create(size, CV_8UC1);
+  out->filled.setTo(0);
+  // The fused depth stays as seen (0 in the holes): the fill's depth is a guess.
+  if (prm.fill_holes)
+    fill_holes(out->color, out->depth, prm.background_ratio, prm.fill_smooth_px, nullptr, out->filled);
+}
+
+void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px,
+                                cv::Mat* filled) {
+  CV_Assert(color.type() == CV_8UC3 && depth.type() == CV_16UC1 && color.size() == depth.size());
+  cv::Mat mask = cv::Mat::zeros(color.size(), CV_8UC1);
+  if (filled) *filled = mask;  // shares the data
+  // The filled depth goes to a new buffer, as before: whoever shares the
+  // caller's depth keeps the unfilled one.
+  cv::Mat new_depth = depth.clone();
+  fill_holes(color, depth, background_ratio, smooth_px, &new_depth, mask);
+  depth = new_depth;
+}
+
+std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns) {
+  const WarpedPose* newest = nullptr;
+  for (const WarpedPose& p : inputs)
+    if (p.known && (!newest || p.seq > newest->seq)) newest = &p;
+  std::vector<bool> stale(inputs.size(), false);
+  if (!newest) return stale;
+  for (size_t i = 0; i < inputs.size(); ++i) {
+    const WarpedPose& p = inputs[i];
+    if (!p.known) {
+      stale[i] = true;
+    } else if (p.seq < newest->seq) {
+      const bool timed = p.viewer_time_ns >= 0 && newest->viewer_time_ns >= 0;
+      stale[i] = !timed || newest->viewer_time_ns - p.viewer_time_ns > window_ns;
+    }
+  }
+  return stale;
+}
+
+}  // namespace vclassroom

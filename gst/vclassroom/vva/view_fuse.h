@@ -1,0 +1,67 @@
+// V-VA step 3: fuses the cameras warped to the virtual view into one image
+// (docs/vva.md). GStreamer-free.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/vva/view_warp.h>
+
+namespace vclassroom {
+
+struct FuseParams {
+  // A camera's sample counts as the visible surface when it lies within
+  // max(depth_tol_mm, depth_tol_ratio * z) of the nearest sample of the pixel
+  // (z-buffer visibility); nearer samples occlude farther ones.
+  double depth_tol_ratio = 0.03;
+  double depth_tol_mm = 30;
+  // Blending weight = (warp quality)^weight_power: > 1 favours the best camera.
+  double weight_power = 2.0;
+  // Fill holes no camera covers from their background side.
+  bool fill_holes = true;
+  // A hole neighbour counts as background when its depth is within this share
+  // of the farthest neighbour found around the hole.
+  double background_ratio = 0.08;
+  // The filled pixels are then box-blurred over (2r+1)² : a fill can only
+  // guess, and a smooth guess errs least (on Middlebury Art/Aloe it is worth
+  // 0.5-1 dB, see docs/vva.md).
+  int fill_smooth_px = 3;
+};
+
+struct FusedView {
+  cv::Mat color;   // CV_8UC3 RGB
+  cv::Mat depth;   // CV_16UC1 mm, 0 where nothing was seen (before filling)
+  cv::Mat label;   // CV_8UC1
+  cv::Mat filled;  // CV_8UC1, 255 where the hole filling made the colour
+};
+
+// `views` all have the same size; null or empty entries (a stopped camera) are skipped.
+void fuse_views(const std::vector<const WarpedView*>& views, const FuseParams& params, FusedView* out);
+
+// Fills every pixel of `color` where `depth` is 0 from the nearest known
+// pixels along the row and column (both directions), keeping only those on
+// the far (background) side and weighting them by inverse distance, then
+// smooths the filled pixels with a (2 smooth_px + 1)² box. `depth` gets the
+// chosen background depth. `filled` (optional) marks what was filled.
+void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px = 3,
+                                cv::Mat* filled = nullptr);
+
+// The pose a camera's warped frame was made for (its PoseMeta), for the live
+// pairing in viewfuse.
+struct WarpedPose {
+  bool known = false;          // the frame carries a pose
+  uint64_t seq = 0;
+  int64_t viewer_time_ns = -1;  // when the viewer took the pose; < 0 unknown
+};
+
+// Live, one output frame should show one view: a camera's frame warped for
+// an older pose than the newest among `inputs` is stale, unless the viewer
+// took the two poses at most `window_ns` apart (the cameras' threads pick up
+// a new pose at slightly different moments; at 30 poses a second waiting for
+// exact agreement would drop frames all the time, while poses 50 ms apart
+// differ by a few centimetres and degrees). Frames without a pose are stale
+// when another has one. Returns one flag per input.
+std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns);
+
+}  // namespace vclassroom

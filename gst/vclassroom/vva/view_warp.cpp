@@ -1,0 +1,983 @@
+#include <gst/vclassroom/vva/view_warp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <limits>
+
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/core/simd.h>
+
+#ifdef __SSE2__
+#include <emmintrin.h>
+#endif
+
+namespace vclassroom {
+
+namespace {
+
+constexpr float kNear = 0.05f;  // metres: nearer points are behind the virtual lens
+// Source positions are kept in OpenCV's fixed-point remap format: 1/32 px.
+constexpr int kSubBits = cv::INTER_BITS;
+constexpr int kSub = 1 << kSubBits;
+// Link flags: same surface as the right / lower neighbour. Several bits each,
+// so that testing one is a compare, not a 1-bit cast GCC will not vectorise.
+constexpr uint32_t kRight = 0x0f, kDown = 0xf0;
+
+// What the z-buffer keeps per virtual pixel: the winning sample, colour
+// included. Nearly every sample written survives (a cell rarely lands behind
+// another), so sampling the colour when writing costs no more than after,
+// and reads the source near the row being splatted, in cache.
+struct Sample {
+  uint16_t z;  // mm along the virtual axis; kNoSample = nothing yet
+  uint8_t rgb[3];
+  uint8_t weight;  // 1..255
+  uint8_t label;
+  uint8_t unused;
+};
+constexpr uint16_t kNoSample = 0xffff;
+static_assert(sizeof(Sample) == 8, "one z-buffer record is 8 bytes");
+// An empty record as the z-buffer stores it (one word): z = kNoSample, the
+// rest 0.
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+constexpr uint64_t kEmptyRecord = uint64_t(kNoSample) << 48;
+#else
+constexpr uint64_t kEmptyRecord = kNoSample;
+#endif
+
+// floor/ceil without a libm call (x86-64 baseline has no SSE4.1 round).
+inline int fast_floor(float x) {
+  const int i = int(x);
+  return i > x ? i - 1 : i;
+}
+inline int fast_ceil(float x) {
+  const int i = int(x);
+  return i < x ? i + 1 : i;
+}
+
+bool same_intrinsics(const CameraCalib& a, const CameraCalib& b) {
+  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx &&
+         a.cy == b.cy && a.distortion == b.distortion;
+}
+
+// Median of the live depth of each learner label, for learner pixels without depth.
+void learner_median_depths(const uint16_t* depth, const uint8_t* label, int W, int H, uint16_t med[256]) {
+  std::vector<std::vector<uint16_t>> samples(256);
+  for (int y = 0; y < H; y += 2) {
+    const uint16_t* d = depth + size_t(y) * W;
+    const uint8_t* l = label + size_t(y) * W;
+    for (int x = 0; x < W; x += 2)
+      if (l[x] && d[x]) samples[l[x]].push_back(d[x]);
+  }
+  for (int k = 0; k < 256; ++k) {
+    auto& s = samples[k];
+    if (s.empty()) {
+      med[k] = 0;
+      continue;
+    }
+    std::nth_element(s.begin(), s.begin() + s.size() / 2, s.end());
+    med[k] = s[s.size() / 2];
+  }
+}
+
+// The per-pixel loops below are written branch-free so the compiler
+// vectorises them; the loader picks the AVX-512 or AVX2 clone where the CPU
+// has it (simd.h).
+
+// Layered depth of one row: learners keep their live depth, the room takes
+// its static depth where known.
+VCLASSROOM_SIMD_CLONES
+void layer_row(int n, const uint16_t* live, const uint16_t* stat, const uint8_t* lab, uint16_t* out) {
+  for (int i = 0; i < n; ++i) {
+    const uint16_t s = stat[i], d = live[i];
+    out[i] = ((lab[i] == 0) & (s != 0)) ? s : d;
+  }
+}
+
+// Whether a row has learner pixels without depth (most rows have none).
+VCLASSROOM_SIMD_CLONES
+bool has_learner_hole(int n, const uint8_t* lab, const uint16_t* depth) {
+  int any = 0;
+  for (int i = 0; i < n; ++i) any |= (lab[i] != 0) & (depth[i] == 0);
+  return any != 0;
+}
+
+// A step p1 -> p2 along a line is a depth edge when it is large and much
+// larger than the steps beside it (a slanted surface has steps too, but even
+// ones). code[i] = 1: the far side is i; 2: the far side is i + stride.
+VCLASSROOM_SIMD_CLONES
+void depth_edges(int n, const uint16_t* d, ptrdiff_t stride, uint16_t ratio_q16, uint16_t min_mm, uint8_t* code) {
+  // In 16-bit lanes throughout (twice as many per vector as 32-bit ones):
+  // differences are exact in unsigned 16 bits, 3 * side saturates, and the
+  // relative threshold is a high-half multiply.
+  for (int i = 0; i < n; ++i) {
+    const uint16_t p0 = d[i - stride], p1 = d[i], p2 = d[i + stride], p3 = d[i + 2 * stride];
+    const uint16_t step = uint16_t(p2 > p1 ? p2 - p1 : p1 - p2);
+    const uint16_t s0 = p0 ? uint16_t(p1 > p0 ? p1 - p0 : p0 - p1) : uint16_t(0);
+    const uint16_t s3 = p3 ? uint16_t(p3 > p2 ? p3 - p2 : p2 - p3) : uint16_t(0);
+    const uint16_t side = s0 > s3 ? s0 : s3;
+    const uint16_t side3 = uint16_t(side > 21845 ? 65535 : 3 * side);
+    const uint16_t nearer = p1 < p2 ? p1 : p2;
+    const uint16_t rel = uint16_t((uint32_t(nearer) * ratio_q16) >> 16);
+    const uint16_t lim = rel > min_mm ? rel : min_mm;
+    const bool edge = (p1 != 0) & (p2 != 0) & (step > lim) & (step > side3);
+    code[i] = edge ? (p1 > p2 ? 1 : 2) : 0;
+  }
+}
+
+// Marks, for the depth edges in `code` (depth_edges), the pixel k steps
+// beyond the far side: code 1 at j drops j - k*stride, code 2 at j drops
+// j + (k + 1)*stride. `count` pixels along the line, `stride` apart.
+VCLASSROOM_SIMD_CLONES
+void mark_far_side(int count, int k, ptrdiff_t stride, const uint8_t* __restrict code, uint8_t* __restrict drop) {
+  const size_t n = size_t(count) * stride, near = size_t(k) * stride, far = size_t(k + 1) * stride;
+  for (size_t i = 0; i + near < n; ++i) drop[i] |= code[i + near] == 1;
+  for (size_t i = far; i < n; ++i) drop[i] |= code[i - far] == 2;
+}
+
+VCLASSROOM_SIMD_CLONES
+void clear_dropped(size_t n, const uint8_t* __restrict drop, uint16_t* __restrict depth) {
+  for (size_t i = 0; i < n; ++i) depth[i] = drop[i] ? 0 : depth[i];
+}
+
+struct Projection {
+  float r[9], t[3];  // source camera -> virtual camera
+  float fx, fy, cx, cy;
+  float link_scale;  // virtual / source focal length
+  float link_gap;    // px
+};
+
+// Every source pixel into the virtual camera: position, depth (0 = not
+// drawn), the longest a one-pixel mesh edge may grow before it counts as
+// torn, and the camera's quality for the point: cos^8 of the angle between
+// its ray and the virtual ray (10° -> 0.89, 30° -> 0.32), times how much
+// nearer the virtual camera is.
+VCLASSROOM_SIMD_CLONES
+void project_points(size_t n, const uint16_t* zmm, const float* ray_x, const float* ray_y, const Projection& p,
+                    float* __restrict px, float* __restrict py, float* __restrict pz, float* __restrict plim,
+                    float* __restrict pw) {
+  const float r0 = p.r[0], r1 = p.r[1], r2 = p.r[2], r3 = p.r[3], r4 = p.r[4], r5 = p.r[5], r6 = p.r[6],
+              r7 = p.r[7], r8 = p.r[8], tx = p.t[0], ty = p.t[1], tz = p.t[2];
+  const float fx = p.fx, fy = p.fy, cx = p.cx, cy = p.cy, link_scale = p.link_scale, link_gap = p.link_gap;
+  for (size_t i = 0; i < n; ++i) {
+    const float z = float(zmm[i]) * 0.001f;
+    const float X = ray_x[i] * z, Y = ray_y[i] * z;
+    const float qx = r0 * X + r1 * Y + r2 * z + tx;
+    const float qy = r3 * X + r4 * Y + r5 * z + ty;
+    const float qz = r6 * X + r7 * Y + r8 * z + tz;
+    const bool valid = (zmm[i] != 0) & (qz >= kNear);
+    const float dx = qx - tx, dy = qy - ty, dz = qz - tz;  // from the source centre
+    const float nq2 = qx * qx + qy * qy + qz * qz, nd2 = std::max(dx * dx + dy * dy + dz * dz, 1e-12f);
+    // |q| |d|, and one division for both 1 / qz and 1 / (|q| |d|): division
+    // and square root are what this loop waits on.
+    const float qd = valid ? std::sqrt(nq2 * nd2) : 1.0f, vz = valid ? qz : 1.0f;
+    const float r = 1.0f / (vz * qd);
+    const float iz = qd * r, iqd = vz * r;
+    px[i] = fx * qx * iz + cx;
+    py[i] = fy * qy * iz + cy;
+    pz[i] = valid ? qz : 0.0f;
+    plim[i] = link_scale * z * iz + link_gap;
+    const float c = (qx * dx + qy * dy + qz * dz) * iqd;
+    const float c2 = c * c, c4 = c2 * c2, c8 = c4 * c4;
+    const float nearer = std::min(1.0f, nq2 * iqd);  // |q| / |d|
+    pw[i] = std::max(0.02f, c8) * nearer;
+  }
+}
+
+// flag on out[i] where pixels i and i + stride lie on the same surface: both
+// drawn, same label, and either close in depth or not torn apart by the view
+// (a slanted surface).
+VCLASSROOM_SIMD_CLONES
+void link_neighbours(size_t n, ptrdiff_t stride, const float* px, const float* py, const float* pz,
+                     const float* plim, const uint8_t* lab, float ratio, float min_m, uint32_t flag, uint32_t* out) {
+  for (size_t i = 0; i < n; ++i) {
+    const float zi = pz[i], zj = pz[i + stride];
+    const float dz = zi > zj ? zi - zj : zj - zi;
+    const float close = std::max(min_m, ratio * std::min(zi, zj));
+    const float dx = px[i] - px[i + stride], dy = py[i] - py[i + stride];
+    const bool near_in_view = dx * dx + dy * dy <= plim[i] * plim[i];
+    const bool same = (zi > 0) & (zj > 0) & (lab[i] == lab[i + stride]) & ((dz <= close) | near_in_view);
+    out[i] |= same ? flag : 0;
+  }
+}
+
+constexpr float kCell = 0.5f + 1e-3f;  // half a source pixel, and a hair to close cracks
+constexpr float kEdge = 0.02f;          // how far a cell reaches past its centre towards a depth edge
+
+// The cells of one source row, set up for the splat (see ViewWarper::warp).
+// A cell whose projection covers at most 2x2 virtual pixels (the view does
+// not magnify) is fully prepared here: which of the 2x2 candidates it covers
+// and the source position of each, in remap fixed point. Others are marked
+// kBigCell and handled one by one.
+constexpr int32_t kBigCell = 1 << 12;  // above every candidate mask
+// A cell side that borders its surface's neighbour (or the image border)
+// reaches half a pixel; towards a depth edge only kEdge.
+constexpr int32_t kOpenRight = 1, kOpenLeft = 2, kOpenDown = 4, kOpenUp = 8;
+struct CellRow {
+  int32_t* x0;  // first candidate column / row
+  int32_t* y0;
+  int32_t* x1;     // last column / row of the bounding box (big cells)
+  int32_t* y1;
+  int32_t* sides;  // which sides reach a full half pixel: kOpen* bits (big cells)
+  // 32-bit like everything else here: one byte-wide array would make the
+  // compiler process 32 pixels per step and spill most of its registers.
+  int32_t* mask;    // bit k: candidate (x0 + (k & 1), y0 + (k >> 1)) covered; or kBigCell; 0: not drawn
+  int32_t* weight;  // 1..255
+  float* su;  // source position of candidate 0 (unclamped)
+  float* sv;
+  float* dsu_dx;  // its change per virtual pixel to the right / down
+  float* dsv_dx;
+  float* dsu_dy;
+  float* dsv_dy;
+};
+
+// Depth in mm and weight in 1..255 as the z-buffer keeps them. The row
+// kernels convert to 32-bit lanes (narrower conversions cost them shuffles).
+// The mesh path extrapolates a little beyond its triangles: clamped both ways.
+inline int32_t depth_mm_lane(float z_m) { return int32_t(std::clamp(z_m * 1000.0f + 0.5f, 0.0f, 65534.0f)); }
+inline uint16_t depth_mm(float z_m) { return uint16_t(depth_mm_lane(z_m)); }
+inline int32_t weight_lane(float w) { return int32_t(std::clamp(w * 255.0f + 0.5f, 1.0f, 255.0f)); }
+inline uint8_t weight_byte(float w) { return uint8_t(weight_lane(w)); }
+// A source position in remap fixed point (1/32 px), clamped into the image.
+inline int32_t to_fixed(float s, float max) { return int32_t(std::clamp(s, 0.0f, max) * kSub + 0.5f); }
+
+struct CellGeometry {
+  int W, H, VW, VH;
+  float max_area;
+};
+
+// The virtual pixels a cell centred at (x, y) reaching hx, hy may cover,
+// clipped to the view; `drawable` false when that leaves none.
+struct CellBox {
+  int xmin, xmax, ymin, ymax;
+  bool drawable;
+};
+
+inline CellBox cell_box(const CellGeometry& g, float x, float y, float hx, float hy) {
+  const float VWf = float(g.VW), VHf = float(g.VH);
+  const bool in_view = (x + hx >= 0) & (y + hy >= 0) & (x - hx <= VWf) & (y - hy <= VHf);
+  // Clamped before the integer conversion: off-view points can be far out.
+  const float xl = std::clamp(x - hx, -2.0f, VWf + 2), xh = std::clamp(x + hx, -2.0f, VWf + 2);
+  const float yl = std::clamp(y - hy, -2.0f, VHf + 2), yh = std::clamp(y + hy, -2.0f, VHf + 2);
+  CellBox b;
+  b.xmin = std::max(0, fast_ceil(xl));
+  b.xmax = std::min(g.VW - 1, fast_floor(xh));
+  b.ymin = std::max(0, fast_ceil(yl));
+  b.ymax = std::min(g.VH - 1, fast_floor(yh));
+  b.drawable = in_view & (b.xmin <= b.xmax) & (b.ymin <= b.ymax);
+  return b;
+}
+
+// px..links point at the row's first pixel; the arrays are padded by a row
+// and a pixel on both sides, so the neighbours of border pixels can be read.
+VCLASSROOM_SIMD_CLONES
+void prepare_cells(const CellGeometry& g, int v, int u_begin, int u_end, const float* __restrict px,
+                   const float* __restrict py, const float* __restrict pz, const float* __restrict pw,
+                   const uint32_t* __restrict links, const uint32_t* __restrict links_up, const CellRow& out) {
+  const int W = g.W, H = g.H;
+  const float max_area = g.max_area;
+  const float fv = float(v);
+  const bool has_up = v > 0, has_down_border = v + 1 >= H, top = v == 0;
+  int32_t* __restrict ox0 = out.x0;
+  int32_t* __restrict oy0 = out.y0;
+  int32_t *__restrict ox1 = out.x1, *__restrict oy1 = out.y1, *__restrict osides = out.sides;
+  int32_t* __restrict omask = out.mask;
+  int32_t* __restrict ow = out.weight;
+  float *__restrict osu = out.su, *__restrict osv = out.sv, *__restrict oa00 = out.dsu_dx,
+        *__restrict oa10 = out.dsv_dx, *__restrict oa01 = out.dsu_dy, *__restrict oa11 = out.dsv_dy;
+  // The outputs are distinct arrays (GCC does not take __restrict on locals
+  // as proof).
+#pragma GCC ivdep
+  for (int u = u_begin; u < u_end; ++u) {
+    const float zi = pz[u], x = px[u], y = py[u];
+    const bool right = (links[u] & kRight) != 0, down = (links[u] & kDown) != 0;
+    const bool left = (u > 0) & ((links[u - 1] & kRight) != 0);
+    const bool up = has_up & ((links_up[u] & kDown) != 0);
+    const float rxu = px[u + 1] - x, ryu = py[u + 1] - y, lxu = x - px[u - 1], lyu = y - py[u - 1];
+    const float dxv = px[u + W] - x, dyv = py[u + W] - y, uxv = x - px[u - W], uyv = y - py[u - W];
+    const bool hu = right | left, hv = down | up;
+    float jxu = right ? rxu : lxu, jyu = right ? ryu : lyu;
+    float jxv = down ? dxv : uxv, jyv = down ? dyv : uyv;
+    // A one-pixel-wide strip: assume a square cell.
+    jxu = hu ? jxu : jyv;
+    jyu = hu ? jyu : -jxv;
+    jxv = hv ? jxv : -jyu;
+    jyv = hv ? jyv : jxu;
+    const float det = jxu * jyv - jxv * jyu;
+    const float area = std::fabs(det);
+    const float hx = kCell * (std::fabs(jxu) + std::fabs(jxv)), hy = kCell * (std::fabs(jyu) + std::fabs(jyv));
+    const CellBox box = cell_box(g, x, y, hx, hy);
+    const int xmin = box.xmin, xmax = box.xmax, ymin = box.ymin, ymax = box.ymax;
+    const bool drawn = (zi > 0) & (hu | hv) & (area >= 1e-6f) & (area <= max_area) & box.drawable;
+    const bool small = (xmax - xmin <= 1) & (ymax - ymin <= 1);
+    // Towards a depth edge the cell ends at the pixel centre, like the mesh:
+    // the surface is not known to go on beyond it.
+    const bool open_right = right | (u + 1 >= W), open_left = left | (u == 0);
+    const bool open_down = down | has_down_border, open_up = up | top;
+    const float umax = open_right ? kCell : kEdge, umin = open_left ? -kCell : -kEdge;
+    const float vmax = open_down ? kCell : kEdge, vmin = open_up ? -kCell : -kEdge;
+    const float idet = 1.0f / (drawn ? det : 1.0f);
+    const float a00 = jyv * idet, a01 = -jxv * idet, a10 = -jyu * idet, a11 = jxu * idet;
+    const float dx0 = float(xmin) - x, dy0 = float(ymin) - y;
+    const bool has_x1 = xmax > xmin, has_y1 = ymax > ymin;
+    const float fu = float(u);
+    int mask = 0;
+    for (int k = 0; k < 4; ++k) {
+      const float dx = dx0 + float(k & 1), dy = dy0 + float(k >> 1);
+      const float du = a00 * dx + a01 * dy, dv = a10 * dx + a11 * dy;
+      const bool exists = ((k & 1) == 0 || has_x1) & ((k >> 1) == 0 || has_y1);
+      const bool inside = exists & (du <= umax) & (du >= umin) & (dv <= vmax) & (dv >= vmin);
+      mask |= inside ? (1 << k) : 0;
+    }
+    osu[u] = fu + a00 * dx0 + a01 * dy0;
+    osv[u] = fv + a10 * dx0 + a11 * dy0;
+    oa00[u] = a00;
+    oa10[u] = a10;
+    oa01[u] = a01;
+    oa11[u] = a11;
+    omask[u] = drawn ? (small ? mask : kBigCell) : 0;
+    ox0[u] = xmin;
+    oy0[u] = ymin;
+    ox1[u] = xmax;
+    oy1[u] = ymax;
+    osides[u] = (open_right ? kOpenRight : 0) | (open_left ? kOpenLeft : 0) | (open_down ? kOpenDown : 0) |
+                (open_up ? kOpenUp : 0);
+    const float w = pw[u] / std::sqrt(std::max(area, 1.0f));
+    ow[u] = weight_lane(w);
+  }
+}
+
+
+// A 2x2 block's cell: a source pixel and a hair on every side of the block's centre.
+constexpr float kBlock = 1.0f + 1e-3f;
+// Which of the 3x3 candidates a block cell covers: bit k is
+// (x0 + k % 3, y0 + k / 3).
+constexpr int kBlockCandidates = 9;
+constexpr float kBlockKx[kBlockCandidates] = {0, 1, 2, 0, 1, 2, 0, 1, 2};
+constexpr float kBlockKy[kBlockCandidates] = {0, 0, 0, 1, 1, 1, 2, 2, 2};
+// Runs of pixels without a block cell are set up in whole chunks of this
+// many pixels (a multiple of every vector width), so that prepare_cells never
+// ends in its scalar remainder loop; runs in the same or adjacent chunks are
+// set up as one. The block pixels this adds are skipped in the splat.
+constexpr int kRunChunk = 16;
+// How much the step to the next pixel may differ from the step within the
+// block (px in the view) for the block to be one cell.
+constexpr float kBlockBend = 0.5f;
+
+// The 2x2 blocks (u, u + 1) x (v, v + 1), u = 2j, of a pair of source rows
+// (v even): a block whose four pixels are linked to each other and to all
+// their neighbours outside (one surface, no edge, not at the image border) is
+// one cell of twice the size, mapped by the mean of the block's differences
+// around the mean of its four points; out.sides[j] says which blocks are
+// (their four pixels then get no cell of their own). The rest as
+// prepare_cells, with out.z the block's depth in mm.
+VCLASSROOM_SIMD_CLONES
+void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __restrict px, const float* __restrict py,
+                    const float* __restrict pz, const float* __restrict pw, const uint32_t* __restrict links,
+                    const uint32_t* __restrict links_down, const uint32_t* __restrict links_up,
+                    const CellRow& out, int32_t* __restrict oz, float max_u, float max_v,
+                    int32_t* __restrict ofixed) {
+  const int W = g.W;
+  const float max_area = g.max_area;
+  const float fv = float(v) + 0.5f;
+  int32_t* __restrict ox0 = out.x0;
+  int32_t* __restrict oy0 = out.y0;
+  int32_t *__restrict ox1 = out.x1, *__restrict oy1 = out.y1, *__restrict ocoarse = out.sides;
+  int32_t* __restrict omask = out.mask;
+  int32_t* __restrict ow = out.weight;
+  float *__restrict osu = out.su, *__restrict osv = out.sv, *__restrict oa00 = out.dsu_dx,
+        *__restrict oa10 = out.dsv_dx, *__restrict oa01 = out.dsu_dy, *__restrict oa11 = out.dsv_dy;
+#pragma GCC ivdep
+  for (int j = 0; j < blocks; ++j) {
+    const int u = 2 * j;
+    const uint32_t inside_links = links[u] & links[u + 1] & links_down[u] & links_down[u + 1];
+    const uint32_t from_left = links[u - 1] & links_down[u - 1], from_up = links_up[u] & links_up[u + 1];
+    const bool linked = ((inside_links & kRight) != 0) & ((inside_links & kDown) != 0) &
+                        ((from_left & kRight) != 0) & ((from_up & kDown) != 0);
+    const float x00 = px[u], x10 = px[u + 1], x01 = px[u + W], x11 = px[u + W + 1];
+    const float y00 = py[u], y10 = py[u + 1], y01 = py[u + W], y11 = py[u + W + 1];
+    const float x = 0.25f * ((x00 + x10) + (x01 + x11)), y = 0.25f * ((y00 + y10) + (y01 + y11));
+    const float jxu = 0.5f * ((x10 - x00) + (x11 - x01)), jyu = 0.5f * ((y10 - y00) + (y11 - y01));
+    const float jxv = 0.5f * ((x01 - x00) + (x11 - x10)), jyv = 0.5f * ((y01 - y00) + (y11 - y10));
+    // Smooth in the view too: the fine cells of the block's right column and
+    // lower row reach towards the next pixels with the differences to them
+    // (across a gap the view opens within a surface); the block's cell only
+    // where those equal its own.
+    const float x20 = px[u + 2], x21 = px[u + W + 2], x02 = px[u + 2 * W], x12 = px[u + 2 * W + 1];
+    const float y20 = py[u + 2], y21 = py[u + W + 2], y02 = py[u + 2 * W], y12 = py[u + 2 * W + 1];
+    // (Shorter is harmless: the cells overlap and the z-buffer keeps one.)
+    auto l1 = [](float dx, float dy) { return std::fabs(dx) + std::fabs(dy); };
+    const bool smooth = (l1(x20 - x10, y20 - y10) <= l1(x10 - x00, y10 - y00) + kBlockBend) &
+                        (l1(x21 - x11, y21 - y11) <= l1(x11 - x01, y11 - y01) + kBlockBend) &
+                        (l1(x02 - x01, y02 - y01) <= l1(x01 - x00, y01 - y00) + kBlockBend) &
+                        (l1(x12 - x11, y12 - y11) <= l1(x11 - x10, y11 - y10) + kBlockBend);
+    const bool coarse = linked & smooth;
+    const float z00 = pz[u], z10 = pz[u + 1], z01 = pz[u + W], z11 = pz[u + W + 1];
+    // The four's mean (their nearest gives the same figures to 0.01 dB).
+    const float z = 0.25f * ((z00 + z10) + (z01 + z11));
+    const float det = jxu * jyv - jxv * jyu;
+    const float area = std::fabs(det);
+    const float hx = kBlock * (std::fabs(jxu) + std::fabs(jxv)), hy = kBlock * (std::fabs(jyu) + std::fabs(jyv));
+    const CellBox box = cell_box(g, x, y, hx, hy);
+    const int xmin = box.xmin, xmax = box.xmax, ymin = box.ymin, ymax = box.ymax;
+    const bool drawn = coarse & (area >= 1e-6f) & (area <= max_area) & box.drawable;
+    const bool small = (xmax - xmin <= 2) & (ymax - ymin <= 2);
+    const float idet = 1.0f / (drawn ? det : 1.0f);
+    const float a00 = jyv * idet, a01 = -jxv * idet, a10 = -jyu * idet, a11 = jxu * idet;
+    const float dx0 = float(xmin) - x, dy0 = float(ymin) - y;
+    const float du0 = a00 * dx0 + a01 * dy0, dv0 = a10 * dx0 + a11 * dy0;
+    osu[j] = float(u) + 0.5f + du0;
+    osv[j] = fv + dv0;
+    oa00[j] = a00;
+    oa10[j] = a10;
+    oa01[j] = a01;
+    oa11[j] = a11;
+    omask[j] = drawn ? (small ? -1 : kBigCell) : 0;  // -1: the candidates below
+    ocoarse[j] = coarse ? 1 : 0;
+    ox0[j] = xmin;
+    oy0[j] = ymin;
+    ox1[j] = xmax;
+    oy1[j] = ymax;
+    oz[j] = depth_mm_lane(z);
+    const float pwm = 0.25f * ((pw[u] + pw[u + 1]) + (pw[u + W] + pw[u + W + 1]));
+    const float w = pwm / std::sqrt(std::max(area, 1.0f));
+    ow[j] = weight_lane(w);
+  }
+  // Which candidates each cell covers, in a second pass (one pass needs more
+  // vector registers than there are).
+#pragma GCC ivdep
+  for (int j = 0; j < blocks; ++j) {
+    const float du0 = osu[j] - (float(2 * j) + 0.5f), dv0 = osv[j] - fv;
+    const float a00 = oa00[j], a10 = oa10[j], a01 = oa01[j], a11 = oa11[j];
+    const int nx = ox1[j] - ox0[j], ny = oy1[j] - oy0[j];
+    // The pre-image of candidate (kx, ky): that of candidate 0 plus kx and ky
+    // steps (2 a = a + a exactly).
+    const float dux[3] = {0.0f, a00, a00 + a00}, dvx[3] = {0.0f, a10, a10 + a10};
+    const float duy[3] = {0.0f, a01, a01 + a01}, dvy[3] = {0.0f, a11, a11 + a11};
+    int mask = 0;
+    for (int k = 0; k < kBlockCandidates; ++k) {
+      const int kx = k % 3, ky = k / 3;
+      const float du = (du0 + duy[ky]) + dux[kx], dv = (dv0 + dvy[ky]) + dvx[kx];
+      const bool exists = (kx <= nx) & (ky <= ny);
+      const bool inside = exists & (std::fabs(du) <= kBlock) & (std::fabs(dv) <= kBlock);
+      mask |= inside ? (1 << k) : 0;
+    }
+    const int32_t m = omask[j];
+    omask[j] = m == -1 ? mask : m;
+  }
+  // Every candidate's source position in fixed point, u of candidate k of
+  // block j at ofixed[k * blocks + j], v kBlockCandidates * blocks further:
+  // here all in vectors, where the splat would convert them one by one.
+  for (int k = 0; k < kBlockCandidates; ++k) {
+    const float kx = kBlockKx[k], ky = kBlockKy[k];
+    int32_t* __restrict ofu = ofixed + size_t(k) * blocks;
+    int32_t* __restrict ofv = ofu + size_t(kBlockCandidates) * blocks;
+#pragma GCC ivdep
+    for (int j = 0; j < blocks; ++j) {
+      ofu[j] = to_fixed(osu[j] + oa00[j] * kx + oa01[j] * ky, max_u);
+      ofv[j] = to_fixed(osv[j] + oa10[j] * kx + oa11[j] * ky, max_v);
+    }
+  }
+}
+
+// Bilinear colour of the source at a fixed-point position (1/32 px) inside
+// the image, packed 0x00bbggrr. Taken for nearly every virtual pixel of every
+// camera: with SSE2 the three channels go through one multiply-add per stage
+// (exactly the same integers as the scalar form, which serves the last
+// row and column, where the neighbour to the right or below is the pixel
+// itself, and machines without SSE2).
+struct ColorSampler {
+  const uint8_t* data;
+  size_t step;
+  int max_x, max_y;
+  uint32_t operator()(int32_t fu, int32_t fv) const {
+    const int ix = fu >> kSubBits, iy = fv >> kSubBits, fx = fu & (kSub - 1), fy = fv & (kSub - 1);
+    const uint8_t* p0 = data + size_t(iy) * step + 3 * size_t(ix);
+#ifdef __SSE2__
+    if ((ix < max_x) & (iy < max_y)) {
+      // Bytes 0..5 of both rows (two pixels), read as 0..3 and 2..5 so
+      // nothing past the right neighbour is touched.
+      auto load = [](const uint8_t* p) {
+        uint32_t v;
+        std::memcpy(&v, p, sizeof v);
+        return _mm_cvtsi32_si128(int(v));
+      };
+      const uint8_t* p1 = p0 + step;
+      const __m128i zero = _mm_setzero_si128();
+      const __m128i top = _mm_unpacklo_epi8(_mm_unpacklo_epi8(load(p0), _mm_srli_epi32(load(p0 + 2), 8)), zero);
+      const __m128i bot = _mm_unpacklo_epi8(_mm_unpacklo_epi8(load(p1), _mm_srli_epi32(load(p1 + 2), 8)), zero);
+      // 16-bit lanes r0 r1 g0 g1 b0 b1 . . : one madd blends each pair.
+      const __m128i wx = _mm_set1_epi32((fx << 16) | (kSub - fx)), wy = _mm_set1_epi32((fy << 16) | (kSub - fy));
+      const __m128i ht = _mm_madd_epi16(top, wx), hb = _mm_madd_epi16(bot, wx);  // <= 255 * 32 each
+      __m128i v = _mm_madd_epi16(_mm_or_si128(ht, _mm_slli_epi32(hb, 16)), wy);
+      v = _mm_srli_epi32(_mm_add_epi32(v, _mm_set1_epi32(kSub * kSub / 2)), 2 * kSubBits);
+      v = _mm_packs_epi32(v, v);
+      return uint32_t(_mm_cvtsi128_si32(_mm_packus_epi16(v, v))) & 0xffffffu;
+    }
+#endif
+    const uint8_t* p1 = iy < max_y ? p0 + step : p0;
+    const int dx = ix < max_x ? 3 : 0;
+    const int w00 = (kSub - fx) * (kSub - fy), w01 = fx * (kSub - fy), w10 = (kSub - fx) * fy, w11 = fx * fy;
+    uint32_t rgb = 0;
+    for (int c = 0; c < 3; ++c)
+      rgb |= uint32_t((w00 * p0[c] + w01 * p0[dx + c] + w10 * p1[c] + w11 * p1[dx + c] + kSub * kSub / 2) >>
+                      (2 * kSubBits))
+             << (8 * c);
+    return rgb;
+  }
+};
+
+
+inline void store(Sample& s, uint16_t zmm, int32_t fu, int32_t fv, const ColorSampler& color, uint8_t weight,
+                  uint8_t label) {
+  const uint32_t rgb = color(fu, fv);
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
+  // The whole record in one store.
+  static_assert(offsetof(Sample, rgb) == 2 && offsetof(Sample, weight) == 5 && offsetof(Sample, label) == 6,
+                "the record's layout as store() packs it");
+  const uint64_t record = uint64_t(zmm) | uint64_t(rgb) << 16 | uint64_t(weight) << 40 | uint64_t(label) << 48;
+  std::memcpy(&s, &record, sizeof record);
+#else
+  s.z = zmm;
+  for (int c = 0; c < 3; ++c) s.rgb[c] = uint8_t(rgb >> (8 * c));
+  s.weight = weight;
+  s.label = label;
+#endif
+}
+
+
+// Holes keep the initial record: colour, weight and label 0, depth "none".
+// (The caller empties the records again: a store of Samples in this loop
+// would keep it from vectorising.)
+VCLASSROOM_SIMD_CLONES
+void unpack_samples(int n, Sample* __restrict s, uint8_t* __restrict rgb, uint16_t* __restrict depth,
+                    uint8_t* __restrict label, uint8_t* __restrict weight) {
+  for (int i = 0; i < n; ++i) {
+    depth[i] = s[i].z == kNoSample ? 0 : s[i].z;
+    rgb[3 * i] = s[i].rgb[0];
+    rgb[3 * i + 1] = s[i].rgb[1];
+    rgb[3 * i + 2] = s[i].rgb[2];
+    label[i] = s[i].label;
+    weight[i] = s[i].weight;
+  }
+}
+
+}  // namespace
+
+CameraCalib virtual_camera(const CameraCalib& base, const Eigen::Isometry3d& cam_to_rig, double fov_deg) {
+  CameraCalib v = base;
+  v.distortion = {0, 0, 0, 0, 0};
+  v.depth_to_color.reset();
+  v.cam_to_rig = cam_to_rig;
+  if (std::isfinite(fov_deg) && fov_deg > 0 && fov_deg < 180) {
+    v.fx = v.fy = 0.5 * v.width / std::tan(0.5 * fov_deg * M_PI / 180.0);
+  }
+  return v;
+}
+
+void ViewWarper::prepare_rays(const CameraCalib& src) {
+  if (have_rays_ && same_intrinsics(rays_for_, src)) return;
+  const size_t n = size_t(src.width) * src.height;
+  ray_x_.resize(n);
+  ray_y_.resize(n);
+  for (int v = 0; v < src.height; ++v)
+    for (int u = 0; u < src.width; ++u) {
+      const Eigen::Vector2d r = src.has_distortion() ? src.normalized(u, v)
+                                                     : Eigen::Vector2d((u - src.cx) / src.fx, (v - src.cy) / src.fy);
+      ray_x_[size_t(v) * src.width + u] = float(r.x());
+      ray_y_[size_t(v) * src.width + u] = float(r.y());
+    }
+  rays_for_ = src;
+  have_rays_ = true;
+}
+
+void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt, const WarpParams& prm,
+                      WarpedView* out) {
+  CV_Assert(in.color.type() == CV_8UC3 && in.depth.type() == CV_16UC1);
+  CV_Assert(in.color.cols == src.width && in.color.rows == src.height && in.depth.size() == in.color.size());
+  CV_Assert(in.label.empty() || (in.label.type() == CV_8UC1 && in.label.size() == in.color.size()));
+  CV_Assert(in.static_depth.empty() ||
+            (in.static_depth.type() == CV_16UC1 && in.static_depth.size() == in.color.size()));
+  const int W = src.width, H = src.height;
+  const int VW = virt.width, VH = virt.height;
+  const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
+  prepare_rays(src);
+  // Padded by a row and a pixel on both sides (zero: nothing drawn), so
+  // border pixels can read their neighbours without a test.
+  const size_t pad = size_t(W) + 1;
+  for (auto* a : {&px_, &py_, &pz_, &plim_, &pw_}) {
+    a->resize(n + 2 * pad);
+    std::fill_n(a->begin(), pad, 0.0f);
+    std::fill_n(a->end() - ptrdiff_t(pad), pad, 0.0f);
+  }
+  float *const PX = px_.data() + pad, *const PY = py_.data() + pad, *const PZ = pz_.data() + pad,
+               *const PW = pw_.data() + pad, *const PL = plim_.data() + pad;
+  src_depth_.resize(n);
+  src_label_.resize(n + 1);  // + 1: read as the last pixel's right neighbour
+  src_label_[n] = 0;
+  // The z-buffer is left empty by the last frame's unpack: only a new size
+  // needs a fill (one pass less over 8 bytes per virtual pixel).
+  if (zbuf_.size() != vn) {
+    zbuf_.resize(vn);
+    std::fill(zbuf_.begin(), zbuf_.end(), kEmptyRecord);
+  }
+  Sample* const zbuf = reinterpret_cast<Sample*>(zbuf_.data());
+  const ColorSampler color{in.color.data, in.color.step, W - 1, H - 1};
+
+  // The layered depth of every source pixel: learners live, the room static.
+  const bool has_label = !in.label.empty();
+  const bool has_static = !in.static_depth.empty();
+  for (int v = 0; v < H; ++v) {
+    const uint16_t* d = in.depth.ptr<uint16_t>(v);
+    uint16_t* od = &src_depth_[size_t(v) * W];
+    uint8_t* ol = &src_label_[size_t(v) * W];
+    if (has_label) std::memcpy(ol, in.label.ptr<uint8_t>(v), size_t(W));
+    else std::memset(ol, 0, size_t(W));
+    if (has_static) layer_row(W, d, in.static_depth.ptr<uint16_t>(v), ol, od);
+    else std::memcpy(od, d, size_t(W) * sizeof(uint16_t));
+  }
+  if (has_label && prm.fill_learner_depth) {
+    uint16_t med[256] = {0};
+    learner_median_depths(src_depth_.data(), src_label_.data(), W, H, med);
+    for (int v = 0; v < H; ++v) {
+      uint16_t* od = &src_depth_[size_t(v) * W];
+      const uint8_t* ol = &src_label_[size_t(v) * W];
+      if (has_learner_hole(W, ol, od))
+        for (int u = 0; u < W; ++u)
+          if (ol[u] && !od[u]) od[u] = med[ol[u]];
+    }
+  }
+  if (prm.boundary_px > 0 && W >= 4 && H >= 4) {
+    // Drop the far-side pixels next to a depth edge: their colour mixes both
+    // surfaces and would draw a ghost contour where the background is revealed.
+    edge_code_.assign(n, 0);
+    drop_.assign(n, 0);
+    const int b = prm.boundary_px;
+    const uint16_t ratio = uint16_t(std::clamp(std::ceil(prm.edge_ratio * 65536.0), 0.0, 65535.0));
+    const uint16_t min_mm = uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0));
+    uint16_t* D = src_depth_.data();
+    uint8_t* const code = edge_code_.data();
+    uint8_t* const drop = drop_.data();
+    // Along rows; the far side and the b - 1 pixels beyond it, within the
+    // row. One pass over the image (a vector loop has no remainder to speak
+    // of), then the steps whose four pixels straddle two rows cleared.
+    depth_edges(int(n - 3), D + 1, 1, ratio, min_mm, code + 1);
+    for (int v = 0; v < H; ++v) {
+      const size_t row = size_t(v) * W;
+      code[row] = code[row + W - 2] = code[row + W - 1] = 0;
+      for (int k = 0; k < b && k < W; ++k) mark_far_side(W, k, 1, code + row, drop + row);
+    }
+    // Along columns.
+    std::fill(edge_code_.begin(), edge_code_.end(), 0);
+    depth_edges(int(size_t(W) * (H - 3)), D + W, W, ratio, min_mm, code + W);
+    for (int k = 0; k < b && k < H; ++k) mark_far_side(int(n / W), k, W, code, drop);
+    clear_dropped(n, drop, D);
+  }
+
+  // Source -> virtual camera.
+  const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * src.cam_to_rig;
+  Projection proj;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) proj.r[3 * r + c] = float(T.linear()(r, c));
+    proj.t[r] = float(T.translation()(r));
+  }
+  proj.fx = float(virt.fx), proj.fy = float(virt.fy), proj.cx = float(virt.cx), proj.cy = float(virt.cy);
+  proj.link_scale = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
+  proj.link_gap = float(prm.max_gap_px);
+  project_points(n, src_depth_.data(), ray_x_.data(), ray_y_.data(), proj, PX, PY, PZ, PL, PW);
+
+  const float max_u = float(W - 1), max_v = float(H - 1);
+  const double er = prm.edge_ratio, emin = prm.edge_min_mm * 0.001;
+  const float max_area2 = float(prm.max_stretch);
+  if (prm.mesh) {
+    // Rasterise the two triangles of every 2x2 block.
+    const float gap = float(prm.max_gap_px);
+    auto consistent = [&](size_t a, size_t b, size_t c) {
+      const float za = PZ[a], zb = PZ[b], zc = PZ[c];
+      if (za <= 0 || zb <= 0 || zc <= 0) return false;
+      if (src_label_[a] != src_label_[b] || src_label_[a] != src_label_[c]) return false;
+      const float lo = std::min(za, std::min(zb, zc)), hi = std::max(za, std::max(zb, zc));
+      if (hi - lo <= std::max(emin, er * lo)) return true;
+      // Different depths but not torn apart by this view (a slanted surface):
+      // no edge longer than its source length at the local scale + max_gap_px.
+      const float scale = proj.link_scale * src_depth_[a] * 0.001f / za;
+      auto edge_ok = [&](size_t i, size_t j) {
+        const float su = float(int(i % W) - int(j % W)), sv = float(int(i / W) - int(j / W));
+        const float lim = scale * std::sqrt(su * su + sv * sv) + gap;
+        const float dx = PX[i] - PX[j], dy = PY[i] - PY[j];
+        return dx * dx + dy * dy <= lim * lim;
+      };
+      return edge_ok(a, b) && edge_ok(b, c) && edge_ok(a, c);
+    };
+    auto raster = [&](size_t a, size_t b, size_t c, float ua, float va, float ub, float vb, float uc, float vc) {
+      const float x0 = PX[a], y0 = PY[a], x1 = PX[b], y1 = PY[b], x2 = PX[c], y2 = PY[c];
+      const float area2 = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+      const float aa = std::fabs(area2);
+      if (aa < 1e-12f || aa > max_area2) return;
+      const int xmin = std::max(0, fast_ceil(std::min(x0, std::min(x1, x2))));
+      const int xmax = std::min(VW - 1, fast_floor(std::max(x0, std::max(x1, x2))));
+      const int ymin = std::max(0, fast_ceil(std::min(y0, std::min(y1, y2))));
+      const int ymax = std::min(VH - 1, fast_floor(std::max(y0, std::max(y1, y2))));
+      if (xmin > xmax || ymin > ymax) return;
+      const float inv = 1.0f / area2;
+      const float stretch = aa > 1.0f ? 1.0f / std::sqrt(aa) : 1.0f;
+      const uint8_t wq = weight_byte((PW[a] + PW[b] + PW[c]) * (1.0f / 3.0f) * stretch);
+      const uint8_t lab = src_label_[a];
+      constexpr float eps = -0.02f;
+      for (int y = ymin; y <= ymax; ++y) {
+        const float fyv = float(y);
+        for (int x = xmin; x <= xmax; ++x) {
+          const float fxv = float(x);
+          const float l1 = ((fxv - x0) * (y2 - y0) - (x2 - x0) * (fyv - y0)) * inv;
+          const float l2 = ((x1 - x0) * (fyv - y0) - (fxv - x0) * (y1 - y0)) * inv;
+          const float l0 = 1.0f - l1 - l2;
+          if (l0 < eps || l1 < eps || l2 < eps) continue;
+          const float z = l0 * PZ[a] + l1 * PZ[b] + l2 * PZ[c];
+          Sample& s = zbuf[size_t(y) * VW + x];
+          const uint16_t zmm = depth_mm(z);
+          if (zmm >= s.z) continue;
+          store(s, zmm, to_fixed(l0 * ua + l1 * ub + l2 * uc, max_u), to_fixed(l0 * va + l1 * vb + l2 * vc, max_v),
+                color, wq, lab);
+        }
+      }
+    };
+    for (int v = 0; v + 1 < H; ++v) {
+      const float fv = float(v), fv1 = fv + 1.0f;
+      for (int u = 0; u + 1 < W; ++u) {
+        const size_t a = size_t(v) * W + u, b = a + 1, c = a + W, d = c + 1;
+        if (PZ[a] <= 0 && PZ[d] <= 0) continue;
+        const float fu = float(u), fu1 = fu + 1.0f;
+        const bool t1 = consistent(a, b, c), t2 = consistent(b, d, c);
+        if (t1 && t2) {
+          raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
+          raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
+          continue;
+        }
+        // The other diagonal may keep one surface whole.
+        const bool t3 = consistent(a, b, d), t4 = consistent(a, d, c);
+        if (t1) raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
+        if (t2) raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
+        if (t3) raster(a, b, d, fu, fv, fu1, fv, fu1, fv1);
+        if (t4) raster(a, d, c, fu, fv, fu1, fv1, fu, fv1);
+      }
+    }
+  } else {
+    // Each source pixel's cell [u +- 0.5] x [v +- 0.5] mapped by the local
+    // affine map J (from the neighbours on the same surface) covers the
+    // virtual pixels whose pre-image lies inside it: the mesh's coverage
+    // without its per-triangle set-up. Pixels with no neighbour on their
+    // surface (flying pixels, speckle) are not drawn.
+    // Which neighbours lie on the same surface, a row at a time just before
+    // its cells are set up (three rows kept: the rows are taken in pairs, and
+    // a cell also looks at the row above).
+    links_.assign(4 * size_t(W + 2), 0);
+    uint32_t* const no_links = links_.data() + 3 * size_t(W + 2) + 1;  // the row above row 0
+    auto links_row = [&](int v) { return links_.data() + size_t(v % 3) * (W + 2) + 1; };
+    auto link_row = [&](int v) {
+      const size_t row = size_t(v) * W;
+      uint32_t* out = links_row(v);
+      std::fill_n(out, W, 0u);
+      // The last pixel too (its "right neighbour" is the next row's first,
+      // or padding), then unlinked: a whole number of vectors.
+      link_neighbours(size_t(W), 1, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
+                      float(emin), kRight, out);
+      out[W - 1] &= ~kRight;
+      if (v + 1 < H)
+        link_neighbours(size_t(W), W, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
+                        float(emin), kDown, out);
+    };
+    cell_x0_.resize(W);
+    cell_y0_.resize(W);
+    cell_x1_.resize(W);
+    cell_y1_.resize(W);
+    cell_sides_.resize(W);
+    cell_mask_.resize(W);
+    cell_weight_.resize(W);
+    cell_pos_.resize(size_t(W) * 6);
+    float* const pos = cell_pos_.data();
+    const CellRow cells{cell_x0_.data(), cell_y0_.data(), cell_x1_.data(), cell_y1_.data(), cell_sides_.data(),
+                        cell_mask_.data(), cell_weight_.data(), pos, pos + W, pos + 2 * W, pos + 3 * W,
+                        pos + 4 * W, pos + 5 * W};
+    const int NB = W / 2 + 1;
+    for (auto* a : {&block_x0_, &block_y0_, &block_x1_, &block_y1_, &block_coarse_, &block_mask_, &block_weight_,
+                    &block_z_})
+      a->resize(NB);
+    block_pos_.resize(size_t(NB) * 6);
+    block_fixed_.resize(size_t(NB) * 2 * kBlockCandidates);
+    float* const bpos = block_pos_.data();
+    const CellRow blocks{block_x0_.data(),   block_y0_.data(),   block_x1_.data(),   block_y1_.data(),
+                         block_coarse_.data(), block_mask_.data(), block_weight_.data(), bpos,
+                         bpos + NB,          bpos + 2 * NB,      bpos + 3 * NB,      bpos + 4 * NB,
+                         bpos + 5 * NB};
+    // A cell the view magnifies: every virtual pixel of its bounding box
+    // tested against the cell as prepared (centre (fu, fv), reaching
+    // umin..umax, vmin..vmax source px from it).
+    auto splat_big_cell = [&](const CellRow& c, int i, float fu, float fv, float umin, float umax, float vmin,
+                              float vmax, uint16_t zmm, uint8_t label) {
+      const float su0 = c.su[i], sv0 = c.sv[i];
+      const float a00 = c.dsu_dx[i], a10 = c.dsv_dx[i], a01 = c.dsu_dy[i], a11 = c.dsv_dy[i];
+      const int x0 = c.x0[i], y0 = c.y0[i];
+      const uint8_t wq = uint8_t(c.weight[i]);
+      for (int yi = y0; yi <= c.y1[i]; ++yi) {
+        const float ky = float(yi - y0);
+        Sample* row = zbuf + size_t(yi) * VW;
+        for (int xi = x0; xi <= c.x1[i]; ++xi) {
+          const float kx = float(xi - x0);
+          const float su = su0 + a00 * kx + a01 * ky, sv = sv0 + a10 * kx + a11 * ky;
+          const float du = su - fu, dv = sv - fv;
+          if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
+          Sample& s = row[xi];
+          if (zmm >= s.z) continue;
+          store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, wq, label);
+        }
+      }
+    };
+    const CellGeometry geom{W, H, VW, VH, max_area2};
+    // The cells of pixels u_begin..u_end - 1 of row v, set up and splatted.
+    // Pixels of blocks drawn as one cell (skip[u / 2]) are skipped.
+    auto fine_cells = [&](int v, int u_begin, int u_end, const int32_t* skip) {
+      const size_t row = size_t(v) * W;
+      prepare_cells(geom, v, u_begin, u_end, PX + row, PY + row, PZ + row, PW + row, links_row(v),
+                    v > 0 ? links_row(v - 1) : no_links, cells);
+      // Everything a cell's writes need in locals: a byte store may alias
+      // anything the lambda reaches by reference.
+      const uint8_t* const lab = &src_label_[row];
+      const float* const pz_row = PZ + row;
+      const int32_t *const mask = cell_mask_.data(), *const x0 = cell_x0_.data(), *const y0 = cell_y0_.data(),
+                    *const wt = cell_weight_.data();
+      const float *const su0 = cells.su, *const sv0 = cells.sv, *const a00 = cells.dsu_dx,
+                  *const a10 = cells.dsv_dx, *const a01 = cells.dsu_dy, *const a11 = cells.dsv_dy;
+      Sample* const zb = zbuf;
+      const ptrdiff_t vw = VW;
+      const ColorSampler col = color;
+      const float mu = max_u, mv = max_v;
+      for (int u = u_begin; u < u_end; ++u) {
+        const int32_t m = mask[u];
+        if (!m || skip[u >> 1]) continue;
+        const uint16_t zmm = depth_mm(pz_row[u]);
+        const uint8_t label = lab[u];
+        if (m == kBigCell) {
+          const int32_t sides = cell_sides_[u];
+          splat_big_cell(cells, u, float(u), float(v), sides & kOpenLeft ? -kCell : -kEdge,
+                         sides & kOpenRight ? kCell : kEdge, sides & kOpenUp ? -kCell : -kEdge,
+                         sides & kOpenDown ? kCell : kEdge, zmm, label);
+          continue;
+        }
+        Sample* const first = zb + y0[u] * vw + x0[u];
+        const float cu = su0[u], cv = sv0[u], cux = a00[u], cvx = a10[u], cuy = a01[u], cvy = a11[u];
+        const uint8_t weight = uint8_t(wt[u]);
+        // Usually one candidate: a loop over the set bits costs one predictable
+        // branch, where testing each bit mispredicts.
+        for (unsigned bits = m; bits; bits &= bits - 1) {
+          const int k = __builtin_ctz(bits);
+          Sample& s = first[(k >> 1) * vw + (k & 1)];
+          if (zmm >= s.z) continue;
+          const float kx = float(k & 1), ky = float(k >> 1);
+          const float su = cu + cux * kx + cuy * ky;
+          const float sv = cv + cvx * kx + cvy * ky;
+          store(s, zmm, to_fixed(su, mu), to_fixed(sv, mv), col, weight, label);
+        }
+      }
+    };
+    // Candidate k of a block cell, relative to its first.
+    ptrdiff_t block_offset[kBlockCandidates];
+    for (int k = 0; k < kBlockCandidates; ++k) block_offset[k] = ptrdiff_t(k / 3) * VW + k % 3;
+    const bool coarse = prm.coarse_cells && W >= 2;
+    no_blocks_.assign(size_t(W / 2 + 1), 0);
+    const int32_t* const no_blocks = no_blocks_.data();
+    for (int v = 0; v < H; v += 2) {
+      link_row(v);
+      if (v + 1 < H) link_row(v + 1);
+      if (!coarse || v + 1 >= H) {
+        fine_cells(v, 0, W, no_blocks);
+        if (v + 1 < H) fine_cells(v + 1, 0, W, no_blocks);
+        continue;
+      }
+      const size_t row = size_t(v) * W;
+      const int nb = W / 2;
+      prepare_blocks(geom, v, nb, PX + row, PY + row, PZ + row, PW + row, links_row(v), links_row(v + 1),
+                     v > 0 ? links_row(v - 1) : no_links, blocks, block_z_.data(), max_u, max_v,
+                     block_fixed_.data());
+      // The pixels of the blocks that are not one cell, in runs.
+      const int32_t* is_block = block_coarse_.data();
+      // Each run widened to whole kRunChunk chunks, runs that then touch
+      // joined; the pixels of block cells inside them are skipped.
+      block_coarse_[nb] = 0;  // the last column when W is odd
+      fine_runs_.clear();
+      auto add_fine_run = [&](int u0, int u1) {
+        u0 -= u0 % kRunChunk;
+        u1 = std::min(W, u1 + (kRunChunk - u1 % kRunChunk) % kRunChunk);
+        if (!fine_runs_.empty() && u0 <= fine_runs_.back().second) fine_runs_.back().second = u1;
+        else fine_runs_.emplace_back(u0, u1);
+      };
+      for (int j = 0; j < nb;) {
+        if (is_block[j]) {
+          ++j;
+          continue;
+        }
+        const int j0 = j;
+        while (j < nb && !is_block[j]) ++j;
+        add_fine_run(2 * j0, j == nb ? W : 2 * j);
+      }
+      if ((W & 1) && is_block[nb - 1]) add_fine_run(W - 1, W);
+      for (int r = v; r <= v + 1; ++r)
+        for (const auto& run : fine_runs_) fine_cells(r, run.first, run.second, is_block);
+      const uint8_t* const lab = &src_label_[row];
+      const int32_t *const mask = block_mask_.data(), *const x0 = block_x0_.data(), *const y0 = block_y0_.data(),
+                    *const wt = block_weight_.data(), *const bz = block_z_.data();
+      const int32_t* const fixed_u = block_fixed_.data();
+      const int32_t* const fixed_v = fixed_u + size_t(kBlockCandidates) * nb;
+      const ptrdiff_t vw = VW;
+      const ColorSampler col = color;
+      for (int j = 0; j < nb; ++j) {
+        const int32_t m = mask[j];
+        if (!m) continue;
+        const uint16_t zmm = uint16_t(bz[j]);
+        const int u = 2 * j;
+        const uint8_t label = lab[u];
+        if (m == kBigCell) {
+          splat_big_cell(blocks, j, float(u) + 0.5f, float(v) + 0.5f, -kBlock, kBlock, -kBlock, kBlock, zmm, label);
+          continue;
+        }
+        Sample* const first = zbuf + y0[j] * vw + x0[j];
+        const uint8_t weight = uint8_t(wt[j]);
+        for (unsigned bits = m; bits; bits &= bits - 1) {
+          const int k = __builtin_ctz(bits);
+          Sample& s = first[block_offset[k]];
+          if (zmm >= s.z) continue;
+          const size_t at = size_t(k) * nb + j;
+          store(s, zmm, fixed_u[at], fixed_v[at], col, weight, label);
+        }
+      }
+    }
+  }
+
+  out->color.create(VH, VW, CV_8UC3);
+  out->depth.create(VH, VW, CV_16UC1);
+  out->label.create(VH, VW, CV_8UC1);
+  out->weight.create(VH, VW, CV_8UC1);
+  // In bands of rows where the planes have no row padding (a vector loop
+  // per row would spend a good part of its time in the row's remainder);
+  // each band's records emptied for the next frame while they are in cache.
+  const bool continuous = out->color.isContinuous() && out->depth.isContinuous() && out->label.isContinuous() &&
+                          out->weight.isContinuous();
+  const int band = continuous ? 32 : 1;
+  for (int y = 0; y < VH; y += band) {
+    const int rows = std::min(band, VH - y);
+    unpack_samples(rows * VW, zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
+                   out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
+    std::fill_n(zbuf_.data() + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
+  }
+}
+
+WarpedView warp_view(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,
+                     const WarpParams& params) {
+  ViewWarper w;
+  WarpedView out;
+  w.warp(source, in, virt, params, &out);
+  return out;
+}
+
+}  // namespace vclassroom

@@ -1,0 +1,112 @@
+// V-VA step 2: warps one RGB-D camera to the lecturer's virtual view
+// (docs/vva.md). GStreamer-free.
+//
+// The source image is a mesh: every 2x2 block of pixels gives two triangles
+// whose corners are the pixel centres at their measured depth. Triangles are
+// projected into the virtual camera and rasterised with a z-buffer; each
+// covered virtual pixel remembers the sub-pixel source position it came from,
+// and its colour is then sampled bilinearly there (forward geometry, backward
+// colour). A triangle whose corners straddle a depth edge (or a learner/static
+// boundary) is dropped instead of stretched, so foreground never smears over
+// background and disoccluded areas stay holes for the fusion to fill.
+#pragma once
+
+#include <utility>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/core/rig.h>
+
+namespace vclassroom {
+
+// One frame of the source camera. All images have the camera's size.
+struct WarpSource {
+  cv::Mat color;         // CV_8UC3 RGB
+  cv::Mat depth;         // CV_16UC1 mm, live depth (0 = none)
+  cv::Mat label;         // CV_8UC1, 0 static, k learner k; may be empty (all static)
+  // Static layer: the depth of the empty classroom for this camera (V-DA's
+  // prior depth, or a stand-in). Used for label-0 pixels where non-zero; may be empty.
+  cv::Mat static_depth;  // CV_16UC1 mm
+};
+
+struct WarpParams {
+  // Two mesh neighbours belong to different surfaces when their depths differ
+  // by more than max(edge_min_mm, edge_ratio * nearer depth).
+  double edge_ratio = 0.03;
+  double edge_min_mm = 15;
+  // ... unless the view does not tear them apart: a triangle with a depth
+  // step is kept when none of its edges grows by more than this many pixels
+  // beyond its source length (slanted surfaces stay whole, edges open).
+  double max_gap_px = 1.0;
+  // Projected triangles larger than this many times their source area (0.5 px²)
+  // are dropped (grazing surfaces seen edge-on).
+  double max_stretch = 64;
+  // Source pixels this close (px) to a depth edge are not warped: their colour
+  // mixes both surfaces (the ghost contour of DIBR). The holes get filled.
+  int boundary_px = 0;
+  // true: rasterise the two triangles of every 2x2 block (the reference,
+  // about 1.7x slower); false: map every pixel's cell with the local affine
+  // map of its same-surface neighbours (same coverage away from edges).
+  bool mesh = false;
+  // Cell warp only: a 2x2 block of pixels inside one surface (every pixel
+  // linked to all its neighbours) is drawn as one cell of twice the size, a
+  // quarter of the set-up; false: every pixel its own cell (the reference).
+  bool coarse_cells = true;
+  // Learner pixels without live depth take their learner's median depth.
+  bool fill_learner_depth = true;
+};
+
+// The source warped to the virtual view: all images have the virtual camera's size.
+struct WarpedView {
+  cv::Mat color;   // CV_8UC3 RGB, black where weight is 0
+  cv::Mat depth;   // CV_16UC1 mm along the virtual optical axis, 0 = hole
+  cv::Mat label;   // CV_8UC1
+  cv::Mat weight;  // CV_8UC1, 0 = hole, 1..255 quality (viewing angle, distance, stretch)
+};
+
+// Keeps per-source precomputation (pixel rays) and scratch buffers between
+// frames; one per camera (not thread-safe, cheap to create).
+class ViewWarper {
+ public:
+  // `source` and `virt` give intrinsics and cam_to_rig; `virt` must have no
+  // distortion. `out` is reallocated only when its size changes.
+  void warp(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt, const WarpParams& params,
+            WarpedView* out);
+
+ private:
+  void prepare_rays(const CameraCalib& source);
+  CameraCalib rays_for_;
+  bool have_rays_ = false;
+  std::vector<float> ray_x_, ray_y_;
+  // Per source pixel: projected position, virtual depth (m; <= 0 invalid),
+  // longest unbroken mesh edge (px), vertex weight.
+  std::vector<float> px_, py_, pz_, plim_, pw_;
+  std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
+  std::vector<uint8_t> src_label_;
+  std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
+  std::vector<uint32_t> links_;            // three rows of link flags (same surface as right / below), a spare zero row
+  std::vector<uint64_t> zbuf_;             // per virtual pixel: z-buffer record (view_warp.cpp)
+  // One source row of splat cells (view_warp.cpp, prepare_cells).
+  std::vector<int32_t> cell_x0_, cell_y0_, cell_x1_, cell_y1_, cell_sides_;
+  std::vector<float> cell_pos_;
+  std::vector<int32_t> cell_mask_, cell_weight_;
+  // The 2x2 blocks of a pair of source rows drawn as one cell (prepare_blocks).
+  std::vector<int32_t> block_x0_, block_y0_, block_x1_, block_y1_, block_coarse_, block_mask_, block_weight_,
+      block_z_;
+  std::vector<float> block_pos_;
+  std::vector<int32_t> block_fixed_;  // each candidate's source position, fixed point
+  std::vector<int32_t> no_blocks_;              // all zero: a row pair without block cells
+  std::vector<std::pair<int, int>> fine_runs_;  // pixels [first, second) of a row pair without block cells
+};
+
+// Convenience: one-shot warp.
+WarpedView warp_view(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,
+                     const WarpParams& params = WarpParams());
+
+// The camera that sees the virtual view `virt`: same as `base` (intrinsics,
+// size) with the pose's cam_to_rig; when fov_deg is finite, fx = fy set for
+// that horizontal field of view at base's width (cx, cy unchanged).
+CameraCalib virtual_camera(const CameraCalib& base, const Eigen::Isometry3d& cam_to_rig, double fov_deg);
+
+}  // namespace vclassroom
