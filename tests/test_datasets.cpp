@@ -338,3 +338,170 @@ TEST(Middlebury, Teddy2003ImportsBothViewsWithDepth) {
   EXPECT_GT(checked, 2000);
   EXPECT_GT(cv::countNonZero(b[0].depth), 450 * 375 * 9 / 10);
 }
+
+// Live recordings: coded frames with their running times (rgbdenc ! rgbdfilesink).
+namespace {
+
+struct Played {
+  std::vector<cv::Mat> color, depth;
+  std::vector<GstClockTime> pts;
+};
+
+Played collect(const std::string& launch, vctest::RunResult* result) {
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch((launch + " ! appsink name=out sync=false").c_str(), &err);
+  EXPECT_EQ(err, nullptr);
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  Played played;
+  {
+    vctest::SampleCollector got(out);
+    *result = vctest::run_pipeline(p);
+    for (size_t i = 0; i < got.size(); ++i) {
+      RgbdInfo in;
+      std::string e;
+      EXPECT_TRUE(rgbd_info_from_caps(got.caps(i), &in, &e)) << e;
+      RgbdFrame f;
+      EXPECT_TRUE(f.map(got.buffer(i), in, GST_MAP_READ, &e)) << e;
+      played.color.push_back(f.color().clone());
+      played.depth.push_back(f.depth().clone());
+      played.pts.push_back(GST_BUFFER_PTS(got.buffer(i)));
+    }
+  }
+  gst_object_unref(out);
+  gst_object_unref(p);
+  return played;
+}
+
+std::vector<uint8_t> read_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<uint8_t>(std::istreambuf_iterator<char>(in), {});
+}
+
+void write_file(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), bytes.size());
+}
+
+}  // namespace
+
+TEST(Recordings, StreamIndexKeepsWholeRecordsAndStopsAtDamage) {
+  vctest::TempDir dir;
+  const std::string path = dir / "stream.vcrs";
+  const std::vector<uint8_t> a(100, 1), b(50, 2), c(70, 3);
+  {
+    CodedStreamWriter w(path, kCodedStreamHasLabel);
+    w.write(0, a.data(), a.size());
+    w.write(33000000, b.data(), b.size());
+    w.write(66000000, c.data(), c.size());
+  }
+  CodedStreamIndex index = index_coded_stream_file(path, 100);
+  ASSERT_EQ(index.frames.size(), 3u);
+  EXPECT_EQ(index.flags, kCodedStreamHasLabel);
+  EXPECT_EQ(index.tail_problem, "");
+  EXPECT_EQ(index.frames[1].time_ns, 33000000u);
+  EXPECT_EQ(read_coded_frame(path, index.frames[2]), c);
+  EXPECT_THROW(index_coded_stream_file(path, 2), Error);  // more frames than allowed
+
+  // A recorder killed in the middle of the last frame: the whole ones stay.
+  const std::vector<uint8_t> whole = read_file(path);
+  std::vector<uint8_t> bytes(whole.begin(), whole.end() - 5);
+  write_file(path, bytes);
+  index = index_coded_stream_file(path, 100);
+  EXPECT_EQ(index.frames.size(), 2u);
+  EXPECT_NE(index.tail_problem.find("record 2 at byte 194 is cut off"), std::string::npos) << index.tail_problem;
+
+  // A damaged record header ends the stream there; nothing after it is guessed at.
+  bytes = whole;
+  bytes[12 + 16 + 100 + 3] ^= 0x40;  // the length field of record 1
+  write_file(path, bytes);
+  index = index_coded_stream_file(path, 100);
+  EXPECT_EQ(index.frames.size(), 1u);
+  EXPECT_NE(index.tail_problem.find("damaged"), std::string::npos) << index.tail_problem;
+
+  // Not a recording, or one of a version this reader does not know: an error naming the file.
+  bytes = whole;
+  bytes[0] = 'X';
+  write_file(path, bytes);
+  EXPECT_THROW(index_coded_stream_file(path, 100), Error);
+  bytes = whole;
+  bytes[4] = 9;
+  write_file(path, bytes);
+  try {
+    index_coded_stream_file(path, 100);
+    ADD_FAILURE() << "version 9 accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("version 9"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Recordings, CamerasRecordedLivePlayBackBitExactAtTheirTiming) {
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(3, 64, 48), rig);
+  const std::string rec = dir / "rec";
+  // Camera 1 starts 50 ms after the others: the recording keeps that.
+  const GstClockTime offset = 50 * GST_MSECOND;
+  std::string launch;
+  for (int cam = 0; cam < 3; ++cam)
+    launch += "rgbdtestsrc rig=" + rig + " camera-id=" + std::to_string(cam) + " num-buffers=12 ! rgbdenc name=enc" +
+              std::to_string(cam) + " ! rgbdfilesink location=" + rec + "  ";
+  GstElement* recorder = gst_parse_launch(launch.c_str(), nullptr);
+  ASSERT_NE(recorder, nullptr);
+  GstElement* enc1 = gst_bin_get_by_name(GST_BIN(recorder), "enc1");
+  GstPad* late = gst_element_get_static_pad(enc1, "src");
+  gst_pad_set_offset(late, static_cast<gint64>(offset));
+  gst_object_unref(late);
+  gst_object_unref(enc1);
+  vctest::RunResult r = vctest::run_pipeline(recorder);
+  gst_object_unref(recorder);
+  ASSERT_EQ(r.error, "");
+  for (int cam = 0; cam < 3; ++cam) {
+    SCOPED_TRACE("camera " + std::to_string(cam));
+    EXPECT_TRUE(fs::exists(dataset_camera_dir(rec, cam) + "/stream.vcrs"));
+    const Played sent =
+        collect("rgbdtestsrc rig=" + rig + " camera-id=" + std::to_string(cam) + " num-buffers=12", &r);
+    ASSERT_EQ(r.error, "");
+    const Played played = collect("rgbdfilesrc location=" + rec + " camera-id=" + std::to_string(cam), &r);
+    ASSERT_EQ(r.error, "");
+    EXPECT_TRUE(r.warnings.empty());
+    ASSERT_EQ(played.depth.size(), 12u);
+    for (size_t i = 0; i < 12; ++i) {
+      EXPECT_TRUE(vctest::same_image(played.depth[i], sent.depth[i])) << "frame " << i;
+      EXPECT_GT(cv::PSNR(played.color[i], sent.color[i]), 35) << "frame " << i;  // JPEG colour
+      EXPECT_EQ(played.pts[i], sent.pts[i] + (cam == 1 ? offset : 0)) << "frame " << i;
+    }
+  }
+  // Looping: a recording of 12 frames at 30 fps spans 400 ms (to the ns of
+  // its rounded timestamps), and each loop is shifted by that.
+  const Played looped = collect("rgbdfilesrc location=" + rec + " camera-id=0 loop=true num-buffers=25", &r);
+  ASSERT_EQ(looped.pts.size(), 25u);
+  EXPECT_NEAR(double(looped.pts[12]), double(looped.pts[0] + 12 * GST_SECOND / 30), 1);
+  EXPECT_NEAR(double(looped.pts[24]), double(looped.pts[0] + 24 * GST_SECOND / 30), 2);
+  EXPECT_TRUE(vctest::same_image(looped.depth[13], looped.depth[1]));
+}
+
+TEST(Recordings, RecordingCutShortPlaysItsWholeFramesWithAWarning) {
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  const std::string rec = dir / "rec";
+  vctest::RunResult r =
+      vctest::run_launch("rgbdtestsrc rig=" + rig + " num-buffers=5 ! rgbdenc ! rgbdfilesink location=" + rec);
+  ASSERT_EQ(r.error, "");
+  const std::string stream = dataset_camera_dir(rec, 0) + "/stream.vcrs";
+  std::vector<uint8_t> bytes = read_file(stream);
+  bytes.resize(bytes.size() - 100);
+  write_file(stream, bytes);
+  const Played played = collect("rgbdfilesrc location=" + rec, &r);
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(played.depth.size(), 4u);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("the recording ends early: record 4 at byte"), std::string::npos) << r.warnings[0];
+
+  // A frame damaged inside (its checksums) stops playback with an error naming the file and the frame.
+  const CodedStreamIndex::Frame last_whole = index_coded_stream_file(stream, 100).frames.at(3);
+  bytes = read_file(stream);
+  bytes[last_whole.offset + last_whole.size / 2] ^= 0xFF;
+  write_file(stream, bytes);
+  collect("rgbdfilesrc location=" + rec, &r);
+  EXPECT_NE(r.error.find("stream.vcrs: frame 3:"), std::string::npos) << r.error;
+}

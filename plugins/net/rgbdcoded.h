@@ -1,17 +1,12 @@
-// Caps of the compressed stream shared by rgbdenc and rgbddec: the
-// video/x-rgbd fields (size, rate, planes, calibration) under another name.
+// What rgbdenc and rgbddec share; the coded caps themselves are in
+// gst/vclassroom/core/rgbd.h (rgbdfilesink records them too).
 #pragma once
 
 #include <gst/base/gstbasetransform.h>
 #include <gst/gst.h>
 
-inline constexpr const char* kRgbdCodedMediaType = "video/x-rgbd-coded";
-inline constexpr const char* kRgbdCodedTemplateCaps =
-    "video/x-rgbd-coded, codec = (string) vcrd1, width = (int) [ 1, 16384 ], height = (int) [ 1, 16384 ], "
-    "framerate = (fraction) [ 0/1, 2147483647/1 ]";
+#include <gst/vclassroom/core/rgbd.h>
 
-// Renames every structure of `caps` to `name`, adding or removing the codec field.
-GstCaps* rgbd_caps_renamed(GstCaps* caps, const char* name, bool coded);
 
 // `caps` narrowed to `filter` (when given); takes ownership of `caps`.
 GstCaps* caps_filtered(GstCaps* caps, GstCaps* filter);

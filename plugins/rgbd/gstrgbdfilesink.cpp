@@ -1,11 +1,14 @@
-// rgbdfilesink: records a video/x-rgbd stream into the dataset format that
-// rgbdfilesrc plays (one instance per camera may share a folder).
+// rgbdfilesink: records a camera into the dataset format that rgbdfilesrc
+// plays (one instance per camera may share a folder): video/x-rgbd as PNG
+// images, or the coded stream of rgbdenc as a live recording with each
+// frame's running time (gst/vclassroom/datasets/coded_stream.h).
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
 
 #include "gstrgbdfilesink.h"
 
+#include <memory>
 #include <mutex>
 #include <string>
 
@@ -27,6 +30,7 @@ struct FileSinkState {
   RgbdInfo info;
   bool have_info = false;
   guint64 index = 0;
+  std::unique_ptr<CodedStreamWriter> recording;  // with coded caps
 };
 }  // namespace
 
@@ -37,8 +41,6 @@ struct _GstRgbdFileSink {
 
 G_DEFINE_TYPE(GstRgbdFileSink, gst_rgbd_file_sink, GST_TYPE_BASE_SINK)
 
-static GstStaticPadTemplate sink_template =
-    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
 
 static std::string location_of(GstRgbdFileSink* self) {
   std::lock_guard<std::mutex> g(self->st->lock);
@@ -49,6 +51,7 @@ static gboolean gst_rgbd_file_sink_start(GstBaseSink* sink) {
   GstRgbdFileSink* self = GST_RGBD_FILE_SINK(sink);
   self->st->index = 0;
   self->st->have_info = false;
+  self->st->recording.reset();
   if (location_of(self).empty()) {
     GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("no dataset folder given"),
                       ("set the 'location' property of %s", GST_OBJECT_NAME(self)));
@@ -57,11 +60,20 @@ static gboolean gst_rgbd_file_sink_start(GstBaseSink* sink) {
   return TRUE;
 }
 
+static gboolean gst_rgbd_file_sink_stop(GstBaseSink* sink) {
+  GST_RGBD_FILE_SINK(sink)->st->recording.reset();
+  return TRUE;
+}
+
 static gboolean gst_rgbd_file_sink_set_caps(GstBaseSink* sink, GstCaps* caps) {
   GstRgbdFileSink* self = GST_RGBD_FILE_SINK(sink);
   std::string err;
   RgbdInfo info;
-  if (!rgbd_info_from_caps(caps, &info, &err)) {
+  const bool coded = gst_structure_has_name(gst_caps_get_structure(caps, 0), kRgbdCodedMediaType);
+  GstCaps* raw = coded ? rgbd_caps_renamed(caps, kRgbdMediaType, false) : gst_caps_ref(caps);
+  const bool parsed = rgbd_info_from_caps(raw, &info, &err);
+  gst_caps_unref(raw);
+  if (!parsed) {
     GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("%s", err.c_str()), (nullptr));
     return FALSE;
   }
@@ -71,7 +83,16 @@ static gboolean gst_rgbd_file_sink_set_caps(GstBaseSink* sink, GstCaps* caps) {
     rig_name = self->st->rig_name;
   }
   try {
-    dataset_write_camera(location_of(self), info.camera, rig_name);
+    const std::string location = location_of(self);
+    dataset_write_camera(location, info.camera, rig_name);
+    if (coded && !self->st->recording) {
+      // A new recording per run; caps changing within a run keep the file
+      // (rgbdfilesrc checks every frame against the rig camera).
+      const std::string dir = dataset_camera_dir(location, info.camera.id);
+      g_mkdir_with_parents(dir.c_str(), 0755);
+      self->st->recording = std::make_unique<CodedStreamWriter>(
+          dir + "/" + kCodedStreamFile, info.has(Plane::Label) ? kCodedStreamHasLabel : 0);
+    }
   } catch (const Error& e) {
     GST_ELEMENT_ERROR(self, RESOURCE, WRITE, ("%s", e.what()), (nullptr));
     return FALSE;
@@ -81,10 +102,39 @@ static gboolean gst_rgbd_file_sink_set_caps(GstBaseSink* sink, GstCaps* caps) {
   return TRUE;
 }
 
+// The frame goes to disk as it came, with its running time (the frame index
+// at the nominal rate when it carries no timestamp).
+static GstFlowReturn record_coded_frame(GstRgbdFileSink* self, GstBuffer* buf) {
+  FileSinkState* st = self->st;
+  GstClockTime time = gst_segment_to_running_time(&GST_BASE_SINK(self)->segment, GST_FORMAT_TIME,
+                                                  GST_BUFFER_PTS(buf));
+  if (!GST_CLOCK_TIME_IS_VALID(time)) {
+    const GstClockTime duration = st->info.frame_duration();
+    time = GST_CLOCK_TIME_IS_VALID(duration) ? st->index * duration : st->index;
+  }
+  GstMapInfo map;
+  if (!gst_buffer_map(buf, &map, GST_MAP_READ)) {
+    GST_ELEMENT_ERROR(self, RESOURCE, WRITE, ("cannot read a coded frame"), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  try {
+    st->recording->write(time, map.data, map.size);
+    st->recording->flush();
+  } catch (const Error& e) {
+    gst_buffer_unmap(buf, &map);
+    GST_ELEMENT_ERROR(self, RESOURCE, WRITE, ("%s", e.what()), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  gst_buffer_unmap(buf, &map);
+  st->index++;
+  return GST_FLOW_OK;
+}
+
 static GstFlowReturn gst_rgbd_file_sink_render(GstBaseSink* sink, GstBuffer* buf) {
   GstRgbdFileSink* self = GST_RGBD_FILE_SINK(sink);
   FileSinkState* st = self->st;
   if (!st->have_info) return GST_FLOW_NOT_NEGOTIATED;
+  if (st->recording) return record_coded_frame(self, buf);
   RgbdFrame frame;
   std::string err;
   if (!frame.map(buf, st->info, GST_MAP_READ, &err)) {
@@ -149,19 +199,28 @@ static void gst_rgbd_file_sink_class_init(GstRgbdFileSinkClass* klass) {
       gobject_class, PROP_LOCATION,
       g_param_spec_string("location", "Dataset folder",
                           "Folder to record into: the camera is added to <location>/rig.yaml and its frames go to "
-                          "<location>/cam<ID>/<plane>/<frame>.png",
+                          "<location>/cam<ID>/<plane>/<frame>.png (video/x-rgbd) or <location>/cam<ID>/stream.vcrs "
+                          "(video/x-rgbd-coded)",
                           "", flags));
   g_object_class_install_property(gobject_class, PROP_RIG_NAME,
                                   g_param_spec_string("rig-name", "Rig name",
                                                       "Name written into a new rig.yaml", "recording", flags));
-  gst_element_class_add_static_pad_template(element_class, &sink_template);
+  // Raw frames become images; coded frames (rgbdenc) a live recording.
+  GstCaps* sink_caps = gst_caps_from_string(kRgbdTemplateCaps);
+  gst_caps_append(sink_caps, gst_caps_from_string(kRgbdCodedTemplateCaps));
+  gst_element_class_add_pad_template(element_class,
+                                     gst_pad_template_new("sink", GST_PAD_SINK, GST_PAD_ALWAYS, sink_caps));
+  gst_caps_unref(sink_caps);
   gst_element_class_set_static_metadata(
       element_class, "RGB-D dataset sink", "Sink/File/Video",
-      "Records video/x-rgbd into a dataset folder that rgbdfilesrc plays: PNG colour, 16-bit PNG depth in mm, "
-      "and the label/depth-gt planes when present; the calibration from the caps goes into rig.yaml. Example: "
-      "gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=90 ! rgbdfilesink location=rec",
+      "Records a camera into a dataset folder that rgbdfilesrc plays; the calibration from the caps goes into "
+      "rig.yaml. video/x-rgbd becomes PNG colour, 16-bit PNG depth in mm and the label/depth-gt planes when "
+      "present (a few frames a second); video/x-rgbd-coded from rgbdenc is recorded as it is, with each frame's "
+      "running time, at the camera's full rate (a live recording, played back at its original timing). Example: "
+      "gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=90 ! rgbdenc ! rgbdfilesink location=rec",
       "gst-vclassroom developers");
   basesink_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_start);
+  basesink_class->stop = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_stop);
   basesink_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_set_caps);
   basesink_class->render = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_render);
   GST_DEBUG_CATEGORY_INIT(rgbd_file_sink_debug, "rgbdfilesink", 0, "RGB-D dataset sink");

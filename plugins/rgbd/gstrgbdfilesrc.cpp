@@ -1,10 +1,13 @@
-// rgbdfilesrc: plays one camera of a recorded dataset folder as video/x-rgbd.
+// rgbdfilesrc: plays one camera of a recorded dataset folder as video/x-rgbd:
+// image folders at the `framerate` property, live recordings at the timing
+// they were recorded with.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
 
 #include "gstrgbdfilesrc.h"
 
+#include <algorithm>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -32,7 +35,16 @@ struct FileSrcState {
   RgbdInfo info;
   guint64 frame = 0;   // frames produced since start or the last seek
   guint64 frames = 0;  // frames in the dataset for this camera
+  bool recording = false;
+  GstClockTime loop_span = 0;  // of a recording: from its time origin to one frame after its last
 };
+
+// The running time of frame `n` (counting loops) of a live recording: its
+// recorded time, shifted by a whole recording for each loop.
+GstClockTime recorded_time(const FileSrcState* st, guint64 n) {
+  return st->dataset->frame_time_ns(st->info.camera.id, static_cast<size_t>(n % st->frames)) +
+         (n / st->frames) * st->loop_span;
+}
 }  // namespace
 
 struct _GstRgbdFileSrc {
@@ -75,6 +87,16 @@ static gboolean gst_rgbd_file_src_start(GstBaseSrc* src) {
   if (st->dataset->has_label(id)) st->info.planes.push_back(Plane::Label);
   if (st->dataset->has_depth_gt(id)) st->info.planes.push_back(Plane::DepthGT);
   st->frame = 0;
+  st->recording = st->dataset->is_recording(id);
+  if (st->recording) {
+    const GstClockTime nominal = st->info.frame_duration();
+    st->loop_span = st->dataset->frame_time_ns(id, st->frames - 1) + (GST_CLOCK_TIME_IS_VALID(nominal) ? nominal : 0);
+    const std::string& problem = st->dataset->recording_problem(id);
+    if (!problem.empty())
+      GST_ELEMENT_WARNING(self, STREAM, DECODE, ("%s camera %d: the recording ends early: %s", location.c_str(), id,
+                                                 problem.c_str()),
+                          ("playing its %" G_GUINT64_FORMAT " whole frames", st->frames));
+  }
   GST_INFO_OBJECT(self, "%s camera %d: %" G_GUINT64_FORMAT " frames", location.c_str(), id, st->frames);
   return TRUE;
 }
@@ -100,8 +122,18 @@ static gboolean gst_rgbd_file_src_is_seekable(GstBaseSrc*) { return TRUE; }
 
 static gboolean gst_rgbd_file_src_do_seek(GstBaseSrc* src, GstSegment* segment) {
   GstRgbdFileSrc* self = GST_RGBD_FILE_SRC(src);
-  const GstClockTime dur = self->st->info.frame_duration();
-  if (!GST_CLOCK_TIME_IS_VALID(dur) || dur == 0) {
+  FileSrcState* st = self->st;
+  const GstClockTime dur = st->info.frame_duration();
+  if (st->recording && st->dataset) {
+    // The first frame at or after the segment's start.
+    guint64 lo = 0, hi = st->frames * (segment->start / std::max<GstClockTime>(st->loop_span, 1) + 1);
+    while (lo < hi) {
+      const guint64 mid = lo + (hi - lo) / 2;
+      if (recorded_time(st, mid) < segment->start) lo = mid + 1;
+      else hi = mid;
+    }
+    st->frame = lo;
+  } else if (!GST_CLOCK_TIME_IS_VALID(dur) || dur == 0) {
     self->st->frame = 0;
   } else {
     self->st->frame = gst_util_uint64_scale_ceil(segment->start, 1, dur);
@@ -144,7 +176,13 @@ static GstFlowReturn gst_rgbd_file_src_create(GstPushSrc* psrc, GstBuffer** outb
   frame.unmap();
 
   const GstClockTime dur = st->info.frame_duration();
-  if (GST_CLOCK_TIME_IS_VALID(dur)) {
+  if (st->recording) {
+    GST_BUFFER_PTS(buf) = recorded_time(st, st->frame);
+    if (loop || st->frame + 1 < st->frames)
+      GST_BUFFER_DURATION(buf) = recorded_time(st, st->frame + 1) - GST_BUFFER_PTS(buf);
+    else if (GST_CLOCK_TIME_IS_VALID(dur))
+      GST_BUFFER_DURATION(buf) = dur;
+  } else if (GST_CLOCK_TIME_IS_VALID(dur)) {
     GST_BUFFER_PTS(buf) = st->frame * dur;
     GST_BUFFER_DURATION(buf) = dur;
   }
@@ -216,8 +254,8 @@ static void gst_rgbd_file_src_class_init(GstRgbdFileSrcClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_LOCATION,
       g_param_spec_string("location", "Dataset folder",
-                          "Recorded dataset folder: rig.yaml + cam<ID>/{color,depth,label,depth-gt}/ images "
-                          "(docs/dataset-format.md)",
+                          "Recorded dataset folder: rig.yaml + cam<ID>/{color,depth,label,depth-gt}/ images, or "
+                          "cam<ID>/stream.vcrs, a live recording of rgbdfilesink (docs/dataset-format.md)",
                           "", flags));
   g_object_class_install_property(gobject_class, PROP_CAMERA_ID,
                                   g_param_spec_int("camera-id", "Camera id", "Which camera of the rig to play", 0,
@@ -229,15 +267,19 @@ static void gst_rgbd_file_src_class_init(GstRgbdFileSrcClass* klass) {
                                                        FALSE, flags));
   g_object_class_install_property(
       gobject_class, PROP_FRAMERATE,
-      gst_param_spec_fraction("framerate", "Frame rate", "Frame rate the recording is played at", 1, 1, 1000, 1, 30,
+      gst_param_spec_fraction("framerate", "Frame rate",
+                              "Frame rate images are played at (a live recording plays at its recorded timing; "
+                              "this is then only the rate its caps announce)",
+                              1, 1, 1000, 1, 30,
                               1, flags));
 
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(
       element_class, "RGB-D dataset source", "Source/File/Video",
-      "Plays one camera of a recorded RGB-D dataset (rig.yaml + colour and 16-bit depth images) as video/x-rgbd "
-      "with the camera's calibration in the caps. Datasets come from rgbdfilesink or "
-      "vclassroom-import (docs/datasets.md). Example: "
+      "Plays one camera of a recorded RGB-D dataset (rig.yaml + colour and 16-bit depth images, or a live "
+      "recording of coded frames) as video/x-rgbd with the camera's calibration in the caps; a live recording "
+      "plays at the timing it was recorded with. Datasets come from rgbdfilesink or vclassroom-import "
+      "(docs/datasets.md). Example: "
       "gst-launch-1.0 rgbdfilesrc location=out/art camera-id=1 loop=true framerate=15/1 ! "
       "rgbddemux name=d d.color ! videoconvert ! autovideosink",
       "gst-vclassroom developers");

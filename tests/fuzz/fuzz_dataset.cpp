@@ -2,9 +2,12 @@
 // first byte: an image file's bytes (decode_image, as Dataset::load,
 // load_static_model and the Middlebury import read them; the size declared in
 // the header is checked before decoding), or a folder listing (pair_by_name:
-// lines "c <colour file>" / "d <depth file>"). Only vclassroom::Error may come out.
+// lines "c <colour file>" / "d <depth file>"), or a live recording's records
+// (index_coded_stream, as Dataset::open reads cam<ID>/stream.vcrs). Only
+// vclassroom::Error may come out.
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -16,7 +19,7 @@ using namespace vclassroom;
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size == 0) return 0;
-  const uint8_t mode = data[0] % 3;
+  const uint8_t mode = data[0] % 4;
   ++data;
   --size;
   try {
@@ -25,6 +28,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       const cv::Mat m = decode_image(data, size, mode == 0 ? cv::IMREAD_UNCHANGED : cv::IMREAD_COLOR,
                                      mode == 0 ? "depth" : "colour", "fuzz.png", cv::Size(40, 30), "rig camera 0");
       if (m.cols != 40 || m.rows != 30) std::abort();
+    } else if (mode == 3) {
+      auto read = [&](uint64_t offset, uint8_t* out, size_t n) {
+        if (offset > size || n > size - offset) return false;
+        std::memcpy(out, data + offset, n);
+        return true;
+      };
+      const CodedStreamIndex index = index_coded_stream(read, size, "fuzz.vcrs", 1000);
+      uint64_t end = kCodedStreamHeaderSize;
+      for (const auto& f : index.frames) {
+        // Every indexed frame lies inside the bytes, after the one before.
+        if (f.offset < end || f.size == 0 || f.offset + f.size > size) std::abort();
+        end = f.offset + f.size;
+      }
     } else {
       std::vector<std::string> color, depth;
       const std::string text(reinterpret_cast<const char*>(data), size);

@@ -64,6 +64,16 @@ struct RgbdInfo {
   GstClockTime frame_duration() const;
 };
 
+// The compressed stream (rgbdenc → rgbddec, recordings): the video/x-rgbd
+// fields (size, rate, planes, calibration) under another name.
+inline constexpr const char* kRgbdCodedMediaType = "video/x-rgbd-coded";
+inline constexpr const char* kRgbdCodedTemplateCaps =
+    "video/x-rgbd-coded, codec = (string) vcrd1, width = (int) [ 1, 16384 ], height = (int) [ 1, 16384 ], "
+    "framerate = (fraction) [ 0/1, 2147483647/1 ]";
+
+// Renames every structure of `caps` to `name`, adding or removing the codec field.
+GstCaps* rgbd_caps_renamed(GstCaps* caps, const char* name, bool coded);
+
 // Caps for a stream (fixed). Caller owns the result.
 GstCaps* rgbd_caps_new(const RgbdInfo& info);
 // Parses fixed `video/x-rgbd` caps. On failure returns false and says which field is wrong.

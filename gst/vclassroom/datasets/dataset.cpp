@@ -1,5 +1,7 @@
 #include <gst/vclassroom/datasets/dataset.h>
 
+#include <gst/vclassroom/net/rgbd_codec.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cstring>
@@ -35,7 +37,6 @@ std::vector<std::string> list_images(const fs::path& dir, std::initializer_list<
   return out;
 }
 
-std::string size_str(const cv::Mat& m) { return std::to_string(m.cols) + "x" + std::to_string(m.rows); }
 
 std::string stem_of(const std::string& path) { return fs::path(path).stem().string(); }
 
@@ -232,10 +233,26 @@ Dataset Dataset::open(const std::string& folder) {
   Dataset d;
   d.folder_ = folder;
   d.rig_ = load_rig((fs::path(folder) / "rig.yaml").string());
+  bool any_recording = false;
+  d.time_origin_ns_ = UINT64_MAX;
   for (const auto& c : d.rig_.cameras) {
     const fs::path dir = dataset_camera_dir(folder, c.id);
     Files f;
     f.id = c.id;
+    const fs::path stream = dir / kCodedStreamFile;
+    if (fs::exists(stream, ec)) {
+      if (fs::is_directory(dir / "color", ec))
+        throw Error(dir.string() + ": holds both a live recording (" + kCodedStreamFile +
+                    ") and colour images: keep one");
+      f.stream = stream.string();
+      f.index = index_coded_stream_file(f.stream, kMaxFrames);
+      if (f.index.frames.empty())
+        throw Error(f.stream + ": no frames" + (f.index.tail_problem.empty() ? "" : " (" + f.index.tail_problem + ")"));
+      any_recording = true;
+      d.time_origin_ns_ = std::min(d.time_origin_ns_, f.index.frames.front().time_ns);
+      d.cameras_.push_back(std::move(f));
+      continue;
+    }
     f.color = list_images(dir / "color", {".png", ".jpg", ".jpeg", ".ppm"});
     f.depth = list_images(dir / "depth", {".png", ".pgm"});
     f.label = list_images(dir / "label", {".png"});
@@ -246,7 +263,26 @@ Dataset Dataset::open(const std::string& folder) {
     f.depth_gt = pair_by_name(f.color, f.depth_gt, "ground-truth depth");
     d.cameras_.push_back(std::move(f));
   }
+  if (!any_recording) d.time_origin_ns_ = 0;
   return d;
+}
+
+size_t Dataset::frame_count(int camera_id) const {
+  const Files& f = camera(camera_id);
+  return f.stream.empty() ? f.color.size() : f.index.frames.size();
+}
+
+bool Dataset::has_label(int camera_id) const {
+  const Files& f = camera(camera_id);
+  return f.stream.empty() ? !f.label.empty() : (f.index.flags & kCodedStreamHasLabel) != 0;
+}
+
+uint64_t Dataset::frame_time_ns(int camera_id, size_t index) const {
+  const Files& f = camera(camera_id);
+  if (f.stream.empty() || index >= f.index.frames.size())
+    throw Error(folder_ + ": camera " + std::to_string(camera_id) + " has no recorded time for frame " +
+                std::to_string(index));
+  return f.index.frames[index].time_ns - time_origin_ns_;
 }
 
 const Dataset::Files& Dataset::camera(int id) const {
@@ -259,10 +295,25 @@ const Dataset::Files& Dataset::camera(int id) const {
 RgbdImages Dataset::load(int camera_id, size_t index) const {
   const Files& f = camera(camera_id);
   const CameraCalib& c = rig_.camera(camera_id);
-  if (index >= f.color.size())
-    throw Error(folder_ + ": camera " + std::to_string(camera_id) + " has " + std::to_string(f.color.size()) +
+  if (index >= frame_count(camera_id))
+    throw Error(folder_ + ": camera " + std::to_string(camera_id) + " has " + std::to_string(frame_count(camera_id)) +
                 " frames, asked for frame " + std::to_string(index));
   RgbdImages out;
+  if (!f.stream.empty()) {
+    // The frame is checked whole (sizes against the rig camera, every
+    // section's checksum) before anything of it is used.
+    const std::vector<uint8_t> bytes = read_coded_frame(f.stream, f.index.frames[index]);
+    RgbdCodedFrame frame;
+    std::string error;
+    if (!decode_rgbd_frame(bytes.data(), bytes.size(), c.width, c.height, &frame, &error))
+      throw Error(f.stream + ": frame " + std::to_string(index) + ": " + error);
+    out.color = frame.color;
+    out.depth = frame.depth;
+    out.label = frame.label;
+    if (has_label(camera_id) && out.label.empty())
+      throw Error(f.stream + ": frame " + std::to_string(index) + " has no label plane, as the recording declares");
+    return out;
+  }
   // The expected size goes to the reader: a PNG declaring another is refused
   // from its header, before decoding allocates for it.
   const cv::Size expected(c.width, c.height);

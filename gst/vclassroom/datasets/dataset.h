@@ -4,6 +4,7 @@
 //   <folder>/cam<ID>/depth/<frame>.png           16-bit, rig depth_scale mm per unit
 //   <folder>/cam<ID>/label/<frame>.png           8-bit learner labels (optional)
 //   <folder>/cam<ID>/depth-gt/<frame>.png        16-bit clean depth in mm (optional)
+//   <folder>/cam<ID>/stream.vcrs                 or: a live recording, coded frames with their times
 // Frames pair by file name (without extension); a camera without depth/ has no measurements.
 #pragma once
 
@@ -13,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include <gst/vclassroom/core/rig.h>
+#include <gst/vclassroom/datasets/coded_stream.h>
 
 namespace vclassroom {
 
@@ -29,22 +31,36 @@ class Dataset {
 
   const std::string& folder() const { return folder_; }
   const Rig& rig() const { return rig_; }
-  size_t frame_count(int camera_id) const { return camera(camera_id).color.size(); }
-  bool has_label(int camera_id) const { return !camera(camera_id).label.empty(); }
+  size_t frame_count(int camera_id) const;
+  bool has_label(int camera_id) const;
   bool has_depth_gt(int camera_id) const { return !camera(camera_id).depth_gt.empty(); }
   // Loads frame `index` of a camera; depth is converted to mm. Throws Error
-  // naming the file on a missing, undecodable or wrongly sized image.
+  // naming the file on a missing, undecodable or wrongly sized image or a
+  // damaged recorded frame.
   RgbdImages load(int camera_id, size_t index) const;
+
+  // Live recordings (cam<ID>/stream.vcrs) keep each frame's running time.
+  bool is_recording(int camera_id) const { return !camera(camera_id).stream.empty(); }
+  // The frame's recorded running time in ns minus the dataset's time origin
+  // (the earliest first frame of its recorded cameras, so cameras recorded
+  // together play back together). Only for recorded cameras.
+  uint64_t frame_time_ns(int camera_id, size_t index) const;
+  // Why a recorded camera's stream ends early ("" when it does not): e.g. the
+  // recorder was killed in the middle of a frame.
+  const std::string& recording_problem(int camera_id) const { return camera(camera_id).index.tail_problem; }
 
  private:
   struct Files {
     int id;
     std::vector<std::string> color, depth, label, depth_gt;
+    std::string stream;  // live recording, instead of the image folders
+    CodedStreamIndex index;
   };
   const Files& camera(int id) const;
   std::string folder_;
   Rig rig_;
   std::vector<Files> cameras_;
+  uint64_t time_origin_ns_ = 0;
 };
 
 // Path of a camera's folder inside a dataset.
