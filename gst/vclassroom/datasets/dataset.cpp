@@ -37,7 +37,6 @@ std::vector<std::string> list_images(const fs::path& dir, std::initializer_list<
   return out;
 }
 
-
 std::string stem_of(const std::string& path) { return fs::path(path).stem().string(); }
 
 std::mutex& rig_file_mutex() {
