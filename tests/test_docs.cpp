@@ -318,12 +318,20 @@ class DocRunner {
     for (std::sregex_iterator it(text.begin(), text.end(), out_path), end; it != end; ++it) {
       const std::string need = it->str();
       if (!outcomes_.count(need) && fs::exists(need)) continue;
+      if (writes(text, need)) continue;  // the command makes it (a recording)
       if (!outcomes_.count(need)) outcomes_[need] = make(need);
       const Outcome& o = outcomes_[need];
       if (!o.skip.empty()) *skip = o.skip;
       if (!o.failure.empty() || !o.skip.empty()) return o.failure;
     }
     return "";
+  }
+
+  // Whether the launch line itself writes `path`: a sink's location, or posesend's trace.
+  static bool writes(const std::string& text, const std::string& path) {
+    const std::regex writer(R"((sink[^!]*\blocation=|trace-location=))" + std::regex_replace(path, std::regex(R"([.])"), R"(\.)") +
+                            R"((\s|$))");
+    return std::regex_search(text, writer);
   }
 
   struct Outcome {

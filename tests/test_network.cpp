@@ -679,3 +679,31 @@ TEST(PoseSendLifecycle, RunsToTheEndInANonLivePipelineWithoutAQueueAfterItsRtpPa
   gst_object_unref(s);
   gst_object_unref(p);
 }
+
+TEST(PoseSendTrace, TheLecturerRecordsEveryPoseItSentWithItsRunningTime) {
+  vctest::TempDir dir;
+  std::vector<PoseSample> walk(5);
+  for (size_t i = 0; i < walk.size(); ++i) {
+    walk[i].pose = pose_with_seq(i + 1);
+    walk[i].pose.position.x() = 0.1 * double(i);
+  }
+  save_pose_trace(walk, dir / "walk.csv");
+  const auto r = vctest::run_launch("videotestsrc num-buffers=5 ! video/x-raw,width=32,height=24,framerate=30/1 ! "
+                                    "posesend name=s trace-location=" + (dir / "sent.csv") +
+                                    " ! videoconvert ! posenav pose-trace=" + (dir / "walk.csv") +
+                                    " ! fakesink  s.rtp ! fakesink");
+  ASSERT_EQ(r.error, "");
+  const std::vector<PoseSample> sent = load_pose_trace(dir / "sent.csv");
+  // One pose per frame, in order, each as it was sent; the times never go back.
+  ASSERT_EQ(sent.size(), walk.size());
+  for (size_t i = 0; i < sent.size(); ++i) {
+    EXPECT_NEAR(sent[i].pose.position.x(), walk[i].pose.position.x(), 1e-12) << i;
+    EXPECT_GT(sent[i].pose.seq, i == 0 ? 0 : sent[i - 1].pose.seq) << i;
+    EXPECT_FALSE(std::isnan(sent[i].t));
+    if (i > 0) EXPECT_GE(sent[i].t, sent[i - 1].t) << i;
+  }
+  // A trace that cannot be written stops the lecturer at start with a clear error.
+  const auto bad = vctest::run_launch("videotestsrc num-buffers=1 ! posesend name=s trace-location=" +
+                                      (dir / "no-such-dir/sent.csv") + " ! fakesink  s.rtp ! fakesink");
+  EXPECT_NE(bad.error.find("cannot write pose trace"), std::string::npos) << bad.error;
+}

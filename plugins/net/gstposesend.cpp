@@ -16,6 +16,9 @@
 // is that thread. It also starts the rtp stream at once (stream-start, caps,
 // segment and a GAP event, which prerolls a sink without any packet), so
 // end-of-stream can always follow, whether or not a pose was ever sent.
+//
+// With trace-location set, every pose sent is also written to a pose trace
+// (running time, pose, seq), so a recorded session can be rendered again.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -26,6 +29,7 @@
 
 #include <condition_variable>
 #include <deque>
+#include <memory>
 #include <mutex>
 #include <optional>
 
@@ -38,7 +42,7 @@ GST_DEBUG_CATEGORY_STATIC(pose_send_debug);
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_PT, PROP_REPEAT, PROP_SENT, PROP_KEY_FILE };
+enum { PROP_0, PROP_PT, PROP_REPEAT, PROP_SENT, PROP_KEY_FILE, PROP_TRACE_LOCATION };
 
 namespace {
 // Packets made but not yet pushed: a handful is plenty (a newer pose makes the
@@ -52,6 +56,8 @@ struct SendState {
   bool repeat = true;
   std::string key_file;
   PoseKey key;
+  std::string trace_location;
+  std::unique_ptr<PoseTraceWriter> trace;  // from READY to PAUSED on, when trace_location is set
   guint16 rtp_seq = 0;
   guint32 ssrc = 0;
   guint64 session = 0;  // this run's number in every packet: a restarted lecturer is a new session
@@ -171,6 +177,24 @@ static gboolean gst_pose_send_rtp_activate_mode(GstPad* pad, GstObject* parent, 
   return active ? gst_pad_start_task(pad, gst_pose_send_rtp_loop, self, nullptr) : gst_pad_stop_task(pad);
 }
 
+// Adds the pose to the trace at the pipeline's running time; a trace that
+// cannot be written is given up with a warning, and the lecturer goes on.
+static void record_pose_locked(GstPoseSend* self, const Pose& pose) {
+  PoseSample sample;
+  sample.pose = pose;
+  if (GstClock* clock = gst_element_get_clock(GST_ELEMENT(self))) {
+    const GstClockTime now = gst_clock_get_time(clock);
+    gst_object_unref(clock);
+    sample.t = double(GST_CLOCK_DIFF(gst_element_get_base_time(GST_ELEMENT(self)), now)) / GST_SECOND;
+  }
+  try {
+    self->st->trace->append(sample);
+  } catch (const Error& e) {
+    GST_ELEMENT_WARNING(self, RESOURCE, WRITE, ("%s", e.what()), ("the poses are sent on, but no longer recorded"));
+    self->st->trace.reset();
+  }
+}
+
 static gboolean gst_pose_send_src_event(GstPad* pad, GstObject* parent, GstEvent* event) {
   GstPoseSend* self = GST_POSE_SEND(parent);
   if (is_pose_event(event)) {
@@ -185,6 +209,7 @@ static gboolean gst_pose_send_src_event(GstPad* pad, GstObject* parent, GstEvent
     std::lock_guard<std::mutex> g(self->st->lock);
     self->st->latest = pose;
     send_locked(self, pose);
+    if (self->st->trace) record_pose_locked(self, pose);
     return TRUE;  // it goes on over the network, not to the lecturer's source
   }
   return gst_pad_event_default(pad, parent, event);
@@ -222,6 +247,15 @@ static GstStateChangeReturn gst_pose_send_change_state(GstElement* element, GstS
   if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {  // the key file as set now
     if (!load_key_file(element, st->lock, st->key_file, &st->key)) return GST_STATE_CHANGE_FAILURE;
     std::lock_guard<std::mutex> g(st->lock);
+    st->trace.reset();
+    if (!st->trace_location.empty()) {
+      try {
+        st->trace = std::make_unique<PoseTraceWriter>(st->trace_location);
+      } catch (const Error& e) {
+        GST_ELEMENT_ERROR(element, RESOURCE, OPEN_WRITE, ("%s", e.what()), ("posesend trace-location"));
+        return GST_STATE_CHANGE_FAILURE;
+      }
+    }
     // A new session each start: the server tells a restarted lecturer by it.
     st->latest.reset();
     st->ssrc = g_random_int();
@@ -246,6 +280,11 @@ static void gst_pose_send_set_property(GObject* object, guint prop_id, const GVa
       st->key_file = f ? f : "";
       break;
     }
+    case PROP_TRACE_LOCATION: {
+      const gchar* f = g_value_get_string(value);
+      st->trace_location = f ? f : "";
+      break;
+    }
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -266,6 +305,9 @@ static void gst_pose_send_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_KEY_FILE:
       g_value_set_string(value, st->key_file.c_str());
+      break;
+    case PROP_TRACE_LOCATION:
+      g_value_set_string(value, st->trace_location.c_str());
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
@@ -303,6 +345,12 @@ static void gst_pose_send_class_init(GstPoseSendClass* klass) {
       g_param_spec_string("key-file", "Key file",
                           "File holding the shared pose key (16 to 1024 raw bytes, e.g. head -c 32 /dev/urandom > "
                           "pose.key): every pose packet carries an HMAC-SHA256 tag made with it. Unset: untagged",
+                          nullptr, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
+  g_object_class_install_property(
+      gobject_class, PROP_TRACE_LOCATION,
+      g_param_spec_string("trace-location", "Trace file",
+                          "Also write every pose sent to this pose trace (CSV: running time t in s, position, "
+                          "orientation, seq; docs/pose.md), so a recorded session can be rendered again. Unset: none",
                           nullptr, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);

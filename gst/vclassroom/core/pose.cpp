@@ -3,6 +3,7 @@
 #include <gst/vclassroom/core/checksum.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -423,24 +424,50 @@ std::vector<PoseSample> load_pose_trace(const std::string& path) {
   return out;
 }
 
+namespace {
+
+std::string trace_header(bool fov) { return std::string("t,x,y,z,qw,qx,qy,qz") + (fov ? ",fov" : "") + ",seq\n"; }
+
+std::string trace_line(const PoseSample& s, bool fov) {
+  const Pose& p = s.pose;
+  char buf[512];
+  int n = std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g",
+                        std::isnan(s.t) ? 0.0 : s.t, p.position.x(), p.position.y(), p.position.z(),
+                        p.orientation.w(), p.orientation.x(), p.orientation.y(), p.orientation.z());
+  if (fov) n += std::snprintf(buf + n, sizeof buf - size_t(n), ",%.17g", p.fov_deg);
+  std::snprintf(buf + n, sizeof buf - size_t(n), ",%llu\n", static_cast<unsigned long long>(p.seq));
+  return buf;
+}
+
+}  // namespace
+
 void save_pose_trace(const std::vector<PoseSample>& trace, const std::string& path) {
   std::ofstream out(path);
   if (!out) throw Error(path + ": cannot write pose trace");
   const bool fov = !trace.empty() && trace.front().pose.has_fov();
-  out << "t,x,y,z,qw,qx,qy,qz" << (fov ? ",fov" : "") << ",seq\n";
-  char buf[512];
-  for (const auto& s : trace) {
-    const auto& p = s.pose;
-    std::snprintf(buf, sizeof buf, "%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g", std::isnan(s.t) ? 0.0 : s.t,
-                  p.position.x(), p.position.y(), p.position.z(), p.orientation.w(), p.orientation.x(),
-                  p.orientation.y(), p.orientation.z());
-    out << buf;
-    if (fov) {
-      std::snprintf(buf, sizeof buf, ",%.17g", p.fov_deg);
-      out << buf;
-    }
-    out << ',' << p.seq << '\n';
+  out << trace_header(fov);
+  for (const auto& s : trace) out << trace_line(s, fov);
+}
+
+PoseTraceWriter::PoseTraceWriter(const std::string& path) : path_(path) {
+  file_ = std::fopen(path.c_str(), "w");
+  if (!file_) throw Error(path + ": cannot write pose trace (" + std::strerror(errno) + ")");
+}
+
+PoseTraceWriter::~PoseTraceWriter() {
+  if (file_) std::fclose(file_);
+}
+
+void PoseTraceWriter::append(const PoseSample& sample) {
+  std::string text;
+  if (!header_written_) {
+    fov_ = sample.pose.has_fov();
+    text = trace_header(fov_);
+    header_written_ = true;
   }
+  text += trace_line(sample, fov_);
+  if (std::fwrite(text.data(), 1, text.size(), file_) != text.size() || std::fflush(file_) != 0)
+    throw Error(path_ + ": cannot write pose trace (" + std::strerror(errno) + ")");
 }
 
 size_t pose_trace_index(const std::vector<PoseSample>& trace, double t, uint64_t frame) {

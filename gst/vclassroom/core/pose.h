@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <string>
 #include <vector>
@@ -135,6 +136,24 @@ struct PoseSample {
 };
 std::vector<PoseSample> load_pose_trace(const std::string& path);
 void save_pose_trace(const std::vector<PoseSample>& trace, const std::string& path);
+// Writes a trace as it happens (the lecturer's poses during a session), one
+// line per pose handed to the kernel at once, so a killed process leaves every
+// pose before. The columns are those of the first pose (fov or not). Throws
+// Error naming the file.
+class PoseTraceWriter {
+ public:
+  explicit PoseTraceWriter(const std::string& path);
+  ~PoseTraceWriter();
+  PoseTraceWriter(const PoseTraceWriter&) = delete;
+  PoseTraceWriter& operator=(const PoseTraceWriter&) = delete;
+  void append(const PoseSample& sample);
+
+ private:
+  std::string path_;
+  FILE* file_ = nullptr;
+  bool fov_ = false;
+  bool header_written_ = false;
+};
 // Which sample of a non-empty trace shows the frame at running time `t`
 // seconds, the `frame`-th of its stream: with a t column the last sample at or
 // before t (the first before it starts), else sample `frame`; the last one is
