@@ -28,6 +28,8 @@
 #include <gst/gst.h>
 #include <gtest/gtest.h>
 
+#include <gst/vclassroom/core/rig.h>
+
 #include "test_util.h"
 
 namespace fs = std::filesystem;
@@ -632,4 +634,35 @@ TEST(Tools, BuildModelMakesItsOutputFolderWithTheParents) {
   ASSERT_EQ(e.status, 0) << e.err;
   EXPECT_TRUE(fs::exists(out + "/rig.yaml"));
   EXPECT_TRUE(fs::exists(out + "/planes.csv"));
+}
+
+TEST(Tools, EvalViewsTakesAnyDatasetAndEndsWithThePsnrLine) {
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  vclassroom::save_rig(vctest::make_rig(3, 64, 48), rig);
+  const std::string data = dir / "data";
+  std::string record;
+  for (int cam = 0; cam < 3; ++cam)
+    record += "rgbdtestsrc rig=" + rig + " camera-id=" + std::to_string(cam) + " num-buffers=3 ! rgbdfilesink location=" +
+              data + "  ";
+  ASSERT_EQ(vctest::run_launch(record).error, "");
+  const std::string tool = env_or_empty("VCLASSROOM_TOOLS_DIR") + "/vclassroom-eval-views";
+  const std::string out = dir / "eval/images";
+  const Exit e = run_tool({tool, "--dataset", data, "--target", "0", "--sources", "1,2", "--crop-right", "8", "--out", out});
+  ASSERT_EQ(e.status, 0) << e.err;
+  static const std::regex last_line(R"(PSNR [0-9]+\.[0-9]{2} dB SSIM [0-9]+\.[0-9]{2}\n$)");
+  EXPECT_TRUE(std::regex_search(e.out, last_line)) << e.out;
+  for (const char* f : {"cam0-from-1,2-frame0.png", "cam0-from-1,2-frame2.png", "cam0-from-1,2-psnr.png"})
+    EXPECT_TRUE(fs::exists(out + "/" + f)) << f;
+  // With the dataset's own rig given as --rig, the same figure.
+  const Exit same = run_tool({tool, "--dataset", data, "--target", "0", "--sources", "1,2", "--crop-right", "8", "--rig",
+                              data + "/rig.yaml"});
+  ASSERT_EQ(same.status, 0) << same.err;
+  EXPECT_EQ(e.out.substr(e.out.rfind("PSNR")), same.out.substr(same.out.rfind("PSNR")));
+  // What makes no sense is refused with status 2, what is not there with status 1 naming it.
+  EXPECT_EQ(run_tool({tool, "--dataset", data, "--target", "0", "--sources", "0,1"}).status, 2);
+  EXPECT_EQ(run_tool({tool, "--dataset", data, "--target", "0"}).status, 2);
+  const Exit missing = run_tool({tool, "--dataset", data, "--target", "0", "--sources", "7"});
+  EXPECT_EQ(missing.status, 1);
+  EXPECT_NE(missing.err.find("7"), std::string::npos) << missing.err;
 }

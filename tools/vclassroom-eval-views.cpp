@@ -43,6 +43,14 @@ struct Options {
   bool mesh = false;
   std::string write_priors;  // folder: write the empty room's depth per camera and exit
   std::string model;         // V-DA model folder: the full system runs V-DA on the sensor depth
+  // --dataset: leave-one-out on any dataset folder of the project's format.
+  std::string dataset;
+  std::string rig;  // calibration to warp with instead of the dataset's (e.g. vclassroom-calibrate's)
+  int target = -1;
+  std::vector<int> sources;
+  int crop_right = 0;
+  int dataset_frames = 0;  // 0: every frame
+  std::string out;
 };
 
 struct Stats {
@@ -76,6 +84,113 @@ std::string make_temp_dir() {
   return d;
 }
 
+// Leave-one-out on any dataset: the target camera synthesised from the
+// sources, frame by frame, against the target's real image (right
+// `crop_right` columns left out, as FW-DIBR's protocol does for what no
+// source sees). Writes synthesised | real | error PNGs of the first and last
+// frame (of the one frame: <name>.png) and a plot of PSNR per frame when
+// `out` is set.
+struct DatasetScore {
+  Stats psnr, ssim;
+};
+
+// A line chart of `values` (one per frame) as a PNG a reader can look at.
+void write_plot(const std::string& path, const std::vector<double>& values, const std::string& title) {
+  const int w = 640, h = 320, left = 56, right = 16, top = 36, bottom = 40;
+  cv::Mat img(h, w, CV_8UC3, cv::Scalar(255, 255, 255));
+  double lo = *std::min_element(values.begin(), values.end()), hi = *std::max_element(values.begin(), values.end());
+  lo = std::floor(lo - 0.5);
+  hi = std::ceil(hi + 0.5);
+  auto x_of = [&](size_t i) {
+    return left + (values.size() < 2 ? (w - left - right) / 2 : int(i * (w - left - right) / (values.size() - 1)));
+  };
+  auto y_of = [&](double v) { return top + int((hi - v) / (hi - lo) * (h - top - bottom)); };
+  const cv::Scalar axis(80, 80, 80), line(200, 90, 30);
+  cv::rectangle(img, {left, top}, {w - right, h - bottom}, axis);
+  for (double v : {lo, (lo + hi) / 2, hi}) {
+    char label[32];
+    std::snprintf(label, sizeof label, "%.1f", v);
+    cv::putText(img, label, {4, y_of(v) + 4}, cv::FONT_HERSHEY_SIMPLEX, 0.4, axis);
+  }
+  cv::putText(img, "frame", {w / 2 - 20, h - 10}, cv::FONT_HERSHEY_SIMPLEX, 0.45, axis);
+  cv::putText(img, "0", {left - 4, h - bottom + 16}, cv::FONT_HERSHEY_SIMPLEX, 0.4, axis);
+  cv::putText(img, std::to_string(values.size() - 1), {w - right - 16, h - bottom + 16}, cv::FONT_HERSHEY_SIMPLEX,
+              0.4, axis);
+  cv::putText(img, title, {left, 22}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0));
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (i > 0) cv::line(img, {x_of(i - 1), y_of(values[i - 1])}, {x_of(i), y_of(values[i])}, line, 2, cv::LINE_AA);
+    cv::circle(img, {x_of(i), y_of(values[i])}, 3, line, cv::FILLED, cv::LINE_AA);
+  }
+  if (!cv::imwrite(path, img)) throw Error("cannot write " + path);
+  std::printf("  wrote %s\n", path.c_str());
+}
+
+DatasetScore eval_dataset(const Dataset& ds, const Rig& rig, int target, const std::vector<int>& sources,
+                          int crop_right, int frames, const WarpParams& wp, const std::string& out,
+                          const std::string& name) {
+  size_t count = ds.frame_count(target);
+  for (int s : sources) count = std::min(count, ds.frame_count(s));
+  if (frames > 0) count = std::min(count, size_t(frames));
+  const CameraCalib& target_cam = rig.camera(target);
+  if (crop_right < 0 || crop_right >= target_cam.width)
+    throw Error("--crop-right " + std::to_string(crop_right) + " leaves nothing of camera " + std::to_string(target) +
+                " (" + std::to_string(target_cam.width) + " columns)");
+  const cv::Rect roi(0, 0, target_cam.width - crop_right, target_cam.height);
+  std::vector<ViewWarper> warpers(sources.size());
+  DatasetScore score;
+  vclassroom_tools::Progress progress(name + " frames", long(count));
+  for (size_t f = 0; f < count; ++f) {
+    if (count > 1) progress.step(long(f + 1));
+    std::vector<WarpedView> warped(sources.size());
+    std::vector<const WarpedView*> views;
+    for (size_t i = 0; i < sources.size(); ++i) {
+      const RgbdImages in = ds.load(sources[i], f);
+      warpers[i].warp(rig.camera(sources[i]), WarpSource{in.color, in.depth, cv::Mat(), cv::Mat()}, target_cam, wp,
+                      &warped[i]);
+      views.push_back(&warped[i]);
+    }
+    FusedView fused;
+    fuse_views(views, FuseParams(), &fused);
+    const RgbdImages real = ds.load(target, f);
+    score.psnr.add(psnr_rgb(fused.color, real.color, roi));
+    score.ssim.add(ssim_luma(fused.color, real.color, roi));
+    if (!out.empty() && (f == 0 || f + 1 == count))
+      write_side_by_side(out + "/" + name + (count > 1 ? "-frame" + std::to_string(f) : std::string()) + ".png",
+                         fused.color, real.color, roi);
+  }
+  if (!out.empty() && count > 1)
+    write_plot(out + "/" + name + "-psnr.png", score.psnr.v, name + ": PSNR (dB) per frame");
+  return score;
+}
+
+std::string camera_list(const std::vector<int>& ids) {
+  std::string s;
+  for (int id : ids) s += (s.empty() ? "" : ",") + std::to_string(id);
+  return s;
+}
+
+void eval_any_dataset(const Options& opt) {
+  const Dataset ds = Dataset::open(opt.dataset);
+  const Rig rig = opt.rig.empty() ? ds.rig() : load_rig(opt.rig);
+  for (int id : opt.sources) ds.rig().camera(id), rig.camera(id);  // each names a camera of both, or throws
+  ds.rig().camera(opt.target);
+  const CameraCalib& t = rig.camera(opt.target);
+  if (ds.rig().camera(opt.target).width != t.width || ds.rig().camera(opt.target).height != t.height)
+    throw Error(opt.rig + ": camera " + std::to_string(opt.target) + " is not the dataset's size");
+  WarpParams wp;
+  wp.boundary_px = opt.boundary_px;
+  wp.mesh = opt.mesh;
+  const std::string name = "cam" + std::to_string(opt.target) + "-from-" + camera_list(opt.sources);
+  std::printf("== %s: camera %d from camera(s) %s%s, right %d columns cropped ==\n", opt.dataset.c_str(), opt.target,
+              camera_list(opt.sources).c_str(), opt.rig.empty() ? "" : (" with the rig " + opt.rig).c_str(),
+              opt.crop_right);
+  const DatasetScore s =
+      eval_dataset(ds, rig, opt.target, opt.sources, opt.crop_right, opt.dataset_frames, wp, opt.out, name);
+  if (s.psnr.v.empty()) throw Error(opt.dataset + ": no frames to evaluate");
+  std::printf("frames %zu, PSNR min %.2f max %.2f dB\n", s.psnr.v.size(), s.psnr.min(), s.psnr.max());
+  std::printf("PSNR %.2f dB SSIM %.2f\n", s.psnr.avg(), 100 * s.ssim.avg());
+}
+
 // Single reference: view 1 + depth -> view k, crop right 50*(k-1) columns (FW-DIBR protocol).
 void eval_middlebury(const Options& opt) {
   const std::string base = opt.shared + "/middlebury-2005-2006-multiview";
@@ -88,28 +203,19 @@ void eval_middlebury(const Options& opt) {
     const std::string tmp = make_temp_dir();
     import_middlebury_multiview(base + "/" + scene, tmp, true);
     const Dataset ds = Dataset::open(tmp);
-    const RgbdImages ref = ds.load(1, 0);
-    WarpSource src{ref.color, ref.depth, cv::Mat(), cv::Mat()};
     WarpParams wp;
     wp.boundary_px = opt.boundary_px;
     wp.mesh = opt.mesh;
-    FuseParams fp;
     std::printf("%-5s offset |  PSNR dB  SSIMx100 | best published PSNR (Layered Simple) | ours - best\n",
                 scene.c_str());
     for (int k = 2; k <= 6; ++k) {
-      const CameraCalib& target = ds.rig().camera(k);
-      const WarpedView w = warp_view(ds.rig().camera(1), src, target, wp);
-      FusedView f;
-      fuse_views({&w}, fp, &f);
-      const RgbdImages real = ds.load(k, 0);
-      const cv::Rect roi(0, 0, real.color.cols - 50 * (k - 1), real.color.rows);
-      const double p = psnr_rgb(f.color, real.color, roi), s = ssim_luma(f.color, real.color, roi);
+      // The same evaluation as --dataset DIR --target k --sources 1 --crop-right 50*(k-1).
+      const DatasetScore s = eval_dataset(ds, ds.rig(), k, {1}, 50 * (k - 1), 1, wp,
+                                          k == 2 || k == 6 ? opt.images : "", "vva-" + scene + "-view1-to-" +
+                                                                                  std::to_string(k));
       const double b = best.at(scene)[k - 2];
-      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.2f  (%.1f%% filled)\n",
-                  scene.c_str(), k - 1, p, 100 * s, b, p - b, 100.0 * cv::countNonZero(f.filled(roi)) / roi.area());
-      if (!opt.images.empty() && (k == 2 || k == 6))
-        write_side_by_side(opt.images + "/vva-" + scene + "-view1-to-" + std::to_string(k) + ".png", f.color,
-                           real.color, roi);
+      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.2f\n",
+                  scene.c_str(), k - 1, s.psnr.avg(), 100 * s.ssim.avg(), b, s.psnr.avg() - b);
     }
     std::string cmd = "rm -rf '" + tmp + "'";
     if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "could not remove %s\n", tmp.c_str());
@@ -326,8 +432,9 @@ void write_priors(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   g_autofree gchar *shared = nullptr, *images = nullptr, *only = nullptr, *size = nullptr, *priors_dir = nullptr,
-        *model = nullptr;
+        *model = nullptr, *dataset = nullptr, *sources = nullptr, *rig = nullptr, *out = nullptr;
   gboolean mesh = FALSE;
+  opt.frames = 0;  // told apart from "not given" below
   const GOptionEntry entries[] = {
       {"shared", 0, 0, G_OPTION_ARG_FILENAME, &shared,
        "the shared data folder (default ../shared/data, relative to the repo root)", "DIR"},
@@ -335,8 +442,8 @@ int main(int argc, char** argv) {
        "NAME"},
       {"images", 0, 0, G_OPTION_ARG_FILENAME, &images,
        "write side-by-side PNGs (synthesised | real | error x4) there (made if missing)", "DIR"},
-      {"frames", 0, 0, G_OPTION_ARG_INT, &opt.frames, "synthetic classroom frames to average over (default 20)",
-       "N"},
+      {"frames", 0, 0, G_OPTION_ARG_INT, &opt.frames,
+       "frames to average over: synthetic classroom (default 20), or with --dataset (default all)", "N"},
       {"size", 0, 0, G_OPTION_ARG_STRING, &size, "synthetic classroom camera size (default 960x540)", "WxH"},
       {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 1)",
        "PX"},
@@ -347,13 +454,31 @@ int main(int argc, char** argv) {
        "and the sensor depth goes through depthcomplete + planerefine first, as in the live pipeline; without it "
        "the static layer is the empty room's exact depth (a stand-in)",
        "DIR"},
+      {"dataset", 0, 0, G_OPTION_ARG_FILENAME, &dataset,
+       "leave-one-out on this dataset folder (docs/dataset-format.md: imported, recorded or synthetic) instead of "
+       "the built-in evaluations; needs --target and --sources; ends with the line 'PSNR NN.NN dB SSIM NN.NN'",
+       "DIR"},
+      {"target", 0, 0, G_OPTION_ARG_INT, &opt.target, "with --dataset: the camera to synthesise", "K"},
+      {"sources", 0, 0, G_OPTION_ARG_STRING, &sources, "with --dataset: the cameras it is made from", "I,J"},
+      {"crop-right", 0, 0, G_OPTION_ARG_INT, &opt.crop_right,
+       "with --dataset: right columns of the target left out of the scores (default 0)", "N"},
+      {"rig", 0, 0, G_OPTION_ARG_FILENAME, &rig,
+       "with --dataset: warp with this rig's calibration instead of the dataset's (e.g. one from "
+       "vclassroom-calibrate), scoring against the same images",
+       "FILE"},
+      {"out", 0, 0, G_OPTION_ARG_FILENAME, &out,
+       "with --dataset: write synthesised | real | error PNGs of the first and last frame and a plot of PSNR per "
+       "frame there (made if missing)",
+       "DIR"},
       {"write-priors", 0, 0, G_OPTION_ARG_FILENAME, &priors_dir,
        "only write the empty classroom's clean depth for cameras 0..2 of the default rig as DIR/prior-cam<K>.png "
        "(16-bit mm), the stand-in for V-DA's model that learnerseg/viewwarp's prior-depth reads (made if missing)",
        "DIR"},
       {}};
   vclassroom_tools::parse_command_line(
-      &argc, &argv, "", "Quality of the view algorithm (V-VA) on the synthetic classroom and Middlebury scenes.",
+      &argc, &argv, "",
+      "Quality of the view algorithm (V-VA): leave-one-out on any dataset (--dataset), or the built-in "
+      "evaluations on the synthetic classroom and Middlebury scenes.",
       entries);
   if (shared) opt.shared = shared;
   opt.images = vclassroom_tools::text_of(images);
@@ -362,14 +487,45 @@ int main(int argc, char** argv) {
   opt.write_priors = vclassroom_tools::text_of(priors_dir);
   opt.model = vclassroom_tools::text_of(model);
   if (size) vclassroom_tools::parse_size_or_exit("--size", size, &opt.width, &opt.height);
+  opt.dataset = vclassroom_tools::text_of(dataset);
+  opt.rig = vclassroom_tools::text_of(rig);
+  opt.out = vclassroom_tools::text_of(out);
+  if (opt.frames < 0) vclassroom_tools::usage_error("--frames must be at least 1");
+  opt.dataset_frames = opt.frames;
+  if (opt.frames == 0) opt.frames = 20;
+  if (!opt.dataset.empty()) {
+    if (opt.target < 0 || !sources) vclassroom_tools::usage_error("--dataset needs --target K and --sources I,J");
+    gchar** ids = g_strsplit(sources, ",", -1);
+    for (gchar** id = ids; *id; ++id) {
+      char* end = nullptr;
+      const long v = std::strtol(*id, &end, 10);
+      if (end == *id || *end || v < 0 || v > 1000000) {
+        g_strfreev(ids);
+        vclassroom_tools::usage_error(std::string("--sources must be camera ids like 1,2 (got '") + sources + "')");
+      }
+      if (int(v) == opt.target) {
+        g_strfreev(ids);
+        vclassroom_tools::usage_error("--sources must not hold the --target camera");
+      }
+      opt.sources.push_back(int(v));
+    }
+    g_strfreev(ids);
+    if (opt.sources.empty()) vclassroom_tools::usage_error("--sources names no camera");
+  } else if (opt.target >= 0 || sources || rig || out || opt.crop_right) {
+    vclassroom_tools::usage_error("--target, --sources, --rig, --crop-right and --out go with --dataset");
+  }
   if (!opt.only.empty() && opt.only != "classroom" && opt.only != "middlebury" && opt.only != "teddy")
     vclassroom_tools::usage_error("--only must be classroom, middlebury or teddy (got '" + opt.only + "')");
   if (opt.frames < 1 || opt.boundary_px < 0) vclassroom_tools::usage_error("--frames must be at least 1, --boundary at least 0");
-  for (const std::string& dir : {opt.images, opt.write_priors})
+  for (const std::string& dir : {opt.images, opt.write_priors, opt.out})
     if (!dir.empty() && !vclassroom_tools::make_folder(dir)) return 1;
   try {
     if (!opt.write_priors.empty()) {
       write_priors(opt);
+      return 0;
+    }
+    if (!opt.dataset.empty()) {
+      eval_any_dataset(opt);
       return 0;
     }
     if (opt.only.empty() || opt.only == "classroom") eval_classroom(opt);
