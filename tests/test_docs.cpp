@@ -666,3 +666,25 @@ TEST(Tools, EvalViewsTakesAnyDatasetAndEndsWithThePsnrLine) {
   EXPECT_EQ(missing.status, 1);
   EXPECT_NE(missing.err.find("7"), std::string::npos) << missing.err;
 }
+
+TEST(Tools, EvalDepthTakesAnyDatasetWithGroundTruthDepth) {
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  vclassroom::save_rig(vctest::make_rig(2, 64, 48), rig);
+  const std::string with_truth = dir / "truth", without = dir / "plain";
+  ASSERT_EQ(vctest::run_launch("rgbdtestsrc rig=" + rig + " ground-truth=true num-buffers=2 ! rgbdfilesink location=" +
+                               with_truth + "  rgbdtestsrc rig=" + rig + " ground-truth=false num-buffers=2 ! rgbdfilesink location=" +
+                               without)
+                .error,
+            "");
+  const std::string tool = env_or_empty("VCLASSROOM_TOOLS_DIR") + "/vclassroom-eval-depth";
+  const Exit e = run_tool({tool, "--dataset", with_truth});
+  ASSERT_EQ(e.status, 0) << e.err;
+  static const std::regex last_line(R"(RMSE [0-9]+\.[0-9] mm \(edge band [0-9]+\.[0-9] mm\)\n$)");
+  EXPECT_TRUE(std::regex_search(e.out, last_line)) << e.out;
+  EXPECT_NE(e.out.find("2 frames of camera(s) 0"), std::string::npos) << e.out;
+  const Exit plain = run_tool({tool, "--dataset", without});
+  EXPECT_EQ(plain.status, 1);
+  EXPECT_NE(plain.err.find("has no ground-truth depth"), std::string::npos) << plain.err;
+  EXPECT_EQ(run_tool({tool, "--camera", "0"}).status, 2);  // --camera without --dataset
+}
