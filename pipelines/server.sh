@@ -24,6 +24,8 @@
 #   SRTP_KEY (a 30-byte key file: every RTP link in and out is SRTP, with the cameras' and the lecturer's
 #   same file; docs/network.md).
 #   STOP_GRACE (seconds the pipeline gets to end after Ctrl-C before it is killed, default 5).
+#   NAV_RIG (rig file with navigation bounds: every pose is moved into them, docs/navigation.md; default
+#   $MODEL/rig.yaml when MODEL is set, which vclassroom-build-model gives bounds; set it empty for none).
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
@@ -106,7 +108,8 @@ done
 # argument and handles the quotes inside them itself.
 set -f
 FUSE_LATENCY=${FUSE_LATENCY:-100000000}
-desc="viewfuse name=fuse latency=$FUSE_LATENCY ! poserecv name=poses $pose_key ! \
+NAV_RIG=${NAV_RIG-${MODEL:+$MODEL/rig.yaml}}
+desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! poserecv name=poses $pose_key ! \
   jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=$MTU ! application/x-rtp,$POSE_EXT ! \
   $SRTP_ENC udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
   udpsrc port=$POSE_PORT caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! \

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/vva/navigation.h>
 
 GST_DEBUG_CATEGORY_STATIC(pose_nav_debug);
 #define GST_CAT_DEFAULT pose_nav_debug
@@ -39,6 +40,7 @@ struct NavState {
   double fov = 0;
 
   CameraCalib reference;        // from the rig, or the rig origin looking level along -Z
+  NavigationClamp bounds;       // the rig's navigation bounds, when it has them
   ViewOffset start, view;       // start pose and current pose, relative to the reference
   std::vector<PoseSample> trace;
   size_t trace_index = 0;
@@ -62,6 +64,14 @@ static GstStaticPadTemplate sink_template =
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
 
+// Clamps to the rig's navigation bounds; a rate-limited warning says so.
+static bool clamp_to_navigation_locked(GstPoseNav* self, Pose* pose, const char* source) {
+  std::string warning;
+  const bool clamped = self->st->bounds.apply(pose, int64_t(g_get_monotonic_time()) * 1000, source, &warning);
+  if (!warning.empty()) GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("%s", warning.c_str()), (nullptr));
+  return clamped;
+}
+
 // Builds the event for `pose` (called with the lock held); nullptr if invalid.
 static GstEvent* make_pose_event_locked(GstPoseNav* self, Pose pose) {
   NavState* st = self->st;
@@ -82,8 +92,15 @@ static void send_upstream(GstPoseNav* self, GstEvent* event) {
   gst_pad_push_event(GST_BASE_TRANSFORM_SINK_PAD(self), event);
 }
 
+// The view as the lecturer steers it stops at the rig's navigation bounds: a
+// drag or key beyond them leaves the view at the edge (not a jump), and the
+// view kept is the clamped one, so moving back responds at once.
 static GstEvent* view_event_locked(GstPoseNav* self) {
-  return make_pose_event_locked(self, offset_to_pose(self->st->view, self->st->reference));
+  NavState* st = self->st;
+  Pose pose = offset_to_pose(st->view, st->reference);
+  if (clamp_to_navigation_locked(self, &pose, "the lecturer's navigation"))
+    st->view = pose_to_offset(pose, st->reference);
+  return make_pose_event_locked(self, pose);
 }
 
 // Applies one navigation event; true when posenav used (and so swallows) it.
@@ -174,9 +191,10 @@ static GstFlowReturn gst_pose_nav_transform_ip(GstBaseTransform* trans, GstBuffe
     NavState* st = self->st;
     if (!st->trace.empty()) {
       // One trace pose per frame, for reproducible runs; the last one holds.
-      const PoseSample& s = st->trace[std::min(st->trace_index, st->trace.size() - 1)];
+      Pose p = st->trace[std::min(st->trace_index, st->trace.size() - 1)].pose;
       st->trace_index++;
-      pose = make_pose_event_locked(self, s.pose);
+      clamp_to_navigation_locked(self, &p, "the pose trace");
+      pose = make_pose_event_locked(self, p);
     } else if (!st->started) {
       pose = view_event_locked(self);
     }
@@ -191,7 +209,9 @@ static gboolean gst_pose_nav_start(GstBaseTransform* trans) {
   NavState* st = self->st;
   std::lock_guard<std::mutex> g(st->lock);
   try {
-    st->reference = st->rig_path.empty() ? rig_origin_reference() : load_rig(st->rig_path).camera(st->reference_id);
+    const Rig rig = st->rig_path.empty() ? Rig() : load_rig(st->rig_path);
+    st->reference = st->rig_path.empty() ? rig_origin_reference() : rig.camera(st->reference_id);
+    st->bounds = NavigationClamp(rig);
     st->start = sliders_to_offset(parse_sliders(st->sliders_text));
     st->trace = st->trace_path.empty() ? std::vector<PoseSample>() : load_pose_trace(st->trace_path);
   } catch (const Error& e) {
@@ -306,7 +326,8 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
       gobject_class, PROP_RIG,
       g_param_spec_string("rig", "Rig file",
                           "Rig YAML file whose reference camera the sliders and navigation are relative to (empty: "
-                          "the rig origin, looking level along -Z)",
+                          "the rig origin, looking level along -Z); with a navigation section (vclassroom-build-model "
+                          "writes one, docs/navigation.md) the view and trace poses stay inside its bounds",
                           "", ready));
   g_object_class_install_property(gobject_class, PROP_REFERENCE_CAMERA,
                                   g_param_spec_int("reference-camera", "Reference camera",

@@ -19,6 +19,7 @@
 #include <gst/vclassroom/vva/camera_liveness.h>
 #include <gst/vclassroom/vva/fuse_inputs.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/vva/navigation.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/vva/view_fuse.h>
@@ -37,7 +38,11 @@ enum {
   PROP_FRAMES_FUSED,
   PROP_POSE_WINDOW,
   PROP_CAMERA_TIMEOUT,
-  PROP_SHOW_MISSING
+  PROP_SHOW_MISSING,
+  PROP_RIG,
+  PROP_POSES_CLAMPED,
+  PROP_UNSEEN_SHARE,
+  PROP_STATS_INTERVAL
 };
 // Live and without any input, the fuse thread wakes this often to notice lost
 // cameras and to keep the lecturer's picture saying so; otherwise it sleeps.
@@ -48,6 +53,10 @@ namespace {
 struct FuseState {
   std::mutex lock;  // guards the properties, pad_info and inputs
   std::string trace_path;
+  std::string rig_path;
+  NavigationClamp bounds;  // every pose sent upstream stays inside the rig's navigation bounds
+  double unseen_share = 0;  // of the last picture
+  guint stats_interval = 0;  // frames between vclassroom-view-stats messages; 0: none
   FuseParams params;
   std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
   // Which pads are left out, lost, stale (the decisions of each round).
@@ -86,7 +95,30 @@ static gboolean push_pose_to_pad(GstElement*, GstPad* pad, gpointer event) {
   return TRUE;
 }
 
+// Any client's pose (a lecturer's, a headset's, the trace) leaves inside the
+// navigation bounds; a pose outside is replaced by its nearest allowed one,
+// and that is the pose the cameras render and the frame is stamped with.
+static GstEvent* clamped_pose_event(GstViewFuse* self, GstEvent* event) {
+  Pose pose;
+  std::string warning;
+  {
+    std::lock_guard<std::mutex> g(self->st->lock);
+    if (!self->st->bounds.active() || !pose_event_parse(event, &pose, nullptr) ||
+        !self->st->bounds.apply(&pose, int64_t(g_get_monotonic_time()) * 1000, "the lecturer", &warning))
+      return event;
+  }
+  if (!warning.empty()) GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("%s", warning.c_str()), (nullptr));
+  try {
+    GstEvent* clamped = pose_event_new(pose);
+    gst_event_unref(event);
+    return clamped;
+  } catch (const Error&) {
+    return event;  // a clamped pose is a valid one; kept as it came should that ever fail
+  }
+}
+
 static void forward_pose(GstViewFuse* self, GstEvent* event) {
+  event = clamped_pose_event(self, event);
   gst_element_foreach_sink_pad(GST_ELEMENT(self), push_pose_to_pad, event);
   gst_event_unref(event);
 }
@@ -306,10 +338,17 @@ static GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggre
     return GST_FLOW_ERROR;
   }
   st->have_fused = true;
+  GstStructure* stats = nullptr;
   {
     std::lock_guard<std::mutex> g(st->lock);
     ++st->frames;
+    st->unseen_share = st->fused.unseen_share;
+    if (st->stats_interval && st->frames % st->stats_interval == 0)
+      stats = gst_structure_new("vclassroom-view-stats", "frames", G_TYPE_UINT64, st->frames, "unseen-share",
+                                G_TYPE_DOUBLE, st->unseen_share, "poses-clamped", G_TYPE_UINT64, st->bounds.clamped(),
+                                nullptr);
   }
+  if (stats) gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), stats));
   frames.clear();
   drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
   send_trace_pose(self);
@@ -396,10 +435,11 @@ static GstFlowReturn gst_view_fuse_flush(GstAggregator* agg) {
 static gboolean gst_view_fuse_start(GstAggregator* agg) {
   GstViewFuse* self = GST_VIEW_FUSE(agg);
   FuseState* st = self->st;
-  std::string path;
+  std::string path, rig_path;
   {
     std::lock_guard<std::mutex> g(st->lock);
     path = st->trace_path;
+    rig_path = st->rig_path;
     st->frames = 0;
     // Request pads outlive a restart; their caps (maybe a new virtual size) come again.
     st->pad_info.clear();
@@ -410,6 +450,24 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
   st->last_out = GST_CLOCK_TIME_NONE;
   st->have_out = false;
   st->have_fused = false;
+  NavigationClamp bounds;
+  if (!rig_path.empty()) {
+    try {
+      bounds = NavigationClamp(load_rig(rig_path));
+    } catch (const Error& e) {
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("property rig of %s", GST_OBJECT_NAME(self)));
+      return FALSE;
+    }
+    if (!bounds.active())
+      GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS,
+                          ("rig %s has no navigation section: poses are not bounded", rig_path.c_str()),
+                          ("vclassroom-build-model writes one (docs/navigation.md)"));
+  }
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    st->bounds = bounds;
+    st->unseen_share = 0;
+  }
   if (!path.empty()) {
     try {
       st->trace = load_pose_trace(path);
@@ -458,6 +516,12 @@ static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GVa
     case PROP_SHOW_MISSING:
       inputs.show_missing = g_value_get_boolean(value);
       break;
+    case PROP_RIG:
+      st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
+      break;
+    case PROP_STATS_INTERVAL:
+      st->stats_interval = g_value_get_uint(value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -489,6 +553,18 @@ static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* v
     case PROP_FRAMES_FUSED:
       g_value_set_uint64(value, st->frames);
       break;
+    case PROP_RIG:
+      g_value_set_string(value, st->rig_path.c_str());
+      break;
+    case PROP_POSES_CLAMPED:
+      g_value_set_uint64(value, st->bounds.clamped());
+      break;
+    case PROP_UNSEEN_SHARE:
+      g_value_set_double(value, st->unseen_share);
+      break;
+    case PROP_STATS_INTERVAL:
+      g_value_set_uint(value, st->stats_interval);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -515,6 +591,29 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           "as a vclassroom/pose event (seq i + 1) after output frame i - 1; the last pose is held. "
                           "Empty: poses come from downstream events only",
                           "", GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
+  g_object_class_install_property(
+      gobject_class, PROP_RIG,
+      g_param_spec_string("rig", "Rig file",
+                          "Rig YAML file with a navigation section (vclassroom-build-model writes one, "
+                          "docs/navigation.md): every pose sent upstream, from any client or the trace, is moved "
+                          "into its bounds, with a rate-limited warning. Empty: poses are not bounded",
+                          "", GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
+  g_object_class_install_property(
+      gobject_class, PROP_POSES_CLAMPED,
+      g_param_spec_uint64("poses-clamped", "Poses clamped", "Poses moved into the navigation bounds since start", 0,
+                          G_MAXUINT64, 0, GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  g_object_class_install_property(
+      gobject_class, PROP_UNSEEN_SHARE,
+      g_param_spec_double("unseen-share", "Unseen share",
+                          "Share of the last picture's pixels that no camera (nor the static model) provided: "
+                          "filled, and faded to grey far from anything seen",
+                          0, 1, 0, GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  g_object_class_install_property(
+      gobject_class, PROP_STATS_INTERVAL,
+      g_param_spec_uint("stats-interval", "Stats interval",
+                        "Post a vclassroom-view-stats element message (frames, unseen-share of that picture, "
+                        "poses-clamped) every this many output frames (1: every frame; 0: none)",
+                        0, G_MAXUINT, 0, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS)));
   g_object_class_install_property(
       gobject_class, PROP_DEPTH_TOLERANCE,
       g_param_spec_double("depth-tolerance", "Depth tolerance",

@@ -424,6 +424,26 @@ std::vector<PoseSample> load_pose_trace(const std::string& path) {
   return out;
 }
 
+bool clamp_to_navigation(const NavigationBounds& bounds, const CameraCalib& reference, Pose* pose) {
+  const ViewOffset o = pose_to_offset(*pose, reference);
+  std::array<double, 6> v{{o.right, o.up, o.forward, o.yaw, o.pitch, o.roll}};
+  bool outside = false;
+  for (size_t i = 0; i < v.size(); ++i) {
+    // A hair of tolerance: a pose made at the boundary (e.g. by posenav's own
+    // clamping) comes back from the decomposition a rounding error outside it.
+    const double eps = i < 3 ? 1e-9 : 1e-7;
+    if (v[i] < bounds.min[i] - eps || v[i] > bounds.max[i] + eps) outside = true;
+    v[i] = std::clamp(v[i], bounds.min[i], bounds.max[i]);
+  }
+  if (!outside) return false;
+  Pose clamped = offset_to_pose(ViewOffset{v[0], v[1], v[2], v[3], v[4], v[5]}, reference);
+  clamped.seq = pose->seq;
+  clamped.viewer_time_ns = pose->viewer_time_ns;
+  clamped.fov_deg = pose->fov_deg;
+  *pose = clamped;
+  return true;
+}
+
 namespace {
 
 std::string trace_header(bool fov) { return std::string("t,x,y,z,qw,qx,qy,qz") + (fov ? ",fov" : "") + ",seq\n"; }

@@ -73,6 +73,12 @@ ViewOffset pose_to_offset(const Pose& pose, const CameraCalib& reference);
 ViewOffset sliders_to_offset(const Sliders& s);
 Sliders offset_to_sliders(const ViewOffset& o);
 
+// The pose nearest to `pose` inside the navigation bounds (each of the six
+// offsets from the reference camera clamped to its range). Returns false and
+// leaves `pose` untouched, bit for bit, when it is inside already. seq,
+// viewer time and field of view are kept.
+bool clamp_to_navigation(const NavigationBounds& bounds, const CameraCalib& reference, Pose* pose);
+
 Pose sliders_to_pose(const Sliders& s, const CameraCalib& reference);
 // Inverse of sliders_to_pose for poses within the sliders' range (|pitch| < 90°).
 Sliders pose_to_sliders(const Pose& pose, const CameraCalib& reference);

@@ -533,8 +533,43 @@ Rig parse_rig_text(const std::string& input, const std::string& file) {
     rig.cameras.push_back(c);
     ++index;
   }
+  if (const YamlNode* nav = child(tree, root, "navigation", &line); nav && !is_null(*nav)) {
+    const Where w{file, "navigation"};
+    if (nav->kind != YamlNode::kMapping)
+      throw Error(w.at(nav->line) + ": expected a mapping with reference_camera, coverage, min and max");
+    NavigationBounds b;
+    b.reference_camera = read_int(tree, *nav, "reference_camera", w);
+    b.coverage = read_number(tree, *nav, "coverage", w, 0.9);
+    const std::vector<double> lo = read_numbers(tree, *nav, "min", w, 6), hi = read_numbers(tree, *nav, "max", w, 6);
+    std::copy(lo.begin(), lo.end(), b.min.begin());
+    std::copy(hi.begin(), hi.end(), b.max.begin());
+    rig.navigation = b;
+    try {
+      validate_navigation(rig);
+    } catch (const Error& e) {
+      throw Error(w.at(nav->line) + ": " + e.what());
+    }
+  }
   validate_rig(rig, file);
   return rig;
+}
+
+void validate_navigation(const Rig& rig) {
+  if (!rig.navigation) return;
+  const NavigationBounds& b = *rig.navigation;
+  if (!rig.find(b.reference_camera))
+    throw Error("reference_camera " + std::to_string(b.reference_camera) + " is not a camera of the rig");
+  if (!(b.coverage >= 0 && b.coverage <= 1)) throw Error("coverage must be 0 to 1");
+  static const char* kNames[6] = {"right", "up", "forward", "yaw", "pitch", "roll"};
+  for (int i = 0; i < 6; ++i) {
+    const double limit = i < 3 ? 1000.0 : 180.0;  // metres, degrees
+    if (!std::isfinite(b.min[i]) || !std::isfinite(b.max[i]) || b.min[i] < -limit || b.max[i] > limit)
+      throw Error(std::string(kNames[i]) + " bounds must lie within ±" + number_text(limit));
+    // The reference camera's own view is always allowed: clamping must have somewhere to go.
+    if (b.min[i] > 0 || b.max[i] < 0)
+      throw Error(std::string(kNames[i]) + " bounds [" + number_text(b.min[i]) + ", " + number_text(b.max[i]) +
+                  "] must hold 0 (the reference camera's view)");
+  }
 }
 
 Rig load_rig(const std::string& path) {
@@ -576,11 +611,39 @@ std::string rig_to_text(const Rig& rig) {
       write_transform(os, *c.depth_to_color, "      ");
     }
   }
+  if (rig.navigation) {
+    const NavigationBounds& b = *rig.navigation;
+    auto list = [](const std::array<double, 6>& v) {
+      std::string s = "[";
+      for (size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "") + number_text(v[i]);
+      return s + "]";
+    };
+    os << "# where a lecturer's view may go: right, up, forward (m), yaw, pitch, roll (deg) from the reference\n"
+       << "navigation:\n"
+       << "  reference_camera: " << b.reference_camera << "\n"
+       << "  coverage: " << number_text(b.coverage) << "\n"
+       << "  min: " << list(b.min) << "\n"
+       << "  max: " << list(b.max) << "\n";
+  }
   return os.str();
+}
+
+CameraCalib scale_camera(const CameraCalib& cam, int width, int height) {
+  CameraCalib c = cam;
+  const double sx = double(width) / cam.width, sy = double(height) / cam.height;
+  c.width = width;
+  c.height = height;
+  c.fx = cam.fx * sx;
+  c.fy = cam.fy * sy;
+  // Pixel centres at integers: the image edge -0.5 maps to -0.5.
+  c.cx = (cam.cx + 0.5) * sx - 0.5;
+  c.cy = (cam.cy + 0.5) * sy - 0.5;
+  return c;
 }
 
 void save_rig(const Rig& rig, const std::string& path) {
   validate_rig(rig, path);
+  validate_navigation(rig);
   const std::string text = rig_to_text(rig);
   std::ofstream out(path, std::ios::binary | std::ios::trunc);
   if (!out) throw Error(path + ": cannot write rig file");

@@ -45,9 +45,22 @@ struct CameraCalib {
   Eigen::Vector2d normalized(double u, double v) const;
 };
 
+// Where a lecturer's view may go: a box of positions and a cone of view
+// directions, as offsets from the reference camera in its own axes (the
+// unbounded form of the paper's sliders, ViewOffset in pose.h), inside which
+// the cameras show at least `coverage` of the view (docs/navigation.md).
+struct NavigationBounds {
+  int reference_camera = 0;
+  double coverage = 0.9;  // the share of the view seen that the bounds were derived for
+  // right, up, forward (metres), yaw, pitch, roll (degrees): the lowest and highest allowed.
+  std::array<double, 6> min{{0, 0, 0, 0, 0, 0}};
+  std::array<double, 6> max{{0, 0, 0, 0, 0, 0}};
+};
+
 struct Rig {
   std::string name;
   std::vector<CameraCalib> cameras;
+  std::optional<NavigationBounds> navigation;  // the optional `navigation` section
 
   static constexpr int kMaxCameras = 8;
 
@@ -57,6 +70,10 @@ struct Rig {
   // Maps points of camera `from` to camera `to`: p_to = T * p_from.
   Eigen::Isometry3d transform(int from, int to) const;
 };
+
+// The same camera (pose, field of view) at another image size, e.g. 480x270
+// for previews or a small working size.
+CameraCalib scale_camera(const CameraCalib& cam, int width, int height);
 
 // Reads and validates a rig file (at most 1 MiB). Throws Error naming file,
 // line, camera, field and what was expected (docs/rig-format.md).
@@ -69,6 +86,9 @@ std::string rig_to_text(const Rig& rig);
 void validate_camera(const CameraCalib& cam, const std::string& where);
 // Checks the whole rig (1..8 cameras, unique ids, each camera valid).
 void validate_rig(const Rig& rig, const std::string& where);
+// Throws Error when the navigation bounds (if any) name no camera of the rig,
+// are not finite, exceed ±1000 m / ±180°, or leave out the reference view.
+void validate_navigation(const Rig& rig);
 // Writes a rig file that load_rig reads back exactly (doubles in full precision).
 void save_rig(const Rig& rig, const std::string& path);
 

@@ -155,9 +155,6 @@ void apply_sensor_model(const RenderOutput& clean, const CameraCalib& cam, const
 // (X = -0.8 m) and id 2 the right one (X = +0.8 m), left and right as seen
 // from the cameras.
 Rig default_classroom_rig();
-// The camera of the default rig with its pose and intrinsics scaled to another
-// size (e.g. 480x270) for tests and previews.
-CameraCalib scale_camera(const CameraCalib& cam, int width, int height);
 // A camera with the default rig's intrinsics at `position` looking at
 // `target` with the rig's Y up (e.g. a lecturer's or a novel view).
 CameraCalib look_at_camera(const Eigen::Vector3d& position, const Eigen::Vector3d& target, int width = 960,

@@ -775,17 +775,4 @@ Rig default_classroom_rig() {
   return rig;
 }
 
-CameraCalib scale_camera(const CameraCalib& cam, int width, int height) {
-  CameraCalib c = cam;
-  const double sx = double(width) / cam.width, sy = double(height) / cam.height;
-  c.width = width;
-  c.height = height;
-  c.fx = cam.fx * sx;
-  c.fy = cam.fy * sy;
-  // Pixel centres at integers: the image edge -0.5 maps to -0.5.
-  c.cx = (cam.cx + 0.5) * sx - 0.5;
-  c.cy = (cam.cy + 0.5) * sy - 0.5;
-  return c;
-}
-
 }  // namespace vclassroom

@@ -254,6 +254,26 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
   for (const cv::Rect& r : rects) blurred(r).copyTo(color(r), mask(r));
 }
 
+// Blends the fill towards a neutral grey with the distance to the nearest
+// seen pixel: untouched up to `start` px, grey from `start + length` px on.
+void fade_unseen(cv::Mat& color, const cv::Mat& depth, double start, double length) {
+  static thread_local cv::Mat holes, distance;
+  cv::compare(depth, 0, holes, cv::CMP_EQ);
+  cv::distanceTransform(holes, distance, cv::DIST_L2, cv::DIST_MASK_3);
+  constexpr float kNeutral = 96.0f;  // a dim grey, calm beside any picture
+  const float s = float(start), inv_len = 1.0f / float(std::max(length, 1.0));
+  for (int y = 0; y < color.rows; ++y) {
+    const float* d = distance.ptr<float>(y);
+    uint8_t* c = color.ptr<uint8_t>(y);
+    for (int x = 0; x < color.cols; ++x) {
+      if (d[x] <= s) continue;
+      float a = std::min(1.0f, (d[x] - s) * inv_len);
+      a = a * a * (3 - 2 * a);  // smoothstep: no visible ring where the fade starts
+      for (int k = 0; k < 3; ++k) c[3 * x + k] = uint8_t(float(c[3 * x + k]) * (1 - a) + kNeutral * a + 0.5f);
+    }
+  }
+}
+
 }  // namespace
 
 void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams& prm, FusedView* out) {
@@ -286,8 +306,13 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   out->filled.create(size, CV_8UC1);
   out->filled.setTo(0);
   // The fused depth stays as seen (0 in the holes): the fill's depth is a guess.
-  if (prm.fill_holes)
+  const int unseen = int(out->depth.total()) - cv::countNonZero(out->depth);
+  out->unseen_share = double(unseen) / double(out->depth.total());
+  if (prm.fill_holes) {
     fill_holes(out->color, out->depth, prm.background_ratio, prm.fill_smooth_px, nullptr, out->filled);
+    if (prm.fade_unseen && unseen > 0)
+      fade_unseen(out->color, out->depth, prm.fade_start * size.width, prm.fade_length * size.width);
+  }
 }
 
 void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px,

@@ -27,6 +27,14 @@ struct FuseParams {
   // guess, and a smooth guess errs least (on Middlebury Art/Aloe it is worth
   // 0.5-1 dB, see docs/vva.md).
   int fill_smooth_px = 3;
+  // What lies far from anything a camera saw cannot be guessed: beyond
+  // fade_start (a share of the image width) from the nearest seen pixel the
+  // fill fades over fade_length towards a neutral grey, a calm "outside the
+  // view" rather than an edge pixel smeared across the frame (docs/navigation.md).
+  // Narrow disocclusions stay as filled.
+  bool fade_unseen = true;
+  double fade_start = 0.02;
+  double fade_length = 0.06;
 };
 
 struct FusedView {
@@ -34,6 +42,7 @@ struct FusedView {
   cv::Mat depth;   // CV_16UC1 mm, 0 where nothing was seen (before filling)
   cv::Mat label;   // CV_8UC1
   cv::Mat filled;  // CV_8UC1, 255 where the hole filling made the colour
+  double unseen_share = 0;  // share of the pixels no camera (nor the static model) provided
 };
 
 // `views` all have the same size; null or empty entries (a stopped camera) are skipped.

@@ -1,0 +1,230 @@
+// Coverage-aware navigation (docs/navigation.md): the rig's navigation
+// bounds, clamping by posenav and by the server (viewfuse), the coverage the
+// bounds are derived from, and the honest edge of the fused view.
+#include <gtest/gtest.h>
+
+#include <gst/check/gstharness.h>
+#include <gst/video/navigation.h>
+
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/rig.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/vva/navigation.h>
+#include <gst/vclassroom/vva/view_fuse.h>
+
+#include "test_util.h"
+
+using namespace vclassroom;
+
+namespace {
+
+// The default classroom rig at a small size with bounds: ±0.2 m right,
+// ±0.1 m up, -0.1..0.5 m forward, yaw ±10°, pitch ±5°, roll ±15°.
+Rig bounded_rig() {
+  Rig rig = default_classroom_rig();
+  for (CameraCalib& c : rig.cameras) c = scale_camera(c, 160, 90);
+  NavigationBounds b;
+  b.reference_camera = 0;
+  b.coverage = 0.9;
+  b.min = {-0.2, -0.1, -0.1, -10, -5, -15};
+  b.max = {0.2, 0.1, 0.5, 10, 5, 15};
+  rig.navigation = b;
+  return rig;
+}
+
+std::array<double, 6> offsets_of(const Pose& p, const CameraCalib& ref) {
+  const ViewOffset o = pose_to_offset(p, ref);
+  return {o.right, o.up, o.forward, o.yaw, o.pitch, o.roll};
+}
+
+bool same_pose_bits(const Pose& a, const Pose& b) {
+  return a.position == b.position && a.orientation.coeffs() == b.orientation.coeffs();
+}
+
+}  // namespace
+
+TEST(NavigationBounds, RigFilesCarryThemAndRefuseBoundsWithoutTheReferenceView) {
+  const Rig rig = bounded_rig();
+  const Rig back = parse_rig_text(rig_to_text(rig), "bounded.yaml");
+  ASSERT_TRUE(back.navigation.has_value());
+  EXPECT_EQ(back.navigation->reference_camera, 0);
+  EXPECT_EQ(back.navigation->min, rig.navigation->min);
+  EXPECT_EQ(back.navigation->max, rig.navigation->max);
+  EXPECT_FALSE(parse_rig_text(rig_to_text(default_classroom_rig()), "plain.yaml").navigation.has_value());
+
+  std::string text = rig_to_text(rig);
+  const size_t at = text.find("min: [-0.2");
+  ASSERT_NE(at, std::string::npos);
+  std::string bad = text;
+  bad.replace(at, 10, "min: [0.1");  // right from 0.1: the reference view is left out
+  try {
+    parse_rig_text(bad, "bad.yaml");
+    ADD_FAILURE() << "bounds without the reference view accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml:"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("must hold 0"), std::string::npos) << e.what();
+  }
+  bad = text;
+  bad.replace(bad.find("reference_camera: 0"), 19, "reference_camera: 7");
+  EXPECT_THROW(parse_rig_text(bad, "bad.yaml"), Error);
+}
+
+TEST(NavigationBounds, APoseBeyondIsClampedToItsNearestAllowedPoseAndOneInsideIsUntouched) {
+  const Rig rig = bounded_rig();
+  const CameraCalib& ref = rig.camera(0);
+  const NavigationBounds& b = *rig.navigation;
+  // Inside: the very same bits.
+  Pose inside = offset_to_pose(ViewOffset{0.1, -0.05, 0.3, 5, -2, 10}, ref);
+  inside.seq = 7;
+  const Pose kept = inside;
+  EXPECT_FALSE(clamp_to_navigation(b, ref, &inside));
+  EXPECT_TRUE(same_pose_bits(inside, kept));
+  // Beyond on every axis: each offset goes to its limit, seq and viewer time stay.
+  Pose beyond = offset_to_pose(ViewOffset{1.5, -0.8, 2.0, -40, 30, 60}, ref);
+  beyond.seq = 9;
+  beyond.viewer_time_ns = 1234;
+  EXPECT_TRUE(clamp_to_navigation(b, ref, &beyond));
+  const std::array<double, 6> got = offsets_of(beyond, ref);
+  const std::array<double, 6> want = {0.2, -0.1, 0.5, -10, 5, 15};
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(got[i], want[i], 1e-9) << "offset " << i;
+  EXPECT_EQ(beyond.seq, 9u);
+  EXPECT_EQ(beyond.viewer_time_ns, 1234);
+  // A clamped pose is inside: clamping it again changes nothing.
+  const Pose once = beyond;
+  EXPECT_FALSE(clamp_to_navigation(b, ref, &beyond));
+  EXPECT_TRUE(same_pose_bits(beyond, once));
+}
+
+TEST(Coverage, TheReferenceViewIsSeenAndLookingAtTheCeilingIsNot) {
+  const Rig rig = default_classroom_rig();
+  const Classroom empty(ClassroomConfig{1, 0, 2.0});
+  std::vector<CameraCalib> cams;
+  std::vector<cv::Mat> depth;
+  for (const CameraCalib& c : rig.cameras) {
+    cams.push_back(scale_camera(c, 192, 108));
+    depth.push_back(render(empty, 0.0, cams.back()).depth);
+  }
+  CoverageEstimator est(cams, depth, cams[0], 64);
+  EXPECT_GT(est.coverage(ViewOffset{}), 0.97);
+  EXPECT_LT(est.coverage(ViewOffset{0, 0, 0, 0, 60, 0}), 0.5);  // the ceiling above the cameras' view
+  EXPECT_LT(est.coverage(ViewOffset{0, 0, 0, 90, 0, 0}), 0.5);  // the side wall
+  NavigationSearch search;
+  search.threshold = 0.9;
+  search.position_step = 0.1;
+  search.angle_step = 5;
+  const NavigationBounds b = derive_navigation(est, 0, search);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_LE(b.min[i], 0) << i;
+    EXPECT_GE(b.max[i], 0) << i;
+  }
+  EXPECT_LT(b.max[4], 60);  // not up to the ceiling
+  // Where the bounds allow, the view straight ahead stays covered.
+  for (double r : {b.min[0], b.max[0]})
+    for (double u : {b.min[1], b.max[1]})
+      for (double f : {b.min[2], b.max[2]}) {
+        if (std::abs(r) + std::abs(u) + std::abs(f) == 0) continue;
+        EXPECT_GE(est.coverage(ViewOffset{r, u, f, 0, 0, 0}), 0.9 - 0.02) << r << " " << u << " " << f;
+      }
+}
+
+TEST(PoseNavBounds, TheLecturersViewStopsAtTheBoundsAndATraceBeyondIsClampedWithAWarning) {
+  vctest::TempDir dir;
+  const Rig rig = bounded_rig();
+  save_rig(rig, dir / "rig.yaml");
+  GstHarness* h = gst_harness_new_parse(("posenav rig=" + (dir / "rig.yaml")).c_str());
+  gst_harness_set_src_caps_str(h, "video/x-raw,format=RGB,width=8,height=8,framerate=30/1");
+  auto push_frame = [&] { gst_buffer_unref(gst_harness_push_and_pull(h, gst_harness_create_buffer(h, 8 * 8 * 3))); };
+  auto last_pose = [&] {
+    Pose p;
+    while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
+      if (is_pose_event(ev)) EXPECT_TRUE(pose_event_parse(ev, &p, nullptr));
+      gst_event_unref(ev);
+    }
+    return p;
+  };
+  push_frame();
+  last_pose();
+  // Drag far to the right: 2000 px at 0.2°/px would be 400°; the view stops at yaw 10°.
+  gst_harness_push_upstream_event(h, gst_navigation_event_new_mouse_button_press(1, 0, 0, GST_NAVIGATION_MODIFIER_NONE));
+  for (int x = 100; x <= 2000; x += 100)
+    gst_harness_push_upstream_event(h, gst_navigation_event_new_mouse_move(x, 0, GST_NAVIGATION_MODIFIER_NONE));
+  Pose p = last_pose();
+  EXPECT_NEAR(offsets_of(p, rig.camera(0))[3], 10, 1e-6);
+  // Back by 100 px (20°): it turns at once, no slack beyond the edge.
+  gst_harness_push_upstream_event(h, gst_navigation_event_new_mouse_move(1900, 0, GST_NAVIGATION_MODIFIER_NONE));
+  p = last_pose();
+  EXPECT_NEAR(offsets_of(p, rig.camera(0))[3], -10, 1e-6);
+  gst_harness_teardown(h);
+
+  // A trace that walks 3 m to the right: every pose beyond is clamped, one warning says how many.
+  std::vector<PoseSample> walk(4);
+  for (size_t i = 0; i < walk.size(); ++i) walk[i].pose = offset_to_pose(ViewOffset{double(i), 0, 0, 0, 0, 0}, rig.camera(0));
+  save_pose_trace(walk, dir / "walk.csv");
+  GstElement* pipe = gst_parse_launch(("videotestsrc num-buffers=4 ! video/x-raw,width=8,height=8 ! posenav name=nav rig=" +
+                                       (dir / "rig.yaml") + " pose-trace=" + (dir / "walk.csv") + " ! fakesink")
+                                          .c_str(),
+                                      nullptr);
+  const vctest::RunResult r = vctest::run_pipeline(pipe);
+  gst_object_unref(pipe);
+  EXPECT_EQ(r.error, "");
+  ASSERT_EQ(r.warnings.size(), 1u);  // the first at once; the other two within 5 s are counted, not posted
+  EXPECT_NE(r.warnings[0].find("a pose outside the navigation bounds from the pose trace was moved"), std::string::npos)
+      << r.warnings[0];
+}
+
+TEST(ViewFuseBounds, TheServerClampsEveryPoseItSendsToTheCameras) {
+  vctest::TempDir dir;
+  const Rig rig = bounded_rig();
+  save_rig(rig, dir / "rig.yaml");
+  GstElement* fuse = gst_element_factory_make("viewfuse", nullptr);
+  g_object_set(fuse, "rig", (dir / "rig.yaml").c_str(), nullptr);
+  GstHarness* h = gst_harness_new_with_element(fuse, "cam_0", "src");
+  gst_object_unref(fuse);
+  gst_harness_play(h);
+  auto sent = [&](const Pose& p) {
+    EXPECT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(p)));
+    Pose got;
+    bool found = false;
+    while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
+      if (is_pose_event(ev)) found = pose_event_parse(ev, &got, nullptr);
+      gst_event_unref(ev);
+    }
+    EXPECT_TRUE(found) << "no pose reached the camera branch";
+    return got;
+  };
+  const CameraCalib& ref = rig.camera(0);
+  Pose inside = offset_to_pose(ViewOffset{0.1, 0, 0.2, 3, 1, 0}, ref);
+  inside.seq = 1;
+  const Pose inside_got = sent(inside);
+  EXPECT_TRUE(same_pose_bits(inside_got, inside));  // inside: untouched, bit for bit
+  Pose headset = offset_to_pose(ViewOffset{0, 0, 0, 0, 70, 0}, ref);  // looking at the ceiling
+  headset.seq = 2;
+  const Pose got = sent(headset);
+  EXPECT_NEAR(offsets_of(got, ref)[4], 5, 1e-6);
+  EXPECT_EQ(got.seq, 2u);
+  guint64 clamped = 0;
+  g_object_get(h->element, "poses-clamped", &clamped, nullptr);
+  EXPECT_EQ(clamped, 1u);
+  gst_harness_teardown(h);
+}
+
+TEST(HonestEdge, WhatNoCameraSawFadesToGreyAndIsCounted) {
+  // One view seeing only the left quarter of a 200x100 image.
+  WarpedView v;
+  v.color = cv::Mat(100, 200, CV_8UC3, cv::Scalar(200, 50, 50));
+  v.depth = cv::Mat::zeros(100, 200, CV_16UC1);
+  v.depth(cv::Rect(0, 0, 50, 100)).setTo(3000);
+  v.weight = cv::Mat(100, 200, CV_8UC1, cv::Scalar(255));
+  FusedView out;
+  fuse_views({&v}, FuseParams(), &out);
+  EXPECT_NEAR(out.unseen_share, 0.75, 1e-9);
+  // Next to what was seen, the fill; far from it, the neutral grey (no red streak across the frame).
+  const cv::Vec3b near_edge = out.color.at<cv::Vec3b>(50, 52), far = out.color.at<cv::Vec3b>(50, 199);
+  EXPECT_GT(near_edge[0], 150);
+  EXPECT_EQ(far, cv::Vec3b(96, 96, 96));
+  // Without the fade, the edge pixel is smeared to the far border: what this replaces.
+  FuseParams smear;
+  smear.fade_unseen = false;
+  fuse_views({&v}, smear, &out);
+  EXPECT_GT(out.color.at<cv::Vec3b>(50, 199)[0], 150);
+}
