@@ -9,7 +9,7 @@
 #   STATS (0: quiet; N: every N frames rgbdenc posts vclassroom-codec-stats, printed by -m),
 #   MTU (largest RTP packet, default 1400 for an Ethernet link; a jumbo-frame LAN takes about 9000,
 #   loopback up to 65000; the server's MTU must be as large),
-#   RTX (1: retransmit lost packets on request; 0, default for now: plain RTP (docs/network.md); the server's
+#   RTX (1, the default: retransmit lost packets on request; 0: plain RTP (docs/network.md); the server's
 #   RTX must match),
 #   RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
 #   SSRC (the camera's RTP stream id, default 0x56430000 + CAMERA: fixed, so that a camera that restarts
@@ -26,13 +26,15 @@ QUALITY=${QUALITY:-90}
 DROP=${DROP:-0}
 STATS=${STATS:-0}
 MTU=${MTU:-1400}
-RTX=${RTX:-0}
+RTX=${RTX:-1}
 RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 SSRC=${SSRC:-$((0x56430000 + CAMERA))}
 if ! [[ $SSRC =~ ^[0-9]+$ ]] || [ "$SSRC" -gt 4294967294 ]; then
   echo "classroom.sh: SSRC must be a number, 0 to 4294967294 (got '$SSRC')" >&2
   exit 2
 fi
+# The retransmissions' own SSRC, fixed too (server.sh expects both).
+RTX_SSRC=$(( (SSRC + 0x8000) % 4294967296 ))
 if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "classroom.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
   exit 2
@@ -55,7 +57,8 @@ to_session="udpsink host=$SERVER port=$PORT sync=false"
 if [ "$RTX" = 1 ]; then
   send_session="rtpsession name=session rtp-profile=avpf \
     udpsrc port=$NACK_PORT caps=application/x-rtcp ! senderfilter lock-ssrc=false allow=$SERVER ! session.recv_rtcp_sink"
-  to_session="rtprtxsend payload-type-map=application/x-rtp-pt-map,96=(uint)97 max-size-time=$RTX_KEEP_MS max-size-packets=0 ! \
+  to_session="rtprtxsend payload-type-map=application/x-rtp-pt-map,96=(uint)97 \
+    ssrc-map=application/x-rtp-ssrc-map,$SSRC=(uint)$RTX_SSRC max-size-time=$RTX_KEEP_MS max-size-packets=0 ! \
     session.send_rtp_sink session.send_rtp_src ! identity drop-probability=$DROP ! $SRTP_ENC udpsink host=$SERVER port=$PORT sync=false"
 else
   to_session="identity drop-probability=$DROP ! $SRTP_ENC $to_session"

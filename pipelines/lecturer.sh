@@ -38,7 +38,7 @@ pose_key=""
 # argument and handles the quotes inside them itself.
 set -f
 desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
-  senderfilter name=from_server allow=$VIDEO_SENDERS ! $(srtp_dec) rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back $pose_key ! videoconvert ! posenav $nav ! $SINK \
+  senderfilter name=from_server allow=$VIDEO_SENDERS payload-types=96 ! $(srtp_dec) rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back $pose_key ! videoconvert ! posenav $nav ! $SINK \
   back.rtp ! $SRTP_ENC udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $desc

@@ -16,8 +16,10 @@
 #   CAMERA_HOSTS (one address per camera in CAMERAS order, default 127.0.0.1 each; a missing entry repeats the
 #   last): only packets from camera k's host are taken on its ports, and its retransmission requests go there.
 #   CAMERA_NACK_PORTS (each camera's port for our RTCP, i.e. retransmission requests, default camera port + 100).
-#   RTX (1: request lost camera packets again; 0, default for now: plain RTP (docs/network.md); the cameras'
+#   RTX (1, the default: request lost camera packets again; 0: plain RTP (docs/network.md); the cameras'
 #   RTX must match),
+#   CAMERA_SSRCS (each camera's SSRC in CAMERAS order, default classroom.sh's 0x56430000 + camera id; its
+#   retransmissions' SSRC is that + 0x8000): only these streams are taken on a camera's port.
 #   RTX_LATENCY (ms a camera packet may wait for its retransmission, default 300).
 #   Packets from other addresses, or a second RTP stream on a camera port, are dropped and counted
 #   (senderfilter, docs/network.md); the pose port takes packets only from LECTURER.
@@ -49,7 +51,7 @@ if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   echo "server.sh: MTU must be a packet size in bytes, 200 to 65000 (got '$MTU')" >&2
   exit 2
 fi
-RTX=${RTX:-0}
+RTX=${RTX:-1}
 RTX_LATENCY=${RTX_LATENCY:-300}
 PREP_NICE=${PREP_NICE:-10}
 if ! [[ $PREP_NICE =~ ^[0-9]+$ ]] || [ "$PREP_NICE" -gt 19 ]; then
@@ -69,6 +71,7 @@ check_port() {
 read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
 read -r -a camera_hosts <<< "${CAMERA_HOSTS:-127.0.0.1}"
 read -r -a nack_ports <<< "${CAMERA_NACK_PORTS:-}"
+read -r -a camera_ssrcs <<< "${CAMERA_SSRCS:-}"
 for p in "$VIDEO_PORT" "$POSE_PORT"; do check_port "$p"; done
 RTP_CAPS="$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,payload=96"
 branches=""
@@ -78,6 +81,11 @@ for k in $CAMERAS; do
   port=${camera_ports[$i]:-$((BASE_PORT + k))}
   nack_port=${nack_ports[$i]:-$((port + 100))}
   host=${camera_hosts[$i]:-$host}
+  ssrc=${camera_ssrcs[$i]:-$((0x56430000 + k))}
+  if ! [[ $ssrc =~ ^[0-9]+$ ]] || [ "$ssrc" -gt 4294967294 ]; then
+    echo "server.sh: CAMERA_SSRCS must be numbers, 0 to 4294967294 (got '$ssrc')" >&2
+    exit 2
+  fi
   for p in "$port" "$nack_port"; do check_port "$p"; done
   i=$((i + 1))
   vda=""
@@ -90,7 +98,11 @@ for k in $CAMERAS; do
   # out at once; rtcp-min-interval and bandwidth let it send one every few ms, as a LAN's RTT is tiny) whose
   # requests rtprtxreceive matches with the resent packets before the jitter buffer. probation=0: the first
   # packet carries the stream's caps and must not be dropped while the session validates the sender.
-  receive="udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host ! $(srtp_dec)"
+  # Only the camera's own streams pass: its video (96) and, with RTX, its retransmissions (97), each with its
+  # fixed SSRC, so no stray packet can open a stream that nothing downstream takes.
+  streams="payload-types=96 ssrcs=96=$ssrc"
+  [ "$RTX" = 1 ] && streams="payload-types=96,97 ssrcs=96=$ssrc,97=$(( (ssrc + 0x8000) % 4294967296 ))"
+  receive="udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host $streams ! $(srtp_dec)"
   if [ "$RTX" = 1 ]; then
     branches="$branches rtpsession name=link$k probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 \
       link$k.send_rtcp_src ! udpsink host=$host port=$nack_port sync=false async=false"

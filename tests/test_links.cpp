@@ -89,10 +89,29 @@ TEST(SenderFilter, LocksOneSsrcPerPayloadTypeUntilItFallsSilent) {
   EXPECT_EQ(f.dropped_ssrc(), 3u);
 }
 
+// With retransmission the server demultiplexes a camera port by SSRC; a stray
+// packet of another payload type would open a stream nothing handles and stop
+// the server. Only the configured types pass, and none of another type is locked onto.
+TEST(SenderFilter, OnlyConfiguredPayloadTypesPassAndNoneOtherIsLockedOnto) {
+  SenderFilter f({}, true, 1'000'000'000);
+  f.set_payload_types(parse_payload_types("96, 97"));
+  const NetAddress a = addr("127.0.0.1");
+  const auto video = rtp_packet(96, 0x1111), rtx = rtp_packet(97, 0x2222), stray = rtp_packet(111, 0x3333);
+  EXPECT_EQ(f.check(&a, stray.data(), stray.size(), 0), SenderFilter::Verdict::kForeignPayloadType);
+  EXPECT_EQ(f.check(&a, video.data(), video.size(), 0), SenderFilter::Verdict::kAccept);
+  EXPECT_EQ(f.check(&a, rtx.data(), rtx.size(), 0), SenderFilter::Verdict::kAccept);
+  uint32_t kept = 0;
+  EXPECT_FALSE(f.kept_ssrc(111, &kept));
+  EXPECT_EQ(f.dropped_payload_type(), 1u);
+  EXPECT_EQ(parse_payload_types(""), std::vector<uint8_t>{});
+  EXPECT_THROW(parse_payload_types("96,128"), Error);
+  EXPECT_THROW(parse_payload_types("video"), Error);
+}
+
 namespace {
 
-GstBuffer* rtp_from(const std::string& address, uint32_t ssrc, uint16_t seq) {
-  const auto bytes = rtp_packet(96, ssrc, seq);
+GstBuffer* rtp_from(const std::string& address, uint32_t ssrc, uint16_t seq, uint8_t pt = 96) {
+  const auto bytes = rtp_packet(pt, ssrc, seq);
   GstBuffer* b = gst_buffer_new_memdup(bytes.data(), bytes.size());
   GSocketAddress* sa = g_inet_socket_address_new_from_string(address.c_str(), 5000);
   gst_buffer_add_net_address_meta(b, sa);
@@ -148,6 +167,37 @@ TEST(SenderFilterElement, DropsForeignAddressesAndSecondStreams) {
   EXPECT_EQ(last_dropped_address, 3u);  // the stats posted with the first second-stream warning
   EXPECT_EQ(last_dropped_ssrc, 1u);
   teardown_with_bus(h, bus);
+}
+
+TEST(SenderFilterElement, DropsPayloadTypesThePortDoesNotCarry) {
+  GstHarness* h = gst_harness_new("senderfilter");
+  GstBus* bus = gst_bus_new();
+  gst_element_set_bus(h->element, bus);
+  gst_element_set_state(h->element, GST_STATE_NULL);
+  gst_harness_set(h, "senderfilter", "payload-types", "96,97", nullptr);
+  gst_harness_play(h);
+  gst_harness_set_src_caps_str(h, "application/x-rtp");
+  uint16_t seq = 0;
+  for (uint8_t pt : {96, 97, 13, 111, 96}) EXPECT_EQ(gst_harness_push(h, rtp_from("127.0.0.1", 42 + pt, ++seq, pt)), GST_FLOW_OK);
+  EXPECT_EQ(gst_harness_buffers_received(h), 3u);
+  guint64 dropped = 0;
+  g_object_get(h->element, "dropped", &dropped, nullptr);
+  EXPECT_EQ(dropped, 2u);
+  int warnings = 0;
+  guint64 dropped_pt = 0;
+  while (GstMessage* m = gst_bus_pop(bus)) {
+    if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING) ++warnings;
+    const GstStructure* s = gst_message_get_structure(m);
+    if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ELEMENT && gst_structure_has_name(s, "vclassroom-sender-stats"))
+      gst_structure_get_uint64(s, "dropped-payload-type", &dropped_pt);
+    gst_message_unref(m);
+  }
+  EXPECT_EQ(warnings, 1);  // the first at once; the second within 5 s is counted
+  EXPECT_EQ(dropped_pt, 1u);
+  teardown_with_bus(h, bus);
+  // A bad list stops the element at start, naming it.
+  const auto r = vctest::run_launch("fakesrc num-buffers=1 ! senderfilter payload-types=96,300 ! fakesink");
+  EXPECT_NE(r.error.find("payload-types=\"96,300\""), std::string::npos) << r.error;
 }
 
 namespace {

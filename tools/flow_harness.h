@@ -220,6 +220,7 @@ class Lecturer {
         std::to_string(c.mtu + 100) +
         " caps=\"application/x-rtp,media=application,clock-rate=90000,"
         "encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! "
+        "senderfilter name=from_server allow=127.0.0.1 payload-types=96 ! "
         "rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back" + key +
         " ! videoconvert ! fakesink name=display sync=false  back.rtp ! "
         "udpsink name=pose_out host=127.0.0.1 port=" + std::to_string(c.pose_port) + " sync=false async=false";

@@ -99,9 +99,12 @@ struct Replay {
   uint64_t sent = 0;
 };
 
-bool start_replay(const vclassroom_tools::Recording& rec, int port, double drop, int mtu, Replay* r) {
+// Camera k's stream carries classroom.sh's default SSRC, the one server.sh expects from it.
+bool start_replay(const vclassroom_tools::Recording& rec, int camera, double drop, int mtu, Replay* r) {
+  const int port = 5000 + camera;
   const std::string desc = "appsrc name=src format=time is-live=true ! rtpgstpay config-interval=1 mtu=" +
-                           std::to_string(mtu) + " ! "
+                           std::to_string(mtu) + " pt=96 ssrc=" + std::to_string(0x56430000u + unsigned(camera)) +
+                           " ! "
                            "identity drop-probability=" + std::to_string(drop) +
                            " ! udpsink host=127.0.0.1 port=" + std::to_string(port) + " sync=false";
   GError* err = nullptr;
@@ -207,7 +210,7 @@ int main(int argc, char** argv) {
     }
   } else {
     for (size_t i = 0; i < replays.size(); ++i)
-      if (!start_replay(recordings[i], 5000 + o.cameras[i], o.drop, o.mtu, &replays[i])) {
+      if (!start_replay(recordings[i], o.cameras[i], o.drop, o.mtu, &replays[i])) {
         std::fprintf(stderr, "could not start the replay of camera %d\n", o.cameras[i]);
         // The server already runs: stop it, so it does not keep the ports.
         for (pid_t c : children) {

@@ -24,16 +24,18 @@ GST_DEBUG_CATEGORY_STATIC(sender_filter_debug);
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_ALLOW, PROP_LOCK_SSRC, PROP_TAKEOVER_MS, PROP_ACCEPTED, PROP_DROPPED };
+enum { PROP_0, PROP_ALLOW, PROP_LOCK_SSRC, PROP_TAKEOVER_MS, PROP_ACCEPTED, PROP_DROPPED, PROP_PAYLOAD_TYPES, PROP_SSRCS };
 
 namespace {
 struct FilterState {
   std::mutex lock;
   std::string allow;
+  std::string payload_types;
+  std::string ssrcs;
   bool lock_ssrc = true;
   guint takeover_ms = 1000;
   std::unique_ptr<SenderFilter> filter;
-  WarningLimiter address_warnings, ssrc_warnings, malformed_warnings;
+  WarningLimiter address_warnings, ssrc_warnings, malformed_warnings, payload_type_warnings;
 };
 }  // namespace
 
@@ -55,7 +57,8 @@ static GstMessage* stats_message(GstSenderFilter* self, const SenderFilter& f) {
       gst_structure_new("vclassroom-sender-stats", "accepted", G_TYPE_UINT64, guint64(f.accepted()),
                         "dropped-address", G_TYPE_UINT64, guint64(f.dropped_address()), "dropped-ssrc",
                         G_TYPE_UINT64, guint64(f.dropped_ssrc()), "dropped-malformed", G_TYPE_UINT64,
-                        guint64(f.dropped_not_rtp()), nullptr));
+                        guint64(f.dropped_not_rtp()), "dropped-payload-type", G_TYPE_UINT64,
+                        guint64(f.dropped_payload_type()), nullptr));
 }
 
 static gboolean gst_sender_filter_start(GstBaseTransform* trans) {
@@ -70,6 +73,23 @@ static gboolean gst_sender_filter_start(GstBaseTransform* trans) {
                       (nullptr));
     return FALSE;
   }
+  try {
+    st->filter->set_payload_types(parse_payload_types(st->payload_types));
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS,
+                      ("senderfilter payload-types=\"%s\": %s", st->payload_types.c_str(), e.what()), (nullptr));
+    st->filter.reset();
+    return FALSE;
+  }
+  try {
+    st->filter->set_fixed_ssrcs(parse_fixed_ssrcs(st->ssrcs));
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("senderfilter ssrcs=\"%s\": %s", st->ssrcs.c_str(), e.what()),
+                      (nullptr));
+    st->filter.reset();
+    return FALSE;
+  }
+  st->payload_type_warnings.reset();
   st->address_warnings.reset();
   st->ssrc_warnings.reset();
   st->malformed_warnings.reset();
@@ -120,6 +140,11 @@ static GstFlowReturn gst_sender_filter_transform_ip(GstBaseTransform* trans, Gst
         limiter = &st->address_warnings;
         one = "a packet dropped from a sender not allowed";
         many = "packets dropped from senders not allowed";
+        break;
+      case SenderFilter::Verdict::kForeignPayloadType:
+        limiter = &st->payload_type_warnings;
+        one = "a packet dropped of a payload type this port does not carry";
+        many = "packets dropped of payload types this port does not carry";
         break;
       case SenderFilter::Verdict::kForeignSsrc:
         limiter = &st->ssrc_warnings;
@@ -185,6 +210,16 @@ static void gst_sender_filter_set_property(GObject* object, guint prop_id, const
     case PROP_TAKEOVER_MS:
       st->takeover_ms = g_value_get_uint(value);
       break;
+    case PROP_PAYLOAD_TYPES: {
+      const gchar* s = g_value_get_string(value);
+      st->payload_types = s ? s : "";
+      break;
+    }
+    case PROP_SSRCS: {
+      const gchar* s = g_value_get_string(value);
+      st->ssrcs = s ? s : "";
+      break;
+    }
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -203,12 +238,18 @@ static void gst_sender_filter_get_property(GObject* object, guint prop_id, GValu
     case PROP_TAKEOVER_MS:
       g_value_set_uint(value, st->takeover_ms);
       break;
+    case PROP_PAYLOAD_TYPES:
+      g_value_set_string(value, st->payload_types.c_str());
+      break;
+    case PROP_SSRCS:
+      g_value_set_string(value, st->ssrcs.c_str());
+      break;
     case PROP_ACCEPTED:
       g_value_set_uint64(value, st->filter ? st->filter->accepted() : 0);
       break;
     case PROP_DROPPED:
       g_value_set_uint64(value, st->filter ? st->filter->dropped_address() + st->filter->dropped_ssrc() +
-                                                 st->filter->dropped_not_rtp()
+                                                 st->filter->dropped_not_rtp() + st->filter->dropped_payload_type()
                                            : 0);
       break;
     default:
@@ -250,21 +291,37 @@ static void gst_sender_filter_class_init(GstSenderFilterClass* klass) {
       g_param_spec_uint("takeover-ms", "Takeover time",
                         "A kept SSRC silent this long gives way to a new one (a restarted sender)", 1, 600000,
                         1000, rw));
+  g_object_class_install_property(
+      gobject_class, PROP_PAYLOAD_TYPES,
+      g_param_spec_string("payload-types", "Payload types",
+                          "RTP payload types the port carries, comma-separated (e.g. 96,97 for video and its "
+                          "retransmissions); packets of others are dropped and counted, never locked onto. Empty: "
+                          "any (for RTCP ports leave it empty)",
+                          "", rw));
+  g_object_class_install_property(
+      gobject_class, PROP_SSRCS,
+      g_param_spec_string("ssrcs", "Fixed SSRCs",
+                          "The one SSRC a payload type may carry, PT=SSRC comma-separated (e.g. 96=0x56430001: a "
+                          "camera's fixed SSRC, pipelines/classroom.sh SSRC); from the first packet on, no other "
+                          "stream of that type passes, whatever lock-ssrc says. Empty: none fixed",
+                          "", rw));
   g_object_class_install_property(gobject_class, PROP_ACCEPTED,
                                   g_param_spec_uint64("accepted", "Accepted", "Packets passed on since the element started", 0, G_MAXUINT64,
                                                       0, ro));
   g_object_class_install_property(gobject_class, PROP_DROPPED,
                                   g_param_spec_uint64("dropped", "Dropped",
-                                                      "Packets dropped (foreign address, second SSRC, not RTP)", 0,
+                                                      "Packets dropped (foreign address, payload type not carried, "
+                                                      "second SSRC, not RTP)",
+                                                      0,
                                                       G_MAXUINT64, 0, ro));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(
       element_class, "RTP sender filter", "Network/Filter",
       "Put it right after udpsrc: passes RTP (or RTCP, with lock-ssrc=false) only from the allowed source "
-      "addresses and, with lock-ssrc, one SSRC per payload type; counts and drops the rest (vclassroom-sender-stats messages, rate-limited "
-      "warnings). Example: gst-launch-1.0 udpsrc port=5000 caps=application/x-rtp ! "
-      "senderfilter allow=127.0.0.1,10.0.0.7 ! fakesink",
+      "addresses, of the configured payload types and, with lock-ssrc, one SSRC per payload type; counts and "
+      "drops the rest (vclassroom-sender-stats messages, rate-limited warnings). Example: gst-launch-1.0 udpsrc "
+      "port=5000 caps=application/x-rtp ! senderfilter allow=127.0.0.1,10.0.0.7 payload-types=96,97 ! fakesink",
       "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(sender_filter_debug, "senderfilter", 0, "RTP sender filter");
 }

@@ -5,6 +5,8 @@
 #include <sys/socket.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstdlib>
 #include <cstring>
 
 #include <gst/vclassroom/core/error.h>
@@ -70,6 +72,54 @@ std::vector<NetAddress> parse_allowed_senders(const std::string& text) {
   return out;
 }
 
+std::vector<uint8_t> parse_payload_types(const std::string& text) {
+  std::vector<uint8_t> out;
+  std::string entry;
+  auto flush = [&] {
+    if (entry.empty()) return;
+    char* end = nullptr;
+    const long v = std::strtol(entry.c_str(), &end, 10);
+    if (end == entry.c_str() || *end || v < 0 || v > 127)
+      throw Error("payload type '" + entry + "' (expected an RTP payload type, 0 to 127)");
+    out.push_back(uint8_t(v));
+    entry.clear();
+  };
+  for (char c : text) {
+    if (c == ',' || c == ' ' || c == '\t')
+      flush();
+    else
+      entry += c;
+  }
+  flush();
+  return out;
+}
+
+std::map<uint8_t, uint32_t> parse_fixed_ssrcs(const std::string& text) {
+  std::map<uint8_t, uint32_t> out;
+  std::string entry;
+  auto flush = [&] {
+    if (entry.empty()) return;
+    const size_t eq = entry.find('=');
+    const std::vector<uint8_t> pt = eq == std::string::npos ? std::vector<uint8_t>() : parse_payload_types(entry.substr(0, eq));
+    const std::string value = eq == std::string::npos ? "" : entry.substr(eq + 1);
+    char* end = nullptr;
+    errno = 0;
+    const unsigned long long v = value.empty() ? 0 : std::strtoull(value.c_str(), &end, 0);
+    if (pt.size() != 1 || value.empty() || *end || errno || v > 0xFFFFFFFFull || value[0] == '-')
+      throw Error("SSRC entry '" + entry + "' (expected PT=SSRC, e.g. 96=0x56430001)");
+    out[pt[0]] = uint32_t(v);
+    entry.clear();
+  };
+  for (char c : text) {
+    if (c == ',' || c == ' ' || c == '\t')
+      flush();
+    else
+      entry += c;
+  }
+  flush();
+  return out;
+}
+
 std::string address_to_string(const NetAddress& address) {
   static const uint8_t kMapped[12] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0xff, 0xff};
   char buf[INET6_ADDRSTRLEN] = {};
@@ -95,9 +145,18 @@ SenderFilter::Verdict SenderFilter::check(const NetAddress* source, const uint8_
     ++dropped_not_rtp_;
     return Verdict::kNotRtp;
   }
-  if (lock_ssrc_) {
-    const uint8_t pt = data[1] & 0x7f;
-    const uint32_t ssrc = uint32_t(data[8]) << 24 | uint32_t(data[9]) << 16 | uint32_t(data[10]) << 8 | data[11];
+  const uint8_t pt = data[1] & 0x7f;
+  if (!payload_types_.empty() && std::find(payload_types_.begin(), payload_types_.end(), pt) == payload_types_.end()) {
+    ++dropped_payload_type_;
+    return Verdict::kForeignPayloadType;
+  }
+  const uint32_t ssrc = uint32_t(data[8]) << 24 | uint32_t(data[9]) << 16 | uint32_t(data[10]) << 8 | data[11];
+  if (auto fixed = fixed_.find(pt); fixed != fixed_.end()) {
+    if (ssrc != fixed->second) {
+      ++dropped_ssrc_;
+      return Verdict::kForeignSsrc;
+    }
+  } else if (lock_ssrc_) {
     auto it = streams_.find(pt);
     if (it == streams_.end()) {
       streams_[pt] = Kept{ssrc, now_ns};

@@ -24,12 +24,18 @@ std::vector<NetAddress> resolve_address(const std::string& text);
 // "127.0.0.1, 10.0.0.7,camera3.local": comma- or space-separated entries,
 // each resolved as above. An empty list allows every address.
 std::vector<NetAddress> parse_allowed_senders(const std::string& text);
+// "96,97": the RTP payload types a port carries (comma- or space-separated,
+// each 0..127). An empty list allows every payload type. Throws Error.
+std::vector<uint8_t> parse_payload_types(const std::string& text);
+// "96=1447231489, 97=0x56431000": the one SSRC each payload type may carry
+// (decimal or 0x hex). Throws Error.
+std::map<uint8_t, uint32_t> parse_fixed_ssrcs(const std::string& text);
 // Numeric form for messages ("10.0.0.7", "::1").
 std::string address_to_string(const NetAddress& address);
 
 class SenderFilter {
  public:
-  enum class Verdict { kAccept, kForeignAddress, kForeignSsrc, kNotRtp };
+  enum class Verdict { kAccept, kForeignAddress, kForeignPayloadType, kForeignSsrc, kNotRtp };
 
   // allowed empty: any address. lock_ssrc: keep one SSRC per payload type
   // and drop the others, until the kept one has been silent for
@@ -39,6 +45,14 @@ class SenderFilter {
   // One packet: its source (nullptr: unknown, which counts as foreign when
   // a list is set), its bytes, and the caller's monotonic time.
   Verdict check(const NetAddress* source, const uint8_t* data, size_t size, int64_t now_ns);
+  // Only RTP of these payload types passes (empty: any). A packet of another
+  // type is never locked onto: with retransmission, a stray payload type
+  // would open a stream nothing downstream handles.
+  void set_payload_types(std::vector<uint8_t> types) { payload_types_ = std::move(types); }
+  // A payload type with a fixed SSRC (a camera's, known to both ends) takes
+  // only that one, from the first packet on: a stray packet of that type can
+  // neither be locked onto first nor open a second stream downstream.
+  void set_fixed_ssrcs(std::map<uint8_t, uint32_t> fixed) { fixed_ = std::move(fixed); }
   // Forgets the kept SSRCs (a new stream start).
   void reset_streams() { streams_.clear(); }
 
@@ -46,6 +60,7 @@ class SenderFilter {
   uint64_t dropped_address() const { return dropped_address_; }
   uint64_t dropped_ssrc() const { return dropped_ssrc_; }
   uint64_t dropped_not_rtp() const { return dropped_not_rtp_; }
+  uint64_t dropped_payload_type() const { return dropped_payload_type_; }
   // The SSRC kept for payload type pt, if any.
   bool kept_ssrc(uint8_t pt, uint32_t* ssrc) const;
 
@@ -57,8 +72,10 @@ class SenderFilter {
   std::vector<NetAddress> allowed_;
   bool lock_ssrc_;
   int64_t takeover_ns_;
+  std::vector<uint8_t> payload_types_;
+  std::map<uint8_t, uint32_t> fixed_;
   std::map<uint8_t, Kept> streams_;
-  uint64_t accepted_ = 0, dropped_address_ = 0, dropped_ssrc_ = 0, dropped_not_rtp_ = 0;
+  uint64_t accepted_ = 0, dropped_address_ = 0, dropped_ssrc_ = 0, dropped_not_rtp_ = 0, dropped_payload_type_ = 0;
 };
 
 }  // namespace vclassroom
