@@ -252,7 +252,30 @@ struct LinkResult {
   guint64 lost = 0;
   guint repaired = 0;  // retransmitted packets rtprtxreceive matched to a request
   std::string detail;
+  GstStructure* decoder_stats = nullptr;  // rgbddec's last vclassroom-codec-stats message
+  LinkResult() = default;
+  LinkResult(const LinkResult&) = delete;
+  LinkResult& operator=(const LinkResult&) = delete;
+  LinkResult(LinkResult&& o) noexcept
+      : sent(o.sent), delivered(o.delivered), error(std::move(o.error)), lost(o.lost), repaired(o.repaired),
+        detail(std::move(o.detail)), decoder_stats(o.decoder_stats) {
+    o.decoder_stats = nullptr;
+  }
+  ~LinkResult() {
+    if (decoder_stats) gst_structure_free(decoder_stats);
+  }
 };
+
+// Keeps the decoder's stats messages as they are posted (the bus is popped elsewhere).
+GstBusSyncReply keep_decoder_stats(GstBus*, GstMessage* m, gpointer data) {
+  const GstStructure* s = gst_message_get_structure(m);
+  if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_ELEMENT && gst_structure_has_name(s, "vclassroom-codec-stats")) {
+    auto* r = static_cast<LinkResult*>(data);
+    if (r->decoder_stats) gst_structure_free(r->decoder_stats);
+    r->decoder_stats = gst_structure_copy(s);
+  }
+  return GST_BUS_PASS;
+}
 
 // Drops each packet that crosses the pad with probability `loss`, from a seeded generator.
 struct Dropper {
@@ -369,7 +392,7 @@ LinkResult run_link(const Scheme& scheme, double loss, size_t frames, uint32_t s
       scheme.receiver_rtcp + " udpsrc port=" + std::to_string(rtp_port) +
       " buffer-size=33554432 mtu=1500 caps=\"" + scheme.media_type +
       ",media=application,clock-rate=90000,encoding-name=X-GST,payload=96\" ! " +
-      scheme.receiver + " rtpgstdepay ! rgbddec ! appsink name=out sync=false");
+      scheme.receiver + " rtpgstdepay ! rgbddec stats-interval=100000 ! appsink name=out sync=false");
   GError* err = nullptr;
   GstElement* tx = gst_parse_launch(tx_desc.c_str(), &err);
   EXPECT_TRUE(tx && !err) << tx_desc << ": " << (err ? err->message : "");
@@ -381,6 +404,9 @@ LinkResult run_link(const Scheme& scheme, double loss, size_t frames, uint32_t s
   GstElement* src = gst_bin_get_by_name(GST_BIN(tx), "src");
   GstElement* net = gst_bin_get_by_name(GST_BIN(tx), "net");
   GstElement* out = gst_bin_get_by_name(GST_BIN(rx), "out");
+  GstBus* rx_bus = gst_element_get_bus(rx);
+  gst_bus_set_sync_handler(rx_bus, keep_decoder_stats, &r, nullptr);
+  gst_object_unref(rx_bus);
   Dropper dropper{std::mt19937(seed), loss};
   GstPad* net_sink = gst_element_get_static_pad(net, "sink");
   gst_pad_add_probe(net_sink, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
@@ -529,6 +555,15 @@ TEST(CameraLink, ThirtyPercentLossKeepsRepairingWithoutError) {
   LinkResult r = run_link(kRetransmission, 0.30, frames, 5);
   EXPECT_EQ(r.error, "");
   EXPECT_GT(r.repaired, 0u) << r.detail;
+  // The loss and the repairs are in the decoder's stats message, where a deployment reads them
+  // (gst-launch-1.0 -m, server.sh STATS=N).
+  ASSERT_NE(r.decoder_stats, nullptr);
+  guint64 lost = 0, repaired = 0, requested = 0;
+  EXPECT_TRUE(gst_structure_get_uint64(r.decoder_stats, "packets-repaired", &repaired));
+  EXPECT_TRUE(gst_structure_get_uint64(r.decoder_stats, "retransmissions-requested", &requested));
+  EXPECT_TRUE(gst_structure_get_uint64(r.decoder_stats, "packets-lost", &lost));
+  EXPECT_GT(repaired, 0u);
+  EXPECT_GE(requested, repaired);
   std::printf("30 %% loss: %zu of %zu frames delivered (%s)\n", r.delivered, frames, r.detail.c_str());
 }
 

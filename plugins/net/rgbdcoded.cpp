@@ -38,8 +38,9 @@ void codec_stats_install_properties(GObjectClass* klass, const char* frames_blur
       klass, kPropStatsInterval,
       g_param_spec_uint("stats-interval", "Statistics interval",
                         "Post a vclassroom-codec-stats element message (frames, bytes, frames-dropped, "
-                        "dropped-damaged, dropped-wrong-size, dropped-rejected-caps) every this many frames and at "
-                        "the end of the stream; 0: never",
+                        "dropped-damaged, dropped-wrong-size, dropped-rejected-caps; behind an rtpjitterbuffer also "
+                        "packets-received, -lost, -repaired and retransmissions-requested) every this many frames "
+                        "and at the end of the stream; 0: never",
                         0, G_MAXUINT, 0,
                         GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
 }
@@ -86,6 +87,52 @@ CodecStats codec_stats_drop(GstElement* self, CodecStats* st, DropKind kind) {
   return now;
 }
 
+namespace {
+
+// The element upstream of `self` (through single-input elements, a few hops)
+// made by `factory`, or nullptr. Takes a reference.
+GstElement* upstream_element(GstElement* self, const char* factory) {
+  GstElement* at = GST_ELEMENT(gst_object_ref(self));
+  for (int hop = 0; hop < 8; ++hop) {
+    GstPad* sink = gst_element_get_static_pad(at, "sink");
+    GstPad* peer = sink ? gst_pad_get_peer(sink) : nullptr;
+    if (sink) gst_object_unref(sink);
+    GstElement* up = peer ? gst_pad_get_parent_element(peer) : nullptr;
+    if (peer) gst_object_unref(peer);
+    gst_object_unref(at);
+    if (!up) return nullptr;
+    GstElementFactory* f = gst_element_get_factory(up);
+    if (f && g_strcmp0(GST_OBJECT_NAME(f), factory) == 0) return up;
+    at = up;
+  }
+  gst_object_unref(at);
+  return nullptr;
+}
+
+}  // namespace
+
+// What the network did to this camera's stream before the depayloader: the
+// jitter buffer's counts of packets lost (not repaired in time), repaired
+// (retransmissions that arrived) and asked for again, when rgbddec sits behind
+// one (pipelines/server.sh: udpsrc … ! rtpjitterbuffer ! rtpgstdepay ! … ! rgbddec).
+void add_link_stats(GstElement* self, GstStructure* s) {
+  GstElement* jitter = upstream_element(self, "rtpjitterbuffer");
+  if (!jitter) return;
+  GstStructure* js = nullptr;
+  g_object_get(jitter, "stats", &js, nullptr);
+  gst_object_unref(jitter);
+  if (!js) return;
+  guint64 lost = 0, repaired = 0, requested = 0, pushed = 0;
+  gst_structure_get_uint64(js, "num-lost", &lost);
+  gst_structure_get_uint64(js, "rtx-success-count", &repaired);
+  gst_structure_get_uint64(js, "rtx-count", &requested);
+  gst_structure_get_uint64(js, "num-pushed", &pushed);
+  gst_structure_free(js);
+  gst_structure_set(s, "packets-received", G_TYPE_UINT64, pushed, "packets-lost", G_TYPE_UINT64, lost,
+                    "packets-repaired", G_TYPE_UINT64, repaired, "retransmissions-requested", G_TYPE_UINT64,
+                    requested, nullptr);
+}
+
 void codec_stats_post(GstElement* self, const CodecStats* st) {
   GST_OBJECT_LOCK(self);
   const CodecStats now = *st;
@@ -97,6 +144,7 @@ void codec_stats_post(GstElement* self, const CodecStats* st) {
       now.dropped_by_kind[int(DropKind::Damaged)], "dropped-wrong-size", G_TYPE_UINT64,
       now.dropped_by_kind[int(DropKind::WrongSize)], "dropped-rejected-caps", G_TYPE_UINT64,
       now.dropped_by_kind[int(DropKind::RejectedCaps)], nullptr);
+  add_link_stats(self, s);
   gst_element_post_message(self, gst_message_new_element(GST_OBJECT(self), s));
 }
 

@@ -44,6 +44,9 @@ bool codec_stats_set_property(GstObject* self, CodecStats* st, guint prop_id, co
 CodecStats codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped);
 // Counts one frame dropped for `kind`, as codec_stats_count.
 CodecStats codec_stats_drop(GstElement* self, CodecStats* st, DropKind kind);
+// Adds the packet counts of the rtpjitterbuffer upstream (packets-received, -lost, -repaired,
+// retransmissions-requested) to a stats structure, when there is one.
+void add_link_stats(GstElement* self, GstStructure* s);
 // Posts the message now (at end of stream, so the last count is exact), when the interval is not 0.
 void codec_stats_post(GstElement* self, const CodecStats* st);
 // sink_event for rgbdenc / rgbddec: posts the final count at EOS, then chains up.
