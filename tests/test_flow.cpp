@@ -15,6 +15,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <mutex>
@@ -137,15 +138,30 @@ std::string camera_source(int k, const std::string& rig) {
 }
 
 // The lecturer: decodes what the server sends, and sends poses back.
+// With `srtp_key_file` its video arrives and its poses leave as SRTP, as
+// lecturer.sh does with SRTP_KEY (pipelines/srtp.sh).
 class Lecturer {
  public:
-  explicit Lecturer(const Ports& p) {
+  explicit Lecturer(const Ports& p, const std::string& srtp_key_file = "") {
+    std::string media = "application/x-rtp", decrypt, encrypt;
+    if (!srtp_key_file.empty()) {
+      std::ifstream in(srtp_key_file, std::ios::binary);
+      std::string hex;
+      for (int c; (c = in.get()) != EOF;) {
+        char byte[3];
+        std::snprintf(byte, sizeof byte, "%02x", c);
+        hex += byte;
+      }
+      media = "application/x-srtp";
+      decrypt = "srtpfiledec key-file=" + srtp_key_file + " ! ";
+      encrypt = "srtpenc key=" + hex + " ! ";
+    }
     const std::string desc =
-        "udpsrc port=" + std::to_string(p.video) +
-        " buffer-size=8388608 caps=\"application/x-rtp,media=application,clock-rate=90000,encoding-name=X-GST,"
-        "extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! rtpjitterbuffer latency=30 ! rtpgstdepay ! "
+        "udpsrc port=" + std::to_string(p.video) + " buffer-size=8388608 caps=\"" + media +
+        ",media=application,clock-rate=90000,encoding-name=X-GST,"
+        "extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! " + decrypt + "rtpjitterbuffer latency=30 ! rtpgstdepay ! "
         "jpegdec ! posesend name=back ! videoconvert ! video/x-raw,format=RGB ! appsink name=display sync=false "
-        "max-buffers=4 drop=true  back.rtp ! udpsink host=127.0.0.1 port=" + std::to_string(p.pose) +
+        "max-buffers=4 drop=true  back.rtp ! " + encrypt + "udpsink host=127.0.0.1 port=" + std::to_string(p.pose) +
         " sync=false async=false";
     GError* err = nullptr;
     pipeline_ = gst_parse_launch(desc.c_str(), &err);
@@ -249,6 +265,7 @@ struct Flow {
   DecodedFrames decoded;  // before `server`, whose reader thread feeds it
   std::unique_ptr<Process> server;
   Pose a, b;
+  std::map<std::string, std::string> env;  // for the server and every camera too (e.g. SRTP_KEY)
 
   Flow() {
     Rig r = default_classroom_rig();
@@ -266,9 +283,8 @@ struct Flow {
   }
   // `fuse_latency_ns`: how long the server waits for a late camera's frame before rendering without it.
   void start_server(const std::string& fuse_latency_ns = "100000000") {
-    server = std::make_unique<Process>(
-        source_dir() + "/pipelines/server.sh",
-        std::map<std::string, std::string>{{"STATS", "5"},  // each decoder reports every 5 frames
+    std::map<std::string, std::string> server_env = env;
+    server_env.insert({{"STATS", "5"},  // each decoder reports every 5 frames
                                            {"FUSE_LATENCY", fuse_latency_ns},
                                            {"BASE_PORT", "0"},
                                            {"CAMERA_PORTS", std::to_string(ports.cam[0]) + " " +
@@ -278,16 +294,18 @@ struct Flow {
                                            {"POSE_PORT", std::to_string(ports.pose)},
                                            {"RIG", rig},
                                            {"WIDTH", std::to_string(kW)},
-                                           {"HEIGHT", std::to_string(kH)}},
-        [this](const std::string& line) { decoded.on_line(line); });
+                                           {"HEIGHT", std::to_string(kH)}});
+    server = std::make_unique<Process>(source_dir() + "/pipelines/server.sh", server_env,
+                                       [this](const std::string& line) { decoded.on_line(line); });
   }
   void start_camera(int k, double drop = 0) {
     if (cameras.size() <= static_cast<size_t>(k)) cameras.resize(k + 1);
-    cameras[k] = std::make_unique<Process>(source_dir() + "/pipelines/classroom.sh",
-                                           std::map<std::string, std::string>{{"CAMERA", std::to_string(k)},
-                                                                              {"PORT", std::to_string(ports.cam[k])},
-                                                                              {"SOURCE", camera_source(k, rig)},
-                                                                              {"DROP", std::to_string(drop)}});
+    std::map<std::string, std::string> camera_env = env;
+    camera_env.insert({{"CAMERA", std::to_string(k)},
+                       {"PORT", std::to_string(ports.cam[k])},
+                       {"SOURCE", camera_source(k, rig)},
+                       {"DROP", std::to_string(drop)}});
+    cameras[k] = std::make_unique<Process>(source_dir() + "/pipelines/classroom.sh", camera_env);
   }
   std::string trace_of(const Pose& p, const std::string& name) {
     const std::string path = dir / name;
@@ -360,4 +378,28 @@ TEST(Flow, SurvivesPacketLossAndACameraThatComesAndGoes) {
   Pose d = f.a;
   d.seq = 4;
   ASSERT_FALSE(lecturer.frame_for(d, 10).empty()) << "the server stalled when camera 1 came back";
+}
+
+// Every RTP link of the flow encrypted (SRTP_KEY on the scripts, the same key
+// on the lecturer's side): the cameras' frames reach the server, its video
+// reaches the lecturer, and the lecturer's poses steer the view, so each of
+// the three links decrypts.
+TEST(Flow, EveryLinkCarriesSrtpWithTheSharedKey) {
+  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  for (const char* e : {"srtpenc", "srtpdec"})
+    if (GstElementFactory* f = gst_element_factory_find(e)) gst_object_unref(f);
+    else GTEST_SKIP() << e << " (gstreamer1.0-plugins-bad) is not installed";
+  Flow f;
+  const std::string key = f.dir / "srtp.key";
+  {
+    std::ofstream out(key, std::ios::binary);
+    for (int i = 0; i < 30; ++i) out.put(char(37 * i + 11));
+  }
+  f.env["SRTP_KEY"] = key;
+  f.start_server();
+  for (int k = 0; k < 3; ++k) f.start_camera(k);
+  Lecturer lecturer(f.ports, key);
+  ASSERT_TRUE(f.decoded.wait_every_camera(1)) << "the server decoded no encrypted camera frames";
+  EXPECT_FALSE(lecturer.frame_for(f.a).empty()) << "no frame rendered for the lecturer's encrypted pose ("
+                                                 << lecturer.frames() << " encrypted frames shown)";
 }

@@ -13,6 +13,7 @@
 #include <gst/rtp/gstrtpbuffer.h>
 
 #include <random>
+#include <thread>
 #include <string>
 
 #include <gst/vclassroom/core/error.h>
@@ -814,22 +815,31 @@ TEST(SrtpLink, ClassroomScriptEncryptsItsFrames) {
 // packet: rtpssrcdemux holds that camera's end-of-stream back for ever, so the script must still end, within
 // STOP_GRACE (pipelines/launch.sh). Waits on the script's own output for the pipeline to play, then on its exit
 // (bounded: a script still running after the limit is killed and the test fails).
-TEST(Scripts, ServerEndsWhenStoppedWhileACameraNeverSent) {
+namespace {
+
+struct StoppedScript {
+  bool playing = false;  // it said "Setting pipeline to PLAYING" before the signal
+  bool exited = false;   // it ended by itself, not by the watchdog's kill
+  std::string output;
+};
+
+// Starts pipelines/SCRIPT with `env`, waits (on its output, no sleep) until its
+// pipeline plays, sends `signal` (SIGINT as Ctrl-C, SIGTERM) and reads its
+// output to the end. A watchdog kills it after 120 s, so nothing blocks for ever.
+StoppedScript stop_when_playing(const std::string& script, const std::vector<std::pair<std::string, std::string>>& env,
+                                int signal) {
+  StoppedScript r;
   const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
-  const std::string path = std::string(source_dir ? source_dir : ".") + "/pipelines/server.sh";
+  const std::string path = std::string(source_dir ? source_dir : ".") + "/pipelines/" + script;
   GSubprocessLauncher* launcher =
       g_subprocess_launcher_new(GSubprocessFlags(G_SUBPROCESS_FLAGS_STDOUT_PIPE | G_SUBPROCESS_FLAGS_STDERR_MERGE));
-  const std::string base = port_base();
-  for (const auto& [k, v] : std::vector<std::pair<std::string, std::string>>{
-           {"CAMERAS", "0"}, {"BASE_PORT", base}, {"VIDEO_PORT", std::to_string(std::stoi(base) + 10)},
-           {"POSE_PORT", std::to_string(std::stoi(base) + 11)}, {"WIDTH", "256"}, {"HEIGHT", "144"},
-           {"STOP_GRACE", "2"}, {"RTX", "1"}})
-    g_subprocess_launcher_setenv(launcher, k.c_str(), v.c_str(), TRUE);
+  for (const auto& [k, v] : env) g_subprocess_launcher_setenv(launcher, k.c_str(), v.c_str(), TRUE);
   GError* err = nullptr;
   GSubprocess* child = g_subprocess_launcher_spawn(launcher, &err, "bash", path.c_str(), nullptr);
   g_object_unref(launcher);
-  ASSERT_NE(child, nullptr) << (err ? err->message : "");
-  // A watchdog ends the child if the pipeline never plays, so the read below cannot block for ever.
+  EXPECT_NE(child, nullptr) << (err ? err->message : "");
+  g_clear_error(&err);
+  if (!child) return r;
   struct Watchdog {
     GSubprocess* child;
     GMutex lock;
@@ -854,20 +864,17 @@ TEST(Scripts, ServerEndsWhenStoppedWhileACameraNeverSent) {
       },
       &dog);
   GDataInputStream* out = g_data_input_stream_new(g_subprocess_get_stdout_pipe(child));
-  std::string output;
-  bool playing = false;
   while (gchar* line = g_data_input_stream_read_line(out, nullptr, nullptr, nullptr)) {
-    output += std::string(line) + "\n";
+    r.output += std::string(line) + "\n";
     g_free(line);
-    if (output.find("Setting pipeline to PLAYING") != std::string::npos) {
-      playing = true;
+    if (r.output.find("Setting pipeline to PLAYING") != std::string::npos) {
+      r.playing = true;
       break;
     }
   }
-  EXPECT_TRUE(playing) << output;
-  g_subprocess_send_signal(child, SIGTERM);
+  g_subprocess_send_signal(child, signal);
   while (gchar* line = g_data_input_stream_read_line(out, nullptr, nullptr, nullptr)) {  // to its end
-    output += std::string(line) + "\n";
+    r.output += std::string(line) + "\n";
     g_free(line);
   }
   g_subprocess_wait(child, nullptr, nullptr);
@@ -878,10 +885,72 @@ TEST(Scripts, ServerEndsWhenStoppedWhileACameraNeverSent) {
   g_thread_join(watchdog);
   g_mutex_clear(&dog.lock);
   g_cond_clear(&dog.cond);
-  // Ended by itself (its run_launch), not by the watchdog's kill, and no gst-launch-1.0 left behind: its
-  // output reached its end only once every writer had gone.
-  EXPECT_TRUE(g_subprocess_get_if_exited(child)) << output;
-  EXPECT_NE(output.find("Interrupt: Stopping pipeline"), std::string::npos) << output;
+  // Its output reached its end only once every writer had gone: no gst-launch-1.0 left behind.
+  r.exited = g_subprocess_get_if_exited(child);
   g_object_unref(out);
   g_object_unref(child);
+  return r;
+}
+
+}  // namespace
+
+TEST(Scripts, ServerEndsWhenStoppedWhileACameraNeverSent) {
+  const std::string base = port_base();
+  const StoppedScript r = stop_when_playing(
+      "server.sh",
+      {{"CAMERAS", "0"}, {"BASE_PORT", base}, {"VIDEO_PORT", std::to_string(std::stoi(base) + 10)},
+       {"POSE_PORT", std::to_string(std::stoi(base) + 11)}, {"WIDTH", "256"}, {"HEIGHT", "144"},
+       {"STOP_GRACE", "2"}, {"RTX", "1"}},
+      SIGTERM);
+  EXPECT_TRUE(r.playing) << r.output;
+  EXPECT_TRUE(r.exited) << r.output;  // by its run_launch, not by the watchdog
+  EXPECT_NE(r.output.find("Interrupt: Stopping pipeline"), std::string::npos) << r.output;
+}
+
+// The lecturer's first Ctrl-C ends lecturer.sh even when no video ever came (posesend ends its pose stream
+// whether or not it sent a pose): end-of-stream reaches every sink and gst-launch-1.0 exits.
+TEST(Scripts, LecturerEndsAtTheFirstCtrlCWhenNoVideoEverCame) {
+  const StoppedScript r = stop_when_playing(
+      "lecturer.sh",
+      {{"VIDEO_PORT", std::to_string(vctest::free_udp_port())}, {"POSE_PORT", std::to_string(vctest::free_udp_port())},
+       {"SINK", "fakesink"}},
+      SIGINT);
+  EXPECT_TRUE(r.playing) << r.output;
+  EXPECT_TRUE(r.exited) << r.output;
+  EXPECT_NE(r.output.find("Got EOS from element"), std::string::npos) << r.output;
+}
+
+// Two loopback flows on one host (PORT_BASE apart) each run on their own: every lecturer gets its own
+// server's video, and no server or lecturer sees a packet of the other flow (no senderfilter drops).
+TEST(Scripts, TwoLoopbackFlowsOnOneHostRunWithoutCrosstalk) {
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  const int base_a = 10000 + vctest::free_udp_port() % 20000, base_b = base_a + 1000;
+  std::vector<ScriptRun> runs(2);
+  std::vector<std::thread> flows;
+  for (int i = 0; i < 2; ++i) {
+    const std::string frames = dir / ("lecturer" + std::to_string(i));
+    g_mkdir_with_parents(frames.c_str(), 0755);
+    flows.emplace_back([&, i, frames] {
+      runs[i] = run_script("loopback.sh",
+                           {"PORT_BASE=" + std::to_string(i == 0 ? base_a : base_b), "CAMERAS=0", "RIG=" + rig,
+                            "WIDTH=64", "HEIGHT=48", "SECONDS_TO_RUN=6", "STOP_GRACE=3",
+                            "SOURCE=rgbdtestsrc camera-id=0 rig=" + rig + " is-live=true ground-truth=false",
+                            "SINK=jpegenc ! multifilesink location=" + frames + "/%05d.jpg"},
+                           120);
+    });
+  }
+  for (auto& f : flows) f.join();
+  for (int i = 0; i < 2; ++i) {
+    SCOPED_TRACE("flow " + std::to_string(i));
+    EXPECT_TRUE(runs[i].ended) << runs[i].output;
+    EXPECT_EQ(runs[i].output.find("dropped"), std::string::npos) << runs[i].output;  // nothing foreign arrived
+    const std::string frames = dir / ("lecturer" + std::to_string(i));
+    GDir* d = g_dir_open(frames.c_str(), 0, nullptr);
+    int count = 0;
+    while (d && g_dir_read_name(d)) ++count;
+    if (d) g_dir_close(d);
+    EXPECT_GT(count, 0) << "the lecturer of flow " << i << " got no frame: " << runs[i].output;
+  }
 }
