@@ -109,6 +109,21 @@ TEST(SenderFilter, OnlyConfiguredPayloadTypesPassAndNoneOtherIsLockedOnto) {
   EXPECT_THROW(parse_payload_types("video"), Error);
 }
 
+// A camera's fixed SSRC (both ends know it) is the only stream of its payload type, from the first packet
+// on: a stray packet that arrives first is not locked onto.
+TEST(SenderFilter, AFixedSsrcIsTheOnlyStreamOfItsPayloadType) {
+  SenderFilter f({}, true, 1'000'000'000);
+  f.set_fixed_ssrcs(parse_fixed_ssrcs("96=0x56430001 97=1447264257"));
+  const NetAddress a = addr("127.0.0.1");
+  const auto stray = rtp_packet(96, 0x1234), camera = rtp_packet(96, 0x56430001), rtx = rtp_packet(97, 1447264257);
+  EXPECT_EQ(f.check(&a, stray.data(), stray.size(), 0), SenderFilter::Verdict::kForeignSsrc);
+  EXPECT_EQ(f.check(&a, camera.data(), camera.size(), 0), SenderFilter::Verdict::kAccept);
+  EXPECT_EQ(f.check(&a, rtx.data(), rtx.size(), 0), SenderFilter::Verdict::kAccept);
+  EXPECT_EQ(f.check(&a, stray.data(), stray.size(), 5'000'000'000), SenderFilter::Verdict::kForeignSsrc);
+  for (const char* bad : {"96", "96=", "96=-1", "300=1", "96=0x1FFFFFFFF", "x=1"})
+    EXPECT_THROW(parse_fixed_ssrcs(bad), Error) << bad;
+}
+
 namespace {
 
 GstBuffer* rtp_from(const std::string& address, uint32_t ssrc, uint16_t seq, uint8_t pt = 96) {

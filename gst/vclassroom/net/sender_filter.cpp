@@ -54,69 +54,58 @@ std::vector<NetAddress> resolve_address(const std::string& text) {
   return out;
 }
 
+namespace {
+
+// The entries of a property's list: separated by commas, spaces or tabs.
+std::vector<std::string> list_entries(const std::string& text) {
+  std::vector<std::string> entries;
+  std::string entry;
+  for (char c : text + ",") {
+    if (c != ',' && c != ' ' && c != '\t') {
+      entry += c;
+    } else if (!entry.empty()) {
+      entries.push_back(entry);
+      entry.clear();
+    }
+  }
+  return entries;
+}
+
+uint8_t parse_payload_type(const std::string& entry) {
+  char* end = nullptr;
+  const long v = std::strtol(entry.c_str(), &end, 10);
+  if (end == entry.c_str() || *end || v < 0 || v > 127)
+    throw Error("payload type '" + entry + "' (expected an RTP payload type, 0 to 127)");
+  return uint8_t(v);
+}
+
+}  // namespace
+
 std::vector<NetAddress> parse_allowed_senders(const std::string& text) {
   std::vector<NetAddress> out;
-  std::string entry;
-  auto flush = [&] {
-    if (entry.empty()) return;
+  for (const std::string& entry : list_entries(text))
     for (const NetAddress& a : resolve_address(entry)) out.push_back(a);
-    entry.clear();
-  };
-  for (char c : text) {
-    if (c == ',' || c == ' ' || c == '\t')
-      flush();
-    else
-      entry += c;
-  }
-  flush();
   return out;
 }
 
 std::vector<uint8_t> parse_payload_types(const std::string& text) {
   std::vector<uint8_t> out;
-  std::string entry;
-  auto flush = [&] {
-    if (entry.empty()) return;
-    char* end = nullptr;
-    const long v = std::strtol(entry.c_str(), &end, 10);
-    if (end == entry.c_str() || *end || v < 0 || v > 127)
-      throw Error("payload type '" + entry + "' (expected an RTP payload type, 0 to 127)");
-    out.push_back(uint8_t(v));
-    entry.clear();
-  };
-  for (char c : text) {
-    if (c == ',' || c == ' ' || c == '\t')
-      flush();
-    else
-      entry += c;
-  }
-  flush();
+  for (const std::string& entry : list_entries(text)) out.push_back(parse_payload_type(entry));
   return out;
 }
 
 std::map<uint8_t, uint32_t> parse_fixed_ssrcs(const std::string& text) {
   std::map<uint8_t, uint32_t> out;
-  std::string entry;
-  auto flush = [&] {
-    if (entry.empty()) return;
+  for (const std::string& entry : list_entries(text)) {
     const size_t eq = entry.find('=');
-    const std::vector<uint8_t> pt = eq == std::string::npos ? std::vector<uint8_t>() : parse_payload_types(entry.substr(0, eq));
     const std::string value = eq == std::string::npos ? "" : entry.substr(eq + 1);
     char* end = nullptr;
     errno = 0;
     const unsigned long long v = value.empty() ? 0 : std::strtoull(value.c_str(), &end, 0);
-    if (pt.size() != 1 || value.empty() || *end || errno || v > 0xFFFFFFFFull || value[0] == '-')
+    if (eq == std::string::npos || value.empty() || value[0] == '-' || *end || errno || v > 0xFFFFFFFFull)
       throw Error("SSRC entry '" + entry + "' (expected PT=SSRC, e.g. 96=0x56430001)");
-    out[pt[0]] = uint32_t(v);
-    entry.clear();
-  };
-  for (char c : text) {
-    if (c == ',' || c == ' ' || c == '\t')
-      flush();
-    else
-      entry += c;
+    out[parse_payload_type(entry.substr(0, eq))] = uint32_t(v);
   }
-  flush();
   return out;
 }
 
