@@ -125,8 +125,16 @@ static gboolean gst_rgbd_file_src_do_seek(GstBaseSrc* src, GstSegment* segment) 
   FileSrcState* st = self->st;
   const GstClockTime dur = st->info.frame_duration();
   if (st->recording && st->dataset) {
-    // The first frame at or after the segment's start.
-    guint64 lo = 0, hi = st->frames * (segment->start / std::max<GstClockTime>(st->loop_span, 1) + 1);
+    // The first frame at or after the segment's start: whole loops first
+    // (bounded, so no count can overflow), then a search within one.
+    bool loop;
+    {
+      std::lock_guard<std::mutex> g(st->lock);
+      loop = st->loop;
+    }
+    const guint64 loops =
+        loop ? std::min<guint64>(segment->start / std::max<GstClockTime>(st->loop_span, 1), G_MAXUINT32) : 0;
+    guint64 lo = loops * st->frames, hi = lo + st->frames;
     while (lo < hi) {
       const guint64 mid = lo + (hi - lo) / 2;
       if (recorded_time(st, mid) < segment->start) lo = mid + 1;
