@@ -11,6 +11,7 @@
 #include <gst/vclassroom/capture/depth_registration.h>
 #include <gst/vclassroom/capture/frame_pairing.h>
 #include <gst/vclassroom/capture/pixel_formats.h>
+#include <gst/vclassroom/capture/v4l2_device.h>
 #include <gst/vclassroom/net/rgbd_codec.h>
 
 #include "test_util.h"
@@ -164,4 +165,173 @@ TEST(DepthRegistration, PutsAKnownPlaneWhereTheRigSays) {
   EXPECT_EQ(out.at<uint16_t>(row, first - 1) == 0 || out.at<uint16_t>(row, first - 1) == 2000, true);
   // A depth image of another size is refused.
   EXPECT_THROW(reg.register_depth(cv::Mat(10, 10, CV_16UC1, cv::Scalar(1)), &out), Error);
+}
+
+// ---- rgbdsrc on the stand-in device (tests/fakev4l2, preloaded for this program by tests/meson.build)
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+
+namespace {
+
+// Configures the fake nodes for the next pipeline: they are read when a node is opened.
+void fake_devices(const std::string& config) { g_setenv("VCLASSROOM_FAKE_V4L2", config.c_str(), TRUE); }
+
+bool fake_loaded() { return std::string(g_getenv("LD_PRELOAD") ? g_getenv("LD_PRELOAD") : "").find("fakev4l2") != std::string::npos; }
+
+struct Captured {
+  std::vector<cv::Mat> color, depth;
+  vctest::RunResult run;
+  guint64 unpaired = 0, damaged = 0;
+};
+
+Captured capture(const std::string& rig, int frames, const std::string& extra = "") {
+  Captured c;
+  GstElement* p = gst_parse_launch(("rgbdsrc name=src color-device=/fake/color depth-device=/fake/depth rig=" + rig +
+                                    " num-buffers=" + std::to_string(frames) + " " + extra +
+                                    " ! appsink name=out sync=false")
+                                       .c_str(),
+                                   nullptr);
+  EXPECT_NE(p, nullptr);
+  if (!p) return c;
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  GstElement* src = gst_bin_get_by_name(GST_BIN(p), "src");
+  {
+    vctest::SampleCollector got(out);
+    c.run = vctest::run_pipeline(p, 60 * GST_SECOND);
+    for (size_t i = 0; i < got.size(); ++i) {
+      RgbdInfo info;
+      EXPECT_TRUE(rgbd_info_from_caps(got.caps(i), &info, nullptr));
+      RgbdFrame f;
+      EXPECT_TRUE(f.map(got.buffer(i), info, GST_MAP_READ, nullptr));
+      c.color.push_back(f.color().clone());
+      c.depth.push_back(f.depth().clone());
+    }
+  }
+  g_object_get(src, "frames-unpaired", &c.unpaired, "frames-damaged", &c.damaged, nullptr);
+  gst_object_unref(src);
+  gst_object_unref(out);
+  gst_object_unref(p);
+  return c;
+}
+
+// The fake marks instant n in depth pixel (0, 0) as n + 1 and in colour's top-left block as grey 20 + 37n mod 200:
+// a pair of one instant has both marks agree.
+bool one_instant(const cv::Mat& color, const cv::Mat& depth) {
+  const long n = long(depth.at<uint16_t>(0, 0)) - 1;
+  const double grey = cv::mean(color(cv::Rect(2, 2, 4, 4)))[0];
+  return n >= 0 && std::abs(grey - double(20 + (37 * n) % 200)) < 12;
+}
+
+std::string fake_config(const std::string& rig, const std::string& color_format, const std::string& color_extra = "",
+                        const std::string& depth_extra = "", int width = 64, int height = 48) {
+  const std::string common = ",width=" + std::to_string(width) + ",height=" + std::to_string(height) + ",rig=" + rig;
+  return "path=/fake/color,format=" + color_format + common + color_extra + ";path=/fake/depth,format=Z16" + common +
+         depth_extra;
+}
+
+}  // namespace
+
+TEST(RgbdSrc, NegotiatesEachColourFormatAndDeliversDepthBitExact) {
+  if (!fake_loaded()) GTEST_SKIP() << "the fake V4L2 device is not preloaded (run through meson test)";
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  ClassroomConfig cc;
+  const RenderOutput truth = render(Classroom(cc), 0.0, load_rig(rig).camera(0));
+  for (const char* format : {"YUYV", "RGB3", "MJPG"}) {
+    SCOPED_TRACE(format);
+    fake_devices(fake_config(rig, format));
+    const Captured c = capture(rig, 8);
+    ASSERT_EQ(c.run.error, "");
+    ASSERT_EQ(c.depth.size(), 8u);
+    for (size_t i = 0; i < c.depth.size(); ++i) {
+      EXPECT_TRUE(one_instant(c.color[i], c.depth[i])) << "frame " << i;
+      cv::Mat d = c.depth[i].clone();
+      d.at<uint16_t>(0, 0) = truth.depth.at<uint16_t>(0, 0);  // the instant's mark
+      EXPECT_TRUE(vctest::same_image(d, truth.depth)) << "frame " << i << ": depth not bit-exact";
+      cv::Mat col = c.color[i].clone();
+      truth.color(cv::Rect(0, 0, 8, 8)).copyTo(col(cv::Rect(0, 0, 8, 8)));
+      EXPECT_GT(cv::PSNR(col, truth.color), 25) << "frame " << i;  // 4:2:2 or JPEG on a tiny, detailed view
+    }
+  }
+}
+
+TEST(RgbdSrc, PairsRightUnderJitterAndDroppedFrames) {
+  if (!fake_loaded()) GTEST_SKIP() << "the fake V4L2 device is not preloaded (run through meson test)";
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  fake_devices(fake_config(rig, "YUYV", ",jitter_ms=5,drop=0.1,seed=3", ",jitter_ms=5,drop=0.1,seed=4"));
+  const Captured c = capture(rig, 40);
+  ASSERT_EQ(c.run.error, "");
+  ASSERT_EQ(c.depth.size(), 40u);
+  for (size_t i = 0; i < c.depth.size(); ++i) EXPECT_TRUE(one_instant(c.color[i], c.depth[i])) << "frame " << i;
+  EXPECT_GT(c.unpaired, 0u);  // the instants one node skipped left the other's frame alone: counted, dropped
+}
+
+TEST(RgbdSrc, EachFailureHasAClearMessage) {
+  if (!fake_loaded()) GTEST_SKIP() << "the fake V4L2 device is not preloaded (run through meson test)";
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  fake_devices("");
+  Captured c = capture(rig, 3);
+  EXPECT_NE(c.run.error.find("/fake/color: no such device"), std::string::npos) << c.run.error;
+  fake_devices(fake_config(rig, "YUYV", ",busy=1"));
+  c = capture(rig, 3);
+  EXPECT_NE(c.run.error.find("another program is using it"), std::string::npos) << c.run.error;
+  fake_devices(fake_config(rig, "YUYV", "", "", 32, 24));
+  c = capture(rig, 3);
+  EXPECT_NE(c.run.error.find("offers no YUYV or RGB3 or MJPG at 64x48"), std::string::npos) << c.run.error;
+  EXPECT_NE(c.run.error.find("it offers YUYV 32x24@30"), std::string::npos) << c.run.error;
+  // A short frame is dropped with a warning, a frame the driver fails with EIO too, and the stream goes on.
+  fake_devices(fake_config(rig, "YUYV", ",short_at=2", ",eio_at=4"));
+  c = capture(rig, 8);
+  EXPECT_EQ(c.run.error, "");
+  EXPECT_EQ(c.depth.size(), 8u);
+  EXPECT_EQ(c.damaged, 1u);
+  ASSERT_EQ(c.run.warnings.size(), 2u);
+  EXPECT_NE(c.run.warnings[0].find("a damaged frame dropped from /fake/color"), std::string::npos) << c.run.warnings[0];
+  EXPECT_NE(c.run.warnings[1].find("/fake/depth: cannot take a frame"), std::string::npos) << c.run.warnings[1];
+  // A node that goes away while streaming stops the source with an error saying so.
+  fake_devices(fake_config(rig, "YUYV", "", ",enodev_at=0"));
+  c = capture(rig, 1000);
+  EXPECT_NE(c.run.error.find("/fake/depth"), std::string::npos) << c.run.error;
+  EXPECT_NE(c.run.error.find("went away"), std::string::npos) << c.run.error;
+}
+
+// On a machine with an RGB-D camera plugged in, its depth node streams through the same code; elsewhere
+// this says why it skips.
+TEST(RealCamera, ADepthNodeStreamsWhereOneIsPluggedIn) {
+  std::string found;
+  for (int i = 0; i < 64 && found.empty(); ++i) {
+    const std::string path = "/dev/video" + std::to_string(i);
+    if (!g_file_test(path.c_str(), G_FILE_TEST_EXISTS)) continue;
+    try {
+      V4l2Device dev(path);
+      for (const CaptureMode& m : dev.modes())
+        if (capture_format_is_depth(m.format)) found = path;
+    } catch (const CaptureError&) {
+    }
+  }
+  if (found.empty()) GTEST_SKIP() << "no V4L2 node here offers Z16 or Y16 depth (no RGB-D camera plugged in)";
+  V4l2Device dev(found);
+  CaptureMode mode{};
+  for (const CaptureMode& m : dev.modes())
+    if (capture_format_is_depth(m.format)) mode = m;
+  dev.set_mode(mode);
+  dev.start();
+  int frames = 0;
+  for (int tries = 0; tries < 100 && frames < 5; ++tries) {
+    CapturedFrame f;
+    if (!dev.next_frame(1000, &f)) continue;
+    cv::Mat mm;
+    std::string err;
+    EXPECT_TRUE(capture_to_depth_mm(mode.format, f.data, f.bytesused, mode.width, mode.height, f.stride, 1.0, &mm, &err))
+        << err;
+    EXPECT_GT(f.timestamp_ns, 0);
+    dev.release(f);
+    ++frames;
+  }
+  EXPECT_EQ(frames, 5) << found << " (" << describe_modes({mode}) << ") delivered " << frames << " frames";
 }

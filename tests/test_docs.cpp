@@ -274,6 +274,13 @@ class DocRunner {
       *skip = "uses shell variables";
       return "";
     }
+    // A line for a real camera runs where one is plugged in.
+    static const std::regex device(R"(/dev/video[0-9]+)");
+    for (std::sregex_iterator it(c.text.begin(), c.text.end(), device), end; it != end; ++it)
+      if (!fs::exists(it->str())) {
+        *skip = "needs a camera at " + it->str();
+        return "";
+      }
     const std::vector<std::string> words = pipeline_words(argv);
     if (words.empty()) return "no pipeline description after gst-launch-1.0";
     if (std::string why = make_prerequisites(c.text, c.context, skip); !why.empty() || !skip->empty()) return why;

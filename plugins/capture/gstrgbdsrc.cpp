@@ -1,0 +1,425 @@
+// rgbdsrc: one consumer RGB-D camera through V4L2 (its colour node and its
+// depth node), as video/x-rgbd with the rig camera's calibration in the caps.
+// The V4L2 work, the pixel formats and the pairing by capture time are in the
+// library (gst/vclassroom/capture/); this is the glue: properties, caps,
+// timestamps on the pipeline clock, bus messages.
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstrgbdsrc.h"
+
+#include <poll.h>
+#include <time.h>
+
+#include <atomic>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <gst/vclassroom/capture/frame_pairing.h>
+#include <gst/vclassroom/capture/v4l2_device.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/warning_limiter.h>
+
+GST_DEBUG_CATEGORY_STATIC(rgbd_src_debug);
+#define GST_CAT_DEFAULT rgbd_src_debug
+
+using namespace vclassroom;
+
+enum { PROP_0, PROP_COLOR_DEVICE, PROP_DEPTH_DEVICE, PROP_RIG, PROP_CAMERA_ID, PROP_MAX_SKEW, PROP_FRAMERATE,
+       PROP_FRAMES_UNPAIRED, PROP_FRAMES_DAMAGED };
+
+namespace {
+constexpr guint64 kDefaultMaxSkew = 10 * GST_MSECOND;
+// The colour formats in the order they are tried (the cheapest to convert first).
+constexpr CapturePixelFormat kColorFormats[] = {CapturePixelFormat::kYuyv, CapturePixelFormat::kRgb3,
+                                                CapturePixelFormat::kMjpg};
+constexpr CapturePixelFormat kDepthFormats[] = {CapturePixelFormat::kZ16, CapturePixelFormat::kY16};
+
+struct SrcState {
+  std::mutex lock;  // the properties and the counters
+  std::string color_device, depth_device, rig_path;
+  int camera_id = 0;
+  guint64 max_skew = kDefaultMaxSkew;
+  int fps_n = 30, fps_d = 1;
+  guint64 unpaired = 0, damaged = 0;
+
+  // Streaming thread (and start/stop).
+  RgbdInfo info;
+  std::unique_ptr<V4l2Device> color, depth;
+  std::unique_ptr<FramePairer> pairer;
+  std::map<uint64_t, cv::Mat> colors, depths;  // converted frames waiting for their partner, by id
+  uint64_t next_id = 0;
+  WarningLimiter damaged_warnings;
+  std::atomic<bool> flushing{false};
+};
+}  // namespace
+
+struct _GstRgbdSrc {
+  GstPushSrc parent;
+  SrcState* st;
+};
+
+G_DEFINE_TYPE(GstRgbdSrc, gst_rgbd_src, GST_TYPE_PUSH_SRC)
+
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
+
+// Posts a CaptureError as the bus error a person can act on.
+static void post_capture_error(GstRgbdSrc* self, const CaptureError& e) {
+  switch (e.kind()) {
+    case CaptureError::Kind::kNoDevice:
+      GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("%s", e.what()), (nullptr));
+      break;
+    case CaptureError::Kind::kBusy:
+      GST_ELEMENT_ERROR(self, RESOURCE, BUSY, ("%s", e.what()), (nullptr));
+      break;
+    case CaptureError::Kind::kNotCapture:
+    case CaptureError::Kind::kUnsupported:
+      GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("%s", e.what()), (nullptr));
+      break;
+    case CaptureError::Kind::kVanished:
+    case CaptureError::Kind::kIo:
+      GST_ELEMENT_ERROR(self, RESOURCE, READ, ("%s", e.what()), (nullptr));
+      break;
+  }
+}
+
+// Sets the first of `formats` the device offers at the camera's size.
+static void choose_mode(V4l2Device* dev, const CapturePixelFormat* formats, size_t n, const RgbdInfo& info) {
+  const std::vector<CaptureMode> offered = dev->modes();
+  for (size_t i = 0; i < n; ++i)
+    for (const CaptureMode& m : offered)
+      if (m.format == formats[i] && m.width == info.width() && m.height == info.height()) {
+        CaptureMode want = m;
+        want.fps_n = info.fps_n;
+        want.fps_d = info.fps_d;
+        dev->set_mode(want);
+        return;
+      }
+  std::string wanted;
+  for (size_t i = 0; i < n; ++i) wanted += std::string(wanted.empty() ? "" : " or ") + capture_format_name(formats[i]);
+  throw CaptureError(CaptureError::Kind::kUnsupported,
+                     dev->path() + ": offers no " + wanted + " at " + std::to_string(info.width()) + "x" +
+                         std::to_string(info.height()) + " (the rig camera's size); it offers " +
+                         describe_modes(offered));
+}
+
+static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
+  GstRgbdSrc* self = GST_RGBD_SRC(src);
+  SrcState* st = self->st;
+  std::string color_path, depth_path, rig_path;
+  int id;
+  guint64 skew;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    color_path = st->color_device;
+    depth_path = st->depth_device;
+    rig_path = st->rig_path;
+    id = st->camera_id;
+    skew = st->max_skew;
+    st->info.fps_n = st->fps_n;
+    st->info.fps_d = st->fps_d;
+    st->unpaired = st->damaged = 0;
+  }
+  if (color_path.empty() || depth_path.empty() || rig_path.empty()) {
+    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("rgbdsrc needs color-device, depth-device and rig"),
+                      ("the rig gives the camera's size and calibration (docs/capture.md)"));
+    return FALSE;
+  }
+  try {
+    st->info.camera = load_rig(rig_path).camera(id);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("rgbdsrc rig=%s camera-id=%d", rig_path.c_str(), id));
+    return FALSE;
+  }
+  if (st->info.camera.depth_to_color) {
+    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS,
+                      ("rig camera %d has depth_to_color: registering depth into colour in rgbdsrc needs the depth "
+                       "sensor's own intrinsics in the rig, which the rig format does not carry yet",
+                       id),
+                      ("use the camera's aligned depth node (most UVC RGB-D cameras offer one)"));
+    return FALSE;
+  }
+  st->info.planes = {Plane::Color, Plane::Depth};
+  try {
+    st->color = std::make_unique<V4l2Device>(color_path);
+    st->depth = std::make_unique<V4l2Device>(depth_path);
+    choose_mode(st->color.get(), kColorFormats, std::size(kColorFormats), st->info);
+    choose_mode(st->depth.get(), kDepthFormats, std::size(kDepthFormats), st->info);
+    st->color->start();
+    st->depth->start();
+  } catch (const CaptureError& e) {
+    st->color.reset();
+    st->depth.reset();
+    post_capture_error(self, e);
+    return FALSE;
+  }
+  st->pairer = std::make_unique<FramePairer>(int64_t(skew));
+  st->colors.clear();
+  st->depths.clear();
+  st->damaged_warnings.reset();
+  st->flushing = false;
+  return TRUE;
+}
+
+static gboolean gst_rgbd_src_stop(GstBaseSrc* src) {
+  SrcState* st = GST_RGBD_SRC(src)->st;
+  st->color.reset();  // stops streaming, unmaps, closes
+  st->depth.reset();
+  st->colors.clear();
+  st->depths.clear();
+  return TRUE;
+}
+
+static gboolean gst_rgbd_src_unlock(GstBaseSrc* src) {
+  GST_RGBD_SRC(src)->st->flushing = true;
+  return TRUE;
+}
+
+static gboolean gst_rgbd_src_unlock_stop(GstBaseSrc* src) {
+  GST_RGBD_SRC(src)->st->flushing = false;
+  return TRUE;
+}
+
+static GstCaps* gst_rgbd_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
+  GstRgbdSrc* self = GST_RGBD_SRC(src);
+  GstCaps* caps = self->st->color ? rgbd_caps_new(self->st->info) : gst_pad_get_pad_template_caps(GST_BASE_SRC_PAD(src));
+  if (filter) {
+    GstCaps* tmp = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
+    gst_caps_unref(caps);
+    caps = tmp;
+  }
+  return caps;
+}
+
+static gboolean gst_rgbd_src_query(GstBaseSrc* src, GstQuery* query) {
+  GstRgbdSrc* self = GST_RGBD_SRC(src);
+  if (GST_QUERY_TYPE(query) == GST_QUERY_LATENCY) {
+    // A frame is out once its partner from the other node arrived: up to one
+    // frame interval plus the skew allowed between them.
+    const GstClockTime frame = gst_util_uint64_scale(GST_SECOND, guint64(self->st->info.fps_d), guint64(self->st->info.fps_n));
+    const GstClockTime lat = frame + self->st->max_skew;
+    gst_query_set_latency(query, TRUE, lat, lat + 2 * frame);
+    return TRUE;
+  }
+  return GST_BASE_SRC_CLASS(gst_rgbd_src_parent_class)->query(src, query);
+}
+
+static int64_t monotonic_ns() {
+  timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return int64_t(t.tv_sec) * 1000000000 + t.tv_nsec;
+}
+
+// Takes one frame from `dev` if it has one, converts it, hands its buffer
+// back at once and gives it to the pairer. A damaged frame (short, flagged by
+// the driver, undecodable) is dropped with a rate-limited warning.
+static void take_frame(GstRgbdSrc* self, V4l2Device* dev, bool is_color) {
+  SrcState* st = self->st;
+  CapturedFrame f;
+  if (!dev->next_frame(0, &f)) return;
+  cv::Mat plane;
+  std::string err = "the driver flagged it damaged";
+  bool ok = false;
+  if (f.bytesused > 0)
+    ok = is_color ? capture_to_rgb(dev->mode().format, f.data, f.bytesused, st->info.width(), st->info.height(),
+                                   f.stride, &plane, &err)
+                  : capture_to_depth_mm(dev->mode().format, f.data, f.bytesused, st->info.width(), st->info.height(),
+                                        f.stride, st->info.camera.depth_scale, &plane, &err);
+  const int64_t time = f.timestamp_ns;
+  dev->release(f);
+  if (!ok) {
+    uint64_t count = 0;
+    int64_t span = 0;
+    {
+      std::lock_guard<std::mutex> g(st->lock);
+      ++st->damaged;
+    }
+    if (st->damaged_warnings.note(monotonic_ns(), &count, &span))
+      GST_ELEMENT_WARNING(self, STREAM, DECODE,
+                          ("%s", describe_occurrences(count, "a damaged frame dropped", "damaged frames dropped",
+                                                      dev->path(), span)
+                                     .c_str()),
+                          ("the last: %s", err.c_str()));
+    return;
+  }
+  const uint64_t id = st->next_id++;
+  if (is_color) {
+    st->colors[id] = plane;
+    st->pairer->push_color(id, time);
+  } else {
+    st->depths[id] = plane;
+    st->pairer->push_depth(id, time);
+  }
+}
+
+// The kernel's capture time (CLOCK_MONOTONIC) as this pipeline's running time.
+static GstClockTime running_time_of(GstRgbdSrc* self, int64_t capture_ns) {
+  GstClock* clock = gst_element_get_clock(GST_ELEMENT(self));
+  if (!clock) return GST_CLOCK_TIME_NONE;
+  const int64_t offset = int64_t(gst_clock_get_time(clock)) - monotonic_ns();
+  gst_object_unref(clock);
+  const int64_t t = capture_ns + offset - int64_t(gst_element_get_base_time(GST_ELEMENT(self)));
+  return t < 0 ? 0 : GstClockTime(t);
+}
+
+static GstFlowReturn gst_rgbd_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
+  GstRgbdSrc* self = GST_RGBD_SRC(psrc);
+  SrcState* st = self->st;
+  for (;;) {
+    if (st->flushing) return GST_FLOW_FLUSHING;
+    std::deque<uint64_t> dropped_c, dropped_d;
+    std::optional<FramePairer::Pair> pair = st->pairer->pop(&dropped_c, &dropped_d);
+    for (uint64_t id : dropped_c) st->colors.erase(id);
+    for (uint64_t id : dropped_d) st->depths.erase(id);
+    if (!dropped_c.empty() || !dropped_d.empty()) {
+      std::lock_guard<std::mutex> g(st->lock);
+      st->unpaired += dropped_c.size() + dropped_d.size();
+    }
+    if (pair) {
+      GstBuffer* buf = rgbd_buffer_new(st->info);
+      RgbdFrame frame;
+      std::string err;
+      if (!frame.map(buf, st->info, GST_MAP_WRITE, &err)) {
+        gst_buffer_unref(buf);
+        GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
+        return GST_FLOW_ERROR;
+      }
+      st->colors[pair->color_id].copyTo(frame.color());
+      st->depths[pair->depth_id].copyTo(frame.depth());
+      frame.unmap();
+      st->colors.erase(pair->color_id);
+      st->depths.erase(pair->depth_id);
+      GST_BUFFER_PTS(buf) = running_time_of(self, pair->color_time_ns);
+      GST_BUFFER_DURATION(buf) = st->info.frame_duration();
+      *outbuf = buf;
+      return GST_FLOW_OK;
+    }
+    try {
+      pollfd fds[2] = {{st->color->fd(), POLLIN, 0}, {st->depth->fd(), POLLIN, 0}};
+      // Wakes now and then to notice a flush (unlock) even when no frame comes.
+      if (poll(fds, 2, 100) < 0 && errno != EINTR) throw CaptureError(CaptureError::Kind::kIo, "poll failed");
+      if (fds[0].revents) take_frame(self, st->color.get(), true);
+      if (fds[1].revents) take_frame(self, st->depth.get(), false);
+    } catch (const CaptureError& e) {
+      if (e.kind() == CaptureError::Kind::kIo) {
+        // One frame the driver could not deliver: the stream goes on.
+        GST_ELEMENT_WARNING(self, RESOURCE, READ, ("%s", e.what()), ("the frame is dropped"));
+        continue;
+      }
+      post_capture_error(self, e);
+      return GST_FLOW_ERROR;
+    }
+  }
+}
+
+static void gst_rgbd_src_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
+  SrcState* st = GST_RGBD_SRC(object)->st;
+  std::lock_guard<std::mutex> g(st->lock);
+  auto text = [&] { return std::string(g_value_get_string(value) ? g_value_get_string(value) : ""); };
+  switch (prop_id) {
+    case PROP_COLOR_DEVICE: st->color_device = text(); break;
+    case PROP_DEPTH_DEVICE: st->depth_device = text(); break;
+    case PROP_RIG: st->rig_path = text(); break;
+    case PROP_CAMERA_ID: st->camera_id = g_value_get_int(value); break;
+    case PROP_MAX_SKEW: st->max_skew = g_value_get_uint64(value); break;
+    case PROP_FRAMERATE:
+      st->fps_n = gst_value_get_fraction_numerator(value);
+      st->fps_d = gst_value_get_fraction_denominator(value);
+      break;
+    default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_rgbd_src_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  SrcState* st = GST_RGBD_SRC(object)->st;
+  std::lock_guard<std::mutex> g(st->lock);
+  switch (prop_id) {
+    case PROP_COLOR_DEVICE: g_value_set_string(value, st->color_device.c_str()); break;
+    case PROP_DEPTH_DEVICE: g_value_set_string(value, st->depth_device.c_str()); break;
+    case PROP_RIG: g_value_set_string(value, st->rig_path.c_str()); break;
+    case PROP_CAMERA_ID: g_value_set_int(value, st->camera_id); break;
+    case PROP_MAX_SKEW: g_value_set_uint64(value, st->max_skew); break;
+    case PROP_FRAMERATE: gst_value_set_fraction(value, st->fps_n, st->fps_d); break;
+    case PROP_FRAMES_UNPAIRED: g_value_set_uint64(value, st->unpaired); break;
+    case PROP_FRAMES_DAMAGED: g_value_set_uint64(value, st->damaged); break;
+    default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
+}
+
+static void gst_rgbd_src_finalize(GObject* object) {
+  delete GST_RGBD_SRC(object)->st;
+  G_OBJECT_CLASS(gst_rgbd_src_parent_class)->finalize(object);
+}
+
+static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
+  GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  GstBaseSrcClass* basesrc_class = GST_BASE_SRC_CLASS(klass);
+  gobject_class->set_property = gst_rgbd_src_set_property;
+  gobject_class->get_property = gst_rgbd_src_get_property;
+  gobject_class->finalize = gst_rgbd_src_finalize;
+  const auto rw = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
+  const auto ro = GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
+  g_object_class_install_property(gobject_class, PROP_COLOR_DEVICE,
+                                  g_param_spec_string("color-device", "Colour device",
+                                                      "The camera's colour node (/dev/videoN or a /dev/v4l/by-id "
+                                                      "name): YUYV, RGB3 or MJPG at the rig camera's size",
+                                                      "", rw));
+  g_object_class_install_property(gobject_class, PROP_DEPTH_DEVICE,
+                                  g_param_spec_string("depth-device", "Depth device",
+                                                      "The camera's depth node: Z16 or Y16 at the rig camera's size, "
+                                                      "aligned to the colour (depth units: the rig's depth_scale)",
+                                                      "", rw));
+  g_object_class_install_property(gobject_class, PROP_RIG,
+                                  g_param_spec_string("rig", "Rig file",
+                                                      "Rig YAML file (docs/rig-format.md) giving the camera's size, "
+                                                      "calibration and depth scale",
+                                                      "", rw));
+  g_object_class_install_property(gobject_class, PROP_CAMERA_ID,
+                                  g_param_spec_int("camera-id", "Camera id", "Which camera of the rig this is", 0,
+                                                   G_MAXINT, 0, rw));
+  g_object_class_install_property(
+      gobject_class, PROP_MAX_SKEW,
+      g_param_spec_uint64("max-skew", "Maximum skew",
+                          "Colour and depth frames whose capture times differ by at most this many ns are one "
+                          "frame; others are dropped and counted, never mismatched (keep it under half the frame "
+                          "interval)",
+                          0, GST_SECOND, kDefaultMaxSkew, rw));
+  g_object_class_install_property(gobject_class, PROP_FRAMERATE,
+                                  gst_param_spec_fraction("framerate", "Frame rate", "Frame rate asked of the camera",
+                                                          1, 1, 1000, 1, 30, 1, rw));
+  g_object_class_install_property(gobject_class, PROP_FRAMES_UNPAIRED,
+                                  g_param_spec_uint64("frames-unpaired", "Unpaired frames",
+                                                      "Colour or depth frames dropped for want of a partner", 0,
+                                                      G_MAXUINT64, 0, ro));
+  g_object_class_install_property(gobject_class, PROP_FRAMES_DAMAGED,
+                                  g_param_spec_uint64("frames-damaged", "Damaged frames",
+                                                      "Frames dropped as short, flagged by the driver or undecodable",
+                                                      0, G_MAXUINT64, 0, ro));
+  gst_element_class_add_static_pad_template(element_class, &src_template);
+  gst_element_class_set_static_metadata(
+      element_class, "RGB-D camera source", "Source/Video",
+      "A consumer RGB-D camera through V4L2: its colour node (YUYV, RGB3, MJPG) and depth node (Z16, Y16) paired "
+      "by the kernel's capture time, as video/x-rgbd with the rig camera's calibration in the caps "
+      "(docs/capture.md). Example: gst-launch-1.0 rgbdsrc color-device=/dev/video0 depth-device=/dev/video2 "
+      "rig=rig.yaml ! rgbddemux name=d d.color ! videoconvert ! autovideosink",
+      "gst-vclassroom developers");
+  basesrc_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_src_start);
+  basesrc_class->stop = GST_DEBUG_FUNCPTR(gst_rgbd_src_stop);
+  basesrc_class->unlock = GST_DEBUG_FUNCPTR(gst_rgbd_src_unlock);
+  basesrc_class->unlock_stop = GST_DEBUG_FUNCPTR(gst_rgbd_src_unlock_stop);
+  basesrc_class->get_caps = GST_DEBUG_FUNCPTR(gst_rgbd_src_get_caps);
+  basesrc_class->query = GST_DEBUG_FUNCPTR(gst_rgbd_src_query);
+  GST_PUSH_SRC_CLASS(klass)->create = GST_DEBUG_FUNCPTR(gst_rgbd_src_create);
+  GST_DEBUG_CATEGORY_INIT(rgbd_src_debug, "rgbdsrc", 0, "RGB-D camera source");
+}
+
+static void gst_rgbd_src_init(GstRgbdSrc* self) {
+  self->st = new SrcState();
+  gst_base_src_set_live(GST_BASE_SRC(self), TRUE);
+  gst_base_src_set_format(GST_BASE_SRC(self), GST_FORMAT_TIME);
+}

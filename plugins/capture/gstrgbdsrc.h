@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstpushsrc.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_RGBD_SRC (gst_rgbd_src_get_type())
+G_DECLARE_FINAL_TYPE(GstRgbdSrc, gst_rgbd_src, GST, RGBD_SRC, GstPushSrc)
+
+G_END_DECLS
