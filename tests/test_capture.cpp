@@ -300,6 +300,22 @@ TEST(RgbdSrc, EachFailureHasAClearMessage) {
   EXPECT_NE(c.run.error.find("went away"), std::string::npos) << c.run.error;
 }
 
+// reconnect=true: a camera unplugged while streaming is a warning, and when it is back the frames go on.
+TEST(RgbdSrc, UnplugThenReconnectResumes) {
+  if (!fake_loaded()) GTEST_SKIP() << "the fake V4L2 device is not preloaded (run through meson test)";
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  fake_devices(fake_config(rig, "YUYV", "", ",enodev_at=3,vanish_once=1"));
+  const Captured c = capture(rig, 10, "reconnect=true");
+  EXPECT_EQ(c.run.error, "");
+  EXPECT_EQ(c.depth.size(), 10u);
+  ASSERT_GE(c.run.warnings.size(), 2u);
+  EXPECT_NE(c.run.warnings[0].find("went away; waiting for it to return"), std::string::npos) << c.run.warnings[0];
+  EXPECT_NE(c.run.warnings[1].find("returned"), std::string::npos) << c.run.warnings[1];
+  for (size_t i = 0; i < c.depth.size(); ++i) EXPECT_TRUE(one_instant(c.color[i], c.depth[i])) << "frame " << i;
+}
+
 // On a machine with an RGB-D camera plugged in, its depth node streams through the same code; elsewhere
 // this says why it skips.
 TEST(RealCamera, ADepthNodeStreamsWhereOneIsPluggedIn) {

@@ -13,6 +13,8 @@
 #include <time.h>
 
 #include <atomic>
+#include <deque>
+#include <optional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -29,7 +31,7 @@ GST_DEBUG_CATEGORY_STATIC(rgbd_src_debug);
 using namespace vclassroom;
 
 enum { PROP_0, PROP_COLOR_DEVICE, PROP_DEPTH_DEVICE, PROP_RIG, PROP_CAMERA_ID, PROP_MAX_SKEW, PROP_FRAMERATE,
-       PROP_FRAMES_UNPAIRED, PROP_FRAMES_DAMAGED };
+       PROP_FRAMES_UNPAIRED, PROP_FRAMES_DAMAGED, PROP_RECONNECT };
 
 namespace {
 constexpr guint64 kDefaultMaxSkew = 10 * GST_MSECOND;
@@ -44,6 +46,7 @@ struct SrcState {
   int camera_id = 0;
   guint64 max_skew = kDefaultMaxSkew;
   int fps_n = 30, fps_d = 1;
+  bool reconnect = false;
   guint64 unpaired = 0, damaged = 0;
 
   // Streaming thread (and start/stop).
@@ -107,6 +110,22 @@ static void choose_mode(V4l2Device* dev, const CapturePixelFormat* formats, size
                          describe_modes(offered));
 }
 
+// Opens both nodes, sets their modes and starts them; on failure none is left open.
+static void open_devices(SrcState* st, const std::string& color_path, const std::string& depth_path) {
+  try {
+    st->color = std::make_unique<V4l2Device>(color_path);
+    st->depth = std::make_unique<V4l2Device>(depth_path);
+    choose_mode(st->color.get(), kColorFormats, std::size(kColorFormats), st->info);
+    choose_mode(st->depth.get(), kDepthFormats, std::size(kDepthFormats), st->info);
+    st->color->start();
+    st->depth->start();
+  } catch (const CaptureError&) {
+    st->color.reset();
+    st->depth.reset();
+    throw;
+  }
+}
+
 static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
   GstRgbdSrc* self = GST_RGBD_SRC(src);
   SrcState* st = self->st;
@@ -145,15 +164,8 @@ static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
   }
   st->info.planes = {Plane::Color, Plane::Depth};
   try {
-    st->color = std::make_unique<V4l2Device>(color_path);
-    st->depth = std::make_unique<V4l2Device>(depth_path);
-    choose_mode(st->color.get(), kColorFormats, std::size(kColorFormats), st->info);
-    choose_mode(st->depth.get(), kDepthFormats, std::size(kDepthFormats), st->info);
-    st->color->start();
-    st->depth->start();
+    open_devices(st, color_path, depth_path);
   } catch (const CaptureError& e) {
-    st->color.reset();
-    st->depth.reset();
     post_capture_error(self, e);
     return FALSE;
   }
@@ -266,6 +278,32 @@ static GstClockTime running_time_of(GstRgbdSrc* self, int64_t capture_ns) {
   return t < 0 ? 0 : GstClockTime(t);
 }
 
+// reconnect=true: the camera went away (unplugged); says so, then tries to
+// open it again twice a second until it is back or the pipeline stops. Only
+// this camera's branch waits: every camera has its own rgbdsrc and thread.
+static bool wait_for_return(GstRgbdSrc* self, const CaptureError& why) {
+  SrcState* st = self->st;
+  GST_ELEMENT_WARNING(self, RESOURCE, READ, ("%s; waiting for it to return", why.what()), ("reconnect=true"));
+  const std::string color_path = st->color->path(), depth_path = st->depth->path();
+  st->color.reset();
+  st->depth.reset();
+  std::deque<uint64_t> dc, dd;
+  st->pairer->clear(&dc, &dd);
+  st->colors.clear();
+  st->depths.clear();
+  while (!st->flushing) {
+    try {
+      open_devices(st, color_path, depth_path);
+      GST_ELEMENT_WARNING(self, RESOURCE, READ, ("camera %s / %s returned", color_path.c_str(), depth_path.c_str()),
+                          (nullptr));
+      return true;
+    } catch (const CaptureError&) {
+      g_usleep(G_USEC_PER_SEC / 2);  // a device coming back is not announced here: look again
+    }
+  }
+  return false;
+}
+
 static GstFlowReturn gst_rgbd_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
   GstRgbdSrc* self = GST_RGBD_SRC(psrc);
   SrcState* st = self->st;
@@ -310,8 +348,16 @@ static GstFlowReturn gst_rgbd_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
         GST_ELEMENT_WARNING(self, RESOURCE, READ, ("%s", e.what()), ("the frame is dropped"));
         continue;
       }
-      post_capture_error(self, e);
-      return GST_FLOW_ERROR;
+      bool reconnect;
+      {
+        std::lock_guard<std::mutex> g(st->lock);
+        reconnect = st->reconnect;
+      }
+      if (e.kind() != CaptureError::Kind::kVanished || !reconnect) {
+        post_capture_error(self, e);
+        return GST_FLOW_ERROR;
+      }
+      if (!wait_for_return(self, e)) return GST_FLOW_FLUSHING;
     }
   }
 }
@@ -330,6 +376,7 @@ static void gst_rgbd_src_set_property(GObject* object, guint prop_id, const GVal
       st->fps_n = gst_value_get_fraction_numerator(value);
       st->fps_d = gst_value_get_fraction_denominator(value);
       break;
+    case PROP_RECONNECT: st->reconnect = g_value_get_boolean(value); break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
 }
@@ -346,6 +393,7 @@ static void gst_rgbd_src_get_property(GObject* object, guint prop_id, GValue* va
     case PROP_FRAMERATE: gst_value_set_fraction(value, st->fps_n, st->fps_d); break;
     case PROP_FRAMES_UNPAIRED: g_value_set_uint64(value, st->unpaired); break;
     case PROP_FRAMES_DAMAGED: g_value_set_uint64(value, st->damaged); break;
+    case PROP_RECONNECT: g_value_set_boolean(value, st->reconnect); break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
 }
@@ -392,6 +440,12 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
   g_object_class_install_property(gobject_class, PROP_FRAMERATE,
                                   gst_param_spec_fraction("framerate", "Frame rate", "Frame rate asked of the camera",
                                                           1, 1, 1000, 1, 30, 1, rw));
+  g_object_class_install_property(
+      gobject_class, PROP_RECONNECT,
+      g_param_spec_boolean("reconnect", "Reconnect",
+                           "A camera that goes away while streaming (unplugged) is a warning, and rgbdsrc waits for "
+                           "it to return; off: an error that stops the pipeline",
+                           FALSE, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS)));
   g_object_class_install_property(gobject_class, PROP_FRAMES_UNPAIRED,
                                   g_param_spec_uint64("frames-unpaired", "Unpaired frames",
                                                       "Colour or depth frames dropped for want of a partner", 0,

@@ -33,6 +33,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -67,6 +68,7 @@ struct Config {
   double drop = 0, jitter_ms = 0;
   long short_at = -1, eio_at = -1, enodev_at = -1;
   bool busy = false;
+  bool vanish_once = false;  // after it vanished, the node comes back for good (a camera plugged in again)
 };
 
 struct Buffer {
@@ -94,7 +96,8 @@ struct Device {
 std::mutex g_lock;
 std::map<int, std::shared_ptr<Device>> g_devices;
 std::vector<Config> g_configs;
-std::string g_parsed_from;  // the environment the configs were read from: a test may change it between runs
+std::string g_parsed_from;
+std::vector<std::string> g_vanished;  // paths that went away once (vanish_once)  // the environment the configs were read from: a test may change it between runs
 
 // The instants' common epoch: frames of one instant on two nodes share a time.
 std::chrono::steady_clock::time_point epoch() {
@@ -153,6 +156,7 @@ void parse_configs() {
       else if (k == "eio_at") c.eio_at = std::stol(v);
       else if (k == "enodev_at") c.enodev_at = std::stol(v);
       else if (k == "busy") c.busy = v == "1";
+      else if (k == "vanish_once") c.vanish_once = v == "1";
     }
     if (!c.path.empty()) g_configs.push_back(c);
   }
@@ -235,6 +239,10 @@ void produce(std::shared_ptr<Device> d) {
       if (d->cfg.drop > 0 && uni(rng) < d->cfg.drop) continue;  // the sensor skipped this instant
       if (d->cfg.enodev_at >= 0 && k >= d->cfg.enodev_at && !d->vanished) {
         d->vanished = true;
+        if (d->cfg.vanish_once) {
+          std::lock_guard<std::mutex> g(g_lock);
+          g_vanished.push_back(d->cfg.path);
+        }
         const uint64_t one = 1;
         (void)!write(d->fd, &one, sizeof one);  // wakes poll; DQBUF then says ENODEV
         return;
@@ -435,6 +443,8 @@ int open(const char* path, int flags, ...) {
       if (c.path == path) {
         auto d = std::make_shared<Device>();
         d->cfg = c;
+        if (c.vanish_once && std::find(g_vanished.begin(), g_vanished.end(), c.path) != g_vanished.end())
+          d->cfg.enodev_at = -1;
         d->fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
         if (d->fd < 0) return -1;
         try {
