@@ -32,7 +32,7 @@ class DepthRegistration {
   CameraCalib depth_, color_;
   Eigen::Matrix3f rotation_;
   Eigen::Vector3f translation_;
-  std::vector<float> corner_x_, corner_y_;  // normalised rays of the pixel corners, (w+1) x (h+1)
+  std::vector<float> corner_x_, corner_y_, ray_z_;  // each depth pixel's ray in the colour camera's orientation
   cv::Mat zbuffer_;
 };
 
