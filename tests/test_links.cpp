@@ -506,7 +506,7 @@ LinkResult run_link(const Scheme& scheme, double loss, size_t frames, uint32_t s
 }
 
 // The scheme of pipelines/classroom.sh and server.sh (the same elements and settings; keep them alike),
-// except the time a packet may wait for its repair: 1.5 s here instead of the scripts' 300 ms (RTX_LATENCY),
+// except the time a packet may wait for its repair: 3 s here instead of the scripts' 300 ms (RTX_LATENCY),
 // so that the result does not depend on the machine's speed (other tests run beside this one); how much
 // latency the repairs cost is measured by tools/vclassroom-measure-link, not asserted here.
 // NACK-driven retransmission (RFC 4588) through
@@ -519,12 +519,12 @@ const Scheme kRetransmission = {
     "senderfilter lock-ssrc=false allow=127.0.0.1 ! tx.recv_rtcp_sink",
     "senderfilter allow=127.0.0.1 ! rx.recv_rtp_sink rx.recv_rtp_src ! "
     "rtprtxreceive name=rtxreceive payload-type-map=application/x-rtp-pt-map,96=(uint)97 ! rtpssrcdemux ! "
-    "rtpjitterbuffer name=jitter latency=1500 do-retransmission=true drop-on-latency=true !",
+    "rtpjitterbuffer name=jitter latency=3000 do-retransmission=true drop-on-latency=true !",
     "rtpsession name=rx probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 "
     "rx.send_rtcp_src ! udpsink host=127.0.0.1 port={RTCP_TO_SENDER} sync=false async=false"};
 // Before: plain rtpgstpay, a jitter buffer and nothing else.
 // (Its jitter buffer waits as long as the retransmission scheme's: only the missing repairs differ.)
-const Scheme kPlain = {"", "", "rtpjitterbuffer name=jitter latency=1500 !", ""};
+const Scheme kPlain = {"", "", "rtpjitterbuffer name=jitter latency=3000 !", ""};
 
 }  // namespace
 
