@@ -27,6 +27,7 @@
 
 #include <gst/rtp/gstrtpbuffer.h>
 
+#include <algorithm>
 #include <condition_variable>
 #include <deque>
 #include <memory>
@@ -58,6 +59,7 @@ struct SendState {
   PoseKey key;
   std::string trace_location;
   std::unique_ptr<PoseTraceWriter> trace;  // from READY to PAUSED on, when trace_location is set
+  double trace_last_t = 0;
   guint16 rtp_seq = 0;
   guint32 ssrc = 0;
   guint64 session = 0;  // this run's number in every packet: a restarted lecturer is a new session
@@ -182,11 +184,17 @@ static gboolean gst_pose_send_rtp_activate_mode(GstPad* pad, GstObject* parent, 
 static void record_pose_locked(GstPoseSend* self, const Pose& pose) {
   PoseSample sample;
   sample.pose = pose;
-  if (GstClock* clock = gst_element_get_clock(GST_ELEMENT(self))) {
+  // Before the pipeline plays (a pose sent while prerolling) its running time is 0; a trace's times never
+  // go back.
+  double t = 0;
+  GstClock* clock = GST_STATE(self) == GST_STATE_PLAYING ? gst_element_get_clock(GST_ELEMENT(self)) : nullptr;
+  if (clock) {
     const GstClockTime now = gst_clock_get_time(clock);
     gst_object_unref(clock);
-    sample.t = double(GST_CLOCK_DIFF(gst_element_get_base_time(GST_ELEMENT(self)), now)) / GST_SECOND;
+    t = std::max(0.0, double(GST_CLOCK_DIFF(gst_element_get_base_time(GST_ELEMENT(self)), now)) / GST_SECOND);
   }
+  sample.t = std::max(t, self->st->trace_last_t);
+  self->st->trace_last_t = sample.t;
   try {
     self->st->trace->append(sample);
   } catch (const Error& e) {
@@ -248,6 +256,7 @@ static GstStateChangeReturn gst_pose_send_change_state(GstElement* element, GstS
     if (!load_key_file(element, st->lock, st->key_file, &st->key)) return GST_STATE_CHANGE_FAILURE;
     std::lock_guard<std::mutex> g(st->lock);
     st->trace.reset();
+    st->trace_last_t = 0;
     if (!st->trace_location.empty()) {
       try {
         st->trace = std::make_unique<PoseTraceWriter>(st->trace_location);
