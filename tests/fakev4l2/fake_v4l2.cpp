@@ -436,6 +436,11 @@ int open(const char* path, int flags, ...) {
     mode = mode_t(va_arg(ap, int));
     va_end(ap);
   }
+  // Nothing is allocated or locked for a path the environment does not name:
+  // open() is called everywhere, also where allocating is unsafe (a
+  // sanitizer's report, which reads files to symbolize).
+  const char* env = getenv("VCLASSROOM_FAKE_V4L2");
+  if (!env || !path || !strstr(env, path)) return real_open(path, flags, mode);
   {
     std::lock_guard<std::mutex> g(g_lock);
     parse_configs();
