@@ -14,7 +14,9 @@
 #   RTX_KEEP_MS (how long sent packets are kept for retransmission, default 500),
 #   SSRC (the camera's RTP stream id, default 0x56430000 + CAMERA: fixed, so that a camera that restarts
 #   is the same stream to the server, which then takes it back at once; docs/network.md),
-#   SRTP_KEY (a 30-byte key file: the frames leave encrypted with SRTP; the server needs the same file).
+#   SRTP_KEY (a 30-byte key file: the frames leave encrypted with SRTP; the server needs the same file),
+#   RECORD (a folder: the frames sent are also recorded there, coded as sent, with their times: a live
+#   recording rgbdfilesrc plays back; docs/dataset-format.md).
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
@@ -64,6 +66,9 @@ else
   to_session="identity drop-probability=$DROP ! $SRTP_ENC $to_session"
 fi
 set -f
+record=""
+# The recording branch gets its own thread and may fall behind without holding the link back.
+[ -n "${RECORD:-}" ] && record="coded. ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=0 ! rgbdfilesink location=$RECORD"
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $verbose $send_session $SOURCE ! rgbdenc name=enc quality=$QUALITY stats-interval=$STATS ! \
-  rtpgstpay config-interval=1 mtu=$MTU pt=96 ssrc=$SSRC ! $to_session
+  tee name=coded ! queue ! rtpgstpay config-interval=1 mtu=$MTU pt=96 ssrc=$SSRC ! $to_session $record

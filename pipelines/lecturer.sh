@@ -8,7 +8,8 @@
 #   POSE_KEY (file holding the pose key shared with server.sh: every pose is tagged with it; empty: untagged),
 #   VIDEO_SENDERS (addresses the video is taken from, default SERVER): packets from elsewhere, or a second
 #   video stream, are dropped and counted (senderfilter, docs/network.md).
-#   SRTP_KEY (a 30-byte key file: video in and poses out are SRTP; the server needs the same file).
+#   SRTP_KEY (a 30-byte key file: video in and poses out are SRTP; the server needs the same file),
+#   POSES_OUT (a file: every pose sent is also written there as a pose trace, docs/pose.md).
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
@@ -32,13 +33,14 @@ fi
 nav="sliders=\"$SLIDERS\""
 [ -n "${RIG:-}" ] && nav="$nav rig=$RIG"
 [ -n "${POSE_TRACE:-}" ] && nav="$nav pose-trace=$POSE_TRACE"
-pose_key=""
-[ -n "${POSE_KEY:-}" ] && pose_key="key-file=$POSE_KEY"
+posesend_props=""
+[ -n "${POSE_KEY:-}" ] && posesend_props="key-file=$POSE_KEY"
+[ -n "${POSES_OUT:-}" ] && posesend_props="$posesend_props trace-location=$POSES_OUT"
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
 set -f
 desc="udpsrc port=$VIDEO_PORT buffer-size=8388608 mtu=$((MTU + 100)) caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose\" ! \
-  senderfilter name=from_server allow=$VIDEO_SENDERS payload-types=96 ! $(srtp_dec) rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back $pose_key ! videoconvert ! posenav $nav ! $SINK \
+  senderfilter name=from_server allow=$VIDEO_SENDERS payload-types=96 ! $(srtp_dec) rtpjitterbuffer latency=30 ! rtpgstdepay ! jpegdec ! posesend name=back $posesend_props ! videoconvert ! posenav $nav ! $SINK \
   back.rtp ! $SRTP_ENC udpsink host=$SERVER port=$POSE_PORT sync=false async=false"
 # shellcheck disable=SC2086
 exec gst-launch-1.0 -e $desc

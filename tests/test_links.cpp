@@ -17,6 +17,7 @@
 #include <string>
 
 #include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/datasets/dataset.h>
 #include <gst/vclassroom/net/sender_filter.h>
 #include <gst/vclassroom/net/srtp_key.h>
 
@@ -680,6 +681,24 @@ TEST(Scripts, ClassroomEndsAtEndOfStream) {
                            120);
   EXPECT_TRUE(r.ended) << r.output;
   EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// RECORD=folder: a camera records what it sends, as a live recording of its coded frames.
+TEST(Scripts, ClassroomRecordsWhatItSends) {
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  const std::string rec = dir / "session";
+  ScriptRun r = run_script("classroom.sh",
+                           {"SOURCE=rgbdtestsrc rig=" + rig + " num-buffers=5 ground-truth=false", "RECORD=" + rec,
+                            "PORT=" + std::to_string(vctest::free_udp_port()),
+                            "NACK_PORT=" + std::to_string(vctest::free_udp_port())},
+                           120);
+  EXPECT_TRUE(r.ended) << r.output;
+  EXPECT_EQ(r.status, 0) << r.output;
+  const Dataset recorded = Dataset::open(rec);
+  EXPECT_TRUE(recorded.is_recording(0));
+  EXPECT_EQ(recorded.frame_count(0), 5u);
 }
 
 // loopback.sh with a server that cannot start returns (with the server's status) instead of waiting forever
