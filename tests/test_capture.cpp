@@ -316,6 +316,49 @@ TEST(RgbdSrc, UnplugThenReconnectResumes) {
   for (size_t i = 0; i < c.depth.size(); ++i) EXPECT_TRUE(one_instant(c.color[i], c.depth[i])) << "frame " << i;
 }
 
+// The device provider lists a camera whose depth and colour nodes share a bus, and its element (an rgbdsrc
+// for both nodes, no rig yet: a nominal calibration with a warning) streams.
+TEST(RgbdDeviceProvider, ListsACameraWhoseElementStreams) {
+  if (!fake_loaded()) GTEST_SKIP() << "the fake V4L2 device is not preloaded (run through meson test)";
+  fake_devices("path=/dev/video60,format=MJPG,width=64,height=48;path=/dev/video61,format=Z16,width=64,height=48");
+  GstDeviceProvider* provider = gst_device_provider_factory_get_by_name("rgbddeviceprovider");
+  ASSERT_NE(provider, nullptr);
+  GList* devices = gst_device_provider_get_devices(provider);
+  ASSERT_EQ(g_list_length(devices), 1u);
+  GstDevice* device = GST_DEVICE(devices->data);
+  gchar* name = gst_device_get_display_name(device);
+  EXPECT_STREQ(name, "Fake RGB-D depth (RGB-D)");
+  g_free(name);
+  GstElement* src = gst_device_create_element(device, "camera");
+  ASSERT_NE(src, nullptr);
+  gchar *color = nullptr, *depth = nullptr;
+  g_object_get(src, "color-device", &color, "depth-device", &depth, nullptr);
+  EXPECT_STREQ(color, "/dev/video60");
+  EXPECT_STREQ(depth, "/dev/video61");
+  g_free(color);
+  g_free(depth);
+  g_object_set(src, "num-buffers", 3, nullptr);
+  GstElement* pipe = gst_pipeline_new(nullptr);
+  GstElement* sink = gst_element_factory_make("appsink", "out");
+  g_object_set(sink, "sync", FALSE, nullptr);
+  gst_bin_add_many(GST_BIN(pipe), src, sink, nullptr);
+  ASSERT_TRUE(gst_element_link(src, sink));
+  size_t frames = 0;
+  {
+    vctest::SampleCollector got(sink);
+    const vctest::RunResult r = vctest::run_pipeline(pipe);
+    EXPECT_EQ(r.error, "");
+    ASSERT_EQ(r.warnings.size(), 1u);
+    EXPECT_NE(r.warnings[0].find("no rig: camera 0 gets a nominal calibration (64x48"), std::string::npos)
+        << r.warnings[0];
+    frames = got.size();
+  }
+  EXPECT_EQ(frames, 3u);
+  gst_object_unref(pipe);
+  g_list_free_full(devices, gst_object_unref);
+  gst_object_unref(provider);
+}
+
 // On a machine with an RGB-D camera plugged in, its depth node streams through the same code; elsewhere
 // this says why it skips.
 TEST(RealCamera, ADepthNodeStreamsWhereOneIsPluggedIn) {

@@ -110,6 +110,26 @@ static void choose_mode(V4l2Device* dev, const CapturePixelFormat* formats, size
                          describe_modes(offered));
 }
 
+// A camera without a rig: the first size both nodes offer (colour formats in
+// rgbdsrc's order), a pinhole 64 degrees across, depth in mm, at the origin.
+static CameraCalib nominal_camera(const std::string& color_path, const std::string& depth_path, int id) {
+  for (const RgbdCameraNodes& cam : find_rgbd_cameras({color_path, depth_path})) {
+    if (cam.color_path != color_path || cam.depth_path != depth_path || cam.sizes.empty()) continue;
+    CameraCalib c;
+    c.id = id;
+    c.width = cam.sizes.front().first;
+    c.height = cam.sizes.front().second;
+    c.fx = c.fy = 0.8 * c.width;
+    c.cx = (c.width - 1) / 2.0;
+    c.cy = (c.height - 1) / 2.0;
+    return c;
+  }
+  throw CaptureError(CaptureError::Kind::kUnsupported,
+                     color_path + " and " + depth_path +
+                         " are not the colour and depth nodes of one camera at a common size (gst-device-monitor-1.0 "
+                         "lists the cameras found)");
+}
+
 // Opens both nodes, sets their modes and starts them; on failure none is left open.
 static void open_devices(SrcState* st, const std::string& color_path, const std::string& depth_path) {
   try {
@@ -143,16 +163,33 @@ static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
     st->info.fps_d = st->fps_d;
     st->unpaired = st->damaged = 0;
   }
-  if (color_path.empty() || depth_path.empty() || rig_path.empty()) {
-    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("rgbdsrc needs color-device, depth-device and rig"),
-                      ("the rig gives the camera's size and calibration (docs/capture.md)"));
+  if (color_path.empty() || depth_path.empty()) {
+    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("rgbdsrc needs color-device and depth-device"),
+                      ("gst-device-monitor-1.0 lists the RGB-D cameras with both (docs/capture.md)"));
     return FALSE;
   }
-  try {
-    st->info.camera = load_rig(rig_path).camera(id);
-  } catch (const Error& e) {
-    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("rgbdsrc rig=%s camera-id=%d", rig_path.c_str(), id));
-    return FALSE;
+  if (rig_path.empty()) {
+    // No calibration yet (a camera just plugged in): the first size both
+    // nodes offer, and a nominal pinhole, so the camera can be seen at once.
+    try {
+      st->info.camera = nominal_camera(color_path, depth_path, id);
+    } catch (const CaptureError& e) {
+      post_capture_error(self, e);
+      return FALSE;
+    }
+    GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS,
+                        ("no rig: camera %d gets a nominal calibration (%dx%d, 64 degrees across); calibrate the "
+                         "rig (vclassroom-calibrate) before views are rendered from it",
+                         id, st->info.camera.width, st->info.camera.height),
+                        (nullptr));
+  } else {
+    try {
+      st->info.camera = load_rig(rig_path).camera(id);
+    } catch (const Error& e) {
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()),
+                        ("rgbdsrc rig=%s camera-id=%d", rig_path.c_str(), id));
+      return FALSE;
+    }
   }
   if (st->info.camera.depth_to_color) {
     GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS,
@@ -425,7 +462,8 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
   g_object_class_install_property(gobject_class, PROP_RIG,
                                   g_param_spec_string("rig", "Rig file",
                                                       "Rig YAML file (docs/rig-format.md) giving the camera's size, "
-                                                      "calibration and depth scale",
+                                                      "calibration and depth scale; empty: the first size both nodes "
+                                                      "offer and a nominal calibration, with a warning",
                                                       "", rw));
   g_object_class_install_property(gobject_class, PROP_CAMERA_ID,
                                   g_param_spec_int("camera-id", "Camera id", "Which camera of the rig this is", 0,

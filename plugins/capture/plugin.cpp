@@ -5,10 +5,12 @@
 
 #include <gst/gst.h>
 
+#include "gstrgbddeviceprovider.h"
 #include "gstrgbdsrc.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
-  return gst_element_register(plugin, "rgbdsrc", GST_RANK_NONE, GST_TYPE_RGBD_SRC);
+  return gst_element_register(plugin, "rgbdsrc", GST_RANK_NONE, GST_TYPE_RGBD_SRC) &&
+         gst_device_provider_register(plugin, "rgbddeviceprovider", GST_RANK_PRIMARY, GST_TYPE_RGBD_DEVICE_PROVIDER);
 }
 
 GST_PLUGIN_DEFINE(GST_VERSION_MAJOR, GST_VERSION_MINOR, vclassroomcapture,

@@ -1,5 +1,6 @@
 #include <gst/vclassroom/capture/v4l2_device.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 
@@ -82,6 +83,10 @@ V4l2Device::V4l2Device(const std::string& path) : path_(path) {
     fd_ = -1;
     throw CaptureError(CaptureError::Kind::kNotCapture, path + ": not a V4L2 device (" + std::strerror(err) + ")");
   }
+  // Fixed-size, NUL-padded fields from the driver: read no further than their size.
+  card_.assign(reinterpret_cast<const char*>(cap.card), strnlen(reinterpret_cast<const char*>(cap.card), sizeof cap.card));
+  bus_.assign(reinterpret_cast<const char*>(cap.bus_info),
+              strnlen(reinterpret_cast<const char*>(cap.bus_info), sizeof cap.bus_info));
   const uint32_t caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
   if (!(caps & V4L2_CAP_VIDEO_CAPTURE) || !(caps & V4L2_CAP_STREAMING)) {
     ::close(fd_);
@@ -253,6 +258,41 @@ void V4l2Device::stop() {
     req.memory = V4L2_MEMORY_MMAP;
     xioctl(fd_, VIDIOC_REQBUFS, &req);
   }
+}
+
+std::vector<RgbdCameraNodes> find_rgbd_cameras(const std::vector<std::string>& paths) {
+  struct Node {
+    std::string path, card, bus;
+    std::vector<CaptureMode> modes;
+  };
+  std::vector<Node> depth_nodes, color_nodes;
+  for (const std::string& path : paths) {
+    try {
+      V4l2Device dev(path);
+      Node n{path, dev.card(), dev.bus(), dev.modes()};
+      bool depth = false, color = false;
+      for (const CaptureMode& m : n.modes) (capture_format_is_depth(m.format) ? depth : color) = true;
+      if (depth) depth_nodes.push_back(n);
+      else if (color) color_nodes.push_back(n);
+    } catch (const Error&) {
+    }
+  }
+  std::vector<RgbdCameraNodes> cameras;
+  for (const Node& d : depth_nodes)
+    for (const Node& c : color_nodes) {
+      if (c.bus != d.bus) continue;
+      RgbdCameraNodes cam{d.card.empty() ? c.card : d.card, d.bus, c.path, d.path, {}};
+      for (const CaptureMode& cm : c.modes)
+        for (const CaptureMode& dm : d.modes) {
+          const std::pair<int, int> size{cm.width, cm.height};
+          if (cm.width == dm.width && cm.height == dm.height &&
+              std::find(cam.sizes.begin(), cam.sizes.end(), size) == cam.sizes.end())
+            cam.sizes.push_back(size);
+        }
+      if (!cam.sizes.empty()) cameras.push_back(cam);
+      break;  // one colour node per depth node
+    }
+  return cameras;
 }
 
 }  // namespace vclassroom

@@ -53,6 +53,11 @@ class V4l2Device {
   V4l2Device& operator=(const V4l2Device&) = delete;
 
   const std::string& path() const { return path_; }
+  // What the driver calls the device ("Intel RealSense D435") and where it
+  // sits ("usb-0000:00:14.0-2"): the colour and depth nodes of one camera
+  // share the bus.
+  const std::string& card() const { return card_; }
+  const std::string& bus() const { return bus_; }
   const CaptureMode& mode() const { return mode_; }
   int fd() const { return fd_; }
   // The formats rgbdsrc understands, with their discrete sizes and rates.
@@ -75,12 +80,23 @@ class V4l2Device {
     size_t length = 0;
   };
   [[noreturn]] void fail(const std::string& what, int err);
-  std::string path_;
+  std::string path_, card_, bus_;
   int fd_ = -1;
   CaptureMode mode_{};
   size_t stride_ = 0;
   std::vector<Mapping> buffers_;
   bool streaming_ = false;
 };
+
+// One RGB-D camera found on the machine: a node offering depth and a node
+// offering colour on the same bus, with the sizes both offer.
+struct RgbdCameraNodes {
+  std::string name, bus, color_path, depth_path;
+  std::vector<std::pair<int, int>> sizes;  // offered by both nodes
+};
+// Opens each of `paths` (e.g. /dev/video0 … /dev/video63; missing ones are
+// skipped) and groups colour and depth nodes by bus. Never throws: a node
+// that cannot be opened is left out.
+std::vector<RgbdCameraNodes> find_rgbd_cameras(const std::vector<std::string>& paths);
 
 }  // namespace vclassroom
