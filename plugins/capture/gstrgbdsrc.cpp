@@ -235,13 +235,7 @@ static gboolean gst_rgbd_src_unlock_stop(GstBaseSrc* src) {
 
 static GstCaps* gst_rgbd_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
   GstRgbdSrc* self = GST_RGBD_SRC(src);
-  GstCaps* caps = self->st->color ? rgbd_caps_new(self->st->info) : gst_pad_get_pad_template_caps(GST_BASE_SRC_PAD(src));
-  if (filter) {
-    GstCaps* tmp = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(caps);
-    caps = tmp;
-  }
-  return caps;
+  return rgbd_source_caps(GST_BASE_SRC_PAD(src), self->st->color ? &self->st->info : nullptr, filter);
 }
 
 static gboolean gst_rgbd_src_query(GstBaseSrc* src, GstQuery* query) {

@@ -108,14 +108,7 @@ static gboolean gst_rgbd_file_src_stop(GstBaseSrc* src) {
 
 static GstCaps* gst_rgbd_file_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
   GstRgbdFileSrc* self = GST_RGBD_FILE_SRC(src);
-  GstCaps* caps = self->st->dataset ? rgbd_caps_new(self->st->info)
-                                    : gst_pad_get_pad_template_caps(GST_BASE_SRC_PAD(src));
-  if (filter) {
-    GstCaps* tmp = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(caps);
-    caps = tmp;
-  }
-  return caps;
+  return rgbd_source_caps(GST_BASE_SRC_PAD(src), self->st->dataset ? &self->st->info : nullptr, filter);
 }
 
 static gboolean gst_rgbd_file_src_is_seekable(GstBaseSrc*) { return TRUE; }

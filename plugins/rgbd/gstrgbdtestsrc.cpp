@@ -124,14 +124,7 @@ static gboolean gst_rgbd_test_src_stop(GstBaseSrc* src) {
 
 static GstCaps* gst_rgbd_test_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
   GstRgbdTestSrc* self = GST_RGBD_TEST_SRC(src);
-  GstCaps* caps = self->st->started ? rgbd_caps_new(self->st->info)
-                                    : gst_pad_get_pad_template_caps(GST_BASE_SRC_PAD(src));
-  if (filter) {
-    GstCaps* tmp = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(caps);
-    caps = tmp;
-  }
-  return caps;
+  return rgbd_source_caps(GST_BASE_SRC_PAD(src), self->st->started ? &self->st->info : nullptr, filter);
 }
 
 static GstClockTime frame_time(const RgbdInfo& info, guint64 n) {

@@ -434,4 +434,14 @@ GstCaps* rgbd_caps_renamed(GstCaps* caps, const char* name, bool coded) {
   return out;
 }
 
+GstCaps* rgbd_source_caps(GstPad* pad, const RgbdInfo* info, GstCaps* filter) {
+  GstCaps* caps = info ? rgbd_caps_new(*info) : gst_pad_get_pad_template_caps(pad);
+  if (filter) {
+    GstCaps* narrowed = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
+    gst_caps_unref(caps);
+    caps = narrowed;
+  }
+  return caps;
+}
+
 }  // namespace vclassroom

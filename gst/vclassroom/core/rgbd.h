@@ -74,6 +74,11 @@ inline constexpr const char* kRgbdCodedTemplateCaps =
 // Renames every structure of `caps` to `name`, adding or removing the codec field.
 GstCaps* rgbd_caps_renamed(GstCaps* caps, const char* name, bool coded);
 
+// A video/x-rgbd source's caps query (get_caps of rgbdtestsrc, rgbdfilesrc,
+// rgbdsrc): the stream's fixed caps once it knows them (`info` set), else the
+// pad template's; narrowed to `filter` when given. Caller owns the result.
+GstCaps* rgbd_source_caps(GstPad* pad, const RgbdInfo* info, GstCaps* filter);
+
 // Caps for a stream (fixed). Caller owns the result.
 GstCaps* rgbd_caps_new(const RgbdInfo& info);
 // Parses fixed `video/x-rgbd` caps. On failure returns false and says which field is wrong.
