@@ -95,6 +95,7 @@ struct Device {
 
 std::mutex g_lock;
 std::map<int, std::shared_ptr<Device>> g_devices;
+std::atomic<int> g_device_count{0};  // munmap looks no further while there is none
 std::vector<Config> g_configs;
 std::string g_parsed_from;
 std::vector<std::string> g_vanished;  // paths that went away once (vanish_once)  // the environment the configs were read from: a test may change it between runs
@@ -441,27 +442,37 @@ int open(const char* path, int flags, ...) {
   // sanitizer's report, which reads files to symbolize).
   const char* env = getenv("VCLASSROOM_FAKE_V4L2");
   if (!env || !path || !strstr(env, path)) return real_open(path, flags, mode);
+  Config cfg;
+  bool fake = false;
   {
     std::lock_guard<std::mutex> g(g_lock);
     parse_configs();
     for (const Config& c : g_configs)
       if (c.path == path) {
-        auto d = std::make_shared<Device>();
-        d->cfg = c;
-        if (c.vanish_once && std::find(g_vanished.begin(), g_vanished.end(), c.path) != g_vanished.end())
-          d->cfg.enodev_at = -1;
-        d->fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-        if (d->fd < 0) return -1;
-        try {
-          render_scene(d.get());
-        } catch (const std::exception&) {
-          ::close(d->fd);
-          errno = EIO;
-          return -1;
-        }
-        g_devices[d->fd] = d;
-        return d->fd;
+        cfg = c;
+        fake = true;
       }
+    if (fake && cfg.vanish_once && std::find(g_vanished.begin(), g_vanished.end(), cfg.path) != g_vanished.end())
+      cfg.enodev_at = -1;
+  }
+  if (fake) {
+    // Rendered without the lock: rendering allocates, and an allocator may
+    // call mmap, which looks the lock up too.
+    auto d = std::make_shared<Device>();
+    d->cfg = cfg;
+    d->fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+    if (d->fd < 0) return -1;
+    try {
+      render_scene(d.get());
+    } catch (const std::exception&) {
+      ::close(d->fd);
+      errno = EIO;
+      return -1;
+    }
+    std::lock_guard<std::mutex> g(g_lock);
+    g_devices[d->fd] = d;
+    ++g_device_count;
+    return d->fd;
   }
   return real_open(path, flags, mode);
 }
@@ -488,7 +499,7 @@ int ioctl(int fd, unsigned long request, ...) {
 }
 
 void* mmap(void* addr, size_t length, int prot, int flags, int fd, off_t offset) {
-  if (std::shared_ptr<Device> d = device_of(fd)) {
+  if (std::shared_ptr<Device> d = fd < 0 ? nullptr : device_of(fd)) {
     std::lock_guard<std::mutex> g(d->lock);
     const size_t i = size_t(offset) >> 24;
     if (i >= d->buffers.size() || length > d->buffers[i].length) {
@@ -506,7 +517,7 @@ void* mmap64(void* addr, size_t length, int prot, int flags, int fd, off64_t off
 }
 
 int munmap(void* addr, size_t length) {
-  {
+  if (g_device_count > 0) {
     std::lock_guard<std::mutex> g(g_lock);
     for (auto& [fd, d] : g_devices)
       for (const Buffer& b : d->buffers)
@@ -524,6 +535,7 @@ int close(int fd) {
     if (it != g_devices.end()) {
       d = it->second;
       g_devices.erase(it);
+      --g_device_count;
     }
   }
   if (d) {
