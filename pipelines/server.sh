@@ -108,7 +108,7 @@ for k in $CAMERAS; do
       link$k.send_rtcp_src ! udpsink host=$host port=$nack_port sync=false async=false"
     receive="$receive link$k.recv_rtp_sink link$k.recv_rtp_src ! \
       rtprtxreceive payload-type-map=application/x-rtp-pt-map,96=(uint)97 ! rtpssrcdemux ! \
-      rtpjitterbuffer latency=$RTX_LATENCY do-retransmission=true drop-on-latency=true !"
+      rtpjitterbuffer latency=$RTX_LATENCY do-retransmission=true rtx-min-retry-timeout=40 drop-on-latency=true !"
   else
     receive="$receive rtpjitterbuffer latency=50 drop-on-latency=true !"
   fi

@@ -520,7 +520,7 @@ const Scheme kRetransmission = {
     "senderfilter lock-ssrc=false allow=127.0.0.1 ! tx.recv_rtcp_sink",
     "senderfilter allow=127.0.0.1 ! rx.recv_rtp_sink rx.recv_rtp_src ! "
     "rtprtxreceive name=rtxreceive payload-type-map=application/x-rtp-pt-map,96=(uint)97 ! rtpssrcdemux ! "
-    "rtpjitterbuffer name=jitter latency=3000 do-retransmission=true drop-on-latency=true !",
+    "rtpjitterbuffer name=jitter latency=3000 do-retransmission=true rtx-min-retry-timeout=40 drop-on-latency=true !",
     "rtpsession name=rx probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 "
     "rx.send_rtcp_src ! udpsink host=127.0.0.1 port={RTCP_TO_SENDER} sync=false async=false"};
 // Before: plain rtpgstpay, a jitter buffer and nothing else.

@@ -45,7 +45,7 @@ const Scheme kSchemes[] = {
      "senderfilter lock-ssrc=false allow=127.0.0.1 ! tx.recv_rtcp_sink",
      "senderfilter allow=127.0.0.1 ! rx.recv_rtp_sink rx.recv_rtp_src ! "
      "rtprtxreceive payload-type-map=application/x-rtp-pt-map,96=(uint)97 ! rtpssrcdemux ! "
-     "rtpjitterbuffer latency=300 do-retransmission=true drop-on-latency=true !",
+     "rtpjitterbuffer latency=300 do-retransmission=true rtx-min-retry-timeout=40 drop-on-latency=true !",
      "rtpsession name=rx probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 "
      "rx.send_rtcp_src ! udpsink host=127.0.0.1 port={NACK_PORT} sync=false async=false"},
 };
