@@ -1,0 +1,215 @@
+// The browser lecturer's signalling and pose data channel (issue 13): WHEP
+// request decisions (token first, bounded offers, session cap), the session
+// table, and the pose / frame-echo messages the page exchanges.
+#include <gtest/gtest.h>
+
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/net/pose_session.h>
+#include <gst/vclassroom/webrtc/whep.h>
+
+#include <random>
+#include <set>
+#include <string>
+
+using namespace vclassroom;
+
+namespace {
+
+const std::string kOffer = "v=0\r\no=- 1 2 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\n";
+
+WhepRequest post(const std::string& token, const std::string& body = kOffer) {
+  WhepRequest r;
+  r.method = "POST";
+  r.path = "/whep";
+  r.token = token;
+  r.content_type = "application/sdp";
+  r.body_size = body.size();
+  r.body = body;
+  return r;
+}
+
+}  // namespace
+
+TEST(WebrtcToken, EqualOnlyWhenIdenticalAndNonEmpty) {
+  EXPECT_TRUE(token_equal("s3cret", "s3cret"));
+  EXPECT_FALSE(token_equal("s3cret", "s3cres"));
+  EXPECT_FALSE(token_equal("s3cret", "s3cre"));
+  EXPECT_FALSE(token_equal("s3cret", "s3crett"));
+  EXPECT_FALSE(token_equal("s3cret", ""));
+  EXPECT_FALSE(token_equal("", ""));  // no secret configured: nobody is let in
+  const std::string with_nul("ab\0c", 4);
+  EXPECT_FALSE(token_equal(with_nul, "ab"));
+}
+
+TEST(WebrtcWhep, WrongOrMissingTokenIs401WhateverElseTheRequestSays) {
+  const WhepLimits limits;
+  for (const std::string& token : {std::string(), std::string("nope"), std::string("tok"), std::string("tokenx")}) {
+    WhepRequest r = post(token);
+    EXPECT_EQ(check_whep_request(r, "token", limits, 0).status, 401) << token;
+    r.method = "DELETE";
+    r.path = "/whep/" + std::string(32, 'a');
+    EXPECT_EQ(check_whep_request(r, "token", limits, 0).status, 401);
+    r.path = "/../../etc/passwd";
+    EXPECT_EQ(check_whep_request(r, "token", limits, 0).status, 401);
+    r = post(token, std::string(1 << 20, 'x'));
+    EXPECT_EQ(check_whep_request(r, "token", limits, 99).status, 401);
+    EXPECT_EQ(check_whep_request(r, "token", limits, 0).action, WhepAction::kRefuse);
+  }
+}
+
+TEST(WebrtcWhep, PostOfAnOfferJoins) {
+  const WhepDecision d = check_whep_request(post("token"), "token", {}, 0);
+  EXPECT_EQ(d.action, WhepAction::kJoin);
+  EXPECT_EQ(d.status, 201);
+}
+
+TEST(WebrtcWhep, MalformedRequestsAreRefusedWithTheirStatus) {
+  const WhepLimits limits;
+  WhepRequest r = post("t");
+  r.content_type = "text/plain";
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 415);
+  r = post("t", "hello");
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 400);
+  const std::string big = "v=0\r\n" + std::string(limits.max_offer_bytes, 'a');
+  r = post("t", big);
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 413);
+  r = post("t");
+  r.body_size += 1;  // the declared size must be the size received
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 413);
+  r = post("t");
+  r.method = "GET";
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 405);
+  r.path = "/whepx";
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 404);
+}
+
+TEST(WebrtcWhep, TheSessionCapRefusesWith503) {
+  WhepLimits limits;
+  limits.max_sessions = 2;
+  EXPECT_EQ(check_whep_request(post("t"), "t", limits, 1).status, 201);
+  EXPECT_EQ(check_whep_request(post("t"), "t", limits, 2).status, 503);
+}
+
+TEST(WebrtcWhep, DeleteNamesAWellFormedSession) {
+  WhepRequest r = post("t");
+  r.method = "DELETE";
+  r.body = "";
+  r.body_size = 0;
+  const std::string id = new_whep_session_id();
+  r.path = std::string("/whep/") + id;
+  const WhepDecision d = check_whep_request(r, "t", {}, 1);
+  EXPECT_EQ(d.action, WhepAction::kLeave);
+  EXPECT_EQ(d.session_id, id);
+  for (const std::string& bad : {std::string("/whep/"), std::string("/whep/../x"), "/whep/" + std::string(32, 'G'),
+                                 "/whep/" + id + "/x", "/whep/" + id.substr(1)}) {
+    r.path = bad;
+    EXPECT_EQ(check_whep_request(r, "t", {}, 1).status, 404) << bad;
+  }
+}
+
+TEST(WebrtcWhep, SessionIdsAreWellFormedAndDistinct) {
+  std::set<std::string> ids;
+  for (int i = 0; i < 200; ++i) {
+    const std::string id = new_whep_session_id();
+    EXPECT_TRUE(is_whep_session_id(id)) << id;
+    ids.insert(id);
+  }
+  EXPECT_EQ(ids.size(), 200u);
+}
+
+TEST(WebrtcWhep, SessionTableHoldsAtMostItsCapacity) {
+  WhepSessionTable table(2);
+  EXPECT_TRUE(table.add("a"));
+  EXPECT_FALSE(table.add("a"));
+  EXPECT_TRUE(table.add("b"));
+  EXPECT_FALSE(table.add("c"));
+  EXPECT_EQ(table.size(), 2u);
+  ASSERT_NE(table.find("a"), nullptr);
+  EXPECT_TRUE(table.remove("a"));
+  EXPECT_FALSE(table.remove("a"));
+  EXPECT_EQ(table.find("a"), nullptr);
+  EXPECT_TRUE(table.add("c"));
+}
+
+TEST(WebrtcPoseMessage, RoundTripsThroughTheWireFormatAndThePoseEvent) {
+  Pose p;
+  p.position = Eigen::Vector3d(0.25, -0.5, 1.5);
+  p.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0).normalized()));
+  p.seq = 41;
+  p.viewer_time_ns = 12'345'678'000;
+  Pose q;
+  std::string why;
+  ASSERT_TRUE(parse_pose_message(format_pose_message(p), &q, &why)) << why;
+  EXPECT_EQ(q.seq, 41u);
+  EXPECT_EQ(q.viewer_time_ns, p.viewer_time_ns);
+  EXPECT_NEAR((q.position - p.position).norm(), 0, 1e-12);
+  EXPECT_NEAR(q.orientation.angularDistance(p.orientation), 0, 1e-9);
+  // The same event the RTP pose channel sends upstream.
+  GstEvent* event = pose_event_new(q);
+  Pose r;
+  ASSERT_TRUE(pose_event_parse(event, &r, &why)) << why;
+  gst_event_unref(event);
+  EXPECT_EQ(r.seq, 41u);
+}
+
+TEST(WebrtcPoseMessage, MalformedOrInvalidMessagesAreRefusedWithAReason) {
+  const std::string good = "pose 1 10.5 0 0 0 0 0 0 1";
+  Pose p;
+  std::string why;
+  ASSERT_TRUE(parse_pose_message(good, &p, &why)) << why;
+  p.seq = 777;
+  for (const std::string& bad :
+       {std::string(), std::string("pose"), std::string("pose 1 10.5 0 0 0 0 0 0"), good + " 1", " " + good,
+        good + " ", std::string("pose  1 10.5 0 0 0 0 0 0 1"), std::string("posx 1 10.5 0 0 0 0 0 0 1"),
+        std::string("pose -1 10.5 0 0 0 0 0 0 1"), std::string("pose 1 -3 0 0 0 0 0 0 1"),
+        std::string("pose 1 10.5 nan 0 0 0 0 0 1"), std::string("pose 1 10.5 inf 0 0 0 0 0 1"),
+        std::string("pose 1 10.5 0 0 0 0 0 0 2"),       // not a unit quaternion
+        std::string("pose 1 10.5 1e9 0 0 0 0 0 1"),     // absurd position
+        std::string("pose 1 10.5 0x1 0 0 0 0 0 1"), std::string("pose 99999999999999999999999 1 0 0 0 0 0 0 1"),
+        "pose 1 1 " + std::string(600, '0') + " 0 0 0 0 0 1"}) {
+    why.clear();
+    EXPECT_FALSE(parse_pose_message(bad, &p, &why)) << bad;
+    EXPECT_FALSE(why.empty()) << bad;
+    EXPECT_EQ(p.seq, 777u) << "a refused message must leave the pose alone";
+  }
+}
+
+TEST(WebrtcPoseMessage, RandomBytesNeverParseNorCrash) {
+  std::mt19937 rng(13);
+  Pose p;
+  std::string why;
+  for (int i = 0; i < 2000; ++i) {
+    std::string s(rng() % 80, ' ');
+    for (char& c : s) c = static_cast<char>("pose 0123456789.-e \x01\xff"[rng() % 21]);
+    if (i % 2) s = "pose " + s;
+    parse_pose_message(s, &p, &why);  // must not crash nor read outside `s` (ASan)
+  }
+  SUCCEED();
+}
+
+TEST(WebrtcPoseMessage, EachWhepSessionIsItsOwnPoseSessionAndLatestWins) {
+  PoseSession sessions;
+  const std::string a = new_whep_session_id(), b = new_whep_session_id();
+  Pose p;
+  std::string why;
+  ASSERT_TRUE(parse_pose_message("pose 5 100 0 0 0 0 0 0 1", &p, &why));
+  EXPECT_TRUE(pose_verdict_obeys(sessions.offer(a, p.seq, p.viewer_time_ns, 0)));
+  ASSERT_TRUE(parse_pose_message("pose 4 90 0 0 0 0 0 0 1", &p, &why));
+  EXPECT_EQ(sessions.offer(a, p.seq, p.viewer_time_ns, 1), PoseVerdict::kStale);
+  EXPECT_EQ(sessions.offer(b, 1, 5, 2), PoseVerdict::kOtherSession);
+}
+
+TEST(WebrtcFrameEcho, RoundTripsAndRefusesGarbage) {
+  const std::string m = format_frame_echo(4294967295u, 12, 1'500'000);
+  EXPECT_EQ(m, "frame 4294967295 12 1.500");
+  uint32_t ts = 0;
+  uint64_t seq = 0;
+  double t = 0;
+  ASSERT_TRUE(parse_frame_echo(m, &ts, &seq, &t));
+  EXPECT_EQ(ts, 4294967295u);
+  EXPECT_EQ(seq, 12u);
+  EXPECT_DOUBLE_EQ(t, 1.5);
+  EXPECT_FALSE(parse_frame_echo("frame 4294967296 12 1.5", &ts, &seq, &t));
+  EXPECT_FALSE(parse_frame_echo("frame 1 2", &ts, &seq, &t));
+  EXPECT_FALSE(parse_frame_echo("pose 1 2 3", &ts, &seq, &t));
+}
