@@ -3,6 +3,9 @@
 // table, and the pose / frame-echo messages the page exchanges.
 #include <gtest/gtest.h>
 
+#include <gst/check/gstharness.h>
+#include <gst/video/navigation.h>
+
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/webrtc/whep.h>
@@ -212,4 +215,39 @@ TEST(WebrtcFrameEcho, RoundTripsAndRefusesGarbage) {
   EXPECT_FALSE(parse_frame_echo("frame 4294967296 12 1.5", &ts, &seq, &t));
   EXPECT_FALSE(parse_frame_echo("frame 1 2", &ts, &seq, &t));
   EXPECT_FALSE(parse_frame_echo("pose 1 2 3", &ts, &seq, &t));
+}
+
+// posenav on X11: a wheel notch arrives as a press and release of button 4
+// (away: forward) or 5 (towards: back), and moves like a scroll notch.
+TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {
+  GstHarness* h = gst_harness_new_parse("posenav");
+  gst_harness_set_src_caps_str(h, "video/x-raw,format=RGB,width=8,height=8,framerate=30/1");
+  gst_buffer_unref(gst_harness_push_and_pull(h, gst_harness_create_buffer(h, 8 * 8 * 3)));
+  auto next_pose = [&](Pose* p) {
+    while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
+      const bool pose = is_pose_event(ev);
+      std::string err;
+      if (pose) EXPECT_TRUE(pose_event_parse(ev, p, &err)) << err;
+      gst_event_unref(ev);
+      if (pose) return true;
+    }
+    return false;
+  };
+  Pose p;
+  ASSERT_TRUE(next_pose(&p));  // the start pose
+  EXPECT_NEAR(p.position.z(), 0, 1e-12);
+  EXPECT_TRUE(gst_harness_push_upstream_event(
+      h, gst_navigation_event_new_mouse_button_press(4, 10, 10, GST_NAVIGATION_MODIFIER_NONE)));
+  ASSERT_TRUE(next_pose(&p));
+  EXPECT_NEAR(p.position.z(), -0.1, 1e-12);  // the level reference looks along -Z: forward
+  EXPECT_TRUE(gst_harness_push_upstream_event(
+      h, gst_navigation_event_new_mouse_button_release(4, 10, 10, GST_NAVIGATION_MODIFIER_NONE)));
+  EXPECT_FALSE(next_pose(&p));  // swallowed, nothing new
+  for (int i = 0; i < 3; ++i)
+    EXPECT_TRUE(gst_harness_push_upstream_event(
+        h, gst_navigation_event_new_mouse_button_press(5, 10, 10, GST_NAVIGATION_MODIFIER_NONE)));
+  Pose last = p;
+  while (next_pose(&p)) last = p;
+  EXPECT_NEAR(last.position.z(), 0.2, 1e-12);
+  gst_harness_teardown(h);
 }
