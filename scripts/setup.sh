@@ -14,6 +14,7 @@ PACKAGES=(
   clang libclang-rt-14-dev
   gstreamer1.0-x gstreamer1.0-gl
   ccache
+  libsoup-3.0-dev libgstreamer-plugins-bad1.0-dev gstreamer1.0-nice
 )
 
 missing=()
