@@ -227,7 +227,9 @@ TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {
     while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
       const bool pose = is_pose_event(ev);
       std::string err;
-      if (pose) EXPECT_TRUE(pose_event_parse(ev, p, &err)) << err;
+      if (pose) {
+        EXPECT_TRUE(pose_event_parse(ev, p, &err)) << err;
+      }
       gst_event_unref(ev);
       if (pose) return true;
     }

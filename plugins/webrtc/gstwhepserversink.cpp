@@ -348,6 +348,23 @@ static void on_request(SoupServer*, SoupServerMessage* msg, const char* path, GH
   Session* leaving = nullptr;
   {
     std::lock_guard<std::mutex> g(st->lock);
+    std::string file, mime_type;
+    if (r.method == "GET" && lecturer_page_file(r.path, &file, &mime_type)) {
+      gchar* contents = nullptr;
+      gsize length = 0;
+      const std::string full = st->web_root + "/" + file;
+      if (!token_equal(st->token, r.token)) {
+        respond(msg, 401);
+      } else if (st->web_root.empty() || !g_file_get_contents(full.c_str(), &contents, &length, nullptr)) {
+        GST_WARNING_OBJECT(self, "no lecturer page at %s (web-root)", full.c_str());
+        respond(msg, 404);
+      } else {
+        respond(msg, 200, mime_type.c_str(), std::string(contents, length));
+        soup_message_headers_replace(soup_server_message_get_response_headers(msg), "Cache-Control", "no-store");
+      }
+      g_free(contents);
+      return;
+    }
     WhepLimits limits;
     limits.max_sessions = st->max_sessions;
     const WhepDecision d = check_whep_request(r, st->token, limits, st->sessions.size());
@@ -521,6 +538,7 @@ static void gst_whep_server_sink_get_property(GObject* object, guint id, GValue*
 
 static void gst_whep_server_sink_init(GstWhepServerSink* self) {
   self->st = new WhepState;
+  self->st->web_root = VCLASSROOM_WEB_DIR;
   GstElement* queue = gst_element_factory_make("queue", nullptr);
   g_object_set(queue, "max-size-buffers", 2, "max-size-time", (guint64)0, "max-size-bytes", 0, "leaky", 2, nullptr);
   GstElement* convert = gst_element_factory_make("videoconvert", nullptr);
@@ -574,7 +592,7 @@ static void gst_whep_server_sink_class_init(GstWhepServerSinkClass* klass) {
   g_object_class_install_property(gobject_class, PROP_MAX_SESSIONS,
       g_param_spec_uint("max-sessions", "Max sessions", "Lecturers at once; more get 503", 1, 64, 4, rw));
   g_object_class_install_property(gobject_class, PROP_WEB_ROOT,
-      g_param_spec_string("web-root", "Web root", "Folder of the lecturer page (unused yet)", "", rw));
+      g_param_spec_string("web-root", "Web root", "Folder of the lecturer page (index.html, lecturer.js); default: the installed one", VCLASSROOM_WEB_DIR, rw));
   g_object_class_install_property(gobject_class, PROP_BOUND_PORT,
       g_param_spec_uint("bound-port", "Bound port", "The port actually listened on", 0, 65535, 0,
                         GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));

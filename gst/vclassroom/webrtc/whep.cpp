@@ -74,6 +74,19 @@ WhepDecision check_whep_request(const WhepRequest& r, std::string_view expected_
   return refuse(404, "not a WHEP path");
 }
 
+bool lecturer_page_file(std::string_view path, std::string* file, std::string* mime_type) {
+  if (path == "/" || path == "/index.html") {
+    *file = "index.html";
+    *mime_type = "text/html; charset=utf-8";
+  } else if (path == "/lecturer.js") {
+    *file = "lecturer.js";
+    *mime_type = "text/javascript; charset=utf-8";
+  } else {
+    return false;
+  }
+  return true;
+}
+
 std::string new_whep_session_id() {
   std::string id;
   id.reserve(kWhepSessionIdChars);

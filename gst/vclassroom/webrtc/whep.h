@@ -57,6 +57,11 @@ inline constexpr size_t kWhepSessionIdChars = 32;  // 16 random bytes, lower-cas
 WhepDecision check_whep_request(const WhepRequest& request, std::string_view expected_token,
                                 const WhepLimits& limits, size_t sessions_now);
 
+// The lecturer page's files a GET may ask for (after the token check): the
+// file name under the page's folder and its MIME type, or false. A fixed
+// list: no path from the request ever reaches the file system.
+bool lecturer_page_file(std::string_view path, std::string* file, std::string* mime_type);
+
 // A new session id: 16 bytes from GLib's random source, as 32 hex digits.
 std::string new_whep_session_id();
 bool is_whep_session_id(std::string_view id);
