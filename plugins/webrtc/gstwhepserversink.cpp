@@ -112,9 +112,11 @@ static int pick_h264_payload(const GstSDPMessage* sdp) {
       const GstStructure* s = gst_caps_get_structure(caps, 0);
       const char* name = gst_structure_get_string(s, "encoding-name");
       const char* mode = gst_structure_get_string(s, "packetization-mode");
-      const char* profile = gst_structure_get_string(s, "profile-level-id");
-      const bool ok = name && g_ascii_strcasecmp(name, "H264") == 0 && g_strcmp0(mode, "1") == 0 && profile &&
-                      strlen(profile) == 6 && g_ascii_strncasecmp(profile, "42e0", 4) == 0;
+      // GstSDP turns profile-level-id 42e0xx into profile=constrained-baseline.
+      const char* profile = gst_structure_get_string(s, "profile");
+      GST_LOG("offered payload %d: %" GST_PTR_FORMAT, pt, caps);
+      const bool ok = name && g_ascii_strcasecmp(name, "H264") == 0 && g_strcmp0(mode, "1") == 0 &&
+                      g_strcmp0(profile, "constrained-baseline") == 0;
       gst_caps_unref(caps);
       if (ok) return pt;
     }
@@ -388,6 +390,7 @@ static void on_request(SoupServer*, SoupServerMessage* msg, const char* path, GH
       if (gst_sdp_message_new_from_text(body_text.c_str(), &offer) != GST_SDP_OK ||
           (payload = pick_h264_payload(offer)) < 0) {
         if (offer) gst_sdp_message_free(offer);
+        GST_INFO_OBJECT(self, "offer without H.264 constrained baseline (packetization-mode 1): 406");
         respond(msg, 406);  // no H.264 constrained baseline offered
         return;
       }
