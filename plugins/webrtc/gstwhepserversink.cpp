@@ -137,6 +137,7 @@ static void on_pose_message(GstWebRTCDataChannel*, const gchar* text, gpointer u
       return;
     }
     const PoseVerdict v = self->st->poses.offer(s->id, pose.seq, pose.viewer_time_ns, g_get_monotonic_time() * 1000);
+    GST_LOG_OBJECT(self, "session %s: pose %" G_GUINT64_FORMAT " %s", s->id.c_str(), pose.seq, pose_verdict_name(v));
     if (!pose_verdict_obeys(v)) return;
     event = pose_event_new(pose);
   }
@@ -147,6 +148,7 @@ static void on_data_channel(GstElement*, GstWebRTCDataChannel* channel, gpointer
   Session* s = static_cast<Session*>(user_data);
   std::lock_guard<std::mutex> g(s->owner->st->lock);
   if (s->channel) return;  // the page opens one channel; others are ignored
+  GST_DEBUG_OBJECT(s->owner, "session %s: data channel", s->id.c_str());
   s->channel = GST_WEBRTC_DATA_CHANNEL(gst_object_ref(channel));
   g_signal_connect(channel, "on-message-string", G_CALLBACK(on_pose_message), s);
 }
@@ -168,6 +170,8 @@ static GstPadProbeReturn on_rtp_out(GstPad*, GstPadProbeInfo* info, gpointer use
     if (!s->channel || pts == s->last_echoed_pts) return GST_PAD_PROBE_OK;
     s->last_echoed_pts = pts;
     auto it = st->frame_poses.find(pts);
+    GST_LOG_OBJECT(s->owner, "frame %" GST_TIME_FORMAT " out: %s", GST_TIME_ARGS(pts),
+                   it == st->frame_poses.end() ? "no pose known" : "echo");
     if (it == st->frame_poses.end()) return GST_PAD_PROBE_OK;
     GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
     if (!gst_rtp_buffer_map(buf, GST_MAP_READ, &rtp)) return GST_PAD_PROBE_OK;
@@ -478,7 +482,7 @@ static void stop_server(GstWhepServerSink* self) {
 
 // --- element --------------------------------------------------------------
 
-// Every input frame's pose (from its pose meta), so the echo can name it.
+// Every encoded frame's pose (from its pose meta), so the echo can name it.
 static GstPadProbeReturn on_frame_in(GstPad*, GstPadProbeInfo* info, gpointer user_data) {
   GstWhepServerSink* self = GST_WHEP_SERVER_SINK(user_data);
   GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
@@ -559,8 +563,12 @@ static void gst_whep_server_sink_init(GstWhepServerSink* self) {
   g_object_set(self->tee, "allow-not-linked", TRUE, nullptr);
   gst_bin_add_many(GST_BIN(self), queue, convert, self->encoder, caps, self->tee, nullptr);
   gst_element_link_many(queue, convert, self->encoder, caps, self->tee, nullptr);
+  // The pose meta is read after the encoder (which keeps untagged metas): the
+  // encoder shifts timestamps, and the payloaders see the encoded PTS.
+  GstPad* encoded = gst_element_get_static_pad(self->tee, "sink");
+  gst_pad_add_probe(encoded, GST_PAD_PROBE_TYPE_BUFFER, on_frame_in, self, nullptr);
+  gst_object_unref(encoded);
   GstPad* target = gst_element_get_static_pad(queue, "sink");
-  gst_pad_add_probe(target, GST_PAD_PROBE_TYPE_BUFFER, on_frame_in, self, nullptr);
   self->sinkpad = gst_ghost_pad_new_from_template("sink", target, gst_static_pad_template_get(&sink_template));
   gst_object_unref(target);
   gst_element_add_pad(GST_ELEMENT(self), self->sinkpad);

@@ -53,7 +53,9 @@ try {
   // Waits until the frames shown are rendered for seq >= `seq`.
   const shownFor = seq => page.waitForFunction(s => window.vclassroom.stats.lastSeqShown >= s, { timeout }, seq);
 
-  await shownFor(1);
+  try { await page.waitForFunction(() => window.vclassroom.stats.lastSeqShown >= 1, { timeout: 15000 }); } catch (e) {
+    fail('no echo: ' + JSON.stringify(await page.evaluate(() => ({ seq: window.vclassroom.seq, echoed: window.vclassroom.stats.lastSeqEchoed, shown: window.vclassroom.stats.lastSeqShown, rtp: window.vclassroom.stats.lastRtp }))));
+  }
   const seqBefore = await page.evaluate(() => window.vclassroom.seq);
   const before = await picture();
   // 3. A scripted drag turns the view; the echoed seq advances and the picture changes.

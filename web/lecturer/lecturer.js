@@ -133,7 +133,7 @@ function watchFrames(video) {
   const readout = document.getElementById('readout');
   const onFrame = (now, meta) => {
     stats.framesShown += 1;
-    stats.width = meta.width; stats.height = meta.height;
+    stats.width = meta.width; stats.height = meta.height; stats.lastRtp = meta.rtpTimestamp;
     const e = meta.rtpTimestamp !== undefined ? echoes.get(meta.rtpTimestamp) : undefined;
     if (e && e.time >= 0) {
       stats.lastSeqShown = e.seq;
