@@ -10,6 +10,10 @@
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/webrtc/whep.h>
 
+#include <gio/gio.h>
+#include <signal.h>
+#include <sys/wait.h>
+
 #include <random>
 #include <set>
 #include <string>
@@ -252,4 +256,73 @@ TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {
   while (next_pose(&p)) last = p;
   EXPECT_NEAR(last.position.z(), 0.2, 1e-12);
   gst_harness_teardown(h);
+}
+
+// The whole path in a real browser: the synthetic classroom rendered through
+// viewfuse into whepserversink, headless Chromium driven by
+// tests/browser/lecturer-test.mjs (puppeteer-core): a wrong token gets 401 and
+// nothing else; the page joins with the token and decodes 960x540 frames; a
+// scripted drag sends poses whose seq comes back with the frames and changes
+// the picture; the XR frame loop's pose path (onXRPose) with a scripted
+// headset pose does the same. The script waits on page conditions, not sleeps.
+TEST(WebrtcBrowser, ChromiumJoinsDragsAndTheXRPosePathMovesTheView) {
+  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
+  ASSERT_NE(source_dir, nullptr);
+  const std::string browser_dir = std::string(source_dir) + "/tests/browser";
+  const char* chromium = g_getenv("CHROMIUM") ? g_getenv("CHROMIUM") : "/usr/bin/chromium";
+  gchar* node = g_find_program_in_path("node");
+  if (!node || !g_file_test(chromium, G_FILE_TEST_IS_EXECUTABLE) ||
+      !g_file_test((browser_dir + "/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR)) {
+    g_free(node);
+    GTEST_SKIP() << "needs node, " << chromium << " and tests/browser/node_modules (scripts/setup.sh runs npm ci)";
+  }
+  if (!gst_element_factory_find("webrtcbin") || !gst_element_factory_find("whepserversink")) {
+    g_free(node);
+    GTEST_SKIP() << "needs webrtcbin (gstreamer1.0-plugins-bad, gstreamer1.0-nice) and whepserversink";
+  }
+  // The server runs as gst-launch-1.0, a process of its own: webrtcbin 1.22
+  // keeps its ICE agent and the DTLS agent alive past gst_deinit(), which the
+  // leaks tracer of this program would count as ours.
+  GError* err = nullptr;
+  GSocket* probe = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_STREAM, G_SOCKET_PROTOCOL_TCP, &err);
+  ASSERT_NE(probe, nullptr);
+  GInetAddress* loopback = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
+  GSocketAddress* any_port = g_inet_socket_address_new(loopback, 0);
+  ASSERT_TRUE(g_socket_bind(probe, any_port, TRUE, &err));
+  GSocketAddress* bound = g_socket_get_local_address(probe, &err);
+  const guint port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
+  g_object_unref(bound);
+  g_object_unref(any_port);
+  g_object_unref(loopback);
+  g_socket_close(probe, nullptr);
+  g_object_unref(probe);
+  const std::string launch =
+      "gst-launch-1.0 rgbdtestsrc camera-id=0 is-live=true ! learnerseg ! viewwarp ! queue ! f.cam_0 viewfuse name=f ! "
+      "whepserversink port=" + std::to_string(port) + " token=secret-token web-root=" + std::string(source_dir) +
+      "/web/lecturer";
+  gchar** server_argv = nullptr;
+  ASSERT_TRUE(g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, &err));
+  GPid server = 0;
+  ASSERT_TRUE(g_spawn_async(nullptr, server_argv, nullptr,
+                            GSpawnFlags(G_SPAWN_SEARCH_PATH | G_SPAWN_DO_NOT_REAP_CHILD | G_SPAWN_STDOUT_TO_DEV_NULL),
+                            nullptr, nullptr, &server, &err))
+      << (err ? err->message : "");
+  g_strfreev(server_argv);
+  const std::string base = "http://127.0.0.1:" + std::to_string(port);
+  const std::string script = browser_dir + "/lecturer-test.mjs";
+  const gchar* argv[] = {node, script.c_str(), base.c_str(), "secret-token", "960", "540", nullptr};
+  gchar* output = nullptr;
+  gint status = 0;
+  const gboolean spawned = g_spawn_sync(browser_dir.c_str(), const_cast<gchar**>(argv), nullptr,
+                                        G_SPAWN_DEFAULT, nullptr, nullptr, &output, nullptr, &status, &err);
+  kill(server, SIGTERM);
+  waitpid(server, nullptr, 0);
+  g_spawn_close_pid(server);
+  g_free(node);
+  ASSERT_TRUE(spawned) << (err ? err->message : "");
+  const std::string text = output ? output : "";
+  g_free(output);
+  EXPECT_TRUE(g_spawn_check_wait_status(status, nullptr)) << text;
+  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok XR pose:"})
+    EXPECT_NE(text.find(check), std::string::npos) << check << " missing in:\n" << text;
 }

@@ -12,6 +12,14 @@ const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
 const fail = message => { console.error('FAIL ' + message); process.exit(1); };
 const timeout = 60000;
 
+// The server may still be starting: wait until it answers (bounded).
+for (let tries = 0; ; ++tries) {
+  try { await fetch(`${base}/`); break; } catch (e) {
+    if (tries > 600) fail(`no server at ${base}`);
+    await new Promise(resolve => setTimeout(resolve, 100));  // retry interval of a connection poll, not a sync point
+  }
+}
+
 // 1. A wrong token gets 401 and nothing else.
 for (const url of [`${base}/whep?token=wrong`, `${base}/whep`]) {
   const r = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/sdp' }, body: 'v=0\r\n' });
