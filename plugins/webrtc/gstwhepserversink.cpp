@@ -561,8 +561,12 @@ static void gst_whep_server_sink_init(GstWhepServerSink* self) {
   gst_caps_unref(c);
   self->tee = gst_element_factory_make("tee", nullptr);
   g_object_set(self->tee, "allow-not-linked", TRUE, nullptr);
-  gst_bin_add_many(GST_BIN(self), queue, convert, self->encoder, caps, self->tee, nullptr);
-  gst_element_link_many(queue, convert, self->encoder, caps, self->tee, nullptr);
+  // The tee's one permanent branch: a sink, so the bin posts EOS (and ends a
+  // gst-launch-1.0 at the end of the stream) whether or not anyone watches.
+  GstElement* drain = gst_element_factory_make("fakesink", nullptr);
+  g_object_set(drain, "sync", FALSE, "async", FALSE, nullptr);
+  gst_bin_add_many(GST_BIN(self), queue, convert, self->encoder, caps, self->tee, drain, nullptr);
+  gst_element_link_many(queue, convert, self->encoder, caps, self->tee, drain, nullptr);
   // The pose meta is read after the encoder (which keeps untagged metas): the
   // encoder shifts timestamps, and the payloaders see the encoded PTS.
   GstPad* encoded = gst_element_get_static_pad(self->tee, "sink");
