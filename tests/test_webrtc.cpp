@@ -313,8 +313,11 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsAndTheXRPosePathMovesTheView) {
   const gchar* argv[] = {node, script.c_str(), base.c_str(), "secret-token", "960", "540", nullptr};
   gchar* output = nullptr;
   gint status = 0;
-  const gboolean spawned = g_spawn_sync(browser_dir.c_str(), const_cast<gchar**>(argv), nullptr,
+  // Node and Chromium are not ours: no sanitizer runtime preloaded into them (the sanitizer build's env).
+  gchar** browser_env = g_environ_unsetenv(g_get_environ(), "LD_PRELOAD");
+  const gboolean spawned = g_spawn_sync(browser_dir.c_str(), const_cast<gchar**>(argv), browser_env,
                                         G_SPAWN_DEFAULT, nullptr, nullptr, &output, nullptr, &status, &err);
+  g_strfreev(browser_env);
   kill(server, SIGTERM);
   waitpid(server, nullptr, 0);
   g_spawn_close_pid(server);
