@@ -326,6 +326,6 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsAndTheXRPosePathMovesTheView) {
   const std::string text = output ? output : "";
   g_free(output);
   EXPECT_TRUE(g_spawn_check_wait_status(status, nullptr)) << text;
-  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok XR pose:"})
+  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok XR pose:", "ok left:"})
     EXPECT_NE(text.find(check), std::string::npos) << check << " missing in:\n" << text;
 }

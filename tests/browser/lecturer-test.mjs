@@ -92,6 +92,10 @@ try {
   console.log(`ok XR pose: seq ${xrSeq} echoed, picture changed by ${dx.toFixed(1)}`);
   const latency = await page.evaluate(() => window.vclassroom.stats.latencyMs.slice());
   console.log(`ok ${latency.length} latency samples`);
+  // 5. Leaving: DELETE of the session's Location is 200, a second one 404 (the session is gone).
+  const left = await page.evaluate(async () => [await window.vclassroom.leave(), await window.vclassroom.leave()]);
+  if (left[0] !== 200 || left[1] !== 404) fail(`DELETE gave ${left}, expected 200 then 404`);
+  console.log('ok left: DELETE 200, again 404');
 } finally {
   await browser.close();
   fs.rmSync(profile, { recursive: true, force: true });

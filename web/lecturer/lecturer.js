@@ -169,6 +169,7 @@ async function join() {
   await pc.setRemoteDescription({ type: 'answer', sdp: await response.text() });
   status.textContent = 'joined';
   const location_ = response.headers.get('Location');
+  window.vclassroom.leave = () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE' }).then(r => r.status);
   window.addEventListener('pagehide', () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE', keepalive: true }));
   watchFrames(video);
   setInterval(async () => {
