@@ -329,3 +329,29 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsAndTheXRPosePathMovesTheView) {
   for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok XR pose:", "ok left:"})
     EXPECT_NE(text.find(check), std::string::npos) << check << " missing in:\n" << text;
 }
+
+// The page steers like posenav: its NAV constants (web/lecturer/lecturer.js)
+// are posenav's property defaults and the paper's slider scales.
+TEST(WebrtcPage, NavigationConstantsAreThoseOfPosenavAndTheSliders) {
+  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
+  ASSERT_NE(source_dir, nullptr);
+  gchar* js = nullptr;
+  ASSERT_TRUE(g_file_get_contents((std::string(source_dir) + "/web/lecturer/lecturer.js").c_str(), &js, nullptr,
+                                  nullptr));
+  const std::string text = js;
+  g_free(js);
+  auto constant = [&](const std::string& name) {
+    const size_t at = text.find("  " + name + ": ");
+    EXPECT_NE(at, std::string::npos) << name;
+    return at == std::string::npos ? -1.0 : g_ascii_strtod(text.c_str() + at + name.size() + 4, nullptr);
+  };
+  GstElement* nav = gst_element_factory_make("posenav", nullptr);
+  ASSERT_NE(nav, nullptr);
+  double move_step = 0, turn_speed = 0;
+  g_object_get(nav, "move-step", &move_step, "turn-speed", &turn_speed, nullptr);
+  gst_object_unref(nav);
+  EXPECT_DOUBLE_EQ(constant("moveStep"), move_step);
+  EXPECT_DOUBLE_EQ(constant("turnSpeed"), turn_speed);
+  EXPECT_DOUBLE_EQ(constant("sliderMetres"), kSliderMetres);
+  EXPECT_DOUBLE_EQ(constant("sliderDegrees"), kSliderDegrees);
+}
