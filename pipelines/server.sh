@@ -127,6 +127,26 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! posere
   udpsrc port=$POSE_PORT caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! \
     senderfilter name=from_lecturer lock-ssrc=false allow=$LECTURER ! $(srtp_dec) poses.rtp \
   $branches"
+# --- WebRTC lecturer output (issue 13, docs/lecturer.md) ---------------------------------------------
+# LECTURER_OUT=whep: the view goes to browsers over WebRTC (whepserversink) instead of RTP/JPEG to
+# LECTURER, and the pose comes back over the page's data channel. TOKEN (the join secret, required;
+# letters, digits, . _ ~ -), WHEP_PORT (default 8080), WHEP_TLS_CERT and WHEP_TLS_KEY (PEM files: HTTPS,
+# which browsers need for WebXR off localhost), WHEP_BITRATE (kbit/s, default 4000).
+if [ "${LECTURER_OUT:-rtp}" = whep ]; then
+  WHEP_PORT=${WHEP_PORT:-8080}
+  if ! [[ ${TOKEN:-} =~ ^[A-Za-z0-9._~-]{8,}$ ]] || ! [[ $WHEP_PORT =~ ^[0-9]+$ ]]; then
+    echo "server.sh: LECTURER_OUT=whep needs TOKEN (8 or more of A-Z a-z 0-9 . _ ~ -) and a numeric WHEP_PORT" >&2
+    exit 2
+  fi
+  whep_tls=""
+  # The page lies beside the pipelines: ../web/lecturer both in a checkout and installed (datadir).
+  [ -n "${WHEP_TLS_CERT:-}" ] && whep_tls="tls-certificate=$WHEP_TLS_CERT tls-key=${WHEP_TLS_KEY:?WHEP_TLS_KEY}"
+  desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! \
+    whepserversink port=$WHEP_PORT token=$TOKEN bitrate=${WHEP_BITRATE:-4000} $whep_tls \
+    web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\" $branches"
+  echo "server.sh: lecturer joins at http${whep_tls:+s}://$(hostname -f 2>/dev/null || hostname):$WHEP_PORT/?token=$TOKEN"
+fi
+# --- end of the WebRTC lecturer output ---------------------------------------------------------------
 # shellcheck disable=SC2086
 # STATS > 0: every STATS frames each decoder posts what it got (printed by -m).
 verbose=""

@@ -14,6 +14,7 @@ PACKAGES=(
   clang libclang-rt-14-dev
   gstreamer1.0-x gstreamer1.0-gl
   ccache
+  libsoup-3.0-dev libgstreamer-plugins-bad1.0-dev gstreamer1.0-nice chromium
 )
 
 missing=()
@@ -26,6 +27,12 @@ if [ ${#missing[@]} -gt 0 ]; then
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   $SUDO apt-get update -q
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+fi
+
+# The browser test's driver (puppeteer-core, pinned by the lockfile) drives the system Chromium;
+# skipped where npm is absent (test_webrtc then skips its browser test, saying why).
+if command -v npm > /dev/null && [ ! -d tests/browser/node_modules ]; then
+  (cd tests/browser && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund)
 fi
 
 if [ ! -f build/build.ninja ]; then

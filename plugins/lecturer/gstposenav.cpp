@@ -120,13 +120,22 @@ static bool navigate_locked(GstPoseNav* self, GstEvent* event, GstEvent** pose_o
   const char* key = nullptr;
   switch (gst_navigation_event_get_type(event)) {
     case GST_NAVIGATION_EVENT_MOUSE_BUTTON_PRESS:
-      if (!gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y) || button != 1) return false;
+      if (!gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y)) return false;
+      // X11 sinks (xvimagesink, ximagesink) report a wheel notch as a press of
+      // button 4 (away from you) or 5 (towards you), never as a scroll event.
+      if (button == 4 || button == 5) {
+        walk(button == 4 ? st->move_step : -st->move_step, 0);
+        break;
+      }
+      if (button != 1) return false;
       st->dragging = true;
       st->drag_x = x;
       st->drag_y = y;
       return true;
     case GST_NAVIGATION_EVENT_MOUSE_BUTTON_RELEASE:
-      if (!gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y) || button != 1) return false;
+      if (!gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y)) return false;
+      if (button == 4 || button == 5) return true;  // the wheel's press moved already
+      if (button != 1) return false;
       st->dragging = false;
       return true;
     case GST_NAVIGATION_EVENT_MOUSE_MOVE:

@@ -1,0 +1,206 @@
+#include <gst/vclassroom/webrtc/whep.h>
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include <glib.h>
+
+#include <gst/vclassroom/core/error.h>
+
+namespace vclassroom {
+
+bool token_equal(std::string_view expected, std::string_view offered) {
+  // Walk the whole secret whatever the offer: the difference accumulates,
+  // nothing branches on the data; a length mismatch counts as a difference.
+  unsigned char difference = expected.size() == offered.size() ? 0 : 1;
+  for (size_t i = 0; i < expected.size(); ++i) {
+    const unsigned char o = i < offered.size() ? static_cast<unsigned char>(offered[i]) : 0;
+    difference |= static_cast<unsigned char>(expected[i]) ^ o;
+  }
+  // An empty secret would let everyone in: never equal.
+  return difference == 0 && !expected.empty();
+}
+
+namespace {
+
+WhepDecision refuse(int status, std::string why) {
+  WhepDecision d;
+  d.status = status;
+  d.why = std::move(why);
+  return d;
+}
+
+}  // namespace
+
+bool is_whep_session_id(std::string_view id) {
+  if (id.size() != kWhepSessionIdChars) return false;
+  for (char c : id)
+    if (!((c >= '0' && c <= '9') || (c >= 'a' && c <= 'f'))) return false;
+  return true;
+}
+
+WhepDecision check_whep_request(const WhepRequest& r, std::string_view expected_token, const WhepLimits& limits,
+                                size_t sessions_now) {
+  if (!token_equal(expected_token, r.token)) return refuse(401, r.token.empty() ? "no token" : "wrong token");
+  const std::string_view base(kWhepPath);
+  const std::string_view path(r.path);
+  if (path == base) {
+    if (r.method != "POST") return refuse(405, "only POST on " + std::string(base));
+    if (r.content_type != "application/sdp") return refuse(415, "offer is not application/sdp");
+    if (r.body_size > limits.max_offer_bytes || r.body.size() != r.body_size)
+      return refuse(413, "offer of " + std::to_string(r.body_size) + " bytes (at most " +
+                             std::to_string(limits.max_offer_bytes) + ")");
+    if (r.body.substr(0, 4) != "v=0\r" && r.body.substr(0, 4) != "v=0\n") return refuse(400, "not an SDP offer");
+    if (sessions_now >= limits.max_sessions)
+      return refuse(503, "already " + std::to_string(sessions_now) + " lecturers (at most " +
+                             std::to_string(limits.max_sessions) + ")");
+    WhepDecision d;
+    d.action = WhepAction::kJoin;
+    d.status = 201;
+    return d;
+  }
+  if (path.size() > base.size() + 1 && path.substr(0, base.size() + 1) == std::string(base) + "/") {
+    const std::string_view id = path.substr(base.size() + 1);
+    if (!is_whep_session_id(id)) return refuse(404, "no such session");
+    if (r.method != "DELETE") return refuse(405, "only DELETE on a session");
+    WhepDecision d;
+    d.action = WhepAction::kLeave;
+    d.status = 200;
+    d.session_id = std::string(id);
+    return d;
+  }
+  return refuse(404, "not a WHEP path");
+}
+
+bool lecturer_page_file(std::string_view path, std::string* file, std::string* mime_type) {
+  if (path == "/" || path == "/index.html") {
+    *file = "index.html";
+    *mime_type = "text/html; charset=utf-8";
+  } else if (path == "/lecturer.js") {
+    *file = "lecturer.js";
+    *mime_type = "text/javascript; charset=utf-8";
+  } else {
+    return false;
+  }
+  return true;
+}
+
+std::string new_whep_session_id() {
+  std::string id;
+  id.reserve(kWhepSessionIdChars);
+  static const char digits[] = "0123456789abcdef";
+  for (size_t i = 0; i < kWhepSessionIdChars / 8; ++i) {
+    const guint32 word = g_random_int();
+    for (int nibble = 0; nibble < 8; ++nibble) id.push_back(digits[(word >> (4 * nibble)) & 0xf]);
+  }
+  return id;
+}
+
+bool WhepSessionTable::add(const std::string& id) {
+  if (sessions_.size() >= max_ || sessions_.count(id)) return false;
+  sessions_[id].id = id;
+  return true;
+}
+
+bool WhepSessionTable::remove(const std::string& id) { return sessions_.erase(id) != 0; }
+
+WhepSession* WhepSessionTable::find(const std::string& id) {
+  auto it = sessions_.find(id);
+  return it == sessions_.end() ? nullptr : &it->second;
+}
+
+namespace {
+
+// Splits on single spaces; false when a field is empty (two spaces, leading
+// or trailing space) or there are not exactly `count` fields.
+bool split_fields(std::string_view s, size_t count, std::vector<std::string_view>* fields) {
+  fields->clear();
+  size_t start = 0;
+  while (fields->size() < count + 1) {
+    const size_t end = s.find(' ', start);
+    const std::string_view field = s.substr(start, end == std::string_view::npos ? s.size() - start : end - start);
+    if (field.empty()) return false;
+    fields->push_back(field);
+    if (end == std::string_view::npos) break;
+    start = end + 1;
+  }
+  return fields->size() == count;
+}
+
+bool parse_number(std::string_view s, double* v) {
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), *v);
+  return ec == std::errc() && end == s.data() + s.size() && std::isfinite(*v);
+}
+
+bool parse_number(std::string_view s, uint64_t* v) {
+  const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), *v);
+  return ec == std::errc() && end == s.data() + s.size();
+}
+
+bool fail(std::string* why, const std::string& text) {
+  if (why) *why = text;
+  return false;
+}
+
+}  // namespace
+
+bool parse_pose_message(std::string_view message, Pose* pose, std::string* why) {
+  if (message.size() > kMaxPoseMessageBytes)
+    return fail(why, "pose message of " + std::to_string(message.size()) + " bytes (at most " +
+                         std::to_string(kMaxPoseMessageBytes) + ")");
+  std::vector<std::string_view> f;
+  if (!split_fields(message, 10, &f) || f[0] != "pose")
+    return fail(why, "not a pose message (\"pose seq time_ms px py pz qx qy qz qw\")");
+  Pose p;
+  double t_ms = 0;
+  double v[7];
+  if (!parse_number(f[1], &p.seq)) return fail(why, "pose seq is not a non-negative integer");
+  if (!parse_number(f[2], &t_ms) || t_ms < 0 || t_ms > 9.0e12)
+    return fail(why, "pose viewer time is not a time in milliseconds");
+  for (int i = 0; i < 7; ++i)
+    if (!parse_number(f[3 + i], &v[i])) return fail(why, "pose field " + std::to_string(3 + i) + " is not a finite number");
+  p.viewer_time_ns = static_cast<int64_t>(std::llround(t_ms * 1e6));
+  p.position = Eigen::Vector3d(v[0], v[1], v[2]);
+  p.orientation = Eigen::Quaterniond(v[6], v[3], v[4], v[5]);
+  try {
+    validate_pose(p);
+  } catch (const Error& e) {
+    return fail(why, e.what());
+  }
+  *pose = p;
+  return true;
+}
+
+std::string format_pose_message(const Pose& p) {
+  char text[kMaxPoseMessageBytes];
+  const auto& q = p.orientation;
+  std::snprintf(text, sizeof text, "pose %llu %.3f %.17g %.17g %.17g %.17g %.17g %.17g %.17g",
+                static_cast<unsigned long long>(p.seq), p.viewer_time_ns < 0 ? 0.0 : p.viewer_time_ns / 1e6,
+                p.position.x(), p.position.y(), p.position.z(), q.x(), q.y(), q.z(), q.w());
+  return text;
+}
+
+std::string format_frame_echo(uint32_t rtp_timestamp, uint64_t seq, int64_t viewer_time_ns) {
+  char text[128];
+  std::snprintf(text, sizeof text, "frame %u %llu %.3f", rtp_timestamp, static_cast<unsigned long long>(seq),
+                viewer_time_ns < 0 ? -1.0 : viewer_time_ns / 1e6);
+  return text;
+}
+
+bool parse_frame_echo(std::string_view message, uint32_t* rtp_timestamp, uint64_t* seq, double* viewer_time_ms) {
+  if (message.size() > 128) return false;
+  std::vector<std::string_view> f;
+  uint64_t ts = 0, s = 0;
+  double t = 0;
+  if (!split_fields(message, 4, &f) || f[0] != "frame" || !parse_number(f[1], &ts) || ts > 0xffffffffu ||
+      !parse_number(f[2], &s) || !parse_number(f[3], &t))
+    return false;
+  *rtp_timestamp = static_cast<uint32_t>(ts);
+  *seq = s;
+  *viewer_time_ms = t;
+  return true;
+}
+
+}  // namespace vclassroom

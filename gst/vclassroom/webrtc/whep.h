@@ -1,0 +1,110 @@
+// The GStreamer-free half of the WebRTC lecturer output (issue 13): WHEP
+// request checks, the join token compared in constant time, the session
+// table, and the pose data channel's messages. Everything that arrives here
+// came from the network and is untrusted: sizes are checked first, nothing
+// is allocated from a length a peer chose. Not thread-safe: callers lock.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <string_view>
+
+#include <gst/vclassroom/core/pose.h>
+
+namespace vclassroom {
+
+// True when the two strings are equal; the time taken depends only on the
+// length of `expected` (the server's secret), never on where they differ.
+bool token_equal(std::string_view expected, std::string_view offered);
+
+struct WhepLimits {
+  // An SDP offer from a browser is 3-6 kB; nothing legitimate comes near this.
+  size_t max_offer_bytes = 64 * 1024;
+  // Lecturers at once; a POST beyond it gets 503.
+  size_t max_sessions = 4;
+};
+
+// What the HTTP layer hands over of one request (already bounded by it).
+struct WhepRequest {
+  std::string method;        // "POST", "DELETE", "OPTIONS", ...
+  std::string path;          // e.g. "/whep" or "/whep/<session id>"
+  std::string token;         // the `token` query parameter, or a Bearer token; empty when absent
+  std::string content_type;  // without parameters
+  size_t body_size = 0;
+  std::string_view body;     // valid only during the check
+};
+
+enum class WhepAction {
+  kRefuse,  // answer `status` with an empty body and nothing else
+  kJoin,    // POST of an offer: make a session, answer 201 with the SDP answer and a Location
+  kLeave,   // DELETE of a session's Location: end `session_id`, answer 200
+};
+
+struct WhepDecision {
+  WhepAction action = WhepAction::kRefuse;
+  int status = 400;
+  std::string session_id;  // kLeave: the session named by the path
+  std::string why;         // for the log, never sent to the peer
+};
+
+inline constexpr const char* kWhepPath = "/whep";
+inline constexpr size_t kWhepSessionIdChars = 32;  // 16 random bytes, lower-case hex
+
+// The decision for one request. A wrong or missing token is 401 whatever else
+// the request says (checked first, so a stranger learns nothing else).
+WhepDecision check_whep_request(const WhepRequest& request, std::string_view expected_token,
+                                const WhepLimits& limits, size_t sessions_now);
+
+// The lecturer page's files a GET may ask for (after the token check): the
+// file name under the page's folder and its MIME type, or false. A fixed
+// list: no path from the request ever reaches the file system.
+bool lecturer_page_file(std::string_view path, std::string* file, std::string* mime_type);
+
+// A new session id: 16 bytes from GLib's random source, as 32 hex digits.
+std::string new_whep_session_id();
+bool is_whep_session_id(std::string_view id);
+
+// The per-session state the element keeps: one PoseSession key each, the
+// latest pose obeyed, what was echoed. Sessions are keyed by their id.
+struct WhepSession {
+  std::string id;
+  uint64_t poses = 0;  // poses accepted from this session's data channel
+};
+
+class WhepSessionTable {
+ public:
+  explicit WhepSessionTable(size_t max_sessions) : max_(max_sessions) {}
+  // False when full or the id is taken.
+  bool add(const std::string& id);
+  bool remove(const std::string& id);
+  bool contains(const std::string& id) const { return sessions_.count(id) != 0; }
+  WhepSession* find(const std::string& id);
+  size_t size() const { return sessions_.size(); }
+  size_t capacity() const { return max_; }
+
+ private:
+  size_t max_;
+  std::map<std::string, WhepSession> sessions_;
+};
+
+// The data channel's pose message, one text message per pose:
+//   "pose <seq> <viewer_time_ms> <px> <py> <pz> <qx> <qy> <qz> <qw>"
+// seq a decimal integer, viewer time in milliseconds (the page's
+// performance.now(), fractional allowed, >= 0), position in metres in the rig
+// frame, orientation the camera-to-rig quaternion (OpenCV camera axes, as the
+// vclassroom/pose event). At most kMaxPoseMessageBytes.
+inline constexpr size_t kMaxPoseMessageBytes = 512;
+// False, with a reason, when the message is not exactly that or the pose is
+// not valid (validate_pose). `pose` is written only on success.
+bool parse_pose_message(std::string_view message, Pose* pose, std::string* why);
+std::string format_pose_message(const Pose& pose);
+
+// What goes back for each sent frame: the pose it was rendered for, keyed by
+// the frame's RTP timestamp (the page reads requestVideoFrameCallback's
+// metadata.rtpTimestamp): "frame <rtp_timestamp> <seq> <viewer_time_ms>".
+std::string format_frame_echo(uint32_t rtp_timestamp, uint64_t seq, int64_t viewer_time_ns);
+bool parse_frame_echo(std::string_view message, uint32_t* rtp_timestamp, uint64_t* seq, double* viewer_time_ms);
+
+}  // namespace vclassroom

@@ -1,0 +1,357 @@
+// The browser lecturer's signalling and pose data channel (issue 13): WHEP
+// request decisions (token first, bounded offers, session cap), the session
+// table, and the pose / frame-echo messages the page exchanges.
+#include <gtest/gtest.h>
+
+#include <gst/check/gstharness.h>
+#include <gst/video/navigation.h>
+
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/net/pose_session.h>
+#include <gst/vclassroom/webrtc/whep.h>
+
+#include <gio/gio.h>
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <random>
+#include <set>
+#include <string>
+
+using namespace vclassroom;
+
+namespace {
+
+const std::string kOffer = "v=0\r\no=- 1 2 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\n";
+
+WhepRequest post(const std::string& token, const std::string& body = kOffer) {
+  WhepRequest r;
+  r.method = "POST";
+  r.path = "/whep";
+  r.token = token;
+  r.content_type = "application/sdp";
+  r.body_size = body.size();
+  r.body = body;
+  return r;
+}
+
+}  // namespace
+
+TEST(WebrtcToken, EqualOnlyWhenIdenticalAndNonEmpty) {
+  EXPECT_TRUE(token_equal("s3cret", "s3cret"));
+  EXPECT_FALSE(token_equal("s3cret", "s3cres"));
+  EXPECT_FALSE(token_equal("s3cret", "s3cre"));
+  EXPECT_FALSE(token_equal("s3cret", "s3crett"));
+  EXPECT_FALSE(token_equal("s3cret", ""));
+  EXPECT_FALSE(token_equal("", ""));  // no secret configured: nobody is let in
+  const std::string with_nul("ab\0c", 4);
+  EXPECT_FALSE(token_equal(with_nul, "ab"));
+}
+
+TEST(WebrtcWhep, WrongOrMissingTokenIs401WhateverElseTheRequestSays) {
+  const WhepLimits limits;
+  for (const std::string& token : {std::string(), std::string("nope"), std::string("tok"), std::string("tokenx")}) {
+    WhepRequest r = post(token);
+    EXPECT_EQ(check_whep_request(r, "token", limits, 0).status, 401) << token;
+    r.method = "DELETE";
+    r.path = "/whep/" + std::string(32, 'a');
+    EXPECT_EQ(check_whep_request(r, "token", limits, 0).status, 401);
+    r.path = "/../../etc/passwd";
+    EXPECT_EQ(check_whep_request(r, "token", limits, 0).status, 401);
+    r = post(token, std::string(1 << 20, 'x'));
+    EXPECT_EQ(check_whep_request(r, "token", limits, 99).status, 401);
+    EXPECT_EQ(check_whep_request(r, "token", limits, 0).action, WhepAction::kRefuse);
+  }
+}
+
+TEST(WebrtcWhep, PostOfAnOfferJoins) {
+  const WhepDecision d = check_whep_request(post("token"), "token", {}, 0);
+  EXPECT_EQ(d.action, WhepAction::kJoin);
+  EXPECT_EQ(d.status, 201);
+}
+
+TEST(WebrtcWhep, MalformedRequestsAreRefusedWithTheirStatus) {
+  const WhepLimits limits;
+  WhepRequest r = post("t");
+  r.content_type = "text/plain";
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 415);
+  r = post("t", "hello");
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 400);
+  const std::string big = "v=0\r\n" + std::string(limits.max_offer_bytes, 'a');
+  r = post("t", big);
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 413);
+  r = post("t");
+  r.body_size += 1;  // the declared size must be the size received
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 413);
+  r = post("t");
+  r.method = "GET";
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 405);
+  r.path = "/whepx";
+  EXPECT_EQ(check_whep_request(r, "t", limits, 0).status, 404);
+}
+
+TEST(WebrtcWhep, TheSessionCapRefusesWith503) {
+  WhepLimits limits;
+  limits.max_sessions = 2;
+  EXPECT_EQ(check_whep_request(post("t"), "t", limits, 1).status, 201);
+  EXPECT_EQ(check_whep_request(post("t"), "t", limits, 2).status, 503);
+}
+
+TEST(WebrtcWhep, DeleteNamesAWellFormedSession) {
+  WhepRequest r = post("t");
+  r.method = "DELETE";
+  r.body = "";
+  r.body_size = 0;
+  const std::string id = new_whep_session_id();
+  r.path = std::string("/whep/") + id;
+  const WhepDecision d = check_whep_request(r, "t", {}, 1);
+  EXPECT_EQ(d.action, WhepAction::kLeave);
+  EXPECT_EQ(d.session_id, id);
+  for (const std::string& bad : {std::string("/whep/"), std::string("/whep/../x"), "/whep/" + std::string(32, 'G'),
+                                 "/whep/" + id + "/x", "/whep/" + id.substr(1)}) {
+    r.path = bad;
+    EXPECT_EQ(check_whep_request(r, "t", {}, 1).status, 404) << bad;
+  }
+}
+
+TEST(WebrtcWhep, SessionIdsAreWellFormedAndDistinct) {
+  std::set<std::string> ids;
+  for (int i = 0; i < 200; ++i) {
+    const std::string id = new_whep_session_id();
+    EXPECT_TRUE(is_whep_session_id(id)) << id;
+    ids.insert(id);
+  }
+  EXPECT_EQ(ids.size(), 200u);
+}
+
+TEST(WebrtcWhep, SessionTableHoldsAtMostItsCapacity) {
+  WhepSessionTable table(2);
+  EXPECT_TRUE(table.add("a"));
+  EXPECT_FALSE(table.add("a"));
+  EXPECT_TRUE(table.add("b"));
+  EXPECT_FALSE(table.add("c"));
+  EXPECT_EQ(table.size(), 2u);
+  ASSERT_NE(table.find("a"), nullptr);
+  EXPECT_TRUE(table.remove("a"));
+  EXPECT_FALSE(table.remove("a"));
+  EXPECT_EQ(table.find("a"), nullptr);
+  EXPECT_TRUE(table.add("c"));
+}
+
+TEST(WebrtcPoseMessage, RoundTripsThroughTheWireFormatAndThePoseEvent) {
+  Pose p;
+  p.position = Eigen::Vector3d(0.25, -0.5, 1.5);
+  p.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1, 0).normalized()));
+  p.seq = 41;
+  p.viewer_time_ns = 12'345'678'000;
+  Pose q;
+  std::string why;
+  ASSERT_TRUE(parse_pose_message(format_pose_message(p), &q, &why)) << why;
+  EXPECT_EQ(q.seq, 41u);
+  EXPECT_EQ(q.viewer_time_ns, p.viewer_time_ns);
+  EXPECT_NEAR((q.position - p.position).norm(), 0, 1e-12);
+  EXPECT_NEAR(q.orientation.angularDistance(p.orientation), 0, 1e-9);
+  // The same event the RTP pose channel sends upstream.
+  GstEvent* event = pose_event_new(q);
+  Pose r;
+  ASSERT_TRUE(pose_event_parse(event, &r, &why)) << why;
+  gst_event_unref(event);
+  EXPECT_EQ(r.seq, 41u);
+}
+
+TEST(WebrtcPoseMessage, MalformedOrInvalidMessagesAreRefusedWithAReason) {
+  const std::string good = "pose 1 10.5 0 0 0 0 0 0 1";
+  Pose p;
+  std::string why;
+  ASSERT_TRUE(parse_pose_message(good, &p, &why)) << why;
+  p.seq = 777;
+  for (const std::string& bad :
+       {std::string(), std::string("pose"), std::string("pose 1 10.5 0 0 0 0 0 0"), good + " 1", " " + good,
+        good + " ", std::string("pose  1 10.5 0 0 0 0 0 0 1"), std::string("posx 1 10.5 0 0 0 0 0 0 1"),
+        std::string("pose -1 10.5 0 0 0 0 0 0 1"), std::string("pose 1 -3 0 0 0 0 0 0 1"),
+        std::string("pose 1 10.5 nan 0 0 0 0 0 1"), std::string("pose 1 10.5 inf 0 0 0 0 0 1"),
+        std::string("pose 1 10.5 0 0 0 0 0 0 2"),       // not a unit quaternion
+        std::string("pose 1 10.5 1e9 0 0 0 0 0 1"),     // absurd position
+        std::string("pose 1 10.5 0x1 0 0 0 0 0 1"), std::string("pose 99999999999999999999999 1 0 0 0 0 0 0 1"),
+        "pose 1 1 " + std::string(600, '0') + " 0 0 0 0 0 1"}) {
+    why.clear();
+    EXPECT_FALSE(parse_pose_message(bad, &p, &why)) << bad;
+    EXPECT_FALSE(why.empty()) << bad;
+    EXPECT_EQ(p.seq, 777u) << "a refused message must leave the pose alone";
+  }
+}
+
+TEST(WebrtcPoseMessage, RandomBytesNeverParseNorCrash) {
+  std::mt19937 rng(13);
+  Pose p;
+  std::string why;
+  for (int i = 0; i < 2000; ++i) {
+    std::string s(rng() % 80, ' ');
+    for (char& c : s) c = static_cast<char>("pose 0123456789.-e \x01\xff"[rng() % 21]);
+    if (i % 2) s = "pose " + s;
+    parse_pose_message(s, &p, &why);  // must not crash nor read outside `s` (ASan)
+  }
+  SUCCEED();
+}
+
+TEST(WebrtcPoseMessage, EachWhepSessionIsItsOwnPoseSessionAndLatestWins) {
+  PoseSession sessions;
+  const std::string a = new_whep_session_id(), b = new_whep_session_id();
+  Pose p;
+  std::string why;
+  ASSERT_TRUE(parse_pose_message("pose 5 100 0 0 0 0 0 0 1", &p, &why));
+  EXPECT_TRUE(pose_verdict_obeys(sessions.offer(a, p.seq, p.viewer_time_ns, 0)));
+  ASSERT_TRUE(parse_pose_message("pose 4 90 0 0 0 0 0 0 1", &p, &why));
+  EXPECT_EQ(sessions.offer(a, p.seq, p.viewer_time_ns, 1), PoseVerdict::kStale);
+  EXPECT_EQ(sessions.offer(b, 1, 5, 2), PoseVerdict::kOtherSession);
+}
+
+TEST(WebrtcFrameEcho, RoundTripsAndRefusesGarbage) {
+  const std::string m = format_frame_echo(4294967295u, 12, 1'500'000);
+  EXPECT_EQ(m, "frame 4294967295 12 1.500");
+  uint32_t ts = 0;
+  uint64_t seq = 0;
+  double t = 0;
+  ASSERT_TRUE(parse_frame_echo(m, &ts, &seq, &t));
+  EXPECT_EQ(ts, 4294967295u);
+  EXPECT_EQ(seq, 12u);
+  EXPECT_DOUBLE_EQ(t, 1.5);
+  EXPECT_FALSE(parse_frame_echo("frame 4294967296 12 1.5", &ts, &seq, &t));
+  EXPECT_FALSE(parse_frame_echo("frame 1 2", &ts, &seq, &t));
+  EXPECT_FALSE(parse_frame_echo("pose 1 2 3", &ts, &seq, &t));
+}
+
+// posenav on X11: a wheel notch arrives as a press and release of button 4
+// (away: forward) or 5 (towards: back), and moves like a scroll notch.
+TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {
+  GstHarness* h = gst_harness_new_parse("posenav");
+  gst_harness_set_src_caps_str(h, "video/x-raw,format=RGB,width=8,height=8,framerate=30/1");
+  gst_buffer_unref(gst_harness_push_and_pull(h, gst_harness_create_buffer(h, 8 * 8 * 3)));
+  auto next_pose = [&](Pose* p) {
+    while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
+      const bool pose = is_pose_event(ev);
+      std::string err;
+      if (pose) {
+        EXPECT_TRUE(pose_event_parse(ev, p, &err)) << err;
+      }
+      gst_event_unref(ev);
+      if (pose) return true;
+    }
+    return false;
+  };
+  Pose p;
+  ASSERT_TRUE(next_pose(&p));  // the start pose
+  EXPECT_NEAR(p.position.z(), 0, 1e-12);
+  EXPECT_TRUE(gst_harness_push_upstream_event(
+      h, gst_navigation_event_new_mouse_button_press(4, 10, 10, GST_NAVIGATION_MODIFIER_NONE)));
+  ASSERT_TRUE(next_pose(&p));
+  EXPECT_NEAR(p.position.z(), -0.1, 1e-12);  // the level reference looks along -Z: forward
+  EXPECT_TRUE(gst_harness_push_upstream_event(
+      h, gst_navigation_event_new_mouse_button_release(4, 10, 10, GST_NAVIGATION_MODIFIER_NONE)));
+  EXPECT_FALSE(next_pose(&p));  // swallowed, nothing new
+  for (int i = 0; i < 3; ++i)
+    EXPECT_TRUE(gst_harness_push_upstream_event(
+        h, gst_navigation_event_new_mouse_button_press(5, 10, 10, GST_NAVIGATION_MODIFIER_NONE)));
+  Pose last = p;
+  while (next_pose(&p)) last = p;
+  EXPECT_NEAR(last.position.z(), 0.2, 1e-12);
+  gst_harness_teardown(h);
+}
+
+// The whole path in a real browser: the synthetic classroom rendered through
+// viewfuse into whepserversink, headless Chromium driven by
+// tests/browser/lecturer-test.mjs (puppeteer-core): a wrong token gets 401 and
+// nothing else; the page joins with the token and decodes 960x540 frames; a
+// scripted drag sends poses whose seq comes back with the frames and changes
+// the picture; the XR frame loop's pose path (onXRPose) with a scripted
+// headset pose does the same. The script waits on page conditions, not sleeps.
+TEST(WebrtcBrowser, ChromiumJoinsDragsAndTheXRPosePathMovesTheView) {
+  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
+  ASSERT_NE(source_dir, nullptr);
+  const std::string browser_dir = std::string(source_dir) + "/tests/browser";
+  const char* chromium = g_getenv("CHROMIUM") ? g_getenv("CHROMIUM") : "/usr/bin/chromium";
+  gchar* node = g_find_program_in_path("node");
+  if (!node || !g_file_test(chromium, G_FILE_TEST_IS_EXECUTABLE) ||
+      !g_file_test((browser_dir + "/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR)) {
+    g_free(node);
+    GTEST_SKIP() << "needs node, " << chromium << " and tests/browser/node_modules (scripts/setup.sh runs npm ci)";
+  }
+  if (!gst_element_factory_find("webrtcbin") || !gst_element_factory_find("whepserversink")) {
+    g_free(node);
+    GTEST_SKIP() << "needs webrtcbin (gstreamer1.0-plugins-bad, gstreamer1.0-nice) and whepserversink";
+  }
+  // The server runs as gst-launch-1.0, a process of its own: webrtcbin 1.22
+  // keeps its ICE agent and the DTLS agent alive past gst_deinit(), which the
+  // leaks tracer of this program would count as ours.
+  GError* err = nullptr;
+  GSocket* probe = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_STREAM, G_SOCKET_PROTOCOL_TCP, &err);
+  ASSERT_NE(probe, nullptr);
+  GInetAddress* loopback = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
+  GSocketAddress* any_port = g_inet_socket_address_new(loopback, 0);
+  ASSERT_TRUE(g_socket_bind(probe, any_port, TRUE, &err));
+  GSocketAddress* bound = g_socket_get_local_address(probe, &err);
+  const guint port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
+  g_object_unref(bound);
+  g_object_unref(any_port);
+  g_object_unref(loopback);
+  g_socket_close(probe, nullptr);
+  g_object_unref(probe);
+  const std::string launch =
+      "gst-launch-1.0 rgbdtestsrc camera-id=0 is-live=true ! learnerseg ! viewwarp ! queue ! f.cam_0 viewfuse name=f ! "
+      "whepserversink port=" + std::to_string(port) + " token=secret-token web-root=" + std::string(source_dir) +
+      "/web/lecturer";
+  gchar** server_argv = nullptr;
+  ASSERT_TRUE(g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, &err));
+  GPid server = 0;
+  ASSERT_TRUE(g_spawn_async(nullptr, server_argv, nullptr,
+                            GSpawnFlags(G_SPAWN_SEARCH_PATH | G_SPAWN_DO_NOT_REAP_CHILD | G_SPAWN_STDOUT_TO_DEV_NULL),
+                            nullptr, nullptr, &server, &err))
+      << (err ? err->message : "");
+  g_strfreev(server_argv);
+  const std::string base = "http://127.0.0.1:" + std::to_string(port);
+  const std::string script = browser_dir + "/lecturer-test.mjs";
+  const gchar* argv[] = {node, script.c_str(), base.c_str(), "secret-token", "960", "540", nullptr};
+  gchar* output = nullptr;
+  gint status = 0;
+  // Node and Chromium are not ours: no sanitizer runtime preloaded into them (the sanitizer build's env).
+  gchar** browser_env = g_environ_unsetenv(g_get_environ(), "LD_PRELOAD");
+  const gboolean spawned = g_spawn_sync(browser_dir.c_str(), const_cast<gchar**>(argv), browser_env,
+                                        G_SPAWN_DEFAULT, nullptr, nullptr, &output, nullptr, &status, &err);
+  g_strfreev(browser_env);
+  kill(server, SIGTERM);
+  waitpid(server, nullptr, 0);
+  g_spawn_close_pid(server);
+  g_free(node);
+  ASSERT_TRUE(spawned) << (err ? err->message : "");
+  const std::string text = output ? output : "";
+  g_free(output);
+  EXPECT_TRUE(g_spawn_check_wait_status(status, nullptr)) << text;
+  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok XR pose:", "ok left:"})
+    EXPECT_NE(text.find(check), std::string::npos) << check << " missing in:\n" << text;
+}
+
+// The page steers like posenav: its NAV constants (web/lecturer/lecturer.js)
+// are posenav's property defaults and the paper's slider scales.
+TEST(WebrtcPage, NavigationConstantsAreThoseOfPosenavAndTheSliders) {
+  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
+  ASSERT_NE(source_dir, nullptr);
+  gchar* js = nullptr;
+  ASSERT_TRUE(g_file_get_contents((std::string(source_dir) + "/web/lecturer/lecturer.js").c_str(), &js, nullptr,
+                                  nullptr));
+  const std::string text = js;
+  g_free(js);
+  auto constant = [&](const std::string& name) {
+    const size_t at = text.find("  " + name + ": ");
+    EXPECT_NE(at, std::string::npos) << name;
+    return at == std::string::npos ? -1.0 : g_ascii_strtod(text.c_str() + at + name.size() + 4, nullptr);
+  };
+  GstElement* nav = gst_element_factory_make("posenav", nullptr);
+  ASSERT_NE(nav, nullptr);
+  double move_step = 0, turn_speed = 0;
+  g_object_get(nav, "move-step", &move_step, "turn-speed", &turn_speed, nullptr);
+  gst_object_unref(nav);
+  EXPECT_DOUBLE_EQ(constant("moveStep"), move_step);
+  EXPECT_DOUBLE_EQ(constant("turnSpeed"), turn_speed);
+  EXPECT_DOUBLE_EQ(constant("sliderMetres"), kSliderMetres);
+  EXPECT_DOUBLE_EQ(constant("sliderDegrees"), kSliderDegrees);
+}

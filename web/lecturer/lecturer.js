@@ -1,0 +1,210 @@
+// The lecturer's page: joins whepserversink over WHEP, shows the view, sends
+// the pose over a data channel, shows pose-to-photon latency from the server's
+// per-frame echo. No build step, nothing from the internet.
+'use strict';
+
+// posenav's mapping (plugins/lecturer/gstposenav.cpp, gst/vclassroom/core/pose.h):
+// kept in one object the browser test compares with the C++ constants.
+const NAV = {
+  moveStep: 0.1,        // m per key press or wheel notch (posenav move-step)
+  turnSpeed: 0.2,       // degrees per pixel dragged (posenav turn-speed)
+  sliderMetres: 0.02,   // kSliderMetres
+  sliderDegrees: 1.8,   // kSliderDegrees
+  maxPitch: 89,
+};
+
+// The view as posenav keeps it: offsets from the reference camera (the rig
+// origin looking level along -Z when the page knows no rig).
+const view = { right: 0, up: 0, forward: 0, yaw: 0, pitch: 0, roll: 0 };
+let seq = 0;
+let channel = null;
+let xrPose = null;  // set while an XR session drives the pose
+
+function quatMul(a, b) {
+  return [a[3]*b[0] + a[0]*b[3] + a[1]*b[2] - a[2]*b[1], a[3]*b[1] - a[0]*b[2] + a[1]*b[3] + a[2]*b[0],
+          a[3]*b[2] + a[0]*b[1] - a[1]*b[0] + a[2]*b[3], a[3]*b[3] - a[0]*b[0] - a[1]*b[1] - a[2]*b[2]];
+}
+function axisAngle(axis, deg) {
+  const h = deg * Math.PI / 360, s = Math.sin(h);
+  return [axis[0]*s, axis[1]*s, axis[2]*s, Math.cos(h)];
+}
+function rotate(q, v) {
+  const p = quatMul(quatMul(q, [v[0], v[1], v[2], 0]), [-q[0], -q[1], -q[2], q[3]]);
+  return [p[0], p[1], p[2]];
+}
+
+// offset_to_pose with the level reference: camera-to-rig rotation is
+// R_ref (diag(1,-1,-1), i.e. 180° about X) then yaw (about camera -Y: turn
+// right), pitch (about camera -X... look up), roll (about camera Z).
+function viewToPose(v) {
+  const ref = [1, 0, 0, 0];  // 180° about X
+  let q = quatMul(ref, axisAngle([0, 1, 0], v.yaw));
+  q = quatMul(q, axisAngle([1, 0, 0], -v.pitch));
+  q = quatMul(q, axisAngle([0, 0, 1], v.roll));
+  // Offsets in the reference camera's axes: right +X, up -Y, forward +Z.
+  const p = rotate(ref, [v.right, -v.up, v.forward]);
+  return { position: p, orientation: q };
+}
+
+function sendPose(pose) {
+  if (!channel || channel.readyState !== 'open') return false;
+  seq += 1;
+  const q = pose.orientation, p = pose.position;
+  channel.send(`pose ${seq} ${performance.now().toFixed(3)} ${p[0]} ${p[1]} ${p[2]} ${q[0]} ${q[1]} ${q[2]} ${q[3]}`);
+  return true;
+}
+function viewChanged() { updateSliders(); sendPose(viewToPose(view)); }
+
+// The XR frame loop's pose path, also driven by the test with a scripted pose:
+// a WebXR viewer pose (position in metres, orientation a quaternion, WebXR
+// axes: +Y up, -Z forward) becomes the camera pose (OpenCV axes: +Y down, +Z forward).
+function xrPoseToPose(position, orientation) {
+  const q = quatMul([orientation.x, orientation.y, orientation.z, orientation.w], [1, 0, 0, 0]);
+  return { position: [position.x, position.y, position.z], orientation: q };
+}
+function onXRPose(position, orientation) { xrPose = xrPoseToPose(position, orientation); return sendPose(xrPose); }
+
+function walk(forward, right) {
+  const y = view.yaw * Math.PI / 180;
+  view.forward += forward * Math.cos(y) - right * Math.sin(y);
+  view.right += forward * Math.sin(y) + right * Math.cos(y);
+}
+function reset() { Object.assign(view, { right: 0, up: 0, forward: 0, yaw: 0, pitch: 0, roll: 0 }); viewChanged(); }
+
+const KEYS = { ArrowUp: [1, 0], w: [1, 0], ArrowDown: [-1, 0], s: [-1, 0], ArrowLeft: [0, -1], a: [0, -1],
+               ArrowRight: [0, 1], d: [0, 1] };
+function installControls(video) {
+  let drag = null;
+  video.addEventListener('pointerdown', e => { drag = [e.clientX, e.clientY]; video.setPointerCapture(e.pointerId); });
+  video.addEventListener('pointerup', () => { drag = null; });
+  video.addEventListener('pointermove', e => {
+    if (!drag) return;
+    view.yaw += (e.clientX - drag[0]) * NAV.turnSpeed;
+    view.pitch = Math.max(-NAV.maxPitch, Math.min(NAV.maxPitch, view.pitch - (e.clientY - drag[1]) * NAV.turnSpeed));
+    drag = [e.clientX, e.clientY];
+    viewChanged();
+  });
+  video.addEventListener('wheel', e => { e.preventDefault(); walk(-Math.sign(e.deltaY) * NAV.moveStep, 0); viewChanged(); },
+                         { passive: false });
+  window.addEventListener('keydown', e => {
+    const k = KEYS[e.key];
+    if (k) walk(k[0] * NAV.moveStep, k[1] * NAV.moveStep);
+    else if (e.key === 'PageUp' || e.key === 'q') view.up += NAV.moveStep;
+    else if (e.key === 'PageDown' || e.key === 'e') view.up -= NAV.moveStep;
+    else if (e.key === 'Home' || e.key === 'r') return reset();
+    else return;
+    viewChanged();
+  });
+}
+
+// The paper's six sliders, 0..100, 50 = the reference camera.
+const SLIDERS = ['right', 'up', 'forward', 'yaw', 'pitch', 'roll'];
+function updateSliders() {
+  SLIDERS.forEach((name, i) => {
+    const el = document.getElementById('slider-' + name);
+    if (el) el.value = 50 + view[name] / (i < 3 ? NAV.sliderMetres : NAV.sliderDegrees);
+  });
+}
+function installSliders() {
+  const box = document.getElementById('sliders');
+  SLIDERS.forEach((name, i) => {
+    const label = document.createElement('label');
+    label.textContent = name + ' ';
+    const el = document.createElement('input');
+    Object.assign(el, { type: 'range', min: 0, max: 100, step: 0.5, value: 50, id: 'slider-' + name });
+    el.addEventListener('input', () => { view[name] = (el.value - 50) * (i < 3 ? NAV.sliderMetres : NAV.sliderDegrees); viewChanged(); });
+    label.appendChild(el);
+    box.appendChild(label);
+    box.appendChild(document.createElement('br'));
+  });
+}
+
+// Echoes from the server: RTP timestamp -> the pose seq and viewer time it was rendered for.
+const echoes = new Map();
+const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], lastSeqEchoed: 0, width: 0, height: 0 };
+function onEcho(text) {
+  const f = text.split(' ');
+  if (f.length !== 4 || f[0] !== 'frame') return;
+  echoes.set(Number(f[1]), { seq: Number(f[2]), time: Number(f[3]) });
+  stats.lastSeqEchoed = Math.max(stats.lastSeqEchoed, Number(f[2]));
+  if (echoes.size > 300) echoes.delete(echoes.keys().next().value);
+}
+function watchFrames(video) {
+  const readout = document.getElementById('readout');
+  const onFrame = (now, meta) => {
+    stats.framesShown += 1;
+    stats.width = meta.width; stats.height = meta.height; stats.lastRtp = meta.rtpTimestamp;
+    const e = meta.rtpTimestamp !== undefined ? echoes.get(meta.rtpTimestamp) : undefined;
+    if (e && e.time >= 0) {
+      stats.lastSeqShown = e.seq;
+      stats.latencyMs.push(meta.expectedDisplayTime - e.time);
+      if (stats.latencyMs.length > 300) stats.latencyMs.shift();
+      readout.textContent = `pose→photon ${(meta.expectedDisplayTime - e.time).toFixed(0)} ms (seq ${e.seq})`;
+    }
+    video.requestVideoFrameCallback(onFrame);
+  };
+  video.requestVideoFrameCallback(onFrame);
+}
+
+async function join() {
+  const params = new URLSearchParams(location.search);
+  const token = params.get('token') || '';
+  const video = document.getElementById('view');
+  const pc = new RTCPeerConnection();
+  pc.addTransceiver('video', { direction: 'recvonly' });
+  channel = pc.createDataChannel('pose');
+  channel.onmessage = e => onEcho(e.data);
+  channel.onopen = () => viewChanged();
+  pc.ontrack = e => { video.srcObject = e.streams[0] || new MediaStream([e.track]); };
+  const offer = await pc.createOffer();
+  await pc.setLocalDescription(offer);
+  await new Promise(resolve => {
+    if (pc.iceGatheringState === 'complete') return resolve();
+    pc.addEventListener('icegatheringstatechange', () => pc.iceGatheringState === 'complete' && resolve());
+  });
+  const response = await fetch('whep?token=' + encodeURIComponent(token),
+                               { method: 'POST', headers: { 'Content-Type': 'application/sdp' }, body: pc.localDescription.sdp });
+  const status = document.getElementById('status');
+  if (response.status !== 201) { status.textContent = `refused (${response.status})`; return { status: response.status }; }
+  await pc.setRemoteDescription({ type: 'answer', sdp: await response.text() });
+  status.textContent = 'joined';
+  const location_ = response.headers.get('Location');
+  window.vclassroom.leave = () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE' }).then(r => r.status);
+  window.addEventListener('pagehide', () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE', keepalive: true }));
+  watchFrames(video);
+  setInterval(async () => {
+    const report = await pc.getStats();
+    report.forEach(r => {
+      if (r.type === 'inbound-rtp' && r.kind === 'video') {
+        const prev = stats.bytes;
+        stats.bytes = r.bytesReceived;
+        if (prev !== undefined) stats.kbps = (r.bytesReceived - prev) * 8 / 1000;
+      }
+    });
+  }, 1000);
+  return { status: 201, pc };
+}
+
+async function installVR() {
+  const button = document.getElementById('vr'), label = document.getElementById('vrstatus');
+  const supported = navigator.xr && await navigator.xr.isSessionSupported('immersive-vr').catch(() => false);
+  if (!supported) { button.disabled = true; label.textContent = 'no VR headset found'; return; }
+  button.onclick = async () => {
+    const session = await navigator.xr.requestSession('immersive-vr');
+    const space = await session.requestReferenceSpace('local');
+    const onXRFrame = (t, frame) => {
+      const pose = frame.getViewerPose(space);
+      if (pose) onXRPose(pose.transform.position, pose.transform.orientation);
+      session.requestAnimationFrame(onXRFrame);
+    };
+    session.requestAnimationFrame(onXRFrame);
+  };
+}
+
+window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, xrPoseToPose, get seq() { return seq; } };
+// Loaded after the page's body (index.html adds this script with the token).
+installSliders();
+installControls(document.getElementById('view'));
+document.getElementById('reset').onclick = reset;
+installVR();
+window.vclassroom.joined = join();
