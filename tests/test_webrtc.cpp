@@ -24,7 +24,8 @@ namespace {
 
 const std::string kOffer = "v=0\r\no=- 1 2 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\n";
 
-WhepRequest post(const std::string& token, const std::string& body = kOffer) {
+// The body is a view: string literals and named strings outlive the request, a temporary would not.
+WhepRequest post(const std::string& token, std::string_view body = kOffer) {
   WhepRequest r;
   r.method = "POST";
   r.path = "/whep";
