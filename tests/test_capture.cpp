@@ -32,18 +32,7 @@ TEST(CaptureFormats, ColourFormatsDecodeAndShortFramesAreRefused) {
   ASSERT_TRUE(capture_to_rgb(CapturePixelFormat::kRgb3, rgb3.data(), rgb3.size(), w, h, stride, &out, &err)) << err;
   EXPECT_TRUE(vctest::same_image(out, rgb));
   // YUYV as a UVC camera sends it: back to RGB within the chroma subsampling's loss.
-  cv::Mat yuv;
-  cv::cvtColor(rgb, yuv, cv::COLOR_RGB2YUV);
-  std::vector<uint8_t> yuyv(size_t(w) * h * 2);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; x += 2) {
-      const cv::Vec3b a = yuv.at<cv::Vec3b>(y, x), b = yuv.at<cv::Vec3b>(y, x + 1);
-      uint8_t* p = &yuyv[(size_t(y) * w + x) * 2];
-      p[0] = a[0];
-      p[1] = uint8_t((a[1] + b[1]) / 2);
-      p[2] = b[0];
-      p[3] = uint8_t((a[2] + b[2]) / 2);
-    }
+  const std::vector<uint8_t> yuyv = rgb_to_yuyv(rgb);
   ASSERT_TRUE(capture_to_rgb(CapturePixelFormat::kYuyv, yuyv.data(), yuyv.size(), w, h, 0, &out, &err)) << err;
   EXPECT_GT(cv::PSNR(out, rgb), 30);
   // MJPG through the project's JPEG decoder (libjpeg-turbo).

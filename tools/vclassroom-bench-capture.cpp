@@ -46,15 +46,7 @@ int main(int argc, char** argv) {
   apply_sensor_model(r, cam, SensorParams(), 1, 0, &depth, &color);
   std::vector<uint8_t> jpeg;
   encode_jpeg(color, 90, &jpeg);
-  cv::Mat yuv;
-  cv::cvtColor(color, yuv, cv::COLOR_RGB2YUV);
-  std::vector<uint8_t> yuyv(size_t(cam.width) * cam.height * 2);
-  for (int y = 0; y < cam.height; ++y)
-    for (int x = 0; x < cam.width; x += 2) {
-      const cv::Vec3b a = yuv.at<cv::Vec3b>(y, x), b = yuv.at<cv::Vec3b>(y, x + 1);
-      uint8_t* p = &yuyv[(size_t(y) * cam.width + x) * 2];
-      p[0] = a[0], p[1] = uint8_t((a[1] + b[1]) / 2), p[2] = b[0], p[3] = uint8_t((a[2] + b[2]) / 2);
-    }
+  const std::vector<uint8_t> yuyv = rgb_to_yuyv(color);
   Eigen::Isometry3d depth_to_color = Eigen::Isometry3d::Identity();
   depth_to_color.translation() = Eigen::Vector3d(-0.025, 0, 0);
   DepthRegistration reg(cam, cam, depth_to_color);

@@ -51,6 +51,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <gst/vclassroom/capture/pixel_formats.h>
 #include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/net/rgbd_codec.h>
 #include <gst/vclassroom/synthetic/classroom.h>
@@ -202,26 +203,9 @@ uint32_t fill(Device* d, long n, Buffer* b) {
     std::memcpy(b->data, jpeg.data(), bytes);
     return uint32_t(bytes);
   }
-  // YUYV 4:2:2 as a UVC camera sends it: BT.601 in limited range (Y 16-235,
-  // U and V 16-240), each pair of pixels sharing U and V.
-  cv::Mat yuv;
-  cv::cvtColor(rgb, yuv, cv::COLOR_RGB2YUV);
-  yuv.forEach<cv::Vec3b>([](cv::Vec3b& p, const int*) {
-    p[0] = cv::saturate_cast<uint8_t>(16 + p[0] * 219.0 / 255.0);
-    p[1] = cv::saturate_cast<uint8_t>(128 + (p[1] - 128) * 224.0 / 255.0);
-    p[2] = cv::saturate_cast<uint8_t>(128 + (p[2] - 128) * 224.0 / 255.0);
-  });
-  uint8_t* out = static_cast<uint8_t*>(b->data);
-  for (int y = 0; y < yuv.rows; ++y)
-    for (int x = 0; x + 1 < yuv.cols; x += 2) {
-      const cv::Vec3b p = yuv.at<cv::Vec3b>(y, x), q = yuv.at<cv::Vec3b>(y, x + 1);
-      uint8_t* o = out + (size_t(y) * yuv.cols + x) * 2;
-      o[0] = p[0];
-      o[1] = uint8_t((p[1] + q[1]) / 2);
-      o[2] = q[0];
-      o[3] = uint8_t((p[2] + q[2]) / 2);
-    }
-  return uint32_t(yuv.total() * 2);
+  const std::vector<uint8_t> yuyv = rgb_to_yuyv(rgb);  // as a UVC camera sends it
+  std::memcpy(b->data, yuyv.data(), yuyv.size());
+  return uint32_t(yuyv.size());
 }
 
 void produce(std::shared_ptr<Device> d) {

@@ -107,4 +107,23 @@ bool capture_to_depth_mm(CapturePixelFormat f, const uint8_t* data, size_t bytes
   return true;
 }
 
+std::vector<uint8_t> rgb_to_yuyv(const cv::Mat& rgb) {
+  CV_Assert(rgb.type() == CV_8UC3 && rgb.cols % 2 == 0);
+  cv::Mat yuv;
+  cv::cvtColor(rgb, yuv, cv::COLOR_RGB2YUV);
+  std::vector<uint8_t> out(yuv.total() * 2);
+  auto luma = [](int v) { return cv::saturate_cast<uint8_t>(16 + v * 219.0 / 255.0); };
+  auto chroma = [](int a, int b) { return cv::saturate_cast<uint8_t>(128 + ((a + b) / 2 - 128) * 224.0 / 255.0); };
+  for (int y = 0; y < yuv.rows; ++y)
+    for (int x = 0; x < yuv.cols; x += 2) {
+      const cv::Vec3b p = yuv.at<cv::Vec3b>(y, x), q = yuv.at<cv::Vec3b>(y, x + 1);
+      uint8_t* o = &out[(size_t(y) * yuv.cols + x) * 2];
+      o[0] = luma(p[0]);
+      o[1] = chroma(p[1], q[1]);
+      o[2] = luma(q[0]);
+      o[3] = chroma(p[2], q[2]);
+    }
+  return out;
+}
+
 }  // namespace vclassroom

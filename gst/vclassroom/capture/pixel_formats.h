@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -36,5 +37,10 @@ bool capture_to_rgb(CapturePixelFormat f, const uint8_t* data, size_t bytesused,
 // measurement). The same checks as above.
 bool capture_to_depth_mm(CapturePixelFormat f, const uint8_t* data, size_t bytesused, int width, int height,
                          size_t stride, double depth_scale, cv::Mat* depth_mm, std::string* error);
+
+// RGB (CV_8UC3, even width) as a UVC camera sends YUYV: BT.601 in limited
+// range (Y 16-235, U and V 16-240), each pair of pixels sharing U and V; what
+// capture_to_rgb() reads back. For test stand-ins and benchmarks.
+std::vector<uint8_t> rgb_to_yuyv(const cv::Mat& rgb);
 
 }  // namespace vclassroom
