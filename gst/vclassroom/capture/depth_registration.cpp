@@ -29,16 +29,16 @@ DepthRegistration::DepthRegistration(const CameraCalib& depth, const CameraCalib
   // Each depth pixel's ray through its centre (distortion undone once here),
   // already turned into the colour camera's orientation: a point at depth z
   // is then z * ray + translation.
-  corner_x_.resize(size_t(depth.width) * depth.height);
-  corner_y_.resize(corner_x_.size());
-  ray_z_.resize(corner_x_.size());
+  ray_x_.resize(size_t(depth.width) * depth.height);
+  ray_y_.resize(ray_x_.size());
+  ray_z_.resize(ray_x_.size());
   for (int y = 0; y < depth.height; ++y)
     for (int x = 0; x < depth.width; ++x) {
       const Eigen::Vector2d n = depth.normalized(x, y);
       const Eigen::Vector3f r = rotation_ * Eigen::Vector3f(float(n.x()), float(n.y()), 1.0f);
       const size_t i = size_t(y) * depth.width + x;
-      corner_x_[i] = r.x();
-      corner_y_[i] = r.y();
+      ray_x_[i] = r.x();
+      ray_y_[i] = r.y();
       ray_z_[i] = r.z();
     }
 }
@@ -62,8 +62,8 @@ void DepthRegistration::register_depth(const cv::Mat& depth_mm, cv::Mat* out) {
   for (int y = 0; y < depth_.height; ++y) {
     const uint16_t* d = depth_mm.ptr<uint16_t>(y);
     const size_t row = size_t(y) * depth_.width;
-    const float* rx = corner_x_.data() + row;
-    const float* ry = corner_y_.data() + row;
+    const float* rx = ray_x_.data() + row;
+    const float* ry = ray_y_.data() + row;
     const float* rz = ray_z_.data() + row;
     for (int x = 0; x < depth_.width; ++x) {
       if (!d[x]) continue;

@@ -13,9 +13,10 @@
 namespace vclassroom {
 
 // Registers depth images of one camera pair; keeps per-pixel rays between
-// frames. Each depth pixel's footprint (its four corners at its depth) is
-// projected into the colour image and every colour pixel whose centre it
-// covers takes its depth, the nearest winning (z-buffer): a surface seen
+// frames. Each depth pixel's centre is projected into the colour image and
+// its footprint there (one depth pixel's size, scaled by the two focal
+// lengths and depths) gives every colour pixel whose centre it covers its
+// depth, the nearest winning (z-buffer): a surface seen
 // whole by the depth sensor comes out without holes from the re-projection,
 // and what the depth sensor could not see from its side stays 0.
 class DepthRegistration {
@@ -32,7 +33,7 @@ class DepthRegistration {
   CameraCalib depth_, color_;
   Eigen::Matrix3f rotation_;
   Eigen::Vector3f translation_;
-  std::vector<float> corner_x_, corner_y_, ray_z_;  // each depth pixel's ray in the colour camera's orientation
+  std::vector<float> ray_x_, ray_y_, ray_z_;  // each depth pixel's ray in the colour camera's orientation
   cv::Mat zbuffer_;
 };
 
