@@ -10,7 +10,6 @@
 #include "gstrgbdsrc.h"
 
 #include <poll.h>
-#include <time.h>
 
 #include <atomic>
 #include <deque>
@@ -251,11 +250,8 @@ static gboolean gst_rgbd_src_query(GstBaseSrc* src, GstQuery* query) {
   return GST_BASE_SRC_CLASS(gst_rgbd_src_parent_class)->query(src, query);
 }
 
-static int64_t monotonic_ns() {
-  timespec t;
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return int64_t(t.tv_sec) * 1000000000 + t.tv_nsec;
-}
+// CLOCK_MONOTONIC, the kernel's capture clock (GLib reads the same one).
+static int64_t monotonic_ns() { return g_get_monotonic_time() * 1000; }
 
 // Takes one frame from `dev` if it has one, converts it, hands its buffer
 // back at once and gives it to the pairer. A damaged frame (short, flagged by
