@@ -381,7 +381,15 @@ std::string wait_for_sink_eos(GstElement* pipeline, GstElement* appsink, GstCloc
   return error;
 }
 
-// One camera link as the scripts run it, over UDP on loopback: the coded frames replayed at 30 fps (by the
+// The rate the link tests replay their frames at: the cameras send 30 fps, but 30 fps of 960x540 RGB-D is about
+// 100 Mbit/s through the payloader, two RTP sessions, the jitter buffer and the decoder, which a 2-core runner
+// under the sanitizers cannot keep up with: the decoder falls behind, the jitter buffer's queue grows past
+// its latency and drop-on-latency drops whole runs of packets, and what was tested was the machine's speed
+// (CI under ASan: 78 of 120 frames at 30 fps; a loaded 2-core machine under ASan: 119 of 120 at 10 fps).
+// What the full rate costs is tools/vclassroom-measure-link's.
+constexpr int kLinkTestFps = 10;
+
+// One camera link as the scripts run it, over UDP on loopback: the coded frames replayed at kLinkTestFps (by the
 // clock) -> rtpgstpay mtu=1400 -> `sender` -> a seeded lossy udpsink -> udpsrc -> `receiver` -> rtpgstdepay
 // -> rgbddec (which drops any damaged frame) -> appsink. In the fragments, {RTCP_TO_SENDER} and
 // {RTCP_TO_RECEIVER} stand for the RTCP ports. When the sender has sent everything, the receiver is told
@@ -434,9 +442,9 @@ LinkResult run_link(const Scheme& scheme, double loss, size_t frames, uint32_t s
   g_object_set(src, "caps", coded.caps, "max-bytes", guint64(0), nullptr);
   for (size_t i = 0; i < frames; ++i) {
     GstBuffer* b = gst_buffer_copy(coded.frames[i % coded.frames.size()]);
-    GST_BUFFER_PTS(b) = i * GST_SECOND / 30;
+    GST_BUFFER_PTS(b) = i * GST_SECOND / kLinkTestFps;
     GST_BUFFER_DTS(b) = GST_CLOCK_TIME_NONE;
-    GST_BUFFER_DURATION(b) = GST_SECOND / 30;
+    GST_BUFFER_DURATION(b) = GST_SECOND / kLinkTestFps;
     gst_app_src_push_buffer(GST_APP_SRC(src), b);
   }
   gst_app_src_end_of_stream(GST_APP_SRC(src));
@@ -545,7 +553,7 @@ TEST(CameraLink, RecordedFramesAre960x540) {
 // none arrived). rtpgstdepay can only start at the stream's first in-band caps (rtpgstpay config-interval=1),
 // so a lost first caps packet may cost up to the first second: the bound below holds even then.
 TEST(CameraLink, FramesSurviveFivePercentLossAtMtu1400) {
-  const size_t frames = 120, first_second = 30;
+  const size_t frames = 60, first_second = kLinkTestFps;
   LinkResult r = run_link(kRetransmission, 0.05, frames, 17);
   EXPECT_EQ(r.error, "");
   EXPECT_GT(r.lost, 0u);
@@ -556,7 +564,7 @@ TEST(CameraLink, FramesSurviveFivePercentLossAtMtu1400) {
 
 // Before: plain rtpgstpay and a jitter buffer lose every frame at 5 % loss (kept as the reason for the above).
 TEST(CameraLink, PlainLinkLosesFramesAtFivePercentLoss) {
-  const size_t frames = 60;
+  const size_t frames = 30;
   LinkResult plain = run_link(kPlain, 0.05, frames, 17);
   EXPECT_EQ(plain.error, "");
   EXPECT_LT(plain.delivered, frames / 10);
@@ -568,7 +576,7 @@ TEST(CameraLink, PlainLinkLosesFramesAtFivePercentLoss) {
 // camera that delivers nothing means for the view is viewfuse's (test_cameras: a lost camera is reported
 // and the picture goes on).
 TEST(CameraLink, ThirtyPercentLossKeepsRepairingWithoutError) {
-  const size_t frames = 90;
+  const size_t frames = 45;
   LinkResult r = run_link(kRetransmission, 0.30, frames, 5);
   EXPECT_EQ(r.error, "");
   EXPECT_GT(r.repaired, 0u) << r.detail;
@@ -585,7 +593,7 @@ TEST(CameraLink, ThirtyPercentLossKeepsRepairingWithoutError) {
 }
 
 TEST(CameraLink, NoLossDeliversEveryFrameAfterTheFirstCaps) {
-  const size_t frames = 60, first_second = 30;
+  const size_t frames = 30, first_second = kLinkTestFps;
   LinkResult r = run_link(kRetransmission, 0.0, frames, 1);
   EXPECT_EQ(r.error, "");
   // The receiver is told end-of-stream as soon as the sender's last packet left: the frame in flight then
@@ -794,18 +802,18 @@ TEST(SrtpLink, CarriesFramesWithTheKeyAndNoneWithAnother) {
   if (!have_srtp()) GTEST_SKIP() << "srtpenc/srtpdec (gstreamer1.0-plugins-bad) are not installed";
   vctest::TempDir dir;
   const std::string key = write_key(dir, "srtp.key", 7), other = write_key(dir, "other.key", 8);
-  const size_t frames = 90, first_second = 30;
+  const size_t frames = 45, first_second = kLinkTestFps;
   LinkResult r = run_link(encrypted(kRetransmission, key_hex(key), key), 0.05, frames, 17);
   EXPECT_EQ(r.error, "");
   // Retransmitted packets (their own SSRC) were decrypted and repaired frames, and frames arrived.
   EXPECT_GT(r.repaired, 0u) << r.detail;
   EXPECT_GT(r.delivered, 0u) << r.detail;
-  LinkResult wrong = run_link(encrypted(kPlain, key_hex(other), key), 0.0, 60, 1);
+  LinkResult wrong = run_link(encrypted(kPlain, key_hex(other), key), 0.0, 30, 1);
   EXPECT_EQ(wrong.error, "");
   EXPECT_EQ(wrong.delivered, 0u);
-  LinkResult right = run_link(encrypted(kPlain, key_hex(key), key), 0.0, 60, 1);
-  EXPECT_GE(right.delivered, 60u - first_second - 1);
-  std::printf("SRTP: %zu of %zu frames at 5 %% loss with retransmission; another key %zu, same key %zu of 60\n",
+  LinkResult right = run_link(encrypted(kPlain, key_hex(key), key), 0.0, 30, 1);
+  EXPECT_GE(right.delivered, 30u - first_second - 1);
+  std::printf("SRTP: %zu of %zu frames at 5 %% loss with retransmission; another key %zu, same key %zu of 30\n",
               r.delivered, frames, wrong.delivered, right.delivered);
 }
 
@@ -979,7 +987,11 @@ TEST(Scripts, TwoLoopbackFlowsOnOneHostRunWithoutCrosstalk) {
   for (int i = 0; i < 2; ++i) {
     SCOPED_TRACE("flow " + std::to_string(i));
     EXPECT_TRUE(runs[i].ended) << runs[i].output;
-    EXPECT_EQ(runs[i].output.find("dropped"), std::string::npos) << runs[i].output;  // nothing foreign arrived
+    // Nothing foreign arrived: no senderfilter warned (its warnings end "(the latest from ADDRESS; allowed:
+    // ...)") and no poserecv saw a pose of another session. (rgbddec may drop a frame whose packets a loaded
+    // machine's socket lost: that is not crosstalk.)
+    EXPECT_EQ(runs[i].output.find("(the latest from "), std::string::npos) << runs[i].output;
+    EXPECT_EQ(runs[i].output.find("another session"), std::string::npos) << runs[i].output;
     const std::string frames = dir / ("lecturer" + std::to_string(i));
     GDir* d = g_dir_open(frames.c_str(), 0, nullptr);
     int count = 0;
