@@ -38,22 +38,6 @@ RgbdInfo camera_info(int id, int w, int h) {
   return info;
 }
 
-// One rendered frame of the classroom as a video/x-rgbd buffer.
-GstBuffer* rgbd_frame(const RgbdInfo& info, int n) {
-  static Classroom room;
-  const RenderOutput r = render(room, n / 30.0, info.camera);
-  GstBuffer* b = rgbd_buffer_new(info);
-  RgbdFrame f;
-  std::string err;
-  EXPECT_TRUE(f.map(b, info, GST_MAP_WRITE, &err)) << err;
-  r.color.copyTo(f.color());
-  r.depth.copyTo(f.depth());
-  f.unmap();
-  GST_BUFFER_PTS(b) = n * GST_SECOND / 30;
-  GST_BUFFER_DURATION(b) = GST_SECOND / 30;
-  return b;
-}
-
 // The caps of rgbdenc's stream for a camera.
 GstCaps* coded_caps(const RgbdInfo& info) {
   GstCaps* caps = rgbd_caps_new(info);
@@ -494,14 +478,14 @@ TEST(FuseInputs, LiveAFrameOfAnOlderPoseOrNotNewerThanTheLastOutputIsDroppedAndT
   FuseInputs inputs(FuseInputsParams{50'000'000, 0, true});
   inputs.configure(kPadA, 0, 64, 36);
   inputs.configure(kPadB, 1, 64, 36);
-  const WarpedPose old_pose{true, 10, 0}, new_pose{true, 13, 100'000'000};
+  const WarpedPose old_pose{true, 10, 0, {}}, new_pose{true, 13, 100'000'000, {}};
   const std::vector<PendingFrame> frames{pending(kPadA, 400, old_pose), pending(kPadB, 600, new_pose)};
   FuseRound round = inputs.decide(frames, live_round(1000));
   EXPECT_EQ(round.verdicts, (std::vector<FrameVerdict>{FrameVerdict::kOlderPose, FrameVerdict::kFuse}));
   EXPECT_EQ(round.action, RoundAction::kWait);  // camera 0's fresh frame may still come
   EXPECT_EQ(inputs.decide(frames, live_round(1000, true)).action, RoundAction::kFuse);  // not any more
   // Within the window both are fused; a frame not newer than the last output is late.
-  const std::vector<PendingFrame> close{pending(kPadA, 400, WarpedPose{true, 12, 60'000'000}),
+  const std::vector<PendingFrame> close{pending(kPadA, 400, WarpedPose{true, 12, 60'000'000, {}}),
                                         pending(kPadB, 600, new_pose)};
   RoundContext ctx = live_round(1000);
   EXPECT_EQ(inputs.decide(close, ctx).action, RoundAction::kFuse);
@@ -531,7 +515,7 @@ TEST(FuseInputs, StatusTextsSayWhatHappensToTheView) {
 }
 
 TEST(FuseInputs, TheOutputTakesTheNewestTimeAndTheOldestPose) {
-  const WarpedPose none, seq5{true, 5, 0}, seq3{true, 3, 0};
+  const WarpedPose none, seq5{true, 5, 0, {}}, seq3{true, 3, 0, {}};
   OutputStamp stamp = output_stamp({FrameStamp{100, seq5}, FrameStamp{300, seq3}, FrameStamp{200, seq3}});
   EXPECT_EQ(stamp.time_from, 1);
   EXPECT_EQ(stamp.pose_from, 1);  // the first of the oldest

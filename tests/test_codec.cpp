@@ -209,11 +209,11 @@ TEST(PoseStamp, WireFormatIsPinnedAndReadAtAnyAlignment) {
   // The pose header extension's 16 bytes, big-endian, read and written at
   // every offset of a buffer (packet data has no alignment: issue 14's UBSan
   // report of misaligned 64-bit loads through GST_READ_UINT64_BE).
-  const PoseStamp stamp{0x0102030405060708ull, -1};
+  const PoseStamp stamp{0x0102030405060708ull, -1, {}};
   const uint8_t pinned[16] = {1, 2, 3, 4, 5, 6, 7, 8, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF};
   uint8_t buf[32];
   for (size_t at = 0; at < 8; ++at) {
-    pose_stamp_to_wire(stamp, buf + at);
+    EXPECT_EQ(pose_stamp_to_wire(stamp, buf + at, 16), 16u);
     EXPECT_EQ(std::memcmp(buf + at, pinned, 16), 0) << "offset " << at;
     PoseStamp back;
     ASSERT_TRUE(pose_stamp_from_wire(buf + at, 16, &back));
@@ -224,6 +224,50 @@ TEST(PoseStamp, WireFormatIsPinnedAndReadAtAnyAlignment) {
   EXPECT_FALSE(pose_stamp_from_wire(buf, 15, &back));
   EXPECT_FALSE(pose_stamp_from_wire(buf, 17, &back));
   EXPECT_FALSE(pose_stamp_from_wire(nullptr, 16, &back));
+  EXPECT_EQ(pose_stamp_to_wire(stamp, buf, 15), 0u);
+}
+
+// The long form carries the pose the server rendered (after its navigation bounds) and whether it clamped it.
+TEST(PoseStamp, LongFormCarriesTheRenderedPoseAndTheClampedFlag) {
+  Pose pose;
+  pose.position = Eigen::Vector3d(0.5, -1.25, 3);
+  pose.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()));
+  pose.clamped = true;
+  const PoseStamp stamp{42, 7000000, rendered_pose_of(pose)};
+  uint8_t buf[kPoseStampWithPoseSize + 8];
+  for (size_t at = 0; at < 8; ++at) {
+    ASSERT_EQ(pose_stamp_to_wire(stamp, buf + at, kPoseStampWithPoseSize), kPoseStampWithPoseSize);
+    EXPECT_EQ(buf[at + 16], 3) << "flags: pose follows, clamped";
+    PoseStamp back;
+    ASSERT_TRUE(pose_stamp_from_wire(buf + at, kPoseStampWithPoseSize, &back)) << "offset " << at;
+    EXPECT_EQ(back.seq, 42u);
+    EXPECT_EQ(back.viewer_time_ns, 7000000);
+    EXPECT_TRUE(back.rendered.known);
+    EXPECT_TRUE(back.rendered.clamped);
+    EXPECT_FLOAT_EQ(back.rendered.position[1], -1.25f);
+    EXPECT_FLOAT_EQ(back.rendered.orientation[0], float(std::cos(0.15)));
+    EXPECT_FLOAT_EQ(back.rendered.orientation[2], float(std::sin(0.15)));
+  }
+  // No room for the pose: the short form, which any reader takes.
+  EXPECT_EQ(pose_stamp_to_wire(stamp, buf, 47), kPoseStampSize);
+  // What the network may send instead is refused: unknown flags, the pose flag missing, reserved bytes set,
+  // a position 2 km away, a quaternion that is not a unit one, a NaN.
+  PoseStamp back;
+  auto refused = [&](size_t byte, uint8_t value) {
+    pose_stamp_to_wire(stamp, buf, kPoseStampWithPoseSize);
+    buf[byte] = value;
+    return !pose_stamp_from_wire(buf, kPoseStampWithPoseSize, &back);
+  };
+  EXPECT_TRUE(refused(16, 7));
+  EXPECT_TRUE(refused(16, 2));
+  EXPECT_TRUE(refused(18, 1));
+  EXPECT_TRUE(refused(20, 0x45));  // x = 0x45000000 = 2048 m
+  EXPECT_TRUE(refused(32, 0x40));  // w = 0x407D.... (about 4): not a unit quaternion
+  EXPECT_TRUE(refused(24, 0x7F));  // y = 0x7FA00000: a NaN
+  EXPECT_FALSE(refused(16, 1)) << "the same pose, not clamped, is fine";
+  EXPECT_FALSE(back.rendered.clamped);
+  EXPECT_FALSE(pose_stamp_from_wire(buf, 47, &back));
+  EXPECT_FALSE(pose_stamp_from_wire(buf, 49, &back));
 }
 
 TEST(Checksum, Crc32MatchesTheStandardAndTheBytewiseDefinition) {

@@ -7,6 +7,8 @@
 #include <gst/video/navigation.h>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/vva/navigation.h>
@@ -137,7 +139,9 @@ TEST(PoseNavBounds, TheLecturersViewStopsAtTheBoundsAndATraceBeyondIsClampedWith
   auto last_pose = [&] {
     Pose p;
     while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
-      if (is_pose_event(ev)) EXPECT_TRUE(pose_event_parse(ev, &p, nullptr));
+      if (is_pose_event(ev)) {
+        EXPECT_TRUE(pose_event_parse(ev, &p, nullptr));
+      }
       gst_event_unref(ev);
     }
     return p;
@@ -170,6 +174,55 @@ TEST(PoseNavBounds, TheLecturersViewStopsAtTheBoundsAndATraceBeyondIsClampedWith
   ASSERT_EQ(r.warnings.size(), 1u);  // the first at once; the other two within 5 s are counted, not posted
   EXPECT_NE(r.warnings[0].find("a pose outside the navigation bounds from the pose trace was moved"), std::string::npos)
       << r.warnings[0];
+}
+
+// A posenav without the server's bounds (no rig) learns them from the frames: when the frame showing its
+// latest pose says the server clamped it, the view moves to that edge, so a drag back turns at once. An
+// echo of an older pose, or of one not clamped, changes nothing.
+TEST(PoseNavBounds, AViewTheServerClampedMovesToWhereTheServerHeldIt) {
+  GstHarness* h = gst_harness_new("posenav");
+  gst_harness_set_src_caps_str(h, "video/x-raw,format=RGB,width=8,height=8,framerate=30/1");
+  auto push_frame = [&](bool with_meta, uint64_t seq, const Pose& rendered) {
+    GstBuffer* b = gst_harness_create_buffer(h, 8 * 8 * 3);
+    if (with_meta) buffer_add_pose_meta(b, seq, 0, rendered_pose_of(rendered));
+    gst_buffer_unref(gst_harness_push_and_pull(h, b));
+  };
+  auto last_pose = [&] {
+    Pose p;
+    while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
+      if (is_pose_event(ev)) {
+        EXPECT_TRUE(pose_event_parse(ev, &p, nullptr));
+      }
+      gst_event_unref(ev);
+    }
+    return p;
+  };
+  const CameraCalib level = rig_origin_reference();
+  push_frame(false, 0, Pose());
+  last_pose();
+  // Drag 400 px right: 80°. The server holds the view at 30°.
+  gst_harness_push_upstream_event(h, gst_navigation_event_new_mouse_button_press(1, 0, 0, GST_NAVIGATION_MODIFIER_NONE));
+  gst_harness_push_upstream_event(h, gst_navigation_event_new_mouse_move(400, 0, GST_NAVIGATION_MODIFIER_NONE));
+  const Pose sent = last_pose();
+  EXPECT_NEAR(pose_to_offset(sent, level).yaw, 80, 1e-6);
+  guint64 seq = 0;
+  g_object_get(h->element, "seq", &seq, nullptr);
+  Pose held = offset_to_pose(ViewOffset{0, 0, 0, 30, 0, 0}, level);
+  held.clamped = true;
+  push_frame(true, seq - 1, held);  // an older pose's frame: nothing
+  Pose not_clamped = held;
+  not_clamped.clamped = false;
+  push_frame(true, seq, not_clamped);  // not clamped: nothing
+  guint64 followed = 1;
+  g_object_get(h->element, "server-clamped", &followed, nullptr);
+  EXPECT_EQ(followed, 0u);
+  push_frame(true, seq, held);
+  g_object_get(h->element, "server-clamped", &followed, nullptr);
+  EXPECT_EQ(followed, 1u);
+  // Back by 50 px (10°): from the held 30°, not from 80°.
+  gst_harness_push_upstream_event(h, gst_navigation_event_new_mouse_move(350, 0, GST_NAVIGATION_MODIFIER_NONE));
+  EXPECT_NEAR(pose_to_offset(last_pose(), level).yaw, 20, 1e-3);
+  gst_harness_teardown(h);
 }
 
 TEST(ViewFuseBounds, TheServerClampsEveryPoseItSendsToTheCameras) {
@@ -205,6 +258,64 @@ TEST(ViewFuseBounds, TheServerClampsEveryPoseItSendsToTheCameras) {
   guint64 clamped = 0;
   g_object_get(h->element, "poses-clamped", &clamped, nullptr);
   EXPECT_EQ(clamped, 1u);
+  gst_harness_teardown(h);
+}
+
+// The frame names the pose it shows: the server's camera branch (viewwarp) renders the pose viewfuse clamped,
+// and the fused frame's pose meta (what the RTP header extension and the WHEP data channel echo to the
+// lecturer) carries that clamped pose and says it was clamped; a pose inside comes back as sent.
+TEST(ViewFuseBounds, TheFrameCarriesThePoseAsClampedAndRendered) {
+  vctest::TempDir dir;
+  const Rig rig = bounded_rig();
+  save_rig(rig, dir / "rig.yaml");
+  const std::string r = dir / "rig.yaml";
+  GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + r + " ! viewfuse rig=" + r).c_str());
+  RgbdInfo info;
+  info.camera = rig.camera(0);
+  info.planes = {Plane::Color, Plane::Depth};
+  gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  const Classroom room(ClassroomConfig{1, 3, 2.0});
+  const RenderOutput frame = render(room, 0.0, info.camera);
+  auto rendered_for = [&](const Pose& p, GstClockTime pts) {
+    EXPECT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(p)));
+    GstBuffer* buf = rgbd_buffer_new(info);
+    {
+      RgbdFrame f;
+      std::string err;
+      EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+      frame.color.copyTo(f.color());
+      frame.depth.copyTo(f.depth());
+    }
+    GST_BUFFER_PTS(buf) = pts;
+    GST_BUFFER_DURATION(buf) = GST_SECOND / 30;
+    EXPECT_EQ(gst_harness_push(h, buf), GST_FLOW_OK);
+    GstBuffer* out = gst_harness_pull(h);
+    PoseMeta m{};
+    if (const PoseMeta* got = out ? buffer_get_pose_meta(out) : nullptr) m = *got;
+    EXPECT_TRUE(m.rendered.known) << "the fused frame names no rendered pose";
+    if (out) gst_buffer_unref(out);
+    return m;
+  };
+  const CameraCalib& ref = rig.camera(0);
+  Pose inside = offset_to_pose(ViewOffset{0.1, 0, 0.2, 3, 1, 0}, ref);
+  inside.seq = 1;
+  const PoseMeta a = rendered_for(inside, 0);
+  EXPECT_EQ(a.seq, 1u);
+  EXPECT_FALSE(a.rendered.clamped);
+  EXPECT_FLOAT_EQ(a.rendered.position[0], float(inside.position.x()));
+  EXPECT_FLOAT_EQ(a.rendered.position[2], float(inside.position.z()));
+  Pose ceiling = offset_to_pose(ViewOffset{0.6, 0, 0, 0, 70, 0}, ref);  // too far right, looking up
+  ceiling.seq = 2;
+  const PoseMeta b = rendered_for(ceiling, GST_SECOND / 30);
+  EXPECT_EQ(b.seq, 2u);
+  EXPECT_TRUE(b.rendered.clamped);
+  Pose echoed;
+  echoed.position = Eigen::Vector3d(b.rendered.position[0], b.rendered.position[1], b.rendered.position[2]);
+  echoed.orientation = Eigen::Quaterniond(b.rendered.orientation[0], b.rendered.orientation[1],
+                                          b.rendered.orientation[2], b.rendered.orientation[3]);
+  const std::array<double, 6> o = offsets_of(echoed, ref);
+  EXPECT_NEAR(o[0], 0.2, 1e-5);  // the nearest allowed pose: 0.2 m right, pitch 5°
+  EXPECT_NEAR(o[4], 5, 1e-4);
   gst_harness_teardown(h);
 }
 

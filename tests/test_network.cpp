@@ -295,8 +295,10 @@ GstPadProbeReturn bytes_only(GstPad*, GstPadProbeInfo* info, gpointer) {
 }  // namespace
 
 // The pose a frame was rendered for crosses RTP in a header extension:
-// payloader and depayloader enable it from the extmap field in the caps.
-TEST(PoseHeaderExtension, SeqAndViewerTimeCrossRtp) {
+// payloader and depayloader enable it from the extmap field in the caps. So
+// does the pose as the server rendered it, clamped or not (the long form, in
+// RFC 8285's two-byte header).
+TEST(PoseHeaderExtension, SeqViewerTimeAndTheRenderedPoseCrossRtp) {
   GError* err = nullptr;
   GstElement* p = gst_parse_launch(
       "appsrc name=src format=time caps=video/x-raw,format=RGB,width=16,height=8,framerate=30/1 ! "
@@ -316,7 +318,12 @@ TEST(PoseHeaderExtension, SeqAndViewerTimeCrossRtp) {
     GstBuffer* b = gst_buffer_new_allocate(nullptr, 16 * 8 * 3, nullptr);
     gst_buffer_memset(b, 0, static_cast<guint8>(i), 16 * 8 * 3);
     GST_BUFFER_PTS(b) = i * GST_SECOND / 30;
-    if (i != 1) buffer_add_pose_meta(b, 100 + i, 5000000000ll + i);  // frame 1: rendered before any pose
+    // Frame 1: rendered before any pose; frame 2 names only seq and time (an older server).
+    Pose rendered;
+    rendered.position = Eigen::Vector3d(0.25 * i, -0.5, 1.5);
+    rendered.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.1 * i, Eigen::Vector3d::UnitX()));
+    rendered.clamped = i == 3;
+    if (i != 1) buffer_add_pose_meta(b, 100 + i, 5000000000ll + i, i == 2 ? RenderedPose{} : rendered_pose_of(rendered));
     gst_app_src_push_buffer(GST_APP_SRC(src), b);
   }
   gst_app_src_end_of_stream(GST_APP_SRC(src));
@@ -332,6 +339,12 @@ TEST(PoseHeaderExtension, SeqAndViewerTimeCrossRtp) {
     ASSERT_NE(m, nullptr) << "frame " << i;
     EXPECT_EQ(m->seq, 100u + i);
     EXPECT_EQ(m->viewer_time_ns, 5000000000ll + i);
+    EXPECT_EQ(m->rendered.known, i != 2);
+    if (i == 2) continue;
+    EXPECT_EQ(m->rendered.clamped, i == 3);
+    EXPECT_FLOAT_EQ(m->rendered.position[0], 0.25f * i);
+    EXPECT_FLOAT_EQ(m->rendered.position[2], 1.5f);
+    EXPECT_FLOAT_EQ(m->rendered.orientation[1], float(std::sin(0.05 * i)));
   }
   gst_object_unref(src);
   gst_object_unref(out);
@@ -700,7 +713,9 @@ TEST(PoseSendTrace, TheLecturerRecordsEveryPoseItSentWithItsRunningTime) {
     EXPECT_NEAR(sent[i].pose.position.x(), walk[i].pose.position.x(), 1e-12) << i;
     EXPECT_GT(sent[i].pose.seq, i == 0 ? 0 : sent[i - 1].pose.seq) << i;
     EXPECT_FALSE(std::isnan(sent[i].t));
-    if (i > 0) EXPECT_GE(sent[i].t, sent[i - 1].t) << i;
+    if (i > 0) {
+      EXPECT_GE(sent[i].t, sent[i - 1].t) << i;
+    }
   }
   // A trace that cannot be written stops the lecturer at start with a clear error.
   const auto bad = vctest::run_launch("videotestsrc num-buffers=1 ! posesend name=s trace-location=" +

@@ -324,8 +324,8 @@ TEST(VirtualView, ATracePosesEachFrameByItsMomentOrItsNumber) {
 
 TEST(ViewFuse, LivePairingToleratesPosesTakenCloseTogether) {
   const int64_t ms = 1000000;
-  const WarpedPose none, p10{true, 10, 1000 * ms}, p11{true, 11, 1033 * ms}, p13{true, 13, 1100 * ms},
-      p11_untimed{true, 11, -1};
+  const WarpedPose none, p10{true, 10, 1000 * ms, {}}, p11{true, 11, 1033 * ms, {}}, p13{true, 13, 1100 * ms, {}},
+      p11_untimed{true, 11, -1, {}};
   // One pose period apart: fused together.
   EXPECT_EQ(stale_poses({p10, p11, p11}, 50 * ms), (std::vector<bool>{false, false, false}));
   // Without a window only exactly the newest pose counts.

@@ -8,6 +8,7 @@
 
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/net/pose_session.h>
+#include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/webrtc/whep.h>
 
 #include <gio/gio.h>
@@ -17,6 +18,8 @@
 #include <random>
 #include <set>
 #include <string>
+
+#include "test_util.h"
 
 using namespace vclassroom;
 
@@ -222,6 +225,38 @@ TEST(WebrtcFrameEcho, RoundTripsAndRefusesGarbage) {
   EXPECT_FALSE(parse_frame_echo("pose 1 2 3", &ts, &seq, &t));
 }
 
+// The echo names the pose as the server rendered it (after its navigation bounds) and whether it clamped
+// it; what is not a usable pose is refused.
+TEST(WebrtcFrameEcho, CarriesTheRenderedPoseAndTheClampedFlag) {
+  Pose p;
+  p.position = Eigen::Vector3d(0.2, -0.05, 1.25);
+  p.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()));
+  p.clamped = true;
+  const std::string m = format_frame_echo(90000, 7, 2'000'000, rendered_pose_of(p));
+  EXPECT_EQ(m.rfind("frame 90000 7 2.000 0.200000003 -0.0500000007 1.25 0 ", 0), 0u) << m;
+  EXPECT_EQ(m.back(), '1');
+  uint32_t ts = 0;
+  uint64_t seq = 0;
+  double t = 0;
+  RenderedPose r;
+  ASSERT_TRUE(parse_frame_echo(m, &ts, &seq, &t, &r)) << m;
+  EXPECT_TRUE(r.known);
+  EXPECT_TRUE(r.clamped);
+  EXPECT_FLOAT_EQ(r.position[2], 1.25f);
+  EXPECT_FLOAT_EQ(r.orientation[0], float(std::cos(0.2)));
+  EXPECT_FLOAT_EQ(r.orientation[2], float(std::sin(0.2)));
+  // The short form leaves the pose unknown.
+  ASSERT_TRUE(parse_frame_echo("frame 1 2 3.5", &ts, &seq, &t, &r));
+  EXPECT_FALSE(r.known);
+  for (const char* bad : {"frame 1 2 3 0 0 0 0 0 0 1 2",          // flag neither 0 nor 1
+                          "frame 1 2 3 0 0 0 0 0 0 2 0",          // not a unit quaternion
+                          "frame 1 2 3 5000 0 0 0 0 0 1 0",       // 5 km away
+                          "frame 1 2 3 nan 0 0 0 0 0 1 0",        // not a number
+                          "frame 1 2 3 0 0 0 0 0 0 1",            // a field short
+                          "frame 1 2 3 0 0 0 0 0 0 1 0 0"})       // a field too many
+    EXPECT_FALSE(parse_frame_echo(bad, &ts, &seq, &t, &r)) << bad;
+}
+
 // posenav on X11: a wheel notch arrives as a press and release of button 4
 // (away: forward) or 5 (towards: back), and moves like a scroll notch.
 TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {
@@ -266,7 +301,7 @@ TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {
 // scripted drag sends poses whose seq comes back with the frames and changes
 // the picture; the XR frame loop's pose path (onXRPose) with a scripted
 // headset pose does the same. The script waits on page conditions, not sleeps.
-TEST(WebrtcBrowser, ChromiumJoinsDragsAndTheXRPosePathMovesTheView) {
+TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheView) {
   const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
   ASSERT_NE(source_dir, nullptr);
   const std::string browser_dir = std::string(source_dir) + "/tests/browser";
@@ -297,10 +332,21 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsAndTheXRPosePathMovesTheView) {
   g_object_unref(loopback);
   g_socket_close(probe, nullptr);
   g_object_unref(probe);
-  const std::string launch =
-      "gst-launch-1.0 rgbdtestsrc camera-id=0 is-live=true ! learnerseg ! viewwarp ! queue ! f.cam_0 viewfuse name=f ! "
-      "whepserversink port=" + std::to_string(port) + " token=secret-token web-root=" + std::string(source_dir) +
-      "/web/lecturer";
+  // The classroom's rig with navigation bounds around its centre camera (at the rig origin, looking 20° down):
+  // the page's first view (the origin, level) is inside; a headset 0.3 m to the right is not.
+  vctest::TempDir dir;
+  Rig rig = default_classroom_rig();
+  NavigationBounds bounds;
+  bounds.reference_camera = 0;
+  bounds.min = {-0.2, -0.3, -0.5, -60, -10, -20};
+  bounds.max = {0.2, 0.3, 0.5, 60, 30, 20};
+  rig.navigation = bounds;
+  const std::string rig_path = dir / "rig.yaml";
+  save_rig(rig, rig_path);
+  const std::string launch = "gst-launch-1.0 rgbdtestsrc camera-id=0 is-live=true rig=" + rig_path +
+                             " ! learnerseg ! viewwarp rig=" + rig_path + " ! queue ! f.cam_0 viewfuse name=f rig=" +
+                             rig_path + " ! whepserversink port=" + std::to_string(port) +
+                             " token=secret-token web-root=" + std::string(source_dir) + "/web/lecturer";
   gchar** server_argv = nullptr;
   ASSERT_TRUE(g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, &err));
   GPid server = 0;
@@ -327,8 +373,10 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsAndTheXRPosePathMovesTheView) {
   const std::string text = output ? output : "";
   g_free(output);
   EXPECT_TRUE(g_spawn_check_wait_status(status, nullptr)) << text;
-  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok XR pose:", "ok left:"})
+  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok soft stop:", "ok XR pose:",
+                            "ok left:"})
     EXPECT_NE(text.find(check), std::string::npos) << check << " missing in:\n" << text;
+  std::printf("%s", text.c_str());
 }
 
 // The page steers like posenav: its NAV constants (web/lecturer/lecturer.js)

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/vva/navigation.h>
 
 GST_DEBUG_CATEGORY_STATIC(pose_nav_debug);
@@ -23,7 +24,7 @@ GST_DEBUG_CATEGORY_STATIC(pose_nav_debug);
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_RIG, PROP_REFERENCE_CAMERA, PROP_SLIDERS, PROP_POSE_TRACE, PROP_MOVE_STEP, PROP_TURN_SPEED, PROP_FOV, PROP_SEQ };
+enum { PROP_0, PROP_RIG, PROP_REFERENCE_CAMERA, PROP_SLIDERS, PROP_POSE_TRACE, PROP_MOVE_STEP, PROP_TURN_SPEED, PROP_FOV, PROP_SEQ, PROP_SERVER_CLAMPED };
 
 namespace {
 constexpr double kDefaultMoveStep = 0.1;   // m per key press or wheel notch
@@ -48,6 +49,7 @@ struct NavState {
   double drag_x = 0, drag_y = 0;
   bool started = false;         // the start pose has been sent
   uint64_t seq = 0;
+  uint64_t server_clamped = 0;  // frames showing the latest pose as the server moved it into its bounds
 };
 
 }  // namespace
@@ -192,7 +194,7 @@ static gboolean gst_pose_nav_src_event(GstBaseTransform* trans, GstEvent* event)
   return GST_BASE_TRANSFORM_CLASS(gst_pose_nav_parent_class)->src_event(trans, event);
 }
 
-static GstFlowReturn gst_pose_nav_transform_ip(GstBaseTransform* trans, GstBuffer*) {
+static GstFlowReturn gst_pose_nav_transform_ip(GstBaseTransform* trans, GstBuffer* buf) {
   GstPoseNav* self = GST_POSE_NAV(trans);
   GstEvent* pose = nullptr;
   {
@@ -206,6 +208,11 @@ static GstFlowReturn gst_pose_nav_transform_ip(GstBaseTransform* trans, GstBuffe
       pose = make_pose_event_locked(self, p);
     } else if (!st->started) {
       pose = view_event_locked(self);
+    } else if (const PoseMeta* m = buffer_get_pose_meta(buf); m && m->rendered.clamped && m->seq == st->seq) {
+      // The server moved the latest pose into its navigation bounds (bounds this posenav may not know): the
+      // view moves to that edge too, so steering back responds at once.
+      st->view = pose_to_offset(pose_of(m->rendered), st->reference);
+      st->server_clamped++;
     }
     st->started = true;
   }
@@ -312,6 +319,9 @@ static void gst_pose_nav_get_property(GObject* object, guint prop_id, GValue* va
     case PROP_SEQ:
       g_value_set_uint64(value, st->seq);
       break;
+    case PROP_SERVER_CLAMPED:
+      g_value_set_uint64(value, st->server_clamped);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -372,6 +382,12 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
       gobject_class, PROP_SEQ,
       g_param_spec_uint64("seq", "Last sequence number", "seq of the last pose event sent", 0, G_MAXUINT64, 0,
                           GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  g_object_class_install_property(
+      gobject_class, PROP_SERVER_CLAMPED,
+      g_param_spec_uint64("server-clamped", "Frames clamped by the server",
+                          "Frames showing the latest pose as the server moved it into its navigation bounds (the "
+                          "frame's pose meta, from the RTP pose header extension): the view moves to that edge",
+                          0, G_MAXUINT64, 0, GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(

@@ -1,7 +1,8 @@
 // rtphdrextvcpose: an RTP header extension carrying the seq and viewer time of
 // the pose a video frame was rendered for (the frame's PoseMeta), so the
-// lecturer's side can measure motion-to-photon latency. 16 bytes, big-endian:
-// seq (u64), viewer time in ns (i64, -1 = none).
+// lecturer's side can measure motion-to-photon latency, and the pose as the
+// server rendered it (after its navigation bounds). The wire form is the
+// library's (pose_stamp.h): 48 bytes with the pose, 16 without.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -13,8 +14,6 @@
 
 using namespace vclassroom;
 
-constexpr gsize kSize = kPoseStampSize;
-
 struct _GstRTPHeaderExtensionVcPose {
   GstRTPHeaderExtension parent;
 };
@@ -25,24 +24,22 @@ static GstRTPHeaderExtensionFlags get_supported_flags(GstRTPHeaderExtension*) {
   return GstRTPHeaderExtensionFlags(GST_RTP_HEADER_EXTENSION_ONE_BYTE | GST_RTP_HEADER_EXTENSION_TWO_BYTE);
 }
 
-static gsize get_max_size(GstRTPHeaderExtension*, const GstBuffer*) { return kSize; }
+// Over 16 bytes: the payloader then uses RFC 8285's two-byte header.
+static gsize get_max_size(GstRTPHeaderExtension*, const GstBuffer*) { return kPoseStampWithPoseSize; }
 
 static gssize write_ext(GstRTPHeaderExtension*, const GstBuffer* input, GstRTPHeaderExtensionFlags, GstBuffer*,
                         guint8* data, gsize size) {
   const PoseMeta* meta = buffer_get_pose_meta(const_cast<GstBuffer*>(input));
   if (!meta) return 0;  // a frame rendered before any pose: nothing to say
-  if (size < kSize) return -1;
-  // The wire form lives in the library (pose_stamp.h): byte by byte, as
-  // packet data has no alignment.
-  pose_stamp_to_wire(PoseStamp{meta->seq, meta->viewer_time_ns}, data);
-  return kSize;
+  const size_t written = pose_stamp_to_wire(PoseStamp{meta->seq, meta->viewer_time_ns, meta->rendered}, data, size);
+  return written ? gssize(written) : -1;
 }
 
 static gboolean read_ext(GstRTPHeaderExtension*, GstRTPHeaderExtensionFlags, const guint8* data, gsize size,
                          GstBuffer* buffer) {
   PoseStamp stamp;
   if (!pose_stamp_from_wire(data, size, &stamp)) return FALSE;
-  buffer_add_pose_meta(buffer, stamp.seq, stamp.viewer_time_ns);
+  buffer_add_pose_meta(buffer, stamp.seq, stamp.viewer_time_ns, stamp.rendered);
   return TRUE;
 }
 
@@ -56,7 +53,7 @@ static void gst_rtp_header_extension_vc_pose_class_init(GstRTPHeaderExtensionVcP
   gst_element_class_set_static_metadata(
       element_class, "vclassroom pose RTP header extension", GST_RTP_HDREXT_ELEMENT_CLASS,
       "Carries the seq and viewer time of the lecturer pose a frame was rendered for (" VCLASSROOM_RTP_HDREXT_POSE_URI
-      "), for motion-to-photon latency; payloaders and depayloaders enable it from an extmap-N caps field. Example: "
+      "), for motion-to-photon latency, and that pose as rendered, after the server's navigation bounds; payloaders and depayloaders enable it from an extmap-N caps field. Example: "
       "gst-launch-1.0 videotestsrc num-buffers=300 ! jpegenc ! rtpgstpay ! "
       "\"application/x-rtp,extmap-3=(string)" VCLASSROOM_RTP_HDREXT_POSE_URI "\" ! rtpgstdepay ! jpegdec ! "
       "videoconvert ! autovideosink",

@@ -288,7 +288,7 @@ static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, 
   if (GST_CLOCK_TIME_IS_VALID(in_segment)) pts = in_segment;
   GST_BUFFER_PTS(out) = pts;
   GST_BUFFER_DURATION(out) = duration;
-  if (pose) buffer_add_pose_meta(out, pose->seq, pose->viewer_time_ns);
+  if (pose) buffer_add_pose_meta(out, pose->seq, pose->viewer_time_ns, pose->rendered);
   {
     GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
     GST_OBJECT_LOCK(agg);
@@ -392,7 +392,7 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
   for (size_t i = 0; i < pads.size(); ++i) {
     pending[i].key = pads[i];
     pending[i].running_time_ns = time_ns(aggregator_pad_running_time(pads[i], bufs[i]));
-    if (const PoseMeta* m = buffer_get_pose_meta(bufs[i])) pending[i].pose = WarpedPose{true, m->seq, m->viewer_time_ns};
+    if (const PoseMeta* m = buffer_get_pose_meta(bufs[i])) pending[i].pose = WarpedPose{true, m->seq, m->viewer_time_ns, m->rendered};
   }
   FuseRound round;
   std::vector<RgbdInfo> infos;

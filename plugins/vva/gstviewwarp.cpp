@@ -264,7 +264,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("view warp failed: %s", e.what()), (nullptr));
     return GST_FLOW_ERROR;
   }
-  buffer_add_pose_meta(outbuf, pose.seq, pose.viewer_time_ns);
+  buffer_add_pose_meta(outbuf, pose.seq, pose.viewer_time_ns, rendered_pose_of(pose));
   return GST_FLOW_OK;
 }
 

@@ -50,6 +50,7 @@ struct Session {
 struct FramePose {
   uint64_t seq;
   int64_t viewer_time_ns;
+  RenderedPose rendered;  // after the navigation bounds: where the lecturer's view really is
 };
 
 struct WhepState {
@@ -175,7 +176,8 @@ static GstPadProbeReturn on_rtp_out(GstPad*, GstPadProbeInfo* info, gpointer use
     if (it == st->frame_poses.end()) return GST_PAD_PROBE_OK;
     GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
     if (!gst_rtp_buffer_map(buf, GST_MAP_READ, &rtp)) return GST_PAD_PROBE_OK;
-    echo = format_frame_echo(gst_rtp_buffer_get_timestamp(&rtp), it->second.seq, it->second.viewer_time_ns);
+    echo = format_frame_echo(gst_rtp_buffer_get_timestamp(&rtp), it->second.seq, it->second.viewer_time_ns,
+                             it->second.rendered);
     gst_rtp_buffer_unmap(&rtp);
     channel = GST_WEBRTC_DATA_CHANNEL(gst_object_ref(s->channel));
   }
@@ -489,7 +491,7 @@ static GstPadProbeReturn on_frame_in(GstPad*, GstPadProbeInfo* info, gpointer us
   PoseMeta* meta = buf ? buffer_get_pose_meta(buf) : nullptr;
   if (!meta || !GST_BUFFER_PTS_IS_VALID(buf)) return GST_PAD_PROBE_OK;
   std::lock_guard<std::mutex> g(self->st->lock);
-  self->st->frame_poses[GST_BUFFER_PTS(buf)] = FramePose{meta->seq, meta->viewer_time_ns};
+  self->st->frame_poses[GST_BUFFER_PTS(buf)] = FramePose{meta->seq, meta->viewer_time_ns, meta->rendered};
   while (self->st->frame_poses.size() > 64) self->st->frame_poses.erase(self->st->frame_poses.begin());
   return GST_PAD_PROBE_OK;
 }

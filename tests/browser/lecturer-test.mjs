@@ -79,7 +79,28 @@ try {
   if (!(d > 2)) fail(`picture unchanged by the drag (mean difference ${d})`);
   console.log(`ok drag: seq ${seqBefore} -> ${seqAfter} echoed, picture changed by ${d.toFixed(1)}`);
 
-  // 4. The XR frame loop's pose path with a scripted headset pose (0.3 m to the right, turned 20°).
+  // 4. The soft stop: a drag far past the server's navigation bounds (yaw ±60° from its reference camera)
+  // shows the view at the edge, the echo says it was clamped, and the page's view moves to that edge, so
+  // dragging back moves at once.
+  const yawBefore = await page.evaluate(() => window.vclassroom.view.yaw);
+  await page.mouse.move(200, 270);
+  await page.mouse.down();
+  await page.mouse.move(700, 270, { steps: 5 });  // 500 px at 0.2°/px: 100° more, to about 140°
+  await page.mouse.up();
+  const dragged = await page.evaluate(() => window.vclassroom.seq);
+  await shownFor(dragged);
+  try {
+    await page.waitForFunction(() => window.vclassroom.stats.adopted > 0, { timeout: 15000 });
+  } catch (e) {
+    fail('no clamped echo adopted: ' + JSON.stringify(await page.evaluate(() => window.vclassroom.stats)));
+  }
+  const stop = await page.evaluate(() => ({ yaw: window.vclassroom.view.yaw, clamped: window.vclassroom.stats.lastShownClamped }));
+  if (!stop.clamped) fail('the view past the bounds was not echoed as clamped');
+  // The edge is 60° from the reference camera (which looks 20° down; the page's yaw is about the vertical).
+  if (!(stop.yaw > 40 && stop.yaw < 80)) fail(`the page's view is not at the edge: yaw ${stop.yaw}`);
+  console.log(`ok soft stop: dragged to yaw ${(yawBefore + 100).toFixed(0)}°, held at ${stop.yaw.toFixed(1)}°`);
+
+  // 5. The XR frame loop's pose path with a scripted headset pose (0.3 m to the right, turned 20°).
   const xrSeq = await page.evaluate(() => {
     const h = 20 * Math.PI / 360;
     window.vclassroom.onXRPose({ x: 0.3, y: 0, z: 0 }, { x: 0, y: -Math.sin(h), z: 0, w: Math.cos(h) });
@@ -89,10 +110,15 @@ try {
   const xr = await picture();
   const dx = difference(after, xr);
   if (!(dx > 2)) fail(`picture unchanged by the XR pose (mean difference ${dx})`);
-  console.log(`ok XR pose: seq ${xrSeq} echoed, picture changed by ${dx.toFixed(1)}`);
+  // The headset is 0.1 m past the bounds' right edge: the server rendered, and echoed, the edge.
+  const shown = await page.evaluate(() => ({ clamped: window.vclassroom.stats.lastShownClamped,
+                                              pose: window.vclassroom.stats.lastShownPose }));
+  if (!shown.clamped || Math.abs(shown.pose.position[0] - 0.2) > 1e-3)
+    fail(`the XR pose 0.3 m right was not echoed clamped to 0.2 m: ${JSON.stringify(shown)}`);
+  console.log(`ok XR pose: seq ${xrSeq} echoed, picture changed by ${dx.toFixed(1)}, clamped to x ${shown.pose.position[0].toFixed(3)} m`);
   const latency = await page.evaluate(() => window.vclassroom.stats.latencyMs.slice());
   console.log(`ok ${latency.length} latency samples`);
-  // 5. Leaving: DELETE of the session's Location is 200, a second one 404 (the session is gone).
+  // 6. Leaving: DELETE of the session's Location is 200, a second one 404 (the session is gone).
   const left = await page.evaluate(async () => [await window.vclassroom.leave(), await window.vclassroom.leave()]);
   if (left[0] !== 200 || left[1] !== 404) fail(`DELETE gave ${left}, expected 200 then 404`);
   console.log('ok left: DELETE 200, again 404');

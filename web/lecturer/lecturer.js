@@ -46,6 +46,19 @@ function viewToPose(v) {
   return { position: p, orientation: q };
 }
 
+// The inverse of viewToPose: a camera pose (rig frame) as the page's offsets. The rotation after the level
+// reference is yaw (about Y), then -pitch (about X), then roll (about Z): R = Ry Rx Rz, so R[0][2] = sin(yaw)
+// cos(pitch), R[2][2] = cos(yaw) cos(pitch), R[1][2] = sin(pitch), R[1][0] / R[1][1] = tan(roll).
+function poseToView(position, orientation) {
+  const refInverse = [-1, 0, 0, 0];
+  const q = quatMul(refInverse, orientation);
+  const col2 = rotate(q, [0, 0, 1]), col0 = rotate(q, [1, 0, 0]), col1 = rotate(q, [0, 1, 0]);
+  const deg = 180 / Math.PI;
+  const p = rotate(refInverse, position);
+  return { right: p[0], up: -p[1], forward: p[2], yaw: Math.atan2(col2[0], col2[2]) * deg,
+           pitch: Math.asin(Math.max(-1, Math.min(1, col2[1]))) * deg, roll: Math.atan2(col0[1], col1[1]) * deg };
+}
+
 function sendPose(pose) {
   if (!channel || channel.readyState !== 'open') return false;
   seq += 1;
@@ -119,15 +132,32 @@ function installSliders() {
   });
 }
 
-// Echoes from the server: RTP timestamp -> the pose seq and viewer time it was rendered for.
+// Echoes from the server: RTP timestamp -> the pose seq and viewer time it was rendered for and, from a
+// server with navigation bounds, the pose it really rendered and whether it had to move it inside them.
 const echoes = new Map();
-const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], lastSeqEchoed: 0, width: 0, height: 0 };
+const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], lastSeqEchoed: 0, width: 0, height: 0,
+                clampedShown: 0, lastShownClamped: false, lastShownPose: null, adopted: 0 };
 function onEcho(text) {
   const f = text.split(' ');
-  if (f.length !== 4 || f[0] !== 'frame') return;
-  echoes.set(Number(f[1]), { seq: Number(f[2]), time: Number(f[3]) });
-  stats.lastSeqEchoed = Math.max(stats.lastSeqEchoed, Number(f[2]));
+  if ((f.length !== 4 && f.length !== 12) || f[0] !== 'frame') return;
+  const e = { seq: Number(f[2]), time: Number(f[3]), pose: null, clamped: false };
+  if (f.length === 12) {
+    const v = f.slice(4, 11).map(Number);
+    if (v.some(x => !Number.isFinite(x))) return;
+    e.pose = { position: v.slice(0, 3), orientation: v.slice(3, 7) };
+    e.clamped = f[11] === '1';
+  }
+  echoes.set(Number(f[1]), e);
+  stats.lastSeqEchoed = Math.max(stats.lastSeqEchoed, e.seq);
   if (echoes.size > 300) echoes.delete(echoes.keys().next().value);
+  // A soft stop for the mouse, keys and sliders: the server moved the latest pose to the edge of what the
+  // cameras see, so the page's view moves there too (a drag back moves at once instead of first unwinding
+  // what went past the edge). A headset's pose is the head's own and is not adopted.
+  if (e.clamped && e.seq === seq && !xrPose) {
+    Object.assign(view, poseToView(e.pose.position, e.pose.orientation));
+    updateSliders();
+    stats.adopted += 1;
+  }
 }
 function watchFrames(video) {
   const readout = document.getElementById('readout');
@@ -139,7 +169,13 @@ function watchFrames(video) {
       stats.lastSeqShown = e.seq;
       stats.latencyMs.push(meta.expectedDisplayTime - e.time);
       if (stats.latencyMs.length > 300) stats.latencyMs.shift();
-      readout.textContent = `pose→photon ${(meta.expectedDisplayTime - e.time).toFixed(0)} ms (seq ${e.seq})`;
+      readout.textContent = `pose→photon ${(meta.expectedDisplayTime - e.time).toFixed(0)} ms (seq ${e.seq})` +
+                            (e.clamped ? ' · at the edge of what the cameras see' : '');
+    }
+    if (e && e.pose) {
+      stats.lastShownClamped = e.clamped;
+      stats.lastShownPose = e.pose;
+      if (e.clamped) stats.clampedShown += 1;
     }
     video.requestVideoFrameCallback(onFrame);
   };
@@ -201,7 +237,7 @@ async function installVR() {
   };
 }
 
-window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, xrPoseToPose, get seq() { return seq; } };
+window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, poseToView, xrPoseToPose, get seq() { return seq; } };
 // Loaded after the page's body (index.html adds this script with the token).
 installSliders();
 installControls(document.getElementById('view'));

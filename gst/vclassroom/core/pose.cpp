@@ -96,6 +96,41 @@ void validate_pose(const Pose& p) {
   if (!std::isnan(p.fov_deg) && !std::isfinite(p.fov_deg)) throw Error("pose: fov is infinite");
 }
 
+RenderedPose rendered_pose_of(const Pose& pose) {
+  RenderedPose r;
+  r.known = true;
+  r.clamped = pose.clamped;
+  for (int i = 0; i < 3; ++i) r.position[i] = static_cast<float>(pose.position[i]);
+  const Eigen::Quaterniond q = pose.orientation.normalized();
+  r.orientation[0] = static_cast<float>(q.w());
+  r.orientation[1] = static_cast<float>(q.x());
+  r.orientation[2] = static_cast<float>(q.y());
+  r.orientation[3] = static_cast<float>(q.z());
+  return r;
+}
+
+Pose pose_of(const RenderedPose& r) {
+  Pose p;
+  p.position = Eigen::Vector3d(r.position[0], r.position[1], r.position[2]);
+  p.orientation = Eigen::Quaterniond(r.orientation[0], r.orientation[1], r.orientation[2], r.orientation[3]).normalized();
+  p.clamped = r.clamped;
+  return p;
+}
+
+bool rendered_pose_is_valid(const RenderedPose& r) {
+  double distance2 = 0, norm2 = 0;
+  for (float v : r.position) {
+    if (!std::isfinite(v)) return false;
+    distance2 += double(v) * v;
+  }
+  for (float v : r.orientation) {
+    if (!std::isfinite(v)) return false;
+    norm2 += double(v) * v;
+  }
+  // Rounded to float, a unit quaternion's norm is within about 1e-7 of 1.
+  return distance2 <= kMaxPoseDistance * kMaxPoseDistance && std::abs(std::sqrt(norm2) - 1.0) <= kUnitQuaternionTolerance;
+}
+
 GstEvent* pose_event_new(const Pose& p) {
   validate_pose(p);
   const Eigen::Quaterniond q = p.orientation.normalized();
@@ -105,6 +140,7 @@ GstEvent* pose_event_new(const Pose& p) {
                                       q.z(), "seq", G_TYPE_UINT64, static_cast<guint64>(p.seq), nullptr);
   if (p.has_fov()) gst_structure_set(s, "fov", G_TYPE_DOUBLE, p.fov_deg, nullptr);
   if (p.viewer_time_ns >= 0) gst_structure_set(s, "viewer-time", G_TYPE_INT64, static_cast<gint64>(p.viewer_time_ns), nullptr);
+  if (p.clamped) gst_structure_set(s, "clamped", G_TYPE_BOOLEAN, TRUE, nullptr);
   return gst_event_new_custom(GST_EVENT_CUSTOM_UPSTREAM, s);
 }
 
@@ -144,6 +180,12 @@ bool pose_event_parse(GstEvent* event, Pose* out, std::string* error) {
     *error = "pose event: field 'viewer-time' is not an integer (ns)";
     return false;
   }
+  gboolean clamped = FALSE;
+  if (gst_structure_has_field(s, "clamped") && !gst_structure_get_boolean(s, "clamped", &clamped)) {
+    *error = "pose event: field 'clamped' is not a boolean";
+    return false;
+  }
+  p.clamped = clamped;
   try {
     validate_pose(p);
   } catch (const Error& e) {
@@ -440,6 +482,7 @@ bool clamp_to_navigation(const NavigationBounds& bounds, const CameraCalib& refe
   clamped.seq = pose->seq;
   clamped.viewer_time_ns = pose->viewer_time_ns;
   clamped.fov_deg = pose->fov_deg;
+  clamped.clamped = true;
   *pose = clamped;
   return true;
 }

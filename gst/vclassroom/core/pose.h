@@ -32,11 +32,29 @@ struct Pose {
   double fov_deg = std::numeric_limits<double>::quiet_NaN();  // optional horizontal field of view
   uint64_t seq = 0;
   int64_t viewer_time_ns = -1;  // -1: not given
+  // The server moved this pose into the rig's navigation bounds (docs/navigation.md); carried by the pose
+  // event to the renderers and echoed with the frame, never sent by a client.
+  bool clamped = false;
 
   bool has_fov() const { return std::isfinite(fov_deg); }
   Eigen::Isometry3d cam_to_rig() const;
   static Pose from_cam_to_rig(const Eigen::Isometry3d& T);
 };
+
+// The pose a frame shows, as the server rendered it: after the navigation bounds moved it in, so the lecturer's
+// side learns where it really is. Plain floats, as it rides in a GstMeta and on the wire (pose_stamp.h).
+struct RenderedPose {
+  bool known = false;    // false: the frame names only the pose's seq and viewer time
+  bool clamped = false;  // the lecturer's pose was outside the navigation bounds and was moved in
+  float position[3] = {0, 0, 0};         // rig metres
+  float orientation[4] = {1, 0, 0, 0};  // unit quaternion w, x, y, z (virtual camera -> rig)
+};
+RenderedPose rendered_pose_of(const Pose& pose);
+// The pose it names (seq and viewer time unset), for a known one.
+Pose pose_of(const RenderedPose& rendered);
+// False when the values are not a usable pose (not finite, absurd position, not a unit quaternion at float
+// precision): it came from the network.
+bool rendered_pose_is_valid(const RenderedPose& rendered);
 
 // Throws Error when the pose is not usable: NaN, non-unit quaternion, absurd
 // position or field of view.
@@ -76,7 +94,7 @@ Sliders offset_to_sliders(const ViewOffset& o);
 // The pose nearest to `pose` inside the navigation bounds (each of the six
 // offsets from the reference camera clamped to its range). Returns false and
 // leaves `pose` untouched, bit for bit, when it is inside already. seq,
-// viewer time and field of view are kept.
+// viewer time and field of view are kept; `clamped` is set.
 bool clamp_to_navigation(const NavigationBounds& bounds, const CameraCalib& reference, Pose* pose);
 
 Pose sliders_to_pose(const Sliders& s, const CameraCalib& reference);

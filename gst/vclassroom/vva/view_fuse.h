@@ -6,6 +6,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/vva/view_warp.h>
 
 namespace vclassroom {
@@ -62,6 +63,7 @@ struct WarpedPose {
   bool known = false;          // the frame carries a pose
   uint64_t seq = 0;
   int64_t viewer_time_ns = -1;  // when the viewer took the pose; < 0 unknown
+  RenderedPose rendered;        // the pose as rendered (after the navigation bounds), echoed with the frame
 };
 
 // Live, one output frame should show one view: a camera's frame warped for

@@ -182,24 +182,47 @@ std::string format_pose_message(const Pose& p) {
   return text;
 }
 
-std::string format_frame_echo(uint32_t rtp_timestamp, uint64_t seq, int64_t viewer_time_ns) {
-  char text[128];
-  std::snprintf(text, sizeof text, "frame %u %llu %.3f", rtp_timestamp, static_cast<unsigned long long>(seq),
-                viewer_time_ns < 0 ? -1.0 : viewer_time_ns / 1e6);
+std::string format_frame_echo(uint32_t rtp_timestamp, uint64_t seq, int64_t viewer_time_ns,
+                              const RenderedPose& rendered) {
+  char text[kMaxFrameEchoBytes];
+  int n = std::snprintf(text, sizeof text, "frame %u %llu %.3f", rtp_timestamp, static_cast<unsigned long long>(seq),
+                        viewer_time_ns < 0 ? -1.0 : viewer_time_ns / 1e6);
+  if (rendered.known) {
+    const float* p = rendered.position;
+    const float* q = rendered.orientation;  // w x y z; the message writes x y z w, as the pose message
+    std::snprintf(text + n, sizeof text - n, " %.9g %.9g %.9g %.9g %.9g %.9g %.9g %d", p[0], p[1], p[2], q[1], q[2],
+                  q[3], q[0], rendered.clamped ? 1 : 0);
+  }
   return text;
 }
 
-bool parse_frame_echo(std::string_view message, uint32_t* rtp_timestamp, uint64_t* seq, double* viewer_time_ms) {
-  if (message.size() > 128) return false;
+bool parse_frame_echo(std::string_view message, uint32_t* rtp_timestamp, uint64_t* seq, double* viewer_time_ms,
+                      RenderedPose* rendered) {
+  if (message.size() > kMaxFrameEchoBytes) return false;
   std::vector<std::string_view> f;
   uint64_t ts = 0, s = 0;
   double t = 0;
-  if (!split_fields(message, 4, &f) || f[0] != "frame" || !parse_number(f[1], &ts) || ts > 0xffffffffu ||
-      !parse_number(f[2], &s) || !parse_number(f[3], &t))
+  const bool with_pose = split_fields(message, 12, &f);
+  if ((!with_pose && !split_fields(message, 4, &f)) || f[0] != "frame" || !parse_number(f[1], &ts) ||
+      ts > 0xffffffffu || !parse_number(f[2], &s) || !parse_number(f[3], &t))
     return false;
+  RenderedPose r;
+  if (with_pose) {
+    double v[7];
+    for (int i = 0; i < 7; ++i)
+      if (!parse_number(f[4 + i], &v[i])) return false;
+    if (f[11] != "0" && f[11] != "1") return false;
+    r.known = true;
+    r.clamped = f[11] == "1";
+    for (int i = 0; i < 3; ++i) r.position[i] = static_cast<float>(v[i]);
+    r.orientation[0] = static_cast<float>(v[6]);
+    for (int i = 0; i < 3; ++i) r.orientation[1 + i] = static_cast<float>(v[3 + i]);
+    if (!rendered_pose_is_valid(r)) return false;
+  }
   *rtp_timestamp = static_cast<uint32_t>(ts);
   *seq = s;
   *viewer_time_ms = t;
+  if (rendered) *rendered = r;
   return true;
 }
 

@@ -103,8 +103,17 @@ std::string format_pose_message(const Pose& pose);
 
 // What goes back for each sent frame: the pose it was rendered for, keyed by
 // the frame's RTP timestamp (the page reads requestVideoFrameCallback's
-// metadata.rtpTimestamp): "frame <rtp_timestamp> <seq> <viewer_time_ms>".
-std::string format_frame_echo(uint32_t rtp_timestamp, uint64_t seq, int64_t viewer_time_ns);
-bool parse_frame_echo(std::string_view message, uint32_t* rtp_timestamp, uint64_t* seq, double* viewer_time_ms);
+// metadata.rtpTimestamp): "frame <rtp_timestamp> <seq> <viewer_time_ms>",
+// followed, when the frame names it, by the pose as the server rendered it
+// (after its navigation bounds) and whether it clamped it:
+// " <x> <y> <z> <qx> <qy> <qz> <qw> <0|1>" (rig metres, camera-to-rig
+// quaternion, as in the pose message). At most kMaxFrameEchoBytes.
+inline constexpr size_t kMaxFrameEchoBytes = 256;
+std::string format_frame_echo(uint32_t rtp_timestamp, uint64_t seq, int64_t viewer_time_ns,
+                              const RenderedPose& rendered = RenderedPose{});
+// False for anything else, or a pose rendered_pose_is_valid() refuses. `rendered` (optional) is left
+// unknown for the short form.
+bool parse_frame_echo(std::string_view message, uint32_t* rtp_timestamp, uint64_t* seq, double* viewer_time_ms,
+                      RenderedPose* rendered = nullptr);
 
 }  // namespace vclassroom
