@@ -263,20 +263,23 @@ TEST(ViewFuseBounds, TheServerClampsEveryPoseItSendsToTheCameras) {
 
 // The frame names the pose it shows: the server's camera branch (viewwarp) renders the pose viewfuse clamped,
 // and the fused frame's pose meta (what the RTP header extension and the WHEP data channel echo to the
-// lecturer) carries that clamped pose and says it was clamped; a pose inside comes back as sent.
+// lecturer) carries that clamped pose and says it was clamped; a pose inside comes back as sent, and its
+// frame is the one a server without bounds renders, bit for bit.
 TEST(ViewFuseBounds, TheFrameCarriesThePoseAsClampedAndRendered) {
   vctest::TempDir dir;
   const Rig rig = bounded_rig();
   save_rig(rig, dir / "rig.yaml");
   const std::string r = dir / "rig.yaml";
-  GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + r + " ! viewfuse rig=" + r).c_str());
+  GstHarness* bounded = gst_harness_new_parse(("viewwarp rig=" + r + " ! viewfuse rig=" + r).c_str());
+  GstHarness* unbounded = gst_harness_new_parse(("viewwarp rig=" + r + " ! viewfuse").c_str());
   RgbdInfo info;
   info.camera = rig.camera(0);
   info.planes = {Plane::Color, Plane::Depth};
-  gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  gst_harness_set_src_caps(bounded, rgbd_caps_new(info));
+  gst_harness_set_src_caps(unbounded, rgbd_caps_new(info));
   const Classroom room(ClassroomConfig{1, 3, 2.0});
   const RenderOutput frame = render(room, 0.0, info.camera);
-  auto rendered_for = [&](const Pose& p, GstClockTime pts) {
+  auto rendered_for = [&](GstHarness* h, const Pose& p, GstClockTime pts, std::vector<uint8_t>* bytes) {
     EXPECT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(p)));
     GstBuffer* buf = rgbd_buffer_new(info);
     {
@@ -293,30 +296,35 @@ TEST(ViewFuseBounds, TheFrameCarriesThePoseAsClampedAndRendered) {
     PoseMeta m{};
     if (const PoseMeta* got = out ? buffer_get_pose_meta(out) : nullptr) m = *got;
     EXPECT_TRUE(m.rendered.known) << "the fused frame names no rendered pose";
-    if (out) gst_buffer_unref(out);
+    if (out) {
+      bytes->resize(gst_buffer_get_size(out));
+      gst_buffer_extract(out, 0, bytes->data(), bytes->size());
+      gst_buffer_unref(out);
+    }
     return m;
   };
   const CameraCalib& ref = rig.camera(0);
   Pose inside = offset_to_pose(ViewOffset{0.1, 0, 0.2, 3, 1, 0}, ref);
   inside.seq = 1;
-  const PoseMeta a = rendered_for(inside, 0);
+  std::vector<uint8_t> with_bounds, without_bounds;
+  const PoseMeta a = rendered_for(bounded, inside, 0, &with_bounds);
   EXPECT_EQ(a.seq, 1u);
   EXPECT_FALSE(a.rendered.clamped);
   EXPECT_FLOAT_EQ(a.rendered.position[0], float(inside.position.x()));
   EXPECT_FLOAT_EQ(a.rendered.position[2], float(inside.position.z()));
+  rendered_for(unbounded, inside, 0, &without_bounds);
+  EXPECT_FALSE(with_bounds.empty());
+  EXPECT_TRUE(with_bounds == without_bounds) << "a pose inside the bounds renders differently with them";
   Pose ceiling = offset_to_pose(ViewOffset{0.6, 0, 0, 0, 70, 0}, ref);  // too far right, looking up
   ceiling.seq = 2;
-  const PoseMeta b = rendered_for(ceiling, GST_SECOND / 30);
+  const PoseMeta b = rendered_for(bounded, ceiling, GST_SECOND / 30, &with_bounds);
   EXPECT_EQ(b.seq, 2u);
   EXPECT_TRUE(b.rendered.clamped);
-  Pose echoed;
-  echoed.position = Eigen::Vector3d(b.rendered.position[0], b.rendered.position[1], b.rendered.position[2]);
-  echoed.orientation = Eigen::Quaterniond(b.rendered.orientation[0], b.rendered.orientation[1],
-                                          b.rendered.orientation[2], b.rendered.orientation[3]);
-  const std::array<double, 6> o = offsets_of(echoed, ref);
+  const std::array<double, 6> o = offsets_of(pose_of(b.rendered), ref);
   EXPECT_NEAR(o[0], 0.2, 1e-5);  // the nearest allowed pose: 0.2 m right, pitch 5°
   EXPECT_NEAR(o[4], 5, 1e-4);
-  gst_harness_teardown(h);
+  gst_harness_teardown(bounded);
+  gst_harness_teardown(unbounded);
 }
 
 TEST(HonestEdge, WhatNoCameraSawFadesToGreyAndIsCounted) {
