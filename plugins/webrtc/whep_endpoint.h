@@ -1,0 +1,57 @@
+// The WHEP side of the browser lecturer, shared by whepserversink (one view for
+// every lecturer) and whepviewsink (a view per lecturer): the libsoup 3 server in
+// its own thread (page, token, POST/DELETE), one webrtcbin per session fed by an
+// H.264 source the element provides, the pose data channel and the per-frame echo.
+// Request checks, session ids and message formats are the library's
+// (gst/vclassroom/webrtc/whep.h); this is their GStreamer/libsoup glue.
+#pragma once
+
+#include <gst/gst.h>
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include <gst/vclassroom/core/pose.h>
+
+namespace vclassroom {
+
+// What the element does for a session.
+struct WhepEndpointHooks {
+  // Adds the session's encoded video to the element's bin and returns (a reference to) its source pad:
+  // H.264 constrained baseline, byte-stream, whose buffers keep the frames' pose meta. nullptr refuses the
+  // session (the POST gets 503). Called from the WHEP server's thread.
+  std::function<GstPad*(const std::string& session)> attach;
+  // Takes that source out again; the endpoint has unlinked `pad` and removed its own elements.
+  std::function<void(const std::string& session, GstPad* pad)> detach;
+  // A well-formed, plausible pose from the session's page (parse_pose_message, pose_is_plausible).
+  std::function<void(const std::string& session, const Pose& pose)> pose;
+};
+
+class WhepEndpoint {
+ public:
+  WhepEndpoint(GstBin* owner, const char* debug_name, WhepEndpointHooks hooks);
+  ~WhepEndpoint();
+  WhepEndpoint(const WhepEndpoint&) = delete;
+  WhepEndpoint& operator=(const WhepEndpoint&) = delete;
+
+  // The endpoint's properties (port, token, tls-certificate, tls-key, bitrate, max-sessions, web-root,
+  // bound-port, sessions) on the element's class, with ids from `first_id`; returns the next free id.
+  static guint install_properties(GObjectClass* klass, guint first_id);
+  // False when `id` is not one of the endpoint's.
+  bool set_property(guint id, const GValue* value);
+  bool get_property(guint id, GValue* value);
+
+  guint bitrate_kbit() const;
+  // NULL -> READY: checks the settings and listens; false after posting an error on the owner.
+  bool start();
+  // READY -> NULL: ends every session and stops listening.
+  void stop();
+
+  struct State;
+
+ private:
+  std::unique_ptr<State> st_;
+};
+
+}  // namespace vclassroom
