@@ -18,6 +18,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "test_util.h"
 
@@ -294,37 +295,39 @@ TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {
   gst_harness_teardown(h);
 }
 
-// The whole path in a real browser: the synthetic classroom rendered through
-// viewfuse into whepserversink, headless Chromium driven by
-// tests/browser/lecturer-test.mjs (puppeteer-core): a wrong token gets 401 and
-// nothing else; the page joins with the token and decodes 960x540 frames; a
-// scripted drag sends poses whose seq comes back with the frames and changes
-// the picture; the XR frame loop's pose path (onXRPose) with a scripted
-// headset pose does the same. The script waits on page conditions, not sleeps.
-TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheView) {
+namespace {
+
+// What a browser script printed and whether it exited 0; `skip` says why it could not run.
+struct BrowserRun {
+  std::string skip, output;
+  bool ok = false;
+};
+
+// Runs `gst-launch-1.0 <server>` (with {PORT} replaced by a free TCP port) as a process of its own (webrtcbin
+// 1.22 keeps its ICE and DTLS agents alive past gst_deinit(), which this program's leaks tracer would count
+// as ours), then `node tests/browser/<script> http://127.0.0.1:PORT <args...>`, then stops the server.
+BrowserRun run_browser_script(const std::string& server, const std::string& script, const std::vector<std::string>& args) {
+  BrowserRun run;
   const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
-  ASSERT_NE(source_dir, nullptr);
-  const std::string browser_dir = std::string(source_dir) + "/tests/browser";
+  const std::string browser_dir = std::string(source_dir ? source_dir : ".") + "/tests/browser";
   const char* chromium = g_getenv("CHROMIUM") ? g_getenv("CHROMIUM") : "/usr/bin/chromium";
   gchar* node = g_find_program_in_path("node");
   if (!node || !g_file_test(chromium, G_FILE_TEST_IS_EXECUTABLE) ||
       !g_file_test((browser_dir + "/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR)) {
     g_free(node);
-    GTEST_SKIP() << "needs node, " << chromium << " and tests/browser/node_modules (scripts/setup.sh runs npm ci)";
+    run.skip = std::string("needs node, ") + chromium + " and tests/browser/node_modules (scripts/setup.sh runs npm ci)";
+    return run;
   }
   if (!gst_element_factory_find("webrtcbin") || !gst_element_factory_find("whepserversink")) {
     g_free(node);
-    GTEST_SKIP() << "needs webrtcbin (gstreamer1.0-plugins-bad, gstreamer1.0-nice) and whepserversink";
+    run.skip = "needs webrtcbin (gstreamer1.0-plugins-bad, gstreamer1.0-nice) and the webrtc plugin";
+    return run;
   }
-  // The server runs as gst-launch-1.0, a process of its own: webrtcbin 1.22
-  // keeps its ICE agent and the DTLS agent alive past gst_deinit(), which the
-  // leaks tracer of this program would count as ours.
   GError* err = nullptr;
   GSocket* probe = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_STREAM, G_SOCKET_PROTOCOL_TCP, &err);
-  ASSERT_NE(probe, nullptr);
   GInetAddress* loopback = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
   GSocketAddress* any_port = g_inet_socket_address_new(loopback, 0);
-  ASSERT_TRUE(g_socket_bind(probe, any_port, TRUE, &err));
+  EXPECT_TRUE(probe && g_socket_bind(probe, any_port, TRUE, &err));
   GSocketAddress* bound = g_socket_get_local_address(probe, &err);
   const guint port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
   g_object_unref(bound);
@@ -332,51 +335,103 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheVi
   g_object_unref(loopback);
   g_socket_close(probe, nullptr);
   g_object_unref(probe);
-  // The classroom's rig with navigation bounds around its centre camera (at the rig origin, looking 20° down):
-  // the page's first view (the origin, level) is inside; a headset 0.3 m to the right is not.
-  vctest::TempDir dir;
+  std::string launch = "gst-launch-1.0 " + server;
+  launch.replace(launch.find("{PORT}"), 6, std::to_string(port));
+  gchar** server_argv = nullptr;
+  EXPECT_TRUE(g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, &err));
+  GPid server_pid = 0;
+  const gboolean started =
+      g_spawn_async(nullptr, server_argv, nullptr,
+                    GSpawnFlags(G_SPAWN_SEARCH_PATH | G_SPAWN_DO_NOT_REAP_CHILD | G_SPAWN_STDOUT_TO_DEV_NULL), nullptr,
+                    nullptr, &server_pid, &err);
+  g_strfreev(server_argv);
+  EXPECT_TRUE(started) << (err ? err->message : "");
+  if (!started) {
+    g_free(node);
+    return run;
+  }
+  const std::string script_path = browser_dir + "/" + script, base = "http://127.0.0.1:" + std::to_string(port);
+  std::vector<const gchar*> argv = {node, script_path.c_str(), base.c_str()};
+  for (const std::string& a : args) argv.push_back(a.c_str());
+  argv.push_back(nullptr);
+  gchar* output = nullptr;
+  gint status = 0;
+  // Node and Chromium are not ours: no sanitizer runtime preloaded into them (the sanitizer build's env).
+  gchar** browser_env = g_environ_unsetenv(g_get_environ(), "LD_PRELOAD");
+  const gboolean spawned = g_spawn_sync(browser_dir.c_str(), const_cast<gchar**>(argv.data()), browser_env,
+                                        G_SPAWN_DEFAULT, nullptr, nullptr, &output, nullptr, &status, &err);
+  g_strfreev(browser_env);
+  kill(server_pid, SIGTERM);
+  waitpid(server_pid, nullptr, 0);
+  g_spawn_close_pid(server_pid);
+  g_free(node);
+  EXPECT_TRUE(spawned) << (err ? err->message : "");
+  run.output = output ? output : "";
+  g_free(output);
+  run.ok = spawned && g_spawn_check_wait_status(status, nullptr);
+  return run;
+}
+
+// The classroom's rig (optionally at a smaller size) with navigation bounds around its centre camera (at the
+// rig origin, looking 20° down): the page's first view (the origin, level) is inside; a headset 0.3 m to the
+// right is not.
+std::string bounded_classroom_rig(const vctest::TempDir& dir, int width, int height) {
   Rig rig = default_classroom_rig();
+  for (CameraCalib& c : rig.cameras) c = scale_camera(c, width, height);
   NavigationBounds bounds;
   bounds.reference_camera = 0;
   bounds.min = {-0.2, -0.3, -0.5, -60, -10, -20};
   bounds.max = {0.2, 0.3, 0.5, 60, 30, 20};
   rig.navigation = bounds;
-  const std::string rig_path = dir / "rig.yaml";
-  save_rig(rig, rig_path);
-  const std::string launch = "gst-launch-1.0 rgbdtestsrc camera-id=0 is-live=true rig=" + rig_path +
-                             " ! learnerseg ! viewwarp rig=" + rig_path + " ! queue ! f.cam_0 viewfuse name=f rig=" +
-                             rig_path + " ! whepserversink port=" + std::to_string(port) +
-                             " token=secret-token web-root=" + std::string(source_dir) + "/web/lecturer";
-  gchar** server_argv = nullptr;
-  ASSERT_TRUE(g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, &err));
-  GPid server = 0;
-  ASSERT_TRUE(g_spawn_async(nullptr, server_argv, nullptr,
-                            GSpawnFlags(G_SPAWN_SEARCH_PATH | G_SPAWN_DO_NOT_REAP_CHILD | G_SPAWN_STDOUT_TO_DEV_NULL),
-                            nullptr, nullptr, &server, &err))
-      << (err ? err->message : "");
-  g_strfreev(server_argv);
-  const std::string base = "http://127.0.0.1:" + std::to_string(port);
-  const std::string script = browser_dir + "/lecturer-test.mjs";
-  const gchar* argv[] = {node, script.c_str(), base.c_str(), "secret-token", "960", "540", nullptr};
-  gchar* output = nullptr;
-  gint status = 0;
-  // Node and Chromium are not ours: no sanitizer runtime preloaded into them (the sanitizer build's env).
-  gchar** browser_env = g_environ_unsetenv(g_get_environ(), "LD_PRELOAD");
-  const gboolean spawned = g_spawn_sync(browser_dir.c_str(), const_cast<gchar**>(argv), browser_env,
-                                        G_SPAWN_DEFAULT, nullptr, nullptr, &output, nullptr, &status, &err);
-  g_strfreev(browser_env);
-  kill(server, SIGTERM);
-  waitpid(server, nullptr, 0);
-  g_spawn_close_pid(server);
-  g_free(node);
-  ASSERT_TRUE(spawned) << (err ? err->message : "");
-  const std::string text = output ? output : "";
-  g_free(output);
-  EXPECT_TRUE(g_spawn_check_wait_status(status, nullptr)) << text;
+  const std::string path = dir / "rig.yaml";
+  save_rig(rig, path);
+  return path;
+}
+
+}  // namespace
+
+// The whole path in a real browser: the synthetic classroom rendered through viewfuse into whepserversink,
+// headless Chromium driven by tests/browser/lecturer-test.mjs (puppeteer-core): a wrong token
+// gets 401 and nothing else; the page joins and frames decode at 960x540; a
+// scripted drag sends poses whose seq comes back with the frames and changes
+// the picture; a drag past the server's navigation bounds stops at the edge;
+// the XR frame loop's pose path (onXRPose) with a scripted headset pose does
+// the same. The script waits on page conditions, not sleeps.
+TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheView) {
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 960, 540);
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const BrowserRun run = run_browser_script(
+      "rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! viewwarp rig=" + rig +
+          " ! queue ! f.cam_0 viewfuse name=f rig=" + rig +
+          " ! whepserversink port={PORT} token=secret-token web-root=" + web,
+      "lecturer-test.mjs", {"secret-token", "960", "540"});
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
   for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok soft stop:", "ok XR pose:",
                             "ok left:"})
-    EXPECT_NE(text.find(check), std::string::npos) << check << " missing in:\n" << text;
-  std::printf("%s", text.c_str());
+    EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
+  std::printf("%s", run.output.c_str());
+}
+
+// Several lecturers at once through whepviewsink: two pages each get their own view (poses 0.2 m apart show
+// different pictures, and each page's echo names its own pose); a third is refused with 503 while two
+// watch; when one leaves, the other goes on and a new page joins in the freed place.
+TEST(WebrtcBrowser, TwoLecturersGetTheirOwnViewsAndALeaverFreesItsPlace) {
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 320, 180);
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const BrowserRun run = run_browser_script(
+      "whepviewsink name=w port={PORT} token=secret-token max-sessions=2 rig=" + rig + " navigation-rig=" + rig +
+          " web-root=" + web + " rgbdtestsrc camera-id=0 is-live=true rig=" + rig +
+          " ! learnerseg ! w.cam_0 rgbdtestsrc camera-id=1 is-live=true rig=" + rig + " ! learnerseg ! w.cam_1",
+      "lecturers-test.mjs", {"secret-token", "320", "180"});
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
+  for (const char* check : {"ok two joined", "ok own views:", "ok third refused: 503", "ok one left, the other goes on",
+                            "ok a new page joined in the freed place"})
+    EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
+  std::printf("%s", run.output.c_str());
 }
 
 // The page steers like posenav: its NAV constants (web/lecturer/lecturer.js)

@@ -231,19 +231,14 @@ void on_offer_set(GstPromise* promise, gpointer user_data) {
                         gst_promise_new_with_change_func(on_answer_created, s, nullptr));
 }
 
-// Feeds the element's source for the session through queue ! rtph264pay ! webrtcbin and starts answering
-// `offer` (taken). Called with the lock held; false when the element refused the session.
-bool start_session_locked(State* st, GstSDPMessage* offer, int payload, SoupServerMessage* msg) {
+// Feeds the element's `source` (taken) for session `id` through queue ! rtph264pay ! webrtcbin and starts
+// answering `offer` (taken). Called with the lock held.
+void start_session_locked(State* st, const std::string& id, GstPad* source, GstSDPMessage* offer, int payload,
+                          SoupServerMessage* msg) {
   Session* s = new Session;
   s->owner = st;
-  s->id = new_whep_session_id();
-  s->source = st->hooks.attach(s->id);
-  if (!s->source) {
-    GST_WARNING_OBJECT(st->owner, "no view for a new session");
-    gst_sdp_message_free(offer);
-    delete s;
-    return false;
-  }
+  s->id = id;
+  s->source = source;
   s->queue = gst_element_factory_make("queue", nullptr);
   g_object_set(s->queue, "max-size-buffers", 2, "max-size-time", (guint64)0, "max-size-bytes", 0, "leaky", 2,
                nullptr);
@@ -283,7 +278,6 @@ bool start_session_locked(State* st, GstSDPMessage* offer, int payload, SoupServ
   g_signal_emit_by_name(s->webrtc, "set-remote-description", desc,
                         gst_promise_new_with_change_func(on_offer_set, s, nullptr));
   gst_webrtc_session_description_free(desc);
-  return true;
 }
 
 // Takes the session's branch out of the pipeline, lets the element take its source out, and frees it.
@@ -331,6 +325,8 @@ void on_request(SoupServer*, SoupServerMessage* msg, const char* path, GHashTabl
   r.body = body_text;
 
   Session* leaving = nullptr;
+  GstSDPMessage* offer = nullptr;
+  int payload = -1;
   {
     std::lock_guard<std::mutex> g(st->lock);
     std::string file, mime_type;
@@ -367,23 +363,32 @@ void on_request(SoupServer*, SoupServerMessage* msg, const char* path, GHashTabl
       leaving = it->second;
       st->sessions.erase(it);
       st->table.remove(d.session_id);
-    } else {
-      GstSDPMessage* offer = nullptr;
-      int payload = -1;
-      if (gst_sdp_message_new_from_text(body_text.c_str(), &offer) != GST_SDP_OK ||
-          (payload = pick_h264_payload(offer)) < 0) {
-        if (offer) gst_sdp_message_free(offer);
-        GST_INFO_OBJECT(st->owner, "offer without H.264 constrained baseline (packetization-mode 1): 406");
-        respond(msg, 406);  // no H.264 constrained baseline offered
-        return;
-      }
-      soup_server_message_pause(msg);
-      if (!start_session_locked(st, offer, payload, msg)) {
-        respond(msg, 503);
-        soup_server_message_unpause(msg);
-      }
+    } else if (gst_sdp_message_new_from_text(body_text.c_str(), &offer) != GST_SDP_OK ||
+               (payload = pick_h264_payload(offer)) < 0) {
+      if (offer) gst_sdp_message_free(offer);
+      GST_INFO_OBJECT(st->owner, "offer without H.264 constrained baseline (packetization-mode 1): 406");
+      respond(msg, 406);  // no H.264 constrained baseline offered
       return;
     }
+  }
+  if (offer) {
+    // The element builds the session's video without this lock (it may read the settings); requests are
+    // handled one at a time in this thread, so the session count checked above still holds.
+    const std::string id = new_whep_session_id();
+    GstPad* source = st->hooks.attach(id);
+    if (!source) {
+      GST_WARNING_OBJECT(st->owner, "no view for a new session: 503");
+      gst_sdp_message_free(offer);
+      respond(msg, 503);
+      return;
+    }
+    soup_server_message_pause(msg);
+    {
+      std::lock_guard<std::mutex> g(st->lock);
+      start_session_locked(st, id, source, offer, payload, msg);
+    }
+    if (st->hooks.start) st->hooks.start(id);
+    return;
   }
   GST_INFO_OBJECT(st->owner, "session %s left", leaving->id.c_str());
   end_session(st, leaving);

@@ -20,8 +20,11 @@ namespace vclassroom {
 struct WhepEndpointHooks {
   // Adds the session's encoded video to the element's bin and returns (a reference to) its source pad:
   // H.264 constrained baseline, byte-stream, whose buffers keep the frames' pose meta. nullptr refuses the
-  // session (the POST gets 503). Called from the WHEP server's thread.
+  // session (the POST gets 503). Called from the WHEP server's thread, without the endpoint's lock.
   std::function<GstPad*(const std::string& session)> attach;
+  // Optional: the session's branch is linked and playing, the element may start feeding its source (until
+  // then an element whose source is not a tee's must hold its data back: an unlinked pad stops a stream).
+  std::function<void(const std::string& session)> start;
   // Takes that source out again; the endpoint has unlinked `pad` and removed its own elements.
   std::function<void(const std::string& session, GstPad* pad)> detach;
   // A well-formed, plausible pose from the session's page (parse_pose_message, pose_is_plausible).

@@ -2,23 +2,11 @@
 //   node lecturer-test.mjs BASE_URL TOKEN WIDTH HEIGHT
 // Prints one "ok ..." line per check, exits non-zero at the first failure.
 // Waits on conditions in the page (waitForFunction), never on fixed sleeps.
-import puppeteer from 'puppeteer-core';
-import fs from 'node:fs';
-import os from 'node:os';
-import path from 'node:path';
+import { timeout, fail, waitForServer, launchChromium, openLecturer, picture, difference, shownFor as shownForPage }
+  from './browser-util.mjs';
 
 const [base, token, width, height] = process.argv.slice(2);
-const chromium = process.env.CHROMIUM || '/usr/bin/chromium';
-const fail = message => { console.error('FAIL ' + message); process.exit(1); };
-const timeout = 60000;
-
-// The server may still be starting: wait until it answers (bounded).
-for (let tries = 0; ; ++tries) {
-  try { await fetch(`${base}/`); break; } catch (e) {
-    if (tries > 600) fail(`no server at ${base}`);
-    await new Promise(resolve => setTimeout(resolve, 100));  // retry interval of a connection poll, not a sync point
-  }
-}
+await waitForServer(base);
 
 // 1. A wrong token gets 401 and nothing else.
 for (const url of [`${base}/whep?token=wrong`, `${base}/whep`]) {
@@ -30,42 +18,22 @@ const page401 = await fetch(`${base}/?token=wrong`);
 if (page401.status !== 401) fail(`page with a wrong token: ${page401.status}`);
 console.log('ok wrong token: 401, empty');
 
-const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'vclassroom-chromium-'));
-const browser = await puppeteer.launch({
-  executablePath: chromium,
-  headless: true,
-  args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking', '--disable-component-update',
-         '--disable-sync', '--no-first-run', `--user-data-dir=${profile}`],
-});
+const chromium = await launchChromium();
 try {
-  const page = await browser.newPage();
-  await page.setViewport({ width: 960, height: 540 });
-  page.on('console', m => console.log('page: ' + m.text()));
-  await page.goto(`${base}/?token=${encodeURIComponent(token)}`);
+  const page = await openLecturer(chromium.browser, base, token);
   // 2. Joined, and frames decode at the server's size.
   await page.waitForFunction(() => window.vclassroom && window.vclassroom.stats.framesShown > 10, { timeout });
   const size = await page.evaluate(() => [window.vclassroom.stats.width, window.vclassroom.stats.height]);
   if (size[0] !== Number(width) || size[1] !== Number(height)) fail(`frames of ${size}, expected ${width}x${height}`);
   console.log(`ok joined, frames ${size[0]}x${size[1]}`);
 
-  // The picture: a hash of the shown frame's pixels (drawn into a canvas).
-  const picture = () => page.evaluate(() => {
-    const v = document.getElementById('view');
-    const c = document.createElement('canvas');
-    c.width = 160; c.height = 90;
-    const g = c.getContext('2d');
-    g.drawImage(v, 0, 0, 160, 90);
-    return Array.from(g.getImageData(0, 0, 160, 90).data);
-  });
-  const difference = (a, b) => a.reduce((s, x, i) => s + Math.abs(x - b[i]), 0) / a.length;
-  // Waits until the frames shown are rendered for seq >= `seq`.
-  const shownFor = seq => page.waitForFunction(s => window.vclassroom.stats.lastSeqShown >= s, { timeout }, seq);
+  const shownFor = seq => shownForPage(page, seq);
 
   try { await page.waitForFunction(() => window.vclassroom.stats.lastSeqShown >= 1, { timeout: 15000 }); } catch (e) {
     fail('no echo: ' + JSON.stringify(await page.evaluate(() => ({ seq: window.vclassroom.seq, echoed: window.vclassroom.stats.lastSeqEchoed, shown: window.vclassroom.stats.lastSeqShown, rtp: window.vclassroom.stats.lastRtp }))));
   }
   const seqBefore = await page.evaluate(() => window.vclassroom.seq);
-  const before = await picture();
+  const before = await picture(page);
   // 3. A scripted drag turns the view; the echoed seq advances and the picture changes.
   await page.mouse.move(480, 270);
   await page.mouse.down();
@@ -74,7 +42,7 @@ try {
   const seqAfter = await page.evaluate(() => window.vclassroom.seq);
   if (seqAfter <= seqBefore) fail('the drag sent no pose');
   await shownFor(seqAfter);
-  const after = await picture();
+  const after = await picture(page);
   const d = difference(before, after);
   if (!(d > 2)) fail(`picture unchanged by the drag (mean difference ${d})`);
   console.log(`ok drag: seq ${seqBefore} -> ${seqAfter} echoed, picture changed by ${d.toFixed(1)}`);
@@ -107,7 +75,7 @@ try {
     return window.vclassroom.seq;
   });
   await shownFor(xrSeq);
-  const xr = await picture();
+  const xr = await picture(page);
   const dx = difference(after, xr);
   if (!(dx > 2)) fail(`picture unchanged by the XR pose (mean difference ${dx})`);
   // The headset is 0.1 m past the bounds' right edge: the server rendered, and echoed, the edge.
@@ -123,6 +91,5 @@ try {
   if (left[0] !== 200 || left[1] !== 404) fail(`DELETE gave ${left}, expected 200 then 404`);
   console.log('ok left: DELETE 200, again 404');
 } finally {
-  await browser.close();
-  fs.rmSync(profile, { recursive: true, force: true });
+  await chromium.close();
 }

@@ -1,0 +1,328 @@
+// whepviewsink: a view per lecturer. Each camera's prepared stream (after
+// decoding, V-DA and learnerseg, which run once per camera) comes in on a cam_%u
+// pad and is teed; each WHEP session gets its own branch, a viewwarp per camera
+// and a viewfuse steered by that session's poses only, encoded by its own
+// x264enc. Sessions join and leave without touching the others' branches; the
+// WHEP server, signalling, data channel and echo are WhepEndpoint's.
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include <gst/gst.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/net/pose_session.h>
+
+#include "whep_endpoint.h"
+
+using namespace vclassroom;
+
+GST_DEBUG_CATEGORY_STATIC(whepview_debug);
+#define GST_CAT_DEFAULT whepview_debug
+
+namespace {
+
+struct Camera {
+  int index;             // K of the cam_K pad: the viewfuse pad, and cam<K>.png among the model's priors
+  GstElement* tee;
+};
+
+// One lecturer's view: per camera tee pad -> queue -> viewwarp -> fuse; fuse -> convert -> x264enc -> caps.
+struct View {
+  std::vector<GstPad*> warp_sinks;  // until start_view links them to the tees
+  std::vector<GstPad*> tee_pads;
+  std::vector<GstElement*> elements;
+  GstElement* fuse = nullptr;
+  PoseSession poses;  // this lecturer's: latest wins
+};
+
+struct ViewSettings {
+  std::string rig, navigation_rig, model;
+  int width = 0, height = 0;
+  guint64 fuse_latency = 100 * GST_MSECOND;
+};
+
+}  // namespace
+
+struct _GstWhepViewSink {
+  GstBin parent;
+  WhepEndpoint* endpoint;
+  std::mutex* lock;  // everything below
+  ViewSettings* settings;
+  std::vector<Camera>* cameras;
+  std::map<std::string, View>* views;
+};
+typedef struct _GstWhepViewSink GstWhepViewSink;
+struct GstWhepViewSinkClass {
+  GstBinClass parent_class;
+};
+
+G_DEFINE_TYPE(GstWhepViewSink, gst_whep_view_sink, GST_TYPE_BIN)
+#define GST_WHEP_VIEW_SINK(o) ((GstWhepViewSink*)(o))
+
+enum { PROP_0, PROP_RIG, PROP_NAVIGATION_RIG, PROP_MODEL, PROP_WIDTH, PROP_HEIGHT, PROP_FUSE_LATENCY, PROP_ENDPOINT_FIRST };
+
+static GstStaticPadTemplate cam_template =
+    GST_STATIC_PAD_TEMPLATE("cam_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("video/x-rgbd"));
+
+static GstElement* add_element(GstWhepViewSink* self, View* view, const char* factory) {
+  GstElement* e = gst_element_factory_make(factory, nullptr);
+  if (!e) return nullptr;
+  gst_bin_add(GST_BIN(self), e);
+  view->elements.push_back(e);
+  return e;
+}
+
+// Builds a session's view branch (lock held); its encoded source pad (a reference), or nullptr.
+static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& session) {
+  const ViewSettings& s = *self->settings;
+  if (self->cameras->empty()) {
+    GST_WARNING_OBJECT(self, "a lecturer joined before any camera was linked: refused");
+    return nullptr;
+  }
+  View& view = (*self->views)[session];
+  view.fuse = add_element(self, &view, "viewfuse");
+  GstElement* convert = add_element(self, &view, "videoconvert");
+  GstElement* encoder = add_element(self, &view, "x264enc");
+  GstElement* caps = add_element(self, &view, "capsfilter");
+  // Started late in a live pipeline: the fused output starts at the first frame, not at running time 0.
+  gst_util_set_object_arg(G_OBJECT(view.fuse), "start-time-selection", "first");
+  g_object_set(view.fuse, "latency", s.fuse_latency, nullptr);
+  if (!s.navigation_rig.empty()) g_object_set(view.fuse, "rig", s.navigation_rig.c_str(), nullptr);
+  gst_util_set_object_arg(G_OBJECT(encoder), "tune", "zerolatency");
+  gst_util_set_object_arg(G_OBJECT(encoder), "speed-preset", "ultrafast");
+  g_object_set(encoder, "key-int-max", 60, "bitrate", self->endpoint->bitrate_kbit(), nullptr);
+  GstCaps* c = gst_caps_from_string("video/x-h264,profile=constrained-baseline,stream-format=byte-stream");
+  g_object_set(caps, "caps", c, nullptr);
+  gst_caps_unref(c);
+  gst_element_link_many(view.fuse, convert, encoder, caps, nullptr);
+  std::vector<GstPad*> warp_sinks;
+  for (const Camera& cam : *self->cameras) {
+    GstElement* queue = add_element(self, &view, "queue");
+    GstElement* warp = add_element(self, &view, "viewwarp");
+    g_object_set(queue, "max-size-buffers", 1, "max-size-time", guint64(0), "max-size-bytes", 0, nullptr);
+    gst_util_set_object_arg(G_OBJECT(queue), "leaky", "downstream");
+    g_object_set(warp, "width", s.width, "height", s.height, nullptr);
+    if (!s.rig.empty()) g_object_set(warp, "rig", s.rig.c_str(), nullptr);
+    if (!s.model.empty())
+      g_object_set(warp, "prior-depth", (s.model + "/prior-depth/cam" + std::to_string(cam.index) + ".png").c_str(),
+                   nullptr);
+    gst_element_link(queue, warp);
+    const std::string fuse_pad = "cam_" + std::to_string(cam.index);
+    gst_element_link_pads(warp, "src", view.fuse, fuse_pad.c_str());
+    warp_sinks.push_back(gst_element_get_static_pad(queue, "sink"));
+  }
+  for (auto it = view.elements.rbegin(); it != view.elements.rend(); ++it) gst_element_sync_state_with_parent(*it);
+  view.warp_sinks = warp_sinks;
+  GST_INFO_OBJECT(self, "session %s: a view of %zu cameras", session.c_str(), self->cameras->size());
+  return gst_element_get_static_pad(caps, "src");
+}
+
+// The session's webrtcbin is linked: the cameras' frames may flow into its view.
+static void start_view(GstWhepViewSink* self, const std::string& session) {
+  std::lock_guard<std::mutex> g(*self->lock);
+  auto it = self->views->find(session);
+  if (it == self->views->end()) return;
+  View& view = it->second;
+  for (size_t i = 0; i < view.warp_sinks.size() && i < self->cameras->size(); ++i) {
+    GstPad* tee_pad = gst_element_request_pad_simple((*self->cameras)[i].tee, "src_%u");
+    gst_pad_link(tee_pad, view.warp_sinks[i]);
+    gst_object_unref(view.warp_sinks[i]);
+    view.tee_pads.push_back(tee_pad);
+  }
+  view.warp_sinks.clear();
+}
+
+// Takes a session's view out (the endpoint has unlinked its encoded pad).
+static void detach_view(GstWhepViewSink* self, const std::string& session) {
+  View view;
+  std::vector<GstElement*> tees;
+  {
+    std::lock_guard<std::mutex> g(*self->lock);
+    auto it = self->views->find(session);
+    if (it == self->views->end()) return;
+    view = std::move(it->second);
+    for (GstPad* pad : view.warp_sinks) gst_object_unref(pad);  // never started
+    self->views->erase(it);
+    for (const Camera& cam : *self->cameras) tees.push_back(cam.tee);
+  }
+  for (size_t i = 0; i < view.tee_pads.size(); ++i) {
+    GstPad* peer = gst_pad_get_peer(view.tee_pads[i]);
+    if (peer) {
+      gst_pad_unlink(view.tee_pads[i], peer);
+      gst_object_unref(peer);
+    }
+    gst_element_release_request_pad(tees[i], view.tee_pads[i]);
+    gst_object_unref(view.tee_pads[i]);
+  }
+  for (GstElement* e : view.elements) {
+    gst_element_set_state(e, GST_STATE_NULL);
+    gst_bin_remove(GST_BIN(self), e);
+  }
+  GST_INFO_OBJECT(self, "session %s: its view is gone", session.c_str());
+}
+
+// A lecturer's pose steers its own view only.
+static void on_session_pose(GstWhepViewSink* self, const std::string& session, const Pose& pose) {
+  GstPad* fuse_src = nullptr;
+  {
+    std::lock_guard<std::mutex> g(*self->lock);
+    auto it = self->views->find(session);
+    if (it == self->views->end()) return;
+    const PoseVerdict v = it->second.poses.offer(session, pose.seq, pose.viewer_time_ns, g_get_monotonic_time() * 1000);
+    if (!pose_verdict_obeys(v)) return;
+    fuse_src = gst_element_get_static_pad(it->second.fuse, "src");
+  }
+  gst_pad_send_event(fuse_src, pose_event_new(pose));
+  gst_object_unref(fuse_src);
+}
+
+static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTemplate* templ, const gchar* name,
+                                                  const GstCaps*) {
+  GstWhepViewSink* self = GST_WHEP_VIEW_SINK(element);
+  std::lock_guard<std::mutex> g(*self->lock);
+  int index = 0;
+  if (name && sscanf(name, "cam_%d", &index) != 1) return nullptr;
+  if (!name)
+    while (std::any_of(self->cameras->begin(), self->cameras->end(), [&](const Camera& c) { return c.index == index; }))
+      ++index;
+  for (const Camera& c : *self->cameras)
+    if (c.index == index) return nullptr;  // that camera is linked already
+  if (!self->views->empty()) {
+    GST_ELEMENT_WARNING(self, CORE, PAD, ("camera %d linked while lecturers watch: their views lack it", index),
+                        (nullptr));
+  }
+  GstElement* tee = gst_element_factory_make("tee", nullptr);
+  g_object_set(tee, "allow-not-linked", TRUE, nullptr);
+  // The camera's one permanent branch: a sink, so the bin posts EOS whether or not anyone watches.
+  GstElement* drain = gst_element_factory_make("fakesink", nullptr);
+  g_object_set(drain, "sync", FALSE, "async", FALSE, nullptr);
+  gst_bin_add_many(GST_BIN(self), tee, drain, nullptr);
+  gst_element_link(tee, drain);
+  gst_element_sync_state_with_parent(drain);
+  gst_element_sync_state_with_parent(tee);
+  GstPad* target = gst_element_get_static_pad(tee, "sink");
+  const std::string pad_name = "cam_" + std::to_string(index);
+  GstPad* pad = gst_ghost_pad_new_from_template(pad_name.c_str(), target, templ);
+  gst_object_unref(target);
+  gst_pad_set_active(pad, TRUE);
+  gst_element_add_pad(element, pad);
+  self->cameras->push_back(Camera{index, tee});
+  return pad;
+}
+
+static GstStateChangeReturn gst_whep_view_sink_change_state(GstElement* element, GstStateChange transition) {
+  GstWhepViewSink* self = GST_WHEP_VIEW_SINK(element);
+  if (transition == GST_STATE_CHANGE_NULL_TO_READY && !self->endpoint->start()) return GST_STATE_CHANGE_FAILURE;
+  GstStateChangeReturn ret = GST_ELEMENT_CLASS(gst_whep_view_sink_parent_class)->change_state(element, transition);
+  if (transition == GST_STATE_CHANGE_READY_TO_NULL) self->endpoint->stop();
+  return ret;
+}
+
+static void gst_whep_view_sink_set_property(GObject* object, guint id, const GValue* value, GParamSpec* pspec) {
+  GstWhepViewSink* self = GST_WHEP_VIEW_SINK(object);
+  if (id >= PROP_ENDPOINT_FIRST) {
+    if (!self->endpoint->set_property(id - PROP_ENDPOINT_FIRST, value)) G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
+    return;
+  }
+  std::lock_guard<std::mutex> g(*self->lock);
+  ViewSettings& s = *self->settings;
+  auto str = [&] { const char* v = g_value_get_string(value); return std::string(v ? v : ""); };
+  switch (id) {
+    case PROP_RIG: s.rig = str(); break;
+    case PROP_NAVIGATION_RIG: s.navigation_rig = str(); break;
+    case PROP_MODEL: s.model = str(); break;
+    case PROP_WIDTH: s.width = g_value_get_int(value); break;
+    case PROP_HEIGHT: s.height = g_value_get_int(value); break;
+    case PROP_FUSE_LATENCY: s.fuse_latency = g_value_get_uint64(value); break;
+    default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
+  }
+}
+
+static void gst_whep_view_sink_get_property(GObject* object, guint id, GValue* value, GParamSpec* pspec) {
+  GstWhepViewSink* self = GST_WHEP_VIEW_SINK(object);
+  if (id >= PROP_ENDPOINT_FIRST) {
+    if (!self->endpoint->get_property(id - PROP_ENDPOINT_FIRST, value)) G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
+    return;
+  }
+  std::lock_guard<std::mutex> g(*self->lock);
+  const ViewSettings& s = *self->settings;
+  switch (id) {
+    case PROP_RIG: g_value_set_string(value, s.rig.c_str()); break;
+    case PROP_NAVIGATION_RIG: g_value_set_string(value, s.navigation_rig.c_str()); break;
+    case PROP_MODEL: g_value_set_string(value, s.model.c_str()); break;
+    case PROP_WIDTH: g_value_set_int(value, s.width); break;
+    case PROP_HEIGHT: g_value_set_int(value, s.height); break;
+    case PROP_FUSE_LATENCY: g_value_set_uint64(value, s.fuse_latency); break;
+    default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
+  }
+}
+
+static void gst_whep_view_sink_init(GstWhepViewSink* self) {
+  self->lock = new std::mutex;
+  self->settings = new ViewSettings;
+  self->cameras = new std::vector<Camera>;
+  self->views = new std::map<std::string, View>;
+  WhepEndpointHooks hooks;
+  hooks.attach = [self](const std::string& session) {
+    std::lock_guard<std::mutex> g(*self->lock);
+    return attach_view_locked(self, session);
+  };
+  hooks.start = [self](const std::string& session) { start_view(self, session); };
+  hooks.detach = [self](const std::string& session, GstPad*) { detach_view(self, session); };
+  hooks.pose = [self](const std::string& session, const Pose& pose) { on_session_pose(self, session, pose); };
+  self->endpoint = new WhepEndpoint(GST_BIN(self), "whepviewsink", std::move(hooks));
+}
+
+static void gst_whep_view_sink_finalize(GObject* object) {
+  GstWhepViewSink* self = GST_WHEP_VIEW_SINK(object);
+  delete self->endpoint;
+  delete self->views;
+  delete self->cameras;
+  delete self->settings;
+  delete self->lock;
+  G_OBJECT_CLASS(gst_whep_view_sink_parent_class)->finalize(object);
+}
+
+static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
+  GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  GST_DEBUG_CATEGORY_INIT(whepview_debug, "whepviewsink", 0, "A view per WebRTC lecturer");
+  gobject_class->set_property = gst_whep_view_sink_set_property;
+  gobject_class->get_property = gst_whep_view_sink_get_property;
+  gobject_class->finalize = gst_whep_view_sink_finalize;
+  element_class->change_state = gst_whep_view_sink_change_state;
+  element_class->request_new_pad = gst_whep_view_sink_request_new_pad;
+  const GParamFlags rw = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
+  g_object_class_install_property(gobject_class, PROP_RIG,
+      g_param_spec_string("rig", "Rig", "Rig YAML of the cameras, for every view's viewwarp (empty: the caps' calibration)", "", rw));
+  g_object_class_install_property(gobject_class, PROP_NAVIGATION_RIG,
+      g_param_spec_string("navigation-rig", "Navigation rig",
+                          "Rig YAML with navigation bounds, for every view's viewfuse (docs/navigation.md; empty: unbounded)", "", rw));
+  g_object_class_install_property(gobject_class, PROP_MODEL,
+      g_param_spec_string("model", "Model", "Static model folder (vclassroom-build-model): viewwarp of camera K reads "
+                          "MODEL/prior-depth/camK.png (empty: none)", "", rw));
+  g_object_class_install_property(gobject_class, PROP_WIDTH,
+      g_param_spec_int("width", "Width", "Width of every view (0: the cameras')", 0, 16384, 0, rw));
+  g_object_class_install_property(gobject_class, PROP_HEIGHT,
+      g_param_spec_int("height", "Height", "Height of every view (0: the cameras')", 0, 16384, 0, rw));
+  g_object_class_install_property(gobject_class, PROP_FUSE_LATENCY,
+      g_param_spec_uint64("fuse-latency", "Fuse latency", "Each view's viewfuse waits this long (ns) for a late camera",
+                          0, G_MAXUINT64, 100 * GST_MSECOND, rw));
+  WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
+  gst_element_class_add_static_pad_template(element_class, &cam_template);
+  gst_element_class_set_static_metadata(element_class, "WHEP view-per-lecturer sink", "Sink/Network",
+      "Each lecturer joining over WHEP gets a view of their own: the prepared camera streams (cam_%u, after "
+      "learnerseg) feed, per session, a viewwarp per camera, a viewfuse steered by that lecturer's pose data "
+      "channel only, and an H.264 encoder to their webrtcbin; sessions come and go without disturbing the "
+      "others. Example: gst-launch-1.0 whepviewsink name=w port=0 token=secret max-sessions=2 "
+      "rgbdtestsrc camera-id=0 num-buffers=30 ! learnerseg ! w.cam_0",
+      "gst-vclassroom");
+}
