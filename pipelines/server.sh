@@ -112,9 +112,13 @@ for k in $CAMERAS; do
   else
     receive="$receive rtpjitterbuffer latency=50 drop-on-latency=true !"
   fi
+  # One view (the default): the camera's viewwarp feeds the fuse. LECTURER_OUT=whep-views: whepviewsink
+  # makes the viewwarps, one per lecturer.
+  to_view="queue max-size-buffers=1 leaky=downstream ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
+  [ "${LECTURER_OUT:-rtp}" = whep-views ] && to_view="queue max-size-buffers=1 leaky=downstream ! views.cam_$k"
   branches="$branches $receive rtpgstdepay ! \
     queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k $rig stats-interval=$STATS ! \
-    $vda learnerseg $prior ! queue max-size-buffers=1 leaky=downstream ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
+    $vda learnerseg $prior ! $to_view"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.
@@ -129,10 +133,12 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! posere
   $branches"
 # --- WebRTC lecturer output (issue 13, docs/lecturer.md) ---------------------------------------------
 # LECTURER_OUT=whep: the view goes to browsers over WebRTC (whepserversink) instead of RTP/JPEG to
-# LECTURER, and the pose comes back over the page's data channel. TOKEN (the join secret, required;
-# letters, digits, . _ ~ -), WHEP_PORT (default 8080), WHEP_TLS_CERT and WHEP_TLS_KEY (PEM files: HTTPS,
-# which browsers need for WebXR off localhost), WHEP_BITRATE (kbit/s, default 4000).
-if [ "${LECTURER_OUT:-rtp}" = whep ]; then
+# LECTURER, and the pose comes back over the page's data channel; every lecturer sees the one view.
+# LECTURER_OUT=whep-views: each lecturer gets a view of their own (whepviewsink), up to WHEP_SESSIONS
+# (default 4). TOKEN (the join secret, required; letters, digits, . _ ~ -), WHEP_PORT (default 8080),
+# WHEP_TLS_CERT and WHEP_TLS_KEY (PEM files: HTTPS, which browsers need for WebXR off localhost),
+# WHEP_BITRATE (kbit/s, default 4000).
+if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ]; then
   WHEP_PORT=${WHEP_PORT:-8080}
   if ! [[ ${TOKEN:-} =~ ^[A-Za-z0-9._~-]{8,}$ ]] || ! [[ $WHEP_PORT =~ ^[0-9]+$ ]]; then
     echo "server.sh: LECTURER_OUT=whep needs TOKEN (8 or more of A-Z a-z 0-9 . _ ~ -) and a numeric WHEP_PORT" >&2
@@ -141,9 +147,14 @@ if [ "${LECTURER_OUT:-rtp}" = whep ]; then
   whep_tls=""
   # The page lies beside the pipelines: ../web/lecturer both in a checkout and installed (datadir).
   [ -n "${WHEP_TLS_CERT:-}" ] && whep_tls="tls-certificate=$WHEP_TLS_CERT tls-key=${WHEP_TLS_KEY:?WHEP_TLS_KEY}"
-  desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! \
-    whepserversink port=$WHEP_PORT token=$TOKEN bitrate=${WHEP_BITRATE:-4000} $whep_tls \
-    web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\" $branches"
+  whep="port=$WHEP_PORT token=$TOKEN bitrate=${WHEP_BITRATE:-4000} max-sessions=${WHEP_SESSIONS:-4} $whep_tls \
+    web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\""
+  if [ "$LECTURER_OUT" = whep ]; then
+    desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"
+  else
+    desc="whepviewsink name=views $whep ${RIG:+rig=$RIG} ${NAV_RIG:+navigation-rig=$NAV_RIG} ${MODEL:+model=$MODEL} \
+      width=$WIDTH height=$HEIGHT fuse-latency=$FUSE_LATENCY $branches"
+  fi
   echo "server.sh: lecturer joins at http${whep_tls:+s}://$(hostname -f 2>/dev/null || hostname):$WHEP_PORT/?token=$TOKEN"
 fi
 # --- end of the WebRTC lecturer output ---------------------------------------------------------------

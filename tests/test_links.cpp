@@ -14,6 +14,7 @@
 
 #include <random>
 #include <thread>
+#include <functional>
 #include <string>
 
 #include <gst/vclassroom/core/error.h>
@@ -866,10 +867,11 @@ struct StoppedScript {
 };
 
 // Starts pipelines/SCRIPT with `env`, waits (on its output, no sleep) until its
-// pipeline plays, sends `signal` (SIGINT as Ctrl-C, SIGTERM) and reads its
-// output to the end. A watchdog kills it after 120 s, so nothing blocks for ever.
+// pipeline plays, runs `while_playing` (if any), sends `signal` (SIGINT as Ctrl-C,
+// SIGTERM) and reads its output to the end. A watchdog kills it after 120 s, so
+// nothing blocks for ever.
 StoppedScript stop_when_playing(const std::string& script, const std::vector<std::pair<std::string, std::string>>& env,
-                                int signal) {
+                                int signal, const std::function<void()>& while_playing = nullptr) {
   StoppedScript r;
   const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
   const std::string path = std::string(source_dir ? source_dir : ".") + "/pipelines/" + script;
@@ -914,6 +916,7 @@ StoppedScript stop_when_playing(const std::string& script, const std::vector<std
       break;
     }
   }
+  if (r.playing && while_playing) while_playing();
   g_subprocess_send_signal(child, signal);
   while (gchar* line = g_data_input_stream_read_line(out, nullptr, nullptr, nullptr)) {  // to its end
     r.output += std::string(line) + "\n";
@@ -960,6 +963,47 @@ TEST(Scripts, LecturerEndsAtTheFirstCtrlCWhenNoVideoEverCame) {
   EXPECT_TRUE(r.playing) << r.output;
   EXPECT_TRUE(r.exited) << r.output;
   EXPECT_NE(r.output.find("Got EOS from element"), std::string::npos) << r.output;
+}
+
+// The HTTP status line of `request` sent to 127.0.0.1:`port` (HTTP/1.0, the server closes), e.g.
+// "HTTP/1.0 200 OK"; empty when nothing answered.
+std::string http_status(guint16 port, const std::string& request) {
+  GSocketClient* client = g_socket_client_new();
+  GSocketConnection* conn = g_socket_client_connect_to_host(client, "127.0.0.1", port, nullptr, nullptr);
+  g_object_unref(client);
+  if (!conn) return "";
+  GOutputStream* out = g_io_stream_get_output_stream(G_IO_STREAM(conn));
+  g_output_stream_write_all(out, request.data(), request.size(), nullptr, nullptr, nullptr);
+  GDataInputStream* in = g_data_input_stream_new(g_io_stream_get_input_stream(G_IO_STREAM(conn)));
+  gchar* line = g_data_input_stream_read_line(in, nullptr, nullptr, nullptr);
+  std::string status = line ? line : "";
+  g_free(line);
+  g_object_unref(in);
+  g_object_unref(conn);
+  if (!status.empty() && status.back() == '\r') status.pop_back();
+  return status;
+}
+
+// server.sh with LECTURER_OUT=whep-views (a view per lecturer, whepviewsink) plays with its cameras linked,
+// serves the lecturer page to the token and 401 to anyone else, prints the URL to join, and ends at Ctrl-C.
+TEST(Scripts, ServerServesAViewPerLecturerOverWhep) {
+  if (!gst_element_factory_find("whepviewsink")) GTEST_SKIP() << "the webrtc plugin is not built (no webrtcbin)";
+  const guint16 http = static_cast<guint16>(vctest::free_udp_port());  // a free number; TCP, checked by the bind
+  std::string page, refused;
+  const StoppedScript r = stop_when_playing(
+      "server.sh",
+      {{"LECTURER_OUT", "whep-views"}, {"TOKEN", "a-long-secret"}, {"WHEP_PORT", std::to_string(http)},
+       {"CAMERAS", "0 1"}, {"BASE_PORT", std::to_string(vctest::free_udp_port())},
+       {"POSE_PORT", std::to_string(vctest::free_udp_port())}, {"STOP_GRACE", "2"}},
+      SIGINT, [&] {
+        page = http_status(http, "GET /?token=a-long-secret HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
+        refused = http_status(http, "GET /?token=wrong HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
+      });
+  EXPECT_TRUE(r.playing) << r.output;
+  EXPECT_TRUE(r.exited) << r.output;
+  EXPECT_EQ(page.substr(0, 12), "HTTP/1.0 200") << page << "\n" << r.output;
+  EXPECT_EQ(refused.substr(0, 12), "HTTP/1.0 401") << refused;
+  EXPECT_NE(r.output.find("lecturer joins at http://"), std::string::npos) << r.output;
 }
 
 // Two loopback flows on one host (PORT_BASE apart) each run on their own: every lecturer gets its own
