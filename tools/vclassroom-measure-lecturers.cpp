@@ -1,0 +1,202 @@
+// Several lecturers at once: for each count of lecturers, starts a server
+// (gst-launch-1.0: synthetic live cameras ! learnerseg ! whepviewsink, a view
+// per lecturer) and that many headless Chromium pages (tests/browser/
+// measure-lecturers.mjs, each its own browser, moving its head like a headset),
+// and reports per count: frames shown per second, bitrate and pose-to-photon
+// latency p50/p99 as the browsers saw them, and the server's CPU time per frame
+// it delivered (from /proc, over the same window). Browsers and server share
+// the machine: the figures are the whole loop on one host.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gio/gio.h>
+#include <glib.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include "tool_options.h"
+
+using namespace vclassroom_tools;
+
+namespace {
+
+// The server's user + system CPU seconds so far (/proc/PID/stat fields 14 and 15), or -1.
+double cpu_seconds(GPid pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const size_t paren = text.rfind(')');
+  if (paren == std::string::npos) return -1;
+  std::istringstream rest(text.substr(paren + 2));
+  std::string field;
+  double utime = 0, stime = 0;
+  for (int i = 3; i <= 15 && rest >> field; ++i) {  // field 3 is the state, after "pid (comm)"
+    if (i == 14) utime = std::atof(field.c_str());
+    if (i == 15) stime = std::atof(field.c_str());
+  }
+  return (utime + stime) / double(sysconf(_SC_CLK_TCK));
+}
+
+guint16 free_tcp_port() {
+  GSocket* s = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_STREAM, G_SOCKET_PROTOCOL_TCP, nullptr);
+  GInetAddress* lo = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
+  GSocketAddress* any = g_inet_socket_address_new(lo, 0);
+  g_socket_bind(s, any, TRUE, nullptr);
+  GSocketAddress* bound = g_socket_get_local_address(s, nullptr);
+  const guint16 port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
+  g_object_unref(bound);
+  g_object_unref(any);
+  g_object_unref(lo);
+  g_socket_close(s, nullptr);
+  g_object_unref(s);
+  return port;
+}
+
+struct LecturerResult {
+  double fps = 0, kbps = 0, p50 = 0, p99 = 0;
+  long frames = 0, samples = 0;
+};
+
+double json_number(const std::string& json, const std::string& key) {
+  const size_t at = json.find("\"" + key + "\":");
+  return at == std::string::npos ? std::nan("") : std::atof(json.c_str() + at + key.size() + 3);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  gchar* counts_text = nullptr;
+  gint seconds = 20, cameras = 3;
+  gchar* size_text = nullptr;
+  const GOptionEntry entries[] = {
+      {"lecturers", 0, 0, G_OPTION_ARG_STRING, &counts_text, "Counts of lecturers to measure (default 1,2,4)", "N,N"},
+      {"seconds", 0, 0, G_OPTION_ARG_INT, &seconds, "Measured window per count (default 20)", "S"},
+      {"cameras", 0, 0, G_OPTION_ARG_INT, &cameras, "Synthetic cameras of the default rig, 1 to 3 (default 3)", "N"},
+      {"size", 0, 0, G_OPTION_ARG_STRING, &size_text, "Each lecturer's view (default 960x540)", "WxH"},
+      {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
+  parse_command_line(&argc, &argv, "",
+                     "Pose-to-photon latency, bitrate and server CPU with several browser lecturers "
+                     "(whepviewsink; needs node, chromium and tests/browser/node_modules).",
+                     entries);
+  int width = 960, height = 540;
+  if (size_text) parse_size_or_exit("--size", size_text, &width, &height);
+  if (cameras < 1 || cameras > 3) usage_error("--cameras must be 1 to 3");
+  if (seconds < 5 || seconds > 600) usage_error("--seconds must be 5 to 600");
+  std::vector<int> counts;
+  gchar** parts = g_strsplit(counts_text ? counts_text : "1,2,4", ",", -1);
+  for (gchar** it = parts; *it; ++it) counts.push_back(std::atoi(*it));
+  g_strfreev(parts);
+  for (int n : counts)
+    if (n < 1 || n > 8) usage_error("--lecturers: each count 1 to 8");
+  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
+  gchar* absolute = g_canonicalize_filename(source_dir ? source_dir : ".", nullptr);  // node runs in tests/browser
+  const std::string root = absolute;
+  g_free(absolute);
+  const std::string driver = root + "/tests/browser/measure-lecturers.mjs";
+  if (!g_file_test(driver.c_str(), G_FILE_TEST_EXISTS) ||
+      !g_file_test((root + "/tests/browser/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR)) {
+    std::fprintf(stderr, "%s: needs %s and tests/browser/node_modules (scripts/setup.sh runs npm ci); run from the "
+                 "source root or set VCLASSROOM_SOURCE_DIR\n", g_get_prgname(), driver.c_str());
+    return 1;
+  }
+  std::printf("| lecturers | fps shown (each) | kbit/s (each) | pose-to-photon p50 / p99 ms | server CPU ms per frame | "
+              "server CPU %% of one core |\n|---|---|---|---|---|---|\n");
+  for (int n : counts) {
+    const guint16 port = free_tcp_port();
+    std::string launch = "gst-launch-1.0 whepviewsink name=w port=" + std::to_string(port) +
+                         " token=measure-token max-sessions=" + std::to_string(n) + " width=" + std::to_string(width) +
+                         " height=" + std::to_string(height) + " web-root=" + root + "/web/lecturer";
+    for (int k = 0; k < cameras; ++k)
+      launch += " rgbdtestsrc camera-id=" + std::to_string(k) + " is-live=true ! learnerseg ! queue max-size-buffers=1 "
+                "leaky=downstream ! w.cam_" + std::to_string(k);
+    gchar** server_argv = nullptr;
+    g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, nullptr);
+    GError* err = nullptr;
+    GSubprocess* server = g_subprocess_newv(server_argv, GSubprocessFlags(G_SUBPROCESS_FLAGS_STDOUT_SILENCE), &err);
+    g_strfreev(server_argv);
+    if (!server) {
+      std::fprintf(stderr, "%s: cannot start gst-launch-1.0: %s\n", g_get_prgname(), err->message);
+      return 1;
+    }
+    const GPid pid = std::atoi(g_subprocess_get_identifier(server));
+    const std::string base = "http://127.0.0.1:" + std::to_string(port);
+    GSubprocessLauncher* launcher = g_subprocess_launcher_new(G_SUBPROCESS_FLAGS_STDOUT_PIPE);
+    g_subprocess_launcher_set_cwd(launcher, (root + "/tests/browser").c_str());
+    g_subprocess_launcher_unsetenv(launcher, "LD_PRELOAD");
+    GSubprocess* browsers = g_subprocess_launcher_spawn(launcher, &err, "node", driver.c_str(), base.c_str(),
+                                                        "measure-token", std::to_string(n).c_str(),
+                                                        std::to_string(seconds).c_str(), nullptr);
+    g_object_unref(launcher);
+    if (!browsers) {
+      std::fprintf(stderr, "%s: cannot start node: %s\n", g_get_prgname(), err->message);
+      return 1;
+    }
+    std::fprintf(stderr, "%d lecturer(s): joining, then %d s measured\n", n, seconds);
+    GDataInputStream* out = g_data_input_stream_new(g_subprocess_get_stdout_pipe(browsers));
+    double cpu_start = -1, cpu_end = -1;
+    gint64 t_start = 0, t_end = 0;
+    std::vector<LecturerResult> results;
+    while (gchar* line = g_data_input_stream_read_line(out, nullptr, nullptr, nullptr)) {
+      const std::string l = line;
+      g_free(line);
+      if (l == "window start") {
+        cpu_start = cpu_seconds(pid);
+        t_start = g_get_monotonic_time();
+      } else if (l == "window end") {
+        cpu_end = cpu_seconds(pid);
+        t_end = g_get_monotonic_time();
+      } else if (l.rfind("lecturer {", 0) == 0) {
+        LecturerResult r;
+        r.fps = json_number(l, "fps");
+        r.kbps = json_number(l, "kbps");
+        r.p50 = json_number(l, "p50");
+        r.p99 = json_number(l, "p99");
+        r.frames = long(json_number(l, "frames"));
+        r.samples = long(json_number(l, "samples"));
+        results.push_back(r);
+      }
+    }
+    g_object_unref(out);
+    g_subprocess_wait(browsers, nullptr, nullptr);
+    const bool browsers_ok = g_subprocess_get_if_exited(browsers) && g_subprocess_get_exit_status(browsers) == 0;
+    g_object_unref(browsers);
+    g_subprocess_send_signal(server, SIGINT);
+    g_subprocess_wait(server, nullptr, nullptr);
+    g_object_unref(server);
+    if (!browsers_ok || int(results.size()) != n || cpu_start < 0 || cpu_end < 0) {
+      std::fprintf(stderr, "%s: %d lecturer(s): the browsers did not finish (%zu results)\n", g_get_prgname(), n,
+                   results.size());
+      return 1;
+    }
+    auto list = [&](auto field, const char* format) {
+      std::string s;
+      for (const LecturerResult& r : results) {
+        char b[32];
+        std::snprintf(b, sizeof b, format, field(r));
+        s += (s.empty() ? "" : ", ") + std::string(b);
+      }
+      return s;
+    };
+    long frames = 0;
+    double p50 = 0, p99 = 0;
+    for (const LecturerResult& r : results) {
+      frames += r.frames;
+      p50 = std::max(p50, r.p50);
+      p99 = std::max(p99, r.p99);
+    }
+    const double cpu = cpu_end - cpu_start, wall = double(t_end - t_start) / 1e6;
+    const std::string fps = list([](const LecturerResult& r) { return r.fps; }, "%.1f"),
+                      kbps = list([](const LecturerResult& r) { return r.kbps; }, "%.0f"),
+                      latency = list([](const LecturerResult& r) { return r.p50; }, "%.0f") + " / " +
+                                list([](const LecturerResult& r) { return r.p99; }, "%.0f");
+    std::printf("| %d | %s | %s | %s | %.1f | %.0f %% |\n", n, fps.c_str(), kbps.c_str(), latency.c_str(),
+                frames > 0 ? cpu * 1000.0 / frames : 0.0, 100.0 * cpu / wall);
+    std::printf("lecturers %d: worst p50 %.0f ms, worst p99 %.0f ms, %ld frames shown in %.1f s\n", n, p50, p99, frames,
+                wall);
+  }
+  return 0;
+}
