@@ -41,7 +41,8 @@ for k in 0 1 2; do
     ! viewwarp prior-depth=$(prior $k) pose-trace=\"$TRACE\" ! queue max-size-buffers=2 ! fuse.cam_$k"
 done
 echo "all-in-one: 3 cameras ${MODEL:+-> depthcomplete -> planerefine }-> learnerseg -> viewwarp -> viewfuse (pose trace $TRACE) -> $OUT"
+# I420: from viewfuse's RGB, x264enc would otherwise pick High 4:4:4, which browsers and most players cannot play.
 eval gst-launch-1.0 -e \
-  viewfuse name=fuse ! videoconvert ! x264enc speed-preset=veryfast tune=zerolatency \
+  viewfuse name=fuse ! videoconvert ! video/x-raw,format=I420 ! x264enc speed-preset=veryfast tune=zerolatency \
   ! mp4mux ! filesink location="$OUT" $branches
 echo "wrote $OUT"

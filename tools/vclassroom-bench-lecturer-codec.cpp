@@ -133,12 +133,70 @@ Result run_codec(const Codec& codec, int kbit, const std::vector<cv::Mat>& frame
   return r;
 }
 
+// Up to `count` frames, as 960x540 RGB, from `source` (a launch description ending in raw video) or, when
+// `file` is given, from that video file.
+std::vector<cv::Mat> read_frames(std::string source, const std::string& file, int count, int width, int height,
+                                 std::string* error) {
+  std::vector<cv::Mat> frames;
+  if (!file.empty()) source = "filesrc name=file ! decodebin";
+  const std::string desc = source + " ! videoconvert ! videoscale ! video/x-raw,format=RGB,width=" +
+                           std::to_string(width) + ",height=" + std::to_string(height) + " ! appsink name=out sync=false";
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  if (!pipe) {
+    *error = err ? err->message : "cannot read";
+    g_clear_error(&err);
+    return frames;
+  }
+  if (!file.empty()) {
+    GstElement* filesrc = gst_bin_get_by_name(GST_BIN(pipe), "file");
+    g_object_set(filesrc, "location", file.c_str(), nullptr);  // any name, no quoting
+    gst_object_unref(filesrc);
+  }
+  GstElement* out = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  while (int(frames.size()) < count) {
+    GstSample* sample = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 30 * GST_SECOND);
+    if (!sample) break;
+    GstMapInfo map;
+    GstBuffer* b = gst_sample_get_buffer(sample);
+    if (gst_buffer_map(b, &map, GST_MAP_READ)) {
+      if (map.size >= size_t(GST_ROUND_UP_4(width * 3)) * height)
+        frames.push_back(cv::Mat(height, width, CV_8UC3, map.data, GST_ROUND_UP_4(width * 3)).clone());
+      gst_buffer_unmap(b, &map);
+    }
+    gst_sample_unref(sample);
+  }
+  GstBus* bus = gst_element_get_bus(pipe);
+  if (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR)) {
+    GError* e = nullptr;
+    gst_message_parse_error(m, &e, nullptr);
+    *error = e->message;
+    g_error_free(e);
+    gst_message_unref(m);
+  }
+  gst_object_unref(bus);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(out);
+  gst_object_unref(pipe);
+  if (frames.empty() && error->empty()) *error = "no frames";
+  return frames;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   gint count = 150;
   gchar* bitrates_text = nullptr;
+  gchar* input = nullptr;
+  gboolean all_in_one = FALSE;
   const GOptionEntry entries[] = {
+      {"all-in-one", 0, 0, G_OPTION_ARG_NONE, &all_in_one,
+       "Code the lecturer's view as the all-in-one chain renders it (3 synthetic cameras, learnerseg, viewwarp "
+       "along pipelines/lecturer-walk.csv, viewfuse; no V-DA) instead of the centre camera",
+       nullptr},
+      {"input", 0, 0, G_OPTION_ARG_FILENAME, &input,
+       "A video file to code instead (needs a GStreamer decoder for it)", "FILE"},
       {"frames", 0, 0, G_OPTION_ARG_INT, &count, "Frames of the classroom's centre camera at 30 fps (default 150)", "N"},
       {"bitrates", 0, 0, G_OPTION_ARG_STRING, &bitrates_text, "Target bitrates in kbit/s (default 2000,4000,8000)",
        "K,K"},
@@ -155,11 +213,31 @@ int main(int argc, char** argv) {
   for (int k : bitrates)
     if (k < 100 || k > 50000) usage_error("--bitrates: each 100 to 50000 kbit/s");
   const int width = 960, height = 540;
-  const Rig rig = default_classroom_rig();
-  const Classroom room;
   std::vector<cv::Mat> frames;
-  std::fprintf(stderr, "rendering %d frames\n", count);
-  for (int i = 0; i < count; ++i) frames.push_back(render(room, i / 30.0, rig.camera(0)).color);
+  if (input || all_in_one) {
+    std::string chain, error;
+    if (all_in_one) {
+      const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
+      const std::string trace = std::string(source_dir ? source_dir : ".") + "/pipelines/lecturer-walk.csv";
+      chain = "viewfuse name=fuse";
+      for (int k = 0; k < 3; ++k)
+        chain += " rgbdtestsrc camera-id=" + std::to_string(k) + " seed=1 learners=6 num-buffers=" +
+                 std::to_string(count) + " ground-truth=false ! learnerseg ! viewwarp pose-trace=\"" + trace +
+                 "\" ! queue max-size-buffers=2 ! fuse.cam_" + std::to_string(k);
+      chain += " fuse.";
+    }
+    frames = read_frames(chain, input ? input : "", count, width, height, &error);
+    if (frames.empty()) {
+      std::fprintf(stderr, "%s: %s: %s\n", g_get_prgname(), input ? input : "the all-in-one chain", error.c_str());
+      return 1;
+    }
+    std::fprintf(stderr, "%zu frames of %s\n", frames.size(), input ? input : "the all-in-one chain");
+  } else {
+    const Rig rig = default_classroom_rig();
+    const Classroom room;
+    std::fprintf(stderr, "rendering %d frames\n", count);
+    for (int i = 0; i < count; ++i) frames.push_back(render(room, i / 30.0, rig.camera(0)).color);
+  }
   const std::vector<Codec> codecs = {
       {"H.264 CB x264 ultrafast zerolatency",
        "x264enc name=enc tune=zerolatency speed-preset=ultrafast key-int-max=60 bitrate={KBIT} ! "
