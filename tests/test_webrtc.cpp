@@ -434,6 +434,87 @@ TEST(WebrtcBrowser, TwoLecturersGetTheirOwnViewsAndALeaverFreesItsPlace) {
   std::printf("%s", run.output.c_str());
 }
 
+namespace {
+
+// Sends `request` to 127.0.0.1:`port`, over TLS when `tls` (any certificate accepted: the test's own is
+// self-signed); the first line of the answer, or "" when none came.
+std::string first_response_line(guint16 port, bool tls, const std::string& request) {
+  GSocketClient* client = g_socket_client_new();
+  g_socket_client_set_timeout(client, 30);
+  if (tls) {
+    g_socket_client_set_tls(client, TRUE);
+    G_GNUC_BEGIN_IGNORE_DEPRECATIONS
+    g_socket_client_set_tls_validation_flags(client, GTlsCertificateFlags(0));
+    G_GNUC_END_IGNORE_DEPRECATIONS
+  }
+  GSocketConnection* conn = g_socket_client_connect_to_host(client, "127.0.0.1", port, nullptr, nullptr);
+  g_object_unref(client);
+  if (!conn) return "";
+  GOutputStream* out = g_io_stream_get_output_stream(G_IO_STREAM(conn));
+  std::string line;
+  if (g_output_stream_write_all(out, request.data(), request.size(), nullptr, nullptr, nullptr)) {
+    GDataInputStream* in = g_data_input_stream_new(g_io_stream_get_input_stream(G_IO_STREAM(conn)));
+    gchar* text = g_data_input_stream_read_line(in, nullptr, nullptr, nullptr);
+    line = text ? text : "";
+    g_free(text);
+    g_object_unref(in);
+  }
+  g_io_stream_close(G_IO_STREAM(conn), nullptr, nullptr);
+  g_object_unref(conn);
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return line;
+}
+
+}  // namespace
+
+// With tls-certificate and tls-key the page and WHEP are served over HTTPS (what browsers need for WebXR off
+// localhost), the token still checked; plain HTTP gets no page; a key that does not load stops the element
+// at start with an error naming the port.
+TEST(WebrtcTls, CertificateFilesServeHttpsAndABadOneIsAnError) {
+  if (!gst_element_factory_find("whepserversink")) GTEST_SKIP() << "the webrtc plugin is not built";
+  if (!g_tls_backend_supports_tls(g_tls_backend_get_default())) GTEST_SKIP() << "GIO has no TLS backend (glib-networking)";
+  const std::string data = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/tests/data/tls/";
+  GstElement* pipe = gst_parse_launch(("videotestsrc is-live=true ! video/x-raw,width=64,height=48 ! whepserversink "
+                                       "name=w port=0 token=tls-test-token web-root=" + std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) +
+                                       "/web/lecturer tls-certificate=" + data +
+                                       "test-cert.pem tls-key=" + data + "test-key.pem")
+                                          .c_str(),
+                                      nullptr);
+  ASSERT_NE(pipe, nullptr);
+  ASSERT_NE(gst_element_set_state(pipe, GST_STATE_PLAYING), GST_STATE_CHANGE_FAILURE);
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "w");
+  guint port = 0;
+  g_object_get(sink, "bound-port", &port, nullptr);
+  gst_object_unref(sink);
+  ASSERT_GT(port, 0u);
+  const std::string host = "Host: 127.0.0.1\r\nConnection: close\r\n\r\n";
+  EXPECT_EQ(first_response_line(port, true, "GET /?token=tls-test-token HTTP/1.1\r\n" + host), "HTTP/1.1 200 OK");
+  EXPECT_EQ(first_response_line(port, true, "GET /?token=wrong HTTP/1.1\r\n" + host), "HTTP/1.1 401 Unauthorized");
+  EXPECT_EQ(first_response_line(port, false, "GET /?token=tls-test-token HTTP/1.1\r\n" + host).rfind("HTTP/1.1 200", 0),
+            std::string::npos);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(pipe);
+
+  // The certificate given as the key: no HTTPS server, an error instead.
+  GstElement* bad = gst_parse_launch(("videotestsrc is-live=true ! whepserversink port=0 token=tls-test-token "
+                                      "tls-certificate=" + data + "test-cert.pem tls-key=" + data + "test-cert.pem")
+                                         .c_str(),
+                                     nullptr);
+  ASSERT_NE(bad, nullptr);
+  EXPECT_EQ(gst_element_set_state(bad, GST_STATE_PLAYING), GST_STATE_CHANGE_FAILURE);
+  GstBus* bus = gst_element_get_bus(bad);
+  GstMessage* error = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
+  ASSERT_NE(error, nullptr);
+  GError* err = nullptr;
+  gst_message_parse_error(error, &err, nullptr);
+  EXPECT_NE(std::string(err->message).find("Cannot serve WHEP on port"), std::string::npos) << err->message;
+  g_error_free(err);
+  gst_message_unref(error);
+  gst_object_unref(bus);
+  gst_element_set_state(bad, GST_STATE_NULL);
+  gst_object_unref(bad);
+}
+
 // The page steers like posenav: its NAV constants (web/lecturer/lecturer.js)
 // are posenav's property defaults and the paper's slider scales.
 TEST(WebrtcPage, NavigationConstantsAreThoseOfPosenavAndTheSliders) {
