@@ -409,7 +409,7 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheVi
   if (!run.skip.empty()) GTEST_SKIP() << run.skip;
   EXPECT_TRUE(run.ok) << run.output;
   for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok soft stop:", "ok XR pose:",
-                            "ok left:"})
+                            "ok XR eyes:", "ok left:"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());
 }

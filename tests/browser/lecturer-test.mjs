@@ -84,6 +84,39 @@ try {
   if (!shown.clamped || Math.abs(shown.pose.position[0] - 0.2) > 1e-3)
     fail(`the XR pose 0.3 m right was not echoed clamped to 0.2 m: ${JSON.stringify(shown)}`);
   console.log(`ok XR pose: seq ${xrSeq} echoed, picture changed by ${dx.toFixed(1)}, clamped to x ${shown.pose.position[0].toFixed(3)} m`);
+  // The frame in front of the eyes: the XR loop's drawer puts the received frame into each eye's viewport
+  // (two side by side here, in a WebGL canvas of the test's: no headset); each half shows the video.
+  const eyes = await page.evaluate(() => {
+    const canvas = document.createElement('canvas');
+    canvas.width = 320; canvas.height = 90;
+    const gl = canvas.getContext('webgl', { preserveDrawingBuffer: true });
+    if (!gl) return null;
+    const draw = window.vclassroom.makeFrameDrawer(gl);
+    const video = document.getElementById('view');
+    if (!draw || !draw(video, [{ x: 0, y: 0, width: 160, height: 90 }, { x: 160, y: 0, width: 160, height: 90 }]))
+      return { drawn: false };
+    const pixels = new Uint8Array(320 * 90 * 4);
+    gl.readPixels(0, 0, 320, 90, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
+    const c2 = document.createElement('canvas');
+    c2.width = 160; c2.height = 90;
+    const g = c2.getContext('2d');
+    g.drawImage(video, 0, 0, 160, 90);
+    const ref = g.getImageData(0, 0, 160, 90).data;
+    // readPixels rows go bottom-up; the 2D canvas's top-down.
+    let left = 0, right = 0;
+    for (let y = 0; y < 90; ++y)
+      for (let x = 0; x < 160; ++x)
+        for (let c = 0; c < 3; ++c) {
+          const want = ref[((89 - y) * 160 + x) * 4 + c];
+          left += Math.abs(pixels[(y * 320 + x) * 4 + c] - want);
+          right += Math.abs(pixels[(y * 320 + 160 + x) * 4 + c] - want);
+        }
+    return { drawn: true, left: left / (160 * 90 * 3), right: right / (160 * 90 * 3) };
+  });
+  if (eyes === null) fail('no WebGL in this browser: the XR drawing cannot be checked');
+  if (!eyes.drawn || !(eyes.left < 8 && eyes.right < 8))
+    fail(`the XR drawer did not put the frame in both eyes: ${JSON.stringify(eyes)}`);
+  console.log(`ok XR eyes: the frame drawn in both viewports (mean difference ${eyes.left.toFixed(1)}, ${eyes.right.toFixed(1)})`);
   const latency = await page.evaluate(() => window.vclassroom.stats.latencyMs.slice());
   console.log(`ok ${latency.length} latency samples`);
   // 6. Leaving: DELETE of the session's Location is 200, a second one 404 (the session is gone).

@@ -221,6 +221,49 @@ async function join() {
   return { status: 201, pc };
 }
 
+// The received frame in front of the eyes: every XR view gets the whole frame (the server rendered it for
+// the head pose it last had), drawn over the view's viewport of the XR WebGL layer. The same drawer serves
+// any WebGL context (the browser test draws into a canvas of its own: no headset there).
+function makeFrameDrawer(gl) {
+  const shader = (type, text) => {
+    const sh = gl.createShader(type);
+    gl.shaderSource(sh, text);
+    gl.compileShader(sh);
+    return sh;
+  };
+  const program = gl.createProgram();
+  gl.attachShader(program, shader(gl.VERTEX_SHADER,
+    'attribute vec2 p; varying vec2 uv; void main() { uv = vec2(p.x + 1.0, 1.0 - p.y) * 0.5; gl_Position = vec4(p, 0.0, 1.0); }'));
+  gl.attachShader(program, shader(gl.FRAGMENT_SHADER,
+    'precision mediump float; varying vec2 uv; uniform sampler2D frame; void main() { gl_FragColor = texture2D(frame, uv); }'));
+  gl.linkProgram(program);
+  if (!gl.getProgramParameter(program, gl.LINK_STATUS)) return null;
+  const quad = gl.createBuffer();
+  gl.bindBuffer(gl.ARRAY_BUFFER, quad);
+  gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 1, -1, -1, 1, -1, 1, 1, -1, 1, 1]), gl.STATIC_DRAW);
+  const texture = gl.createTexture();
+  gl.bindTexture(gl.TEXTURE_2D, texture);
+  for (const [k, v] of [[gl.TEXTURE_MIN_FILTER, gl.LINEAR], [gl.TEXTURE_MAG_FILTER, gl.LINEAR],
+                        [gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE], [gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE]])
+    gl.texParameteri(gl.TEXTURE_2D, k, v);
+  const where = gl.getAttribLocation(program, 'p');
+  // Draws `video`'s current frame into each viewport ({x, y, width, height}); false before the first frame.
+  return (video, viewports) => {
+    if (video.readyState < 2) return false;
+    gl.useProgram(program);
+    gl.bindTexture(gl.TEXTURE_2D, texture);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA, gl.RGBA, gl.UNSIGNED_BYTE, video);
+    gl.bindBuffer(gl.ARRAY_BUFFER, quad);
+    gl.enableVertexAttribArray(where);
+    gl.vertexAttribPointer(where, 2, gl.FLOAT, false, 0, 0);
+    for (const v of viewports) {
+      gl.viewport(v.x, v.y, v.width, v.height);
+      gl.drawArrays(gl.TRIANGLES, 0, 6);
+    }
+    return true;
+  };
+}
+
 async function installVR() {
   const button = document.getElementById('vr'), label = document.getElementById('vrstatus');
   const supported = navigator.xr && await navigator.xr.isSessionSupported('immersive-vr').catch(() => false);
@@ -228,16 +271,26 @@ async function installVR() {
   button.onclick = async () => {
     const session = await navigator.xr.requestSession('immersive-vr');
     const space = await session.requestReferenceSpace('local');
+    const gl = document.createElement('canvas').getContext('webgl', { xrCompatible: true });
+    const layer = new XRWebGLLayer(session, gl);
+    session.updateRenderState({ baseLayer: layer });
+    const draw = makeFrameDrawer(gl);
+    const video = document.getElementById('view');
     const onXRFrame = (t, frame) => {
       const pose = frame.getViewerPose(space);
-      if (pose) onXRPose(pose.transform.position, pose.transform.orientation);
+      if (pose) {
+        onXRPose(pose.transform.position, pose.transform.orientation);
+        gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
+        if (draw) draw(video, pose.views.map(v => layer.getViewport(v)));
+      }
       session.requestAnimationFrame(onXRFrame);
     };
     session.requestAnimationFrame(onXRFrame);
   };
 }
 
-window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, poseToView, xrPoseToPose, get seq() { return seq; } };
+window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, poseToView, xrPoseToPose, makeFrameDrawer,
+                      get seq() { return seq; } };
 // Loaded after the page's body (index.html adds this script with the token).
 installSliders();
 installControls(document.getElementById('view'));
