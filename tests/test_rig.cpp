@@ -87,6 +87,7 @@ TEST(Rig, SaveLoadRoundTripIsExact) {
   rig.cameras[2].distortion = {0.11, -0.021, 0.0013, -0.0007, 0.004};
   rig.cameras[3].fx = 1234.5678901234567;
   rig.cameras[1].depth_to_color = Eigen::Isometry3d(Eigen::Translation3d(0.03, 0.001, -0.002));
+  rig.cameras[1].depth_lens = CameraCalib::DepthLens{640, 480, 385.25, 386.5, 319.5, 241.125};
   save_rig(rig, dir / "rig.yaml");
   Rig back = load_rig(dir / "rig.yaml");
   ASSERT_EQ(back.cameras.size(), rig.cameras.size());
@@ -99,7 +100,19 @@ TEST(Rig, SaveLoadRoundTripIsExact) {
     EXPECT_EQ(a.distortion, b.distortion);
     EXPECT_TRUE(a.cam_to_rig.matrix() == b.cam_to_rig.matrix()) << "camera " << i;
     EXPECT_EQ(a.depth_to_color.has_value(), b.depth_to_color.has_value());
+    ASSERT_EQ(a.depth_lens.has_value(), b.depth_lens.has_value()) << "camera " << i;
+    if (a.depth_lens) {
+      EXPECT_EQ(a.depth_lens->width, b.depth_lens->width);
+      EXPECT_EQ(a.depth_lens->fy, b.depth_lens->fy);
+      EXPECT_EQ(a.depth_lens->cy, b.depth_lens->cy);
+    }
   }
+  // The depth lens as a camera of its own: its intrinsics, posed at cam_to_rig * depth_to_color.
+  const CameraCalib depth = depth_sensor_of(back.cameras[1]);
+  EXPECT_EQ(depth.width, 640);
+  EXPECT_EQ(depth.fx, 385.25);
+  EXPECT_TRUE(depth.center_in_rig().isApprox(back.cameras[1].cam_to_rig * Eigen::Vector3d(0.03, 0.001, -0.002)));
+  EXPECT_FALSE(depth.depth_to_color.has_value());
 }
 
 struct BadRigCase {
@@ -131,6 +144,14 @@ TEST(Rig, EachKindOfBadRigFailsWithItsMessage) {
        {file, "camera 1", "'distortion'", "5 numbers"}},
       {"bad depth_to_color", "      rotation: [1, 0, 0, 0, 1, 0, 0, 0, 1]", "      rotation: [2, 0, 0, 0, 1, 0, 0, 0, 1]",
        {file, "camera 1", "depth_to_color", "'rotation'"}},
+      {"depth lens without its focal length", "      translation: [-0.032, 0, 0]\n",
+       "      translation: [-0.032, 0, 0]\n      width: 640\n      height: 480\n      fy: 385\n      cx: 319.5\n"
+       "      cy: 239.5\n",
+       {file, "camera 1", "depth_to_color", "'fx'", "missing"}},
+      {"depth lens of no width", "      translation: [-0.032, 0, 0]\n",
+       "      translation: [-0.032, 0, 0]\n      width: 0\n      height: 480\n      fx: 385\n      fy: 385\n"
+       "      cx: 319.5\n      cy: 239.5\n",
+       {file, "camera 1", "depth_to_color", "'width'"}},
   };
   for (const auto& c : cases) {
     const std::string msg = load_error(dir, replace_once(kGoodRig, c.from, c.to));

@@ -19,6 +19,7 @@
 #include <mutex>
 #include <string>
 
+#include <gst/vclassroom/capture/depth_registration.h>
 #include <gst/vclassroom/capture/frame_pairing.h>
 #include <gst/vclassroom/capture/v4l2_device.h>
 #include <gst/vclassroom/core/rgbd.h>
@@ -52,6 +53,7 @@ struct SrcState {
   RgbdInfo info;
   std::unique_ptr<V4l2Device> color, depth;
   std::unique_ptr<FramePairer> pairer;
+  std::unique_ptr<DepthRegistration> registration;  // when the rig gives the depth lens apart (depth_to_color)
   std::map<uint64_t, cv::Mat> colors, depths;  // converted frames waiting for their partner, by id
   uint64_t next_id = 0;
   WarningLimiter damaged_warnings;
@@ -135,7 +137,9 @@ static void open_devices(SrcState* st, const std::string& color_path, const std:
     st->color = std::make_unique<V4l2Device>(color_path);
     st->depth = std::make_unique<V4l2Device>(depth_path);
     choose_mode(st->color.get(), kColorFormats, std::size(kColorFormats), st->info);
-    choose_mode(st->depth.get(), kDepthFormats, std::size(kDepthFormats), st->info);
+    RgbdInfo depth_info = st->info;  // the depth node at the depth lens's own size
+    depth_info.camera = depth_sensor_of(st->info.camera);
+    choose_mode(st->depth.get(), kDepthFormats, std::size(kDepthFormats), depth_info);
     st->color->start();
     st->depth->start();
   } catch (const CaptureError&) {
@@ -190,14 +194,11 @@ static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
       return FALSE;
     }
   }
-  if (st->info.camera.depth_to_color) {
-    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS,
-                      ("rig camera %d has depth_to_color: registering depth into colour in rgbdsrc needs the depth "
-                       "sensor's own intrinsics in the rig, which the rig format does not carry yet",
-                       id),
-                      ("use the camera's aligned depth node (most UVC RGB-D cameras offer one)"));
-    return FALSE;
-  }
+  // A depth lens beside the colour lens: its depth is re-projected into the colour image (docs/capture.md).
+  st->registration.reset();
+  if (needs_registration(st->info.camera))
+    st->registration = std::make_unique<DepthRegistration>(depth_sensor_of(st->info.camera), st->info.camera,
+                                                           *st->info.camera.depth_to_color);
   st->info.planes = {Plane::Color, Plane::Depth};
   try {
     open_devices(st, color_path, depth_path);
@@ -266,10 +267,20 @@ static void take_frame(GstRgbdSrc* self, V4l2Device* dev, bool is_color) {
   if (f.bytesused > 0)
     ok = is_color ? capture_to_rgb(dev->mode().format, f.data, f.bytesused, st->info.width(), st->info.height(),
                                    f.stride, &plane, &err)
-                  : capture_to_depth_mm(dev->mode().format, f.data, f.bytesused, st->info.width(), st->info.height(),
+                  : capture_to_depth_mm(dev->mode().format, f.data, f.bytesused, dev->mode().width, dev->mode().height,
                                         f.stride, st->info.camera.depth_scale, &plane, &err);
   const int64_t time = f.timestamp_ns;
   dev->release(f);
+  if (ok && !is_color && st->registration) {
+    try {
+      cv::Mat registered;
+      st->registration->register_depth(plane, &registered);
+      plane = registered;
+    } catch (const Error& e) {  // a depth image not of the depth lens's size: dropped as damaged
+      ok = false;
+      err = e.what();
+    }
+  }
   if (!ok) {
     uint64_t count = 0;
     int64_t span = 0;
@@ -446,8 +457,10 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
                                                       "", rw));
   g_object_class_install_property(gobject_class, PROP_DEPTH_DEVICE,
                                   g_param_spec_string("depth-device", "Depth device",
-                                                      "The camera's depth node: Z16 or Y16 at the rig camera's size, "
-                                                      "aligned to the colour (depth units: the rig's depth_scale)",
+                                                      "The camera's depth node: Z16 or Y16, aligned to the colour at the rig camera's size, or, "
+                                                      "when the rig gives depth_to_color, at the depth lens's size, "
+                                                      "registered into the colour image (depth units: the rig's "
+                                                      "depth_scale)",
                                                       "", rw));
   g_object_class_install_property(gobject_class, PROP_RIG,
                                   g_param_spec_string("rig", "Rig file",

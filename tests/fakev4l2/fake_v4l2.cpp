@@ -172,7 +172,10 @@ size_t frame_bytes(const Config& c) {
 
 void render_scene(Device* d) {
   Rig rig = d->cfg.rig.empty() ? default_classroom_rig() : load_rig(d->cfg.rig);
-  const CameraCalib cam = scale_camera(rig.camera(d->cfg.camera), d->cfg.width, d->cfg.height);
+  // A depth node of a camera whose rig gives the depth lens apart sees from that lens.
+  const CameraCalib& rig_camera = rig.camera(d->cfg.camera);
+  const CameraCalib cam =
+      scale_camera(is_depth(d->cfg.fourcc) ? depth_sensor_of(rig_camera) : rig_camera, d->cfg.width, d->cfg.height);
   ClassroomConfig cc;
   cc.seed = d->cfg.seed;
   const RenderOutput r = render(Classroom(cc), 0.0, cam);

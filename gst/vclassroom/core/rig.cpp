@@ -519,6 +519,29 @@ Rig parse_rig_text(const std::string& input, const std::string& file) {
       dw.context += ": depth_to_color";
       if (d->kind != YamlNode::kMapping) throw Error(dw.at(d->line) + ": expected a mapping with rotation and translation");
       c.depth_to_color = read_transform(tree, *d, dw);
+      // The depth lens's own intrinsics: all of them, or none (the colour lens's).
+      if (const YamlNode* lw = child(tree, *d, "width"); lw && !is_null(*lw)) {
+        CameraCalib::DepthLens lens;
+        lens.width = read_int(tree, *d, "width", dw);
+        lens.height = read_int(tree, *d, "height", dw);
+        lens.fx = read_number(tree, *d, "fx", dw);
+        lens.fy = read_number(tree, *d, "fy", dw);
+        lens.cx = read_number(tree, *d, "cx", dw);
+        lens.cy = read_number(tree, *d, "cy", dw);
+        CameraCalib as_camera = c;
+        as_camera.width = lens.width;
+        as_camera.height = lens.height;
+        as_camera.fx = lens.fx;
+        as_camera.fy = lens.fy;
+        as_camera.cx = lens.cx;
+        as_camera.cy = lens.cy;
+        check_camera(as_camera, dw, [&](const char* field) {
+          int l = d->line;
+          child(tree, *d, field, &l);
+          return l;
+        });
+        c.depth_lens = lens;
+      }
     }
     check_camera(c, w, [&](const char* field) {
       int l = n.line;
@@ -609,6 +632,13 @@ std::string rig_to_text(const Rig& rig) {
     if (c.depth_to_color) {
       os << "    depth_to_color:\n";
       write_transform(os, *c.depth_to_color, "      ");
+      if (c.depth_lens)
+        os << "      width: " << c.depth_lens->width << "\n"
+           << "      height: " << c.depth_lens->height << "\n"
+           << "      fx: " << number_text(c.depth_lens->fx) << "\n"
+           << "      fy: " << number_text(c.depth_lens->fy) << "\n"
+           << "      cx: " << number_text(c.depth_lens->cx) << "\n"
+           << "      cy: " << number_text(c.depth_lens->cy) << "\n";
     }
   }
   if (rig.navigation) {
@@ -639,6 +669,25 @@ CameraCalib scale_camera(const CameraCalib& cam, int width, int height) {
   c.cx = (cam.cx + 0.5) * sx - 0.5;
   c.cy = (cam.cy + 0.5) * sy - 0.5;
   return c;
+}
+
+CameraCalib depth_sensor_of(const CameraCalib& camera) {
+  if (!camera.depth_to_color) return camera;
+  CameraCalib d = camera;
+  if (camera.depth_lens) {
+    d.width = camera.depth_lens->width;
+    d.height = camera.depth_lens->height;
+    d.fx = camera.depth_lens->fx;
+    d.fy = camera.depth_lens->fy;
+    d.cx = camera.depth_lens->cx;
+    d.cy = camera.depth_lens->cy;
+  }
+  d.distortion = {0, 0, 0, 0, 0};
+  // p_rig = cam_to_rig * p_colour = cam_to_rig * depth_to_color * p_depth.
+  d.cam_to_rig = camera.cam_to_rig * *camera.depth_to_color;
+  d.depth_to_color.reset();
+  d.depth_lens.reset();
+  return d;
 }
 
 void save_rig(const Rig& rig, const std::string& path) {

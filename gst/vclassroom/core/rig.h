@@ -31,6 +31,13 @@ struct CameraCalib {
   // camera coordinates to colour camera coordinates. Sources register depth
   // to colour with it, so streams never carry it.
   std::optional<Eigen::Isometry3d> depth_to_color;
+  // The depth lens's own image and pinhole intrinsics, where they differ
+  // from the colour lens's (with depth_to_color only; absent: the same).
+  struct DepthLens {
+    int width = 0, height = 0;
+    double fx = 0, fy = 0, cx = 0, cy = 0;
+  };
+  std::optional<DepthLens> depth_lens;
 
   bool has_distortion() const;
   Eigen::Matrix3d K() const;
@@ -74,6 +81,11 @@ struct Rig {
 // The same camera (pose, field of view) at another image size, e.g. 480x270
 // for previews or a small working size.
 CameraCalib scale_camera(const CameraCalib& cam, int width, int height);
+// The depth sensor of a camera with a separate depth lens as a camera of its
+// own: the depth lens's intrinsics (the colour lens's when the rig gives none),
+// no distortion, posed at cam_to_rig * depth_to_color. The camera itself when
+// its depth is aligned with its colour.
+CameraCalib depth_sensor_of(const CameraCalib& camera);
 
 // Reads and validates a rig file (at most 1 MiB). Throws Error naming file,
 // line, camera, field and what was expected (docs/rig-format.md).
