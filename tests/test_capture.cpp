@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/capture/depth_registration.h>
+#include <gst/vclassroom/capture/rgbd_camera.h>
 #include <gst/vclassroom/capture/frame_pairing.h>
 #include <gst/vclassroom/capture/pixel_formats.h>
 #include <gst/vclassroom/capture/v4l2_device.h>
@@ -242,6 +243,35 @@ TEST(RgbdSrc, NegotiatesEachColourFormatAndDeliversDepthBitExact) {
       truth.color(cv::Rect(0, 0, 8, 8)).copyTo(col(cv::Rect(0, 0, 8, 8)));
       EXPECT_GT(cv::PSNR(col, truth.color), 25) << "frame " << i;  // 4:2:2 or JPEG on a tiny, detailed view
     }
+  }
+}
+
+// The library's camera alone (what rgbdsrc wraps), through the fake device: pairs of one instant at the rig
+// camera's size; a node that is not there is a CaptureError saying so.
+TEST(RgbdCamera, GivesPairsOfOneInstantWithoutGStreamer) {
+  if (!fake_loaded()) GTEST_SKIP() << "the fake V4L2 device is not preloaded (run through meson test)";
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  fake_devices(fake_config(rig, "YUYV"));
+  RgbdCamera camera("/fake/color", "/fake/depth", load_rig(rig).camera(0), 30, 1, 10'000'000);
+  int pairs = 0;
+  for (int tries = 0; pairs < 3 && tries < 200; ++tries) {
+    RgbdCamera::Frame f;
+    RgbdCamera::Losses losses;
+    if (!camera.next(100, &f, &losses)) continue;
+    ++pairs;
+    EXPECT_EQ(f.color.size(), cv::Size(64, 48));
+    EXPECT_EQ(f.depth.type(), CV_16UC1);
+    EXPECT_TRUE(one_instant(f.color, f.depth)) << "pair " << pairs;
+    EXPECT_TRUE(losses.damaged.empty());
+  }
+  EXPECT_EQ(pairs, 3);
+  try {
+    RgbdCamera missing("/fake/none", "/fake/depth", load_rig(rig).camera(0), 30, 1, 10'000'000);
+    ADD_FAILURE() << "a camera without its colour node opened";
+  } catch (const CaptureError& e) {
+    EXPECT_EQ(e.kind(), CaptureError::Kind::kNoDevice) << e.what();
   }
 }
 

@@ -1,27 +1,21 @@
 // rgbdsrc: one consumer RGB-D camera through V4L2 (its colour node and its
 // depth node), as video/x-rgbd with the rig camera's calibration in the caps.
-// The V4L2 work, the pixel formats and the pairing by capture time are in the
-// library (gst/vclassroom/capture/); this is the glue: properties, caps,
-// timestamps on the pipeline clock, bus messages.
+// The camera itself (V4L2 nodes, pixel formats, registration, pairing by
+// capture time) is the library's RgbdCamera (gst/vclassroom/capture/); this
+// is the glue: properties, caps, timestamps on the pipeline clock, bus
+// messages, reconnecting.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
 
 #include "gstrgbdsrc.h"
 
-#include <poll.h>
-
 #include <atomic>
-#include <deque>
-#include <optional>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/capture/depth_registration.h>
-#include <gst/vclassroom/capture/frame_pairing.h>
-#include <gst/vclassroom/capture/v4l2_device.h>
+#include <gst/vclassroom/capture/rgbd_camera.h>
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/core/warning_limiter.h>
 
@@ -35,10 +29,6 @@ enum { PROP_0, PROP_COLOR_DEVICE, PROP_DEPTH_DEVICE, PROP_RIG, PROP_CAMERA_ID, P
 
 namespace {
 constexpr guint64 kDefaultMaxSkew = 10 * GST_MSECOND;
-// The colour formats in the order they are tried (the cheapest to convert first).
-constexpr CapturePixelFormat kColorFormats[] = {CapturePixelFormat::kYuyv, CapturePixelFormat::kRgb3,
-                                                CapturePixelFormat::kMjpg};
-constexpr CapturePixelFormat kDepthFormats[] = {CapturePixelFormat::kZ16, CapturePixelFormat::kY16};
 
 struct SrcState {
   std::mutex lock;  // the properties and the counters
@@ -51,11 +41,7 @@ struct SrcState {
 
   // Streaming thread (and start/stop).
   RgbdInfo info;
-  std::unique_ptr<V4l2Device> color, depth;
-  std::unique_ptr<FramePairer> pairer;
-  std::unique_ptr<DepthRegistration> registration;  // when the rig gives the depth lens apart (depth_to_color)
-  std::map<uint64_t, cv::Mat> colors, depths;  // converted frames waiting for their partner, by id
-  uint64_t next_id = 0;
+  std::unique_ptr<RgbdCamera> camera;
   WarningLimiter damaged_warnings;
   std::atomic<bool> flushing{false};
 };
@@ -88,64 +74,6 @@ static void post_capture_error(GstRgbdSrc* self, const CaptureError& e) {
     case CaptureError::Kind::kIo:
       GST_ELEMENT_ERROR(self, RESOURCE, READ, ("%s", e.what()), (nullptr));
       break;
-  }
-}
-
-// Sets the first of `formats` the device offers at the camera's size.
-static void choose_mode(V4l2Device* dev, const CapturePixelFormat* formats, size_t n, const RgbdInfo& info) {
-  const std::vector<CaptureMode> offered = dev->modes();
-  for (size_t i = 0; i < n; ++i)
-    for (const CaptureMode& m : offered)
-      if (m.format == formats[i] && m.width == info.width() && m.height == info.height()) {
-        CaptureMode want = m;
-        want.fps_n = info.fps_n;
-        want.fps_d = info.fps_d;
-        dev->set_mode(want);
-        return;
-      }
-  std::string wanted;
-  for (size_t i = 0; i < n; ++i) wanted += std::string(wanted.empty() ? "" : " or ") + capture_format_name(formats[i]);
-  throw CaptureError(CaptureError::Kind::kUnsupported,
-                     dev->path() + ": offers no " + wanted + " at " + std::to_string(info.width()) + "x" +
-                         std::to_string(info.height()) + " (the rig camera's size); it offers " +
-                         describe_modes(offered));
-}
-
-// A camera without a rig: the first size both nodes offer (colour formats in
-// rgbdsrc's order), a pinhole 64 degrees across, depth in mm, at the origin.
-static CameraCalib nominal_camera(const std::string& color_path, const std::string& depth_path, int id) {
-  for (const RgbdCameraNodes& cam : find_rgbd_cameras({color_path, depth_path})) {
-    if (cam.color_path != color_path || cam.depth_path != depth_path || cam.sizes.empty()) continue;
-    CameraCalib c;
-    c.id = id;
-    c.width = cam.sizes.front().first;
-    c.height = cam.sizes.front().second;
-    c.fx = c.fy = 0.8 * c.width;
-    c.cx = (c.width - 1) / 2.0;
-    c.cy = (c.height - 1) / 2.0;
-    return c;
-  }
-  throw CaptureError(CaptureError::Kind::kUnsupported,
-                     color_path + " and " + depth_path +
-                         " are not the colour and depth nodes of one camera at a common size (gst-device-monitor-1.0 "
-                         "lists the cameras found)");
-}
-
-// Opens both nodes, sets their modes and starts them; on failure none is left open.
-static void open_devices(SrcState* st, const std::string& color_path, const std::string& depth_path) {
-  try {
-    st->color = std::make_unique<V4l2Device>(color_path);
-    st->depth = std::make_unique<V4l2Device>(depth_path);
-    choose_mode(st->color.get(), kColorFormats, std::size(kColorFormats), st->info);
-    RgbdInfo depth_info = st->info;  // the depth node at the depth lens's own size
-    depth_info.camera = depth_sensor_of(st->info.camera);
-    choose_mode(st->depth.get(), kDepthFormats, std::size(kDepthFormats), depth_info);
-    st->color->start();
-    st->depth->start();
-  } catch (const CaptureError&) {
-    st->color.reset();
-    st->depth.reset();
-    throw;
   }
 }
 
@@ -194,32 +122,21 @@ static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
       return FALSE;
     }
   }
-  // A depth lens beside the colour lens: its depth is re-projected into the colour image (docs/capture.md).
-  st->registration.reset();
-  if (needs_registration(st->info.camera))
-    st->registration = std::make_unique<DepthRegistration>(depth_sensor_of(st->info.camera), st->info.camera,
-                                                           *st->info.camera.depth_to_color);
   st->info.planes = {Plane::Color, Plane::Depth};
   try {
-    open_devices(st, color_path, depth_path);
+    st->camera = std::make_unique<RgbdCamera>(color_path, depth_path, st->info.camera, st->info.fps_n, st->info.fps_d,
+                                              int64_t(skew));
   } catch (const CaptureError& e) {
     post_capture_error(self, e);
     return FALSE;
   }
-  st->pairer = std::make_unique<FramePairer>(int64_t(skew));
-  st->colors.clear();
-  st->depths.clear();
   st->damaged_warnings.reset();
   st->flushing = false;
   return TRUE;
 }
 
 static gboolean gst_rgbd_src_stop(GstBaseSrc* src) {
-  SrcState* st = GST_RGBD_SRC(src)->st;
-  st->color.reset();  // stops streaming, unmaps, closes
-  st->depth.reset();
-  st->colors.clear();
-  st->depths.clear();
+  GST_RGBD_SRC(src)->st->camera.reset();  // stops streaming, unmaps, closes
   return TRUE;
 }
 
@@ -235,7 +152,7 @@ static gboolean gst_rgbd_src_unlock_stop(GstBaseSrc* src) {
 
 static GstCaps* gst_rgbd_src_get_caps(GstBaseSrc* src, GstCaps* filter) {
   GstRgbdSrc* self = GST_RGBD_SRC(src);
-  return rgbd_source_caps(GST_BASE_SRC_PAD(src), self->st->color ? &self->st->info : nullptr, filter);
+  return rgbd_source_caps(GST_BASE_SRC_PAD(src), self->st->camera ? &self->st->info : nullptr, filter);
 }
 
 static gboolean gst_rgbd_src_query(GstBaseSrc* src, GstQuery* query) {
@@ -254,55 +171,24 @@ static gboolean gst_rgbd_src_query(GstBaseSrc* src, GstQuery* query) {
 // CLOCK_MONOTONIC, the kernel's capture clock (GLib reads the same one).
 static int64_t monotonic_ns() { return g_get_monotonic_time() * 1000; }
 
-// Takes one frame from `dev` if it has one, converts it, hands its buffer
-// back at once and gives it to the pairer. A damaged frame (short, flagged by
-// the driver, undecodable) is dropped with a rate-limited warning.
-static void take_frame(GstRgbdSrc* self, V4l2Device* dev, bool is_color) {
+// Counts what a round lost; damaged frames get a rate-limited warning.
+static void note_losses(GstRgbdSrc* self, const RgbdCamera::Losses& losses) {
   SrcState* st = self->st;
-  CapturedFrame f;
-  if (!dev->next_frame(0, &f)) return;
-  cv::Mat plane;
-  std::string err = "the driver flagged it damaged";
-  bool ok = false;
-  if (f.bytesused > 0)
-    ok = is_color ? capture_to_rgb(dev->mode().format, f.data, f.bytesused, st->info.width(), st->info.height(),
-                                   f.stride, &plane, &err)
-                  : capture_to_depth_mm(dev->mode().format, f.data, f.bytesused, dev->mode().width, dev->mode().height,
-                                        f.stride, st->info.camera.depth_scale, &plane, &err);
-  const int64_t time = f.timestamp_ns;
-  dev->release(f);
-  if (ok && !is_color && st->registration) {
-    try {
-      cv::Mat registered;
-      st->registration->register_depth(plane, &registered);
-      plane = registered;
-    } catch (const Error& e) {  // a depth image not of the depth lens's size: dropped as damaged
-      ok = false;
-      err = e.what();
-    }
+  if (losses.unpaired == 0 && losses.damaged.empty()) return;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    st->unpaired += losses.unpaired;
+    st->damaged += losses.damaged.size();
   }
-  if (!ok) {
+  for (const std::string& why : losses.damaged) {
     uint64_t count = 0;
     int64_t span = 0;
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      ++st->damaged;
-    }
     if (st->damaged_warnings.note(monotonic_ns(), &count, &span))
       GST_ELEMENT_WARNING(self, STREAM, DECODE,
                           ("%s", describe_occurrences(count, "a damaged frame dropped", "damaged frames dropped",
-                                                      dev->path(), span)
+                                                      st->camera->color_path() + " / " + st->camera->depth_path(), span)
                                      .c_str()),
-                          ("the last: %s", err.c_str()));
-    return;
-  }
-  const uint64_t id = st->next_id++;
-  if (is_color) {
-    st->colors[id] = plane;
-    st->pairer->push_color(id, time);
-  } else {
-    st->depths[id] = plane;
-    st->pairer->push_depth(id, time);
+                          ("the last: %s", why.c_str()));
   }
 }
 
@@ -322,17 +208,11 @@ static GstClockTime running_time_of(GstRgbdSrc* self, int64_t capture_ns) {
 static bool wait_for_return(GstRgbdSrc* self, const CaptureError& why) {
   SrcState* st = self->st;
   GST_ELEMENT_WARNING(self, RESOURCE, READ, ("%s; waiting for it to return", why.what()), ("reconnect=true"));
-  const std::string color_path = st->color->path(), depth_path = st->depth->path();
-  st->color.reset();
-  st->depth.reset();
-  std::deque<uint64_t> dc, dd;
-  st->pairer->clear(&dc, &dd);
-  st->colors.clear();
-  st->depths.clear();
   while (!st->flushing) {
     try {
-      open_devices(st, color_path, depth_path);
-      GST_ELEMENT_WARNING(self, RESOURCE, READ, ("camera %s / %s returned", color_path.c_str(), depth_path.c_str()),
+      st->camera->reopen();
+      GST_ELEMENT_WARNING(self, RESOURCE, READ,
+                          ("camera %s / %s returned", st->camera->color_path().c_str(), st->camera->depth_path().c_str()),
                           (nullptr));
       return true;
     } catch (const CaptureError&) {
@@ -347,40 +227,14 @@ static GstFlowReturn gst_rgbd_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
   SrcState* st = self->st;
   for (;;) {
     if (st->flushing) return GST_FLOW_FLUSHING;
-    std::deque<uint64_t> dropped_c, dropped_d;
-    std::optional<FramePairer::Pair> pair = st->pairer->pop(&dropped_c, &dropped_d);
-    for (uint64_t id : dropped_c) st->colors.erase(id);
-    for (uint64_t id : dropped_d) st->depths.erase(id);
-    if (!dropped_c.empty() || !dropped_d.empty()) {
-      std::lock_guard<std::mutex> g(st->lock);
-      st->unpaired += dropped_c.size() + dropped_d.size();
-    }
-    if (pair) {
-      GstBuffer* buf = rgbd_buffer_new(st->info);
-      RgbdFrame frame;
-      std::string err;
-      if (!frame.map(buf, st->info, GST_MAP_WRITE, &err)) {
-        gst_buffer_unref(buf);
-        GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
-        return GST_FLOW_ERROR;
-      }
-      st->colors[pair->color_id].copyTo(frame.color());
-      st->depths[pair->depth_id].copyTo(frame.depth());
-      frame.unmap();
-      st->colors.erase(pair->color_id);
-      st->depths.erase(pair->depth_id);
-      GST_BUFFER_PTS(buf) = running_time_of(self, pair->color_time_ns);
-      GST_BUFFER_DURATION(buf) = st->info.frame_duration();
-      *outbuf = buf;
-      return GST_FLOW_OK;
-    }
+    RgbdCamera::Frame frame;
+    RgbdCamera::Losses losses;
+    bool got = false;
     try {
-      pollfd fds[2] = {{st->color->fd(), POLLIN, 0}, {st->depth->fd(), POLLIN, 0}};
       // Wakes now and then to notice a flush (unlock) even when no frame comes.
-      if (poll(fds, 2, 100) < 0 && errno != EINTR) throw CaptureError(CaptureError::Kind::kIo, "poll failed");
-      if (fds[0].revents) take_frame(self, st->color.get(), true);
-      if (fds[1].revents) take_frame(self, st->depth.get(), false);
+      got = st->camera->next(100, &frame, &losses);
     } catch (const CaptureError& e) {
+      note_losses(self, losses);
       if (e.kind() == CaptureError::Kind::kIo) {
         // One frame the driver could not deliver: the stream goes on.
         GST_ELEMENT_WARNING(self, RESOURCE, READ, ("%s", e.what()), ("the frame is dropped"));
@@ -396,7 +250,25 @@ static GstFlowReturn gst_rgbd_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
         return GST_FLOW_ERROR;
       }
       if (!wait_for_return(self, e)) return GST_FLOW_FLUSHING;
+      continue;
     }
+    note_losses(self, losses);
+    if (!got) continue;
+    GstBuffer* buf = rgbd_buffer_new(st->info);
+    RgbdFrame out;
+    std::string err;
+    if (!out.map(buf, st->info, GST_MAP_WRITE, &err)) {
+      gst_buffer_unref(buf);
+      GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
+      return GST_FLOW_ERROR;
+    }
+    frame.color.copyTo(out.color());
+    frame.depth.copyTo(out.depth());
+    out.unmap();
+    GST_BUFFER_PTS(buf) = running_time_of(self, frame.capture_ns);
+    GST_BUFFER_DURATION(buf) = st->info.frame_duration();
+    *outbuf = buf;
+    return GST_FLOW_OK;
   }
 }
 
