@@ -1,6 +1,7 @@
 // Several lecturers at once: for each count of lecturers, starts a server
 // (gst-launch-1.0: synthetic live cameras ! learnerseg ! whepviewsink, a view
-// per lecturer) and that many headless Chromium pages (tests/browser/
+// per lecturer; the cameras' recorded coded frames decoded in a loop, or
+// rendered live) and that many headless Chromium pages (tests/browser/
 // measure-lecturers.mjs, each its own browser, moving its head like a headset),
 // and reports per count: frames shown per second, bitrate and pose-to-photon
 // latency p50/p99 as the browsers saw them, and the server's CPU time per frame
@@ -72,11 +73,16 @@ int main(int argc, char** argv) {
   gchar* counts_text = nullptr;
   gint seconds = 20, cameras = 3;
   gchar* size_text = nullptr;
+  gboolean render_cameras = FALSE;
   const GOptionEntry entries[] = {
       {"lecturers", 0, 0, G_OPTION_ARG_STRING, &counts_text, "Counts of lecturers to measure (default 1,2,4)", "N,N"},
       {"seconds", 0, 0, G_OPTION_ARG_INT, &seconds, "Measured window per count (default 20)", "S"},
       {"cameras", 0, 0, G_OPTION_ARG_INT, &cameras, "Synthetic cameras of the default rig, 1 to 3 (default 3)", "N"},
       {"size", 0, 0, G_OPTION_ARG_STRING, &size_text, "Each lecturer's view (default 960x540)", "WxH"},
+      {"render-cameras", 0, 0, G_OPTION_ARG_NONE, &render_cameras,
+       "Render the cameras live inside the server (rgbdtestsrc) instead of decoding 4 s of recorded coded frames "
+       "in a loop, as a server decodes its cameras' streams",
+       nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   parse_command_line(&argc, &argv, "",
                      "Pose-to-photon latency, bitrate and server CPU with several browser lecturers "
@@ -103,6 +109,26 @@ int main(int argc, char** argv) {
                  "source root or set VCLASSROOM_SOURCE_DIR\n", g_get_prgname(), driver.c_str());
     return 1;
   }
+  // The cameras: 4 s of each camera's coded frames recorded once (rgbdenc ! rgbdfilesink), played in a loop
+  // at their recorded timing and decoded by the server (rgbdfilesrc decodes them), as it decodes what the
+  // cameras send; or rendered live in the server.
+  std::string recording;
+  if (!render_cameras) {
+    gchar* dir = g_dir_make_tmp("vclassroom-lecturers-XXXXXX", nullptr);
+    recording = dir ? dir : "";
+    g_free(dir);
+    for (int k = 0; k < cameras && !recording.empty(); ++k) {
+      const std::string record = "gst-launch-1.0 -q rgbdtestsrc camera-id=" + std::to_string(k) +
+                                 " num-buffers=120 ground-truth=false ! rgbdenc ! rgbdfilesink location=" + recording;
+      gint status = 1;
+      if (!g_spawn_command_line_sync(record.c_str(), nullptr, nullptr, &status, nullptr) ||
+          !g_spawn_check_wait_status(status, nullptr)) {
+        std::fprintf(stderr, "%s: recording camera %d failed: %s\n", g_get_prgname(), k, record.c_str());
+        return 1;
+      }
+    }
+    std::fprintf(stderr, "recorded 4 s of %d cameras in %s\n", cameras, recording.c_str());
+  }
   std::printf("| lecturers | fps shown (each) | kbit/s (each) | pose-to-photon p50 / p99 ms | server CPU ms per frame | "
               "server CPU %% of one core |\n|---|---|---|---|---|---|\n");
   for (int n : counts) {
@@ -111,8 +137,10 @@ int main(int argc, char** argv) {
                          " token=measure-token max-sessions=" + std::to_string(n) + " width=" + std::to_string(width) +
                          " height=" + std::to_string(height) + " web-root=" + root + "/web/lecturer";
     for (int k = 0; k < cameras; ++k)
-      launch += " rgbdtestsrc camera-id=" + std::to_string(k) + " is-live=true ! learnerseg ! queue max-size-buffers=1 "
-                "leaky=downstream ! w.cam_" + std::to_string(k);
+      launch += (render_cameras ? " rgbdtestsrc camera-id=" + std::to_string(k) + " is-live=true"
+                                : " rgbdfilesrc location=" + recording + " camera-id=" + std::to_string(k) +
+                                      " loop=true") +
+                " ! learnerseg ! queue max-size-buffers=1 leaky=downstream ! w.cam_" + std::to_string(k);
     gchar** server_argv = nullptr;
     g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, nullptr);
     GError* err = nullptr;
@@ -197,6 +225,10 @@ int main(int argc, char** argv) {
                 frames > 0 ? cpu * 1000.0 / frames : 0.0, 100.0 * cpu / wall);
     std::printf("lecturers %d: worst p50 %.0f ms, worst p99 %.0f ms, %ld frames shown in %.1f s\n", n, p50, p99, frames,
                 wall);
+  }
+  if (!recording.empty()) {
+    gchar* argv_rm[] = {const_cast<gchar*>("rm"), const_cast<gchar*>("-rf"), const_cast<gchar*>(recording.c_str()), nullptr};
+    g_spawn_sync(nullptr, argv_rm, nullptr, G_SPAWN_SEARCH_PATH, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr);
   }
   return 0;
 }
