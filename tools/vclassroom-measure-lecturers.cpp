@@ -1,7 +1,7 @@
 // Several lecturers at once: for each count of lecturers, starts a server
 // (gst-launch-1.0: synthetic live cameras ! learnerseg ! whepviewsink, a view
-// per lecturer; the cameras' recorded coded frames decoded in a loop, or
-// rendered live) and that many headless Chromium pages (tests/browser/
+// per lecturer; the cameras rendered live, or their recorded coded frames
+// decoded in a loop) and that many headless Chromium pages (tests/browser/
 // measure-lecturers.mjs, each its own browser, moving its head like a headset),
 // and reports per count: frames shown per second, bitrate and pose-to-photon
 // latency p50/p99 as the browsers saw them, and the server's CPU time per frame
@@ -73,15 +73,15 @@ int main(int argc, char** argv) {
   gchar* counts_text = nullptr;
   gint seconds = 20, cameras = 3;
   gchar* size_text = nullptr;
-  gboolean render_cameras = FALSE;
+  gboolean recorded_cameras = FALSE;
   const GOptionEntry entries[] = {
       {"lecturers", 0, 0, G_OPTION_ARG_STRING, &counts_text, "Counts of lecturers to measure (default 1,2,4)", "N,N"},
       {"seconds", 0, 0, G_OPTION_ARG_INT, &seconds, "Measured window per count (default 20)", "S"},
       {"cameras", 0, 0, G_OPTION_ARG_INT, &cameras, "Synthetic cameras of the default rig, 1 to 3 (default 3)", "N"},
       {"size", 0, 0, G_OPTION_ARG_STRING, &size_text, "Each lecturer's view (default 960x540)", "WxH"},
-      {"render-cameras", 0, 0, G_OPTION_ARG_NONE, &render_cameras,
-       "Render the cameras live inside the server (rgbdtestsrc) instead of decoding 4 s of recorded coded frames "
-       "in a loop, as a server decodes its cameras' streams",
+      {"recorded-cameras", 0, 0, G_OPTION_ARG_NONE, &recorded_cameras,
+       "Decode 4 s of recorded coded camera frames in a loop (rgbdfilesrc: not a live source, so the pipeline "
+       "is not live either) instead of rendering the cameras live in the server (rgbdtestsrc is-live=true)",
        nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   parse_command_line(&argc, &argv, "",
@@ -109,11 +109,11 @@ int main(int argc, char** argv) {
                  "source root or set VCLASSROOM_SOURCE_DIR\n", g_get_prgname(), driver.c_str());
     return 1;
   }
-  // The cameras: 4 s of each camera's coded frames recorded once (rgbdenc ! rgbdfilesink), played in a loop
-  // at their recorded timing and decoded by the server (rgbdfilesrc decodes them), as it decodes what the
-  // cameras send; or rendered live in the server.
+  // The cameras: rendered live in the server (a live pipeline, like one fed by cameras over the network; the
+  // rendering costs the server's CPU more than decoding their streams would), or 4 s of each camera's coded
+  // frames recorded once (rgbdenc ! rgbdfilesink), played in a loop and decoded (rgbdfilesrc, not live).
   std::string recording;
-  if (!render_cameras) {
+  if (recorded_cameras) {
     gchar* dir = g_dir_make_tmp("vclassroom-lecturers-XXXXXX", nullptr);
     recording = dir ? dir : "";
     g_free(dir);
@@ -137,7 +137,7 @@ int main(int argc, char** argv) {
                          " token=measure-token max-sessions=" + std::to_string(n) + " width=" + std::to_string(width) +
                          " height=" + std::to_string(height) + " web-root=" + root + "/web/lecturer";
     for (int k = 0; k < cameras; ++k)
-      launch += (render_cameras ? " rgbdtestsrc camera-id=" + std::to_string(k) + " is-live=true"
+      launch += (!recorded_cameras ? " rgbdtestsrc camera-id=" + std::to_string(k) + " is-live=true"
                                 : " rgbdfilesrc location=" + recording + " camera-id=" + std::to_string(k) +
                                       " loop=true") +
                 " ! learnerseg ! queue max-size-buffers=1 leaky=downstream ! w.cam_" + std::to_string(k);

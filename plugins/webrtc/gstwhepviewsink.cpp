@@ -87,6 +87,14 @@ static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& sess
     GST_WARNING_OBJECT(self, "a lecturer joined before any camera was linked: refused");
     return nullptr;
   }
+  for (const char* factory : {"queue", "viewwarp", "viewfuse", "videoconvert", "x264enc", "capsfilter"})
+    if (GstElementFactory* f = gst_element_factory_find(factory)) {
+      gst_object_unref(f);
+    } else {
+      GST_ELEMENT_WARNING(self, CORE, MISSING_PLUGIN, ("no %s element: a lecturer's view cannot be made", factory),
+                          ("x264enc is in gstreamer1.0-plugins-ugly"));
+      return nullptr;
+    }
   View& view = (*self->views)[session];
   view.fuse = add_element(self, &view, "viewfuse");
   GstElement* convert = add_element(self, &view, "videoconvert");
