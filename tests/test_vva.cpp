@@ -12,6 +12,7 @@
 
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/image_metrics.h>
+#include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
@@ -413,6 +414,97 @@ TEST(LearnerSeg, FindsTheClassroomLearners) {
 
 // With a pose trace each frame is warped for the trace's pose at its own
 // running time, whatever pose events say and whenever it is processed.
+// The background memory: the static room's camera noise is averaged away, a real change shows at once (no
+// ghost), learners pass as they are and leave nothing behind.
+TEST(BackgroundMemory, AveragesNoiseButShowsChangesAndLearnersAtOnce) {
+  BackgroundMemory memory(BackgroundMemoryParams{8, 24});
+  cv::RNG rng(5);
+  const cv::Mat room(20, 30, CV_8UC3, cv::Scalar(100, 120, 140));
+  cv::Mat label = cv::Mat::zeros(room.size(), CV_8UC1);
+  label(cv::Rect(0, 0, 5, 20)).setTo(1);  // a learner on the left
+  cv::Mat out, prev_in, prev_out;
+  double in_change = 0, out_change = 0;
+  for (int i = 0; i < 40; ++i) {
+    cv::Mat noise(room.size(), CV_16SC3), frame;
+    rng.fill(noise, cv::RNG::NORMAL, 0, 4);
+    room.convertTo(frame, CV_16SC3);
+    frame += noise;
+    frame.convertTo(frame, CV_8UC3);
+    memory.update(frame, label, &out);
+    const cv::Rect still(5, 0, 25, 20);
+    if (i >= 10) {
+      in_change += cv::norm(frame(still), prev_in(still), cv::NORM_L1);
+      out_change += cv::norm(out(still), prev_out(still), cv::NORM_L1);
+    }
+    EXPECT_TRUE(vctest::same_image(out(cv::Rect(0, 0, 5, 20)), frame(cv::Rect(0, 0, 5, 20)))) << "the learner changed";
+    prev_in = frame.clone();
+    prev_out = out.clone();
+  }
+  EXPECT_LT(out_change, in_change * 0.5) << "the noise was not averaged: " << out_change << " vs " << in_change;
+  // A chair moved: a change far above the noise is shown as it is, at once.
+  cv::Mat moved = room.clone();
+  moved(cv::Rect(10, 5, 6, 6)).setTo(cv::Scalar(30, 30, 30));
+  memory.update(moved, label, &out);
+  EXPECT_EQ(out.at<cv::Vec3b>(7, 12), cv::Vec3b(30, 30, 30));
+  // The learner leaves: what was behind them is shown as seen now, nothing of the learner remembered.
+  label.setTo(0);
+  memory.update(room, label, &out);
+  EXPECT_EQ(out.at<cv::Vec3b>(10, 2), cv::Vec3b(100, 120, 140));
+  EXPECT_THROW(memory.update(cv::Mat(4, 4, CV_8UC1), cv::Mat(), &out), Error);
+  EXPECT_THROW(memory.update(room, cv::Mat::zeros(3, 3, CV_8UC1), &out), Error);
+}
+
+// Through viewwarp (background-memory=8): the same static scene with fresh camera noise in every frame gives
+// a steadier view than without the memory.
+TEST(ViewWarpElement, BackgroundMemorySteadiesTheViewOfANoisyStaticRoom) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(1), 160, 90);
+  info.planes = {Plane::Color, Plane::Depth};
+  const Classroom room(ClassroomConfig{1, 0, 2.0});
+  const RenderOutput r = render(room, 0.0, info.camera);
+  auto frame_changes = [&](int memory) {
+    GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + rig + " background-memory=" + std::to_string(memory)).c_str());
+    gst_harness_set_src_caps(h, rgbd_caps_new(info));
+    cv::RNG rng(9);
+    cv::Mat prev;
+    double change = 0;
+    for (int i = 0; i < 12; ++i) {
+      GstBuffer* buf = rgbd_buffer_new(info);
+      {
+        RgbdFrame f;
+        std::string err;
+        EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+        cv::Mat noise(r.color.size(), CV_16SC3), noisy;
+        rng.fill(noise, cv::RNG::NORMAL, 0, 4);
+        r.color.convertTo(noisy, CV_16SC3);
+        noisy += noise;
+        noisy.convertTo(f.color(), CV_8UC3);
+        r.depth.copyTo(f.depth());
+      }
+      GST_BUFFER_PTS(buf) = i * GST_SECOND / 30;
+      EXPECT_EQ(gst_harness_push(h, buf), GST_FLOW_OK);
+      GstBuffer* out = gst_harness_pull(h);
+      GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+      RgbdInfo oi;
+      EXPECT_TRUE(rgbd_info_from_caps(oc, &oi, nullptr));
+      gst_caps_unref(oc);
+      RgbdFrame f;
+      EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, nullptr));
+      const cv::Mat color = f.color().clone();
+      f.unmap();
+      gst_buffer_unref(out);
+      if (i >= 4) change += cv::norm(color, prev, cv::NORM_L1);
+      prev = color;
+    }
+    gst_harness_teardown(h);
+    return change;
+  };
+  const double without = frame_changes(0), with = frame_changes(8);
+  EXPECT_LT(with, without * 0.6) << with << " vs " << without;
+}
+
 TEST(ViewWarpElement, APoseTraceSetsEachFramesViewByItsTime) {
   vctest::TempDir dir;
   const std::string rig = small_classroom_rig(dir);

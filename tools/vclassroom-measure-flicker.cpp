@@ -41,10 +41,11 @@ double mean_abs(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  gint frames = 300;
+  gint frames = 300, memory = 0;
   gchar* out_dir = nullptr;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "Frames at 30 fps (default 300)", "N"},
+      {"memory", 0, 0, G_OPTION_ARG_INT, &memory, "viewwarp background-memory (frames; default 0: off)", "N"},
       {"out", 0, 0, G_OPTION_ARG_FILENAME, &out_dir, "Also write the first and last rendered frame there", "DIR"},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   parse_command_line(&argc, &argv, "",
@@ -52,6 +53,7 @@ int main(int argc, char** argv) {
                      "of the synthetic classroom, against the ground truth.",
                      entries, gst_init_get_option_group());
   if (frames < 10 || frames > 3000) usage_error("--frames must be 10 to 3000");
+  if (memory < 0 || memory > 64) usage_error("--memory must be 0 to 64");
   const Rig rig = default_classroom_rig();
   // A novel view between the centre and the right camera, a little forward and turned.
   Pose pose = offset_to_pose(ViewOffset{0.3, 0.05, 0.4, 8, 2, 0}, rig.camera(0));
@@ -71,7 +73,8 @@ int main(int argc, char** argv) {
     const std::string prior = tmp + "/prior" + std::to_string(k) + ".png";
     cv::imwrite(prior, render(empty_room, 0.0, rig.camera(k)).depth);
     desc += " rgbdtestsrc camera-id=" + std::to_string(k) + " seed=1 learners=6 num-buffers=" + std::to_string(frames) +
-            " ground-truth=false ! learnerseg prior-depth=" + prior + " ! viewwarp prior-depth=" + prior +
+            " ground-truth=false ! learnerseg prior-depth=" + prior + " ! viewwarp background-memory=" +
+            std::to_string(memory) + " prior-depth=" + prior +
             " pose-trace=" + tmp + "/pose.csv ! queue max-size-buffers=2 ! fuse.cam_" + std::to_string(k);
   }
   GError* err = nullptr;

@@ -16,6 +16,7 @@
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/view_warp.h>
 #include <gst/vclassroom/vva/virtual_view.h>
 
@@ -34,7 +35,8 @@ enum {
   PROP_RIG,
   PROP_REFERENCE,
   PROP_POSES_RECEIVED,
-  PROP_POSE_TRACE
+  PROP_POSE_TRACE,
+  PROP_BACKGROUND_MEMORY
 };
 
 namespace {
@@ -45,6 +47,7 @@ struct WarpState {
   double fov = 0;
   std::string prior_path;
   int boundary_px = 1;
+  int memory_frames = 0;  // background-memory; 0: off
   std::string rig_path;
   int reference_id = 0;
   std::string trace_path;
@@ -61,6 +64,9 @@ struct WarpState {
   uint64_t frames = 0;
   ViewWarper warper;
   WarpedView warped;
+  BackgroundMemory memory;   // the static room's colour, when background-memory is set
+  int memory_for = 0;        // the frames `memory` was made for
+  cv::Mat remembered;        // this frame's colour seen through the memory
 };
 
 }  // namespace
@@ -224,10 +230,12 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   WarpState* st = self->st;
   Pose pose;
   WarpParams params;
+  int memory_frames;
   {
     std::lock_guard<std::mutex> g(st->lock);
     pose = st->pose;
     params.boundary_px = st->boundary_px;
+    memory_frames = st->memory_frames;
   }
   if (!st->trace.empty()) {
     // The frame's own moment of the trace (trace_pose_for_frame()).
@@ -252,6 +260,19 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   src.color = in.color();
   src.depth = in.depth();
   src.label = in.label();
+  if (memory_frames > 0) {
+    if (memory_frames != st->memory_for) {
+      st->memory = BackgroundMemory(BackgroundMemoryParams{memory_frames, BackgroundMemoryParams().change});
+      st->memory_for = memory_frames;
+    }
+    try {
+      st->memory.update(src.color, src.label, &st->remembered);
+      src.color = st->remembered;
+    } catch (const Error& e) {
+      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", e.what()), (nullptr));
+      return GST_FLOW_ERROR;
+    }
+  }
   if (st->use_prior) src.static_depth = st->prior;
   // Warp straight into the output planes.
   st->warped.color = out.color();
@@ -309,6 +330,9 @@ static void gst_view_warp_set_property(GObject* object, guint prop_id, const GVa
     case PROP_BOUNDARY:
       st->boundary_px = g_value_get_int(value);
       break;
+    case PROP_BACKGROUND_MEMORY:
+      st->memory_frames = g_value_get_int(value);
+      break;
     case PROP_RIG:
       st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
       break;
@@ -341,6 +365,9 @@ static void gst_view_warp_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_BOUNDARY:
       g_value_set_int(value, st->boundary_px);
+      break;
+    case PROP_BACKGROUND_MEMORY:
+      g_value_set_int(value, st->memory_frames);
       break;
     case PROP_RIG:
       g_value_set_string(value, st->rig_path.c_str());
@@ -398,6 +425,13 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
       g_param_spec_int("boundary", "Edge boundary",
                        "Source pixels dropped on the far side of a depth edge (their colour mixes both surfaces)", 0,
                        8, 1, playing));
+  g_object_class_install_property(
+      gobject_class, PROP_BACKGROUND_MEMORY,
+      g_param_spec_int("background-memory", "Background memory",
+                       "Show the static room (label 0) through a memory of its colour: the mean of up to this many "
+                       "frames, started again where the colour changes by more than the camera's noise (docs/vva.md); "
+                       "the camera's noise then no longer flickers in the view. 0: off",
+                       0, 64, 0, playing));
   g_object_class_install_property(
       gobject_class, PROP_RIG,
       g_param_spec_string("rig", "Rig file",
