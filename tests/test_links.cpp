@@ -965,30 +965,11 @@ TEST(Scripts, LecturerEndsAtTheFirstCtrlCWhenNoVideoEverCame) {
   EXPECT_NE(r.output.find("Got EOS from element"), std::string::npos) << r.output;
 }
 
-// The HTTP status line of `request` sent to 127.0.0.1:`port` (HTTP/1.0, the server closes), e.g.
-// "HTTP/1.0 200 OK"; empty when nothing answered.
-std::string http_status(guint16 port, const std::string& request) {
-  GSocketClient* client = g_socket_client_new();
-  GSocketConnection* conn = g_socket_client_connect_to_host(client, "127.0.0.1", port, nullptr, nullptr);
-  g_object_unref(client);
-  if (!conn) return "";
-  GOutputStream* out = g_io_stream_get_output_stream(G_IO_STREAM(conn));
-  g_output_stream_write_all(out, request.data(), request.size(), nullptr, nullptr, nullptr);
-  GDataInputStream* in = g_data_input_stream_new(g_io_stream_get_input_stream(G_IO_STREAM(conn)));
-  gchar* line = g_data_input_stream_read_line(in, nullptr, nullptr, nullptr);
-  std::string status = line ? line : "";
-  g_free(line);
-  g_object_unref(in);
-  g_object_unref(conn);
-  if (!status.empty() && status.back() == '\r') status.pop_back();
-  return status;
-}
-
 // server.sh with LECTURER_OUT=whep-views (a view per lecturer, whepviewsink) plays with its cameras linked,
 // serves the lecturer page to the token and 401 to anyone else, prints the URL to join, and ends at Ctrl-C.
 TEST(Scripts, ServerServesAViewPerLecturerOverWhep) {
   if (!gst_element_factory_find("whepviewsink")) GTEST_SKIP() << "the webrtc plugin is not built (no webrtcbin)";
-  const guint16 http = static_cast<guint16>(vctest::free_udp_port());  // a free number; TCP, checked by the bind
+  const guint16 http = static_cast<guint16>(vctest::free_tcp_port());
   std::string page, refused;
   const StoppedScript r = stop_when_playing(
       "server.sh",
@@ -996,8 +977,8 @@ TEST(Scripts, ServerServesAViewPerLecturerOverWhep) {
        {"CAMERAS", "0 1"}, {"BASE_PORT", std::to_string(vctest::free_udp_port())},
        {"POSE_PORT", std::to_string(vctest::free_udp_port())}, {"STOP_GRACE", "2"}},
       SIGINT, [&] {
-        page = http_status(http, "GET /?token=a-long-secret HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
-        refused = http_status(http, "GET /?token=wrong HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
+        page = vctest::first_response_line(http, false, "GET /?token=a-long-secret HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
+        refused = vctest::first_response_line(http, false, "GET /?token=wrong HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
       });
   EXPECT_TRUE(r.playing) << r.output;
   EXPECT_TRUE(r.exited) << r.output;
@@ -1021,7 +1002,9 @@ TEST(Scripts, TwoLoopbackFlowsOnOneHostRunWithoutCrosstalk) {
     flows.emplace_back([&, i, frames] {
       runs[i] = run_script("loopback.sh",
                            {"PORT_BASE=" + std::to_string(i == 0 ? base_a : base_b), "CAMERAS=0", "RIG=" + rig,
-                            "WIDTH=64", "HEIGHT=48", "SECONDS_TO_RUN=6", "STOP_GRACE=3",
+                            // Six processes start at once (two flows of three): under the sanitizers on two
+                            // cores their start alone takes seconds, so the flows get 12 s to show frames.
+                            "WIDTH=64", "HEIGHT=48", "SECONDS_TO_RUN=12", "STOP_GRACE=3",
                             "SOURCE=rgbdtestsrc camera-id=0 rig=" + rig + " is-live=true ground-truth=false",
                             "SINK=jpegenc ! multifilesink location=" + frames + "/%05d.jpg"},
                            120);

@@ -39,6 +39,18 @@ std::array<double, 6> offsets_of(const Pose& p, const CameraCalib& ref) {
   return {o.right, o.up, o.forward, o.yaw, o.pitch, o.roll};
 }
 
+// The last pose event `h`'s element sent upstream since the last call (a default Pose when none).
+Pose last_pose_sent(GstHarness* h) {
+  Pose p;
+  while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
+    if (is_pose_event(ev)) {
+      EXPECT_TRUE(pose_event_parse(ev, &p, nullptr));
+    }
+    gst_event_unref(ev);
+  }
+  return p;
+}
+
 bool same_pose_bits(const Pose& a, const Pose& b) {
   return a.position == b.position && a.orientation.coeffs() == b.orientation.coeffs();
 }
@@ -136,16 +148,7 @@ TEST(PoseNavBounds, TheLecturersViewStopsAtTheBoundsAndATraceBeyondIsClampedWith
   GstHarness* h = gst_harness_new_parse(("posenav rig=" + (dir / "rig.yaml")).c_str());
   gst_harness_set_src_caps_str(h, "video/x-raw,format=RGB,width=8,height=8,framerate=30/1");
   auto push_frame = [&] { gst_buffer_unref(gst_harness_push_and_pull(h, gst_harness_create_buffer(h, 8 * 8 * 3))); };
-  auto last_pose = [&] {
-    Pose p;
-    while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
-      if (is_pose_event(ev)) {
-        EXPECT_TRUE(pose_event_parse(ev, &p, nullptr));
-      }
-      gst_event_unref(ev);
-    }
-    return p;
-  };
+  auto last_pose = [&] { return last_pose_sent(h); };
   push_frame();
   last_pose();
   // Drag far to the right: 2000 px at 0.2°/px would be 400°; the view stops at yaw 10°.
@@ -187,16 +190,7 @@ TEST(PoseNavBounds, AViewTheServerClampedMovesToWhereTheServerHeldIt) {
     if (with_meta) buffer_add_pose_meta(b, seq, 0, rendered_pose_of(rendered));
     gst_buffer_unref(gst_harness_push_and_pull(h, b));
   };
-  auto last_pose = [&] {
-    Pose p;
-    while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
-      if (is_pose_event(ev)) {
-        EXPECT_TRUE(pose_event_parse(ev, &p, nullptr));
-      }
-      gst_event_unref(ev);
-    }
-    return p;
-  };
+  auto last_pose = [&] { return last_pose_sent(h); };
   const CameraCalib level = rig_origin_reference();
   push_frame(false, 0, Pose());
   last_pose();

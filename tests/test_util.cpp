@@ -9,6 +9,8 @@
 #include <gst/app/gstappsink.h>
 #include <gtest/gtest.h>
 
+#include "../tools/free_port.h"
+
 namespace fs = std::filesystem;
 
 namespace vctest {
@@ -150,15 +152,35 @@ GstFlowReturn SampleCollector::on_sample(GstAppSink* sink, gpointer data) {
   return GST_FLOW_OK;
 }
 
-int free_udp_port() {
-  GSocket* s = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_DATAGRAM, G_SOCKET_PROTOCOL_UDP, nullptr);
-  GInetAddress* lo = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
-  GSocketAddress* any = g_inet_socket_address_new(lo, 0);
-  g_socket_bind(s, any, TRUE, nullptr);
-  GSocketAddress* bound = g_socket_get_local_address(s, nullptr);
-  const int port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
-  for (GObject* o : {G_OBJECT(bound), G_OBJECT(any), G_OBJECT(lo), G_OBJECT(s)}) g_object_unref(o);
-  return port;
+int free_udp_port() { return vclassroom_tools::free_loopback_port(false); }
+
+int free_tcp_port() { return vclassroom_tools::free_loopback_port(true); }
+
+std::string first_response_line(int port, bool tls, const std::string& request) {
+  GSocketClient* client = g_socket_client_new();
+  g_socket_client_set_timeout(client, 30);
+  if (tls) {
+    g_socket_client_set_tls(client, TRUE);
+    G_GNUC_BEGIN_IGNORE_DEPRECATIONS
+    g_socket_client_set_tls_validation_flags(client, GTlsCertificateFlags(0));
+    G_GNUC_END_IGNORE_DEPRECATIONS
+  }
+  GSocketConnection* conn = g_socket_client_connect_to_host(client, "127.0.0.1", guint16(port), nullptr, nullptr);
+  g_object_unref(client);
+  if (!conn) return "";
+  GOutputStream* out = g_io_stream_get_output_stream(G_IO_STREAM(conn));
+  std::string line;
+  if (g_output_stream_write_all(out, request.data(), request.size(), nullptr, nullptr, nullptr)) {
+    GDataInputStream* in = g_data_input_stream_new(g_io_stream_get_input_stream(G_IO_STREAM(conn)));
+    gchar* text = g_data_input_stream_read_line(in, nullptr, nullptr, nullptr);
+    line = text ? text : "";
+    g_free(text);
+    g_object_unref(in);
+  }
+  g_io_stream_close(G_IO_STREAM(conn), nullptr, nullptr);
+  g_object_unref(conn);
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return line;
 }
 
 bool same_image(const cv::Mat& a, const cv::Mat& b) {

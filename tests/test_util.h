@@ -61,8 +61,14 @@ class SampleCollector {
   std::vector<GstSample*> samples_;
 };
 
-// A UDP port on 127.0.0.1 that is free now (bound and released).
+// A UDP or TCP port on 127.0.0.1 that is free now (bound and released).
 int free_udp_port();
+int free_tcp_port();
+
+// Sends `request` (e.g. "GET / HTTP/1.1\r\nHost: ...\r\n\r\n") to 127.0.0.1:`port`, over TLS when `tls` (any
+// certificate accepted: the tests' own is self-signed); the first line of the answer without its CR ("HTTP/1.1
+// 200 OK"), or "" when none came.
+std::string first_response_line(int port, bool tls, const std::string& request);
 
 // Structural-equality of two images (type, size, bytes).
 bool same_image(const cv::Mat& a, const cv::Mat& b);

@@ -324,17 +324,7 @@ BrowserRun run_browser_script(const std::string& server, const std::string& scri
     return run;
   }
   GError* err = nullptr;
-  GSocket* probe = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_STREAM, G_SOCKET_PROTOCOL_TCP, &err);
-  GInetAddress* loopback = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
-  GSocketAddress* any_port = g_inet_socket_address_new(loopback, 0);
-  EXPECT_TRUE(probe && g_socket_bind(probe, any_port, TRUE, &err));
-  GSocketAddress* bound = g_socket_get_local_address(probe, &err);
-  const guint port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
-  g_object_unref(bound);
-  g_object_unref(any_port);
-  g_object_unref(loopback);
-  g_socket_close(probe, nullptr);
-  g_object_unref(probe);
+  const int port = vctest::free_tcp_port();
   std::string launch = "gst-launch-1.0 " + server;
   launch.replace(launch.find("{PORT}"), 6, std::to_string(port));
   gchar** server_argv = nullptr;
@@ -434,39 +424,6 @@ TEST(WebrtcBrowser, TwoLecturersGetTheirOwnViewsAndALeaverFreesItsPlace) {
   std::printf("%s", run.output.c_str());
 }
 
-namespace {
-
-// Sends `request` to 127.0.0.1:`port`, over TLS when `tls` (any certificate accepted: the test's own is
-// self-signed); the first line of the answer, or "" when none came.
-std::string first_response_line(guint16 port, bool tls, const std::string& request) {
-  GSocketClient* client = g_socket_client_new();
-  g_socket_client_set_timeout(client, 30);
-  if (tls) {
-    g_socket_client_set_tls(client, TRUE);
-    G_GNUC_BEGIN_IGNORE_DEPRECATIONS
-    g_socket_client_set_tls_validation_flags(client, GTlsCertificateFlags(0));
-    G_GNUC_END_IGNORE_DEPRECATIONS
-  }
-  GSocketConnection* conn = g_socket_client_connect_to_host(client, "127.0.0.1", port, nullptr, nullptr);
-  g_object_unref(client);
-  if (!conn) return "";
-  GOutputStream* out = g_io_stream_get_output_stream(G_IO_STREAM(conn));
-  std::string line;
-  if (g_output_stream_write_all(out, request.data(), request.size(), nullptr, nullptr, nullptr)) {
-    GDataInputStream* in = g_data_input_stream_new(g_io_stream_get_input_stream(G_IO_STREAM(conn)));
-    gchar* text = g_data_input_stream_read_line(in, nullptr, nullptr, nullptr);
-    line = text ? text : "";
-    g_free(text);
-    g_object_unref(in);
-  }
-  g_io_stream_close(G_IO_STREAM(conn), nullptr, nullptr);
-  g_object_unref(conn);
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  return line;
-}
-
-}  // namespace
-
 // With tls-certificate and tls-key the page and WHEP are served over HTTPS (what browsers need for WebXR off
 // localhost), the token still checked; plain HTTP gets no page; a key that does not load stops the element
 // at start with an error naming the port.
@@ -488,9 +445,9 @@ TEST(WebrtcTls, CertificateFilesServeHttpsAndABadOneIsAnError) {
   gst_object_unref(sink);
   ASSERT_GT(port, 0u);
   const std::string host = "Host: 127.0.0.1\r\nConnection: close\r\n\r\n";
-  EXPECT_EQ(first_response_line(port, true, "GET /?token=tls-test-token HTTP/1.1\r\n" + host), "HTTP/1.1 200 OK");
-  EXPECT_EQ(first_response_line(port, true, "GET /?token=wrong HTTP/1.1\r\n" + host), "HTTP/1.1 401 Unauthorized");
-  EXPECT_EQ(first_response_line(port, false, "GET /?token=tls-test-token HTTP/1.1\r\n" + host).rfind("HTTP/1.1 200", 0),
+  EXPECT_EQ(vctest::first_response_line(port, true, "GET /?token=tls-test-token HTTP/1.1\r\n" + host), "HTTP/1.1 200 OK");
+  EXPECT_EQ(vctest::first_response_line(port, true, "GET /?token=wrong HTTP/1.1\r\n" + host), "HTTP/1.1 401 Unauthorized");
+  EXPECT_EQ(vctest::first_response_line(port, false, "GET /?token=tls-test-token HTTP/1.1\r\n" + host).rfind("HTTP/1.1 200", 0),
             std::string::npos);
   gst_element_set_state(pipe, GST_STATE_NULL);
   gst_object_unref(pipe);

@@ -20,6 +20,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include "free_port.h"
 #include "tool_options.h"
 
 using namespace vclassroom_tools;
@@ -40,21 +41,6 @@ double cpu_seconds(GPid pid) {
     if (i == 15) stime = std::atof(field.c_str());
   }
   return (utime + stime) / double(sysconf(_SC_CLK_TCK));
-}
-
-guint16 free_tcp_port() {
-  GSocket* s = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_STREAM, G_SOCKET_PROTOCOL_TCP, nullptr);
-  GInetAddress* lo = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
-  GSocketAddress* any = g_inet_socket_address_new(lo, 0);
-  g_socket_bind(s, any, TRUE, nullptr);
-  GSocketAddress* bound = g_socket_get_local_address(s, nullptr);
-  const guint16 port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
-  g_object_unref(bound);
-  g_object_unref(any);
-  g_object_unref(lo);
-  g_socket_close(s, nullptr);
-  g_object_unref(s);
-  return port;
 }
 
 struct LecturerResult {
@@ -132,7 +118,7 @@ int main(int argc, char** argv) {
   std::printf("| lecturers | fps shown (each) | kbit/s (each) | pose-to-photon p50 / p99 ms | server CPU ms per frame | "
               "server CPU %% of one core |\n|---|---|---|---|---|---|\n");
   for (int n : counts) {
-    const guint16 port = free_tcp_port();
+    const int port = free_loopback_port(true);
     std::string launch = "gst-launch-1.0 whepviewsink name=w port=" + std::to_string(port) +
                          " token=measure-token max-sessions=" + std::to_string(n) + " width=" + std::to_string(width) +
                          " height=" + std::to_string(height) + " web-root=" + root + "/web/lecturer";

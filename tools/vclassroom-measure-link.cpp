@@ -20,6 +20,7 @@
 #include <gst/app/gstappsrc.h>
 #include <gst/rtp/gstrtpbuffer.h>
 
+#include "free_port.h"
 #include "tool_options.h"
 #include "tool_support.h"
 
@@ -49,17 +50,6 @@ const Scheme kSchemes[] = {
      "rtpsession name=rx probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 "
      "rx.send_rtcp_src ! udpsink host=127.0.0.1 port={NACK_PORT} sync=false async=false"},
 };
-
-int free_udp_port() {
-  GSocket* s = g_socket_new(G_SOCKET_FAMILY_IPV4, G_SOCKET_TYPE_DATAGRAM, G_SOCKET_PROTOCOL_UDP, nullptr);
-  GInetAddress* lo = g_inet_address_new_loopback(G_SOCKET_FAMILY_IPV4);
-  GSocketAddress* any = g_inet_socket_address_new(lo, 0);
-  g_socket_bind(s, any, TRUE, nullptr);
-  GSocketAddress* bound = g_socket_get_local_address(s, nullptr);
-  const int port = g_inet_socket_address_get_port(G_INET_SOCKET_ADDRESS(bound));
-  for (GObject* o : {G_OBJECT(bound), G_OBJECT(any), G_OBJECT(lo), G_OBJECT(s)}) g_object_unref(o);
-  return port;
-}
 
 struct Probes {
   std::mutex lock;
@@ -173,7 +163,8 @@ double percentile(std::vector<double> v, double q) {
 
 Row run(const Scheme& scheme, const vclassroom_tools::Recording& rec, double loss, size_t frames, guint32 seed) {
   Row row;
-  const std::string rtp_port = std::to_string(free_udp_port()), nack_port = std::to_string(free_udp_port());
+  const std::string rtp_port = std::to_string(vclassroom_tools::free_loopback_port(false)),
+                    nack_port = std::to_string(vclassroom_tools::free_loopback_port(false));
   auto ports = [&](const std::string& s) { return replace_all(s, "{NACK_PORT}", nack_port); };
   const std::string tx_desc =
       ports(scheme.sender_rtcp + " appsrc name=src is-live=true format=time ! identity sync=true ! "
