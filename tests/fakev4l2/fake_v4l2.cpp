@@ -9,7 +9,7 @@
 //
 // VCLASSROOM_FAKE_V4L2 = device;device;..., each a comma-separated list of
 // key=value: path (required), format (YUYV, RGB3, MJPG, Z16, Y16), width,
-// height, fps (30), camera (rig camera id, 0), rig (rig file; default: the
+// height, fps (30), camera (rig camera id, 0), learners (3; 0: the empty room), rig (rig file; default: the
 // default classroom rig), seed (1), and misbehaviour: drop (share of instants
 // skipped), jitter_ms (timestamp jitter), short_at (this frame comes short),
 // eio_at (DQBUF fails with EIO at this frame), enodev_at (the device vanishes
@@ -66,6 +66,7 @@ struct Config {
   int width = 64, height = 48, fps = 30, camera = 0;
   std::string rig;
   uint64_t seed = 1;
+  int learners = 3;  // the synthetic classroom's learners (0: the empty room)
   double drop = 0, jitter_ms = 0;
   long short_at = -1, eio_at = -1, enodev_at = -1;
   bool busy = false;
@@ -152,6 +153,7 @@ void parse_configs() {
       else if (k == "camera") c.camera = std::stoi(v);
       else if (k == "rig") c.rig = v;
       else if (k == "seed") c.seed = std::stoull(v);
+      else if (k == "learners") c.learners = std::stoi(v);
       else if (k == "drop") c.drop = std::stod(v);
       else if (k == "jitter_ms") c.jitter_ms = std::stod(v);
       else if (k == "short_at") c.short_at = std::stol(v);
@@ -178,6 +180,7 @@ void render_scene(Device* d) {
       scale_camera(is_depth(d->cfg.fourcc) ? depth_sensor_of(rig_camera) : rig_camera, d->cfg.width, d->cfg.height);
   ClassroomConfig cc;
   cc.seed = d->cfg.seed;
+  cc.learners = d->cfg.learners;
   const RenderOutput r = render(Classroom(cc), 0.0, cam);
   d->color = r.color.clone();
   d->depth = r.depth.clone();
@@ -281,7 +284,8 @@ int fake_ioctl(Device* d, unsigned long request, void* arg) {
       std::memset(cap, 0, sizeof *cap);
       std::snprintf(reinterpret_cast<char*>(cap->driver), sizeof cap->driver, "fakev4l2");
       std::snprintf(reinterpret_cast<char*>(cap->card), sizeof cap->card, "Fake RGB-D %s", is_depth(c.fourcc) ? "depth" : "colour");
-      std::snprintf(reinterpret_cast<char*>(cap->bus_info), sizeof cap->bus_info, "usb-fake-1");
+      // One USB device per rig camera: its colour and depth nodes share the bus, as on a real camera.
+      std::snprintf(reinterpret_cast<char*>(cap->bus_info), sizeof cap->bus_info, "usb-fake-%d", c.camera + 1);
       cap->capabilities = V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_STREAMING | V4L2_CAP_DEVICE_CAPS;
       cap->device_caps = V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_STREAMING;
       return 0;
