@@ -19,6 +19,7 @@
 #include <gst/vclassroom/datasets/dataset.h>
 #include <gst/vclassroom/vda/depth_completion.h>
 #include <gst/vclassroom/core/image_metrics.h>
+#include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/datasets/middlebury.h>
 #include <gst/vclassroom/vda/plane_refine.h>
@@ -41,6 +42,7 @@ struct Options {
   int width = 960, height = 540;
   int boundary_px = 1;
   bool mesh = false;
+  int memory = 0;  // classroom: each source camera's colour through a background memory of this many frames
   std::string write_priors;  // folder: write the empty room's depth per camera and exit
   std::string model;         // V-DA model folder: the full system runs V-DA on the sensor depth
   // --dataset: leave-one-out on any dataset folder of the project's format.
@@ -334,6 +336,7 @@ void eval_classroom(const Options& opt) {
     }
   }
   for (int i = 0; i < 3; ++i) seg[i].set_static_depth(priors[i]);
+  std::vector<BackgroundMemory> memories(3, BackgroundMemory(BackgroundMemoryParams{std::max(1, opt.memory), 24}));
   const double fps = 10.0;  // segmentation sees consecutive frames at 10 fps
   FusedView fused;
   cv::Mat last_synth, last_real;
@@ -356,6 +359,11 @@ void eval_classroom(const Options& opt) {
       }
       truth[i] = r.label.clone();
       seg[i].segment(imgs[i].color, imgs[i].depth, &labels[i]);
+      if (opt.memory > 0 && i > 0) {  // the sources, as viewwarp background-memory=N shows them
+        cv::Mat remembered;
+        memories[i].update(imgs[i].color, labels[i], &remembered);
+        imgs[i].color = remembered;
+      }
       const SegScore sc = score_segmentation(labels[i], truth[i]);
       iou[i].add(sc.fg_iou);
       learner_iou[i].add(sc.mean_learner_iou);
@@ -445,6 +453,10 @@ int main(int argc, char** argv) {
       {"frames", 0, 0, G_OPTION_ARG_INT, &opt.frames,
        "frames to average over: synthetic classroom (default 20), or with --dataset (default all)", "N"},
       {"size", 0, 0, G_OPTION_ARG_STRING, &size, "synthetic classroom camera size (default 960x540)", "WxH"},
+      {"memory", 0, 0, G_OPTION_ARG_INT, &opt.memory,
+       "classroom: show each source camera's static room through a background memory of N frames (viewwarp's "
+       "background-memory; default 0: off)",
+       "N"},
       {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 1)",
        "PX"},
       {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,
