@@ -424,6 +424,35 @@ TEST(WebrtcBrowser, TwoLecturersGetTheirOwnViewsAndALeaverFreesItsPlace) {
   std::printf("%s", run.output.c_str());
 }
 
+// whepviewsink without any camera linked cannot make a view: a lecturer's well-formed offer (H.264
+// constrained baseline, packetization mode 1) gets 503 and nothing is built; the token is checked first.
+TEST(WebrtcViews, ALecturerBeforeAnyCameraIsRefusedWith503) {
+  if (!gst_element_factory_find("whepviewsink")) GTEST_SKIP() << "the webrtc plugin is not built";
+  GstElement* sink = gst_element_factory_make("whepviewsink", nullptr);
+  g_object_set(sink, "port", 0u, "token", "views-test-token", nullptr);
+  ASSERT_NE(gst_element_set_state(sink, GST_STATE_READY), GST_STATE_CHANGE_FAILURE);
+  guint port = 0;
+  g_object_get(sink, "bound-port", &port, nullptr);
+  ASSERT_GT(port, 0u);
+  const std::string offer =
+      "v=0\r\no=- 1 1 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\nm=video 9 UDP/TLS/RTP/SAVPF 102\r\n"
+      "c=IN IP4 0.0.0.0\r\na=mid:0\r\na=recvonly\r\na=rtpmap:102 H264/90000\r\n"
+      "a=fmtp:102 level-asymmetry-allowed=1;packetization-mode=1;profile-level-id=42e01f\r\n";
+  auto post = [&](const std::string& token) {
+    return vctest::first_response_line(int(port), false,
+                                       "POST /whep?token=" + token + " HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                                       "Content-Type: application/sdp\r\nContent-Length: " +
+                                           std::to_string(offer.size()) + "\r\nConnection: close\r\n\r\n" + offer);
+  };
+  EXPECT_EQ(post("wrong"), "HTTP/1.1 401 Unauthorized");
+  EXPECT_EQ(post("views-test-token"), "HTTP/1.1 503 Service Unavailable");
+  guint sessions = 1;
+  g_object_get(sink, "sessions", &sessions, nullptr);
+  EXPECT_EQ(sessions, 0u);
+  gst_element_set_state(sink, GST_STATE_NULL);
+  gst_object_unref(sink);
+}
+
 // With tls-certificate and tls-key the page and WHEP are served over HTTPS (what browsers need for WebXR off
 // localhost), the token still checked; plain HTTP gets no page; a key that does not load stops the element
 // at start with an error naming the port.
