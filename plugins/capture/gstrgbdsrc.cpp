@@ -254,17 +254,13 @@ static GstFlowReturn gst_rgbd_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
     }
     note_losses(self, losses);
     if (!got) continue;
-    GstBuffer* buf = rgbd_buffer_new(st->info);
-    RgbdFrame out;
     std::string err;
-    if (!out.map(buf, st->info, GST_MAP_WRITE, &err)) {
-      gst_buffer_unref(buf);
+    GstBuffer* buf =
+        rgbd_buffer_with_planes(st->info, {{Plane::Color, frame.color}, {Plane::Depth, frame.depth}}, &err);
+    if (!buf) {
       GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
       return GST_FLOW_ERROR;
     }
-    frame.color.copyTo(out.color());
-    frame.depth.copyTo(out.depth());
-    out.unmap();
     GST_BUFFER_PTS(buf) = running_time_of(self, frame.capture_ns);
     GST_BUFFER_DURATION(buf) = st->info.frame_duration();
     *outbuf = buf;

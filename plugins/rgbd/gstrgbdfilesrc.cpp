@@ -162,19 +162,17 @@ static GstFlowReturn gst_rgbd_file_src_create(GstPushSrc* psrc, GstBuffer** outb
                       ("rgbdfilesrc camera-id=%d frame %zu", st->info.camera.id, index));
     return GST_FLOW_ERROR;
   }
-  GstBuffer* buf = rgbd_buffer_new(st->info);
-  RgbdFrame frame;
   std::string err;
-  if (!frame.map(buf, st->info, GST_MAP_WRITE, &err)) {
-    gst_buffer_unref(buf);
+  GstBuffer* buf = rgbd_buffer_with_planes(st->info,
+                                           {{Plane::Color, im.color},
+                                            {Plane::Depth, im.depth},
+                                            {Plane::Label, im.label},
+                                            {Plane::DepthGT, im.depth_gt}},
+                                           &err);
+  if (!buf) {
     GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
     return GST_FLOW_ERROR;
   }
-  im.color.copyTo(frame.color());
-  im.depth.copyTo(frame.depth());
-  if (st->info.has(Plane::Label)) im.label.copyTo(frame.label());
-  if (st->info.has(Plane::DepthGT)) im.depth_gt.copyTo(frame.plane(Plane::DepthGT));
-  frame.unmap();
 
   const GstClockTime dur = st->info.frame_duration();
   if (st->recording) {

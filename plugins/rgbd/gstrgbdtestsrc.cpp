@@ -181,19 +181,16 @@ static GstFlowReturn gst_rgbd_test_src_create(GstPushSrc* psrc, GstBuffer** outb
     GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("%s", e.what()), ("rgbdtestsrc frame %" G_GUINT64_FORMAT, n));
     return GST_FLOW_ERROR;
   }
-  GstBuffer* buf = rgbd_buffer_new(st->info);
-  {
-    RgbdFrame frame;
-    std::string err;
-    if (!frame.map(buf, st->info, GST_MAP_WRITE, &err)) {
-      gst_buffer_unref(buf);
-      GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
-      return GST_FLOW_ERROR;
-    }
-    (st->noise ? st->noisy_color : st->clean.color).copyTo(frame.color());
-    (st->noise ? st->noisy_depth : st->clean.depth).copyTo(frame.depth());
-    if (st->info.has(Plane::Label)) st->clean.label.copyTo(frame.label());
-    if (st->info.has(Plane::DepthGT)) st->clean.depth.copyTo(frame.plane(Plane::DepthGT));
+  std::string err;
+  GstBuffer* buf = rgbd_buffer_with_planes(st->info,
+                                           {{Plane::Color, st->noise ? st->noisy_color : st->clean.color},
+                                            {Plane::Depth, st->noise ? st->noisy_depth : st->clean.depth},
+                                            {Plane::Label, st->clean.label},
+                                            {Plane::DepthGT, st->clean.depth}},
+                                           &err);
+  if (!buf) {
+    GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
+    return GST_FLOW_ERROR;
   }
 
   GstClockTime base = 0;

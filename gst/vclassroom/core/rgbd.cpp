@@ -252,6 +252,19 @@ PlaneLayout raw_plane_layout(GstBuffer* buf, int width, int height, GstVideoForm
   return {0, video_default_stride(fmt, width, height)};
 }
 
+GstBuffer* rgbd_buffer_with_planes(const RgbdInfo& info, const std::vector<std::pair<Plane, cv::Mat>>& planes,
+                                   std::string* error) {
+  GstBuffer* buf = rgbd_buffer_new(info);
+  RgbdFrame frame;
+  if (!frame.map(buf, info, GST_MAP_WRITE, error)) {
+    gst_buffer_unref(buf);
+    return nullptr;
+  }
+  for (const auto& [plane, mat] : planes)
+    if (info.has(plane)) mat.copyTo(frame.plane(plane));
+  return buf;
+}
+
 GstBuffer* rgbd_buffer_new(const RgbdInfo& info) {
   GstBuffer* buf = gst_buffer_new();
   for (size_t i = 0; i < info.planes.size(); ++i)

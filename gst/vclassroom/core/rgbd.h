@@ -4,6 +4,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gst/base/gstaggregator.h>
@@ -157,5 +158,11 @@ class RgbdFrame {
   };
   std::vector<Mapped> maps_;
 };
+
+// A new buffer of `info` (rgbd_buffer_new) with each given plane copied in; planes `info` does not carry are
+// skipped, planes not given are left uninitialised. What the RGB-D sources make a frame with. nullptr and
+// *error when the buffer cannot be mapped.
+GstBuffer* rgbd_buffer_with_planes(const RgbdInfo& info, const std::vector<std::pair<Plane, cv::Mat>>& planes,
+                                   std::string* error);
 
 }  // namespace vclassroom

@@ -528,19 +528,13 @@ Rig parse_rig_text(const std::string& input, const std::string& file) {
         lens.fy = read_number(tree, *d, "fy", dw);
         lens.cx = read_number(tree, *d, "cx", dw);
         lens.cy = read_number(tree, *d, "cy", dw);
-        CameraCalib as_camera = c;
-        as_camera.width = lens.width;
-        as_camera.height = lens.height;
-        as_camera.fx = lens.fx;
-        as_camera.fy = lens.fy;
-        as_camera.cx = lens.cx;
-        as_camera.cy = lens.cy;
-        check_camera(as_camera, dw, [&](const char* field) {
+        c.depth_lens = lens;
+        // Checked as the camera it is (the same checks as a colour lens's, naming the depth lens's lines).
+        check_camera(depth_sensor_of(c), dw, [&](const char* field) {
           int l = d->line;
           child(tree, *d, field, &l);
           return l;
         });
-        c.depth_lens = lens;
       }
     }
     check_camera(c, w, [&](const char* field) {
