@@ -19,6 +19,7 @@
 #include <gst/vclassroom/synthetic/classroom.h>
 
 #include "tool_options.h"
+#include "tool_support.h"
 
 using namespace vclassroom;
 using namespace vclassroom_tools;
@@ -133,54 +134,31 @@ Result run_codec(const Codec& codec, int kbit, const std::vector<cv::Mat>& frame
   return r;
 }
 
-// Up to `count` frames, as 960x540 RGB, from `source` (a launch description ending in raw video) or, when
-// `file` is given, from that video file.
-std::vector<cv::Mat> read_frames(std::string source, const std::string& file, int count, int width, int height,
-                                 std::string* error) {
+// Up to `count` frames, as RGB at width x height, from `source` (a launch description ending in raw video;
+// record_stream runs it). Empty when it failed (record_stream said why).
+std::vector<cv::Mat> read_frames(const std::string& source, int count, int width, int height) {
   std::vector<cv::Mat> frames;
-  if (!file.empty()) source = "filesrc name=file ! decodebin";
-  const std::string desc = source + " ! videoconvert ! videoscale ! video/x-raw,format=RGB,width=" +
-                           std::to_string(width) + ",height=" + std::to_string(height) + " ! appsink name=out sync=false";
-  GError* err = nullptr;
-  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
-  if (!pipe) {
-    *error = err ? err->message : "cannot read";
-    g_clear_error(&err);
+  Recording rec;
+  if (!record_stream(source + " ! identity eos-after=" + std::to_string(count) +
+                         " ! videoconvert ! videoscale ! video/x-raw,format=RGB,width=" + std::to_string(width) +
+                         ",height=" + std::to_string(height),
+                     1, &rec))
     return frames;
-  }
-  if (!file.empty()) {
-    GstElement* filesrc = gst_bin_get_by_name(GST_BIN(pipe), "file");
-    g_object_set(filesrc, "location", file.c_str(), nullptr);  // any name, no quoting
-    gst_object_unref(filesrc);
-  }
-  GstElement* out = gst_bin_get_by_name(GST_BIN(pipe), "out");
-  gst_element_set_state(pipe, GST_STATE_PLAYING);
-  while (int(frames.size()) < count) {
-    GstSample* sample = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 30 * GST_SECOND);
-    if (!sample) break;
+  for (GstBuffer* b : rec.frames) {
     GstMapInfo map;
-    GstBuffer* b = gst_sample_get_buffer(sample);
-    if (gst_buffer_map(b, &map, GST_MAP_READ)) {
-      if (map.size >= size_t(GST_ROUND_UP_4(width * 3)) * height)
-        frames.push_back(cv::Mat(height, width, CV_8UC3, map.data, GST_ROUND_UP_4(width * 3)).clone());
-      gst_buffer_unmap(b, &map);
-    }
-    gst_sample_unref(sample);
+    if (!gst_buffer_map(b, &map, GST_MAP_READ)) continue;
+    if (map.size >= size_t(GST_ROUND_UP_4(width * 3)) * height)
+      frames.push_back(cv::Mat(height, width, CV_8UC3, map.data, GST_ROUND_UP_4(width * 3)).clone());
+    gst_buffer_unmap(b, &map);
   }
-  GstBus* bus = gst_element_get_bus(pipe);
-  if (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR)) {
-    GError* e = nullptr;
-    gst_message_parse_error(m, &e, nullptr);
-    *error = e->message;
-    g_error_free(e);
-    gst_message_unref(m);
-  }
-  gst_object_unref(bus);
-  gst_element_set_state(pipe, GST_STATE_NULL);
-  gst_object_unref(out);
-  gst_object_unref(pipe);
-  if (frames.empty() && error->empty()) *error = "no frames";
   return frames;
+}
+
+// `path` as a quoted value of a launch description (any name).
+std::string launch_quoted(const std::string& path) {
+  std::string q = "\"";
+  for (char c : path) q += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  return q + "\"";
 }
 
 }  // namespace
@@ -215,7 +193,7 @@ int main(int argc, char** argv) {
   const int width = 960, height = 540;
   std::vector<cv::Mat> frames;
   if (input || all_in_one) {
-    std::string chain, error;
+    std::string chain;
     if (all_in_one) {
       const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
       const std::string trace = std::string(source_dir ? source_dir : ".") + "/pipelines/lecturer-walk.csv";
@@ -226,9 +204,10 @@ int main(int argc, char** argv) {
                  "\" ! queue max-size-buffers=2 ! fuse.cam_" + std::to_string(k);
       chain += " fuse.";
     }
-    frames = read_frames(chain, input ? input : "", count, width, height, &error);
+    if (input) chain = "filesrc location=" + launch_quoted(input) + " ! decodebin";
+    frames = read_frames(chain, count, width, height);
     if (frames.empty()) {
-      std::fprintf(stderr, "%s: %s: %s\n", g_get_prgname(), input ? input : "the all-in-one chain", error.c_str());
+      std::fprintf(stderr, "%s: no frames from %s\n", g_get_prgname(), input ? input : "the all-in-one chain");
       return 1;
     }
     std::fprintf(stderr, "%zu frames of %s\n", frames.size(), input ? input : "the all-in-one chain");
