@@ -138,28 +138,28 @@ void RgbdCamera::take(V4l2Device* dev, bool is_color, Losses* losses) {
   }
 }
 
+bool RgbdCamera::pop(Frame* out, Losses* losses) {
+  std::deque<uint64_t> dropped_c, dropped_d;
+  std::optional<FramePairer::Pair> pair = pairer_.pop(&dropped_c, &dropped_d);
+  for (uint64_t id : dropped_c) colors_.erase(id);
+  for (uint64_t id : dropped_d) depths_.erase(id);
+  losses->unpaired += dropped_c.size() + dropped_d.size();
+  if (!pair) return false;
+  out->color = colors_[pair->color_id];
+  out->depth = depths_[pair->depth_id];
+  out->capture_ns = pair->color_time_ns;
+  colors_.erase(pair->color_id);
+  depths_.erase(pair->depth_id);
+  return true;
+}
+
 bool RgbdCamera::next(int timeout_ms, Frame* out, Losses* losses) {
-  for (int round = 0; round < 2; ++round) {
-    std::deque<uint64_t> dropped_c, dropped_d;
-    std::optional<FramePairer::Pair> pair = pairer_.pop(&dropped_c, &dropped_d);
-    for (uint64_t id : dropped_c) colors_.erase(id);
-    for (uint64_t id : dropped_d) depths_.erase(id);
-    losses->unpaired += dropped_c.size() + dropped_d.size();
-    if (pair) {
-      out->color = colors_[pair->color_id];
-      out->depth = depths_[pair->depth_id];
-      out->capture_ns = pair->color_time_ns;
-      colors_.erase(pair->color_id);
-      depths_.erase(pair->depth_id);
-      return true;
-    }
-    if (round == 1) break;
-    pollfd fds[2] = {{color_->fd(), POLLIN, 0}, {depth_->fd(), POLLIN, 0}};
-    if (poll(fds, 2, timeout_ms) < 0 && errno != EINTR) throw CaptureError(CaptureError::Kind::kIo, "poll failed");
-    if (fds[0].revents) take(color_.get(), true, losses);
-    if (fds[1].revents) take(depth_.get(), false, losses);
-  }
-  return false;
+  if (pop(out, losses)) return true;
+  pollfd fds[2] = {{color_->fd(), POLLIN, 0}, {depth_->fd(), POLLIN, 0}};
+  if (poll(fds, 2, timeout_ms) < 0 && errno != EINTR) throw CaptureError(CaptureError::Kind::kIo, "poll failed");
+  if (fds[0].revents) take(color_.get(), true, losses);
+  if (fds[1].revents) take(depth_.get(), false, losses);
+  return pop(out, losses);
 }
 
 }  // namespace vclassroom

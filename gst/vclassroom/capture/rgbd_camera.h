@@ -57,6 +57,8 @@ class RgbdCamera {
  private:
   void open();
   void take(V4l2Device* dev, bool is_color, Losses* losses);
+  // The next complete pair, if any; what the pairer gave up on is freed and counted.
+  bool pop(Frame* out, Losses* losses);
 
   std::string color_path_, depth_path_;
   CameraCalib camera_;

@@ -32,7 +32,7 @@ void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Ma
       }
       const cv::Vec3f now(c[x][0], c[x][1], c[x][2]);
       const cv::Vec3f d = now - m[x];
-      if (n[x] == 0 || std::max({std::abs(d[0]), std::abs(d[1]), std::abs(d[2])}) > change) {
+      if (n[x] == 0 || std::abs(d[0]) > change || std::abs(d[1]) > change || std::abs(d[2]) > change) {
         m[x] = now;  // something new here: start again
         n[x] = 1;
       } else {
