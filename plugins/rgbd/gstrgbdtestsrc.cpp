@@ -10,6 +10,7 @@
 #include <mutex>
 #include <string>
 
+#include <gst/vclassroom/synthetic/board_trace.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/rgbd.h>
 
@@ -28,6 +29,7 @@ enum {
   PROP_GROUND_TRUTH,
   PROP_IS_LIVE,
   PROP_FRAMERATE,
+  PROP_CALIBRATION_BOARD,
 };
 
 namespace {
@@ -43,10 +45,12 @@ struct TestSrcState {
   bool sensor_noise = true;
   bool ground_truth = true;
   int fps_n = 30, fps_d = 1;
+  bool calibration_board = false;
 
   // Streaming thread (and start/stop).
   bool started = false;
   bool noise = true;
+  bool board = false;
   std::unique_ptr<Classroom> room;
   ClassroomRenderer renderer;
   RenderOutput clean;
@@ -83,6 +87,7 @@ static gboolean gst_rgbd_test_src_start(GstBaseSrc* src) {
     cfg.seed = st->seed;
     cfg.learners = st->learners;
     st->noise = st->sensor_noise;
+    st->board = st->calibration_board;
     ground_truth = st->ground_truth;
     st->info.fps_n = st->fps_n;
     st->info.fps_d = st->fps_d;
@@ -175,6 +180,7 @@ static GstFlowReturn gst_rgbd_test_src_create(GstPushSrc* psrc, GstBuffer** outb
   const CameraCalib& cam = st->info.camera;
   try {
     st->renderer.render(*st->room, t, cam, &st->clean);
+    if (st->board) draw_board(trace_board(), board_pose_on_trace(*st->room, t), cam, &st->clean);
     if (st->noise)
       apply_sensor_model(st->clean, cam, st->sensor, st->room->config().seed, n, &st->noisy_depth, &st->noisy_color);
   } catch (const Error& e) {
@@ -250,6 +256,9 @@ static void gst_rgbd_test_src_set_property(GObject* object, guint prop_id, const
       st->fps_n = gst_value_get_fraction_numerator(value);
       st->fps_d = gst_value_get_fraction_denominator(value);
       break;
+    case PROP_CALIBRATION_BOARD:
+      st->calibration_board = g_value_get_boolean(value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -283,6 +292,9 @@ static void gst_rgbd_test_src_get_property(GObject* object, guint prop_id, GValu
       break;
     case PROP_FRAMERATE:
       gst_value_set_fraction(value, st->fps_n, st->fps_d);
+      break;
+    case PROP_CALIBRATION_BOARD:
+      g_value_set_boolean(value, st->calibration_board);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
@@ -349,6 +361,13 @@ static void gst_rgbd_test_src_class_init(GstRgbdTestSrcClass* klass) {
       gobject_class, PROP_FRAMERATE,
       gst_param_spec_fraction("framerate", "Frame rate",
                               "Frame rate; frame n shows scene time n / framerate", 1, 1, 1000, 1, 30, 1, flags));
+  g_object_class_install_property(
+      gobject_class, PROP_CALIBRATION_BOARD,
+      g_param_spec_boolean("calibration-board", "Calibration board",
+                           "Someone carries a 9x6 checkerboard of 80 mm squares through the room, holding it still "
+                           "1 s at each of 24 stops in front of the default rig (for vclassroom-calibrate "
+                           "--synthetic, docs/real-classroom.md)",
+                           FALSE, flags));
 
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(
