@@ -643,6 +643,30 @@ TEST(Tools, BuildModelMakesItsOutputFolderWithTheParents) {
   EXPECT_TRUE(fs::exists(out + "/planes.csv"));
 }
 
+TEST(Tools, CalibrateFindsTheSyntheticRigAndEndsWithItsError) {
+  vctest::TempDir dir;
+  const std::string tool = env_or_empty("VCLASSROOM_TOOLS_DIR") + "/vclassroom-calibrate";
+  const Exit e = run_tool({tool, "--synthetic", "--views", "8", "--out", dir / "cal"});
+  ASSERT_EQ(e.status, 0) << e.err;
+  // Progress per view, per camera and per pair, then the rig against the true one.
+  EXPECT_NE(e.out.find("view 8: per camera"), std::string::npos) << e.out;
+  EXPECT_NE(e.out.find("pairs 0-1: "), std::string::npos) << e.out;
+  static const std::regex last_line(R"(rig error: max ([0-9.]+) cm, max ([0-9.]+) deg, floor ([0-9.]+) deg\n$)");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(e.out, m, last_line)) << e.out;
+  EXPECT_LE(std::stod(m[1]), 1.0) << e.out;
+  EXPECT_LE(std::stod(m[2]), 0.3) << e.out;
+  EXPECT_LE(std::stod(m[3]), 0.5) << e.out;
+  EXPECT_EQ(vclassroom::load_rig(dir / "cal/rig.yaml").cameras.size(), 3u);
+  // Too few views: refused, saying what to do, and no rig written.
+  const Exit few = run_tool({tool, "--synthetic", "--views", "3", "--out", dir / "few"});
+  EXPECT_EQ(few.status, 1);
+  EXPECT_NE(few.err.find("more places"), std::string::npos) << few.err;
+  EXPECT_FALSE(fs::exists(dir / "few/rig.yaml"));
+  EXPECT_EQ(run_tool({tool, "--synthetic", "--source", "rgbdtestsrc", "--out", dir / "x"}).status, 2);
+  EXPECT_EQ(run_tool({tool, "--synthetic", "--board", "8x6", "--out", dir / "x"}).status, 2);
+}
+
 TEST(Tools, EvalViewsTakesAnyDatasetAndEndsWithThePsnrLine) {
   vctest::TempDir dir;
   const std::string rig = dir / "rig.yaml";

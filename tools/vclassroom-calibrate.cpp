@@ -83,22 +83,16 @@ bool pull(Camera* cam, GstBus* bus, std::string* error) {
       gst_sample_unref(s);
       return false;
     }
-    GstBuffer* buf = gst_sample_get_buffer(s);
-    GstMapInfo map;
-    PlaneLayout lc, ld;
-    const size_t ic = size_t(cam->info.index_of(Plane::Color)), id = size_t(cam->info.index_of(Plane::Depth));
-    if (!rgbd_plane_layout(buf, cam->info, ic, &lc, &err) || !rgbd_plane_layout(buf, cam->info, id, &ld, &err) ||
-        !gst_buffer_map(buf, &map, GST_MAP_READ)) {
+    RgbdFrame frame;
+    if (!frame.map(gst_sample_get_buffer(s), cam->info, GST_MAP_READ, &err)) {
       std::fprintf(stderr, "vclassroom-calibrate: a frame dropped: %s\n", err.c_str());
       gst_sample_unref(s);
       continue;
     }
-    const int w = cam->info.width(), h = cam->info.height();
-    const cv::Mat rgb(h, w, CV_8UC3, map.data + lc.offset, size_t(lc.stride));
-    cv::cvtColor(rgb, cam->gray, cv::COLOR_RGB2GRAY);
-    cv::Mat(h, w, CV_16UC1, map.data + ld.offset, size_t(ld.stride)).copyTo(cam->depth);
-    cam->pts = GST_BUFFER_PTS(buf);
-    gst_buffer_unmap(buf, &map);
+    cv::cvtColor(frame.color(), cam->gray, cv::COLOR_RGB2GRAY);
+    frame.depth().copyTo(cam->depth);
+    cam->pts = GST_BUFFER_PTS(gst_sample_get_buffer(s));
+    frame.unmap();
     gst_sample_unref(s);
     return true;
   }
@@ -169,7 +163,7 @@ int main(int argc, char** argv) {
       {"no-depth-refine", 0, 0, G_OPTION_ARG_NONE, &no_depth_refine,
        "Poses from the board's corners alone, without its plane in the depth", nullptr},
       {"base-rig", 0, 0, G_OPTION_ARG_FILENAME, &base_rig,
-       "Keep each camera's depth lens (depth_to_color, depth_lens, depth_scale) from this rig file", "FILE"},
+       "Keep each camera's name and depth lens (depth_to_color, depth_lens, depth_scale) from this rig file (e.g. the one rgbdsrc was given)", "FILE"},
       {"true-rig", 0, 0, G_OPTION_ARG_FILENAME, &true_rig,
        "Compare the result with this rig (with --synthetic: the default rig)", "FILE"},
       {"learners", 0, 0, G_OPTION_ARG_INT, &learners, "--synthetic: learners in the room (default 0)", "N"},
@@ -315,6 +309,7 @@ int main(int argc, char** argv) {
       const Rig base = load_rig(base_rig);
       for (auto& cam : cap.cameras)
         if (const CameraCalib* b = base.find(cam.id)) {
+          cam.name = b->name;
           cam.depth_to_color = b->depth_to_color;
           cam.depth_lens = b->depth_lens;
           cam.depth_scale = b->depth_scale;
