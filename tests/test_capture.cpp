@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <random>
+#include <regex>
 
 #include <opencv2/imgproc.hpp>
 
@@ -426,6 +427,36 @@ TEST(RgbdDeviceProvider, ListsACameraWhoseElementStreams) {
   gst_object_unref(pipe);
   g_list_free_full(devices, gst_object_unref);
   gst_object_unref(provider);
+}
+
+// A school calibrates live: vclassroom-calibrate reads three rgbdsrc cameras (no rig yet, so intrinsics from
+// the board), here fake ones showing the board carried through the room, and finds the classroom's rig.
+TEST(RgbdSrc, CalibrateFindsTheRigLiveFromThreeCameras) {
+  if (!fake_loaded()) GTEST_SKIP() << "the fake V4L2 device is not preloaded (run through meson test)";
+  std::string config;
+  std::vector<std::string> argv = {std::string(g_getenv("VCLASSROOM_TOOLS_DIR")) + "/vclassroom-calibrate"};
+  for (int c = 0; c < 3; ++c) {
+    const std::string color = "/dev/video" + std::to_string(70 + 2 * c), depth = "/dev/video" + std::to_string(71 + 2 * c);
+    const std::string common = ",width=960,height=540,fps=5,learners=0,board=1,camera=" + std::to_string(c);
+    config += "path=" + color + ",format=YUYV" + common + ";path=" + depth + ",format=Z16" + common + ";";
+    argv.push_back("--source");
+    argv.push_back("rgbdsrc color-device=" + color + " depth-device=" + depth + " camera-id=" + std::to_string(c));
+  }
+  fake_devices(config);
+  vctest::TempDir dir;
+  save_rig(default_classroom_rig(), dir / "true-rig.yaml");
+  for (const std::string a : {"--views", "10", "--out", "", "--true-rig", ""}) argv.push_back(a);
+  argv[argv.size() - 3] = dir / "cal";
+  argv.back() = dir / "true-rig.yaml";
+  const vctest::Exit e = vctest::run_tool(argv);
+  ASSERT_EQ(e.status, 0) << e.out << e.err;
+  EXPECT_NE(e.out.find("intrinsics from the board"), std::string::npos) << e.out;
+  static const std::regex last_line(R"(rig error: max ([0-9.]+) cm, max ([0-9.]+) deg, floor ([0-9.]+) deg\n$)");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(e.out, m, last_line)) << e.out;
+  EXPECT_LE(std::stod(m[1]), 1.0) << e.out;
+  EXPECT_LE(std::stod(m[2]), 0.3) << e.out;
+  EXPECT_LE(std::stod(m[3]), 0.5) << e.out;
 }
 
 // On a machine with an RGB-D camera plugged in, its depth node streams through the same code; elsewhere

@@ -34,6 +34,9 @@
 
 namespace fs = std::filesystem;
 
+using vctest::Exit;
+using vctest::run_tool;
+
 namespace {
 
 // Sources are bounded to this many buffers: enough to negotiate and to run
@@ -578,29 +581,6 @@ TEST(Docs, EveryElementsInspectTextCarriesAnExampleThatRuns) {
 }
 
 namespace {
-
-struct Exit {
-  int status = -1;
-  std::string out, err;
-};
-
-Exit run_tool(const std::vector<std::string>& argv) {
-  std::vector<gchar*> cargv;
-  for (const std::string& a : argv) cargv.push_back(const_cast<gchar*>(a.c_str()));
-  cargv.push_back(nullptr);
-  gchar *out = nullptr, *err = nullptr;
-  gint wait_status = 0;
-  Exit e;
-  if (g_spawn_sync(nullptr, cargv.data(), nullptr, G_SPAWN_DEFAULT, nullptr, nullptr, &out, &err, &wait_status,
-                   nullptr) &&
-      WIFEXITED(wait_status))
-    e.status = WEXITSTATUS(wait_status);
-  e.out = out ? out : "";
-  e.err = err ? err : "";
-  g_free(out);
-  g_free(err);
-  return e;
-}
 
 // Every program the build made in tools/ (vclassroom-*).
 std::vector<std::string> built_tools() {

@@ -5,6 +5,8 @@
 #include <cstring>
 #include <fstream>
 
+#include <sys/wait.h>
+
 #include <gio/gio.h>
 #include <gst/app/gstappsink.h>
 #include <gtest/gtest.h>
@@ -188,6 +190,24 @@ bool same_image(const cv::Mat& a, const cv::Mat& b) {
   for (int y = 0; y < a.rows; ++y)
     if (std::memcmp(a.ptr(y), b.ptr(y), a.cols * a.elemSize()) != 0) return false;
   return true;
+}
+
+Exit run_tool(const std::vector<std::string>& argv) {
+  std::vector<gchar*> cargv;
+  for (const std::string& a : argv) cargv.push_back(const_cast<gchar*>(a.c_str()));
+  cargv.push_back(nullptr);
+  gchar *out = nullptr, *err = nullptr;
+  gint wait_status = 0;
+  Exit e;
+  if (g_spawn_sync(nullptr, cargv.data(), nullptr, G_SPAWN_DEFAULT, nullptr, nullptr, &out, &err, &wait_status,
+                   nullptr) &&
+      WIFEXITED(wait_status))
+    e.status = WEXITSTATUS(wait_status);
+  e.out = out ? out : "";
+  e.err = err ? err : "";
+  g_free(out);
+  g_free(err);
+  return e;
 }
 
 }  // namespace vctest

@@ -70,6 +70,13 @@ int free_tcp_port();
 // 200 OK"), or "" when none came.
 std::string first_response_line(int port, bool tls, const std::string& request);
 
+// A program run to its end: its exit status (-1 when it did not exit normally) and what it printed.
+struct Exit {
+  int status = -1;
+  std::string out, err;
+};
+Exit run_tool(const std::vector<std::string>& argv);
+
 // Structural-equality of two images (type, size, bytes).
 bool same_image(const cv::Mat& a, const cv::Mat& b);
 

@@ -14,7 +14,9 @@
 // skipped), jitter_ms (timestamp jitter), short_at (this frame comes short),
 // eio_at (DQBUF fails with EIO at this frame), enodev_at (the device vanishes
 // at this frame), counting from the stream's start, and busy (1: another
-// program holds it: S_FMT and REQBUFS fail with EBUSY).
+// program holds it: S_FMT and REQBUFS fail with EBUSY). board=1 carries the
+// calibration board through the room (rgbdtestsrc's calibration-board): each
+// instant n is then rendered anew at scene time n / fps, the same on every node.
 //
 // Every frame carries its instant n (frames of one instant on two nodes are
 // one moment): depth pixel (0, 0) holds n + 1, and colour's top-left 8x8 block
@@ -54,6 +56,7 @@
 #include <gst/vclassroom/capture/pixel_formats.h>
 #include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/net/rgbd_codec.h>
+#include <gst/vclassroom/synthetic/board_trace.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 
 namespace {
@@ -71,6 +74,7 @@ struct Config {
   long short_at = -1, eio_at = -1, enodev_at = -1;
   bool busy = false;
   bool vanish_once = false;  // after it vanished, the node comes back for good (a camera plugged in again)
+  bool board = false;
 };
 
 struct Buffer {
@@ -93,6 +97,11 @@ struct Device {
   long eio_pending = -1;
   std::thread producer;
   cv::Mat color, depth;  // the rendered scene, RGB and mm
+  // board=1: the scene and the camera each instant is rendered from.
+  std::unique_ptr<Classroom> room;
+  CameraCalib camera;
+  ClassroomRenderer renderer;
+  RenderOutput frame;
 };
 
 std::mutex g_lock;
@@ -161,6 +170,7 @@ void parse_configs() {
       else if (k == "enodev_at") c.enodev_at = std::stol(v);
       else if (k == "busy") c.busy = v == "1";
       else if (k == "vanish_once") c.vanish_once = v == "1";
+      else if (k == "board") c.board = v == "1";
     }
     if (!c.path.empty()) g_configs.push_back(c);
   }
@@ -184,19 +194,31 @@ void render_scene(Device* d) {
   const RenderOutput r = render(Classroom(cc), 0.0, cam);
   d->color = r.color.clone();
   d->depth = r.depth.clone();
+  if (d->cfg.board) {
+    d->room = std::make_unique<Classroom>(cc);
+    d->camera = cam;
+  }
 }
 
 // Writes instant n's frame into `b`; returns its byte count.
 uint32_t fill(Device* d, long n, Buffer* b) {
   const Config& c = d->cfg;
+  cv::Mat scene_color = d->color, scene_depth = d->depth;
+  if (c.board) {
+    const double t = double(n) / std::max(1, c.fps);
+    d->renderer.render(*d->room, t, d->camera, &d->frame);
+    draw_board(trace_board(), board_pose_on_trace(*d->room, t), d->camera, &d->frame);
+    scene_color = d->frame.color;
+    scene_depth = d->frame.depth;
+  }
   if (is_depth(c.fourcc)) {
-    cv::Mat depth = d->depth.clone();
+    cv::Mat depth = scene_depth.clone();
     depth.at<uint16_t>(0, 0) = uint16_t(n + 1);
     const size_t bytes = depth.total() * 2;
     std::memcpy(b->data, depth.data, bytes);
     return uint32_t(bytes);
   }
-  cv::Mat rgb = d->color.clone();
+  cv::Mat rgb = scene_color.clone();
   rgb(cv::Rect(0, 0, 8, 8)).setTo(cv::Scalar::all(20 + (37 * n) % 200));
   if (c.fourcc == V4L2_PIX_FMT_RGB24) {
     std::memcpy(b->data, rgb.data, rgb.total() * 3);
