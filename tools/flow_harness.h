@@ -22,12 +22,16 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <memory>
 #include <vector>
 
+#include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
 
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
+
+#include "tool_support.h"
 
 namespace vclassroom_tools {
 
@@ -138,6 +142,20 @@ inline void stop_children(const std::vector<pid_t>& pids) {
       std::this_thread::sleep_for(std::chrono::milliseconds(100));  // a tool's patience, not synchronisation
     kill(pid, SIGKILL);
     waitpid(pid, &status, 0);
+  }
+}
+
+// stop_children for one script and then its descendants (gst-launch-1.0 is
+// server.sh's child, not ours): whatever of its tree outlived it is killed,
+// and this returns once all of it is gone, so that the next run's server does
+// not share the ports (udpsrc reuses addresses) or the CPU with the last one.
+inline void stop_tree(pid_t pid) {
+  const std::vector<pid_t> tree = process_tree(pid);
+  stop_children({pid});
+  for (size_t i = 1; i < tree.size(); ++i) {
+    kill(tree[i], SIGKILL);
+    for (int k = 0; k < 50 && kill(tree[i], 0) == 0; ++k)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));  // a tool's patience, not synchronisation
   }
 }
 
@@ -357,5 +375,87 @@ inline std::pair<long long, long long> last_codec_stats(const std::string& log, 
       last = {field(line, "frames"), field(line, "frames-dropped")};
   return last;
 }
+
+// The classroom side of pipelines/classroom.sh after rgbdenc, fed from memory:
+// each camera's recorded coded stream (record_stream of rgbdtestsrc ! rgbdenc)
+// sent over RTP to server.sh's port for it, with classroom.sh's default SSRC,
+// every camera frame f at f/30 s as a live camera would (on a real rig the
+// cameras are other machines, so their rendering must not take the server's CPU).
+class CameraReplay {
+ public:
+  CameraReplay() = default;
+  CameraReplay(const CameraReplay&) = delete;
+  CameraReplay& operator=(const CameraReplay&) = delete;
+  ~CameraReplay() { stop(); }
+
+  // `recordings[i]` is camera `cameras[i]`, sent to 127.0.0.1:base_port + camera; `drop` the share of
+  // packets lost on the way. False, with the reason on stderr, when a pipeline cannot start.
+  bool start(const std::vector<const Recording*>& recordings, const std::vector<int>& cameras, double drop, int mtu,
+             int base_port = 5000) {
+    for (size_t i = 0; i < recordings.size(); ++i) {
+      auto c = std::make_unique<Camera>();
+      c->recording = recordings[i];
+      const std::string desc = "appsrc name=src format=time is-live=true ! rtpgstpay config-interval=1 mtu=" +
+                               std::to_string(mtu) + " pt=96 ssrc=" + std::to_string(0x56430000u + unsigned(cameras[i])) +
+                               " ! identity drop-probability=" + std::to_string(drop) +
+                               " ! udpsink host=127.0.0.1 port=" + std::to_string(base_port + cameras[i]) + " sync=false";
+      GError* err = nullptr;
+      c->pipeline = gst_parse_launch(desc.c_str(), &err);
+      if (!c->pipeline || err) {
+        std::fprintf(stderr, "camera replay pipeline: %s\n", err ? err->message : "?");
+        g_clear_error(&err);
+        if (c->pipeline) gst_object_unref(c->pipeline);
+        c->pipeline = nullptr;
+        stop();
+        return false;
+      }
+      c->src = gst_bin_get_by_name(GST_BIN(c->pipeline), "src");
+      gst_app_src_set_caps(GST_APP_SRC(c->src), recordings[i]->caps);
+      gst_element_set_state(c->pipeline, GST_STATE_PLAYING);
+      cameras_.push_back(std::move(c));
+    }
+    running_ = true;
+    pacer_ = std::thread([this] {
+      const auto t0 = std::chrono::steady_clock::now();
+      for (uint64_t f = 0; running_; ++f) {
+        std::this_thread::sleep_until(t0 + std::chrono::microseconds(f * 1000000 / 30));  // a tool's pacing
+        for (auto& c : cameras_) {
+          const auto& frames = c->recording->frames;
+          GstBuffer* b = gst_buffer_copy(frames[f % frames.size()]);
+          GST_BUFFER_PTS(b) = f * GST_SECOND / 30;
+          GST_BUFFER_DURATION(b) = GST_SECOND / 30;
+          if (gst_app_src_push_buffer(GST_APP_SRC(c->src), b) == GST_FLOW_OK) c->sent++;
+        }
+      }
+    });
+    return true;
+  }
+
+  void stop() {
+    running_ = false;
+    if (pacer_.joinable()) pacer_.join();
+    for (auto& c : cameras_) {
+      if (!c->pipeline) continue;
+      gst_element_set_state(c->pipeline, GST_STATE_NULL);
+      gst_object_unref(c->src);
+      gst_object_unref(c->pipeline);
+      c->pipeline = nullptr;
+    }
+  }
+
+  // Frames camera i (in start's order) has sent.
+  uint64_t sent(size_t i) const { return cameras_.at(i)->sent; }
+
+ private:
+  struct Camera {
+    const Recording* recording = nullptr;
+    GstElement* pipeline = nullptr;
+    GstElement* src = nullptr;
+    std::atomic<uint64_t> sent{0};
+  };
+  std::vector<std::unique_ptr<Camera>> cameras_;
+  std::atomic<bool> running_{false};
+  std::thread pacer_;
+};
 
 }  // namespace vclassroom_tools

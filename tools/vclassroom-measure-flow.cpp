@@ -92,36 +92,6 @@ double camera_link_rate(const Options& o) {
   return bytes / 2.0;  // 60 frames = 2 s at 30 fps
 }
 
-// The classroom side of pipelines/classroom.sh after rgbdenc, fed from memory.
-struct Replay {
-  GstElement* pipeline = nullptr;
-  GstElement* src = nullptr;
-  uint64_t sent = 0;
-};
-
-// Camera k's stream carries classroom.sh's default SSRC, the one server.sh expects from it.
-bool start_replay(const vclassroom_tools::Recording& rec, int camera, double drop, int mtu, Replay* r) {
-  const int port = 5000 + camera;
-  const std::string desc = "appsrc name=src format=time is-live=true ! rtpgstpay config-interval=1 mtu=" +
-                           std::to_string(mtu) + " pt=96 ssrc=" + std::to_string(0x56430000u + unsigned(camera)) +
-                           " ! "
-                           "identity drop-probability=" + std::to_string(drop) +
-                           " ! udpsink host=127.0.0.1 port=" + std::to_string(port) + " sync=false";
-  GError* err = nullptr;
-  r->pipeline = gst_parse_launch(desc.c_str(), &err);
-  if (!r->pipeline || err) {
-    std::fprintf(stderr, "camera replay pipeline: %s\n", err ? err->message : "?");
-    g_clear_error(&err);
-    if (r->pipeline) gst_object_unref(r->pipeline);
-    r->pipeline = nullptr;
-    return false;
-  }
-  r->src = gst_bin_get_by_name(GST_BIN(r->pipeline), "src");
-  gst_app_src_set_caps(GST_APP_SRC(r->src), rec.caps);
-  gst_element_set_state(r->pipeline, GST_STATE_PLAYING);
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -198,9 +168,7 @@ int main(int argc, char** argv) {
     return 1;
   }
   vclassroom_tools::Display& d = lecturer.shown;
-  std::vector<Replay> replays(recordings.size());
-  std::atomic<bool> replaying{true};
-  std::thread replayer;
+  vclassroom_tools::CameraReplay replay;
   if (o.live_cameras) {
     for (int k : o.cameras) {
       camera_logs.push_back(std::string(log_dir) + "/camera" + std::to_string(k) + ".log");
@@ -209,36 +177,18 @@ int main(int argc, char** argv) {
                                camera_logs.back()));
     }
   } else {
-    for (size_t i = 0; i < replays.size(); ++i)
-      if (!start_replay(recordings[i], o.cameras[i], o.drop, o.mtu, &replays[i])) {
-        std::fprintf(stderr, "could not start the replay of camera %d\n", o.cameras[i]);
-        // The server already runs: stop it, so it does not keep the ports.
-        for (pid_t c : children) {
-          kill(c, SIGKILL);
-          waitpid(c, nullptr, 0);
-        }
-        lecturer.stop();
-        for (auto& r : replays)
-          if (r.pipeline) {
-            gst_element_set_state(r.pipeline, GST_STATE_NULL);
-            gst_object_unref(r.src);
-            gst_object_unref(r.pipeline);
-          }
-        return 1;
+    std::vector<const vclassroom_tools::Recording*> streams;
+    for (const auto& r : recordings) streams.push_back(&r);
+    if (!replay.start(streams, o.cameras, o.drop, o.mtu)) {
+      std::fprintf(stderr, "could not start the cameras' replay\n");
+      // The server already runs: stop it, so it does not keep the ports.
+      for (pid_t c : children) {
+        kill(c, SIGKILL);
+        waitpid(c, nullptr, 0);
       }
-    // Every camera sends frame f at f/30 s, as a live camera would.
-    replayer = std::thread([&] {
-      const auto t0 = std::chrono::steady_clock::now();
-      for (uint64_t f = 0; replaying; ++f) {
-        std::this_thread::sleep_until(t0 + std::chrono::microseconds(f * 1000000 / 30));  // a tool's pacing
-        for (size_t i = 0; i < replays.size(); ++i) {
-          GstBuffer* b = gst_buffer_copy(recordings[i].frames[f % recordings[i].frames.size()]);
-          GST_BUFFER_PTS(b) = f * GST_SECOND / 30;
-          GST_BUFFER_DURATION(b) = GST_SECOND / 30;
-          if (gst_app_src_push_buffer(GST_APP_SRC(replays[i].src), b) == GST_FLOW_OK) replays[i].sent++;
-        }
-      }
-    });
+      lecturer.stop();
+      return 1;
+    }
   }
 
   lecturer.start_walk();
@@ -250,13 +200,7 @@ int main(int argc, char** argv) {
   std::vector<double> cpu;
   for (pid_t c : children) cpu.push_back(vclassroom_tools::cpu_seconds(c));
   lecturer.stop_walk();
-  replaying = false;
-  if (replayer.joinable()) replayer.join();
-  for (auto& r : replays) {
-    gst_element_set_state(r.pipeline, GST_STATE_NULL);
-    gst_object_unref(r.src);
-    gst_object_unref(r.pipeline);
-  }
+  replay.stop();
 
   lecturer.stop();
   vclassroom_tools::stop_children(children);
@@ -281,7 +225,7 @@ int main(int argc, char** argv) {
   for (size_t i = 0; i < o.cameras.size(); ++i) {
     const int k = o.cameras[i];
     const auto sent = o.live_cameras ? vclassroom_tools::last_codec_stats(camera_logs[i], "enc")
-                                     : std::pair<long long, long long>{static_cast<long long>(replays[i].sent), 0};
+                                     : std::pair<long long, long long>{static_cast<long long>(replay.sent(i)), 0};
     const auto got = vclassroom_tools::last_codec_stats(server_log, "dec" + std::to_string(k));
     if (sent.first < 0 || got.first < 0) {
       std::printf("camera %d: no frame counts in the logs\n", k);

@@ -1,7 +1,9 @@
 // Several lecturers at once: for each count of lecturers, starts a server
-// (gst-launch-1.0: synthetic live cameras ! learnerseg ! whepviewsink, a view
-// per lecturer; the cameras rendered live, or their recorded coded frames
-// decoded in a loop) and that many headless Chromium pages (tests/browser/
+// (pipelines/server.sh with LECTURER_OUT=whep-views: a view per lecturer, fed
+// by the cameras' coded streams, recorded once and replayed over RTP at 30 fps
+// as cameras on other machines send them; or, with --live-cameras, a
+// gst-launch-1.0 that renders the synthetic cameras itself) and that many
+// headless Chromium pages (tests/browser/
 // measure-lecturers.mjs, each its own browser, moving its head like a headset),
 // and reports per count: frames shown per second, bitrate and pose-to-photon
 // latency p50/p99 as the browsers saw them, and the server's CPU time per frame
@@ -17,31 +19,18 @@
 
 #include <gio/gio.h>
 #include <glib.h>
+#include <gst/gst.h>
 #include <signal.h>
 #include <unistd.h>
 
+#include "flow_harness.h"
 #include "free_port.h"
 #include "tool_options.h"
+#include "tool_support.h"
 
 using namespace vclassroom_tools;
 
 namespace {
-
-// The server's user + system CPU seconds so far (/proc/PID/stat fields 14 and 15), or -1.
-double cpu_seconds(GPid pid) {
-  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  const size_t paren = text.rfind(')');
-  if (paren == std::string::npos) return -1;
-  std::istringstream rest(text.substr(paren + 2));
-  std::string field;
-  double utime = 0, stime = 0;
-  for (int i = 3; i <= 15 && rest >> field; ++i) {  // field 3 is the state, after "pid (comm)"
-    if (i == 14) utime = std::atof(field.c_str());
-    if (i == 15) stime = std::atof(field.c_str());
-  }
-  return (utime + stime) / double(sysconf(_SC_CLK_TCK));
-}
 
 struct LecturerResult {
   double fps = 0, kbps = 0, p50 = 0, p99 = 0;
@@ -59,21 +48,22 @@ int main(int argc, char** argv) {
   gchar* counts_text = nullptr;
   gint seconds = 20, cameras = 3;
   gchar* size_text = nullptr;
-  gboolean recorded_cameras = FALSE;
+  gboolean live_cameras = FALSE;
   const GOptionEntry entries[] = {
       {"lecturers", 0, 0, G_OPTION_ARG_STRING, &counts_text, "Counts of lecturers to measure (default 1,2,4)", "N,N"},
       {"seconds", 0, 0, G_OPTION_ARG_INT, &seconds, "Measured window per count (default 20)", "S"},
       {"cameras", 0, 0, G_OPTION_ARG_INT, &cameras, "Synthetic cameras of the default rig, 1 to 3 (default 3)", "N"},
       {"size", 0, 0, G_OPTION_ARG_STRING, &size_text, "Each lecturer's view (default 960x540)", "WxH"},
-      {"recorded-cameras", 0, 0, G_OPTION_ARG_NONE, &recorded_cameras,
-       "Decode 4 s of recorded coded camera frames in a loop (rgbdfilesrc: not a live source, so the pipeline "
-       "is not live either) instead of rendering the cameras live in the server (rgbdtestsrc is-live=true)",
+      {"live-cameras", 0, 0, G_OPTION_ARG_NONE, &live_cameras,
+       "Render the synthetic cameras live inside the server (gst-launch-1.0 rgbdtestsrc is-live=true ! learnerseg "
+       "! whepviewsink) instead of replaying their coded streams into pipelines/server.sh: the rendering then "
+       "takes the server's CPU",
        nullptr},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   parse_command_line(&argc, &argv, "",
                      "Pose-to-photon latency, bitrate and server CPU with several browser lecturers "
                      "(whepviewsink; needs node, chromium and tests/browser/node_modules).",
-                     entries);
+                     entries, gst_init_get_option_group());
   int width = 960, height = 540;
   if (size_text) parse_size_or_exit("--size", size_text, &width, &height);
   if (cameras < 1 || cameras > 3) usage_error("--cameras must be 1 to 3");
@@ -95,48 +85,63 @@ int main(int argc, char** argv) {
                  "source root or set VCLASSROOM_SOURCE_DIR\n", g_get_prgname(), driver.c_str());
     return 1;
   }
-  // The cameras: rendered live in the server (a live pipeline, like one fed by cameras over the network; the
-  // rendering costs the server's CPU more than decoding their streams would), or 4 s of each camera's coded
-  // frames recorded once (rgbdenc ! rgbdfilesink), played in a loop and decoded (rgbdfilesrc, not live).
-  std::string recording;
-  if (recorded_cameras) {
-    gchar* dir = g_dir_make_tmp("vclassroom-lecturers-XXXXXX", nullptr);
-    recording = dir ? dir : "";
-    g_free(dir);
-    for (int k = 0; k < cameras && !recording.empty(); ++k) {
-      const std::string record = "gst-launch-1.0 -q rgbdtestsrc camera-id=" + std::to_string(k) +
-                                 " num-buffers=120 ground-truth=false ! rgbdenc ! rgbdfilesink location=" + recording;
-      gint status = 1;
-      if (!g_spawn_command_line_sync(record.c_str(), nullptr, nullptr, &status, nullptr) ||
-          !g_spawn_check_wait_status(status, nullptr)) {
-        std::fprintf(stderr, "%s: recording camera %d failed: %s\n", g_get_prgname(), k, record.c_str());
-        return 1;
-      }
+  // The cameras' coded streams, as pipelines/classroom.sh sends them, recorded once (2 s, looped).
+  std::vector<Recording> recordings(live_cameras ? 0 : size_t(cameras));
+  std::vector<const Recording*> streams;
+  std::vector<int> camera_ids;
+  for (int k = 0; k < cameras; ++k) camera_ids.push_back(k);
+  for (size_t k = 0; k < recordings.size(); ++k) {
+    if (!record_stream("rgbdtestsrc camera-id=" + std::to_string(k) + " num-buffers=60 ground-truth=false ! rgbdenc quality=90",
+                       60, &recordings[k])) {
+      std::fprintf(stderr, "%s: could not record camera %zu\n", g_get_prgname(), k);
+      return 1;
     }
-    std::fprintf(stderr, "recorded 4 s of %d cameras in %s\n", cameras, recording.c_str());
+    streams.push_back(&recordings[k]);
   }
+  const std::string log_dir = make_temp_dir("vclassroom-lecturers");
+  if (log_dir.empty()) {
+    std::perror("cannot make a scratch folder");
+    return 1;
+  }
+  const std::string server_log = log_dir + "/server.log";
   std::printf("| lecturers | fps shown (each) | kbit/s (each) | pose-to-photon p50 / p99 ms | server CPU ms per frame | "
               "server CPU %% of one core |\n|---|---|---|---|---|---|\n");
   for (int n : counts) {
     const int port = free_loopback_port(true);
-    std::string launch = "gst-launch-1.0 whepviewsink name=w port=" + std::to_string(port) +
-                         " token=measure-token max-sessions=" + std::to_string(n) + " width=" + std::to_string(width) +
-                         " height=" + std::to_string(height) + " web-root=" + root + "/web/lecturer";
-    for (int k = 0; k < cameras; ++k)
-      launch += (!recorded_cameras ? " rgbdtestsrc camera-id=" + std::to_string(k) + " is-live=true"
-                                : " rgbdfilesrc location=" + recording + " camera-id=" + std::to_string(k) +
-                                      " loop=true") +
-                " ! learnerseg ! queue max-size-buffers=1 leaky=downstream ! w.cam_" + std::to_string(k);
-    gchar** server_argv = nullptr;
-    g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, nullptr);
-    GError* err = nullptr;
-    GSubprocess* server = g_subprocess_newv(server_argv, GSubprocessFlags(G_SUBPROCESS_FLAGS_STDOUT_SILENCE), &err);
-    g_strfreev(server_argv);
-    if (!server) {
-      std::fprintf(stderr, "%s: cannot start gst-launch-1.0: %s\n", g_get_prgname(), err->message);
-      return 1;
+    GPid pid = 0;
+    GSubprocess* server = nullptr;
+    CameraReplay replay;
+    if (live_cameras) {
+      std::string launch = "gst-launch-1.0 whepviewsink name=w port=" + std::to_string(port) +
+                           " token=measure-token max-sessions=" + std::to_string(n) + " width=" + std::to_string(width) +
+                           " height=" + std::to_string(height) + " web-root=" + root + "/web/lecturer";
+      for (int k = 0; k < cameras; ++k)
+        launch += " rgbdtestsrc camera-id=" + std::to_string(k) +
+                  " is-live=true ! learnerseg ! queue max-size-buffers=1 leaky=downstream ! w.cam_" + std::to_string(k);
+      gchar** server_argv = nullptr;
+      g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, nullptr);
+      GError* err = nullptr;
+      server = g_subprocess_newv(server_argv, GSubprocessFlags(G_SUBPROCESS_FLAGS_STDOUT_SILENCE), &err);
+      g_strfreev(server_argv);
+      if (!server) {
+        std::fprintf(stderr, "%s: cannot start gst-launch-1.0: %s\n", g_get_prgname(), err->message);
+        return 1;
+      }
+      pid = std::atoi(g_subprocess_get_identifier(server));
+    } else {
+      std::string ids;
+      for (int k : camera_ids) ids += (ids.empty() ? "" : " ") + std::to_string(k);
+      pid = spawn(root + "/pipelines/server.sh",
+                  {{"CAMERAS", ids}, {"MTU", "65000"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
+                   {"WHEP_PORT", std::to_string(port)}, {"WHEP_SESSIONS", std::to_string(n)},
+                   {"WIDTH", std::to_string(width)}, {"HEIGHT", std::to_string(height)}},
+                  server_log);
+      if (!replay.start(streams, camera_ids, 0.0, 65000)) {
+        stop_tree(pid);
+        return 1;
+      }
     }
-    const GPid pid = std::atoi(g_subprocess_get_identifier(server));
+    GError* err = nullptr;
     const std::string base = "http://127.0.0.1:" + std::to_string(port);
     GSubprocessLauncher* launcher = g_subprocess_launcher_new(G_SUBPROCESS_FLAGS_STDOUT_PIPE);
     g_subprocess_launcher_set_cwd(launcher, (root + "/tests/browser").c_str());
@@ -178,9 +183,14 @@ int main(int argc, char** argv) {
     g_subprocess_wait(browsers, nullptr, nullptr);
     const bool browsers_ok = g_subprocess_get_if_exited(browsers) && g_subprocess_get_exit_status(browsers) == 0;
     g_object_unref(browsers);
-    g_subprocess_send_signal(server, SIGINT);
-    g_subprocess_wait(server, nullptr, nullptr);
-    g_object_unref(server);
+    replay.stop();
+    if (server) {
+      g_subprocess_send_signal(server, SIGINT);
+      g_subprocess_wait(server, nullptr, nullptr);
+      g_object_unref(server);
+    } else {
+      stop_tree(pid);
+    }
     if (!browsers_ok || int(results.size()) != n || cpu_start < 0 || cpu_end < 0) {
       std::fprintf(stderr, "%s: %d lecturer(s): the browsers did not finish (%zu results)\n", g_get_prgname(), n,
                    results.size());
@@ -212,9 +222,7 @@ int main(int argc, char** argv) {
     std::printf("lecturers %d: worst p50 %.0f ms, worst p99 %.0f ms, %ld frames shown in %.1f s\n", n, p50, p99, frames,
                 wall);
   }
-  if (!recording.empty()) {
-    gchar* argv_rm[] = {const_cast<gchar*>("rm"), const_cast<gchar*>("-rf"), const_cast<gchar*>(recording.c_str()), nullptr};
-    g_spawn_sync(nullptr, argv_rm, nullptr, G_SPAWN_SEARCH_PATH, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr);
-  }
+  std::remove(server_log.c_str());
+  g_rmdir(log_dir.c_str());
   return 0;
 }
