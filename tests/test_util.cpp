@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <cstring>
 #include <fstream>
+#include <regex>
 
 #include <sys/wait.h>
 
@@ -208,6 +209,15 @@ Exit run_tool(const std::vector<std::string>& argv) {
   g_free(out);
   g_free(err);
   return e;
+}
+
+void expect_rig_error_within_targets(const std::string& out) {
+  static const std::regex last_line(R"(rig error: max ([0-9.]+) cm, max ([0-9.]+) deg, floor ([0-9.]+) deg\n$)");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(out, m, last_line)) << out;
+  EXPECT_LE(std::stod(m[1]), 1.0) << out;
+  EXPECT_LE(std::stod(m[2]), 0.3) << out;
+  EXPECT_LE(std::stod(m[3]), 0.5) << out;
 }
 
 }  // namespace vctest

@@ -77,6 +77,10 @@ struct Exit {
 };
 Exit run_tool(const std::vector<std::string>& argv);
 
+// vclassroom-calibrate's output `out` ends with "rig error: max C cm, max D deg, floor F deg" within issue 12's
+// targets (1 cm, 0.3 deg, floor 0.5 deg); a failure of the calling test otherwise.
+void expect_rig_error_within_targets(const std::string& out);
+
 // Structural-equality of two images (type, size, bytes).
 bool same_image(const cv::Mat& a, const cv::Mat& b);
 

@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
   cv::Mat depth, color;
   apply_sensor_model(r, cam, SensorParams(), 1, 0, &depth, &color);
   std::vector<uint8_t> jpeg;
-  encode_jpeg(color, 90, &jpeg);
+  encode_jpeg(color, 90, &jpeg, JpegChroma::kUvc422);  // a UVC camera's MJPEG is 4:2:2
   const std::vector<uint8_t> yuyv = rgb_to_yuyv(color);
   Eigen::Isometry3d depth_to_color = Eigen::Isometry3d::Identity();
   depth_to_color.translation() = Eigen::Vector3d(-0.025, 0, 0);

@@ -60,9 +60,12 @@ double max_travel(const std::vector<cv::Point2f>& a, const std::vector<cv::Point
   return s;
 }
 
-// Pulls the next frame of `cam`; false at the end of its stream.
-bool pull(Camera* cam, GstBus* bus, std::string* error) {
-  for (;;) {
+// A camera that sends nothing for this long (a stalled device) ends the run with an error.
+constexpr int kSilentSeconds = 10;
+
+// Pulls the next frame of `cam`; false at the end of its stream or on an error.
+bool pull(Camera* cam, int index, GstBus* bus, std::string* error) {
+  for (int waited_ms = 0;; waited_ms += 200) {
     if (GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR)) {
       GError* e = nullptr;
       gst_message_parse_error(m, &e, nullptr);
@@ -74,6 +77,11 @@ bool pull(Camera* cam, GstBus* bus, std::string* error) {
     GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(cam->sink), 200 * GST_MSECOND);
     if (!s) {
       if (gst_app_sink_is_eos(GST_APP_SINK(cam->sink))) return false;
+      if (waited_ms >= kSilentSeconds * 1000) {
+        *error = "camera " + std::to_string(index) + " (--source number " + std::to_string(index + 1) +
+                 ") gave no frame for " + std::to_string(kSilentSeconds) + " s";
+        return false;
+      }
       continue;
     }
     std::string err;
@@ -233,19 +241,20 @@ int main(int argc, char** argv) {
   std::string error;
   GstClockTime first = GST_CLOCK_TIME_NONE;
   bool running = true;
+  GstClockTime skew = 20 * GST_MSECOND;  // half a frame, once the caps say the rate
   while (running && int(cap.views.size()) < max_views) {
     // One frame per camera, at the same instant (within half a frame).
-    for (auto& c : cams)
-      if (!pull(&c, bus, &error)) running = false;
+    for (size_t i = 0; i < cams.size() && running; ++i)
+      if (!pull(&cams[i], int(i), bus, &error)) running = false;
     for (int tries = 0; running && tries < 30; ++tries) {
       GstClockTime newest = 0;
       for (auto& c : cams) newest = std::max(newest, c.pts);
-      const GstClockTime skew = cams[0].info.frame_duration() != GST_CLOCK_TIME_NONE ? cams[0].info.frame_duration() / 2 : 20 * GST_MSECOND;
+      if (GST_CLOCK_TIME_IS_VALID(cams[0].info.frame_duration())) skew = cams[0].info.frame_duration() / 2;
       bool behind = false;
-      for (auto& c : cams)
-        if (c.pts + skew < newest) {
+      for (size_t i = 0; i < cams.size() && running; ++i)
+        if (cams[i].pts + skew < newest) {
           behind = true;
-          if (!pull(&c, bus, &error)) running = false;
+          if (!pull(&cams[i], int(i), bus, &error)) running = false;
         }
       if (!behind) break;
     }

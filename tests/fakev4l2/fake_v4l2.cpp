@@ -226,7 +226,7 @@ uint32_t fill(Device* d, long n, Buffer* b) {
   }
   if (c.fourcc == V4L2_PIX_FMT_MJPEG) {
     std::vector<uint8_t> jpeg;
-    encode_jpeg(rgb, 92, &jpeg);
+    encode_jpeg(rgb, 92, &jpeg, JpegChroma::kUvc422);  // as a UVC camera sends MJPEG
     const size_t bytes = std::min(jpeg.size(), b->length);
     std::memcpy(b->data, jpeg.data(), bytes);
     return uint32_t(bytes);

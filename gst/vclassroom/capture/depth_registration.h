@@ -4,6 +4,7 @@
 // (the rig's `depth_to_color`, docs/rig-format.md). GStreamer-free.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -35,6 +36,11 @@ class DepthRegistration {
   Eigen::Vector3f translation_;
   std::vector<float> ray_x_, ray_y_, ray_z_;  // each depth pixel's ray in the colour camera's orientation
   cv::Mat zbuffer_;
+  // One depth row at a time, padded to whole groups of eight: the row's depth, and where each pixel's
+  // footprint lands in the colour image with its depth there (0: nowhere).
+  std::vector<uint16_t> row_depth_;
+  std::vector<int32_t> x0_, x1_, y0_, y1_, zc_;
+  std::vector<int32_t> single_;  // the colour pixel of a one-pixel footprint inside the image, else -1
 };
 
 // The colour camera's calibration for the depth sensor when the rig says the

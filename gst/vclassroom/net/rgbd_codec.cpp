@@ -273,7 +273,7 @@ bool decode_labels(const uint8_t* data, size_t size, int width, int height, cv::
   return true;
 }
 
-void encode_jpeg(const cv::Mat& rgb, int quality, std::vector<uint8_t>* out) {
+void encode_jpeg(const cv::Mat& rgb, int quality, std::vector<uint8_t>* out, JpegChroma chroma) {
   CV_Assert(rgb.type() == CV_8UC3);
   jpeg_compress_struct cinfo;
   JpegError err;
@@ -296,8 +296,13 @@ void encode_jpeg(const cv::Mat& rgb, int quality, std::vector<uint8_t>* out) {
   jpeg_set_quality(&cinfo, quality, TRUE);
   // At high quality, halving the chroma costs more than the bits it saves:
   // the classroom's textures and the view synthesis downstream need the colour edges.
-  if (quality >= 90)
+  if (chroma == JpegChroma::kUvc422) {
+    cinfo.comp_info[0].h_samp_factor = 2;
+    cinfo.comp_info[0].v_samp_factor = 1;
+    for (int c = 1; c < 3; ++c) cinfo.comp_info[c].h_samp_factor = cinfo.comp_info[c].v_samp_factor = 1;
+  } else if (quality >= 90) {
     for (int c = 0; c < 3; ++c) cinfo.comp_info[c].h_samp_factor = cinfo.comp_info[c].v_samp_factor = 1;
+  }
   cinfo.dct_method = JDCT_ISLOW;
   jpeg_start_compress(&cinfo, TRUE);
   while (cinfo.next_scanline < cinfo.image_height) {
