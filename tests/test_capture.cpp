@@ -463,10 +463,18 @@ TEST(RgbdDeviceProvider, ListsACameraWhoseElementStreams) {
   gst_object_unref(provider);
 }
 
-// A school calibrates live: vclassroom-calibrate reads three rgbdsrc cameras (no rig yet, so intrinsics from
-// the board), here fake ones showing the board carried through the room, and finds the classroom's rig.
+// A school calibrates live: vclassroom-calibrate reads three rgbdsrc cameras, here fake ones showing the board
+// carried through the room, and finds the classroom's rig. The sources are given the maker's intrinsics (a rig
+// file; --intrinsics stream), so that a loaded machine that makes the fake cameras drop frames, and with them
+// views, cannot make the result depend on the board's intrinsics (those are tested in test_calibration).
 TEST(RgbdSrc, CalibrateFindsTheRigLiveFromThreeCameras) {
   if (!fake_loaded()) GTEST_SKIP() << "the fake V4L2 device is not preloaded (run through meson test)";
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "the fake cameras render every instant of the board's walk anew, which AddressSanitizer slows to "
+                  "minutes; the release suite runs this, the sanitizer build runs the tool in "
+                  "Tools.CalibrateFindsTheSyntheticRigAndEndsWithItsError";
+#endif
+  vctest::TempDir dir;
   std::string config;
   std::vector<std::string> argv = {std::string(g_getenv("VCLASSROOM_TOOLS_DIR")) + "/vclassroom-calibrate"};
   for (int c = 0; c < 3; ++c) {
@@ -474,15 +482,16 @@ TEST(RgbdSrc, CalibrateFindsTheRigLiveFromThreeCameras) {
     const std::string common = ",width=960,height=540,fps=5,learners=0,board=1,camera=" + std::to_string(c);
     config += "path=" + color + ",format=YUYV" + common + ";path=" + depth + ",format=Z16" + common + ";";
     argv.push_back("--source");
-    argv.push_back("rgbdsrc color-device=" + color + " depth-device=" + depth + " camera-id=" + std::to_string(c));
+    argv.push_back("rgbdsrc color-device=" + color + " depth-device=" + depth + " rig=" + (dir / "true-rig.yaml") +
+                   " camera-id=" + std::to_string(c));
   }
   fake_devices(config);
-  vctest::TempDir dir;
   save_rig(default_classroom_rig(), dir / "true-rig.yaml");
-  argv.insert(argv.end(), {"--views", "10", "--out", dir / "cal", "--true-rig", dir / "true-rig.yaml"});
+  argv.insert(argv.end(),
+              {"--intrinsics", "stream", "--views", "8", "--out", dir / "cal", "--true-rig", dir / "true-rig.yaml"});
   const vctest::Exit e = vctest::run_tool(argv);
   ASSERT_EQ(e.status, 0) << e.out << e.err;
-  EXPECT_NE(e.out.find("intrinsics from the board"), std::string::npos) << e.out;
+  EXPECT_NE(e.out.find("view 8: per camera"), std::string::npos) << e.out;
   vctest::expect_rig_error_within_targets(e.out);
 }
 

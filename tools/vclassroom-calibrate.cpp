@@ -137,9 +137,9 @@ bool parse_points(const std::string& text, Eigen::Vector3d* a, Eigen::Vector3d* 
 
 int main(int argc, char** argv) {
   gboolean synthetic = FALSE, no_depth_refine = FALSE;
-  gchar** sources = nullptr;
-  gchar *out_dir = nullptr, *board_text = nullptr, *intrinsics = nullptr, *x_axis = nullptr, *true_rig = nullptr,
-        *base_rig = nullptr;
+  g_auto(GStrv) sources = nullptr;
+  g_autofree gchar *out_dir = nullptr, *board_text = nullptr, *intrinsics = nullptr, *x_axis = nullptr,
+                   *true_rig = nullptr, *base_rig = nullptr;
   double square_mm = 80;
   int max_views = 40, seconds = 300, reference = 0, learners = 0, fps = 5;
   const GOptionEntry entries[] = {

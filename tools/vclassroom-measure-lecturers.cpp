@@ -45,9 +45,9 @@ double json_number(const std::string& json, const std::string& key) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  gchar* counts_text = nullptr;
+  g_autofree gchar* counts_text = nullptr;
   gint seconds = 20, cameras = 3;
-  gchar* size_text = nullptr;
+  g_autofree gchar* size_text = nullptr;
   gboolean live_cameras = FALSE;
   const GOptionEntry entries[] = {
       {"lecturers", 0, 0, G_OPTION_ARG_STRING, &counts_text, "Counts of lecturers to measure (default 1,2,4)", "N,N"},

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <numeric>
 
 #include <Eigen/Dense>
 #include <opencv2/calib3d.hpp>
