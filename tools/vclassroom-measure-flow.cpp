@@ -158,6 +158,9 @@ int main(int argc, char** argv) {
   std::map<std::string, std::string> server_env = {
       {"CAMERAS", cams}, {"MODEL", o.model}, {"STATS", "30"}, {"MTU", std::to_string(o.mtu)}};
   if (o.prep_nice >= 0) server_env["PREP_NICE"] = std::to_string(o.prep_nice);
+  // The replay sends plain RTP (classroom.sh with RTX=0): the server must not wait for retransmissions
+  // that never come (each frame with a lost packet would be held for RTX_LATENCY, 300 ms).
+  if (!o.live_cameras) server_env["RTX"] = "0";
   const pid_t server = spawn(o.pipelines + "/server.sh", server_env, server_log);
   children.push_back(server);
 

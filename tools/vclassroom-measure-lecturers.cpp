@@ -131,8 +131,10 @@ int main(int argc, char** argv) {
     } else {
       std::string ids;
       for (int k : camera_ids) ids += (ids.empty() ? "" : " ") + std::to_string(k);
+      // RTX=0: the replay sends plain RTP, as classroom.sh with RTX=0 does; a server waiting for
+      // retransmissions that never come holds each frame with a lost packet for RTX_LATENCY (300 ms).
       pid = spawn(root + "/pipelines/server.sh",
-                  {{"CAMERAS", ids}, {"MTU", "65000"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
+                  {{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
                    {"WHEP_PORT", std::to_string(port)}, {"WHEP_SESSIONS", std::to_string(n)},
                    {"WIDTH", std::to_string(width)}, {"HEIGHT", std::to_string(height)}},
                   server_log);
