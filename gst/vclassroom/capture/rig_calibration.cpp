@@ -8,6 +8,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/vda/static_model.h>
 
 namespace vclassroom {
 
@@ -229,71 +230,33 @@ class Adjustment {
   std::map<int, int> view_index_, cam_index_;
 };
 
-// A plane n.p = d fitted to points by least squares (n unit).
-bool fit_plane(const std::vector<Vector3d>& pts, Vector3d* n, double* d) {
-  if (pts.size() < 3) return false;
-  Vector3d mean = Vector3d::Zero();
-  for (const auto& p : pts) mean += p;
-  mean /= double(pts.size());
-  Matrix3d cov = Matrix3d::Zero();
-  for (const auto& p : pts) cov += (p - mean) * (p - mean).transpose();
-  Eigen::SelfAdjointEigenSolver<Matrix3d> es(cov);
-  *n = es.eigenvectors().col(0);
-  *d = n->dot(mean);
-  return true;
-}
+// The room's planes in one camera's depth (V-DA's plane finder, in the
+// camera's frame: normals towards the camera), and its points, every third
+// pixel each way.
+struct RoomView {
+  std::vector<Eigen::Vector3f> points;
+  std::vector<RoomPlane> planes;
+};
 
-// The largest plane among `pts` whose normal (turned towards the camera at
-// the origin) passes `accept`, by RANSAC then least squares on its inliers.
+// The plane with most points whose normal passes `accept`; nullptr if none.
 template <class Accept>
-bool largest_plane(const std::vector<Vector3d>& pts, Accept accept, Vector3d* n_out, double* d_out,
-                   std::vector<Vector3d>* inliers_out) {
-  if (pts.size() < 100) return false;
-  uint64_t s = 0x9E3779B97F4A7C15ull;
-  auto next = [&]() {
-    s ^= s << 13, s ^= s >> 7, s ^= s << 17;
-    return size_t(s % pts.size());
-  };
-  auto tolerance = [](const Vector3d& p) { return std::max(0.01, 3 * depth_sigma_m(p.z())); };
-  size_t best = 0;
-  Vector3d best_n;
-  double best_d = 0;
-  for (int it = 0; it < 600; ++it) {
-    const Vector3d &a = pts[next()], &b = pts[next()], &c = pts[next()];
-    Vector3d n = (b - a).cross(c - a);
-    if (n.norm() < 1e-9) continue;
-    n.normalize();
-    double d = n.dot(a);
-    if (d > 0) n = -n, d = -d;  // normal towards the camera: the origin lies on its positive side
-    if (!accept(n)) continue;
-    size_t count = 0;
-    for (size_t i = 0; i < pts.size(); i += 4) count += std::abs(n.dot(pts[i]) - d) < tolerance(pts[i]);
-    if (count > best) best = count, best_n = n, best_d = d;
-  }
-  if (best < 50) return false;
-  Vector3d n = best_n;
-  double d = best_d;
-  for (int refine = 0; refine < 3; ++refine) {
-    inliers_out->clear();
-    for (const auto& p : pts)
-      if (std::abs(n.dot(p) - d) < tolerance(p)) inliers_out->push_back(p);
-    if (!fit_plane(*inliers_out, &n, &d)) return false;
-    if (d > 0) n = -n, d = -d;
-  }
-  *n_out = n;
-  *d_out = d;
-  return accept(n);
+const RoomPlane* largest_plane(const std::vector<RoomPlane>& planes, Accept accept) {
+  const RoomPlane* best = nullptr;
+  for (const RoomPlane& p : planes)
+    if (accept(p.normal) && (!best || p.inliers > best->inliers)) best = &p;
+  return best;
 }
 
-std::vector<Vector3d> depth_points(const CameraCalib& cam, const cv::Mat& depth_mm) {
-  std::vector<Vector3d> pts;
-  if (depth_mm.empty() || depth_mm.type() != CV_16UC1) return pts;
+RoomView room_view(const CameraCalib& cam, const cv::Mat& depth_mm) {
+  RoomView view;
+  if (depth_mm.empty() || depth_mm.type() != CV_16UC1) return view;
   for (int v = 0; v < depth_mm.rows; v += 3) {
     const uint16_t* row = depth_mm.ptr<uint16_t>(v);
     for (int u = 0; u < depth_mm.cols; u += 3)
-      if (row[u]) pts.push_back(cam.unproject(u, v, row[u] * 0.001));
+      if (row[u]) view.points.push_back(cam.unproject(u, v, row[u] * 0.001).cast<float>());
   }
-  return pts;
+  view.planes = find_planes(view.points, Vector3d::Zero(), StaticModelOptions());
+  return view;
 }
 
 }  // namespace
@@ -495,19 +458,18 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
   std::vector<Vector3d> ref_floor;
   for (int c = 0; c < ncam; ++c) {
     if (size_t(c) >= capture.room_depth.size()) break;
-    const std::vector<Vector3d> pts = depth_points(cams[size_t(c)], capture.room_depth[size_t(c)]);
+    const RoomView room = room_view(cams[size_t(c)], capture.room_depth[size_t(c)]);
     // A camera stands about upright: its floor's normal is within 50 degrees of its -y.
-    auto level = [](const Vector3d& n) { return -n.y() > std::cos(50 * M_PI / 180); };
-    Vector3d n;
-    double d;
-    std::vector<Vector3d> inliers;
-    if (!largest_plane(pts, level, &n, &d, &inliers)) continue;
+    // (The largest such plane may be the desk tops: parallel to the floor, which is all Y needs.)
+    const RoomPlane* level = largest_plane(room.planes, [](const Vector3d& n) { return -n.y() > std::cos(50 * M_PI / 180); });
+    if (!level) continue;
+    const Vector3d n = level->normal;
     ups[size_t(c)] = cam_to_ref[size_t(c)].linear() * n;
-    up_sum += double(inliers.size()) * ups[size_t(c)];
+    up_sum += double(level->inliers) * ups[size_t(c)];
     if (c == options.reference) {
       // The floor is the lowest level with a wide area: heights of all points along the normal.
       std::vector<double> below;
-      for (const auto& p : pts) below.push_back(-n.dot(p));
+      for (const auto& p : room.points) below.push_back(-n.dot(p.cast<double>()));
       std::sort(below.begin(), below.end());
       const size_t floor_at = below.size() - std::max<size_t>(1, below.size() / 50);
       report.camera_height_m = below[floor_at];
@@ -530,20 +492,19 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
     x_axis = camera_x;
     report.x_axis_from = "the reference camera's x axis, levelled";
   } else {
-    const std::vector<Vector3d> pts =
-        size_t(options.reference) < capture.room_depth.size() ? depth_points(ref_cam, capture.room_depth[size_t(options.reference)])
-                                                               : std::vector<Vector3d>();
+    const RoomView room = size_t(options.reference) < capture.room_depth.size()
+                              ? room_view(ref_cam, capture.room_depth[size_t(options.reference)])
+                              : RoomView();
     // A wall: upright within 10 degrees, facing the camera (the front wall, or the back wall parallel to it).
-    auto upright = [&](const Vector3d& n) { return std::abs(n.dot(y_axis)) < std::sin(10 * M_PI / 180) && -n.z() > 0.5; };
-    Vector3d n;
-    double d;
-    std::vector<Vector3d> inliers;
-    if (!largest_plane(pts, upright, &n, &d, &inliers))
+    const RoomPlane* wall = largest_plane(room.planes, [&](const Vector3d& n) {
+      return std::abs(n.dot(y_axis)) < std::sin(10 * M_PI / 180) && -n.z() > 0.5;
+    });
+    if (!wall)
       throw Error("calibration: no wall facing " + camera_label(ref_cam) +
                   " in its depth: give the X axis as two points along the front wall (--x-axis), or take the "
                   "camera's own (--x-axis camera)");
-    x_axis = y_axis.cross(n);
-    report.x_axis_from = "the wall facing the reference camera (" + std::to_string(inliers.size()) + " depth points)";
+    x_axis = y_axis.cross(wall->normal);
+    report.x_axis_from = "the wall facing the reference camera (" + std::to_string(wall->inliers) + " depth points)";
   }
   x_axis -= x_axis.dot(y_axis) * y_axis;
   if (x_axis.norm() < 1e-6) throw Error("calibration: the X axis given runs straight up");
