@@ -52,7 +52,7 @@ SyntheticCapture capture_trace(int stops, int learners) {
   RenderOutput frame;
   const SensorParams sensor;
   for (int k = 0; k < stops; ++k) {
-    const double t = k * (kBoardStillSeconds + kBoardMoveSeconds) + 0.5;
+    const double t = k * kBoardStopSeconds + 0.5;
     std::vector<std::optional<BoardSighting>> view(3);
     for (int c = 0; c < 3; ++c) {
       const CameraCalib& cam = s.truth.cameras[size_t(c)];

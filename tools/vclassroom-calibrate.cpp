@@ -201,7 +201,7 @@ int main(int argc, char** argv) {
   if (synthetic) {
     truth = default_classroom_rig();
     compare = true;
-    const long frames = std::lround(kBoardStops * (kBoardStillSeconds + kBoardMoveSeconds) * fps);
+    const long frames = std::lround(kBoardStops * kBoardStopSeconds * fps);
     for (int i = 0; i < 3; ++i)
       descs.push_back("rgbdtestsrc camera-id=" + std::to_string(i) + " calibration-board=true ground-truth=false learners=" +
                       std::to_string(learners) + " framerate=" + std::to_string(fps) + "/1 num-buffers=" +

@@ -47,7 +47,7 @@ Stop stop(const Classroom& room, int k) {
   return s;
 }
 
-Isometry3d pose_of(const CalibrationBoard& board, const Vector3d& centre, const Matrix3d& rotation) {
+Isometry3d board_pose_at(const CalibrationBoard& board, const Vector3d& centre, const Matrix3d& rotation) {
   const Vector3d grid_centre((board.inner_cols - 1) * board.square_m / 2, (board.inner_rows - 1) * board.square_m / 2, 0);
   Isometry3d t = Isometry3d::Identity();
   t.linear() = rotation;
@@ -55,29 +55,22 @@ Isometry3d pose_of(const CalibrationBoard& board, const Vector3d& centre, const 
   return t;
 }
 
-constexpr double kStopPeriod = kBoardStillSeconds + kBoardMoveSeconds;
-
 }  // namespace
-
-bool board_still_on_trace(double t) {
-  const double in_period = std::fmod(std::max(t, 0.0), kStopPeriod);
-  return in_period < kBoardStillSeconds;
-}
 
 Isometry3d board_pose_on_trace(const Classroom& room, double t) {
   t = std::max(t, 0.0);
-  const int64_t n = int64_t(std::floor(t / kStopPeriod));
+  const int64_t n = int64_t(std::floor(t / kBoardStopSeconds));
   const int k = int(n % kBoardStops);
-  const double in_period = t - double(n) * kStopPeriod;
+  const double in_period = t - double(n) * kBoardStopSeconds;
   const Stop a = stop(room, k);
   const CalibrationBoard board = trace_board();
-  if (in_period < kBoardStillSeconds) return pose_of(board, a.centre, a.rotation);
+  if (in_period < kBoardStillSeconds) return board_pose_at(board, a.centre, a.rotation);
   // Moving: eased from this stop to the next.
   const Stop b = stop(room, (k + 1) % kBoardStops);
   const double u = (in_period - kBoardStillSeconds) / kBoardMoveSeconds;
   const double e = u * u * (3 - 2 * u);
   const Eigen::Quaterniond q = Eigen::Quaterniond(a.rotation).slerp(e, Eigen::Quaterniond(b.rotation));
-  return pose_of(board, a.centre + e * (b.centre - a.centre), q.toRotationMatrix());
+  return board_pose_at(board, a.centre + e * (b.centre - a.centre), q.toRotationMatrix());
 }
 
 void draw_board(const CalibrationBoard& board, const Isometry3d& board_to_rig, const CameraCalib& cam,

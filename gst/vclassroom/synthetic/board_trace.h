@@ -19,13 +19,12 @@ namespace vclassroom {
 inline constexpr int kBoardStops = 24;
 inline constexpr double kBoardStillSeconds = 1.0;
 inline constexpr double kBoardMoveSeconds = 0.6;
+inline constexpr double kBoardStopSeconds = kBoardStillSeconds + kBoardMoveSeconds;  // one stop and the move on
 
 // The board the trace carries: 9x6 inner corners of 80 mm (an A1 sheet).
 CalibrationBoard trace_board();
 // Board frame to rig frame at scene time t (seconds), for `room`'s floor.
 Eigen::Isometry3d board_pose_on_trace(const Classroom& room, double t);
-// Whether the board is held still at time t.
-bool board_still_on_trace(double t);
 
 // Draws the board at `board_to_rig` into a rendered view: depth-tested
 // against what is already there (a learner in front hides it), its colour
