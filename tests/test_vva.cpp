@@ -255,6 +255,142 @@ TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
   }
 }
 
+// A slanted plane whose depth comes in steps, as from a sensor that
+// measures disparity in quarter pixels, in front of a far wall: no virtual
+// pixel inside the plane may show the wall (a see-through crack) or stay
+// empty, whichever way the view moves, turns or zooms - alone and fused.
+namespace {
+
+struct SteppedPlane {
+  // The plane z = z0 + slope * x in the source camera's frame (metres).
+  double z0 = 2.0, slope = 0.6;
+  double wall_m = 5.0;
+  cv::Rect region{40, 20, 120, 80};  // source pixels on the plane
+  double disparity_fb = 15.0;        // f * baseline of the sensor (px m)
+  double disparity_step = 0.25;      // its resolution (px)
+
+  // The t at which the ray origin + t * dir (in the source camera's frame)
+  // meets the plane; NAN when it runs parallel to it.
+  double ray_hit(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir) const {
+    // n . P = z0 with n = (-slope, 0, 1).
+    const Eigen::Vector3d n(-slope, 0, 1);
+    const double den = n.dot(dir);
+    return std::abs(den) < 1e-9 ? NAN : (z0 - n.dot(origin)) / den;
+  }
+
+  WarpSource render(const CameraCalib& cam) const {
+    WarpSource s = fronto_plane(cam.width, cam.height, uint16_t(wall_m * 1000));
+    for (int y = region.y; y < region.br().y; ++y)
+      for (int x = region.x; x < region.br().x; ++x) {
+        const Eigen::Vector3d dir((x - cam.cx) / cam.fx, (y - cam.cy) / cam.fy, 1);
+        const double z = ray_hit(Eigen::Vector3d::Zero(), dir);  // dir.z = 1: t is z
+        const double d = std::round(disparity_fb / z / disparity_step) * disparity_step;
+        s.depth.at<uint16_t>(y, x) = uint16_t(std::lround(1000 * disparity_fb / d));
+        s.color.at<cv::Vec3b>(y, x) = cv::Vec3b(240, 40, 40);
+      }
+    return s;
+  }
+
+  // The virtual pixels whose ray meets the plane inside `region` of the
+  // source camera `src`, `margin` px in from its border, with the plane's
+  // depth (mm) along the virtual axis; 0 elsewhere.
+  cv::Mat true_depth(const CameraCalib& src, const CameraCalib& virt, int margin) const {
+    cv::Mat out(virt.height, virt.width, CV_32FC1, cv::Scalar(0));
+    const Eigen::Isometry3d v_to_s = src.cam_to_rig.inverse() * virt.cam_to_rig;
+    const cv::Rect inner(region.x + margin, region.y + margin, region.width - 2 * margin, region.height - 2 * margin);
+    for (int y = 0; y < virt.height; ++y)
+      for (int x = 0; x < virt.width; ++x) {
+        const Eigen::Vector3d dir_v((x - virt.cx) / virt.fx, (y - virt.cy) / virt.fy, 1);
+        const Eigen::Vector3d o = v_to_s.translation(), dir = v_to_s.linear() * dir_v;
+        const double t = ray_hit(o, dir);
+        if (!(t > 0)) continue;
+        const Eigen::Vector3d p = o + t * dir;
+        const double u = src.fx * p.x() / p.z() + src.cx, v = src.fy * p.y() / p.z() + src.cy;
+        if (u >= inner.x && u < inner.br().x && v >= inner.y && v < inner.br().y) out.at<float>(y, x) = float(1000 * t);
+      }
+    return out;
+  }
+};
+
+// Virtual pixels of the plane (true_depth > 0) whose depth is not the
+// plane's: behind it by more than 5 % (the wall shows through) or empty.
+int see_through(const cv::Mat& depth, const cv::Mat& truth) {
+  int bad = 0;
+  for (int y = 0; y < depth.rows; ++y)
+    for (int x = 0; x < depth.cols; ++x) {
+      const float t = truth.at<float>(y, x);
+      const int d = depth.at<uint16_t>(y, x);
+      if (t > 0 && (d == 0 || d > 1.05 * t)) ++bad;
+    }
+  return bad;
+}
+
+std::vector<CameraCalib> views_of_the_plane(const CameraCalib& src) {
+  std::vector<CameraCalib> views;
+  for (double dx : {-0.3, 0.3})
+    for (double yaw : {-0.2, 0.15})
+      for (double f : {1.0, 1.6}) {  // 1.6: the view magnifies, the steps open
+        CameraCalib v = src;
+        v.fx = v.fy = src.fx * f;
+        v.cam_to_rig = Eigen::Translation3d(dx, 0.05, -0.2) * Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY());
+        views.push_back(v);
+      }
+  return views;
+}
+
+}  // namespace
+
+TEST(ViewWarp, ASteppedSlantedPlaneShowsNoCracks) {
+  const CameraCalib src = pinhole(200, 120, 150);
+  const SteppedPlane plane;
+  const WarpSource in = plane.render(src);
+  int views = 0;
+  for (const CameraCalib& virt : views_of_the_plane(src)) {
+    const cv::Mat truth = plane.true_depth(src, virt, 2);
+    ASSERT_GT(cv::countNonZero(truth), 2000) << "the plane should fill much of view " << views;
+    for (bool coarse : {true, false}) {
+      WarpParams p;
+      p.boundary_px = 1;
+      p.coarse_cells = coarse;
+      const WarpedView w = warp_view(src, in, virt, p);
+      EXPECT_EQ(see_through(w.depth, truth), 0) << "view " << views << (coarse ? " coarse" : " fine");
+    }
+    ++views;
+  }
+}
+
+TEST(ViewFuse, ASteppedSlantedPlaneSeenByTwoCamerasShowsNoCracks) {
+  CameraCalib left = pinhole(200, 120, 150), right = left;
+  left.cam_to_rig.translation() = Eigen::Vector3d(-0.1, 0, 0);
+  right.cam_to_rig.translation() = Eigen::Vector3d(0.1, 0, 0);
+  // The same plane in the rig, seen from each camera: z0 and the region
+  // move with the camera.
+  SteppedPlane from_left, from_right;
+  from_left.z0 = 2.0 - 0.6 * 0.1;
+  from_right.z0 = 2.0 + 0.6 * 0.1;
+  from_left.region = cv::Rect(50, 20, 120, 80);
+  from_right.region = cv::Rect(30, 20, 120, 80);
+  const WarpSource in_left = from_left.render(left), in_right = from_right.render(right);
+  const CameraCalib centre = pinhole(200, 120, 150);
+  int views = 0;
+  for (const CameraCalib& virt : views_of_the_plane(centre)) {
+    // Only where both cameras see the plane.
+    cv::Mat truth = from_left.true_depth(left, virt, 2);
+    const cv::Mat truth_right = from_right.true_depth(right, virt, 2);
+    truth.setTo(0, truth_right == 0);
+    ASSERT_GT(cv::countNonZero(truth), 1500) << "view " << views;
+    WarpParams p;
+    p.boundary_px = 1;
+    const WarpedView a = warp_view(left, in_left, virt, p), b = warp_view(right, in_right, virt, p);
+    FuseParams fp;
+    fp.fill_holes = false;
+    FusedView fused;
+    fuse_views({&a, &b}, fp, &fused);
+    EXPECT_EQ(see_through(fused.depth, truth), 0) << "view " << views;
+    ++views;
+  }
+}
+
 TEST(ViewFuse, NearestSurfaceWinsWhateverTheWeights) {
   WarpedView near_view, far_view;
   for (WarpedView* v : {&near_view, &far_view}) {

@@ -104,6 +104,67 @@ bool has_learner_hole(int n, const uint8_t* lab, const uint16_t* depth) {
   return any != 0;
 }
 
+// Depth that comes in steps (a sensor's quantised disparity, an 8-bit
+// disparity map) turns a slanted surface into a staircase of flat runs. Its
+// steps look like depth edges: their far side would be dropped, a view that
+// opens them would leave a crack at every step, and the wall behind would
+// show through. Each pixel is averaged with its neighbours along the line, up
+// to kStepRadius on either side, as far as the line goes on without a jump
+// beyond the tolerance (and without a change of label): the staircase
+// becomes the ramp it was measured from, while a real edge, a jump larger
+// than the tolerance, ends the average on both its sides and stays sharp.
+constexpr int kStepRadius = 3;
+
+inline int step_tolerance(int depth_mm, uint16_t ratio_q16, uint16_t min_mm) {
+  const int rel = int((uint32_t(depth_mm) * ratio_q16) >> 16);
+  return rel > min_mm ? rel : min_mm;
+}
+
+inline bool same_step_surface(int a, int b, uint8_t la, uint8_t lb, int tol) {
+  const int diff = a > b ? a - b : b - a;
+  return (a != 0) & (b != 0) & (la == lb) & (diff <= tol);
+}
+
+// Pixels i = 0..n-1 of a line, `stride` apart, all of whose kStepRadius
+// neighbours on both sides exist.
+VCLASSROOM_SIMD_CLONES
+void smooth_steps(int n, ptrdiff_t stride, const uint16_t* __restrict d, const uint8_t* __restrict lab,
+                  uint16_t ratio_q16, uint16_t min_mm, uint16_t* __restrict out) {
+  for (int i = 0; i < n; ++i) {
+    const int c = d[i];
+    const int tol = step_tolerance(c, ratio_q16, min_mm);
+    int sum = c, count = 1;
+    bool on_before = true, on_after = true;
+    for (int k = 1; k <= kStepRadius; ++k) {
+      const ptrdiff_t b0 = i - (k - 1) * stride, b1 = i - k * stride, a0 = i + (k - 1) * stride, a1 = i + k * stride;
+      on_before = on_before & same_step_surface(d[b0], d[b1], lab[b0], lab[b1], tol);
+      on_after = on_after & same_step_surface(d[a0], d[a1], lab[a0], lab[a1], tol);
+      sum += (on_before ? d[b1] : 0) + (on_after ? d[a1] : 0);
+      count += (on_before ? 1 : 0) + (on_after ? 1 : 0);
+    }
+    out[i] = c ? uint16_t(float(sum) / float(count) + 0.5f) : uint16_t(0);
+  }
+}
+
+// The same for pixel `pos` of a line of `len` pixels, near its ends (the
+// neighbours beyond them left out).
+uint16_t smooth_steps_near_end(int pos, int len, ptrdiff_t stride, const uint16_t* d, const uint8_t* lab,
+                               uint16_t ratio_q16, uint16_t min_mm) {
+  const int c = d[pos * stride];
+  if (!c) return 0;
+  const int tol = step_tolerance(c, ratio_q16, min_mm);
+  int sum = c, count = 1;
+  for (int dir : {-1, 1})
+    for (int k = 1, p = pos; k <= kStepRadius; ++k, p += dir) {
+      const int q = p + dir;
+      if (q < 0 || q >= len || !same_step_surface(d[p * stride], d[q * stride], lab[p * stride], lab[q * stride], tol))
+        break;
+      sum += d[q * stride];
+      count += 1;
+    }
+  return uint16_t(float(sum) / float(count) + 0.5f);
+}
+
 // A step p1 -> p2 along a line is a depth edge when it is large and much
 // larger than the steps beside it (a slanted surface has steps too, but even
 // ones). code[i] = 1: the far side is i; 2: the far side is i + stride.
@@ -564,6 +625,57 @@ void unpack_samples(int n, Sample* __restrict s, uint8_t* __restrict rgb, uint16
   }
 }
 
+// A see-through crack: a virtual pixel the camera left empty, or where it
+// shows something farther, between two pixels of one surface - left and
+// right, or above and below, within the tolerance of each other. Cells of a
+// surface whose projected spacing shrinks from one pixel to the next meet a
+// little short of each other, and a virtual pixel centre can fall in between;
+// there the wall behind the surface would win the z-buffer. The rows above and
+// below are given; code[i] = 1: a crack across the row, 2: across the column.
+VCLASSROOM_SIMD_CLONES
+void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __restrict row,
+                 const uint16_t* __restrict below, uint16_t ratio_q16, uint16_t min_mm, uint8_t* __restrict code) {
+  for (int i = 0; i < n; ++i) {
+    const int c = row[i], l = row[i - 1], r = row[i + 1], a = above[i], b = below[i];
+    const int lr_far = l > r ? l : r, ab_far = a > b ? a : b;
+    const int lr_diff = l > r ? l - r : r - l, ab_diff = a > b ? a - b : b - a;
+    const int lr_tol = step_tolerance(lr_far, ratio_q16, min_mm), ab_tol = step_tolerance(ab_far, ratio_q16, min_mm);
+    const bool across_row = (l != 0) & (r != 0) & (lr_diff <= lr_tol) & ((c == 0) | (c > lr_far + lr_tol));
+    const bool across_column = (a != 0) & (b != 0) & (ab_diff <= ab_tol) & ((c == 0) | (c > ab_far + ab_tol));
+    code[i] = across_row ? 1 : across_column ? 2 : 0;
+  }
+}
+
+// Closes the cracks find_cracks marks: the pixel takes the mean of the two
+// pixels of the surface around it.
+void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vector<uint8_t>* scratch) {
+  const int W = out->depth.cols, H = out->depth.rows;
+  if (W < 3 || H < 3) return;
+  scratch->resize(size_t(W));
+  uint8_t* const code = scratch->data();
+  for (int y = 0; y < H; ++y) {
+    uint16_t* const d = out->depth.ptr<uint16_t>(y);
+    // The first and last rows have cracks across the row only: their own
+    // row stands in for the missing one, which finds none across the column.
+    const uint16_t* above = y > 0 ? out->depth.ptr<uint16_t>(y - 1) : d;
+    const uint16_t* below = y + 1 < H ? out->depth.ptr<uint16_t>(y + 1) : d;
+    find_cracks(W - 2, above + 1, d + 1, below + 1, ratio_q16, min_mm, code + 1);
+    for (int x = 1; x + 1 < W; ++x) {
+      if (!code[x]) continue;
+      const bool across_row = code[x] == 1;
+      const int y0 = across_row ? y : y - 1, y1 = across_row ? y : y + 1;
+      const int x0 = across_row ? x - 1 : x, x1 = across_row ? x + 1 : x;
+      d[x] = uint16_t((out->depth.at<uint16_t>(y0, x0) + out->depth.at<uint16_t>(y1, x1) + 1) / 2);
+      const cv::Vec3b c0 = out->color.at<cv::Vec3b>(y0, x0), c1 = out->color.at<cv::Vec3b>(y1, x1);
+      cv::Vec3b& c = out->color.at<cv::Vec3b>(y, x);
+      for (int ch = 0; ch < 3; ++ch) c[ch] = uint8_t((c0[ch] + c1[ch] + 1) / 2);
+      out->weight.at<uint8_t>(y, x) =
+          std::min(out->weight.at<uint8_t>(y0, x0), out->weight.at<uint8_t>(y1, x1));
+      out->label.at<uint8_t>(y, x) = out->label.at<uint8_t>(y0, x0);
+    }
+  }
+}
+
 }  // namespace
 
 CameraCalib virtual_camera(const CameraCalib& base, const Eigen::Isometry3d& cam_to_rig, double fov_deg) {
@@ -648,6 +760,27 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
         for (int u = 0; u < W; ++u)
           if (ol[u] && !od[u]) od[u] = med[ol[u]];
     }
+  }
+  if (prm.step_ratio > 0) {
+    // Rows, then columns (docs/vva.md, "Stepped depth").
+    const uint16_t ratio = uint16_t(std::clamp(std::ceil(prm.step_ratio * 65536.0), 0.0, 65535.0));
+    const uint16_t min_mm = uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0));
+    step_tmp_.resize(n);
+    uint16_t* const D = src_depth_.data();
+    uint16_t* const T = step_tmp_.data();
+    const uint8_t* const L = src_label_.data();
+    const int r = kStepRadius;
+    for (int v = 0; v < H; ++v) {
+      const size_t row = size_t(v) * W;
+      if (W > 2 * r) smooth_steps(W - 2 * r, 1, D + row + r, L + row + r, ratio, min_mm, T + row + r);
+      for (int u = 0; u < W; ++u)
+        if (u < r || u >= W - r) T[row + u] = smooth_steps_near_end(u, W, 1, D + row, L + row, ratio, min_mm);
+    }
+    if (H > 2 * r) smooth_steps(int(size_t(W) * (H - 2 * r)), W, T + size_t(r) * W, L + size_t(r) * W, ratio, min_mm,
+                                D + size_t(r) * W);
+    for (int v = 0; v < H; ++v)
+      if (v < r || v >= H - r)
+        for (int u = 0; u < W; ++u) D[size_t(v) * W + u] = smooth_steps_near_end(v, H, W, T + u, L + u, ratio, min_mm);
   }
   if (prm.boundary_px > 0 && W >= 4 && H >= 4) {
     // Drop the far-side pixels next to a depth edge: their colour mixes both
@@ -969,6 +1102,11 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     unpack_samples(rows * VW, zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
                    out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
     std::fill_n(zbuf_.data() + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
+  }
+  if (prm.close_cracks) {
+    const double ratio = std::max(prm.step_ratio, prm.edge_ratio);
+    close_cracks(out, uint16_t(std::clamp(std::ceil(ratio * 65536.0), 0.0, 65535.0)),
+                 uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0)), &crack_code_);
   }
 }
 

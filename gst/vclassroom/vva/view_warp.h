@@ -39,6 +39,15 @@ struct WarpParams {
   // step is kept when none of its edges grows by more than this many pixels
   // beyond its source length (slanted surfaces stay whole, edges open).
   double max_gap_px = 1.0;
+  // Depth that comes in steps (quantised disparity) is smoothed along rows
+  // and columns over the neighbours within max(edge_min_mm, step_ratio *
+  // depth) of each pixel, so a slanted surface is a ramp, not a staircase
+  // whose steps crack open in the view; 0: off.
+  double step_ratio = 0.06;
+  // A virtual pixel left empty, or showing something farther, between two
+  // pixels of one surface (left and right, or above and below) is a crack
+  // between their cells: it takes their mean.
+  bool close_cracks = true;
   // Projected triangles larger than this many times their source area (0.5 px²)
   // are dropped (grazing surfaces seen edge-on).
   double max_stretch = 64;
@@ -83,6 +92,8 @@ class ViewWarper {
   // longest unbroken mesh edge (px), vertex weight.
   std::vector<float> px_, py_, pz_, plim_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
+  std::vector<uint16_t> step_tmp_;   // src_depth_ smoothed along the rows
+  std::vector<uint8_t> crack_code_;  // one virtual row's cracks (close_cracks)
   std::vector<uint8_t> src_label_;
   std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
   std::vector<uint32_t> links_;            // three rows of link flags (same surface as right / below), a spare zero row
