@@ -8,6 +8,7 @@
 #include <gst/app/gstappsink.h>
 #include <gst/check/gstharness.h>
 #include <gst/gst.h>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/synthetic/classroom.h>
@@ -590,6 +591,95 @@ TEST(BackgroundMemory, AveragesNoiseButShowsChangesAndLearnersAtOnce) {
   EXPECT_THROW(memory.update(room, cv::Mat::zeros(3, 3, CV_8UC1), &out), Error);
 }
 
+// The room behind a learner: what the memory saw there before the learner
+// came, or the empty room it was seeded with; nothing where it never saw the
+// room. The layer covers the learner and a margin around it.
+TEST(BackgroundMemory, RemembersTheRoomBehindALearner) {
+  const cv::Size size(30, 20);
+  const cv::Mat static_depth(size, CV_16UC1, cv::Scalar(3000));
+  cv::Mat room(size, CV_8UC3);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) room.at<cv::Vec3b>(y, x) = ramp_color(3 * x, 3 * y);
+  const cv::Rect learner(10, 5, 6, 8);
+  cv::Mat with_learner = room.clone();
+  with_learner(learner).setTo(cv::Scalar(250, 0, 250));
+  cv::Mat label = cv::Mat::zeros(size, CV_8UC1), none = label.clone();
+  label(learner).setTo(3);
+  cv::Mat out, color, depth;
+  // Seen empty first, then the learner sits down.
+  BackgroundMemory seen;
+  seen.update(room, none, &out);
+  seen.update(with_learner, label, &out);
+  EXPECT_TRUE(vctest::same_image(out(learner), with_learner(learner))) << "the learner is shown as seen";
+  seen.room_behind_learners(label, static_depth, &color, &depth);
+  const int margin = BackgroundMemoryParams().room_margin;
+  const cv::Rect layer(learner.x - margin, learner.y - margin, learner.width + 2 * margin,
+                       learner.height + 2 * margin);
+  EXPECT_EQ(cv::countNonZero(depth), layer.area());
+  EXPECT_EQ(cv::countNonZero(depth(layer) != 3000), 0);
+  EXPECT_TRUE(vctest::same_image(color(layer), room(layer))) << "the room behind the learner is remembered";
+  // Never seen empty: nothing behind the learner is known...
+  BackgroundMemory fresh;
+  fresh.update(with_learner, label, &out);
+  fresh.room_behind_learners(label, static_depth, &color, &depth);
+  EXPECT_EQ(cv::countNonZero(depth(learner)), 0);
+  // ... unless the memory started from the empty room.
+  BackgroundMemory seeded;
+  seeded.seed(room);
+  seeded.update(with_learner, label, &out);
+  seeded.room_behind_learners(label, static_depth, &color, &depth);
+  EXPECT_EQ(cv::countNonZero(depth), layer.area());
+  EXPECT_TRUE(vctest::same_image(color(learner), room(learner)));
+  EXPECT_THROW(seeded.seed(cv::Mat(4, 4, CV_8UC1)), Error);
+  EXPECT_THROW(seeded.room_behind_learners(label, cv::Mat(size, CV_8UC1), &color, &depth), Error);
+}
+
+// A learner in front of a textured wall, seen from a view moved sideways:
+// the wall the learner uncovers shows the remembered wall where it is, not
+// a hole, and the remembered wall never covers the learner.
+TEST(ViewWarp, WhatALearnerUncoversShowsTheRememberedRoom) {
+  const int w = 160, h = 100;
+  const CameraCalib src = pinhole(w, h, 120);
+  WarpSource in = fronto_plane(w, h, 3000);
+  const cv::Mat wall = in.color.clone();
+  const cv::Rect learner(60, 20, 30, 60);
+  in.depth(learner).setTo(1500);
+  in.color(learner).setTo(cv::Scalar(250, 0, 250));
+  in.label = cv::Mat::zeros(h, w, CV_8UC1);
+  in.label(learner).setTo(1);
+  in.static_depth = cv::Mat(h, w, CV_16UC1, cv::Scalar(3000));
+  CameraCalib virt = src;
+  virt.cam_to_rig.translation() = Eigen::Vector3d(0.25, 0, 0);
+  WarpParams p;
+  p.boundary_px = 1;
+  const WarpedView alone = warp_view(src, in, virt, p);
+  BackgroundMemory memory;
+  memory.seed(wall);
+  memory.apply(&in);
+  ASSERT_FALSE(in.room_depth.empty());
+  const WarpedView layered = warp_view(src, in, virt, p);
+  // The learner moves 20 px, the wall 10 px: 10 columns of wall uncovered
+  // right of the learner (minus the edge band).
+  int uncovered = 0;
+  double max_err = 0;
+  for (int y = learner.y + 2; y < learner.br().y - 2; ++y)
+    for (int x = learner.br().x - 20 + 1; x < learner.br().x - 10 - 1; ++x) {
+      if (alone.weight.at<uint8_t>(y, x) != 0) continue;  // only what the camera does not see now
+      ++uncovered;
+      ASSERT_GT(layered.weight.at<uint8_t>(y, x), 0) << x << "," << y;
+      EXPECT_NEAR(layered.depth.at<uint16_t>(y, x), 3000, 1);
+      const cv::Vec3b truth = wall.at<cv::Vec3b>(y, x + 10);  // the wall point seen there
+      for (int ch = 0; ch < 3; ++ch)
+        max_err = std::max(max_err, std::abs(double(truth[ch]) - layered.color.at<cv::Vec3b>(y, x)[ch]));
+    }
+  EXPECT_GT(uncovered, 6 * (learner.height - 4));
+  EXPECT_LE(max_err, 12.0) << "the uncovered wall is not the remembered wall";
+  // The learner stays in front, as without the layer.
+  for (int y = learner.y; y < learner.br().y; ++y)
+    for (int x = learner.x - 20 + 1; x < learner.br().x - 20 - 1; ++x)
+      ASSERT_EQ(layered.depth.at<uint16_t>(y, x), 1500) << x << "," << y;
+}
+
 // Through viewwarp (background-memory=8): the same static scene with fresh camera noise in every frame gives
 // a steadier view than without the memory.
 TEST(ViewWarpElement, BackgroundMemorySteadiesTheViewOfANoisyStaticRoom) {
@@ -639,6 +729,68 @@ TEST(ViewWarpElement, BackgroundMemorySteadiesTheViewOfANoisyStaticRoom) {
   };
   const double without = frame_changes(0), with = frame_changes(8);
   EXPECT_LT(with, without * 0.6) << with << " vs " << without;
+}
+
+// Through viewwarp (background-memory=4, empty-room, prior-depth): camera 1
+// of the classroom with its learners, warped to camera 0's view, shows the
+// empty room where the learners uncover it, not a hole; a wrong empty-room
+// file is a clear error.
+TEST(ViewWarpElement, TheEmptyRoomFillsWhatTheLearnersUncover) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const Rig small = load_rig(rig);
+  RgbdInfo info;
+  info.camera = small.camera(1);
+  info.planes = {Plane::Color, Plane::Depth, Plane::Label};
+  const RenderOutput empty = render(Classroom(ClassroomConfig{1, 0, 2.0}), 0.0, info.camera);
+  const RenderOutput busy = render(Classroom(ClassroomConfig{1, 6, 2.0}), 1.0, info.camera);
+  const RenderOutput truth = render(Classroom(ClassroomConfig{1, 0, 2.0}), 0.0, small.camera(0));
+  const std::string prior = dir / "prior.png", room = dir / "room.png";
+  ASSERT_TRUE(cv::imwrite(prior, empty.depth));
+  cv::Mat bgr;
+  cv::cvtColor(empty.color, bgr, cv::COLOR_RGB2BGR);
+  ASSERT_TRUE(cv::imwrite(room, bgr));
+  auto warped = [&](const std::string& props) {
+    GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + rig + " prior-depth=" + prior + " " + props).c_str());
+    gst_harness_set_src_caps(h, rgbd_caps_new(info));
+    GstBuffer* buf = rgbd_buffer_new(info);
+    {
+      RgbdFrame f;
+      EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, nullptr));
+      busy.color.copyTo(f.color());
+      busy.depth.copyTo(f.depth());
+      busy.label.copyTo(f.label());
+    }
+    EXPECT_EQ(gst_harness_push(h, buf), GST_FLOW_OK);
+    GstBuffer* out = gst_harness_pull(h);
+    GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+    RgbdInfo oi;
+    EXPECT_TRUE(rgbd_info_from_caps(oc, &oi, nullptr));
+    gst_caps_unref(oc);
+    RgbdFrame f;
+    EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, nullptr));
+    WarpedView v{f.color().clone(), f.depth().clone(), f.label().clone(), f.plane(Plane::Weight).clone()};
+    f.unmap();
+    gst_buffer_unref(out);
+    gst_harness_teardown(h);
+    return v;
+  };
+  const WarpedView alone = warped("background-memory=0"), layered = warped("background-memory=4 empty-room=" + room);
+  int uncovered = 0;
+  double err = 0;
+  for (int y = 0; y < alone.weight.rows; ++y)
+    for (int x = 0; x < alone.weight.cols; ++x) {
+      if (alone.weight.at<uint8_t>(y, x) != 0 || layered.weight.at<uint8_t>(y, x) == 0) continue;
+      ++uncovered;
+      for (int ch = 0; ch < 3; ++ch)
+        err += std::abs(double(layered.color.at<cv::Vec3b>(y, x)[ch]) - truth.color.at<cv::Vec3b>(y, x)[ch]);
+    }
+  ASSERT_GT(uncovered, 30) << "the learners should uncover some of the room in camera 0's view";
+  EXPECT_LT(err / (3 * uncovered), 20.0) << "the uncovered room is not the empty room";
+
+  const vctest::RunResult bad = vctest::run_launch(
+      "rgbdtestsrc num-buffers=2 ! viewwarp background-memory=4 empty-room=" + dir / "missing.png" + " ! fakesink");
+  EXPECT_NE(bad.error.find("missing.png"), std::string::npos) << bad.error;
 }
 
 TEST(ViewWarpElement, APoseTraceSetsEachFramesViewByItsTime) {

@@ -11,11 +11,13 @@
 #include <string>
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/datasets/dataset.h>
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/view_warp.h>
 #include <gst/vclassroom/vva/virtual_view.h>
@@ -36,7 +38,8 @@ enum {
   PROP_REFERENCE,
   PROP_POSES_RECEIVED,
   PROP_POSE_TRACE,
-  PROP_BACKGROUND_MEMORY
+  PROP_BACKGROUND_MEMORY,
+  PROP_EMPTY_ROOM
 };
 
 namespace {
@@ -48,6 +51,7 @@ struct WarpState {
   std::string prior_path;
   int boundary_px = 1;
   int memory_frames = 0;  // background-memory; 0: off
+  std::string empty_room_path;
   std::string rig_path;
   int reference_id = 0;
   std::string trace_path;
@@ -66,7 +70,7 @@ struct WarpState {
   WarpedView warped;
   BackgroundMemory memory;   // the static room's colour, when background-memory is set
   int memory_for = 0;        // the frames `memory` was made for
-  cv::Mat remembered;        // this frame's colour seen through the memory
+  cv::Mat empty_room;        // empty-room, RGB: the memory's seed
 };
 
 }  // namespace
@@ -171,11 +175,12 @@ static GstFlowReturn gst_view_warp_prepare_output_buffer(GstBaseTransform* trans
 static gboolean gst_view_warp_start(GstBaseTransform* trans) {
   GstViewWarp* self = GST_VIEW_WARP(trans);
   WarpState* st = self->st;
-  std::string path, rig_path, trace_path;
+  std::string path, rig_path, trace_path, empty_room_path;
   int ref;
   {
     std::lock_guard<std::mutex> g(st->lock);
     path = st->prior_path;
+    empty_room_path = st->empty_room_path;
     rig_path = st->rig_path;
     trace_path = st->trace_path;
     ref = st->reference_id;
@@ -222,6 +227,17 @@ static gboolean gst_view_warp_start(GstBaseTransform* trans) {
       return FALSE;
     }
   }
+  st->empty_room.release();
+  st->memory_for = 0;  // a new seed: the memory starts again
+  if (!empty_room_path.empty()) {
+    try {
+      cv::cvtColor(read_image(empty_room_path, cv::IMREAD_COLOR, "empty-room colour"), st->empty_room,
+                   cv::COLOR_BGR2RGB);
+    } catch (const Error& e) {
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("property empty-room of %s", GST_OBJECT_NAME(self)));
+      return FALSE;
+    }
+  }
   return TRUE;
 }
 
@@ -260,20 +276,22 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   src.color = in.color();
   src.depth = in.depth();
   src.label = in.label();
+  if (st->use_prior) src.static_depth = st->prior;
   if (memory_frames > 0) {
-    if (memory_frames != st->memory_for) {
-      st->memory = BackgroundMemory(BackgroundMemoryParams{memory_frames, BackgroundMemoryParams().change});
-      st->memory_for = memory_frames;
-    }
     try {
-      st->memory.update(src.color, src.label, &st->remembered);
-      src.color = st->remembered;
+      if (memory_frames != st->memory_for) {
+        BackgroundMemoryParams mp;
+        mp.frames = memory_frames;
+        st->memory = BackgroundMemory(mp);
+        if (!st->empty_room.empty()) st->memory.seed(st->empty_room);
+        st->memory_for = memory_frames;
+      }
+      st->memory.apply(&src);
     } catch (const Error& e) {
       GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", e.what()), (nullptr));
       return GST_FLOW_ERROR;
     }
   }
-  if (st->use_prior) src.static_depth = st->prior;
   // Warp straight into the output planes.
   st->warped.color = out.color();
   st->warped.depth = out.depth();
@@ -333,6 +351,9 @@ static void gst_view_warp_set_property(GObject* object, guint prop_id, const GVa
     case PROP_BACKGROUND_MEMORY:
       st->memory_frames = g_value_get_int(value);
       break;
+    case PROP_EMPTY_ROOM:
+      st->empty_room_path = g_value_get_string(value) ? g_value_get_string(value) : "";
+      break;
     case PROP_RIG:
       st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
       break;
@@ -368,6 +389,9 @@ static void gst_view_warp_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_BACKGROUND_MEMORY:
       g_value_set_int(value, st->memory_frames);
+      break;
+    case PROP_EMPTY_ROOM:
+      g_value_set_string(value, st->empty_room_path.c_str());
       break;
     case PROP_RIG:
       g_value_set_string(value, st->rig_path.c_str());
@@ -430,8 +454,17 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
       g_param_spec_int("background-memory", "Background memory",
                        "Show the static room (label 0) through a memory of its colour: the mean of up to this many "
                        "frames, started again where the colour changes by more than the camera's noise (docs/vva.md); "
-                       "the camera's noise then no longer flickers in the view. 0: off",
+                       "the camera's noise then no longer flickers in the view. With prior-depth, the room behind "
+                       "the learners, as last seen, is drawn behind them: where the view looks past a learner it "
+                       "shows that room, not a smear. 0: off",
                        0, 64, 0, playing));
+  g_object_class_install_property(
+      gobject_class, PROP_EMPTY_ROOM,
+      g_param_spec_string("empty-room", "Empty room",
+                          "RGB image of the empty classroom seen by this camera (V-DA's model: "
+                          "prior-color/cam<ID>.png) that background-memory starts from, so the room behind a "
+                          "learner who has not moved yet is known. Empty: the memory learns the room as it sees it",
+                          "", ready));
   g_object_class_install_property(
       gobject_class, PROP_RIG,
       g_param_spec_string("rig", "Rig file",

@@ -4,9 +4,18 @@
 #include <cmath>
 #include <string>
 
+#include <opencv2/imgproc.hpp>
+
 #include <gst/vclassroom/core/error.h>
 
 namespace vclassroom {
+
+void BackgroundMemory::seed(const cv::Mat& empty_room) {
+  if (empty_room.type() != CV_8UC3 || empty_room.empty())
+    throw Error("background memory: the empty room must be an RGB image");
+  empty_room.convertTo(mean_, CV_32FC3);
+  count_ = cv::Mat(empty_room.size(), CV_8UC1, cv::Scalar(1));
+}
 
 void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Mat* out) {
   if (color.type() != CV_8UC3 || (!label.empty() && (label.type() != CV_8UC1 || label.size() != color.size())))
@@ -25,8 +34,7 @@ void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Ma
     uint8_t* n = count_.ptr<uint8_t>(y);
     cv::Vec3b* o = out->ptr<cv::Vec3b>(y);
     for (int x = 0; x < color.cols; ++x) {
-      if (l && l[x] != 0) {  // a learner: shown as seen, and nothing of the room remembered here
-        n[x] = 0;
+      if (l && l[x] != 0) {  // a learner: shown as seen; the room behind stays remembered
         o[x] = c[x];
         continue;
       }
@@ -43,6 +51,34 @@ void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Ma
                        cv::saturate_cast<uint8_t>(m[x][2]));
     }
   }
+}
+
+void BackgroundMemory::room_behind_learners(const cv::Mat& label, const cv::Mat& static_depth, cv::Mat* color,
+                                            cv::Mat* depth) const {
+  if (label.type() != CV_8UC1 || static_depth.type() != CV_16UC1 || label.size() != static_depth.size())
+    throw Error("background memory: the room layer needs a label plane and a 16-bit static depth of one size");
+  if (mean_.size() != label.size()) {  // nothing remembered at this size
+    *depth = cv::Mat::zeros(label.size(), CV_16UC1);
+    *color = cv::Mat::zeros(label.size(), CV_8UC3);
+    return;
+  }
+  cv::Mat hidden = label != 0;
+  const int margin = params_.room_margin;
+  if (margin > 0)
+    cv::dilate(hidden, hidden, cv::getStructuringElement(cv::MORPH_RECT, {2 * margin + 1, 2 * margin + 1}));
+  depth->create(label.size(), CV_16UC1);
+  depth->setTo(0);
+  static_depth.copyTo(*depth, hidden & (count_ > 0));
+  mean_.convertTo(*color, CV_8UC3);
+}
+
+void BackgroundMemory::apply(WarpSource* src) {
+  update(src->color, src->label, &shown_);
+  src->color = shown_;
+  if (src->static_depth.empty() || src->label.empty()) return;
+  room_behind_learners(src->label, src->static_depth, &room_color_, &room_depth_);
+  src->room_color = room_color_;
+  src->room_depth = room_depth_;
 }
 
 }  // namespace vclassroom

@@ -3,32 +3,68 @@
 // larger than the camera's noise (a chair moved, a learner gone, the light)
 // starts the mean again at that pixel, so the memory follows the room without
 // ghosts; through it the static room no longer flickers with the camera's
-// noise. GStreamer-free; viewwarp's background-memory property uses it.
+// noise. Where a learner stands the memory keeps what it saw there before (or
+// the empty room it was seeded with): the room behind the learner, which the
+// view shows where the learner moves out of the way (room_behind_learners).
+// GStreamer-free; viewwarp's background-memory property uses it.
 #pragma once
 
 #include <opencv2/core.hpp>
+
+#include <gst/vclassroom/vva/view_warp.h>
 
 namespace vclassroom {
 
 struct BackgroundMemoryParams {
   int frames = 8;   // the mean's length: the noise falls by about sqrt(frames)
   int change = 24;  // grey levels on any channel that count as a change, not noise
+  // The room layer reaches this far around the learners (px): the warp drops
+  // the room pixels right beside a learner (WarpParams::boundary_px), and the
+  // layer must join the room around it without a seam.
+  int room_margin = 2;
 };
 
 class BackgroundMemory {
  public:
   explicit BackgroundMemory(BackgroundMemoryParams params = BackgroundMemoryParams()) : params_(params) {}
 
+  // Starts the memory from a picture of the empty room (RGB CV_8UC3), e.g.
+  // V-DA's model (prior-color/cam<ID>.png): every pixel is known from the
+  // start, as one frame's worth, so the live room soon takes over. Throws
+  // Error on a wrong type.
+  void seed(const cv::Mat& empty_room);
+
   // Takes this frame (RGB CV_8UC3; label CV_8UC1, 0 static, or empty: all static) into the memory and writes
   // to *out the frame with every static pixel replaced by its remembered colour (the others as they are).
-  // Throws Error on a wrong type or size; the memory starts again when the size changes.
+  // A seed of another size is dropped. Throws Error on a wrong type or size; the memory starts again when
+  // the size changes.
   void update(const cv::Mat& color, const cv::Mat& label, cv::Mat* out);
-  void reset() { mean_.release(); count_.release(); }
+
+  // The room behind this frame's learners, as a layer for the warp
+  // (WarpSource::room_*): *depth is `static_depth` where a learner (label
+  // != 0), or a pixel within room_margin of one, hides a room pixel the
+  // memory knows; 0 elsewhere. *color is the remembered room. Call after
+  // update() with the same label plane.
+  void room_behind_learners(const cv::Mat& label, const cv::Mat& static_depth, cv::Mat* color,
+                            cv::Mat* depth) const;
+
+  // What viewwarp's background-memory does to each frame: update() with the
+  // source's colour and labels, its static room shown as remembered, and -
+  // where it has a static depth and labels - the room behind its learners
+  // as the warp's room layer. The images stay with the memory until the
+  // next frame.
+  void apply(WarpSource* src);
+
+  void reset() {
+    mean_.release();
+    count_.release();
+  }
 
  private:
   BackgroundMemoryParams params_;
   cv::Mat mean_;   // CV_32FC3
   cv::Mat count_;  // CV_8UC1: frames in the mean, 0 = nothing remembered
+  cv::Mat shown_, room_color_, room_depth_;  // apply()'s images of this frame
 };
 
 }  // namespace vclassroom

@@ -28,6 +28,11 @@ struct WarpSource {
   // Static layer: the depth of the empty classroom for this camera (V-DA's
   // prior depth, or a stand-in). Used for label-0 pixels where non-zero; may be empty.
   cv::Mat static_depth;  // CV_16UC1 mm
+  // The room behind the learners as a camera remembers it
+  // (BackgroundMemory::room_behind_learners): drawn behind what the camera
+  // sees now, where room_depth is non-zero. Both may be empty (no layer).
+  cv::Mat room_color{};  // CV_8UC3 RGB
+  cv::Mat room_depth{};  // CV_16UC1 mm, 0 = none
 };
 
 struct WarpParams {
