@@ -106,64 +106,80 @@ bool has_learner_hole(int n, const uint8_t* lab, const uint16_t* depth) {
 }
 
 // Depth that comes in steps (a sensor's quantised disparity, an 8-bit
-// disparity map) turns a slanted surface into a staircase of flat runs. Its
-// steps look like depth edges: their far side would be dropped, a view that
-// opens them would leave a crack at every step, and the wall behind would
-// show through. Each pixel is averaged with its neighbours along the line, up
-// to kStepRadius on either side, as far as the line goes on without a jump
-// beyond the tolerance (and without a change of label): the staircase
-// becomes the ramp it was measured from, while a real edge, a jump larger
-// than the tolerance, ends the average on both its sides and stays sharp.
+// disparity map) turns a slanted surface into a staircase of flat runs. A
+// step larger than the link tolerance (WarpParams::edge_ratio) looks like a
+// depth edge: its far side would be dropped, a view that opens it would leave
+// a crack, and the wall behind would show through. A pixel with such a step
+// within kStepRadius along the line - but no jump beyond the step tolerance
+// (step_ratio) on the way, and no change of label - is averaged with the
+// neighbours up to there: the staircase becomes the ramp it was measured
+// from. A real edge, a jump beyond the step tolerance, ends the average on
+// both its sides and stays sharp, and depth without such steps (smooth or
+// noisy) is left as it is.
 constexpr int kStepRadius = 3;
 
-inline int step_tolerance(int depth_mm, uint16_t ratio_q16, uint16_t min_mm) {
+struct StepTolerance {
+  uint16_t link_q16;  // a jump beyond max(min_mm, this * depth) breaks the warp's links
+  uint16_t step_q16;  // ... beyond max(min_mm, this * depth) is a real edge
+  uint16_t min_mm;
+};
+
+inline int relative_tolerance(int depth_mm, uint16_t ratio_q16, uint16_t min_mm) {
   const int rel = int((uint32_t(depth_mm) * ratio_q16) >> 16);
   return rel > min_mm ? rel : min_mm;
 }
 
+inline int depth_jump(int a, int b) { return a > b ? a - b : b - a; }
+
 inline bool same_step_surface(int a, int b, uint8_t la, uint8_t lb, int tol) {
-  const int diff = a > b ? a - b : b - a;
-  return (a != 0) & (b != 0) & (la == lb) & (diff <= tol);
+  return (a != 0) & (b != 0) & (la == lb) & (depth_jump(a, b) <= tol);
 }
 
 // Pixels i = 0..n-1 of a line, `stride` apart, all of whose kStepRadius
 // neighbours on both sides exist.
 VCLASSROOM_SIMD_CLONES
 void smooth_steps(int n, ptrdiff_t stride, const uint16_t* __restrict d, const uint8_t* __restrict lab,
-                  uint16_t ratio_q16, uint16_t min_mm, uint16_t* __restrict out) {
+                  StepTolerance tol, uint16_t* __restrict out) {
   for (int i = 0; i < n; ++i) {
     const int c = d[i];
-    const int tol = step_tolerance(c, ratio_q16, min_mm);
+    const int step_tol = relative_tolerance(c, tol.step_q16, tol.min_mm);
+    const int link_tol = relative_tolerance(c, tol.link_q16, tol.min_mm);
     int sum = c, count = 1;
-    bool on_before = true, on_after = true;
+    bool on_before = true, on_after = true, stepped = false;
     for (int k = 1; k <= kStepRadius; ++k) {
       const ptrdiff_t b0 = i - (k - 1) * stride, b1 = i - k * stride, a0 = i + (k - 1) * stride, a1 = i + k * stride;
-      on_before = on_before & same_step_surface(d[b0], d[b1], lab[b0], lab[b1], tol);
-      on_after = on_after & same_step_surface(d[a0], d[a1], lab[a0], lab[a1], tol);
+      on_before = on_before & same_step_surface(d[b0], d[b1], lab[b0], lab[b1], step_tol);
+      on_after = on_after & same_step_surface(d[a0], d[a1], lab[a0], lab[a1], step_tol);
+      stepped = stepped | (on_before & (depth_jump(d[b0], d[b1]) > link_tol)) |
+                (on_after & (depth_jump(d[a0], d[a1]) > link_tol));
       sum += (on_before ? d[b1] : 0) + (on_after ? d[a1] : 0);
       count += (on_before ? 1 : 0) + (on_after ? 1 : 0);
     }
-    out[i] = c ? uint16_t(float(sum) / float(count) + 0.5f) : uint16_t(0);
+    out[i] = stepped ? uint16_t(float(sum) / float(count) + 0.5f) : uint16_t(c);
   }
 }
 
 // The same for pixel `pos` of a line of `len` pixels, near its ends (the
 // neighbours beyond them left out).
 uint16_t smooth_steps_near_end(int pos, int len, ptrdiff_t stride, const uint16_t* d, const uint8_t* lab,
-                               uint16_t ratio_q16, uint16_t min_mm) {
+                               StepTolerance tol) {
   const int c = d[pos * stride];
   if (!c) return 0;
-  const int tol = step_tolerance(c, ratio_q16, min_mm);
+  const int step_tol = relative_tolerance(c, tol.step_q16, tol.min_mm);
+  const int link_tol = relative_tolerance(c, tol.link_q16, tol.min_mm);
   int sum = c, count = 1;
+  bool stepped = false;
   for (int dir : {-1, 1})
     for (int k = 1, p = pos; k <= kStepRadius; ++k, p += dir) {
       const int q = p + dir;
-      if (q < 0 || q >= len || !same_step_surface(d[p * stride], d[q * stride], lab[p * stride], lab[q * stride], tol))
+      if (q < 0 || q >= len ||
+          !same_step_surface(d[p * stride], d[q * stride], lab[p * stride], lab[q * stride], step_tol))
         break;
+      stepped = stepped || depth_jump(d[p * stride], d[q * stride]) > link_tol;
       sum += d[q * stride];
       count += 1;
     }
-  return uint16_t(float(sum) / float(count) + 0.5f);
+  return stepped ? uint16_t(float(sum) / float(count) + 0.5f) : uint16_t(c);
 }
 
 // A step p1 -> p2 along a line is a depth edge when it is large and much
@@ -640,7 +656,7 @@ void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __rest
     const int c = row[i], l = row[i - 1], r = row[i + 1], a = above[i], b = below[i];
     const int lr_far = l > r ? l : r, ab_far = a > b ? a : b;
     const int lr_diff = l > r ? l - r : r - l, ab_diff = a > b ? a - b : b - a;
-    const int lr_tol = step_tolerance(lr_far, ratio_q16, min_mm), ab_tol = step_tolerance(ab_far, ratio_q16, min_mm);
+    const int lr_tol = relative_tolerance(lr_far, ratio_q16, min_mm), ab_tol = relative_tolerance(ab_far, ratio_q16, min_mm);
     const bool across_row = (l != 0) & (r != 0) & (lr_diff <= lr_tol) & ((c == 0) | (c > lr_far + lr_tol));
     const bool across_column = (a != 0) & (b != 0) & (ab_diff <= ab_tol) & ((c == 0) | (c > ab_far + ab_tol));
     code[i] = across_row ? 1 : across_column ? 2 : 0;
@@ -764,9 +780,10 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     }
   }
   if (prm.step_ratio > 0) {
-    // Rows, then columns (docs/vva.md, "Stepped depth").
-    const uint16_t ratio = uint16_t(std::clamp(std::ceil(prm.step_ratio * 65536.0), 0.0, 65535.0));
-    const uint16_t min_mm = uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0));
+    // Rows, then columns.
+    auto q16 = [](double ratio) { return uint16_t(std::clamp(std::ceil(ratio * 65536.0), 0.0, 65535.0)); };
+    const StepTolerance tol{q16(prm.edge_ratio), q16(prm.step_ratio),
+                            uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0))};
     step_tmp_.resize(n);
     uint16_t* const D = src_depth_.data();
     uint16_t* const T = step_tmp_.data();
@@ -774,15 +791,15 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     const int r = kStepRadius;
     for (int v = 0; v < H; ++v) {
       const size_t row = size_t(v) * W;
-      if (W > 2 * r) smooth_steps(W - 2 * r, 1, D + row + r, L + row + r, ratio, min_mm, T + row + r);
+      if (W > 2 * r) smooth_steps(W - 2 * r, 1, D + row + r, L + row + r, tol, T + row + r);
       for (int u = 0; u < W; ++u)
-        if (u < r || u >= W - r) T[row + u] = smooth_steps_near_end(u, W, 1, D + row, L + row, ratio, min_mm);
+        if (u < r || u >= W - r) T[row + u] = smooth_steps_near_end(u, W, 1, D + row, L + row, tol);
     }
-    if (H > 2 * r) smooth_steps(int(size_t(W) * (H - 2 * r)), W, T + size_t(r) * W, L + size_t(r) * W, ratio, min_mm,
+    if (H > 2 * r) smooth_steps(int(size_t(W) * (H - 2 * r)), W, T + size_t(r) * W, L + size_t(r) * W, tol,
                                 D + size_t(r) * W);
     for (int v = 0; v < H; ++v)
       if (v < r || v >= H - r)
-        for (int u = 0; u < W; ++u) D[size_t(v) * W + u] = smooth_steps_near_end(v, H, W, T + u, L + u, ratio, min_mm);
+        for (int u = 0; u < W; ++u) D[size_t(v) * W + u] = smooth_steps_near_end(v, H, W, T + u, L + u, tol);
   }
   if (prm.boundary_px > 0 && W >= 4 && H >= 4) {
     // Drop the far-side pixels next to a depth edge: their colour mixes both

@@ -44,11 +44,14 @@ struct WarpParams {
   // step is kept when none of its edges grows by more than this many pixels
   // beyond its source length (slanted surfaces stay whole, edges open).
   double max_gap_px = 1.0;
-  // Depth that comes in steps (quantised disparity) is smoothed along rows
-  // and columns over the neighbours within max(edge_min_mm, step_ratio *
-  // depth) of each pixel, so a slanted surface is a ramp, not a staircase
-  // whose steps crack open in the view; 0: off.
-  double step_ratio = 0.06;
+  // Depth that comes in steps (quantised disparity): a pixel near a step
+  // larger than the link tolerance above is averaged with its neighbours
+  // along the row and then the column, as far as no jump beyond
+  // max(edge_min_mm, step_ratio * depth) intervenes, so a slanted surface is
+  // a ramp, not a staircase whose steps crack open in the view; larger jumps
+  // are real edges and stay. 0: off. (Real edges between the two tolerances
+  // are softened too: 4.5 % keeps the classroom's small edges, see docs/vva.md.)
+  double step_ratio = 0.045;
   // A virtual pixel left empty, or showing something farther, between two
   // pixels of one surface (left and right, or above and below) is a crack
   // between their cells: it takes their mean.
