@@ -129,30 +129,39 @@ inline int relative_tolerance(int depth_mm, uint16_t ratio_q16, uint16_t min_mm)
   return rel > min_mm ? rel : min_mm;
 }
 
-inline int depth_jump(int a, int b) { return a > b ? a - b : b - a; }
+// What lies between pixels i and i + stride of a line.
+constexpr uint8_t kSameSurface = 0, kStep = 1, kBreak = 2;  // kBreak: a real edge, a label change, no depth
 
-inline bool same_step_surface(int a, int b, uint8_t la, uint8_t lb, int tol) {
-  return (a != 0) & (b != 0) & (la == lb) & (depth_jump(a, b) <= tol);
+VCLASSROOM_SIMD_CLONES
+void step_codes(size_t n, ptrdiff_t stride, const uint16_t* __restrict d, const uint8_t* __restrict lab,
+                StepTolerance tol, uint8_t* __restrict code) {
+  for (size_t i = 0; i < n; ++i) {
+    const int a = d[i], b = d[i + stride];
+    const int jump = a > b ? a - b : b - a, nearer = a < b ? a : b;
+    const bool broken = (a == 0) | (b == 0) | (lab[i] != lab[i + stride]) |
+                        (jump > relative_tolerance(nearer, tol.step_q16, tol.min_mm));
+    const bool step = jump > relative_tolerance(nearer, tol.link_q16, tol.min_mm);
+    code[i] = broken ? kBreak : step ? kStep : kSameSurface;
+  }
 }
 
 // Pixels i = 0..n-1 of a line, `stride` apart, all of whose kStepRadius
-// neighbours on both sides exist.
+// neighbours on both sides exist; code[i] is step_codes' for the pair
+// (i, i + stride).
 VCLASSROOM_SIMD_CLONES
-void smooth_steps(int n, ptrdiff_t stride, const uint16_t* __restrict d, const uint8_t* __restrict lab,
-                  StepTolerance tol, uint16_t* __restrict out) {
+void smooth_steps(int n, ptrdiff_t stride, const uint16_t* __restrict d, const uint8_t* __restrict code,
+                  uint16_t* __restrict out) {
   for (int i = 0; i < n; ++i) {
     const int c = d[i];
-    const int step_tol = relative_tolerance(c, tol.step_q16, tol.min_mm);
-    const int link_tol = relative_tolerance(c, tol.link_q16, tol.min_mm);
     int sum = c, count = 1;
     bool on_before = true, on_after = true, stepped = false;
     for (int k = 1; k <= kStepRadius; ++k) {
-      const ptrdiff_t b0 = i - (k - 1) * stride, b1 = i - k * stride, a0 = i + (k - 1) * stride, a1 = i + k * stride;
-      on_before = on_before & same_step_surface(d[b0], d[b1], lab[b0], lab[b1], step_tol);
-      on_after = on_after & same_step_surface(d[a0], d[a1], lab[a0], lab[a1], step_tol);
-      stepped = stepped | (on_before & (depth_jump(d[b0], d[b1]) > link_tol)) |
-                (on_after & (depth_jump(d[a0], d[a1]) > link_tol));
-      sum += (on_before ? d[b1] : 0) + (on_after ? d[a1] : 0);
+      const ptrdiff_t before = i - k * stride, after = i + k * stride;
+      const uint8_t cb = code[before], ca = code[after - stride];
+      on_before = on_before & (cb != kBreak);
+      on_after = on_after & (ca != kBreak);
+      stepped = stepped | (on_before & (cb == kStep)) | (on_after & (ca == kStep));
+      sum += (on_before ? d[before] : 0) + (on_after ? d[after] : 0);
       count += (on_before ? 1 : 0) + (on_after ? 1 : 0);
     }
     out[i] = stepped ? uint16_t(float(sum) / float(count) + 0.5f) : uint16_t(c);
@@ -161,26 +170,26 @@ void smooth_steps(int n, ptrdiff_t stride, const uint16_t* __restrict d, const u
 
 // The same for pixel `pos` of a line of `len` pixels, near its ends (the
 // neighbours beyond them left out).
-uint16_t smooth_steps_near_end(int pos, int len, ptrdiff_t stride, const uint16_t* d, const uint8_t* lab,
-                               StepTolerance tol) {
+uint16_t smooth_steps_near_end(int pos, int len, ptrdiff_t stride, const uint16_t* d, const uint8_t* code) {
   const int c = d[pos * stride];
-  if (!c) return 0;
-  const int step_tol = relative_tolerance(c, tol.step_q16, tol.min_mm);
-  const int link_tol = relative_tolerance(c, tol.link_q16, tol.min_mm);
   int sum = c, count = 1;
   bool stepped = false;
   for (int dir : {-1, 1})
-    for (int k = 1, p = pos; k <= kStepRadius; ++k, p += dir) {
-      const int q = p + dir;
-      if (q < 0 || q >= len ||
-          !same_step_surface(d[p * stride], d[q * stride], lab[p * stride], lab[q * stride], step_tol))
-        break;
-      stepped = stepped || depth_jump(d[p * stride], d[q * stride]) > link_tol;
+    for (int k = 1; k <= kStepRadius; ++k) {
+      const int q = pos + dir * k;
+      if (q < 0 || q >= len) break;
+      const uint8_t between = code[(dir < 0 ? q : q - 1) * stride];
+      if (between == kBreak) break;
+      stepped = stepped || between == kStep;
       sum += d[q * stride];
       count += 1;
     }
   return stepped ? uint16_t(float(sum) / float(count) + 0.5f) : uint16_t(c);
 }
+
+// Steps are few: the lines are smoothed in chunks of this many pixels, and a
+// chunk with no step within kStepRadius of it is copied.
+constexpr int kStepChunk = 64;
 
 // A step p1 -> p2 along a line is a depth edge when it is large and much
 // larger than the steps beside it (a slanted surface has steps too, but even
@@ -656,7 +665,8 @@ void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __rest
     const int c = row[i], l = row[i - 1], r = row[i + 1], a = above[i], b = below[i];
     const int lr_far = l > r ? l : r, ab_far = a > b ? a : b;
     const int lr_diff = l > r ? l - r : r - l, ab_diff = a > b ? a - b : b - a;
-    const int lr_tol = relative_tolerance(lr_far, ratio_q16, min_mm), ab_tol = relative_tolerance(ab_far, ratio_q16, min_mm);
+    const int lr_tol = relative_tolerance(lr_far, ratio_q16, min_mm);
+    const int ab_tol = relative_tolerance(ab_far, ratio_q16, min_mm);
     const bool across_row = (l != 0) & (r != 0) & (lr_diff <= lr_tol) & ((c == 0) | (c > lr_far + lr_tol));
     const bool across_column = (a != 0) & (b != 0) & (ab_diff <= ab_tol) & ((c == 0) | (c > ab_far + ab_tol));
     code[i] = across_row ? 1 : across_column ? 2 : 0;
@@ -722,6 +732,70 @@ void ViewWarper::prepare_rays(const CameraCalib& src) {
   have_rays_ = true;
 }
 
+void ViewWarper::smooth_stepped_depth(int W, int H, const WarpParams& prm) {
+  auto q16 = [](double ratio) { return uint16_t(std::clamp(std::ceil(ratio * 65536.0), 0.0, 65535.0)); };
+  const StepTolerance tol{q16(prm.edge_ratio), q16(prm.step_ratio),
+                          uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0))};
+  const size_t n = size_t(W) * H;
+  const int r = kStepRadius, chunks = (W + kStepChunk - 1) / kStepChunk;
+  step_tmp_.resize(n);
+  step_code_.resize(n);
+  step_chunk_.resize(size_t(chunks) * H);
+  uint16_t* const D = src_depth_.data();
+  uint16_t* const T = step_tmp_.data();
+  const uint8_t* const L = src_label_.data();
+  uint8_t* const code = step_code_.data();
+  uint8_t* const chunk_has_step = step_chunk_.data();
+  auto has_step = [&](size_t from, size_t to) {
+    return to > from && std::memchr(code + from, kStep, to - from) != nullptr;
+  };
+  // Along the rows, into T (a row's last pixel has no pair).
+  step_codes(n - 1, 1, D, L, tol, code);
+  for (int v = 0; v < H; ++v) code[size_t(v) * W + W - 1] = kBreak;
+  for (int v = 0; v < H; ++v) {
+    const size_t row = size_t(v) * W;
+    for (int u0 = 0; u0 < W; u0 += kStepChunk) {
+      const int u1 = std::min(W, u0 + kStepChunk);
+      if (!has_step(row + size_t(std::max(0, u0 - r)), row + size_t(std::min(W - 1, u1 + r - 1)))) {
+        std::memcpy(T + row + u0, D + row + u0, size_t(u1 - u0) * sizeof(uint16_t));
+        continue;
+      }
+      const int inner0 = std::max(u0, r), inner1 = std::min(u1, W - r);
+      if (inner1 > inner0) smooth_steps(inner1 - inner0, 1, D + row + inner0, code + row + inner0, T + row + inner0);
+      for (int u = u0; u < u1; ++u)
+        if (u < inner0 || u >= inner1) T[row + u] = smooth_steps_near_end(u, W, 1, D + row, code + row);
+    }
+  }
+  // Along the columns, back into D; a chunk of a row is smoothed when the
+  // rows within kStepRadius have a step there.
+  const size_t last_row = n - size_t(W);
+  step_codes(last_row, W, T, L, tol, code);
+  std::fill(code + last_row, code + n, kBreak);
+  for (int v = 0; v < H; ++v)
+    for (int c = 0; c < chunks; ++c) {
+      const size_t from = size_t(v) * W + size_t(c) * kStepChunk;
+      chunk_has_step[size_t(v) * chunks + c] = has_step(from, from + std::min(kStepChunk, W - c * kStepChunk));
+    }
+  for (int v = 0; v < H; ++v) {
+    const size_t row = size_t(v) * W;
+    for (int c = 0; c < chunks; ++c) {
+      const int u0 = c * kStepChunk, u1 = std::min(W, u0 + kStepChunk);
+      bool stepped = false;
+      for (int w = std::max(0, v - r); w <= std::min(H - 1, v + r - 1) && !stepped; ++w)
+        stepped = chunk_has_step[size_t(w) * chunks + c] != 0;
+      if (!stepped) {
+        std::memcpy(D + row + u0, T + row + u0, size_t(u1 - u0) * sizeof(uint16_t));
+        continue;
+      }
+      if (v >= r && v < H - r) {
+        smooth_steps(u1 - u0, W, T + row + u0, code + row + u0, D + row + u0);
+      } else {
+        for (int u = u0; u < u1; ++u) D[row + u] = smooth_steps_near_end(v, H, W, T + u, code + u);
+      }
+    }
+  }
+}
+
 void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt, const WarpParams& prm,
                       WarpedView* out) {
   CV_Assert(in.color.type() == CV_8UC3 && in.depth.type() == CV_16UC1);
@@ -779,28 +853,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
           if (ol[u] && !od[u]) od[u] = med[ol[u]];
     }
   }
-  if (prm.step_ratio > 0) {
-    // Rows, then columns.
-    auto q16 = [](double ratio) { return uint16_t(std::clamp(std::ceil(ratio * 65536.0), 0.0, 65535.0)); };
-    const StepTolerance tol{q16(prm.edge_ratio), q16(prm.step_ratio),
-                            uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0))};
-    step_tmp_.resize(n);
-    uint16_t* const D = src_depth_.data();
-    uint16_t* const T = step_tmp_.data();
-    const uint8_t* const L = src_label_.data();
-    const int r = kStepRadius;
-    for (int v = 0; v < H; ++v) {
-      const size_t row = size_t(v) * W;
-      if (W > 2 * r) smooth_steps(W - 2 * r, 1, D + row + r, L + row + r, tol, T + row + r);
-      for (int u = 0; u < W; ++u)
-        if (u < r || u >= W - r) T[row + u] = smooth_steps_near_end(u, W, 1, D + row, L + row, tol);
-    }
-    if (H > 2 * r) smooth_steps(int(size_t(W) * (H - 2 * r)), W, T + size_t(r) * W, L + size_t(r) * W, tol,
-                                D + size_t(r) * W);
-    for (int v = 0; v < H; ++v)
-      if (v < r || v >= H - r)
-        for (int u = 0; u < W; ++u) D[size_t(v) * W + u] = smooth_steps_near_end(v, H, W, T + u, L + u, tol);
-  }
+  if (prm.step_ratio > 0) smooth_stepped_depth(W, H, prm);
   if (prm.boundary_px > 0 && W >= 4 && H >= 4) {
     // Drop the far-side pixels next to a depth edge: their colour mixes both
     // surfaces and would draw a ghost contour where the background is revealed.

@@ -93,6 +93,8 @@ class ViewWarper {
 
  private:
   void prepare_rays(const CameraCalib& source);
+  // src_depth_ with its steps smoothed (WarpParams::step_ratio).
+  void smooth_stepped_depth(int width, int height, const WarpParams& params);
   CameraCalib rays_for_;
   bool have_rays_ = false;
   std::vector<float> ray_x_, ray_y_;
@@ -101,6 +103,8 @@ class ViewWarper {
   std::vector<float> px_, py_, pz_, plim_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint16_t> step_tmp_;   // src_depth_ smoothed along the rows
+  std::vector<uint8_t> step_code_;   // what lies between neighbours (steps, edges), along rows, then columns
+  std::vector<uint8_t> step_chunk_;  // per row and chunk of columns: a step across the column there
   std::vector<uint8_t> crack_code_;  // one virtual row's cracks (close_cracks)
   std::vector<uint8_t> src_label_;
   std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
