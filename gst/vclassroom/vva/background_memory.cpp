@@ -14,7 +14,7 @@ void BackgroundMemory::seed(const cv::Mat& empty_room) {
   if (empty_room.type() != CV_8UC3 || empty_room.empty())
     throw Error("background memory: the empty room must be an RGB image");
   empty_room.convertTo(mean_, CV_32FC3);
-  count_ = cv::Mat(empty_room.size(), CV_8UC1, cv::Scalar(1));
+  count_ = cv::Mat(empty_room.size(), CV_8UC1, cv::Scalar(std::clamp(params_.frames, 1, 255)));
 }
 
 void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Mat* out) {
@@ -68,7 +68,7 @@ void BackgroundMemory::room_behind_learners(const cv::Mat& label, const cv::Mat&
     cv::dilate(hidden, hidden, cv::getStructuringElement(cv::MORPH_RECT, {2 * margin + 1, 2 * margin + 1}));
   depth->create(label.size(), CV_16UC1);
   depth->setTo(0);
-  static_depth.copyTo(*depth, hidden & (count_ > 0));
+  static_depth.copyTo(*depth, hidden & (count_ >= stable_count()));
   mean_.convertTo(*color, CV_8UC3);
 }
 

@@ -9,6 +9,8 @@
 // GStreamer-free; viewwarp's background-memory property uses it.
 #pragma once
 
+#include <algorithm>
+
 #include <opencv2/core.hpp>
 
 #include <gst/vclassroom/vva/view_warp.h>
@@ -30,8 +32,8 @@ class BackgroundMemory {
 
   // Starts the memory from a picture of the empty room (RGB CV_8UC3), e.g.
   // V-DA's model (prior-color/cam<ID>.png): every pixel is known from the
-  // start, as one frame's worth, so the live room soon takes over. Throws
-  // Error on a wrong type.
+  // start, as a full mean; a live colour within the noise refines it, a
+  // change replaces it. Throws Error on a wrong type.
   void seed(const cv::Mat& empty_room);
 
   // Takes this frame (RGB CV_8UC3; label CV_8UC1, 0 static, or empty: all static) into the memory and writes
@@ -43,8 +45,10 @@ class BackgroundMemory {
   // The room behind this frame's learners, as a layer for the warp
   // (WarpSource::room_*): *depth is `static_depth` where a learner (label
   // != 0), or a pixel within room_margin of one, hides a room pixel the
-  // memory knows; 0 elsewhere. *color is the remembered room. Call after
-  // update() with the same label plane.
+  // memory knows steadily (the same colour for half its frames, so a
+  // learner's edge the segmentation missed for a frame is not taken for the
+  // room); 0 elsewhere. *color is the remembered room. Call after update()
+  // with the same label plane.
   void room_behind_learners(const cv::Mat& label, const cv::Mat& static_depth, cv::Mat* color,
                             cv::Mat* depth) const;
 
@@ -54,6 +58,9 @@ class BackgroundMemory {
   // as the warp's room layer. The images stay with the memory until the
   // next frame.
   void apply(WarpSource* src);
+
+  // Frames of one colour after which a remembered pixel counts as the room.
+  int stable_count() const { return std::clamp((params_.frames + 1) / 2, 1, 255); }
 
   void reset() {
     mean_.release();
