@@ -900,9 +900,15 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   // holding the layer's pixels - with the camera's quality times
   // `weight_scale`.
   auto splat_layer = [&](const ColorSampler& color, int row_begin, int row_end, float weight_scale) {
-    project_points(n, src_depth_.data(), ray_x_.data(), ray_y_.data(), proj, PX, PY, PZ, PL, PW);
+    // The cells read the rows next to the ones they draw (the mesh reads
+    // every row).
+    const int first_projected = prm.mesh ? 0 : std::max(0, (std::max(0, row_begin - 1) & ~1) - 1);
+    const int end_projected = prm.mesh ? H : std::min(H, row_end + 3);
+    const size_t first = size_t(first_projected) * W, count = size_t(end_projected - first_projected) * W;
+    project_points(count, src_depth_.data() + first, ray_x_.data() + first, ray_y_.data() + first, proj, PX + first,
+                   PY + first, PZ + first, PL + first, PW + first);
     if (weight_scale != 1.0f)
-      for (size_t i = 0; i < n; ++i) PW[i] *= weight_scale;
+      for (size_t i = first; i < first + count; ++i) PW[i] *= weight_scale;
     if (prm.mesh) {
       // Rasterise the two triangles of every 2x2 block.
       const float gap = float(prm.max_gap_px);
