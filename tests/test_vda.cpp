@@ -470,6 +470,40 @@ TEST(StaticModel, IcpRecoversAPerturbedCameraAndFindsTheFloor) {
   }
 }
 
+// Where no sensor measures (the ceiling at a grazing angle, the window's
+// glass), the prior comes from the room's bounding planes and an assumed
+// ceiling where the walls end, not from a completion that spread the walls'
+// depth: the unmeasured pixels are much nearer the empty room's depth than
+// without, and a desk plane, with points on both sides, bounds nothing.
+TEST(StaticModel, UnmeasuredPixelsStayInsideTheRoom) {
+  const SmallModel s(480, 270, 3);
+  StaticModelOptions open_room;
+  open_room.close_room = false;
+  const StaticModel closed = build_static_model(s.rig, s.captures), open = build_static_model(s.rig, s.captures, open_room);
+  const Classroom room(ClassroomConfig{1, 0, 2.0});
+  const RoomPlane* ceiling = nullptr;
+  for (const RoomPlane& p : closed.planes)
+    if (p.name == "ceiling") ceiling = &p;
+  ASSERT_NE(ceiling, nullptr) << "an assumed ceiling";
+  EXPECT_EQ(ceiling->inliers, 0) << "it explains no measured point";
+  EXPECT_NEAR(ceiling->offset / -ceiling->normal.y(), room.ceiling_y(), 0.02);
+  for (const CameraCalib& cam : s.rig.cameras) {
+    const cv::Mat truth = render(room, 0.0, cam).depth, unmeasured = closed.prior_measured.at(cam.id) == 0;
+    int count = 0, off_closed = 0, off_open = 0;
+    for (int y = 0; y < truth.rows; ++y)
+      for (int x = 0; x < truth.cols; ++x) {
+        if (!unmeasured.at<uint8_t>(y, x)) continue;
+        const double t = truth.at<uint16_t>(y, x);
+        ++count;
+        off_closed += std::abs(closed.prior(cam.id).at<uint16_t>(y, x) - t) > 0.03 * t;
+        off_open += std::abs(open.prior(cam.id).at<uint16_t>(y, x) - t) > 0.03 * t;
+      }
+    ASSERT_GT(count, truth.rows * truth.cols / 20) << "camera " << cam.id << " should miss the ceiling and window";
+    EXPECT_LT(off_closed * 2, off_open) << "camera " << cam.id << ": " << off_closed << " vs " << off_open;
+    EXPECT_LT(off_closed, count / 3) << "camera " << cam.id;
+  }
+}
+
 TEST(StaticModel, PlaneSnappingCanBeLeftOut) {
   // The "without planes" ablation's model: the same capture, prior not snapped.
   const SmallModel s(160, 90, 2);

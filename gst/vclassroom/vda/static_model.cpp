@@ -285,6 +285,77 @@ std::vector<RoomPlane> find_planes(const std::vector<Eigen::Vector3f>& points, c
   return planes;
 }
 
+namespace {
+
+// The room's bounding planes: walls, floor and ceiling have (nearly) all
+// the fused points on the viewpoint's side; a desk or a chair back has points
+// on both sides. Plus an assumed ceiling where none was found.
+std::vector<RoomPlane> room_boundary(const std::vector<RoomPlane>& planes, const std::vector<Eigen::Vector3f>& points,
+                                     const Eigen::Vector3d& viewpoint, const StaticModelOptions& o) {
+  std::vector<RoomPlane> bounds;
+  if (points.empty()) return bounds;
+  const double beyond = 2 * o.plane_distance_m;
+  const size_t allowed = static_cast<size_t>(o.boundary_outlier_share * points.size());
+  for (const RoomPlane& p : planes) {
+    // find_planes turned every normal towards the viewpoint.
+    size_t outside = 0;
+    for (const Eigen::Vector3f& q : points) outside += p.normal.dot(q.cast<double>()) + p.offset < -beyond;
+    if (outside <= allowed) bounds.push_back(p);
+  }
+  const bool has_ceiling = std::any_of(bounds.begin(), bounds.end(), [](const RoomPlane& p) { return p.normal.y() < -0.9; });
+  if (!has_ceiling) {
+    // Nothing measured overhead (too grazing for the sensors): the ceiling
+    // is assumed level, where the room's walls end at the top (the highest
+    // of their points, but for a few strays).
+    std::vector<float> heights;
+    for (const RoomPlane& b : bounds) {
+      if (std::abs(b.normal.y()) > 0.3) continue;  // walls only
+      for (const Eigen::Vector3f& q : points)
+        if (std::abs(b.normal.dot(q.cast<double>()) + b.offset) < o.plane_distance_m) heights.push_back(q.y());
+    }
+    if (heights.empty()) return bounds;
+    const size_t k = std::min(heights.size() - 1, static_cast<size_t>(0.999 * heights.size()));
+    std::nth_element(heights.begin(), heights.begin() + k, heights.end());
+    const double top = heights[k];
+    if (top > viewpoint.y()) {
+      RoomPlane ceiling;
+      ceiling.normal = -Eigen::Vector3d::UnitY();
+      ceiling.offset = top;  // -y + top >= 0 below it
+      ceiling.name = "ceiling";
+      ceiling.inliers = 0;  // assumed, not measured
+      bounds.push_back(ceiling);
+    }
+  }
+  return bounds;
+}
+
+// Unmeasured prior pixels (unknown != 0) beyond the room's nearest bounding
+// plane along their ray are moved onto it, and those whose ray leaves the
+// room through the assumed ceiling are put on it.
+void close_room(cv::Mat& prior, const cv::Mat& unknown, const std::vector<RoomPlane>& bounds, const CameraCalib& cam) {
+  if (bounds.empty()) return;
+  std::vector<Eigen::Vector4d> pc;
+  for (const RoomPlane& b : bounds) pc.push_back(plane_in_camera(b, cam));
+  for (int v = 0; v < prior.rows; ++v)
+    for (int u = 0; u < prior.cols; ++u) {
+      if (!unknown.at<uint8_t>(v, u)) continue;
+      double nearest = 0;
+      bool assumed = false;
+      for (size_t i = 0; i < pc.size(); ++i) {
+        const double z = plane_depth_mm(pc[i], cam, u, v);
+        if (z > 0 && (nearest == 0 || z < nearest)) nearest = z, assumed = bounds[i].inliers == 0;
+      }
+      uint16_t& d = prior.at<uint16_t>(v, u);
+      // Beyond the room nothing is seen; and overhead, where nothing was
+      // measured at all, the completion only spread the walls' depth: the
+      // assumed ceiling is the better guess there.
+      if (nearest > 0 && nearest < 65535 && (d == 0 || d > nearest || assumed))
+        d = static_cast<uint16_t>(std::lround(nearest));
+    }
+}
+
+}  // namespace
+
 cv::Mat splat_depth(const std::vector<Eigen::Vector3f>& points, const CameraCalib& cam, double voxel_m) {
   cv::Mat z(cam.height, cam.width, CV_16UC1, cv::Scalar(0));
   const Eigen::Isometry3d to_cam = cam.cam_to_rig.inverse();
@@ -381,6 +452,10 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
                           cv::saturate_cast<uint8_t>(c.z()));
   }
   m.planes = find_planes(m.points, m.rig.cameras[0].center_in_rig(), o);
+  const std::vector<RoomPlane> bounds =
+      o.close_room ? room_boundary(m.planes, m.points, m.rig.cameras[0].center_in_rig(), o) : std::vector<RoomPlane>();
+  for (const RoomPlane& b : bounds)
+    if (b.inliers == 0) m.planes.push_back(b);  // the assumed ceiling, so the prior's ceiling is snapped to it
 
   // Priors: the camera's own median depth, holes filled from the fused cloud,
   // then offline completion guided by the camera's colour, then plane snapping.
@@ -403,6 +478,7 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
     guided_completion(prior, col, guided, filled);
     colorization_fill(filled, col, unknown, o.colorize);
     if (o.guided.median) filled_median(filled, unknown, o.guided.median_size, col, o.guided.median_color_distance);
+    close_room(filled, unknown, bounds, cam);
     if (o.snap_planes) {
       const PlaneMaps maps = plane_maps_for_camera(m.planes, cam, filled, o.plane_tolerance);
       plane_refine(filled, maps, cv::Mat(), o.plane_tolerance, filled);

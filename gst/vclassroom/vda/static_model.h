@@ -44,6 +44,15 @@ struct StaticModelOptions {
   // its "without planes" ablation), with this tolerance.
   bool snap_planes = true;
   PlaneTolerance plane_tolerance{20, 0.01};
+  // Nothing is seen beyond the room: a prior pixel no camera measured is
+  // kept in front of the room's bounding planes (walls, floor, ceiling: the
+  // planes with at most boundary_outlier_share of the points behind them).
+  // Where nothing overhead was measured, a level ceiling is assumed where the
+  // walls end at the top, and the unmeasured pixels that look at it take it.
+  // The completion alone had filled the unmeasured ceiling and window 3 %
+  // and more too far (docs/vda.md).
+  bool close_room = true;
+  double boundary_outlier_share = 0.005;
   // Offline completion of each prior: image-guided fill, then colorization.
   GuidedCompletionParams guided;
   ColorizationParams colorize{1000, 12.0, 0.0, 1.8};
