@@ -28,6 +28,8 @@
 #   STOP_GRACE (seconds the pipeline gets to end after Ctrl-C before it is killed, default 5).
 #   NAV_RIG (rig file with navigation bounds: every pose is moved into them, docs/navigation.md; default
 #   $MODEL/rig.yaml when MODEL is set, which vclassroom-build-model gives bounds; set it empty for none).
+#   MEMORY (frames of viewwarp's background memory, default 0: off; with MODEL it starts from the model's
+#   empty-room colour and draws the room behind the learners, docs/vva.md; one view only, not whep-views).
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
@@ -54,6 +56,7 @@ fi
 RTX=${RTX:-1}
 RTX_LATENCY=${RTX_LATENCY:-300}
 PREP_NICE=${PREP_NICE:-10}
+MEMORY=${MEMORY:-0}
 if ! [[ $PREP_NICE =~ ^[0-9]+$ ]] || [ "$PREP_NICE" -gt 19 ]; then
   echo "server.sh: PREP_NICE must be a nice value, 0 to 19 (got '$PREP_NICE')" >&2
   exit 2
@@ -114,7 +117,9 @@ for k in $CAMERAS; do
   fi
   # One view (the default): the camera's viewwarp feeds the fuse. LECTURER_OUT=whep-views: whepviewsink
   # makes the viewwarps, one per lecturer.
-  to_view="queue max-size-buffers=1 leaky=downstream ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior ! fuse.cam_$k"
+  memory=""
+  [ "$MEMORY" != 0 ] && memory="background-memory=$MEMORY${MODEL:+ empty-room=$MODEL/prior-color/cam$k.png}"
+  to_view="queue max-size-buffers=1 leaky=downstream ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior $memory ! fuse.cam_$k"
   [ "${LECTURER_OUT:-rtp}" = whep-views ] && to_view="queue max-size-buffers=1 leaky=downstream ! views.cam_$k"
   branches="$branches $receive rtpgstdepay ! \
     queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k $rig stats-interval=$STATS ! \

@@ -5,6 +5,8 @@
 // Loss comes from a seeded dropper (a pad probe), never from wall time.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include <csignal>
 
 #include <gst/app/gstappsrc.h>
@@ -730,6 +732,28 @@ TEST(Scripts, BadPortsAreRefused) {
   r = run_script("classroom.sh", {"NACK_PORT=x"}, 60);
   EXPECT_TRUE(r.ended);
   EXPECT_EQ(r.status, 2) << r.output;
+}
+
+// MEMORY reaches the server's viewwarps, which start from the model's empty room: a model without that
+// picture is an error naming it, before any camera sends.
+TEST(Scripts, ServerMemoryStartsFromTheModelsEmptyRoom) {
+  vctest::TempDir dir;
+  const char* tools = g_getenv("VCLASSROOM_TOOLS_DIR");
+  const vctest::Exit built = vctest::run_tool({std::string(tools ? tools : ".") + "/vclassroom-build-model",
+                                               "--synthetic", "--frames", "1", "--size", "160x90", "--out",
+                                               dir / "model"});
+  ASSERT_EQ(built.status, 0) << built.err;
+  ASSERT_TRUE(std::filesystem::remove(dir / "model/prior-color/cam0.png"));
+  const std::string base = port_base();
+  ScriptRun r = run_script("server.sh",
+                           {"CAMERAS=0", "MODEL=" + dir / "model", "MEMORY=4", "BASE_PORT=" + base,
+                            "VIDEO_PORT=" + std::to_string(std::stoi(base) + 10),
+                            "POSE_PORT=" + std::to_string(std::stoi(base) + 11), "STOP_GRACE=2"},
+                           120);
+  EXPECT_TRUE(r.ended) << r.output;
+  EXPECT_NE(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("prior-color/cam0.png"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("empty-room"), std::string::npos) << r.output;
 }
 
 // What a person reads: the element, what was dropped, from where, and what is allowed.
