@@ -62,6 +62,22 @@ std::string small_classroom_rig(const vctest::TempDir& dir, int w = 160, int h =
   return path;
 }
 
+// Pushes `in` through viewwarp's harness and returns the output frame's planes (copies).
+WarpedView pull_warped(GstHarness* h, GstBuffer* in) {
+  EXPECT_EQ(gst_harness_push(h, in), GST_FLOW_OK);
+  GstBuffer* out = gst_harness_pull(h);
+  GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+  RgbdInfo oi;
+  EXPECT_TRUE(rgbd_info_from_caps(oc, &oi, nullptr));
+  gst_caps_unref(oc);
+  RgbdFrame f;
+  EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, nullptr));
+  WarpedView v{f.color().clone(), f.depth().clone(), f.label().clone(), f.plane(Plane::Weight).clone()};
+  f.unmap();
+  gst_buffer_unref(out);
+  return v;
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------- metrics
@@ -713,17 +729,7 @@ TEST(ViewWarpElement, BackgroundMemorySteadiesTheViewOfANoisyStaticRoom) {
         r.depth.copyTo(f.depth());
       }
       GST_BUFFER_PTS(buf) = i * GST_SECOND / 30;
-      EXPECT_EQ(gst_harness_push(h, buf), GST_FLOW_OK);
-      GstBuffer* out = gst_harness_pull(h);
-      GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
-      RgbdInfo oi;
-      EXPECT_TRUE(rgbd_info_from_caps(oc, &oi, nullptr));
-      gst_caps_unref(oc);
-      RgbdFrame f;
-      EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, nullptr));
-      const cv::Mat color = f.color().clone();
-      f.unmap();
-      gst_buffer_unref(out);
+      const cv::Mat color = pull_warped(h, buf).color;
       if (i >= 4) change += cv::norm(color, prev, cv::NORM_L1);
       prev = color;
     }
@@ -764,17 +770,7 @@ TEST(ViewWarpElement, TheEmptyRoomFillsWhatTheLearnersUncover) {
       busy.depth.copyTo(f.depth());
       busy.label.copyTo(f.label());
     }
-    EXPECT_EQ(gst_harness_push(h, buf), GST_FLOW_OK);
-    GstBuffer* out = gst_harness_pull(h);
-    GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
-    RgbdInfo oi;
-    EXPECT_TRUE(rgbd_info_from_caps(oc, &oi, nullptr));
-    gst_caps_unref(oc);
-    RgbdFrame f;
-    EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, nullptr));
-    WarpedView v{f.color().clone(), f.depth().clone(), f.label().clone(), f.plane(Plane::Weight).clone()};
-    f.unmap();
-    gst_buffer_unref(out);
+    const WarpedView v = pull_warped(h, buf);
     gst_harness_teardown(h);
     return v;
   };
