@@ -21,22 +21,32 @@ namespace {
 constexpr size_t kMaxListBytes = size_t(1) << 20;
 constexpr int kMaxSequenceFrames = 1000;
 
-std::vector<std::string> read_lines(const fs::path& path) {
+std::string read_text(const fs::path& path) {
   std::error_code ec;
   const auto size = fs::file_size(path, ec);
   if (ec) throw Error(path.string() + ": cannot read it (" + ec.message() + ")");
   if (size > kMaxListBytes) throw Error(path.string() + ": larger than 1 MiB");
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The lines of a text that hold more than blanks.
+std::vector<std::string> lines_of(const std::string& text) {
   std::vector<std::string> lines;
+  std::istringstream in(text);
   for (std::string line; std::getline(in, line);)
     if (line.find_first_not_of(" \t\r") != std::string::npos) lines.push_back(line);
   return lines;
 }
 
-// The camera-to-world matrices of trajectory.log, in frame order.
-std::vector<Eigen::Isometry3d> read_trajectory(const fs::path& path) {
-  const std::vector<std::string> lines = read_lines(path);
-  if (lines.size() % 5 != 0) throw Error(path.string() + ": expected 5 lines per frame (\"i j n\" and a 4x4 matrix)");
+}  // namespace
+
+std::vector<Eigen::Isometry3d> parse_trajectory_log(const std::string& text, const std::string& name) {
+  if (text.size() > kMaxListBytes) throw Error(name + ": larger than 1 MiB");
+  const std::vector<std::string> lines = lines_of(text);
+  if (lines.size() % 5 != 0) throw Error(name + ": expected 5 lines per frame (\"i j n\" and a 4x4 matrix)");
   std::vector<Eigen::Isometry3d> poses;
   for (size_t f = 0; f < lines.size() / 5; ++f) {
     Eigen::Matrix4d m;
@@ -44,11 +54,11 @@ std::vector<Eigen::Isometry3d> read_trajectory(const fs::path& path) {
       std::istringstream row(lines[5 * f + 1 + r]);
       for (int c = 0; c < 4; ++c)
         if (!(row >> m(r, c)) || !std::isfinite(m(r, c)))
-          throw Error(path.string() + ":" + std::to_string(5 * f + 2 + r) + ": expected 4 numbers");
+          throw Error(name + ":" + std::to_string(5 * f + 2 + r) + ": expected 4 numbers");
     }
     const Eigen::Matrix3d R = m.topLeftCorner<3, 3>();
-    if ((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-3 || R.determinant() < 0.99)
-      throw Error(path.string() + ": frame " + std::to_string(f) + "'s matrix is not a rotation and a translation");
+    if (!((R.transpose() * R - Eigen::Matrix3d::Identity()).norm() <= 1e-3) || !(R.determinant() >= 0.99))
+      throw Error(name + ": frame " + std::to_string(f) + "'s matrix is not a rotation and a translation");
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
     pose.linear() = Eigen::Quaterniond(R).normalized().toRotationMatrix();
     pose.translation() = m.topRightCorner<3, 1>();
@@ -57,13 +67,12 @@ std::vector<Eigen::Isometry3d> read_trajectory(const fs::path& path) {
   return poses;
 }
 
-}  // namespace
-
 ImportSummary import_posed_sequence(const std::string& scene_dir, const std::string& out,
                                     const PosedSequenceIntrinsics& k) {
   const fs::path dir(scene_dir);
-  const std::vector<std::string> pairs = read_lines(dir / "rgbd.match");
-  const std::vector<Eigen::Isometry3d> poses = read_trajectory(dir / "trajectory.log");
+  const std::vector<std::string> pairs = lines_of(read_text(dir / "rgbd.match"));
+  const std::vector<Eigen::Isometry3d> poses =
+      parse_trajectory_log(read_text(dir / "trajectory.log"), (dir / "trajectory.log").string());
   if (pairs.empty()) throw Error((dir / "rgbd.match").string() + ": no frames");
   if (pairs.size() > size_t(kMaxSequenceFrames)) throw Error((dir / "rgbd.match").string() + ": more than 1000 frames");
   if (poses.size() < pairs.size())

@@ -6,6 +6,9 @@
 #pragma once
 
 #include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
 
 #include <gst/vclassroom/datasets/middlebury.h>
 
@@ -24,5 +27,10 @@ struct PosedSequenceIntrinsics {
 // pose that is not a rotation, or a missing image is an Error naming the file.
 ImportSummary import_posed_sequence(const std::string& scene_dir, const std::string& out_folder,
                                     const PosedSequenceIntrinsics& k = PosedSequenceIntrinsics());
+
+// The camera-to-world poses of a trajectory.log's text, in frame order;
+// `name` stands for the file in messages. Throws Error on a malformed log or
+// a matrix that is not a rotation and a translation.
+std::vector<Eigen::Isometry3d> parse_trajectory_log(const std::string& text, const std::string& name);
 
 }  // namespace vclassroom
