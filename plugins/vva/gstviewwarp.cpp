@@ -234,7 +234,8 @@ static gboolean gst_view_warp_start(GstBaseTransform* trans) {
       cv::cvtColor(read_image(empty_room_path, cv::IMREAD_COLOR, "empty-room colour"), st->empty_room,
                    cv::COLOR_BGR2RGB);
     } catch (const Error& e) {
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("property empty-room of %s", GST_OBJECT_NAME(self)));
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()),
+                        ("property empty-room of %s", GST_OBJECT_NAME(self)));
       return FALSE;
     }
   }
@@ -283,7 +284,15 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
         BackgroundMemoryParams mp;
         mp.frames = memory_frames;
         st->memory = BackgroundMemory(mp);
-        if (!st->empty_room.empty()) st->memory.seed(st->empty_room);
+        if (!st->empty_room.empty() && st->empty_room.size() != src.color.size())
+          GST_ELEMENT_WARNING(self, STREAM, FORMAT,
+                              ("empty-room is %dx%d but camera %d streams %dx%d: the background memory learns the "
+                               "room as it sees it",
+                               st->empty_room.cols, st->empty_room.rows, st->in_info.camera.id, src.color.cols,
+                               src.color.rows),
+                              (nullptr));
+        else if (!st->empty_room.empty())
+          st->memory.seed(st->empty_room);
         st->memory_for = memory_frames;
       }
       st->memory.apply(&src);

@@ -302,8 +302,12 @@ std::vector<RoomPlane> room_boundary(const std::vector<RoomPlane>& planes, const
     for (const Eigen::Vector3f& q : points) outside += p.normal.dot(q.cast<double>()) + p.offset < -beyond;
     if (outside <= allowed) bounds.push_back(p);
   }
-  const bool has_ceiling = std::any_of(bounds.begin(), bounds.end(), [](const RoomPlane& p) { return p.normal.y() < -0.9; });
-  if (!has_ceiling) {
+  // The rig frame has Y up (DESIGN.md 2.2); a floor found among the bounds
+  // says it really does, and only then is a ceiling assumed.
+  auto facing = [&](double y) {
+    return std::any_of(bounds.begin(), bounds.end(), [y](const RoomPlane& p) { return p.normal.y() * y > 0.9; });
+  };
+  if (facing(+1) && !facing(-1)) {
     // Nothing measured overhead (too grazing for the sensors): the ceiling
     // is assumed level, where the room's walls end at the top (the highest
     // of their points, but for a few strays).

@@ -47,8 +47,9 @@ struct StaticModelOptions {
   // Nothing is seen beyond the room: a prior pixel no camera measured is
   // kept in front of the room's bounding planes (walls, floor, ceiling: the
   // planes with at most boundary_outlier_share of the points behind them).
-  // Where nothing overhead was measured, a level ceiling is assumed where the
-  // walls end at the top, and the unmeasured pixels that look at it take it.
+  // Where nothing overhead was measured (and a floor was: the rig is Y up), a
+  // level ceiling is assumed where the walls end at the top, and the
+  // unmeasured pixels that look at it take it.
   // The completion alone had filled the unmeasured ceiling and window 3 %
   // and more too far (docs/vda.md).
   bool close_room = true;
