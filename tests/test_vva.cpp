@@ -790,6 +790,14 @@ TEST(ViewWarpElement, TheEmptyRoomFillsWhatTheLearnersUncover) {
   const vctest::RunResult bad = vctest::run_launch(
       "rgbdtestsrc num-buffers=2 ! viewwarp background-memory=4 empty-room=" + dir / "missing.png" + " ! fakesink");
   EXPECT_NE(bad.error.find("missing.png"), std::string::npos) << bad.error;
+  // An empty room of another size than the camera's (160x90 against rgbdtestsrc's 960x540): said, and the
+  // memory learns the room as it sees it.
+  const vctest::RunResult other =
+      vctest::run_launch("rgbdtestsrc num-buffers=2 ! viewwarp background-memory=4 empty-room=" + room + " ! fakesink");
+  EXPECT_EQ(other.error, "");
+  ASSERT_EQ(other.warnings.size(), 1u);
+  EXPECT_NE(other.warnings[0].find("empty-room is 160x90 but camera 0 streams 960x540"), std::string::npos)
+      << other.warnings[0];
 }
 
 TEST(ViewWarpElement, APoseTraceSetsEachFramesViewByItsTime) {
