@@ -156,6 +156,10 @@ int main(int argc, char** argv) {
     for (const RoomPlane& p : m.planes)
       std::printf("plane %-7s normal (%+.3f %+.3f %+.3f) offset %+.3f m, %d points\n", p.name.c_str(), p.normal.x(),
                   p.normal.y(), p.normal.z(), p.offset, p.inliers);
+    for (const auto& [id, measured] : m.prior_measured)
+      std::printf("prior camera %d: %.1f %% measured by no camera (completed%s)\n", id,
+                  100.0 * (1.0 - double(cv::countNonZero(measured)) / double(measured.total())),
+                  o.close_room ? ", kept inside the room" : "");
     if (const auto& b = m.rig.navigation)
       std::printf("navigation (camera %d, %.0f %% covered): right %.2f..%.2f, up %.2f..%.2f, forward %.2f..%.2f m; "
                   "yaw %.1f..%.1f, pitch %.1f..%.1f, roll %.1f..%.1f deg\n",
