@@ -124,6 +124,14 @@ struct StepTolerance {
   uint16_t min_mm;
 };
 
+// WarpParams' tolerances as the integer row passes take them: a ratio in
+// 1/65536 steps (rounded up, so the tolerance is never narrower than asked)
+// and a floor in whole mm.
+inline uint16_t tolerance_ratio_q16(double ratio) {
+  return uint16_t(std::clamp(std::ceil(ratio * 65536.0), 0.0, 65535.0));
+}
+inline uint16_t tolerance_min_mm(double min_mm) { return uint16_t(std::clamp(std::floor(min_mm), 0.0, 65535.0)); }
+
 inline int relative_tolerance(int depth_mm, uint16_t ratio_q16, uint16_t min_mm) {
   const int rel = int((uint32_t(depth_mm) * ratio_q16) >> 16);
   return rel > min_mm ? rel : min_mm;
@@ -733,9 +741,8 @@ void ViewWarper::prepare_rays(const CameraCalib& src) {
 }
 
 void ViewWarper::smooth_stepped_depth(int W, int H, const WarpParams& prm) {
-  auto q16 = [](double ratio) { return uint16_t(std::clamp(std::ceil(ratio * 65536.0), 0.0, 65535.0)); };
-  const StepTolerance tol{q16(prm.edge_ratio), q16(prm.step_ratio),
-                          uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0))};
+  const StepTolerance tol{tolerance_ratio_q16(prm.edge_ratio), tolerance_ratio_q16(prm.step_ratio),
+                          tolerance_min_mm(prm.edge_min_mm)};
   const size_t n = size_t(W) * H;
   const int r = kStepRadius, chunks = (W + kStepChunk - 1) / kStepChunk;
   step_tmp_.resize(n);
@@ -860,8 +867,8 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     edge_code_.assign(n, 0);
     drop_.assign(n, 0);
     const int b = prm.boundary_px;
-    const uint16_t ratio = uint16_t(std::clamp(std::ceil(prm.edge_ratio * 65536.0), 0.0, 65535.0));
-    const uint16_t min_mm = uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0));
+    const uint16_t ratio = tolerance_ratio_q16(prm.edge_ratio);
+    const uint16_t min_mm = tolerance_min_mm(prm.edge_min_mm);
     uint16_t* D = src_depth_.data();
     uint8_t* const code = edge_code_.data();
     uint8_t* const drop = drop_.data();
@@ -1214,9 +1221,8 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     std::fill_n(zbuf_.data() + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
   }
   if (prm.close_cracks) {
-    const double ratio = std::max(prm.step_ratio, prm.edge_ratio);
-    close_cracks(out, uint16_t(std::clamp(std::ceil(ratio * 65536.0), 0.0, 65535.0)),
-                 uint16_t(std::clamp(std::floor(prm.edge_min_mm), 0.0, 65535.0)), &crack_code_);
+    close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),
+                 tolerance_min_mm(prm.edge_min_mm), &crack_code_);
   }
 }
 
