@@ -254,16 +254,8 @@ void eval_teddy(const Options& opt) {
 
 // PSNR over the pixels where `mask` is non-zero.
 double psnr_rgb_masked(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
-  double se = 0;
-  long count = 0;
-  for (int y = 0; y < a.rows; ++y)
-    for (int x = 0; x < a.cols; ++x) {
-      if (!mask.at<uint8_t>(y, x)) continue;
-      const cv::Vec3b p = a.at<cv::Vec3b>(y, x), q = b.at<cv::Vec3b>(y, x);
-      for (int ch = 0; ch < 3; ++ch) se += double(p[ch] - q[ch]) * (p[ch] - q[ch]);
-      count += 3;
-    }
-  return count == 0 || se == 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 * count / se);
+  const double values = 3.0 * cv::countNonZero(mask), se = cv::norm(a, b, cv::NORM_L2SQR, mask);
+  return values == 0 || se == 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 * values / se);
 }
 
 // The synthetic classroom: cameras 1 and 2 -> camera 0 (leave-one-out, the
