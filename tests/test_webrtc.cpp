@@ -3,12 +3,15 @@
 // table, and the pose / frame-echo messages the page exchanges.
 #include <gtest/gtest.h>
 
+#include <gst/app/gstappsink.h>
 #include <gst/check/gstharness.h>
+#include <gst/rtp/rtp.h>
 #include <gst/video/navigation.h>
 
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/webrtc/playout_delay.h>
 #include <gst/vclassroom/webrtc/whep.h>
 
 #include <gio/gio.h>
@@ -260,6 +263,87 @@ TEST(WebrtcFrameEcho, CarriesTheRenderedPoseAndTheClampedFlag) {
 
 // posenav on X11: a wheel notch arrives as a press and release of button 4
 // (away: forward) or 5 (towards: back), and moves like a scroll notch.
+TEST(WebrtcPlayoutDelay, BytesRoundTripIn10MsStepsAndBoundsAreClamped) {
+  uint8_t bytes[kPlayoutDelayBytes];
+  PlayoutDelay back;
+  write_playout_delay({0, 0}, bytes);
+  EXPECT_EQ(bytes[0] | bytes[1] | bytes[2], 0);
+  write_playout_delay({120, 1000}, bytes);  // 12 and 100 units: 0x00c 0x064
+  EXPECT_EQ(bytes[0], 0x00);
+  EXPECT_EQ(bytes[1], 0xc0);
+  EXPECT_EQ(bytes[2], 0x64);
+  ASSERT_TRUE(read_playout_delay(bytes, sizeof bytes, &back));
+  EXPECT_EQ(back.min_ms, 120);
+  EXPECT_EQ(back.max_ms, 1000);
+  write_playout_delay({-5, 99999}, bytes);  // clamped to 0 .. 40950
+  ASSERT_TRUE(read_playout_delay(bytes, sizeof bytes, &back));
+  EXPECT_EQ(back.min_ms, 0);
+  EXPECT_EQ(back.max_ms, kPlayoutDelayMaxMs);
+  write_playout_delay({300, 100}, bytes);  // a maximum under the minimum is raised to it
+  ASSERT_TRUE(read_playout_delay(bytes, sizeof bytes, &back));
+  EXPECT_EQ(back.max_ms, 300);
+  const uint8_t inverted[] = {0x01, 0x00, 0x05};  // min 16 units, max 5
+  EXPECT_FALSE(read_playout_delay(inverted, sizeof inverted, &back));
+  EXPECT_FALSE(read_playout_delay(bytes, 2, &back));
+  EXPECT_FALSE(read_playout_delay(nullptr, 3, &back));
+}
+
+TEST(WebrtcPlayoutDelay, TheOffersExtmapIdIsFoundAndAnythingElseGivesNone) {
+  const std::string uri = kPlayoutDelayUri;
+  EXPECT_EQ(extmap_id_for("5 " + uri, uri), 5);
+  EXPECT_EQ(extmap_id_for("12/recvonly " + uri, uri), 12);
+  EXPECT_EQ(extmap_id_for("7 " + uri + " some-attributes", uri), 7);
+  EXPECT_EQ(extmap_id_for("255 " + uri, uri), 255);
+  for (const std::string& bad :
+       std::vector<std::string>{"0 " + uri, "256 " + uri, "99999999999999999999 " + uri, "5" + uri, "5/ " + uri + "x", " 5 " + uri,
+        "x " + uri, std::string("5 urn:ietf:params:rtp-hdrext:toffset"), std::string(""), std::string("5"), "5 " + uri + "-more"})
+    EXPECT_EQ(extmap_id_for(bad, uri), 0) << bad;
+}
+
+// Through GStreamer: where a payloader's downstream caps name the playout-delay URI, the payloader asks for
+// the extension under the caps' id, gets a rtphdrextplayoutdelay (as the WHEP endpoint adds one under the
+// offer's id), and every packet carries the delay its properties set.
+TEST(WebrtcPlayoutDelay, APayloaderWritesItOnEveryPacketUnderTheNegotiatedId) {
+  if (!gst_element_factory_find("rtphdrextplayoutdelay") || !gst_element_factory_find("x264enc"))
+    GTEST_SKIP() << "needs the webrtc plugin and x264enc (gstreamer1.0-plugins-ugly)";
+  GError* err = nullptr;
+  GstElement* pipeline = gst_parse_launch(
+      ("videotestsrc num-buffers=3 ! video/x-raw,width=320,height=240 ! x264enc ! rtph264pay name=pay mtu=600 ! "
+       "application/x-rtp,extmap-9=(string)" + std::string(kPlayoutDelayUri) + " ! appsink name=out sync=false").c_str(),
+      &err);
+  ASSERT_TRUE(pipeline) << (err ? err->message : "");
+  GstElement* pay = gst_bin_get_by_name(GST_BIN(pipeline), "pay");
+  // The payloader asks for the extension when it negotiates: set its delay there.
+  g_signal_connect(pay, "request-extension", G_CALLBACK(+[](GstElement*, guint id, const gchar* uri, gpointer) {
+    GstElement* ext = gst_element_factory_make("rtphdrextplayoutdelay", nullptr);
+    gst_rtp_header_extension_set_id(GST_RTP_HEADER_EXTENSION(ext), id);
+    g_object_set(ext, "min-delay", 0, "max-delay", 100, nullptr);
+    return g_strcmp0(uri, kPlayoutDelayUri) == 0 ? ext : (gst_object_unref(ext), nullptr);
+  }), nullptr);
+  gst_object_unref(pay);
+  GstElement* out = gst_bin_get_by_name(GST_BIN(pipeline), "out");
+  gst_element_set_state(pipeline, GST_STATE_PLAYING);
+  int packets = 0, with_delay = 0;
+  while (GstSample* sample = gst_app_sink_pull_sample(GST_APP_SINK(out))) {
+    GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
+    ASSERT_TRUE(gst_rtp_buffer_map(gst_sample_get_buffer(sample), GST_MAP_READ, &rtp));
+    ++packets;
+    gpointer data = nullptr;
+    guint size = 0;
+    PlayoutDelay delay;
+    if (gst_rtp_buffer_get_extension_onebyte_header(&rtp, 9, 0, &data, &size) &&
+        read_playout_delay(static_cast<const uint8_t*>(data), size, &delay) && delay.min_ms == 0 && delay.max_ms == 100)
+      ++with_delay;
+    gst_rtp_buffer_unmap(&rtp);
+    gst_sample_unref(sample);
+  }
+  gst_element_set_state(pipeline, GST_STATE_NULL);
+  gst_object_unref(out);
+  gst_object_unref(pipeline);
+  EXPECT_GT(packets, 3);  // several packets per frame at mtu 600
+  EXPECT_EQ(with_delay, packets);
+}
+
 TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {
   GstHarness* h = gst_harness_new_parse("posenav");
   gst_harness_set_src_caps_str(h, "video/x-raw,format=RGB,width=8,height=8,framerate=30/1");
@@ -398,7 +482,7 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheVi
       "lecturer-test.mjs", {"secret-token", "960", "540"});
   if (!run.skip.empty()) GTEST_SKIP() << run.skip;
   EXPECT_TRUE(run.ok) << run.output;
-  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok drag:", "ok soft stop:", "ok XR pose:",
+  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok playout delay answered", "ok drag:", "ok soft stop:", "ok XR pose:",
                             "ok XR eyes:", "ok left:"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());

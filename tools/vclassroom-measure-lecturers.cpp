@@ -34,6 +34,9 @@ namespace {
 
 struct LecturerResult {
   double fps = 0, kbps = 0, p50 = 0, p99 = 0;
+  // Where the latency goes (medians, ms): the pose to its frame's echo (server), the echo to the frame's
+  // last packet (transport), that packet to the frame's display (receiver), of which jitter buffer and decode.
+  double server_p50 = 0, receive_p50 = 0, display_p50 = 0, jitter_p50 = 0, decode_p50 = 0;
   long frames = 0, samples = 0;
 };
 
@@ -178,6 +181,11 @@ int main(int argc, char** argv) {
         r.p99 = json_number(l, "p99");
         r.frames = long(json_number(l, "frames"));
         r.samples = long(json_number(l, "samples"));
+        r.server_p50 = json_number(l, "server_p50");
+        r.receive_p50 = json_number(l, "receive_p50");
+        r.display_p50 = json_number(l, "display_p50");
+        r.jitter_p50 = json_number(l, "jitter_p50");
+        r.decode_p50 = json_number(l, "decode_p50");
         results.push_back(r);
       }
     }
@@ -221,6 +229,13 @@ int main(int argc, char** argv) {
                                 list([](const LecturerResult& r) { return r.p99; }, "%.0f");
     std::printf("| %d | %s | %s | %s | %.1f | %.0f %% |\n", n, fps.c_str(), kbps.c_str(), latency.c_str(),
                 frames > 0 ? cpu * 1000.0 / frames : 0.0, 100.0 * cpu / wall);
+    std::printf("lecturers %d: medians: pose to echo (server) %s ms, to the frame's last packet %s ms, to display %s "
+                "ms, of which jitter buffer %s ms and decode %s ms\n",
+                n, list([](const LecturerResult& r) { return r.server_p50; }, "%.0f").c_str(),
+                list([](const LecturerResult& r) { return r.receive_p50; }, "%.0f").c_str(),
+                list([](const LecturerResult& r) { return r.display_p50; }, "%.0f").c_str(),
+                list([](const LecturerResult& r) { return r.jitter_p50; }, "%.0f").c_str(),
+                list([](const LecturerResult& r) { return r.decode_p50; }, "%.1f").c_str());
     std::printf("lecturers %d: worst p50 %.0f ms, worst p99 %.0f ms, %ld frames shown in %.1f s\n", n, p50, p99, frames,
                 wall);
   }

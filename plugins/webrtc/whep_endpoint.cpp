@@ -14,7 +14,10 @@
 
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/net/pose_session.h>
+#include <gst/vclassroom/webrtc/playout_delay.h>
 #include <gst/vclassroom/webrtc/whep.h>
+
+#include "gstrtphdrextplayoutdelay.h"
 
 GST_DEBUG_CATEGORY_STATIC(whep_endpoint_debug);
 #define GST_CAT_DEFAULT whep_endpoint_debug
@@ -23,7 +26,10 @@ namespace vclassroom {
 
 namespace {
 
-enum Prop { kPort, kToken, kTlsCertificate, kTlsKey, kBitrate, kMaxSessions, kWebRoot, kBoundPort, kSessions, kCount };
+enum Prop {
+  kPort, kToken, kTlsCertificate, kTlsKey, kBitrate, kMaxSessions, kWebRoot, kBoundPort, kSessions, kPlayoutDelay,
+  kCount
+};
 
 struct FramePose {
   uint64_t seq;
@@ -73,6 +79,20 @@ int pick_h264_payload(const GstSDPMessage* sdp) {
   return -1;
 }
 
+// The id the offer's video gives the extension `uri` (a=extmap), or 0 when it offers none.
+int offered_extension_id(const GstSDPMessage* sdp, const char* uri) {
+  for (guint m = 0; m < gst_sdp_message_medias_len(sdp); ++m) {
+    const GstSDPMedia* media = gst_sdp_message_get_media(sdp, m);
+    if (g_strcmp0(gst_sdp_media_get_media(media), "video") != 0) continue;
+    for (guint i = 0;; ++i) {
+      const gchar* value = gst_sdp_media_get_attribute_val_n(media, "extmap", i);
+      if (!value) break;
+      if (const int id = extmap_id_for(value, uri)) return id;
+    }
+  }
+  return 0;
+}
+
 }  // namespace
 
 struct WhepEndpoint::State {
@@ -84,6 +104,9 @@ struct WhepEndpoint::State {
   std::string token, tls_certificate, tls_key, web_root = VCLASSROOM_WEB_DIR;
   guint bitrate_kbit = 4000;
   guint max_sessions = 4;
+  // The playout-delay extension's maximum (its minimum is 0), -1: not sent. With 0..100 ms Chromium shows
+  // each frame once decoded in every run measured; with 0..0 only in 2 of 9 (docs/lecturer.md).
+  int playout_delay_ms = 100;
   double max_distance_m = 20.0;
   GThread* thread = nullptr;
   GMainContext* context = nullptr;
@@ -165,6 +188,16 @@ GstPadProbeReturn on_rtp_out(GstPad*, GstPadProbeInfo* info, gpointer user_data)
   return GST_PAD_PROBE_OK;
 }
 
+// webrtcbin's nicesink syncs on the clock: it holds every packet until its frame's running time plus the
+// pipeline's latency (which includes viewfuse's wait for late cameras), while a live view should leave the
+// moment it is encoded.
+void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer) {
+  GstElementFactory* factory = gst_element_get_factory(element);
+  if (factory && (g_strcmp0(GST_OBJECT_NAME(factory), "nicesink") == 0 || g_strcmp0(GST_OBJECT_NAME(factory), "clocksync") == 0))
+    g_object_set(element, "sync", FALSE, nullptr);
+  { FILE* f = fopen("/tmp/added.log", "a"); fprintf(f, "added %s\n", GST_OBJECT_NAME(element)); fclose(f); }
+}
+
 struct AnswerReply {
   State* st;
   std::string id;
@@ -244,6 +277,15 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
                nullptr);
   s->pay = gst_element_factory_make("rtph264pay", nullptr);
   g_object_set(s->pay, "pt", payload, "config-interval", -1, "aggregate-mode", 1 /* zero-latency */, nullptr);
+  // The browser's jitter buffer otherwise grows with the server's uneven frame times, and its depth is
+  // pose-to-photon latency. The payloader's caps then name the extension, and webrtcbin answers with it.
+  if (const int id = st->playout_delay_ms >= 0 ? offered_extension_id(offer, kPlayoutDelayUri) : 0) {
+    GstRTPHeaderExtension* ext = GST_RTP_HEADER_EXTENSION(g_object_new(GST_TYPE_RTP_HDREXT_PLAYOUT_DELAY, nullptr));
+    gst_rtp_header_extension_set_id(ext, id);
+    g_object_set(ext, "min-delay", 0, "max-delay", st->playout_delay_ms, nullptr);
+    g_signal_emit_by_name(s->pay, "add-extension", ext);
+    gst_object_unref(ext);
+  }
   s->webrtc = gst_element_factory_make("webrtcbin", nullptr);
   g_object_set(s->webrtc, "bundle-policy", GST_WEBRTC_BUNDLE_POLICY_MAX_BUNDLE, nullptr);
   gst_bin_add_many(st->owner, s->queue, s->pay, s->webrtc, nullptr);
@@ -261,6 +303,7 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   }
   gst_object_unref(rtc_sink);
   gst_object_unref(pay_src);
+  g_signal_connect(s->webrtc, "deep-element-added", G_CALLBACK(on_webrtc_element_added), nullptr);
   g_signal_connect(s->webrtc, "on-data-channel", G_CALLBACK(on_data_channel), s);
   g_signal_connect(s->webrtc, "notify::ice-gathering-state", G_CALLBACK(on_gathering_state), s);
   gst_element_sync_state_with_parent(s->webrtc);
@@ -445,6 +488,12 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
       g_param_spec_uint("bound-port", "Bound port", "The port actually listened on", 0, 65535, 0, ro()));
   g_object_class_install_property(klass, p + kSessions,
       g_param_spec_uint("sessions", "Sessions", "Lecturers joined now", 0, 64, 0, ro()));
+  g_object_class_install_property(klass, p + kPlayoutDelay,
+      g_param_spec_int("playout-delay", "Playout delay",
+                       "The most a browser may buffer each frame, in ms, sent with a minimum of 0 as the "
+                       "playout-delay RTP header extension where the offer lists it: the browser shows frames as "
+                       "soon as they are decoded instead of growing a jitter buffer (-1: not sent)",
+                       -1, kPlayoutDelayMaxMs, 100, rw()));
   return p + kCount;
 }
 
@@ -459,6 +508,7 @@ bool WhepEndpoint::set_property(guint id, const GValue* value) {
     case kBitrate: st_->bitrate_kbit = g_value_get_uint(value); return true;
     case kMaxSessions: st_->max_sessions = g_value_get_uint(value); return true;
     case kWebRoot: st_->web_root = str(); return true;
+    case kPlayoutDelay: st_->playout_delay_ms = g_value_get_int(value); return true;
     default: return false;
   }
 }
@@ -475,6 +525,7 @@ bool WhepEndpoint::get_property(guint id, GValue* value) {
     case kWebRoot: g_value_set_string(value, st_->web_root.c_str()); return true;
     case kBoundPort: g_value_set_uint(value, st_->bound_port); return true;
     case kSessions: g_value_set_uint(value, guint(st_->sessions.size())); return true;
+    case kPlayoutDelay: g_value_set_int(value, st_->playout_delay_ms); return true;
     default: return false;
   }
 }

@@ -26,6 +26,12 @@ try {
   const size = await page.evaluate(() => [window.vclassroom.stats.width, window.vclassroom.stats.height]);
   if (size[0] !== Number(width) || size[1] !== Number(height)) fail(`frames of ${size}, expected ${width}x${height}`);
   console.log(`ok joined, frames ${size[0]}x${size[1]}`);
+  // The answer carries the playout-delay extension the page's offer listed: the browser shows each frame
+  // without growing a jitter buffer (docs/lecturer.md).
+  const answer = await page.evaluate(async () => (await window.vclassroom.joined).pc.remoteDescription.sdp);
+  if (!/a=extmap:\d+ http:\/\/www\.webrtc\.org\/experiments\/rtp-hdrext\/playout-delay/.test(answer))
+    fail('the answer has no playout-delay extension');
+  console.log('ok playout delay answered');
 
   const shownFor = seq => shownForPage(page, seq);
 

@@ -32,7 +32,7 @@ try {
   // The first second of swaying fills the pipeline; then the window.
   await new Promise(resolve => setTimeout(resolve, 1000));  // a measurement window, not a synchronisation
   const before = await Promise.all(pages.map(p => p.evaluate(() => {
-    window.vclassroom.stats.latencyMs.length = 0;
+    for (const key of ['latencyMs', 'serverMs', 'jitterMs', 'decodeMs', 'receiveMs', 'displayMs']) window.vclassroom.stats[key].length = 0;
     return { shown: window.vclassroom.stats.framesShown, t: performance.now() };
   })));
   console.log('window start');
@@ -42,13 +42,19 @@ try {
     const r = await pages[i].evaluate(() => {
       clearInterval(window.swaying);
       const s = window.vclassroom.stats;
-      return { shown: s.framesShown, t: performance.now(), latency: s.latencyMs.slice(), kbps: s.kbps };
+      return { shown: s.framesShown, t: performance.now(), latency: s.latencyMs.slice(), server: s.serverMs.slice(),
+               jitter: s.jitterMs.slice(), decode: s.decodeMs.slice(), kbps: s.kbps,
+               receive: s.receiveMs.slice(), display: s.displayMs.slice() };
     });
-    const sorted = r.latency.sort((a, b) => a - b);
-    const at = q => sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))] : NaN;
+    const quantile = (values, q) => {
+      const sorted = values.slice().sort((a, b) => a - b);
+      return sorted.length ? sorted[Math.min(sorted.length - 1, Math.floor(q * sorted.length))] : NaN;
+    };
     console.log('lecturer ' + JSON.stringify({
       lecturer: i, fps: (r.shown - before[i].shown) / ((r.t - before[i].t) / 1000), frames: r.shown - before[i].shown,
-      kbps: r.kbps, samples: sorted.length, p50: at(0.5), p99: at(0.99) }));
+      kbps: r.kbps, samples: r.latency.length, p50: quantile(r.latency, 0.5), p99: quantile(r.latency, 0.99),
+      server_p50: quantile(r.server, 0.5), jitter_p50: quantile(r.jitter, 0.5), decode_p50: quantile(r.decode, 0.5),
+      receive_p50: quantile(r.receive, 0.5), display_p50: quantile(r.display, 0.5) }));
   }
 } catch (e) {
   fail(String(e));

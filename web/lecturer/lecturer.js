@@ -135,12 +135,15 @@ function installSliders() {
 // Echoes from the server: RTP timestamp -> the pose seq and viewer time it was rendered for and, from a
 // server with navigation bounds, the pose it really rendered and whether it had to move it inside them.
 const echoes = new Map();
-const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], lastSeqEchoed: 0, width: 0, height: 0,
-                clampedShown: 0, lastShownClamped: false, lastShownPose: null, adopted: 0 };
+// latencyMs splits into serverMs (the pose's time to its frame's echo: the data channel, waiting for the
+// next camera frame, rendering and encoding) and the rest (transport, jitter buffer, decoding, display);
+// jitterMs and decodeMs are the receiver's own averages per frame over the last second (getStats).
+const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], serverMs: [], lastSeqEchoed: 0, width: 0, height: 0,
+                clampedShown: 0, lastShownClamped: false, lastShownPose: null, adopted: 0, jitterMs: [], decodeMs: [], receiveMs: [], displayMs: [] };
 function onEcho(text) {
   const f = text.split(' ');
   if ((f.length !== 4 && f.length !== 12) || f[0] !== 'frame') return;
-  const e = { seq: Number(f[2]), time: Number(f[3]), pose: null, clamped: false };
+  const e = { seq: Number(f[2]), time: Number(f[3]), arrived: performance.now(), pose: null, clamped: false };
   if (f.length === 12) {
     const v = f.slice(4, 11).map(Number);
     if (v.some(x => !Number.isFinite(x))) return;
@@ -168,7 +171,10 @@ function watchFrames(video) {
     if (e && e.time >= 0) {
       stats.lastSeqShown = e.seq;
       stats.latencyMs.push(meta.expectedDisplayTime - e.time);
-      if (stats.latencyMs.length > 300) stats.latencyMs.shift();
+      stats.serverMs.push(e.arrived - e.time);
+      if (meta.receiveTime !== undefined) stats.receiveMs.push(meta.receiveTime - e.arrived);
+      if (meta.receiveTime !== undefined) stats.displayMs.push(meta.expectedDisplayTime - meta.receiveTime);
+      if (stats.latencyMs.length > 300) { stats.latencyMs.shift(); stats.serverMs.shift(); }
       readout.textContent = `pose→photon ${(meta.expectedDisplayTime - e.time).toFixed(0)} ms (seq ${e.seq})` +
                             (e.clamped ? ' · at the edge of what the cameras see' : '');
     }
@@ -191,7 +197,11 @@ async function join() {
   channel = pc.createDataChannel('pose');
   channel.onmessage = e => onEcho(e.data);
   channel.onopen = () => viewChanged();
-  pc.ontrack = e => { video.srcObject = e.streams[0] || new MediaStream([e.track]); };
+  pc.ontrack = e => {
+    if ('jitterBufferTarget' in e.receiver) e.receiver.jitterBufferTarget = 0;
+    if ('playoutDelayHint' in e.receiver) e.receiver.playoutDelayHint = 0;
+    video.srcObject = e.streams[0] || new MediaStream([e.track]);
+  };
   const offer = await pc.createOffer();
   await pc.setLocalDescription(offer);
   await new Promise(resolve => {
@@ -212,9 +222,14 @@ async function join() {
     const report = await pc.getStats();
     report.forEach(r => {
       if (r.type === 'inbound-rtp' && r.kind === 'video') {
-        const prev = stats.bytes;
-        stats.bytes = r.bytesReceived;
-        if (prev !== undefined) stats.kbps = (r.bytesReceived - prev) * 8 / 1000;
+        const prev = stats.inbound;
+        stats.inbound = r;
+        if (prev === undefined) return;
+        stats.kbps = (r.bytesReceived - prev.bytesReceived) * 8 / 1000;
+        const perFrame = (key, count) => 1000 * (r[key] - prev[key]) / Math.max(1, r[count] - prev[count]);
+        stats.jitterMs.push(perFrame('jitterBufferDelay', 'jitterBufferEmittedCount'));
+        stats.decodeMs.push(perFrame('totalDecodeTime', 'framesDecoded'));
+        if (stats.jitterMs.length > 60) { stats.jitterMs.shift(); stats.decodeMs.shift(); }
       }
     });
   }, 1000);
