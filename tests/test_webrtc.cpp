@@ -12,6 +12,7 @@
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/webrtc/playout_delay.h>
+#include <gst/vclassroom/webrtc/send_gate.h>
 #include <gst/vclassroom/webrtc/whep.h>
 
 #include <gio/gio.h>
@@ -342,6 +343,45 @@ TEST(WebrtcPlayoutDelay, APayloaderWritesItOnEveryPacketUnderTheNegotiatedId) {
   gst_object_unref(pipeline);
   EXPECT_GT(packets, 3);  // several packets per frame at mtu 600
   EXPECT_EQ(with_delay, packets);
+}
+
+// A lecturer's send queue: frames pass while there is room; once one is dropped the rest of its GOP is
+// dropped too (the decoder never gets a frame whose reference is gone), a key frame is asked for once, and
+// sending resumes with the next key frame that finds room.
+TEST(WebrtcSendGate, ADroppedFrameTakesTheRestOfItsGopAndAsksForOneKeyFrame) {
+  GopSendGate gate;
+  EXPECT_TRUE(gate.admit(true, false));
+  EXPECT_TRUE(gate.admit(false, false));
+  EXPECT_FALSE(gate.take_key_frame_request());
+  EXPECT_FALSE(gate.admit(false, true));  // full: dropped, and a key frame asked for
+  EXPECT_TRUE(gate.take_key_frame_request());
+  EXPECT_FALSE(gate.take_key_frame_request());
+  EXPECT_FALSE(gate.admit(false, false));  // room again, but this frame refers to the dropped one
+  EXPECT_FALSE(gate.admit(false, false));
+  EXPECT_FALSE(gate.take_key_frame_request());  // asked once per run
+  EXPECT_TRUE(gate.waiting_for_key_frame());
+  EXPECT_TRUE(gate.admit(true, false));  // the key frame: sending resumes
+  EXPECT_TRUE(gate.admit(false, false));
+  EXPECT_FALSE(gate.waiting_for_key_frame());
+  EXPECT_EQ(gate.dropped(), 3u);
+}
+
+// A lecturer whose link is not up yet (webrtcbin holds the first packet until DTLS is done): the queue stays
+// full past the key frame asked for; when it has room again the gate asks once more instead of waiting for
+// the next GOP, and resumes with that key frame.
+TEST(WebrtcSendGate, AKeyFrameThatFoundNoRoomIsAskedForAgainWhenThereIsRoom) {
+  GopSendGate gate;
+  EXPECT_FALSE(gate.admit(false, true));
+  EXPECT_TRUE(gate.take_key_frame_request());
+  EXPECT_FALSE(gate.admit(true, true));  // the key frame asked for: still no room
+  EXPECT_FALSE(gate.admit(false, true));
+  EXPECT_FALSE(gate.take_key_frame_request());
+  EXPECT_FALSE(gate.admit(false, false));  // room now: ask again
+  EXPECT_TRUE(gate.take_key_frame_request());
+  EXPECT_FALSE(gate.admit(false, false));
+  EXPECT_FALSE(gate.take_key_frame_request());
+  EXPECT_TRUE(gate.admit(true, false));
+  EXPECT_EQ(gate.dropped(), 5u);
 }
 
 TEST(PoseNavWheel, X11WheelButtonsMoveForwardAndBack) {

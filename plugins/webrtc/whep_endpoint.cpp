@@ -14,7 +14,10 @@
 
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/net/pose_session.h>
+#include <gst/video/video.h>
+
 #include <gst/vclassroom/webrtc/playout_delay.h>
+#include <gst/vclassroom/webrtc/send_gate.h>
 #include <gst/vclassroom/webrtc/whep.h>
 
 #include "gstrtphdrextplayoutdelay.h"
@@ -31,6 +34,9 @@ enum Prop {
   kCount
 };
 
+// Encoded frames a session's send queue holds (about 130 ms at 30 fps) before its GopSendGate drops.
+constexpr guint kSendQueueFrames = 4;
+
 struct FramePose {
   uint64_t seq;
   int64_t viewer_time_ns;
@@ -41,7 +47,8 @@ struct Session {
   std::string id;
   WhepEndpoint::State* owner = nullptr;
   GstPad* source = nullptr;  // the element's H.264 pad feeding this session (a reference)
-  GstElement* queue = nullptr;
+  GstElement* queue = nullptr;  // never leaks nor blocks: `gate` drops whole rests of GOPs before it fills
+  GopSendGate gate;              // the streaming thread's only
   GstElement* pay = nullptr;
   GstElement* webrtc = nullptr;
   GstWebRTCDataChannel* channel = nullptr;
@@ -142,12 +149,24 @@ void on_data_channel(GstElement*, GstWebRTCDataChannel* channel, gpointer user_d
   g_signal_connect(channel, "on-message-string", G_CALLBACK(on_pose_message), s);
 }
 
-// Every encoded frame entering a session's branch: its pose (the pose meta the
-// encoder keeps), so the echo can name it. The payloaders see the same PTS.
-GstPadProbeReturn on_frame_in(GstPad*, GstPadProbeInfo* info, gpointer user_data) {
+// Every encoded frame entering a session's branch: the send gate (a full queue drops the rest of the GOP
+// and asks the encoder for a key frame), then its pose (the pose meta the encoder keeps), so the echo can
+// name it. The payloaders see the same PTS.
+GstPadProbeReturn on_frame_in(GstPad* pad, GstPadProbeInfo* info, gpointer user_data) {
   Session* s = static_cast<Session*>(user_data);
   GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
-  PoseMeta* meta = buf ? buffer_get_pose_meta(buf) : nullptr;
+  if (!buf) return GST_PAD_PROBE_OK;
+  guint queued = 0;
+  g_object_get(s->queue, "current-level-buffers", &queued, nullptr);
+  if (!s->gate.admit(!GST_BUFFER_FLAG_IS_SET(buf, GST_BUFFER_FLAG_DELTA_UNIT), queued >= kSendQueueFrames)) {
+    if (s->gate.take_key_frame_request()) {
+      GST_INFO_OBJECT(s->owner->owner, "session %s: sending fell behind (%" G_GUINT64_FORMAT " frames dropped so "
+                      "far): dropping to the next key frame, which is asked for", s->id.c_str(), s->gate.dropped());
+      gst_pad_push_event(pad, gst_video_event_new_upstream_force_key_unit(GST_CLOCK_TIME_NONE, TRUE, 0));
+    }
+    return GST_PAD_PROBE_DROP;
+  }
+  PoseMeta* meta = buffer_get_pose_meta(buf);
   if (!meta || !GST_BUFFER_PTS_IS_VALID(buf)) return GST_PAD_PROBE_OK;
   std::lock_guard<std::mutex> g(s->owner->lock);
   s->frame_poses[GST_BUFFER_PTS(buf)] = FramePose{meta->seq, meta->viewer_time_ns, meta->rendered};
@@ -273,7 +292,7 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   s->id = id;
   s->source = source;
   s->queue = gst_element_factory_make("queue", nullptr);
-  g_object_set(s->queue, "max-size-buffers", 2, "max-size-time", (guint64)0, "max-size-bytes", 0, "leaky", 2,
+  g_object_set(s->queue, "max-size-buffers", kSendQueueFrames, "max-size-time", guint64(0), "max-size-bytes", 0,
                nullptr);
   s->pay = gst_element_factory_make("rtph264pay", nullptr);
   g_object_set(s->pay, "pt", payload, "config-interval", -1, "aggregate-mode", 1 /* zero-latency */, nullptr);
