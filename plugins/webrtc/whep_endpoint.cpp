@@ -54,6 +54,7 @@ struct Session {
   GstWebRTCDataChannel* channel = nullptr;
   SoupServerMessage* pending = nullptr;  // the POST waiting for the answer
   GstClockTime last_echoed_pts = GST_CLOCK_TIME_NONE;
+  GstClockTime last_sent_pts = GST_CLOCK_TIME_NONE;  // the send stamp of the previous frame (on_frame_out)
   std::map<GstClockTime, FramePose> frame_poses;  // this session's recent frames' poses by PTS (bounded)
 };
 
@@ -171,6 +172,43 @@ GstPadProbeReturn on_frame_in(GstPad* pad, GstPadProbeInfo* info, gpointer user_
   std::lock_guard<std::mutex> g(s->owner->lock);
   s->frame_poses[GST_BUFFER_PTS(buf)] = FramePose{meta->seq, meta->viewer_time_ns, meta->rendered};
   while (s->frame_poses.size() > 64) s->frame_poses.erase(s->frame_poses.begin());
+  return GST_PAD_PROBE_OK;
+}
+
+// Each frame leaving a session's send queue is stamped with the time it is sent, so its RTP timestamp says
+// when it left rather than when its cameras saw it: a browser sizes its jitter buffer by how unevenly
+// frames arrive against their timestamps, and the server's uneven render time would otherwise count as
+// network jitter, buffered at the cost of pose-to-photon latency. The frame's pose moves to the new stamp.
+GstPadProbeReturn on_frame_out(GstPad* pad, GstPadProbeInfo* info, gpointer user_data) {
+  Session* s = static_cast<Session*>(user_data);
+  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  GstEvent* segment_event = gst_pad_get_sticky_event(pad, GST_EVENT_SEGMENT, 0);
+  GstClock* clock = gst_element_get_clock(s->pay);
+  GstClockTime sent = GST_CLOCK_TIME_NONE;
+  if (buf && GST_BUFFER_PTS_IS_VALID(buf) && segment_event && clock) {
+    const GstSegment* segment = nullptr;
+    gst_event_parse_segment(segment_event, &segment);
+    const GstClockTime now = gst_clock_get_time(clock), base = gst_element_get_base_time(s->pay);
+    if (segment->format == GST_FORMAT_TIME && now >= base)
+      sent = gst_segment_position_from_running_time(segment, GST_FORMAT_TIME, now - base);
+  }
+  if (segment_event) gst_event_unref(segment_event);
+  if (clock) gst_object_unref(clock);
+  if (!GST_CLOCK_TIME_IS_VALID(sent)) return GST_PAD_PROBE_OK;
+  if (GST_CLOCK_TIME_IS_VALID(s->last_sent_pts) && sent <= s->last_sent_pts) sent = s->last_sent_pts + 1;
+  s->last_sent_pts = sent;
+  buf = gst_buffer_make_writable(buf);
+  GST_PAD_PROBE_INFO_DATA(info) = buf;
+  const GstClockTime captured = GST_BUFFER_PTS(buf);
+  GST_BUFFER_PTS(buf) = sent;
+  GST_BUFFER_DTS(buf) = GST_CLOCK_TIME_NONE;
+  std::lock_guard<std::mutex> g(s->owner->lock);
+  auto it = s->frame_poses.find(captured);
+  if (it != s->frame_poses.end()) {
+    const FramePose pose = it->second;
+    s->frame_poses.erase(it);
+    s->frame_poses[sent] = pose;
+  }
   return GST_PAD_PROBE_OK;
 }
 
@@ -309,6 +347,9 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   g_object_set(s->webrtc, "bundle-policy", GST_WEBRTC_BUNDLE_POLICY_MAX_BUNDLE, nullptr);
   gst_bin_add_many(st->owner, s->queue, s->pay, s->webrtc, nullptr);
   gst_element_link(s->queue, s->pay);
+  GstPad* pay_sink = gst_element_get_static_pad(s->pay, "sink");
+  gst_pad_add_probe(pay_sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_out, s, nullptr);
+  gst_object_unref(pay_sink);
   GstPad* pay_src = gst_element_get_static_pad(s->pay, "src");
   gst_pad_add_probe(pay_src, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST), on_rtp_out,
                     s, nullptr);
