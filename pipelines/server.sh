@@ -142,7 +142,8 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! posere
 # LECTURER_OUT=whep-views: each lecturer gets a view of their own (whepviewsink), up to WHEP_SESSIONS
 # (default 4). TOKEN (the join secret, required; letters, digits, . _ ~ -), WHEP_PORT (default 8080),
 # WHEP_TLS_CERT and WHEP_TLS_KEY (PEM files: HTTPS, which browsers need for WebXR off localhost),
-# WHEP_BITRATE (kbit/s, default 4000).
+# WHEP_BITRATE (kbit/s, default 4000), WHEP_STUN (stun://host:port) and WHEP_TURN (turn://user:password@host:port
+# or turns://...) for lecturers behind NAT (docs/lecturer.md).
 if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ]; then
   WHEP_PORT=${WHEP_PORT:-8080}
   if ! [[ ${TOKEN:-} =~ ^[A-Za-z0-9._~-]{8,}$ ]] || ! [[ $WHEP_PORT =~ ^[0-9]+$ ]]; then
@@ -153,6 +154,7 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
   # The page lies beside the pipelines: ../web/lecturer both in a checkout and installed (datadir).
   [ -n "${WHEP_TLS_CERT:-}" ] && whep_tls="tls-certificate=$WHEP_TLS_CERT tls-key=${WHEP_TLS_KEY:?WHEP_TLS_KEY}"
   whep="port=$WHEP_PORT token=$TOKEN bitrate=${WHEP_BITRATE:-4000} max-sessions=${WHEP_SESSIONS:-4} $whep_tls \
+    ${WHEP_STUN:+stun-server=$WHEP_STUN} ${WHEP_TURN:+turn-server=$WHEP_TURN} \
     web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\""
   if [ "$LECTURER_OUT" = whep ]; then
     desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"

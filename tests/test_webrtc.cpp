@@ -15,7 +15,11 @@
 #include <gst/vclassroom/webrtc/send_gate.h>
 #include <gst/vclassroom/webrtc/whep.h>
 
+#include <arpa/inet.h>
 #include <gio/gio.h>
+#include <ifaddrs.h>
+#include <net/if.h>
+#include <netinet/in.h>
 #include <signal.h>
 #include <sys/wait.h>
 
@@ -264,6 +268,60 @@ TEST(WebrtcFrameEcho, CarriesTheRenderedPoseAndTheClampedFlag) {
 
 // posenav on X11: a wheel notch arrives as a press and release of button 4
 // (away: forward) or 5 (towards: back), and moves like a scroll notch.
+TEST(WebrtcIceServers, StunAndTurnUrisAreCheckedAndBecomeWhepLinkHeaders) {
+  IceServer s;
+  std::string why;
+  ASSERT_TRUE(parse_ice_server("stun://stun.example.net:3478", &s, &why)) << why;
+  EXPECT_EQ(ice_server_link(s), "<stun:stun.example.net:3478>; rel=\"ice-server\"");
+  ASSERT_TRUE(parse_ice_server("turn://1700000000%3Aalice:pa%2Bss@[2001:db8::1]:3478", &s, &why)) << why;
+  EXPECT_EQ(s.username, "1700000000:alice");
+  EXPECT_EQ(s.credential, "pa+ss");
+  EXPECT_EQ(s.host, "[2001:db8::1]");
+  EXPECT_EQ(ice_server_link(s), "<turn:[2001:db8::1]:3478?transport=udp>; rel=\"ice-server\"; "
+                                "username=\"1700000000:alice\"; credential=\"pa+ss\"; credential-type=\"password\"");
+  ASSERT_TRUE(parse_ice_server("turns://u:p@turn.example.net:5349", &s, &why)) << why;
+  EXPECT_NE(ice_server_link(s).find("<turns:turn.example.net:5349?transport=tcp>"), std::string::npos);
+  for (const char* bad : {"", "stun.example.net:3478", "http://x:1", "stun://u:p@x:1", "turn://x:1", "turn://u@x:1",
+                          "stun://x", "stun://x:0", "stun://x:65536", "stun://x:12a", "stun://:1", "stun://[::1:1",
+                          "stun://a b:1", "turn://u:p%22@x:1", "turn://u:p%0a@x:1", "turn://u:p%2@x:1",
+                          "turn://u\":p@x:1", "stun://x:1,<evil>"})
+    EXPECT_FALSE(parse_ice_server(bad, &s, &why)) << bad;
+  EXPECT_FALSE(parse_ice_server(std::string(600, 'a'), &s, &why));
+}
+
+// A STUN or TURN server the element cannot use stops it at start with an error naming the property.
+TEST(WebrtcIceServers, AMalformedServerIsAnErrorAtStart) {
+  if (!gst_element_factory_find("whepviewsink")) GTEST_SKIP() << "the webrtc plugin is not built";
+  for (const auto& [property, uri] : {std::pair<const char*, const char*>{"stun-server", "turn://u:p@x:1"},
+                                      {"turn-server", "stun://x:1"}, {"turn-server", "turn://x:3478"}}) {
+    GstElement* pipeline = gst_pipeline_new(nullptr);
+    GstElement* sink = gst_element_factory_make("whepviewsink", nullptr);
+    g_object_set(sink, "port", 0u, "token", "ice-test-token", property, uri, nullptr);
+    gst_bin_add(GST_BIN(pipeline), sink);
+    EXPECT_EQ(gst_element_set_state(pipeline, GST_STATE_READY), GST_STATE_CHANGE_FAILURE) << property << " " << uri;
+    GstBus* bus = gst_element_get_bus(pipeline);
+    GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
+    ASSERT_TRUE(m) << property << " " << uri;
+    GError* err = nullptr;
+    gst_message_parse_error(m, &err, nullptr);
+    EXPECT_NE(std::string(err->message).find(property), std::string::npos) << err->message;
+    g_error_free(err);
+    gst_message_unref(m);
+    gst_object_unref(bus);
+    gst_element_set_state(pipeline, GST_STATE_NULL);
+    gst_object_unref(pipeline);
+  }
+}
+
+TEST(WebrtcWhep, OptionsNamesTheIceServersOnlyWithTheToken) {
+  WhepRequest r = post("t");
+  r.method = "OPTIONS";
+  const WhepDecision d = check_whep_request(r, "t", WhepLimits(), 0);
+  EXPECT_EQ(d.action, WhepAction::kIceServers);
+  EXPECT_EQ(d.status, 204);
+  EXPECT_EQ(check_whep_request(r, "other", WhepLimits(), 0).status, 401);
+}
+
 TEST(WebrtcPlayoutDelay, BytesRoundTripIn10MsStepsAndBoundsAreClamped) {
   uint8_t bytes[kPlayoutDelayBytes];
   PlayoutDelay back;
@@ -544,6 +602,48 @@ TEST(WebrtcBrowser, TwoLecturersGetTheirOwnViewsAndALeaverFreesItsPlace) {
   EXPECT_TRUE(run.ok) << run.output;
   for (const char* check : {"ok two joined", "ok own views:", "ok third refused: 503", "ok one left, the other goes on",
                             "ok a new page joined in the freed place"})
+    EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
+  std::printf("%s", run.output.c_str());
+}
+
+namespace {
+
+// This machine's first IPv4 address that is up and not loopback ("" when none): libnice asks no STUN or TURN
+// server on loopback.
+std::string own_ipv4_address() {
+  ifaddrs* list = nullptr;
+  if (getifaddrs(&list) != 0) return "";
+  std::string found;
+  for (ifaddrs* a = list; a && found.empty(); a = a->ifa_next) {
+    if (!a->ifa_addr || a->ifa_addr->sa_family != AF_INET || (a->ifa_flags & IFF_LOOPBACK) || !(a->ifa_flags & IFF_UP))
+      continue;
+    char text[INET_ADDRSTRLEN] = {};
+    if (inet_ntop(AF_INET, &reinterpret_cast<sockaddr_in*>(a->ifa_addr)->sin_addr, text, sizeof text)) found = text;
+  }
+  freeifaddrs(list);
+  return found;
+}
+
+}  // namespace
+
+// A lecturer behind a NAT: whepserversink with a STUN and a TURN server (stand-ins in the test script that
+// answer the real STUN messages, tests/browser/ice-test.mjs). OPTIONS on the WHEP endpoint names both as
+// Link headers (TURN with its credentials) only with the token; the page's peer connection takes them; the
+// server's ICE agent asks the STUN server and the TURN server, the latter with the credentials after its
+// challenge. (No relay is made: the stand-in refuses the allocation.)
+TEST(WebrtcBrowser, StunAndTurnServersReachTheServersIceAndThePage) {
+  const std::string host = own_ipv4_address();
+  if (host.empty()) GTEST_SKIP() << "no IPv4 address besides loopback (libnice asks no server on loopback)";
+  const std::string stun_port = std::to_string(vctest::free_udp_port()), turn_port = std::to_string(vctest::free_udp_port());
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const BrowserRun run = run_browser_script(
+      "videotestsrc is-live=true ! video/x-raw,width=320,height=180 ! whepserversink port={PORT} token=secret-token "
+      "web-root=" + web + " stun-server=stun://" + host + ":" + stun_port + " turn-server=turn://alice:s3cret@" + host +
+          ":" + turn_port,
+      "ice-test.mjs", {"secret-token", host, stun_port, turn_port});
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
+  for (const char* check : {"ok OPTIONS: 204", "ok the page uses", "ok the server asked the TURN server as alice"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());
 }

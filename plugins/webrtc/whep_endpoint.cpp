@@ -11,6 +11,7 @@
 
 #include <map>
 #include <mutex>
+#include <vector>
 
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/net/pose_session.h>
@@ -31,7 +32,7 @@ namespace {
 
 enum Prop {
   kPort, kToken, kTlsCertificate, kTlsKey, kBitrate, kMaxSessions, kWebRoot, kBoundPort, kSessions, kPlayoutDelay,
-  kCount
+  kStunServer, kTurnServer, kCount
 };
 
 // Encoded frames a session's send queue holds (about 130 ms at 30 fps) before its GopSendGate drops.
@@ -110,6 +111,8 @@ struct WhepEndpoint::State {
   std::mutex lock;
   guint port = 8080;
   std::string token, tls_certificate, tls_key, web_root = VCLASSROOM_WEB_DIR;
+  std::string stun_server, turn_server;  // as set; checked at start() into ice_servers
+  std::vector<IceServer> ice_servers;
   guint bitrate_kbit = 4000;
   guint max_sessions = 4;
   // The playout-delay extension's maximum (its minimum is 0), -1: not sent. With 0..100 ms Chromium shows
@@ -345,6 +348,8 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   }
   s->webrtc = gst_element_factory_make("webrtcbin", nullptr);
   g_object_set(s->webrtc, "bundle-policy", GST_WEBRTC_BUNDLE_POLICY_MAX_BUNDLE, nullptr);
+  for (const IceServer& ice : st->ice_servers)
+    g_object_set(s->webrtc, ice.scheme == "stun" ? "stun-server" : "turn-server", ice.uri.c_str(), nullptr);
   gst_bin_add_many(st->owner, s->queue, s->pay, s->webrtc, nullptr);
   gst_element_link(s->queue, s->pay);
   GstPad* pay_sink = gst_element_get_static_pad(s->pay, "sink");
@@ -457,6 +462,14 @@ void on_request(SoupServer*, SoupServerMessage* msg, const char* path, GHashTabl
       respond(msg, d.status);
       return;
     }
+    if (d.action == WhepAction::kIceServers) {
+      respond(msg, 204);
+      SoupMessageHeaders* out = soup_server_message_get_response_headers(msg);
+      for (const IceServer& ice : st->ice_servers)
+        soup_message_headers_append(out, "Link", ice_server_link(ice).c_str());
+      soup_message_headers_replace(out, "Cache-Control", "no-store");
+      return;
+    }
     if (d.action == WhepAction::kLeave) {
       auto it = st->sessions.find(d.session_id);
       if (it == st->sessions.end()) {
@@ -554,6 +567,14 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
                        "playout-delay RTP header extension where the offer lists it: the browser shows frames as "
                        "soon as they are decoded instead of growing a jitter buffer (-1: not sent)",
                        -1, kPlayoutDelayMaxMs, 100, rw()));
+  g_object_class_install_property(klass, p + kStunServer,
+      g_param_spec_string("stun-server", "STUN server",
+                          "stun://host:port: each session's ICE also gathers the address a NAT shows, and the page "
+                          "is told to use it (WHEP OPTIONS Link header); empty: host candidates only", "", rw()));
+  g_object_class_install_property(klass, p + kTurnServer,
+      g_param_spec_string("turn-server", "TURN server",
+                          "turn://user:password@host:port (or turns:// over TLS): a relay for lecturers behind NATs "
+                          "that let no direct path through; the page gets it with its credentials", "", rw()));
   return p + kCount;
 }
 
@@ -569,6 +590,8 @@ bool WhepEndpoint::set_property(guint id, const GValue* value) {
     case kMaxSessions: st_->max_sessions = g_value_get_uint(value); return true;
     case kWebRoot: st_->web_root = str(); return true;
     case kPlayoutDelay: st_->playout_delay_ms = g_value_get_int(value); return true;
+    case kStunServer: st_->stun_server = str(); return true;
+    case kTurnServer: st_->turn_server = str(); return true;
     default: return false;
   }
 }
@@ -586,6 +609,8 @@ bool WhepEndpoint::get_property(guint id, GValue* value) {
     case kBoundPort: g_value_set_uint(value, st_->bound_port); return true;
     case kSessions: g_value_set_uint(value, guint(st_->sessions.size())); return true;
     case kPlayoutDelay: g_value_set_int(value, st_->playout_delay_ms); return true;
+    case kStunServer: g_value_set_string(value, st_->stun_server.c_str()); return true;
+    case kTurnServer: g_value_set_string(value, st_->turn_server.c_str()); return true;
     default: return false;
   }
 }
@@ -602,6 +627,20 @@ bool WhepEndpoint::start() {
                       (nullptr));
     return false;
   }
+  st->ice_servers.clear();
+  auto add_ice_server = [st](const char* property, const std::string& uri, bool stun) {
+    IceServer ice;
+    std::string why = stun ? "not a stun:// server" : "not a turn:// or turns:// server";
+    if (uri.empty()) return true;
+    if (parse_ice_server(uri, &ice, &why) && (ice.scheme == "stun") == stun) {
+      st->ice_servers.push_back(ice);
+      return true;
+    }
+    GST_ELEMENT_ERROR(st->owner, RESOURCE, SETTINGS, ("%s %s: %s", property, uri.c_str(), why.c_str()), (nullptr));
+    return false;
+  };
+  if (!add_ice_server("stun-server", st->stun_server, true) || !add_ice_server("turn-server", st->turn_server, false))
+    return false;
   st->table = WhepSessionTable(st->max_sessions);
   GError* err = nullptr;
   st->context = g_main_context_new();

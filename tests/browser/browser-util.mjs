@@ -53,3 +53,81 @@ export const difference = (a, b) => a.reduce((s, x, i) => s + Math.abs(x - b[i])
 // Waits until the page's frames shown are rendered for seq >= `seq`.
 export const shownFor = (page, seq) =>
   page.waitForFunction(s => window.vclassroom.stats.lastSeqShown >= s, { timeout }, seq);
+
+// Stand-ins for a STUN and a TURN server at `host`, answering the real STUN messages (RFC 8489) the
+// server's ICE agent (libnice) and Chromium send, each counted with its sender's SOFTWARE attribute
+// (`bindings`, `allocations`): a Binding request gets a success response whose XOR-MAPPED-ADDRESS is
+// `mapped` (an address a NAT might show) at the sender's port; a TURN Allocate request is challenged (401 with a realm and nonce, as a real TURN
+// server does) and, once it comes with the long-term credential (user alice, password s3cret), refused
+// with an authenticated 403 (clients ignore unauthenticated refusals), so no relay is made. close() stops both.
+export async function startFakeIceServers(host, stunPort, turnPort, mapped = '203.0.113.7') {
+  const dgram = await import('node:dgram');
+  const zlib = await import('node:zlib');
+  const crypto = await import('node:crypto');
+  const realm = 'vclassroom-test', nonce = 'f1xed-n0nce';
+  const key = crypto.createHash('md5').update(`alice:${realm}:s3cret`).digest();
+  const cookie = 0x2112a442;
+  const attribute = (type, value) => {
+    const padded = Buffer.alloc(4 + Math.ceil(value.length / 4) * 4);
+    padded.writeUInt16BE(type, 0);
+    padded.writeUInt16BE(value.length, 2);
+    value.copy(padded, 4);
+    return padded;
+  };
+  // With `integrityKey`, a MESSAGE-INTEGRITY (HMAC-SHA1 over what precedes it) before the FINGERPRINT.
+  const message = (type, transaction, attributes, integrityKey) => {
+    let body = Buffer.concat(attributes);
+    const header = Buffer.alloc(20);
+    header.writeUInt16BE(type, 0);
+    header.writeUInt32BE(cookie, 4);
+    transaction.copy(header, 8);
+    if (integrityKey) {
+      header.writeUInt16BE(body.length + 24, 2);
+      const hmac = crypto.createHmac('sha1', integrityKey).update(Buffer.concat([header, body])).digest();
+      body = Buffer.concat([body, attribute(0x0008, hmac)]);
+    }
+    header.writeUInt16BE(body.length + 8, 2);  // with the fingerprint
+    const unsigned = Buffer.concat([header, body]);
+    const crc = Buffer.alloc(4);
+    crc.writeUInt32BE((zlib.crc32(unsigned) ^ 0x5354554e) >>> 0, 0);
+    return Buffer.concat([unsigned, attribute(0x8028, crc)]);
+  };
+  const parse = packet => {
+    if (packet.length < 20 || packet.readUInt32BE(4) !== cookie) return null;
+    const attributes = new Map();
+    for (let at = 20; at + 4 <= packet.length;) {
+      const type = packet.readUInt16BE(at), length = packet.readUInt16BE(at + 2);
+      attributes.set(type, packet.subarray(at + 4, Math.min(packet.length, at + 4 + length)));
+      at += 4 + Math.ceil(length / 4) * 4;
+    }
+    return { type: packet.readUInt16BE(0), transaction: packet.subarray(8, 20), attributes };
+  };
+  const allocations = [], bindings = [];
+  const stun = dgram.createSocket('udp4'), turn = dgram.createSocket('udp4');
+  stun.on('message', (packet, from) => {
+    const m = parse(packet);
+    if (!m || m.type !== 0x0001) return;
+    const software = m.attributes.get(0x8022);
+    bindings.push({ port: from.port, software: software ? software.toString() : '' });
+    const value = Buffer.alloc(8);
+    value.writeUInt16BE(0x0001, 0);
+    value.writeUInt16BE(from.port ^ (cookie >>> 16), 2);
+    const address = mapped.split('.').reduce((a, b) => a * 256 + Number(b), 0);
+    value.writeUInt32BE((address ^ cookie) >>> 0, 4);
+    stun.send(message(0x0101, m.transaction, [attribute(0x0020, value)]), from.port, from.address);
+  });
+  turn.on('message', (packet, from) => {
+    const m = parse(packet);
+    if (!m || m.type !== 0x0003) return;
+    const software = m.attributes.get(0x8022), user = m.attributes.get(0x0006);
+    allocations.push({ port: from.port, software: software ? software.toString() : '', user: user ? user.toString() : '' });
+    const reply = user
+      ? message(0x0113, m.transaction, [attribute(0x0009, Buffer.concat([Buffer.from([0, 0, 4, 3]), Buffer.from('Forbidden')]))], key)
+      : message(0x0113, m.transaction, [attribute(0x0009, Buffer.concat([Buffer.from([0, 0, 4, 1]), Buffer.from('Unauthorized')])),
+                                        attribute(0x0014, Buffer.from(realm)), attribute(0x0015, Buffer.from(nonce))]);
+    turn.send(reply, from.port, from.address);
+  });
+  await Promise.all([[stun, stunPort], [turn, turnPort]].map(([socket, port]) =>
+    new Promise(resolve => socket.bind(Number(port), host, resolve))));
+  return { allocations, bindings, close: () => { stun.close(); turn.close(); } };
+}

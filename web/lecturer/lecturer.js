@@ -188,11 +188,29 @@ function watchFrames(video) {
   video.requestVideoFrameCallback(onFrame);
 }
 
+// The server's STUN/TURN servers, from the Link headers of its WHEP OPTIONS answer (the WHEP draft's ICE
+// server configuration): <stun:host:port>; rel="ice-server", and for TURN also username, credential.
+function iceServersFromLinks(header) {
+  const servers = [];
+  const link = /<([^>]*)>((?:\s*;\s*[a-z-]+="[^"]*")*)/g;
+  for (let m; (m = link.exec(header || '')) !== null;) {
+    const params = {};
+    for (const p of m[2].matchAll(/([a-z-]+)="([^"]*)"/g)) params[p[1]] = p[2];
+    if (params.rel !== 'ice-server') continue;
+    const server = { urls: m[1] };
+    if (params.username !== undefined) Object.assign(server, { username: params.username, credential: params.credential });
+    servers.push(server);
+  }
+  return servers;
+}
+
 async function join() {
   const params = new URLSearchParams(location.search);
   const token = params.get('token') || '';
   const video = document.getElementById('view');
-  const pc = new RTCPeerConnection();
+  const options = await fetch('whep?token=' + encodeURIComponent(token), { method: 'OPTIONS' }).catch(() => null);
+  const iceServers = iceServersFromLinks(options && options.status === 204 ? options.headers.get('Link') : '');
+  const pc = new RTCPeerConnection({ iceServers });
   pc.addTransceiver('video', { direction: 'recvonly' });
   channel = pc.createDataChannel('pose');
   channel.onmessage = e => onEcho(e.data);
@@ -204,9 +222,12 @@ async function join() {
   };
   const offer = await pc.createOffer();
   await pc.setLocalDescription(offer);
+  // WHEP without trickle: the offer carries the candidates gathered, all of them once gathering completes,
+  // else those of the first 3 s (a STUN or TURN server that does not answer must not keep the lecturer out).
   await new Promise(resolve => {
     if (pc.iceGatheringState === 'complete') return resolve();
     pc.addEventListener('icegatheringstatechange', () => pc.iceGatheringState === 'complete' && resolve());
+    setTimeout(resolve, 3000);
   });
   const response = await fetch('whep?token=' + encodeURIComponent(token),
                                { method: 'POST', headers: { 'Content-Type': 'application/sdp' }, body: pc.localDescription.sdp });
@@ -304,7 +325,7 @@ async function installVR() {
   };
 }
 
-window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, poseToView, xrPoseToPose, makeFrameDrawer,
+window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, poseToView, xrPoseToPose, makeFrameDrawer, iceServersFromLinks,
                       get seq() { return seq; } };
 // Loaded after the page's body (index.html adds this script with the token).
 installSliders();

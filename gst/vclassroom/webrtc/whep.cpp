@@ -47,7 +47,13 @@ WhepDecision check_whep_request(const WhepRequest& r, std::string_view expected_
   const std::string_view base(kWhepPath);
   const std::string_view path(r.path);
   if (path == base) {
-    if (r.method != "POST") return refuse(405, "only POST on " + std::string(base));
+    if (r.method == "OPTIONS") {
+      WhepDecision d;
+      d.action = WhepAction::kIceServers;
+      d.status = 204;
+      return d;
+    }
+    if (r.method != "POST") return refuse(405, "only POST or OPTIONS on " + std::string(base));
     if (r.content_type != "application/sdp") return refuse(415, "offer is not application/sdp");
     if (r.body_size > limits.max_offer_bytes || r.body.size() != r.body_size)
       return refuse(413, "offer of " + std::to_string(r.body_size) + " bytes (at most " +
@@ -72,6 +78,101 @@ WhepDecision check_whep_request(const WhepRequest& r, std::string_view expected_
     return d;
   }
   return refuse(404, "not a WHEP path");
+}
+
+namespace {
+
+bool is_unreserved(char c) {
+  return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '.' ||
+         c == '_' || c == '~';
+}
+
+int hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+// Unreserved characters and %XX escapes, unescaped into `out`; an escape may not give a control
+// character, a quote or a backslash (the value goes into a quoted Link header parameter).
+bool unescape_userinfo(std::string_view text, std::string* out) {
+  out->clear();
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (is_unreserved(text[i])) {
+      out->push_back(text[i]);
+      continue;
+    }
+    if (text[i] != '%' || i + 2 >= text.size() || hex_digit(text[i + 1]) < 0 || hex_digit(text[i + 2]) < 0)
+      return false;
+    const char c = char(hex_digit(text[i + 1]) * 16 + hex_digit(text[i + 2]));
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f || c == '"' || c == '\\') return false;
+    out->push_back(c);
+    i += 2;
+  }
+  return !out->empty();
+}
+
+}  // namespace
+
+bool parse_ice_server(std::string_view uri, IceServer* server, std::string* why) {
+  auto fail = [&](const std::string& reason) {
+    if (why) *why = reason;
+    return false;
+  };
+  if (uri.size() > 512) return fail("longer than 512 characters");
+  IceServer s;
+  s.uri = std::string(uri);
+  const size_t colon = uri.find("://");
+  if (colon == std::string_view::npos) return fail("not stun://, turn:// or turns://");
+  s.scheme = std::string(uri.substr(0, colon));
+  if (s.scheme != "stun" && s.scheme != "turn" && s.scheme != "turns") return fail("scheme is not stun, turn or turns");
+  std::string_view rest = uri.substr(colon + 3);
+  const size_t at = rest.rfind('@');
+  if (s.scheme == "stun") {
+    if (at != std::string_view::npos) return fail("a STUN server takes no user");
+  } else {
+    if (at == std::string_view::npos) return fail("a TURN server needs user:password@");
+    const std::string_view userinfo = rest.substr(0, at);
+    const size_t split = userinfo.find(':');
+    if (split == std::string_view::npos || !unescape_userinfo(userinfo.substr(0, split), &s.username) ||
+        !unescape_userinfo(userinfo.substr(split + 1), &s.credential))
+      return fail("user and password must be unreserved characters or %XX escapes");
+    rest = rest.substr(at + 1);
+  }
+  size_t port_at;
+  if (!rest.empty() && rest[0] == '[') {
+    const size_t close = rest.find(']');
+    if (close == std::string_view::npos || close < 3) return fail("an unclosed [IPv6] address");
+    for (char c : rest.substr(1, close - 1))
+      if (hex_digit(c) < 0 && c != ':' && c != '.') return fail("not an IPv6 address in []");
+    port_at = close + 1;
+  } else {
+    port_at = rest.find(':');
+    if (port_at == 0 || port_at == std::string_view::npos) return fail("needs host:port");
+    for (char c : rest.substr(0, port_at))
+      if (!is_unreserved(c) || c == '_' || c == '~') return fail("not a host name or address");
+  }
+  s.host = std::string(rest.substr(0, port_at));
+  if (port_at >= rest.size() || rest[port_at] != ':' || port_at + 1 == rest.size() || rest.size() - port_at > 6)
+    return fail("needs host:port");
+  int port = 0;
+  for (char c : rest.substr(port_at + 1)) {
+    if (c < '0' || c > '9') return fail("the port is not a number");
+    port = port * 10 + (c - '0');
+  }
+  if (port < 1 || port > 65535) return fail("the port is not 1 to 65535");
+  s.port = port;
+  *server = std::move(s);
+  return true;
+}
+
+std::string ice_server_link(const IceServer& s) {
+  const std::string address = s.host + ":" + std::to_string(s.port);
+  if (s.scheme == "stun") return "<stun:" + address + ">; rel=\"ice-server\"";
+  return "<" + s.scheme + ":" + address + (s.scheme == "turn" ? "?transport=udp" : "?transport=tcp") +
+         ">; rel=\"ice-server\"; username=\"" + s.username + "\"; credential=\"" + s.credential +
+         "\"; credential-type=\"password\"";
 }
 
 bool lecturer_page_file(std::string_view path, std::string* file, std::string* mime_type) {

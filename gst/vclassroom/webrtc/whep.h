@@ -40,6 +40,7 @@ enum class WhepAction {
   kRefuse,  // answer `status` with an empty body and nothing else
   kJoin,    // POST of an offer: make a session, answer 201 with the SDP answer and a Location
   kLeave,   // DELETE of a session's Location: end `session_id`, answer 200
+  kIceServers,  // OPTIONS on the endpoint: answer 204 with the ICE servers as Link headers
 };
 
 struct WhepDecision {
@@ -56,6 +57,24 @@ inline constexpr size_t kWhepSessionIdChars = 32;  // 16 random bytes, lower-cas
 // the request says (checked first, so a stranger learns nothing else).
 WhepDecision check_whep_request(const WhepRequest& request, std::string_view expected_token,
                                 const WhepLimits& limits, size_t sessions_now);
+
+// A STUN or TURN server, as webrtcbin takes it: "stun://host:port", "turn://user:password@host:port" or
+// "turns://..." (TURN over TLS). Host names, IPv4 or [IPv6] addresses; user and password of unreserved
+// characters and %XX escapes (a TURN REST user name "1700000000%3Aalice" is 1700000000:alice).
+struct IceServer {
+  std::string scheme;  // "stun", "turn" or "turns"
+  std::string host;    // as written (an IPv6 address with its brackets)
+  int port = 0;
+  std::string username, credential;  // TURN only, unescaped
+  std::string uri;                   // as given, for webrtcbin
+};
+// False, with a reason, for anything else (no default ports: the administrator names them).
+bool parse_ice_server(std::string_view uri, IceServer* server, std::string* why);
+// The server as a WHEP Link header (the WHEP draft's ICE server configuration, RFC 7064/7065 URIs):
+//   <stun:host:port>; rel="ice-server"
+//   <turn:host:port?transport=udp>; rel="ice-server"; username="u"; credential="p"; credential-type="password"
+// A browser page reads these from the OPTIONS response before it gathers its candidates.
+std::string ice_server_link(const IceServer& server);
 
 // The lecturer page's files a GET may ask for (after the token check): the
 // file name under the page's folder and its MIME type, or false. A fixed
