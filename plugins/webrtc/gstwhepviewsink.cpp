@@ -34,10 +34,17 @@ struct Camera {
   GstElement* tee;
 };
 
+// A camera's tee and a pad on one side of it: a view's branch input not linked yet, or the tee's request pad.
+struct TeeLink {
+  GstElement* tee;
+  GstPad* pad;  // a reference
+};
+
 // One lecturer's view: per camera tee pad -> queue -> viewwarp -> fuse; fuse -> convert -> x264enc -> caps.
 struct View {
-  std::vector<GstPad*> warp_sinks;  // until start_view links them to the tees
-  std::vector<GstPad*> tee_pads;
+  bool started = false;              // its webrtcbin is linked: camera branches are fed at once
+  std::vector<TeeLink> unlinked;     // branch inputs until start_view links them to their tees
+  std::vector<TeeLink> tee_pads;
   std::vector<GstElement*> elements;
   GstElement* fuse = nullptr;
   PoseSession poses;  // this lecturer's: latest wins
@@ -80,6 +87,35 @@ static GstElement* add_element(GstWhepViewSink* self, View* view, const char* fa
   return e;
 }
 
+// Camera `cam`'s branch of a view (lock held): queue -> viewwarp -> the fuse's cam_K pad, fed from the
+// camera's tee at once when the view has started (a camera linked while lecturers watch), else when it does.
+static void add_camera_branch_locked(GstWhepViewSink* self, View* view, const Camera& cam) {
+  const ViewSettings& s = *self->settings;
+  GstElement* queue = add_element(self, view, "queue");
+  GstElement* warp = add_element(self, view, "viewwarp");
+  g_object_set(queue, "max-size-buffers", 1, "max-size-time", guint64(0), "max-size-bytes", 0, nullptr);
+  gst_util_set_object_arg(G_OBJECT(queue), "leaky", "downstream");
+  g_object_set(warp, "width", s.width, "height", s.height, nullptr);
+  if (!s.rig.empty()) g_object_set(warp, "rig", s.rig.c_str(), nullptr);
+  if (!s.model.empty())
+    g_object_set(warp, "prior-depth", (s.model + "/prior-depth/cam" + std::to_string(cam.index) + ".png").c_str(),
+                 nullptr);
+  gst_element_link(queue, warp);
+  const std::string fuse_pad = "cam_" + std::to_string(cam.index);
+  gst_element_link_pads(warp, "src", view->fuse, fuse_pad.c_str());
+  gst_element_sync_state_with_parent(warp);
+  gst_element_sync_state_with_parent(queue);
+  TeeLink input{cam.tee, gst_element_get_static_pad(queue, "sink")};
+  if (!view->started) {
+    view->unlinked.push_back(input);
+    return;
+  }
+  GstPad* tee_pad = gst_element_request_pad_simple(cam.tee, "src_%u");
+  gst_pad_link(tee_pad, input.pad);
+  gst_object_unref(input.pad);
+  view->tee_pads.push_back(TeeLink{cam.tee, tee_pad});
+}
+
 // Builds a session's view branch (lock held); its encoded source pad (a reference), or nullptr.
 static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& session) {
   const ViewSettings& s = *self->settings;
@@ -111,24 +147,8 @@ static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& sess
   g_object_set(caps, "caps", c, nullptr);
   gst_caps_unref(c);
   gst_element_link_many(view.fuse, convert, encoder, caps, nullptr);
-  std::vector<GstPad*> warp_sinks;
-  for (const Camera& cam : *self->cameras) {
-    GstElement* queue = add_element(self, &view, "queue");
-    GstElement* warp = add_element(self, &view, "viewwarp");
-    g_object_set(queue, "max-size-buffers", 1, "max-size-time", guint64(0), "max-size-bytes", 0, nullptr);
-    gst_util_set_object_arg(G_OBJECT(queue), "leaky", "downstream");
-    g_object_set(warp, "width", s.width, "height", s.height, nullptr);
-    if (!s.rig.empty()) g_object_set(warp, "rig", s.rig.c_str(), nullptr);
-    if (!s.model.empty())
-      g_object_set(warp, "prior-depth", (s.model + "/prior-depth/cam" + std::to_string(cam.index) + ".png").c_str(),
-                   nullptr);
-    gst_element_link(queue, warp);
-    const std::string fuse_pad = "cam_" + std::to_string(cam.index);
-    gst_element_link_pads(warp, "src", view.fuse, fuse_pad.c_str());
-    warp_sinks.push_back(gst_element_get_static_pad(queue, "sink"));
-  }
   for (auto it = view.elements.rbegin(); it != view.elements.rend(); ++it) gst_element_sync_state_with_parent(*it);
-  view.warp_sinks = warp_sinks;
+  for (const Camera& cam : *self->cameras) add_camera_branch_locked(self, &view, cam);
   GST_INFO_OBJECT(self, "session %s: a view of %zu cameras", session.c_str(), self->cameras->size());
   return gst_element_get_static_pad(caps, "src");
 }
@@ -139,36 +159,35 @@ static void start_view(GstWhepViewSink* self, const std::string& session) {
   auto it = self->views->find(session);
   if (it == self->views->end()) return;
   View& view = it->second;
-  for (size_t i = 0; i < view.warp_sinks.size() && i < self->cameras->size(); ++i) {
-    GstPad* tee_pad = gst_element_request_pad_simple((*self->cameras)[i].tee, "src_%u");
-    gst_pad_link(tee_pad, view.warp_sinks[i]);
-    gst_object_unref(view.warp_sinks[i]);
-    view.tee_pads.push_back(tee_pad);
+  for (const TeeLink& input : view.unlinked) {
+    GstPad* tee_pad = gst_element_request_pad_simple(input.tee, "src_%u");
+    gst_pad_link(tee_pad, input.pad);
+    gst_object_unref(input.pad);
+    view.tee_pads.push_back(TeeLink{input.tee, tee_pad});
   }
-  view.warp_sinks.clear();
+  view.unlinked.clear();
+  view.started = true;
 }
 
 // Takes a session's view out (the endpoint has unlinked its encoded pad).
 static void detach_view(GstWhepViewSink* self, const std::string& session) {
   View view;
-  std::vector<GstElement*> tees;
   {
     std::lock_guard<std::mutex> g(*self->lock);
     auto it = self->views->find(session);
     if (it == self->views->end()) return;
     view = std::move(it->second);
-    for (GstPad* pad : view.warp_sinks) gst_object_unref(pad);  // never started
     self->views->erase(it);
-    for (const Camera& cam : *self->cameras) tees.push_back(cam.tee);
   }
-  for (size_t i = 0; i < view.tee_pads.size(); ++i) {
-    GstPad* peer = gst_pad_get_peer(view.tee_pads[i]);
+  for (const TeeLink& input : view.unlinked) gst_object_unref(input.pad);  // never started
+  for (const TeeLink& link : view.tee_pads) {
+    GstPad* peer = gst_pad_get_peer(link.pad);
     if (peer) {
-      gst_pad_unlink(view.tee_pads[i], peer);
+      gst_pad_unlink(link.pad, peer);
       gst_object_unref(peer);
     }
-    gst_element_release_request_pad(tees[i], view.tee_pads[i]);
-    gst_object_unref(view.tee_pads[i]);
+    gst_element_release_request_pad(link.tee, link.pad);
+    gst_object_unref(link.pad);
   }
   for (GstElement* e : view.elements) {
     gst_element_set_state(e, GST_STATE_NULL);
@@ -203,10 +222,6 @@ static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTem
       ++index;
   for (const Camera& c : *self->cameras)
     if (c.index == index) return nullptr;  // that camera is linked already
-  if (!self->views->empty()) {
-    GST_ELEMENT_WARNING(self, CORE, PAD, ("camera %d linked while lecturers watch: their views lack it", index),
-                        (nullptr));
-  }
   GstElement* tee = gst_element_factory_make("tee", nullptr);
   g_object_set(tee, "allow-not-linked", TRUE, nullptr);
   // The camera's one permanent branch: a sink, so the bin posts EOS whether or not anyone watches.
@@ -223,6 +238,11 @@ static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTem
   gst_pad_set_active(pad, TRUE);
   gst_element_add_pad(element, pad);
   self->cameras->push_back(Camera{index, tee});
+  // Lecturers already watching see the new camera too.
+  for (auto& [session, view] : *self->views) {
+    GST_INFO_OBJECT(self, "camera %d joins the view of session %s", index, session.c_str());
+    add_camera_branch_locked(self, &view, self->cameras->back());
+  }
   return pad;
 }
 

@@ -178,6 +178,15 @@ GstPadProbeReturn on_frame_in(GstPad* pad, GstPadProbeInfo* info, gpointer user_
   return GST_PAD_PROBE_OK;
 }
 
+// A serialized query (the encoder's ALLOCATION query when it negotiates, a DRAIN) would wait in the send
+// queue until the queue is empty, and a session whose link is not up (webrtcbin holds the first packet until
+// the DTLS handshake, which a dead or hostile peer never finishes) never empties it: the encoder, which the
+// sessions may share, would stop. Such queries are answered here instead: the encoder then allocates alone.
+GstPadProbeReturn on_serialized_query(GstPad*, GstPadProbeInfo* info, gpointer) {
+  GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
+  return query && GST_QUERY_IS_SERIALIZED(query) ? GST_PAD_PROBE_HANDLED : GST_PAD_PROBE_OK;
+}
+
 // Each frame leaving a session's send queue is stamped with the time it is sent, so its RTP timestamp says
 // when it left rather than when its cameras saw it: a browser sizes its jitter buffer by how unevenly
 // frames arrive against their timestamps, and the server's uneven render time would otherwise count as
@@ -376,6 +385,7 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   gst_element_sync_state_with_parent(s->queue);
   GstPad* queue_sink = gst_element_get_static_pad(s->queue, "sink");
   gst_pad_add_probe(queue_sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_in, s, nullptr);
+  gst_pad_add_probe(queue_sink, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, on_serialized_query, nullptr, nullptr);
   gst_pad_link(s->source, queue_sink);
   gst_object_unref(queue_sink);
 
