@@ -135,11 +135,14 @@ function installSliders() {
 // Echoes from the server: RTP timestamp -> the pose seq and viewer time it was rendered for and, from a
 // server with navigation bounds, the pose it really rendered and whether it had to move it inside them.
 const echoes = new Map();
-// latencyMs splits into serverMs (the pose's time to its frame's echo: the data channel, waiting for the
-// next camera frame, rendering and encoding) and the rest (transport, jitter buffer, decoding, display);
-// jitterMs and decodeMs are the receiver's own averages per frame over the last second (getStats).
-const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], serverMs: [], lastSeqEchoed: 0, width: 0, height: 0,
-                clampedShown: 0, lastShownClamped: false, lastShownPose: null, adopted: 0, jitterMs: [], decodeMs: [], receiveMs: [], displayMs: [] };
+// Per shown frame, the latest 300: latencyMs (pose to photon) in parts: serverMs (the pose to its frame's
+// echo: the data channel, waiting for the next camera frame, rendering, encoding), receiveMs (to the frame's
+// last packet) and displayMs (to its display). Per second, the latest 60: jitterMs and decodeMs, the
+// receiver's own averages per frame (getStats).
+const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], serverMs: [], receiveMs: [], displayMs: [],
+                jitterMs: [], decodeMs: [], lastSeqEchoed: 0, width: 0, height: 0, clampedShown: 0,
+                lastShownClamped: false, lastShownPose: null, adopted: 0 };
+const record = (list, value, keep) => { list.push(value); if (list.length > keep) list.shift(); };
 function onEcho(text) {
   const f = text.split(' ');
   if ((f.length !== 4 && f.length !== 12) || f[0] !== 'frame') return;
@@ -170,11 +173,12 @@ function watchFrames(video) {
     const e = meta.rtpTimestamp !== undefined ? echoes.get(meta.rtpTimestamp) : undefined;
     if (e && e.time >= 0) {
       stats.lastSeqShown = e.seq;
-      stats.latencyMs.push(meta.expectedDisplayTime - e.time);
-      stats.serverMs.push(e.arrived - e.time);
-      if (meta.receiveTime !== undefined) stats.receiveMs.push(meta.receiveTime - e.arrived);
-      if (meta.receiveTime !== undefined) stats.displayMs.push(meta.expectedDisplayTime - meta.receiveTime);
-      if (stats.latencyMs.length > 300) { stats.latencyMs.shift(); stats.serverMs.shift(); }
+      record(stats.latencyMs, meta.expectedDisplayTime - e.time, 300);
+      record(stats.serverMs, e.arrived - e.time, 300);
+      if (meta.receiveTime !== undefined) {
+        record(stats.receiveMs, meta.receiveTime - e.arrived, 300);
+        record(stats.displayMs, meta.expectedDisplayTime - meta.receiveTime, 300);
+      }
       readout.textContent = `pose→photon ${(meta.expectedDisplayTime - e.time).toFixed(0)} ms (seq ${e.seq})` +
                             (e.clamped ? ' · at the edge of what the cameras see' : '');
     }
@@ -248,9 +252,8 @@ async function join() {
         if (prev === undefined) return;
         stats.kbps = (r.bytesReceived - prev.bytesReceived) * 8 / 1000;
         const perFrame = (key, count) => 1000 * (r[key] - prev[key]) / Math.max(1, r[count] - prev[count]);
-        stats.jitterMs.push(perFrame('jitterBufferDelay', 'jitterBufferEmittedCount'));
-        stats.decodeMs.push(perFrame('totalDecodeTime', 'framesDecoded'));
-        if (stats.jitterMs.length > 60) { stats.jitterMs.shift(); stats.decodeMs.shift(); }
+        record(stats.jitterMs, perFrame('jitterBufferDelay', 'jitterBufferEmittedCount'), 60);
+        record(stats.decodeMs, perFrame('totalDecodeTime', 'framesDecoded'), 60);
       }
     });
   }, 1000);
@@ -325,7 +328,8 @@ async function installVR() {
   };
 }
 
-window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, poseToView, xrPoseToPose, makeFrameDrawer, iceServersFromLinks,
+window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, poseToView, xrPoseToPose, makeFrameDrawer,
+                      iceServersFromLinks,
                       get seq() { return seq; } };
 // Loaded after the page's body (index.html adds this script with the token).
 installSliders();
