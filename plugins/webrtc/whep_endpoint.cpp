@@ -4,24 +4,20 @@
 
 #include "whep_endpoint.h"
 
-#include <gst/rtp/rtp.h>
 #include <gst/sdp/sdp.h>
 #include <gst/webrtc/webrtc.h>
 #include <libsoup/soup.h>
 
 #include <map>
+#include <memory>
 #include <mutex>
 #include <vector>
 
-#include <gst/video/video.h>
-
-#include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/webrtc/playout_delay.h>
-#include <gst/vclassroom/webrtc/send_gate.h>
 #include <gst/vclassroom/webrtc/whep.h>
 
-#include "gstrtphdrextplayoutdelay.h"
+#include "whep_send_branch.h"
 
 GST_DEBUG_CATEGORY_STATIC(whep_endpoint_debug);
 #define GST_CAT_DEFAULT whep_endpoint_debug
@@ -35,28 +31,12 @@ enum Prop {
   kStunServer, kTurnServer, kCount
 };
 
-// Encoded frames a session's send queue holds (about 130 ms at 30 fps) before its GopSendGate drops.
-constexpr guint kSendQueueFrames = 4;
-
-struct FramePose {
-  uint64_t seq;
-  int64_t viewer_time_ns;
-  RenderedPose rendered;  // after the navigation bounds: where the lecturer's view really is
-};
-
 struct Session {
   std::string id;
   WhepEndpoint::State* owner = nullptr;
   GstPad* source = nullptr;  // the element's H.264 pad feeding this session (a reference)
-  GstElement* queue = nullptr;  // never leaks nor blocks: `gate` drops whole rests of GOPs before it fills
-  GopSendGate gate;              // the streaming thread's only
-  GstElement* pay = nullptr;
-  GstElement* webrtc = nullptr;
-  GstWebRTCDataChannel* channel = nullptr;
+  std::unique_ptr<WhepSendBranch> branch;
   SoupServerMessage* pending = nullptr;  // the POST waiting for the answer
-  GstClockTime last_echoed_pts = GST_CLOCK_TIME_NONE;
-  GstClockTime last_sent_pts = GST_CLOCK_TIME_NONE;  // the send stamp of the previous frame (on_frame_out)
-  std::map<GstClockTime, FramePose> frame_poses;  // this session's recent frames' poses by PTS (bounded)
 };
 
 void respond(SoupServerMessage* msg, int status, const char* type = nullptr, const std::string& body = "") {
@@ -146,124 +126,9 @@ void on_pose_message(GstWebRTCDataChannel*, const gchar* text, gpointer user_dat
 
 void on_data_channel(GstElement*, GstWebRTCDataChannel* channel, gpointer user_data) {
   Session* s = static_cast<Session*>(user_data);
-  std::lock_guard<std::mutex> g(s->owner->lock);
-  if (s->channel) return;  // the page opens one channel; others are ignored
+  if (!s->branch->set_echo_channel(channel)) return;  // the page opens one channel; others are ignored
   GST_DEBUG_OBJECT(s->owner->owner, "session %s: data channel", s->id.c_str());
-  s->channel = GST_WEBRTC_DATA_CHANNEL(gst_object_ref(channel));
   g_signal_connect(channel, "on-message-string", G_CALLBACK(on_pose_message), s);
-}
-
-// Every encoded frame entering a session's branch: the send gate (a full queue drops the rest of the GOP
-// and asks the encoder for a key frame), then its pose (the pose meta the encoder keeps), so the echo can
-// name it. The payloaders see the same PTS.
-GstPadProbeReturn on_frame_in(GstPad* pad, GstPadProbeInfo* info, gpointer user_data) {
-  Session* s = static_cast<Session*>(user_data);
-  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
-  if (!buf) return GST_PAD_PROBE_OK;
-  guint queued = 0;
-  g_object_get(s->queue, "current-level-buffers", &queued, nullptr);
-  if (!s->gate.admit(!GST_BUFFER_FLAG_IS_SET(buf, GST_BUFFER_FLAG_DELTA_UNIT), queued >= kSendQueueFrames)) {
-    if (s->gate.take_key_frame_request()) {
-      GST_INFO_OBJECT(s->owner->owner, "session %s: sending fell behind (%" G_GUINT64_FORMAT " frames dropped so "
-                      "far): dropping to the next key frame, which is asked for", s->id.c_str(), s->gate.dropped());
-      gst_pad_push_event(pad, gst_video_event_new_upstream_force_key_unit(GST_CLOCK_TIME_NONE, TRUE, 0));
-    }
-    return GST_PAD_PROBE_DROP;
-  }
-  PoseMeta* meta = buffer_get_pose_meta(buf);
-  if (!meta || !GST_BUFFER_PTS_IS_VALID(buf)) return GST_PAD_PROBE_OK;
-  std::lock_guard<std::mutex> g(s->owner->lock);
-  s->frame_poses[GST_BUFFER_PTS(buf)] = FramePose{meta->seq, meta->viewer_time_ns, meta->rendered};
-  while (s->frame_poses.size() > 64) s->frame_poses.erase(s->frame_poses.begin());
-  return GST_PAD_PROBE_OK;
-}
-
-// A serialized query (the encoder's ALLOCATION query when it negotiates, a DRAIN) would wait in the send
-// queue until the queue is empty, and a session whose link is not up (webrtcbin holds the first packet until
-// the DTLS handshake, which a dead or hostile peer never finishes) never empties it: the encoder, which the
-// sessions may share, would stop. Such queries are answered here instead: the encoder then allocates alone.
-GstPadProbeReturn on_serialized_query(GstPad*, GstPadProbeInfo* info, gpointer) {
-  GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
-  return query && GST_QUERY_IS_SERIALIZED(query) ? GST_PAD_PROBE_HANDLED : GST_PAD_PROBE_OK;
-}
-
-// Each frame leaving a session's send queue is stamped with the time it is sent, so its RTP timestamp says
-// when it left rather than when its cameras saw it: a browser sizes its jitter buffer by how unevenly
-// frames arrive against their timestamps, and the server's uneven render time would otherwise count as
-// network jitter, buffered at the cost of pose-to-photon latency. The frame's pose moves to the new stamp.
-GstPadProbeReturn on_frame_out(GstPad* pad, GstPadProbeInfo* info, gpointer user_data) {
-  Session* s = static_cast<Session*>(user_data);
-  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
-  GstEvent* segment_event = gst_pad_get_sticky_event(pad, GST_EVENT_SEGMENT, 0);
-  GstClock* clock = gst_element_get_clock(s->pay);
-  GstClockTime sent = GST_CLOCK_TIME_NONE;
-  if (buf && GST_BUFFER_PTS_IS_VALID(buf) && segment_event && clock) {
-    const GstSegment* segment = nullptr;
-    gst_event_parse_segment(segment_event, &segment);
-    const GstClockTime now = gst_clock_get_time(clock), base = gst_element_get_base_time(s->pay);
-    if (segment->format == GST_FORMAT_TIME && now >= base)
-      sent = gst_segment_position_from_running_time(segment, GST_FORMAT_TIME, now - base);
-  }
-  if (segment_event) gst_event_unref(segment_event);
-  if (clock) gst_object_unref(clock);
-  if (!GST_CLOCK_TIME_IS_VALID(sent)) return GST_PAD_PROBE_OK;
-  if (GST_CLOCK_TIME_IS_VALID(s->last_sent_pts) && sent <= s->last_sent_pts) sent = s->last_sent_pts + 1;
-  s->last_sent_pts = sent;
-  buf = gst_buffer_make_writable(buf);
-  GST_PAD_PROBE_INFO_DATA(info) = buf;
-  const GstClockTime captured = GST_BUFFER_PTS(buf);
-  GST_BUFFER_PTS(buf) = sent;
-  GST_BUFFER_DTS(buf) = GST_CLOCK_TIME_NONE;
-  std::lock_guard<std::mutex> g(s->owner->lock);
-  auto it = s->frame_poses.find(captured);
-  if (it != s->frame_poses.end()) {
-    const FramePose pose = it->second;
-    s->frame_poses.erase(it);
-    s->frame_poses[sent] = pose;
-  }
-  return GST_PAD_PROBE_OK;
-}
-
-// Each RTP packet leaving a session's payloader: the first of each frame
-// sends the echo of the pose that frame was rendered for.
-GstPadProbeReturn on_rtp_out(GstPad*, GstPadProbeInfo* info, gpointer user_data) {
-  Session* s = static_cast<Session*>(user_data);
-  GstBuffer* buf = (info->type & GST_PAD_PROBE_TYPE_BUFFER_LIST)
-                       ? gst_buffer_list_get(GST_PAD_PROBE_INFO_BUFFER_LIST(info), 0)
-                       : GST_PAD_PROBE_INFO_BUFFER(info);
-  if (!buf) return GST_PAD_PROBE_OK;
-  std::string echo;
-  GstWebRTCDataChannel* channel = nullptr;
-  {
-    std::lock_guard<std::mutex> g(s->owner->lock);
-    const GstClockTime pts = GST_BUFFER_PTS(buf);
-    if (!s->channel || pts == s->last_echoed_pts) return GST_PAD_PROBE_OK;
-    s->last_echoed_pts = pts;
-    auto it = s->frame_poses.find(pts);
-    GST_LOG_OBJECT(s->owner->owner, "session %s: frame %" GST_TIME_FORMAT " out: %s", s->id.c_str(),
-                   GST_TIME_ARGS(pts), it == s->frame_poses.end() ? "no pose known" : "echo");
-    if (it == s->frame_poses.end()) return GST_PAD_PROBE_OK;
-    GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
-    if (!gst_rtp_buffer_map(buf, GST_MAP_READ, &rtp)) return GST_PAD_PROBE_OK;
-    echo = format_frame_echo(gst_rtp_buffer_get_timestamp(&rtp), it->second.seq, it->second.viewer_time_ns,
-                             it->second.rendered);
-    gst_rtp_buffer_unmap(&rtp);
-    channel = GST_WEBRTC_DATA_CHANNEL(gst_object_ref(s->channel));
-  }
-  GstWebRTCDataChannelState state;
-  g_object_get(channel, "ready-state", &state, nullptr);
-  if (state == GST_WEBRTC_DATA_CHANNEL_STATE_OPEN) gst_webrtc_data_channel_send_string(channel, echo.c_str());
-  gst_object_unref(channel);
-  return GST_PAD_PROBE_OK;
-}
-
-// webrtcbin's clocksync and nicesink sync on the clock: they hold every packet until its frame's running
-// time plus the pipeline's latency (which includes viewfuse's wait for late cameras), while a live view
-// should leave the moment it is encoded.
-void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer) {
-  GstElementFactory* factory = gst_element_get_factory(element);
-  const char* name = factory ? GST_OBJECT_NAME(factory) : "";
-  if (g_strcmp0(name, "nicesink") == 0 || g_strcmp0(name, "clocksync") == 0) g_object_set(element, "sync", FALSE, nullptr);
 }
 
 struct AnswerReply {
@@ -320,79 +185,42 @@ void on_answer_created(GstPromise* promise, gpointer user_data) {
     GST_WARNING_OBJECT(s->owner->owner, "session %s: no answer", s->id.c_str());
     return;
   }
-  g_signal_emit_by_name(s->webrtc, "set-local-description", answer, nullptr);
+  g_signal_emit_by_name(s->branch->webrtc(), "set-local-description", answer, nullptr);
   gst_webrtc_session_description_free(answer);
-  on_gathering_state(s->webrtc, nullptr, s);  // already complete on loopback
+  on_gathering_state(s->branch->webrtc(), nullptr, s);  // already complete on loopback
 }
 
 void on_offer_set(GstPromise* promise, gpointer user_data) {
   Session* s = static_cast<Session*>(user_data);
   gst_promise_unref(promise);
-  g_signal_emit_by_name(s->webrtc, "create-answer", nullptr,
+  g_signal_emit_by_name(s->branch->webrtc(), "create-answer", nullptr,
                         gst_promise_new_with_change_func(on_answer_created, s, nullptr));
 }
 
-// Feeds the element's `source` (taken) for session `id` through queue ! rtph264pay ! webrtcbin and starts
-// answering `offer` (taken). Called with the lock held.
+// Feeds the element's `source` (taken) for session `id` through its send branch and starts answering
+// `offer` (taken). Called with the lock held.
 void start_session_locked(State* st, const std::string& id, GstPad* source, GstSDPMessage* offer, int payload,
                           SoupServerMessage* msg) {
   Session* s = new Session;
   s->owner = st;
   s->id = id;
   s->source = source;
-  s->queue = gst_element_factory_make("queue", nullptr);
-  g_object_set(s->queue, "max-size-buffers", kSendQueueFrames, "max-size-time", guint64(0), "max-size-bytes", 0,
-               nullptr);
-  s->pay = gst_element_factory_make("rtph264pay", nullptr);
-  g_object_set(s->pay, "pt", payload, "config-interval", -1, "aggregate-mode", 1 /* zero-latency */, nullptr);
-  // The browser may then show frames as soon as they are decoded rather than buffer them. The payloader's
-  // caps name the extension, and webrtcbin answers with it.
-  if (const int id = st->playout_delay_ms >= 0 ? offered_extension_id(offer, kPlayoutDelayUri) : 0) {
-    GstRTPHeaderExtension* ext = GST_RTP_HEADER_EXTENSION(g_object_new(GST_TYPE_RTP_HDREXT_PLAYOUT_DELAY, nullptr));
-    gst_rtp_header_extension_set_id(ext, id);
-    g_object_set(ext, "min-delay", 0, "max-delay", st->playout_delay_ms, nullptr);
-    g_signal_emit_by_name(s->pay, "add-extension", ext);
-    gst_object_unref(ext);
-  }
-  s->webrtc = gst_element_factory_make("webrtcbin", nullptr);
-  g_object_set(s->webrtc, "bundle-policy", GST_WEBRTC_BUNDLE_POLICY_MAX_BUNDLE, nullptr);
-  for (const IceServer& ice : st->ice_servers)
-    g_object_set(s->webrtc, ice.scheme == "stun" ? "stun-server" : "turn-server", ice.uri.c_str(), nullptr);
-  gst_bin_add_many(st->owner, s->queue, s->pay, s->webrtc, nullptr);
-  gst_element_link(s->queue, s->pay);
-  GstPad* pay_sink = gst_element_get_static_pad(s->pay, "sink");
-  gst_pad_add_probe(pay_sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_out, s, nullptr);
-  gst_object_unref(pay_sink);
-  GstPad* pay_src = gst_element_get_static_pad(s->pay, "src");
-  gst_pad_add_probe(pay_src, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST), on_rtp_out,
-                    s, nullptr);
-  GstPad* rtc_sink = gst_element_request_pad_simple(s->webrtc, "sink_%u");
-  gst_pad_link(pay_src, rtc_sink);
-  GstWebRTCRTPTransceiver* transceiver = nullptr;
-  g_object_get(rtc_sink, "transceiver", &transceiver, nullptr);
-  if (transceiver) {
-    g_object_set(transceiver, "direction", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDONLY, nullptr);
-    gst_object_unref(transceiver);
-  }
-  gst_object_unref(rtc_sink);
-  gst_object_unref(pay_src);
-  g_signal_connect(s->webrtc, "deep-element-added", G_CALLBACK(on_webrtc_element_added), nullptr);
-  g_signal_connect(s->webrtc, "on-data-channel", G_CALLBACK(on_data_channel), s);
-  g_signal_connect(s->webrtc, "notify::ice-gathering-state", G_CALLBACK(on_gathering_state), s);
-  gst_element_sync_state_with_parent(s->webrtc);
-  gst_element_sync_state_with_parent(s->pay);
-  gst_element_sync_state_with_parent(s->queue);
-  GstPad* queue_sink = gst_element_get_static_pad(s->queue, "sink");
-  gst_pad_add_probe(queue_sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_in, s, nullptr);
-  gst_pad_add_probe(queue_sink, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, on_serialized_query, nullptr, nullptr);
-  gst_pad_link(s->source, queue_sink);
-  gst_object_unref(queue_sink);
+  WhepSendSettings send;
+  send.payload = payload;
+  send.playout_extension_id = offered_extension_id(offer, kPlayoutDelayUri);
+  send.playout_delay_ms = st->playout_delay_ms;
+  send.ice_servers = st->ice_servers;
+  s->branch = std::make_unique<WhepSendBranch>(st->owner, id, send);
+  GstElement* webrtc = s->branch->webrtc();
+  g_signal_connect(webrtc, "on-data-channel", G_CALLBACK(on_data_channel), s);
+  g_signal_connect(webrtc, "notify::ice-gathering-state", G_CALLBACK(on_gathering_state), s);
+  gst_pad_link(s->source, s->branch->sink());
 
   s->pending = msg;
   st->table.add(s->id);
   st->sessions[s->id] = s;
   GstWebRTCSessionDescription* desc = gst_webrtc_session_description_new(GST_WEBRTC_SDP_TYPE_OFFER, offer);
-  g_signal_emit_by_name(s->webrtc, "set-remote-description", desc,
+  g_signal_emit_by_name(webrtc, "set-remote-description", desc,
                         gst_promise_new_with_change_func(on_offer_set, s, nullptr));
   gst_webrtc_session_description_free(desc);
 }
@@ -400,16 +228,10 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
 // Takes the session's branch out of the pipeline, lets the element take its source out, and frees it.
 // Lock not held.
 void end_session(State* st, Session* s) {
-  GstPad* queue_sink = gst_element_get_static_pad(s->queue, "sink");
-  gst_pad_unlink(s->source, queue_sink);
-  gst_object_unref(queue_sink);
-  for (GstElement* e : {s->webrtc, s->pay, s->queue}) {
-    gst_element_set_state(e, GST_STATE_NULL);
-    gst_bin_remove(st->owner, e);
-  }
+  gst_pad_unlink(s->source, s->branch->sink());
+  s->branch.reset();
   st->hooks.detach(s->id, s->source);
   gst_object_unref(s->source);
-  if (s->channel) gst_object_unref(s->channel);
   if (s->pending) {
     respond(s->pending, 503);
     soup_server_message_unpause(s->pending);

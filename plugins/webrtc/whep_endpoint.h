@@ -1,7 +1,9 @@
 // The WHEP side of the browser lecturer, shared by whepserversink (one view for
 // every lecturer) and whepviewsink (a view per lecturer): the libsoup 3 server in
-// its own thread (page, token, POST/DELETE), one webrtcbin per session fed by an
-// H.264 source the element provides, the pose data channel and the per-frame echo.
+// its own thread (page, token, OPTIONS/POST/DELETE, STUN/TURN servers), one
+// session per lecturer fed by an H.264 source the element provides, through a
+// WhepSendBranch (whep_send_branch.h: queue, payloader, webrtcbin, the echo), and
+// the pose data channel.
 // Request checks, session ids and message formats are the library's
 // (gst/vclassroom/webrtc/whep.h); this is their GStreamer/libsoup glue.
 #pragma once

@@ -1,0 +1,246 @@
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "whep_send_branch.h"
+
+#include <gst/rtp/rtp.h>
+#include <gst/video/video.h>
+
+#include <map>
+#include <mutex>
+
+#include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/webrtc/send_gate.h>
+
+#include "gstrtphdrextplayoutdelay.h"
+
+GST_DEBUG_CATEGORY_STATIC(whep_send_debug);
+#define GST_CAT_DEFAULT whep_send_debug
+
+namespace vclassroom {
+
+namespace {
+
+// Encoded frames a session's send queue holds (about 130 ms at 30 fps) before its GopSendGate drops.
+constexpr guint kSendQueueFrames = 4;
+
+struct FramePose {
+  uint64_t seq;
+  int64_t viewer_time_ns;
+  RenderedPose rendered;  // after the navigation bounds: where the lecturer's view really is
+};
+
+}  // namespace
+
+struct WhepSendBranch::State {
+  GstBin* owner = nullptr;
+  std::string session;
+  GstElement* queue = nullptr;  // never leaks nor blocks: `gate` drops whole rests of GOPs before it fills
+  GstElement* pay = nullptr;
+  GstElement* webrtc = nullptr;
+  GstPad* sink = nullptr;
+  GopSendGate gate;                                   // the queue's upstream thread's only
+  GstClockTime last_sent_pts = GST_CLOCK_TIME_NONE;   // the payloader's thread's only (on_frame_out)
+  std::mutex lock;                                    // what follows
+  GstWebRTCDataChannel* channel = nullptr;
+  GstClockTime last_echoed_pts = GST_CLOCK_TIME_NONE;
+  std::map<GstClockTime, FramePose> frame_poses;  // recent frames' poses by PTS (bounded)
+};
+
+namespace {
+
+using State = WhepSendBranch::State;
+
+// Every encoded frame entering the branch: the send gate (a full queue drops the rest of the GOP and asks
+// the encoder for a key frame), then its pose (the pose meta the encoder keeps), so the echo can name it.
+GstPadProbeReturn on_frame_in(GstPad* pad, GstPadProbeInfo* info, gpointer user_data) {
+  State* st = static_cast<State*>(user_data);
+  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  if (!buf) return GST_PAD_PROBE_OK;
+  guint queued = 0;
+  g_object_get(st->queue, "current-level-buffers", &queued, nullptr);
+  if (!st->gate.admit(!GST_BUFFER_FLAG_IS_SET(buf, GST_BUFFER_FLAG_DELTA_UNIT), queued >= kSendQueueFrames)) {
+    if (st->gate.take_key_frame_request()) {
+      GST_INFO_OBJECT(st->owner, "session %s: sending fell behind (%" G_GUINT64_FORMAT " frames dropped so far): "
+                      "dropping to the next key frame, which is asked for", st->session.c_str(), st->gate.dropped());
+      gst_pad_push_event(pad, gst_video_event_new_upstream_force_key_unit(GST_CLOCK_TIME_NONE, TRUE, 0));
+    }
+    return GST_PAD_PROBE_DROP;
+  }
+  PoseMeta* meta = buffer_get_pose_meta(buf);
+  if (!meta || !GST_BUFFER_PTS_IS_VALID(buf)) return GST_PAD_PROBE_OK;
+  std::lock_guard<std::mutex> g(st->lock);
+  st->frame_poses[GST_BUFFER_PTS(buf)] = FramePose{meta->seq, meta->viewer_time_ns, meta->rendered};
+  while (st->frame_poses.size() > 64) st->frame_poses.erase(st->frame_poses.begin());
+  return GST_PAD_PROBE_OK;
+}
+
+// A serialized query (the encoder's ALLOCATION query when it negotiates, a DRAIN) would wait in the send
+// queue until the queue is empty, and a session whose link is not up (webrtcbin holds the first packet until
+// the DTLS handshake, which a dead or hostile peer never finishes) never empties it: the encoder, which the
+// sessions may share, would stop. Such queries are answered here instead: the encoder then allocates alone.
+GstPadProbeReturn on_serialized_query(GstPad*, GstPadProbeInfo* info, gpointer) {
+  GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
+  return query && GST_QUERY_IS_SERIALIZED(query) ? GST_PAD_PROBE_HANDLED : GST_PAD_PROBE_OK;
+}
+
+// Each frame leaving the send queue is stamped with the time it is sent, so its RTP timestamp says when it
+// left rather than when its cameras saw it: a browser sizes its jitter buffer by how unevenly frames arrive
+// against their timestamps, and the server's uneven render time would otherwise count as network jitter,
+// buffered at the cost of pose-to-photon latency. The frame's pose moves to the new stamp.
+GstPadProbeReturn on_frame_out(GstPad* pad, GstPadProbeInfo* info, gpointer user_data) {
+  State* st = static_cast<State*>(user_data);
+  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  GstEvent* segment_event = gst_pad_get_sticky_event(pad, GST_EVENT_SEGMENT, 0);
+  GstClock* clock = gst_element_get_clock(st->pay);
+  GstClockTime sent = GST_CLOCK_TIME_NONE;
+  if (buf && GST_BUFFER_PTS_IS_VALID(buf) && segment_event && clock) {
+    const GstSegment* segment = nullptr;
+    gst_event_parse_segment(segment_event, &segment);
+    const GstClockTime now = gst_clock_get_time(clock), base = gst_element_get_base_time(st->pay);
+    if (segment->format == GST_FORMAT_TIME && now >= base)
+      sent = gst_segment_position_from_running_time(segment, GST_FORMAT_TIME, now - base);
+  }
+  if (segment_event) gst_event_unref(segment_event);
+  if (clock) gst_object_unref(clock);
+  if (!GST_CLOCK_TIME_IS_VALID(sent)) return GST_PAD_PROBE_OK;
+  if (GST_CLOCK_TIME_IS_VALID(st->last_sent_pts) && sent <= st->last_sent_pts) sent = st->last_sent_pts + 1;
+  st->last_sent_pts = sent;
+  buf = gst_buffer_make_writable(buf);
+  GST_PAD_PROBE_INFO_DATA(info) = buf;
+  const GstClockTime captured = GST_BUFFER_PTS(buf);
+  GST_BUFFER_PTS(buf) = sent;
+  GST_BUFFER_DTS(buf) = GST_CLOCK_TIME_NONE;
+  std::lock_guard<std::mutex> g(st->lock);
+  auto it = st->frame_poses.find(captured);
+  if (it != st->frame_poses.end()) {
+    const FramePose pose = it->second;
+    st->frame_poses.erase(it);
+    st->frame_poses[sent] = pose;
+  }
+  return GST_PAD_PROBE_OK;
+}
+
+// Each RTP packet leaving the payloader: the first of each frame sends the echo of the pose that frame was
+// rendered for.
+GstPadProbeReturn on_rtp_out(GstPad*, GstPadProbeInfo* info, gpointer user_data) {
+  State* st = static_cast<State*>(user_data);
+  GstBuffer* buf = (info->type & GST_PAD_PROBE_TYPE_BUFFER_LIST)
+                       ? gst_buffer_list_get(GST_PAD_PROBE_INFO_BUFFER_LIST(info), 0)
+                       : GST_PAD_PROBE_INFO_BUFFER(info);
+  if (!buf) return GST_PAD_PROBE_OK;
+  std::string echo;
+  GstWebRTCDataChannel* channel = nullptr;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    const GstClockTime pts = GST_BUFFER_PTS(buf);
+    if (!st->channel || pts == st->last_echoed_pts) return GST_PAD_PROBE_OK;
+    st->last_echoed_pts = pts;
+    auto it = st->frame_poses.find(pts);
+    GST_LOG_OBJECT(st->owner, "session %s: frame %" GST_TIME_FORMAT " out: %s", st->session.c_str(),
+                   GST_TIME_ARGS(pts), it == st->frame_poses.end() ? "no pose known" : "echo");
+    if (it == st->frame_poses.end()) return GST_PAD_PROBE_OK;
+    GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
+    if (!gst_rtp_buffer_map(buf, GST_MAP_READ, &rtp)) return GST_PAD_PROBE_OK;
+    echo = format_frame_echo(gst_rtp_buffer_get_timestamp(&rtp), it->second.seq, it->second.viewer_time_ns,
+                             it->second.rendered);
+    gst_rtp_buffer_unmap(&rtp);
+    channel = GST_WEBRTC_DATA_CHANNEL(gst_object_ref(st->channel));
+  }
+  GstWebRTCDataChannelState state;
+  g_object_get(channel, "ready-state", &state, nullptr);
+  if (state == GST_WEBRTC_DATA_CHANNEL_STATE_OPEN) gst_webrtc_data_channel_send_string(channel, echo.c_str());
+  gst_object_unref(channel);
+  return GST_PAD_PROBE_OK;
+}
+
+// webrtcbin's clocksync and nicesink sync on the clock: they hold every packet until its frame's running
+// time plus the pipeline's latency (which includes viewfuse's wait for late cameras), while a live view
+// should leave the moment it is encoded.
+void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer) {
+  GstElementFactory* factory = gst_element_get_factory(element);
+  const char* name = factory ? GST_OBJECT_NAME(factory) : "";
+  if (g_strcmp0(name, "nicesink") == 0 || g_strcmp0(name, "clocksync") == 0) g_object_set(element, "sync", FALSE, nullptr);
+}
+
+}  // namespace
+
+WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const WhepSendSettings& settings)
+    : st_(new State) {
+  static gsize debug_once = 0;
+  if (g_once_init_enter(&debug_once)) {
+    GST_DEBUG_CATEGORY_INIT(whep_send_debug, "whepsend", 0, "A WHEP session's video on its way out");
+    g_once_init_leave(&debug_once, 1);
+  }
+  State* st = st_.get();
+  st->owner = owner;
+  st->session = session;
+  st->queue = gst_element_factory_make("queue", nullptr);
+  g_object_set(st->queue, "max-size-buffers", kSendQueueFrames, "max-size-time", guint64(0), "max-size-bytes", 0,
+               nullptr);
+  st->pay = gst_element_factory_make("rtph264pay", nullptr);
+  g_object_set(st->pay, "pt", settings.payload, "config-interval", -1, "aggregate-mode", 1 /* zero-latency */,
+               nullptr);
+  // The browser may then show frames as soon as they are decoded rather than buffer them. The payloader's
+  // caps name the extension, and webrtcbin answers with it.
+  if (settings.playout_extension_id > 0 && settings.playout_delay_ms >= 0) {
+    GstRTPHeaderExtension* ext = GST_RTP_HEADER_EXTENSION(g_object_new(GST_TYPE_RTP_HDREXT_PLAYOUT_DELAY, nullptr));
+    gst_rtp_header_extension_set_id(ext, settings.playout_extension_id);
+    g_object_set(ext, "min-delay", 0, "max-delay", settings.playout_delay_ms, nullptr);
+    g_signal_emit_by_name(st->pay, "add-extension", ext);
+    gst_object_unref(ext);
+  }
+  st->webrtc = gst_element_factory_make("webrtcbin", nullptr);
+  g_object_set(st->webrtc, "bundle-policy", GST_WEBRTC_BUNDLE_POLICY_MAX_BUNDLE, nullptr);
+  for (const IceServer& ice : settings.ice_servers)
+    g_object_set(st->webrtc, ice.scheme == "stun" ? "stun-server" : "turn-server", ice.uri.c_str(), nullptr);
+  g_signal_connect(st->webrtc, "deep-element-added", G_CALLBACK(on_webrtc_element_added), nullptr);
+  gst_bin_add_many(owner, st->queue, st->pay, st->webrtc, nullptr);
+  gst_element_link(st->queue, st->pay);
+  GstPad* pay_sink = gst_element_get_static_pad(st->pay, "sink");
+  gst_pad_add_probe(pay_sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_out, st, nullptr);
+  gst_object_unref(pay_sink);
+  GstPad* pay_src = gst_element_get_static_pad(st->pay, "src");
+  gst_pad_add_probe(pay_src, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST), on_rtp_out,
+                    st, nullptr);
+  GstPad* rtc_sink = gst_element_request_pad_simple(st->webrtc, "sink_%u");
+  gst_pad_link(pay_src, rtc_sink);
+  GstWebRTCRTPTransceiver* transceiver = nullptr;
+  g_object_get(rtc_sink, "transceiver", &transceiver, nullptr);
+  if (transceiver) {
+    g_object_set(transceiver, "direction", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDONLY, nullptr);
+    gst_object_unref(transceiver);
+  }
+  gst_object_unref(rtc_sink);
+  gst_object_unref(pay_src);
+  st->sink = gst_element_get_static_pad(st->queue, "sink");
+  gst_pad_add_probe(st->sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_in, st, nullptr);
+  gst_pad_add_probe(st->sink, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, on_serialized_query, nullptr, nullptr);
+  gst_element_sync_state_with_parent(st->webrtc);
+  gst_element_sync_state_with_parent(st->pay);
+  gst_element_sync_state_with_parent(st->queue);
+}
+
+WhepSendBranch::~WhepSendBranch() {
+  State* st = st_.get();
+  for (GstElement* e : {st->webrtc, st->pay, st->queue}) {
+    gst_element_set_state(e, GST_STATE_NULL);
+    gst_bin_remove(st->owner, e);
+  }
+  gst_object_unref(st->sink);
+  if (st->channel) gst_object_unref(st->channel);
+}
+
+GstElement* WhepSendBranch::webrtc() const { return st_->webrtc; }
+
+GstPad* WhepSendBranch::sink() const { return st_->sink; }
+
+bool WhepSendBranch::set_echo_channel(GstWebRTCDataChannel* channel) {
+  std::lock_guard<std::mutex> g(st_->lock);
+  if (st_->channel) return false;
+  st_->channel = GST_WEBRTC_DATA_CHANNEL(gst_object_ref(channel));
+  return true;
+}
+
+}  // namespace vclassroom

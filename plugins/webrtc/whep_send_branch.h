@@ -1,0 +1,48 @@
+// One WHEP session's video on its way out, for WhepEndpoint:
+//   queue (GopSendGate; answers serialized queries) ! rtph264pay (send-time
+//   stamps; the playout-delay extension) ! webrtcbin (nothing synced to the clock)
+// and, over the session's data channel, the echo of the pose each frame was
+// rendered for. Signalling (offer, answer, ICE) stays with the endpoint.
+#pragma once
+
+#include <gst/gst.h>
+#include <gst/webrtc/webrtc.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gst/vclassroom/webrtc/whep.h>
+
+namespace vclassroom {
+
+struct WhepSendSettings {
+  int payload = 96;                // the offer's H.264 payload type
+  int playout_extension_id = 0;    // the offer's id for the playout-delay extension; 0: not sent
+  int playout_delay_ms = 100;      // its maximum (the minimum is 0)
+  std::vector<IceServer> ice_servers;
+};
+
+class WhepSendBranch {
+ public:
+  // Adds the branch to `owner` and brings it to the owner's state; `session` names it in the log.
+  WhepSendBranch(GstBin* owner, const std::string& session, const WhepSendSettings& settings);
+  // Takes the elements out of the owner (the caller unlinked the sink pad first).
+  ~WhepSendBranch();
+  WhepSendBranch(const WhepSendBranch&) = delete;
+  WhepSendBranch& operator=(const WhepSendBranch&) = delete;
+
+  GstElement* webrtc() const;
+  // Where the encoded view goes in (owned by the branch).
+  GstPad* sink() const;
+  // The page's data channel, once it opens one: the echo goes there. False (nothing taken) when the branch
+  // has one already: a page opens one channel, others are ignored.
+  bool set_echo_channel(GstWebRTCDataChannel* channel);
+
+  struct State;
+
+ private:
+  std::unique_ptr<State> st_;
+};
+
+}  // namespace vclassroom
