@@ -179,7 +179,10 @@ function watchFrames(video) {
         record(stats.receiveMs, meta.receiveTime - e.arrived, 300);
         record(stats.displayMs, meta.expectedDisplayTime - meta.receiveTime, 300);
       }
-      readout.textContent = `pose→photon ${(meta.expectedDisplayTime - e.time).toFixed(0)} ms (seq ${e.seq})` +
+      // Where it went: the server (pose to the frame's echo), then the network and this browser.
+      readout.textContent = `pose→photon ${(meta.expectedDisplayTime - e.time).toFixed(0)} ms ` +
+                            `(server ${(e.arrived - e.time).toFixed(0)}, network and browser ` +
+                            `${(meta.expectedDisplayTime - e.arrived).toFixed(0)}; seq ${e.seq})` +
                             (e.clamped ? ' · at the edge of what the cameras see' : '');
     }
     if (e && e.pose) {
