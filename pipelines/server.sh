@@ -29,7 +29,8 @@
 #   NAV_RIG (rig file with navigation bounds: every pose is moved into them, docs/navigation.md; default
 #   $MODEL/rig.yaml when MODEL is set, which vclassroom-build-model gives bounds; set it empty for none).
 #   MEMORY (frames of viewwarp's background memory, default 0: off; with MODEL it starts from the model's
-#   empty-room colour and draws the room behind the learners, docs/vva.md; one view only, not whep-views).
+#   empty-room colour and draws the room behind the learners, docs/vva.md; with whep-views every lecturer's
+#   view keeps its own).
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
@@ -160,7 +161,7 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
     desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"
   else
     desc="whepviewsink name=views $whep ${RIG:+rig=$RIG} ${NAV_RIG:+navigation-rig=$NAV_RIG} ${MODEL:+model=$MODEL} \
-      width=$WIDTH height=$HEIGHT fuse-latency=$FUSE_LATENCY $branches"
+      width=$WIDTH height=$HEIGHT fuse-latency=$FUSE_LATENCY background-memory=$MEMORY $branches"
   fi
   echo "server.sh: lecturer joins at http${whep_tls:+s}://$(hostname -f 2>/dev/null || hostname):$WHEP_PORT/?token=$TOKEN"
 fi

@@ -660,9 +660,9 @@ namespace {
   vctest::TempDir dir;
   const std::string rig = bounded_classroom_rig(dir, 320, 180);
   GError* err = nullptr;
-  GstElement* pipeline = gst_parse_launch(("whepviewsink name=w port=0 token=late-camera-token rig=" + rig +
-                                           " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0")
-                                              .c_str(), &err);
+  const std::string launch = "whepviewsink name=w port=0 token=late-camera-token background-memory=4 rig=" + rig +
+                             " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0";
+  GstElement* pipeline = gst_parse_launch(launch.c_str(), &err);
   if (!pipeline) fail(err ? err->message : "no pipeline");
   GstElement* sink = gst_bin_get_by_name(GST_BIN(pipeline), "w");
   if (gst_element_set_state(pipeline, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE) fail("not playing");
@@ -708,6 +708,9 @@ namespace {
   for (GstElement* e : warps())
     if (!before.count(e)) added = e;
   if (!added) fail("no viewwarp was added for camera 1");
+  gint memory = 0;
+  g_object_get(added, "background-memory", &memory, nullptr);
+  if (memory != 4) fail("camera 1's viewwarp has a background memory of " + std::to_string(memory) + ", not 4");
   struct Seen {
     GMutex lock;
     GCond cond;
@@ -739,7 +742,8 @@ namespace {
 }  // namespace
 
 // whepviewsink: a camera linked while a lecturer watches joins that lecturer's view (a viewwarp for it, fed
-// from its tee at once); before, the views went on without it. The lecturer never finishes the DTLS
+// from its tee at once, with the sink's settings such as background-memory); before, the views went on
+// without it. The lecturer never finishes the DTLS
 // handshake here, so this also holds that such a session does not stop its view's encoder (the send queue
 // answers the encoder's serialized queries). In a child process of its own (gtest's threadsafe death-test
 // style): the session's webrtcbin outlives gst_deinit() in GStreamer 1.22.

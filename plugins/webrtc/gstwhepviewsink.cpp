@@ -55,6 +55,7 @@ struct ViewSettings {
   std::string rig, navigation_rig, model;
   int width = 0, height = 0;
   guint64 fuse_latency = 100 * GST_MSECOND;
+  int background_memory = 0;  // frames; 0: off
 };
 
 }  // namespace
@@ -75,7 +76,10 @@ struct GstWhepViewSinkClass {
 G_DEFINE_TYPE(GstWhepViewSink, gst_whep_view_sink, GST_TYPE_BIN)
 #define GST_WHEP_VIEW_SINK(o) ((GstWhepViewSink*)(o))
 
-enum { PROP_0, PROP_RIG, PROP_NAVIGATION_RIG, PROP_MODEL, PROP_WIDTH, PROP_HEIGHT, PROP_FUSE_LATENCY, PROP_ENDPOINT_FIRST };
+enum {
+  PROP_0, PROP_RIG, PROP_NAVIGATION_RIG, PROP_MODEL, PROP_WIDTH, PROP_HEIGHT, PROP_FUSE_LATENCY, PROP_BACKGROUND_MEMORY,
+  PROP_ENDPOINT_FIRST
+};
 
 static GstStaticPadTemplate cam_template =
     GST_STATIC_PAD_TEMPLATE("cam_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("video/x-rgbd"));
@@ -98,9 +102,12 @@ static void add_camera_branch_locked(GstWhepViewSink* self, View* view, const Ca
   gst_util_set_object_arg(G_OBJECT(queue), "leaky", "downstream");
   g_object_set(warp, "width", s.width, "height", s.height, nullptr);
   if (!s.rig.empty()) g_object_set(warp, "rig", s.rig.c_str(), nullptr);
-  if (!s.model.empty())
-    g_object_set(warp, "prior-depth", (s.model + "/prior-depth/cam" + std::to_string(cam.index) + ".png").c_str(),
-                 nullptr);
+  const std::string camera = "cam" + std::to_string(cam.index) + ".png";
+  if (!s.model.empty()) g_object_set(warp, "prior-depth", (s.model + "/prior-depth/" + camera).c_str(), nullptr);
+  if (s.background_memory > 0) {
+    g_object_set(warp, "background-memory", s.background_memory, nullptr);
+    if (!s.model.empty()) g_object_set(warp, "empty-room", (s.model + "/prior-color/" + camera).c_str(), nullptr);
+  }
   gst_element_link(queue, warp);
   const std::string fuse_pad = "cam_" + std::to_string(cam.index);
   gst_element_link_pads(warp, "src", view->fuse, fuse_pad.c_str());
@@ -271,6 +278,7 @@ static void gst_whep_view_sink_set_property(GObject* object, guint id, const GVa
     case PROP_WIDTH: s.width = g_value_get_int(value); break;
     case PROP_HEIGHT: s.height = g_value_get_int(value); break;
     case PROP_FUSE_LATENCY: s.fuse_latency = g_value_get_uint64(value); break;
+    case PROP_BACKGROUND_MEMORY: s.background_memory = g_value_get_int(value); break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
   }
 }
@@ -290,6 +298,7 @@ static void gst_whep_view_sink_get_property(GObject* object, guint id, GValue* v
     case PROP_WIDTH: g_value_set_int(value, s.width); break;
     case PROP_HEIGHT: g_value_set_int(value, s.height); break;
     case PROP_FUSE_LATENCY: g_value_set_uint64(value, s.fuse_latency); break;
+    case PROP_BACKGROUND_MEMORY: g_value_set_int(value, s.background_memory); break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
   }
 }
@@ -345,6 +354,11 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
   g_object_class_install_property(gobject_class, PROP_FUSE_LATENCY,
       g_param_spec_uint64("fuse-latency", "Fuse latency", "Each view's viewfuse waits this long (ns) for a late camera",
                           0, G_MAXUINT64, 100 * GST_MSECOND, rw));
+  g_object_class_install_property(gobject_class, PROP_BACKGROUND_MEMORY,
+      g_param_spec_int("background-memory", "Background memory",
+                       "Every view's viewwarp keeps a memory of the room of this many frames, started from the "
+                       "model's empty room (MODEL/prior-color/camK.png) when model is set (docs/vva.md); each "
+                       "view pays for its own. 0: off", 0, 64, 0, rw));
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &cam_template);
   gst_element_class_set_static_metadata(element_class, "WHEP view-per-lecturer sink", "Sink/Network",
