@@ -273,18 +273,18 @@ TEST(WebrtcIceServers, StunAndTurnUrisAreCheckedAndBecomeWhepLinkHeaders) {
   std::string why;
   ASSERT_TRUE(parse_ice_server("stun://stun.example.net:3478", &s, &why)) << why;
   EXPECT_EQ(ice_server_link(s), "<stun:stun.example.net:3478>; rel=\"ice-server\"");
-  ASSERT_TRUE(parse_ice_server("turn://1700000000%3Aalice:pa%2Bss@[2001:db8::1]:3478", &s, &why)) << why;
-  EXPECT_EQ(s.username, "1700000000:alice");
+  ASSERT_TRUE(parse_ice_server("turn://al%2Dice:pa%2Bss@[2001:db8::1]:3478", &s, &why)) << why;
+  EXPECT_EQ(s.username, "al-ice");
   EXPECT_EQ(s.credential, "pa+ss");
   EXPECT_EQ(s.host, "[2001:db8::1]");
   EXPECT_EQ(ice_server_link(s), "<turn:[2001:db8::1]:3478?transport=udp>; rel=\"ice-server\"; "
-                                "username=\"1700000000:alice\"; credential=\"pa+ss\"; credential-type=\"password\"");
+                                "username=\"al-ice\"; credential=\"pa+ss\"; credential-type=\"password\"");
   ASSERT_TRUE(parse_ice_server("turns://u:p@turn.example.net:5349", &s, &why)) << why;
   EXPECT_NE(ice_server_link(s).find("<turns:turn.example.net:5349?transport=tcp>"), std::string::npos);
   for (const char* bad : {"", "stun.example.net:3478", "http://x:1", "stun://u:p@x:1", "turn://x:1", "turn://u@x:1",
                           "stun://x", "stun://x:0", "stun://x:65536", "stun://x:12a", "stun://:1", "stun://[::1:1",
                           "stun://a b:1", "turn://u:p%22@x:1", "turn://u:p%0a@x:1", "turn://u:p%2@x:1",
-                          "turn://u\":p@x:1", "stun://x:1,<evil>"})
+                          "turn://u\":p@x:1", "stun://x:1,<evil>", "turn://1700000000%3Aalice:p@x:1"})
     EXPECT_FALSE(parse_ice_server(bad, &s, &why)) << bad;
   EXPECT_FALSE(parse_ice_server(std::string(600, 'a'), &s, &why));
 }

@@ -138,6 +138,8 @@ bool parse_ice_server(std::string_view uri, IceServer* server, std::string* why)
     if (split == std::string_view::npos || !unescape_userinfo(userinfo.substr(0, split), &s.username) ||
         !unescape_userinfo(userinfo.substr(split + 1), &s.credential))
       return fail("user and password must be unreserved characters or %XX escapes");
+    if (s.username.find(':') != std::string::npos)
+      return fail("a user name with ':' is not taken: webrtcbin splits user and password at the first ':'");
     rest = rest.substr(at + 1);
   }
   size_t port_at;

@@ -60,7 +60,8 @@ WhepDecision check_whep_request(const WhepRequest& request, std::string_view exp
 
 // A STUN or TURN server, as webrtcbin takes it: "stun://host:port", "turn://user:password@host:port" or
 // "turns://..." (TURN over TLS). Host names, IPv4 or [IPv6] addresses; user and password of unreserved
-// characters and %XX escapes (a TURN REST user name "1700000000%3Aalice" is 1700000000:alice).
+// characters and %XX escapes ("pa%2Bss" is pa+ss); no ':' in the user name, even escaped (webrtcbin splits
+// user and password at the first one).
 struct IceServer {
   std::string scheme;  // "stun", "turn" or "turns"
   std::string host;    // as written (an IPv6 address with its brackets)
