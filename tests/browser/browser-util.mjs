@@ -63,6 +63,7 @@ export const shownFor = (page, seq) =>
 export async function startFakeIceServers(host, stunPort, turnPort, mapped = '203.0.113.7') {
   const dgram = await import('node:dgram');
   const zlib = await import('node:zlib');
+  if (typeof zlib.crc32 !== 'function') fail(`the STUN stand-ins need zlib.crc32 (Node.js 20.15 or later; this is ${process.version})`);
   const crypto = await import('node:crypto');
   const realm = 'vclassroom-test', nonce = 'f1xed-n0nce';
   const key = crypto.createHash('md5').update(`alice:${realm}:s3cret`).digest();
