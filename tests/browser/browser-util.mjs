@@ -57,13 +57,15 @@ export const shownFor = (page, seq) =>
 // Stand-ins for a STUN and a TURN server at `host`, answering the real STUN messages (RFC 8489) the
 // server's ICE agent (libnice) and Chromium send, each counted with its sender's SOFTWARE attribute
 // (`bindings`, `allocations`): a Binding request gets a success response whose XOR-MAPPED-ADDRESS is
-// `mapped` (an address a NAT might show) at the sender's port; a TURN Allocate request is challenged (401 with a realm and nonce, as a real TURN
-// server does) and, once it comes with the long-term credential (user alice, password s3cret), refused
-// with an authenticated 403 (clients ignore unauthenticated refusals), so no relay is made. close() stops both.
+// `mapped` (an address a NAT might show) at the sender's port; a TURN Allocate request is challenged (401
+// with a realm and nonce, as a real TURN server does) and, once it comes with the long-term credential
+// (user alice, password s3cret), refused with an authenticated 403 (Chromium ignored an unauthenticated
+// one), so no relay is made. close() stops both.
 export async function startFakeIceServers(host, stunPort, turnPort, mapped = '203.0.113.7') {
   const dgram = await import('node:dgram');
   const zlib = await import('node:zlib');
-  if (typeof zlib.crc32 !== 'function') fail(`the STUN stand-ins need zlib.crc32 (Node.js 20.15 or later; this is ${process.version})`);
+  if (typeof zlib.crc32 !== 'function')
+    fail(`the STUN stand-ins need zlib.crc32 (Node.js 20.15 or later; this is ${process.version})`);
   const crypto = await import('node:crypto');
   const realm = 'vclassroom-test', nonce = 'f1xed-n0nce';
   const key = crypto.createHash('md5').update(`alice:${realm}:s3cret`).digest();
@@ -122,10 +124,12 @@ export async function startFakeIceServers(host, stunPort, turnPort, mapped = '20
     if (!m || m.type !== 0x0003) return;
     const software = m.attributes.get(0x8022), user = m.attributes.get(0x0006);
     allocations.push({ port: from.port, software: software ? software.toString() : '', user: user ? user.toString() : '' });
+    const error = (code, reason) => attribute(0x0009, Buffer.concat([Buffer.from([0, 0, Math.floor(code / 100), code % 100]),
+                                                                     Buffer.from(reason)]));
     const reply = user
-      ? message(0x0113, m.transaction, [attribute(0x0009, Buffer.concat([Buffer.from([0, 0, 4, 3]), Buffer.from('Forbidden')]))], key)
-      : message(0x0113, m.transaction, [attribute(0x0009, Buffer.concat([Buffer.from([0, 0, 4, 1]), Buffer.from('Unauthorized')])),
-                                        attribute(0x0014, Buffer.from(realm)), attribute(0x0015, Buffer.from(nonce))]);
+      ? message(0x0113, m.transaction, [error(403, 'Forbidden')], key)
+      : message(0x0113, m.transaction, [error(401, 'Unauthorized'), attribute(0x0014, Buffer.from(realm)),
+                                        attribute(0x0015, Buffer.from(nonce))]);
     turn.send(reply, from.port, from.address);
   });
   await Promise.all([[stun, stunPort], [turn, turnPort]].map(([socket, port]) =>

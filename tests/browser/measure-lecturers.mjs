@@ -32,7 +32,8 @@ try {
   // The first second of swaying fills the pipeline; then the window.
   await new Promise(resolve => setTimeout(resolve, 1000));  // a measurement window, not a synchronisation
   const before = await Promise.all(pages.map(p => p.evaluate(() => {
-    for (const key of ['latencyMs', 'serverMs', 'jitterMs', 'decodeMs', 'receiveMs', 'displayMs']) window.vclassroom.stats[key].length = 0;
+    for (const key of ['latencyMs', 'serverMs', 'jitterMs', 'decodeMs', 'receiveMs', 'displayMs'])
+      window.vclassroom.stats[key].length = 0;
     return { shown: window.vclassroom.stats.framesShown, t: performance.now() };
   })));
   console.log('window start');

@@ -205,7 +205,8 @@ function iceServersFromLinks(header) {
     for (const p of m[2].matchAll(/([a-z-]+)="([^"]*)"/g)) params[p[1]] = p[2];
     if (params.rel !== 'ice-server') continue;
     const server = { urls: m[1] };
-    if (params.username !== undefined) Object.assign(server, { username: params.username, credential: params.credential });
+    if (params.username !== undefined)
+      Object.assign(server, { username: params.username, credential: params.credential });
     servers.push(server);
   }
   return servers;
