@@ -40,7 +40,7 @@ struct WhepSendBranch::State {
   GstElement* pay = nullptr;
   GstElement* webrtc = nullptr;
   GstPad* sink = nullptr;
-  GopSendGate gate;                                   // the queue's upstream thread's only
+  GopSendGate gate;                                   // the queue's upstream thread's only (on_frame_in)
   GstClockTime last_sent_pts = GST_CLOCK_TIME_NONE;   // the payloader's thread's only (on_frame_out)
   std::mutex lock;                                    // what follows
   GstWebRTCDataChannel* channel = nullptr;
@@ -53,27 +53,21 @@ namespace {
 using State = WhepSendBranch::State;
 
 // Every encoded frame entering the branch: the send gate (a full queue drops the rest of the GOP and asks
-// the encoder for a key frame), then its pose (the pose meta the encoder keeps), so the echo can name it.
+// the encoder for a key frame).
 GstPadProbeReturn on_frame_in(GstPad* pad, GstPadProbeInfo* info, gpointer user_data) {
   State* st = static_cast<State*>(user_data);
   GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
   if (!buf) return GST_PAD_PROBE_OK;
   guint queued = 0;
   g_object_get(st->queue, "current-level-buffers", &queued, nullptr);
-  if (!st->gate.admit(!GST_BUFFER_FLAG_IS_SET(buf, GST_BUFFER_FLAG_DELTA_UNIT), queued >= kSendQueueFrames)) {
-    if (st->gate.take_key_frame_request()) {
-      GST_INFO_OBJECT(st->owner, "session %s: sending fell behind (%" G_GUINT64_FORMAT " frames dropped so far): "
-                      "dropping to the next key frame, which is asked for", st->session.c_str(), st->gate.dropped());
-      gst_pad_push_event(pad, gst_video_event_new_upstream_force_key_unit(GST_CLOCK_TIME_NONE, TRUE, 0));
-    }
-    return GST_PAD_PROBE_DROP;
+  if (st->gate.admit(!GST_BUFFER_FLAG_IS_SET(buf, GST_BUFFER_FLAG_DELTA_UNIT), queued >= kSendQueueFrames))
+    return GST_PAD_PROBE_OK;
+  if (st->gate.take_key_frame_request()) {
+    GST_INFO_OBJECT(st->owner, "session %s: sending fell behind (%" G_GUINT64_FORMAT " frames dropped so far): "
+                    "dropping to the next key frame, which is asked for", st->session.c_str(), st->gate.dropped());
+    gst_pad_push_event(pad, gst_video_event_new_upstream_force_key_unit(GST_CLOCK_TIME_NONE, TRUE, 0));
   }
-  PoseMeta* meta = buffer_get_pose_meta(buf);
-  if (!meta || !GST_BUFFER_PTS_IS_VALID(buf)) return GST_PAD_PROBE_OK;
-  std::lock_guard<std::mutex> g(st->lock);
-  st->frame_poses[GST_BUFFER_PTS(buf)] = FramePose{meta->seq, meta->viewer_time_ns, meta->rendered};
-  while (st->frame_poses.size() > 64) st->frame_poses.erase(st->frame_poses.begin());
-  return GST_PAD_PROBE_OK;
+  return GST_PAD_PROBE_DROP;
 }
 
 // A serialized query (the encoder's ALLOCATION query when it negotiates, a DRAIN) would wait in the send
@@ -88,14 +82,16 @@ GstPadProbeReturn on_serialized_query(GstPad*, GstPadProbeInfo* info, gpointer) 
 // Each frame leaving the send queue is stamped with the time it is sent, so its RTP timestamp says when it
 // left rather than when its cameras saw it: a browser sizes its jitter buffer by how unevenly frames arrive
 // against their timestamps, and the server's uneven render time would otherwise count as network jitter,
-// buffered at the cost of pose-to-photon latency. The frame's pose moves to the new stamp.
+// buffered at the cost of pose-to-photon latency. Then its pose (the pose meta the encoder keeps) is noted
+// under that stamp, which the payloader's packets carry, so the echo can name it.
 GstPadProbeReturn on_frame_out(GstPad* pad, GstPadProbeInfo* info, gpointer user_data) {
   State* st = static_cast<State*>(user_data);
   GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  if (!buf || !GST_BUFFER_PTS_IS_VALID(buf)) return GST_PAD_PROBE_OK;
   GstEvent* segment_event = gst_pad_get_sticky_event(pad, GST_EVENT_SEGMENT, 0);
   GstClock* clock = gst_element_get_clock(st->pay);
   GstClockTime sent = GST_CLOCK_TIME_NONE;
-  if (buf && GST_BUFFER_PTS_IS_VALID(buf) && segment_event && clock) {
+  if (segment_event && clock) {
     const GstSegment* segment = nullptr;
     gst_event_parse_segment(segment_event, &segment);
     const GstClockTime now = gst_clock_get_time(clock), base = gst_element_get_base_time(st->pay);
@@ -104,21 +100,19 @@ GstPadProbeReturn on_frame_out(GstPad* pad, GstPadProbeInfo* info, gpointer user
   }
   if (segment_event) gst_event_unref(segment_event);
   if (clock) gst_object_unref(clock);
-  if (!GST_CLOCK_TIME_IS_VALID(sent)) return GST_PAD_PROBE_OK;
-  if (GST_CLOCK_TIME_IS_VALID(st->last_sent_pts) && sent <= st->last_sent_pts) sent = st->last_sent_pts + 1;
-  st->last_sent_pts = sent;
-  buf = gst_buffer_make_writable(buf);
-  GST_PAD_PROBE_INFO_DATA(info) = buf;
-  const GstClockTime captured = GST_BUFFER_PTS(buf);
-  GST_BUFFER_PTS(buf) = sent;
-  GST_BUFFER_DTS(buf) = GST_CLOCK_TIME_NONE;
-  std::lock_guard<std::mutex> g(st->lock);
-  auto it = st->frame_poses.find(captured);
-  if (it != st->frame_poses.end()) {
-    const FramePose pose = it->second;
-    st->frame_poses.erase(it);
-    st->frame_poses[sent] = pose;
+  if (GST_CLOCK_TIME_IS_VALID(sent)) {
+    if (GST_CLOCK_TIME_IS_VALID(st->last_sent_pts) && sent <= st->last_sent_pts) sent = st->last_sent_pts + 1;
+    st->last_sent_pts = sent;
+    buf = gst_buffer_make_writable(buf);
+    GST_PAD_PROBE_INFO_DATA(info) = buf;
+    GST_BUFFER_PTS(buf) = sent;
+    GST_BUFFER_DTS(buf) = GST_CLOCK_TIME_NONE;
   }
+  const PoseMeta* meta = buffer_get_pose_meta(buf);
+  if (!meta) return GST_PAD_PROBE_OK;
+  std::lock_guard<std::mutex> g(st->lock);
+  st->frame_poses[GST_BUFFER_PTS(buf)] = FramePose{meta->seq, meta->viewer_time_ns, meta->rendered};
+  while (st->frame_poses.size() > 64) st->frame_poses.erase(st->frame_poses.begin());
   return GST_PAD_PROBE_OK;
 }
 
