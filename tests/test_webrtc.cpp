@@ -347,18 +347,6 @@ TEST(WebrtcPlayoutDelay, BytesRoundTripIn10MsStepsAndBoundsAreClamped) {
   EXPECT_FALSE(read_playout_delay(nullptr, 3, &back));
 }
 
-TEST(WebrtcPlayoutDelay, TheOffersExtmapIdIsFoundAndAnythingElseGivesNone) {
-  const std::string uri = kPlayoutDelayUri;
-  EXPECT_EQ(extmap_id_for("5 " + uri, uri), 5);
-  EXPECT_EQ(extmap_id_for("12/recvonly " + uri, uri), 12);
-  EXPECT_EQ(extmap_id_for("7 " + uri + " some-attributes", uri), 7);
-  EXPECT_EQ(extmap_id_for("255 " + uri, uri), 255);
-  for (const std::string& bad :
-       std::vector<std::string>{"0 " + uri, "256 " + uri, "99999999999999999999 " + uri, "5" + uri, "5/ " + uri + "x", " 5 " + uri,
-        "x " + uri, std::string("5 urn:ietf:params:rtp-hdrext:toffset"), std::string(""), std::string("5"), "5 " + uri + "-more"})
-    EXPECT_EQ(extmap_id_for(bad, uri), 0) << bad;
-}
-
 // Through GStreamer: where a payloader's downstream caps name the playout-delay URI, the payloader asks for
 // the extension under the caps' id, gets a rtphdrextplayoutdelay (as the WHEP endpoint adds one under the
 // offer's id), and every packet carries the delay its properties set.

@@ -68,18 +68,27 @@ int pick_h264_payload(const GstSDPMessage* sdp) {
   return -1;
 }
 
-// The id the offer's video gives the extension `uri` (a=extmap), or 0 when it offers none.
+// The id the offer's video gives the extension `uri` (a=extmap, as GstSDP reads it into extmap-<id> caps
+// fields: the URI alone, or <direction, URI, attributes>), or 0 when it offers none.
 int offered_extension_id(const GstSDPMessage* sdp, const char* uri) {
-  for (guint m = 0; m < gst_sdp_message_medias_len(sdp); ++m) {
+  int id = 0;
+  for (guint m = 0; m < gst_sdp_message_medias_len(sdp) && id == 0; ++m) {
     const GstSDPMedia* media = gst_sdp_message_get_media(sdp, m);
     if (g_strcmp0(gst_sdp_media_get_media(media), "video") != 0) continue;
-    for (guint i = 0;; ++i) {
-      const gchar* value = gst_sdp_media_get_attribute_val_n(media, "extmap", i);
-      if (!value) break;
-      if (const int id = extmap_id_for(value, uri)) return id;
+    GstCaps* caps = gst_caps_new_empty_simple("application/x-rtp");
+    gst_sdp_media_attributes_to_caps(media, caps);
+    const GstStructure* s = gst_caps_get_structure(caps, 0);
+    for (int f = 0; f < gst_structure_n_fields(s) && id == 0; ++f) {
+      const char* field = gst_structure_nth_field_name(s, f);
+      if (!g_str_has_prefix(field, "extmap-")) continue;
+      const GValue* v = gst_structure_get_value(s, field);
+      if (GST_VALUE_HOLDS_ARRAY(v)) v = gst_value_array_get_size(v) > 1 ? gst_value_array_get_value(v, 1) : nullptr;
+      const int n = atoi(field + 7);
+      if (v && G_VALUE_HOLDS_STRING(v) && g_strcmp0(g_value_get_string(v), uri) == 0 && n >= 1 && n <= 255) id = n;
     }
+    gst_caps_unref(caps);
   }
-  return 0;
+  return id;
 }
 
 }  // namespace

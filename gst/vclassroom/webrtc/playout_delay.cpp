@@ -22,20 +22,4 @@ bool read_playout_delay(const uint8_t* data, size_t size, PlayoutDelay* delay) {
   return true;
 }
 
-int extmap_id_for(std::string_view value, std::string_view uri) {
-  size_t i = 0;
-  int id = 0;
-  while (i < value.size() && value[i] >= '0' && value[i] <= '9' && id <= 255) id = id * 10 + (value[i++] - '0');
-  if (i == 0 || id < 1 || id > 255) return 0;
-  if (i < value.size() && value[i] == '/') {  // a direction: sendrecv, sendonly, recvonly, inactive
-    ++i;
-    while (i < value.size() && value[i] >= 'a' && value[i] <= 'z') ++i;
-  }
-  if (i >= value.size() || value[i] != ' ') return 0;
-  while (i < value.size() && value[i] == ' ') ++i;
-  const std::string_view rest = value.substr(i);
-  const std::string_view named = rest.substr(0, rest.find(' '));
-  return named == uri ? id : 0;
-}
-
 }  // namespace vclassroom

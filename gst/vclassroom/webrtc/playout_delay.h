@@ -5,12 +5,11 @@
 // asks a browser to show each frame as soon as it is decoded, which is what a
 // lecturer steering the view by head pose wants (a jitter buffer that grows to
 // smooth the server's uneven frame times adds its whole depth to
-// pose-to-photon latency). Also: finding the id an SDP offer gave an extension.
+// pose-to-photon latency).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
-#include <string_view>
 
 namespace vclassroom {
 
@@ -28,9 +27,5 @@ struct PlayoutDelay {
 void write_playout_delay(const PlayoutDelay& delay, uint8_t out[kPlayoutDelayBytes]);
 // False unless `size` is kPlayoutDelayBytes and the maximum is not below the minimum.
 bool read_playout_delay(const uint8_t* data, size_t size, PlayoutDelay* delay);
-
-// The id of one `a=extmap:` attribute's value ("<id>[/<direction>] <uri>[ <attributes>]", RFC 8285) when its
-// URI is `uri` and its id is a valid one (1..255), else 0. Anything else (garbage, other URIs) gives 0.
-int extmap_id_for(std::string_view extmap_value, std::string_view uri);
 
 }  // namespace vclassroom
