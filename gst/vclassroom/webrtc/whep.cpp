@@ -1,5 +1,6 @@
 #include <gst/vclassroom/webrtc/whep.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -82,35 +83,20 @@ WhepDecision check_whep_request(const WhepRequest& r, std::string_view expected_
 
 namespace {
 
-bool is_unreserved(char c) {
-  return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-' || c == '.' ||
-         c == '_' || c == '~';
+// A host name (letters, digits, '-', '.') or an IPv6 address (hex digits, ':', '.').
+bool plain_host(const std::string& host) {
+  return !host.empty() && std::all_of(host.begin(), host.end(), [](char c) {
+    return g_ascii_isalnum(c) || c == '-' || c == '.' || c == ':';
+  });
 }
 
-int hex_digit(char c) {
-  if (c >= '0' && c <= '9') return c - '0';
-  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
-  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
-  return -1;
-}
-
-// Unreserved characters and %XX escapes, unescaped into `out`; an escape may not give a control
-// character, a quote or a backslash (the value goes into a quoted Link header parameter).
-bool unescape_userinfo(std::string_view text, std::string* out) {
-  out->clear();
-  for (size_t i = 0; i < text.size(); ++i) {
-    if (is_unreserved(text[i])) {
-      out->push_back(text[i]);
-      continue;
-    }
-    if (text[i] != '%' || i + 2 >= text.size() || hex_digit(text[i + 1]) < 0 || hex_digit(text[i + 2]) < 0)
-      return false;
-    const char c = char(hex_digit(text[i + 1]) * 16 + hex_digit(text[i + 2]));
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f || c == '"' || c == '\\') return false;
-    out->push_back(c);
-    i += 2;
-  }
-  return !out->empty();
+// A decoded user name or password that fits a quoted Link header parameter: no control characters, quotes
+// or backslashes.
+bool plain_credential(const char* text) {
+  if (!text || !*text) return false;
+  for (const char* c = text; *c; ++c)
+    if (static_cast<unsigned char>(*c) < 0x20 || *c == 0x7f || *c == '"' || *c == '\\') return false;
+  return true;
 }
 
 }  // namespace
@@ -121,50 +107,39 @@ bool parse_ice_server(std::string_view uri, IceServer* server, std::string* why)
     return false;
   };
   if (uri.size() > 512) return fail("longer than 512 characters");
+  const std::string text(uri);
+  gchar *scheme = nullptr, *user = nullptr, *password = nullptr, *host = nullptr, *path = nullptr;
+  gchar *query = nullptr, *fragment = nullptr;
+  gint port = -1;
+  GError* err = nullptr;
+  // GLib's RFC 3986 parser; user and password come back %-decoded.
+  const bool split = g_uri_split_with_user(text.c_str(), G_URI_FLAGS_HAS_PASSWORD, &scheme, &user, &password,
+                                           nullptr, &host, &port, &path, &query, &fragment, &err);
   IceServer s;
-  s.uri = std::string(uri);
-  const size_t colon = uri.find("://");
-  if (colon == std::string_view::npos) return fail("not stun://, turn:// or turns://");
-  s.scheme = std::string(uri.substr(0, colon));
+  s.uri = text;
+  s.scheme = scheme ? scheme : "";
+  s.host = host ? host : "";
+  s.port = port;
+  s.username = user ? user : "";
+  s.credential = password ? password : "";
+  const bool has_user = user != nullptr, rest = (path && *path) || query || fragment;
+  const bool credentials_ok = plain_credential(user) && plain_credential(password);
+  const std::string error = err ? err->message : "";
+  for (gchar* p : {scheme, user, password, host, path, query, fragment}) g_free(p);
+  g_clear_error(&err);
+  if (!split) return fail(error);
   if (s.scheme != "stun" && s.scheme != "turn" && s.scheme != "turns") return fail("scheme is not stun, turn or turns");
-  std::string_view rest = uri.substr(colon + 3);
-  const size_t at = rest.rfind('@');
+  if (rest) return fail("nothing may follow host:port");
+  if (!plain_host(s.host)) return fail("not a host name or address");
+  if (s.port < 1 || s.port > 65535) return fail("needs host:port, the port 1 to 65535");
   if (s.scheme == "stun") {
-    if (at != std::string_view::npos) return fail("a STUN server takes no user");
+    if (has_user) return fail("a STUN server takes no user");
   } else {
-    if (at == std::string_view::npos) return fail("a TURN server needs user:password@");
-    const std::string_view userinfo = rest.substr(0, at);
-    const size_t split = userinfo.find(':');
-    if (split == std::string_view::npos || !unescape_userinfo(userinfo.substr(0, split), &s.username) ||
-        !unescape_userinfo(userinfo.substr(split + 1), &s.credential))
-      return fail("user and password must be unreserved characters or %XX escapes");
+    if (!credentials_ok) return fail("a TURN server needs user:password@ (no control characters, quotes, backslashes)");
     if (s.username.find(':') != std::string::npos)
       return fail("a user name with ':' is not taken: webrtcbin splits user and password at the first ':'");
-    rest = rest.substr(at + 1);
   }
-  size_t port_at;
-  if (!rest.empty() && rest[0] == '[') {
-    const size_t close = rest.find(']');
-    if (close == std::string_view::npos || close < 3) return fail("an unclosed [IPv6] address");
-    for (char c : rest.substr(1, close - 1))
-      if (hex_digit(c) < 0 && c != ':' && c != '.') return fail("not an IPv6 address in []");
-    port_at = close + 1;
-  } else {
-    port_at = rest.find(':');
-    if (port_at == 0 || port_at == std::string_view::npos) return fail("needs host:port");
-    for (char c : rest.substr(0, port_at))
-      if (!is_unreserved(c) || c == '_' || c == '~') return fail("not a host name or address");
-  }
-  s.host = std::string(rest.substr(0, port_at));
-  if (port_at >= rest.size() || rest[port_at] != ':' || port_at + 1 == rest.size() || rest.size() - port_at > 6)
-    return fail("needs host:port");
-  int port = 0;
-  for (char c : rest.substr(port_at + 1)) {
-    if (c < '0' || c > '9') return fail("the port is not a number");
-    port = port * 10 + (c - '0');
-  }
-  if (port < 1 || port > 65535) return fail("the port is not 1 to 65535");
-  s.port = port;
+  if (s.host.find(':') != std::string::npos) s.host = "[" + s.host + "]";  // as written: an IPv6 address
   *server = std::move(s);
   return true;
 }

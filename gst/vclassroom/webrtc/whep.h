@@ -59,9 +59,9 @@ WhepDecision check_whep_request(const WhepRequest& request, std::string_view exp
                                 const WhepLimits& limits, size_t sessions_now);
 
 // A STUN or TURN server, as webrtcbin takes it: "stun://host:port", "turn://user:password@host:port" or
-// "turns://..." (TURN over TLS). Host names, IPv4 or [IPv6] addresses; user and password of unreserved
-// characters and %XX escapes ("pa%2Bss" is pa+ss); no ':' in the user name, even escaped (webrtcbin splits
-// user and password at the first one).
+// "turns://..." (TURN over TLS), read by GLib's URI parser. Host names, IPv4 or [IPv6] addresses; user and
+// password %-decoded ("pa%2Bss" is pa+ss), with no control characters, quotes or backslashes, and no ':' in
+// the user name, even escaped (webrtcbin splits user and password at the first one).
 struct IceServer {
   std::string scheme;  // "stun", "turn" or "turns"
   std::string host;    // as written (an IPv6 address with its brackets)
