@@ -4,8 +4,12 @@
 
 #include <cmath>
 #include <string>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
 
 #include <gst/app/gstappsink.h>
+#include <gst/app/gstappsrc.h>
 #include <gst/check/gstharness.h>
 #include <gst/gst.h>
 #include <opencv2/imgcodecs.hpp>
@@ -21,6 +25,7 @@
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>
 #include <gst/vclassroom/vva/virtual_view.h>
+#include <gst/vclassroom/vva/warp_start.h>
 
 #include "test_util.h"
 
@@ -1032,6 +1037,192 @@ TEST(ViewFuseElement, ALiveCameraThatGoesSilentDoesNotStallTheOutput) {
   }
   gst_element_set_state(pipe, GST_STATE_NULL);
   gst_object_unref(valve);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}
+
+// ---------------------------------------------------------------- the cameras of a view start warping together
+
+namespace {
+constexpr int64_t kMs = 1'000'000;
+// Until `n` cameras wait in the barrier (a state to wait for, not a time).
+void until_waiting(const WarpStartBarrier& b, int n) {
+  while (b.waiting() < n) std::this_thread::yield();
+}
+}  // namespace
+
+TEST(WarpStart, ACameraWaitsForTheOthersSeenLatelyAndAllGoTogether) {
+  WarpStartBarrier b;
+  b.set_params(WarpStartParams{60'000 * kMs});  // a wait that never runs out in this test
+  int a = 0, c = 0;
+  // The first frames: each camera goes as soon as every camera known then has come.
+  EXPECT_EQ(b.arrive(&a, 0), WarpStartBarrier::Start::kTogether);
+  EXPECT_EQ(b.arrive(&a, 33 * kMs), WarpStartBarrier::Start::kTogether);
+  WarpStartBarrier::Start c_start = WarpStartBarrier::Start::kAlone;
+  std::thread camera_c([&] { c_start = b.arrive(&c, 40 * kMs); });
+  until_waiting(b, 1);  // camera c is known now and waits for camera a's next frame
+  EXPECT_EQ(b.arrive(&a, 66 * kMs), WarpStartBarrier::Start::kTogether);
+  camera_c.join();
+  EXPECT_EQ(c_start, WarpStartBarrier::Start::kTogether);
+  // From now on neither goes without the other.
+  std::thread camera_a([&] { EXPECT_EQ(b.arrive(&a, 100 * kMs), WarpStartBarrier::Start::kTogether); });
+  until_waiting(b, 1);
+  EXPECT_EQ(b.arrive(&c, 101 * kMs), WarpStartBarrier::Start::kTogether);
+  camera_a.join();
+  EXPECT_EQ(b.waiting(), 0);
+}
+
+TEST(WarpStart, ACameraThatDoesNotComeHoldsTheOthersOnlyForTheWaitAndIsForgotten) {
+  WarpStartBarrier b;
+  b.set_params(WarpStartParams{1 * kMs});
+  int a = 0, c = 0;
+  EXPECT_EQ(b.arrive(&a, 0), WarpStartBarrier::Start::kTogether);
+  EXPECT_EQ(b.arrive(&c, 1 * kMs), WarpStartBarrier::Start::kAlone) << "camera a's next frame never came";
+  // Camera c stops: camera a waits out the wait, frame after frame...
+  EXPECT_EQ(b.arrive(&a, 34 * kMs), WarpStartBarrier::Start::kAlone);
+  EXPECT_EQ(b.arrive(&a, 67 * kMs), WarpStartBarrier::Start::kAlone);
+  // ... until camera c is forgotten (500 ms without a frame): then it goes at once.
+  EXPECT_EQ(b.arrive(&a, 502 * kMs), WarpStartBarrier::Start::kTogether);
+  // A camera whose pad goes is forgotten at once.
+  EXPECT_EQ(b.arrive(&c, 503 * kMs), WarpStartBarrier::Start::kAlone);
+  b.forget(&c);
+  EXPECT_EQ(b.arrive(&a, 504 * kMs), WarpStartBarrier::Start::kTogether);
+}
+
+TEST(WarpStart, ACameraWaitsTwoThirdsOfTheFrameIntervalAtMost) {
+  WarpStartBarrier b;
+  b.set_params(WarpStartParams{100 * kMs});
+  EXPECT_EQ(b.wait_ns(), 100 * kMs) << "no frame interval known yet";
+  int a = 0;
+  for (int i = 0; i < 4; ++i) b.arrive(&a, i * 30 * kMs, i * 30 * kMs);
+  EXPECT_EQ(b.wait_ns(), 20 * kMs) << "frames 30 ms apart";
+  b.set_params(WarpStartParams{10 * kMs});
+  EXPECT_EQ(b.wait_ns(), 10 * kMs) << "never more than the longest wait";
+  b.forget(&a);
+  b.set_params(WarpStartParams{100 * kMs});
+  EXPECT_EQ(b.wait_ns(), 100 * kMs) << "a forgotten camera's interval no longer counts";
+}
+
+TEST(WarpStart, ForgettingTheLastMissingCameraOrStoppingLetsTheWaitingOnesGo) {
+  WarpStartBarrier b;
+  b.set_params(WarpStartParams{60'000 * kMs});
+  int a = 0, c = 0;
+  EXPECT_EQ(b.arrive(&a, 0), WarpStartBarrier::Start::kTogether);
+  std::thread camera_c([&] { EXPECT_EQ(b.arrive(&c, 1 * kMs), WarpStartBarrier::Start::kTogether); });
+  until_waiting(b, 1);
+  b.forget(&a);  // camera a's pad is released: nobody is missing any more
+  camera_c.join();
+  // Stopping: a camera waiting for another goes, and so does every later one, until the element starts again.
+  std::thread camera_a([&] { EXPECT_EQ(b.arrive(&a, 2 * kMs), WarpStartBarrier::Start::kAlone); });
+  until_waiting(b, 1);
+  b.release();
+  camera_a.join();
+  EXPECT_EQ(b.arrive(&c, 3 * kMs), WarpStartBarrier::Start::kAlone);
+  EXPECT_EQ(b.arrive(&a, 4 * kMs), WarpStartBarrier::Start::kAlone);
+  b.resume();  // knows no camera
+  EXPECT_EQ(b.arrive(&a, 5 * kMs), WarpStartBarrier::Start::kTogether);
+}
+
+namespace {
+// Counts the warp-start queries a viewwarp sends (a GstPad probe), so a test knows a camera reached the barrier.
+struct QuerySeen {
+  std::mutex lock;
+  std::condition_variable seen;
+  int count = 0;
+  static GstPadProbeReturn probe(GstPad*, GstPadProbeInfo* info, gpointer data) {
+    GstQuery* q = GST_PAD_PROBE_INFO_QUERY(info);
+    const GstStructure* s = GST_QUERY_TYPE(q) == GST_QUERY_CUSTOM ? gst_query_get_structure(q) : nullptr;
+    if (s && gst_structure_has_name(s, kWarpStartQueryName)) {
+      auto* self = static_cast<QuerySeen*>(data);
+      std::lock_guard<std::mutex> g(self->lock);
+      ++self->count;
+      self->seen.notify_all();
+    }
+    return GST_PAD_PROBE_OK;
+  }
+  bool until(int n) {
+    std::unique_lock<std::mutex> l(lock);
+    return seen.wait_for(l, std::chrono::seconds(60), [&] { return count >= n; });
+  }
+};
+}  // namespace
+
+TEST(ViewFuseElement, LiveACameraWaitsForTheOthersSoEveryCameraWarpsForTheNewestPose) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 96, 54);
+  // A latency that never runs out here: each output has both cameras' frames.
+  std::string desc = "viewfuse name=f warp-sync=0 latency=600000000000 ! appsink name=out sync=false";
+  for (int k : {1, 2})
+    desc += " appsrc name=src" + std::to_string(k) + " is-live=true format=time ! viewwarp name=w" +
+            std::to_string(k) + " rig=" + rig + " ! f.cam_" + std::to_string(k);
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  GstElement* fuse = gst_bin_get_by_name(GST_BIN(pipe), "f");
+  GstElement* src[3] = {nullptr, gst_bin_get_by_name(GST_BIN(pipe), "src1"), gst_bin_get_by_name(GST_BIN(pipe), "src2")};
+  RgbdInfo info[3];
+  cv::Mat color[3], depth[3];
+  const Classroom room(ClassroomConfig{1, 3, 2.0});
+  for (int k : {1, 2}) {
+    info[k].camera = scale_camera(default_classroom_rig().camera(k), 96, 54);
+    info[k].planes = {Plane::Color, Plane::Depth};
+    GstCaps* caps = rgbd_caps_new(info[k]);
+    g_object_set(src[k], "caps", caps, nullptr);
+    gst_caps_unref(caps);
+    const RenderOutput r = render(room, 0.0, info[k].camera);
+    color[k] = r.color;
+    depth[k] = r.depth;
+  }
+  // Frames 10 s apart: the barrier waits two thirds of the frame interval at most, more than this test takes.
+  auto push = [&](int k, int frame) {
+    GstBuffer* buf = rgbd_buffer_new(info[k]);
+    GST_BUFFER_PTS(buf) = frame * 10 * GST_SECOND;
+    RgbdFrame f;
+    std::string e;
+    EXPECT_TRUE(f.map(buf, info[k], GST_MAP_WRITE, &e)) << e;
+    color[k].copyTo(f.color());
+    depth[k].copyTo(f.depth());
+    f.unmap();
+    EXPECT_EQ(gst_app_src_push_buffer(GST_APP_SRC(src[k]), buf), GST_FLOW_OK);
+  };
+  auto pull_seq = [&]() -> int64_t {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 60 * GST_SECOND);
+    EXPECT_NE(s, nullptr) << "no fused frame";
+    if (!s) return -1;
+    const PoseMeta* m = buffer_get_pose_meta(gst_sample_get_buffer(s));
+    const int64_t seq = m ? int64_t(m->seq) : -1;
+    gst_sample_unref(s);
+    return seq;
+  };
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  // Two frames from each camera without waiting: viewfuse learns that it is live and which cameras it has.
+  for (int frame = 0; frame < 2; ++frame) {
+    push(1, frame);
+    push(2, frame);
+    EXPECT_GE(pull_seq(), 0);
+  }
+  QuerySeen camera1;
+  GstPad* w1_src = gst_element_get_static_pad(gst_bin_get_by_name(GST_BIN(pipe), "w1"), "src");
+  gst_object_unref(GST_PAD_PARENT(w1_src));
+  gst_pad_add_probe(w1_src, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, &QuerySeen::probe, &camera1, nullptr);
+  g_object_set(fuse, "warp-sync", guint64(600 * GST_SECOND), nullptr);  // a wait that never runs out here
+  // Camera 1's frame reaches the barrier; the lecturer moves; only then does camera 2's frame come.
+  push(1, 2);
+  ASSERT_TRUE(camera1.until(1)) << "viewwarp sent no warp-start query";
+  Pose pose = sliders_to_pose(Sliders{60, 50, 55, 45, 50, 50}, default_classroom_rig().camera(0));
+  pose.seq = 42;
+  GstPad* sinkpad = gst_element_get_static_pad(sink, "sink");
+  ASSERT_TRUE(gst_pad_push_event(sinkpad, pose_event_new(pose)));
+  gst_object_unref(sinkpad);
+  push(2, 2);
+  // Camera 1 waited for camera 2 before reading the pose: both warped for pose 42, and the fused frame
+  // (which carries the oldest pose of its cameras) shows it.
+  EXPECT_EQ(pull_seq(), 42);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(w1_src);
+  for (int k : {1, 2}) gst_object_unref(src[k]);
+  gst_object_unref(fuse);
   gst_object_unref(sink);
   gst_object_unref(pipe);
 }

@@ -10,6 +10,7 @@
 
 #include <gst/video/video.h>
 
+#include <atomic>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -24,6 +25,7 @@
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/virtual_view.h>
+#include <gst/vclassroom/vva/warp_start.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_fuse_debug);
 #define GST_CAT_DEFAULT view_fuse_debug
@@ -42,7 +44,8 @@ enum {
   PROP_RIG,
   PROP_POSES_CLAMPED,
   PROP_UNSEEN_SHARE,
-  PROP_STATS_INTERVAL
+  PROP_STATS_INTERVAL,
+  PROP_WARP_SYNC
 };
 // Live and without any input, the fuse thread wakes this often to notice lost
 // cameras and to keep the lecturer's picture saying so; otherwise it sleeps.
@@ -62,6 +65,9 @@ struct FuseState {
   // Which pads are left out, lost, stale (the decisions of each round).
   FuseInputs inputs;
   guint64 frames = 0;
+  // The cameras' warps start together (warp-sync); only live, as the aggregate thread last found.
+  WarpStartBarrier warp_start;
+  std::atomic<bool> live{false};
 
   // Streaming thread only.
   std::vector<PoseSample> trace;
@@ -129,6 +135,21 @@ static gboolean gst_view_fuse_src_event(GstAggregator* agg, GstEvent* event) {
     return TRUE;
   }
   return GST_AGGREGATOR_CLASS(gst_view_fuse_parent_class)->src_event(agg, event);
+}
+
+static int64_t time_ns(GstClockTime t) { return GST_CLOCK_TIME_IS_VALID(t) ? int64_t(t) : -1; }
+
+// A camera's viewwarp is about to read the pose: live, it waits here for the view's other cameras.
+static gboolean gst_view_fuse_sink_query(GstAggregator* agg, GstAggregatorPad* pad, GstQuery* query) {
+  FuseState* st = GST_VIEW_FUSE(agg)->st;
+  const GstStructure* s = GST_QUERY_TYPE(query) == GST_QUERY_CUSTOM ? gst_query_get_structure(query) : nullptr;
+  if (s && gst_structure_has_name(s, kWarpStartQueryName)) {
+    guint64 frame = GST_CLOCK_TIME_NONE;
+    gst_structure_get_uint64(s, "running-time", &frame);
+    if (st->live) st->warp_start.arrive(pad, g_get_monotonic_time() * 1000, time_ns(frame));
+    return TRUE;
+  }
+  return GST_AGGREGATOR_CLASS(gst_view_fuse_parent_class)->sink_query(agg, pad, query);
 }
 
 static gboolean gst_view_fuse_sink_event(GstAggregator* agg, GstAggregatorPad* pad, GstEvent* event) {
@@ -203,7 +224,6 @@ static void send_trace_pose(GstViewFuse* self) {
 }
 
 // GstClockTime as the library's nanoseconds (< 0: unknown) and back.
-static int64_t time_ns(GstClockTime t) { return GST_CLOCK_TIME_IS_VALID(t) ? int64_t(t) : -1; }
 static GstClockTime clock_time(int64_t ns) { return ns < 0 ? GST_CLOCK_TIME_NONE : GstClockTime(ns); }
 
 // Running time on the element's clock now; GST_CLOCK_TIME_NONE without a clock.
@@ -382,6 +402,7 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
   if (pads.empty() && all_eos) return GST_FLOW_EOS;
   RoundContext ctx;
   ctx.live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
+  st->live = ctx.live;
   const GstClockTime now = ctx.live ? running_time_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
   ctx.now_ns = time_ns(now);
   ctx.timeout = timeout;
@@ -445,6 +466,7 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     st->pad_info.clear();
     st->inputs.clear();
   }
+  st->warp_start.resume();
   st->trace.clear();
   st->trace_next = 0;
   st->last_out = GST_CLOCK_TIME_NONE;
@@ -483,8 +505,17 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
   return TRUE;
 }
 
+// Stopping: no camera's warp waits for the others any more.
+static gboolean gst_view_fuse_stop(GstAggregator* agg) {
+  GstViewFuse* self = GST_VIEW_FUSE(agg);
+  self->st->warp_start.release();
+  self->st->live = false;
+  return TRUE;
+}
+
 static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
   GstViewFuse* self = GST_VIEW_FUSE(element);
+  self->st->warp_start.forget(pad);
   {
     std::lock_guard<std::mutex> g(self->st->lock);
     self->st->pad_info.erase(pad);
@@ -522,6 +553,12 @@ static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GVa
     case PROP_STATS_INTERVAL:
       st->stats_interval = g_value_get_uint(value);
       break;
+    case PROP_WARP_SYNC: {
+      WarpStartParams w = st->warp_start.params();
+      w.max_wait_ns = int64_t(g_value_get_uint64(value));
+      st->warp_start.set_params(w);
+      break;
+    }
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -564,6 +601,9 @@ static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_STATS_INTERVAL:
       g_value_set_uint(value, st->stats_interval);
+      break;
+    case PROP_WARP_SYNC:
+      g_value_set_uint64(value, guint64(st->warp_start.params().max_wait_ns));
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
@@ -650,6 +690,15 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                            di.show_missing,
                            GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
+      gobject_class, PROP_WARP_SYNC,
+      g_param_spec_uint64("warp-sync", "Warp sync",
+                          "Live: each camera's viewwarp waits up to this long (ns) for the other cameras' next "
+                          "frames before it reads the pose, so they all warp for the same newest pose and a pose "
+                          "shows after one camera frame interval, not after the last of several scattered ones "
+                          "(0: no wait)",
+                          0, G_MAXINT64, guint64(WarpStartParams().max_wait_ns),
+                          GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
       gobject_class, PROP_FRAMES_FUSED,
       g_param_spec_uint64("frames-fused", "Frames fused", "Output frames produced since start", 0, G_MAXUINT64, 0,
                           GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
@@ -669,6 +718,8 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
       "gst-vclassroom developers");
   agg_class->aggregate = GST_DEBUG_FUNCPTR(gst_view_fuse_aggregate);
   agg_class->sink_event = GST_DEBUG_FUNCPTR(gst_view_fuse_sink_event);
+  agg_class->sink_query = GST_DEBUG_FUNCPTR(gst_view_fuse_sink_query);
+  agg_class->stop = GST_DEBUG_FUNCPTR(gst_view_fuse_stop);
   agg_class->src_event = GST_DEBUG_FUNCPTR(gst_view_fuse_src_event);
   agg_class->update_src_caps = GST_DEBUG_FUNCPTR(gst_view_fuse_update_src_caps);
   agg_class->start = GST_DEBUG_FUNCPTR(gst_view_fuse_start);

@@ -20,6 +20,7 @@
 #include <gst/vclassroom/datasets/dataset.h>
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/view_warp.h>
+#include <gst/vclassroom/vva/warp_start.h>
 #include <gst/vclassroom/vva/virtual_view.h>
 
 GST_DEBUG_CATEGORY_STATIC(view_warp_debug);
@@ -248,6 +249,15 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   Pose pose;
   WarpParams params;
   int memory_frames;
+  const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
+                                       ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
+                                       : GST_CLOCK_TIME_NONE;
+  // Live, viewfuse holds this until the view's other cameras have a frame to warp too (its warp-sync), so
+  // that all read the same newest pose below.
+  GstQuery* warp_start = gst_query_new_custom(
+      GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
+  gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start);
+  gst_query_unref(warp_start);
   {
     std::lock_guard<std::mutex> g(st->lock);
     pose = st->pose;
@@ -256,10 +266,8 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   }
   if (!st->trace.empty()) {
     // The frame's own moment of the trace (trace_pose_for_frame()).
-    const bool timed = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf);
-    const GstClockTime rt =
-        timed ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf)) : GST_CLOCK_TIME_NONE;
-    pose = trace_pose_for_frame(st->trace, GST_CLOCK_TIME_IS_VALID(rt) ? double(rt) / GST_SECOND : NAN, st->frames);
+    pose = trace_pose_for_frame(
+        st->trace, GST_CLOCK_TIME_IS_VALID(running_time) ? double(running_time) / GST_SECOND : NAN, st->frames);
   }
   ++st->frames;
   RgbdFrame in, out;
