@@ -11,6 +11,9 @@
 #   PREP_NICE (nice value of the threads that decode, complete and segment camera frames, default 10: when
 #   the CPU is short, warping, fusing and sending the lecturer's view go first; 0 shares it evenly),
 #   FUSE_LATENCY (ns the fuse waits for a late camera's frame before rendering without it, default 100000000).
+#   WARP_SYNC (longest wait, ns, of each camera's warp for the others' next frames before it reads the
+#   lecturer's pose, so a pose shows after one camera frame, not the last of several; it waits two thirds of
+#   the frame interval within it; default 100000000; 0: no wait; docs/vva.md).
 #   POSE_KEY (file holding the pose key shared with lecturer.sh, e.g. `head -c 32 /dev/urandom > pose.key`:
 #   only poses tagged with it steer the view; empty: anyone who can reach POSE_PORT can steer it).
 #   CAMERA_HOSTS (one address per camera in CAMERAS order, default 127.0.0.1 each; a missing entry repeats the
@@ -130,8 +133,13 @@ done
 # argument and handles the quotes inside them itself.
 set -f
 FUSE_LATENCY=${FUSE_LATENCY:-100000000}
+WARP_SYNC=${WARP_SYNC:-100000000}
+if ! [[ $FUSE_LATENCY =~ ^[0-9]{1,18}$ ]] || ! [[ $WARP_SYNC =~ ^[0-9]{1,18}$ ]]; then
+  echo "server.sh: FUSE_LATENCY and WARP_SYNC are nanoseconds (got '$FUSE_LATENCY', '$WARP_SYNC')" >&2
+  exit 2
+fi
 NAV_RIG=${NAV_RIG-${MODEL:+$MODEL/rig.yaml}}
-desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! poserecv name=poses $pose_key ! \
+desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! poserecv name=poses $pose_key ! \
   jpegenc quality=$QUALITY ! rtpgstpay config-interval=1 mtu=$MTU ! application/x-rtp,$POSE_EXT ! \
   $SRTP_ENC udpsink host=$LECTURER port=$VIDEO_PORT sync=false \
   udpsrc port=$POSE_PORT caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! \
@@ -158,10 +166,10 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
     ${WHEP_STUN:+stun-server=$WHEP_STUN} ${WHEP_TURN:+turn-server=$WHEP_TURN} \
     web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\""
   if [ "$LECTURER_OUT" = whep ]; then
-    desc="viewfuse name=fuse latency=$FUSE_LATENCY ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"
+    desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"
   else
     desc="whepviewsink name=views $whep ${RIG:+rig=$RIG} ${NAV_RIG:+navigation-rig=$NAV_RIG} ${MODEL:+model=$MODEL} \
-      width=$WIDTH height=$HEIGHT fuse-latency=$FUSE_LATENCY background-memory=$MEMORY $branches"
+      width=$WIDTH height=$HEIGHT fuse-latency=$FUSE_LATENCY warp-sync=$WARP_SYNC background-memory=$MEMORY $branches"
   fi
   echo "server.sh: lecturer joins at http${whep_tls:+s}://$(hostname -f 2>/dev/null || hostname):$WHEP_PORT/?token=$TOKEN"
 fi

@@ -692,10 +692,10 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_WARP_SYNC,
       g_param_spec_uint64("warp-sync", "Warp sync",
-                          "Live: each camera's viewwarp waits up to this long (ns) for the other cameras' next "
-                          "frames before it reads the pose, so they all warp for the same newest pose and a pose "
-                          "shows after one camera frame interval, not after the last of several scattered ones "
-                          "(0: no wait)",
+                          "Live: each camera's viewwarp waits for the other cameras' next frames before it reads "
+                          "the pose, at most two thirds of the cameras' frame interval and never longer than this "
+                          "(ns), so they all warp for the same newest pose and a pose shows after one camera "
+                          "frame, not after the last of several scattered ones (0: no wait)",
                           0, G_MAXINT64, guint64(WarpStartParams().max_wait_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(

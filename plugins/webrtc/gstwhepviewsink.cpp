@@ -55,6 +55,7 @@ struct ViewSettings {
   std::string rig, navigation_rig, model;
   int width = 0, height = 0;
   guint64 fuse_latency = 100 * GST_MSECOND;
+  guint64 warp_sync = 100 * GST_MSECOND;
   int background_memory = 0;  // frames; 0: off
 };
 
@@ -77,7 +78,7 @@ G_DEFINE_TYPE(GstWhepViewSink, gst_whep_view_sink, GST_TYPE_BIN)
 #define GST_WHEP_VIEW_SINK(o) ((GstWhepViewSink*)(o))
 
 enum {
-  PROP_0, PROP_RIG, PROP_NAVIGATION_RIG, PROP_MODEL, PROP_WIDTH, PROP_HEIGHT, PROP_FUSE_LATENCY, PROP_BACKGROUND_MEMORY,
+  PROP_0, PROP_RIG, PROP_NAVIGATION_RIG, PROP_MODEL, PROP_WIDTH, PROP_HEIGHT, PROP_FUSE_LATENCY, PROP_WARP_SYNC, PROP_BACKGROUND_MEMORY,
   PROP_ENDPOINT_FIRST
 };
 
@@ -146,7 +147,7 @@ static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& sess
   GstElement* caps = add_element(self, &view, "capsfilter");
   // Started late in a live pipeline: the fused output starts at the first frame, not at running time 0.
   gst_util_set_object_arg(G_OBJECT(view.fuse), "start-time-selection", "first");
-  g_object_set(view.fuse, "latency", s.fuse_latency, nullptr);
+  g_object_set(view.fuse, "latency", s.fuse_latency, "warp-sync", s.warp_sync, nullptr);
   if (!s.navigation_rig.empty()) g_object_set(view.fuse, "rig", s.navigation_rig.c_str(), nullptr);
   gst_util_set_object_arg(G_OBJECT(encoder), "tune", "zerolatency");
   gst_util_set_object_arg(G_OBJECT(encoder), "speed-preset", "ultrafast");
@@ -278,6 +279,7 @@ static void gst_whep_view_sink_set_property(GObject* object, guint id, const GVa
     case PROP_WIDTH: s.width = g_value_get_int(value); break;
     case PROP_HEIGHT: s.height = g_value_get_int(value); break;
     case PROP_FUSE_LATENCY: s.fuse_latency = g_value_get_uint64(value); break;
+    case PROP_WARP_SYNC: s.warp_sync = g_value_get_uint64(value); break;
     case PROP_BACKGROUND_MEMORY: s.background_memory = g_value_get_int(value); break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
   }
@@ -298,6 +300,7 @@ static void gst_whep_view_sink_get_property(GObject* object, guint id, GValue* v
     case PROP_WIDTH: g_value_set_int(value, s.width); break;
     case PROP_HEIGHT: g_value_set_int(value, s.height); break;
     case PROP_FUSE_LATENCY: g_value_set_uint64(value, s.fuse_latency); break;
+    case PROP_WARP_SYNC: g_value_set_uint64(value, s.warp_sync); break;
     case PROP_BACKGROUND_MEMORY: g_value_set_int(value, s.background_memory); break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
   }
@@ -354,6 +357,11 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
   g_object_class_install_property(gobject_class, PROP_FUSE_LATENCY,
       g_param_spec_uint64("fuse-latency", "Fuse latency", "Each view's viewfuse waits this long (ns) for a late camera",
                           0, G_MAXUINT64, 100 * GST_MSECOND, rw));
+  g_object_class_install_property(gobject_class, PROP_WARP_SYNC,
+      g_param_spec_uint64("warp-sync", "Warp sync",
+                          "Each view's cameras wait for each other before reading the pose, two thirds of their "
+                          "frame interval and never longer than this (ns) (viewfuse's warp-sync; 0: no wait)",
+                          0, G_MAXINT64, 100 * GST_MSECOND, rw));
   g_object_class_install_property(gobject_class, PROP_BACKGROUND_MEMORY,
       g_param_spec_int("background-memory", "Background memory",
                        "Every view's viewwarp keeps a memory of the room of this many frames, started from the "
