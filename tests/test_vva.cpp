@@ -1174,10 +1174,10 @@ TEST(ViewFuseElement, LiveACameraWaitsForTheOthersSoEveryCameraWarpsForTheNewest
     color[k] = r.color;
     depth[k] = r.depth;
   }
-  // Frames 10 s apart: the barrier waits two thirds of the frame interval at most, more than this test takes.
+  // Frames 60 s apart: the barrier waits two thirds of the frame interval at most, more than this test takes.
   auto push = [&](int k, int frame) {
     GstBuffer* buf = rgbd_buffer_new(info[k]);
-    GST_BUFFER_PTS(buf) = frame * 10 * GST_SECOND;
+    GST_BUFFER_PTS(buf) = frame * 60 * GST_SECOND;
     RgbdFrame f;
     std::string e;
     EXPECT_TRUE(f.map(buf, info[k], GST_MAP_WRITE, &e)) << e;
@@ -1206,7 +1206,7 @@ TEST(ViewFuseElement, LiveACameraWaitsForTheOthersSoEveryCameraWarpsForTheNewest
   GstPad* w1_src = gst_element_get_static_pad(gst_bin_get_by_name(GST_BIN(pipe), "w1"), "src");
   gst_object_unref(GST_PAD_PARENT(w1_src));
   gst_pad_add_probe(w1_src, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, &QuerySeen::probe, &camera1, nullptr);
-  g_object_set(fuse, "warp-sync", guint64(600 * GST_SECOND), nullptr);  // a wait that never runs out here
+  g_object_set(fuse, "warp-sync", guint64(60 * GST_SECOND), nullptr);  // a wait that never runs out here
   // Camera 1's frame reaches the barrier; the lecturer moves; only then does camera 2's frame come.
   push(1, 2);
   ASSERT_TRUE(camera1.until(1)) << "viewwarp sent no warp-start query";

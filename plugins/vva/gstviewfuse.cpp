@@ -696,7 +696,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
                           "the pose, at most two thirds of the cameras' frame interval and never longer than this "
                           "(ns), so they all warp for the same newest pose and a pose shows after one camera "
                           "frame, not after the last of several scattered ones (0: no wait)",
-                          0, G_MAXINT64, guint64(WarpStartParams().max_wait_ns),
+                          0, WarpStartParams::kLongestWaitNs, guint64(WarpStartParams().max_wait_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_FRAMES_FUSED,

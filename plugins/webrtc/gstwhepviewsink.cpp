@@ -361,7 +361,7 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
       g_param_spec_uint64("warp-sync", "Warp sync",
                           "Each view's cameras wait for each other before reading the pose, two thirds of their "
                           "frame interval and never longer than this (ns) (viewfuse's warp-sync; 0: no wait)",
-                          0, G_MAXINT64, 100 * GST_MSECOND, rw));
+                          0, 60 * GST_SECOND, 100 * GST_MSECOND, rw));
   g_object_class_install_property(gobject_class, PROP_BACKGROUND_MEMORY,
       g_param_spec_int("background-memory", "Background memory",
                        "Every view's viewwarp keeps a memory of the room of this many frames, started from the "

@@ -31,8 +31,9 @@ int64_t WarpStartBarrier::wait_ns_locked() const {
       sum += interval;
       ++n;
     }
-  if (!n) return params_.max_wait_ns;
-  return std::min(params_.max_wait_ns, 2 * sum / (3 * n));
+  const int64_t longest = std::min(params_.max_wait_ns, WarpStartParams::kLongestWaitNs);
+  if (!n) return longest;
+  return std::min(longest, 2 * sum / (3 * n));
 }
 
 int64_t WarpStartBarrier::wait_ns() const {

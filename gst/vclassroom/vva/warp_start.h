@@ -1,5 +1,5 @@
-// The cameras of one view start warping together (docs/vva.md, "Pose
-// latency"). A live view shows a lecturer's pose once every camera has warped
+// The cameras of one view start warping together (docs/vva.md, viewfuse,
+// "The cameras start warping together"). A live view shows a lecturer's pose once every camera has warped
 // a frame for it. Each camera's warp reads the newest pose when its next frame
 // arrives, and under load the cameras' frames arrive at scattered moments: the
 // pose then waits for the last of several scattered arrivals, most of a frame
@@ -11,6 +11,7 @@
 // Thread-safe: every camera's thread calls arrive().
 #pragma once
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstdint>
 #include <map>
@@ -30,10 +31,14 @@ struct WarpStartParams {
   // interval, and a camera whose partner dropped a frame should not hold its
   // own for a whole one.
   int64_t max_wait_ns = 100'000'000;
+  static constexpr int64_t kLongestWaitNs = 60'000'000'000;  // what max_wait_ns may be at most
   // A camera that has not arrived for 15 waits, and at least 500 ms (lost,
   // ended, or far slower than the others), is not waited for until it arrives
   // again.
-  int64_t forget_ns() const { return max_wait_ns * 15 > 500'000'000 ? max_wait_ns * 15 : 500'000'000; }
+  int64_t forget_ns() const {
+    const int64_t waits = 15 * std::min(max_wait_ns, kLongestWaitNs);
+    return waits > 500'000'000 ? waits : 500'000'000;
+  }
 };
 
 class WarpStartBarrier {
