@@ -11,6 +11,7 @@
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/webrtc/loss_rate.h>
 #include <gst/vclassroom/webrtc/playout_delay.h>
 #include <gst/vclassroom/webrtc/send_gate.h>
 #include <gst/vclassroom/webrtc/whep.h>
@@ -23,6 +24,7 @@
 #include <signal.h>
 #include <sys/wait.h>
 
+#include <cmath>
 #include <random>
 #include <set>
 #include <string>
@@ -394,6 +396,20 @@ TEST(WebrtcPlayoutDelay, APayloaderWritesItOnEveryPacketUnderTheNegotiatedId) {
 // A lecturer's send queue: frames pass while there is room; once one is dropped the rest of its GOP is
 // dropped too (the decoder never gets a frame whose reference is gone), a key frame is asked for once, and
 // sending resumes with the next key frame that finds room.
+TEST(WebrtcLossRate, HighLossCutsTheRateLowLossGrowsItBackWithinTheBounds) {
+  LossBasedRate rate(LossRateParams{4000, 250});
+  EXPECT_EQ(rate.kbit(), 4000);
+  EXPECT_EQ(rate.on_report(0.0), 4000) << "never above the element's bitrate";
+  EXPECT_EQ(rate.on_report(0.40), 3200) << "40 % lost: down by 20 %";
+  EXPECT_EQ(rate.on_report(0.05), 3200) << "between 2 and 10 %: held";
+  EXPECT_EQ(rate.on_report(0.01), 3360) << "under 2 %: up by 5 %";
+  for (int i = 0; i < 40; ++i) rate.on_report(1.0);
+  EXPECT_EQ(rate.kbit(), 250) << "never below the floor";
+  for (double junk : {-0.5, 1.5, std::nan(""), HUGE_VAL}) EXPECT_EQ(rate.on_report(junk), 250) << junk;
+  for (int i = 0; i < 200; ++i) rate.on_report(0.0);
+  EXPECT_EQ(rate.kbit(), 4000) << "a link that recovers gets the whole rate back";
+}
+
 TEST(WebrtcSendGate, ADroppedFrameTakesTheRestOfItsGopAndAsksForOneKeyFrame) {
   GopSendGate gate;
   EXPECT_TRUE(gate.admit(true, false));
@@ -476,23 +492,30 @@ struct BrowserRun {
 // Runs `gst-launch-1.0 <server>` (with {PORT} replaced by a free TCP port) as a process of its own (webrtcbin
 // 1.22 keeps its ICE and DTLS agents alive past gst_deinit(), which this program's leaks tracer would count
 // as ours), then `node tests/browser/<script> http://127.0.0.1:PORT <args...>`, then stops the server.
-BrowserRun run_browser_script(const std::string& server, const std::string& script, const std::vector<std::string>& args) {
-  BrowserRun run;
+std::string browser_dir() {
   const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
-  const std::string browser_dir = std::string(source_dir ? source_dir : ".") + "/tests/browser";
+  return std::string(source_dir ? source_dir : ".") + "/tests/browser";
+}
+
+// Why the browser tests cannot run here ("" when they can).
+std::string browser_skip_reason() {
   const char* chromium = g_getenv("CHROMIUM") ? g_getenv("CHROMIUM") : "/usr/bin/chromium";
   gchar* node = g_find_program_in_path("node");
-  if (!node || !g_file_test(chromium, G_FILE_TEST_IS_EXECUTABLE) ||
-      !g_file_test((browser_dir + "/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR)) {
-    g_free(node);
-    run.skip = std::string("needs node, ") + chromium + " and tests/browser/node_modules (scripts/setup.sh runs npm ci)";
-    return run;
-  }
-  if (!gst_element_factory_find("webrtcbin") || !gst_element_factory_find("whepserversink")) {
-    g_free(node);
-    run.skip = "needs webrtcbin (gstreamer1.0-plugins-bad, gstreamer1.0-nice) and the webrtc plugin";
-    return run;
-  }
+  const bool have = node && g_file_test(chromium, G_FILE_TEST_IS_EXECUTABLE) &&
+                    g_file_test((browser_dir() + "/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR);
+  g_free(node);
+  if (!have) return std::string("needs node, ") + chromium + " and tests/browser/node_modules (scripts/setup.sh runs npm ci)";
+  if (!gst_element_factory_find("webrtcbin") || !gst_element_factory_find("whepserversink"))
+    return "needs webrtcbin (gstreamer1.0-plugins-bad, gstreamer1.0-nice) and the webrtc plugin";
+  return "";
+}
+
+BrowserRun run_browser_script(const std::string& server, const std::string& script, const std::vector<std::string>& args) {
+  BrowserRun run;
+  run.skip = browser_skip_reason();
+  if (!run.skip.empty()) return run;
+  const std::string browser_dir = ::browser_dir();
+  gchar* node = g_find_program_in_path("node");
   GError* err = nullptr;
   const int port = vctest::free_tcp_port();
   std::string launch = "gst-launch-1.0 " + server;
@@ -634,6 +657,84 @@ TEST(WebrtcBrowser, StunAndTurnServersReachTheServersIceAndThePage) {
   for (const char* check : {"ok OPTIONS: 204", "ok the page uses", "ok the server asked the TURN server as alice"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());
+}
+
+// A lecturer behind a slow link: server and browser in a network namespace of their own whose loopback
+// carries 1000 kbit/s (tests/browser/slow-link.sh: unshare -rn, tc tbf), the server at its default 4000.
+// The browser's receiver reports first tell of most packets lost; the session's rate comes down
+// (LossBasedRate) until the page sees five seconds with under 10 % lost and at least 25 frames shown
+// (tests/browser/slow-link-test.mjs). At a fixed 4000 kbit/s the loss stays and the page never settles.
+namespace {
+
+// Runs tests/browser/slow-link.sh with the server `server` ({PORT} its port): what it printed, its status.
+struct SlowLinkRun {
+  std::string output;
+  gint status = 0;
+};
+SlowLinkRun run_behind_slow_link(std::string server, int kbit) {
+  const std::string port = std::to_string(vctest::free_tcp_port());
+  server.replace(server.find("{PORT}"), 6, port);
+  const std::string script = browser_dir() + "/slow-link.sh", rate = std::to_string(kbit);
+  const gchar* argv[] = {"unshare", "-rn", "sh", script.c_str(), rate.c_str(), port.c_str(), server.c_str(),
+                         "slow-link-test.mjs", "secret-token", nullptr};
+  // Node and Chromium are not ours: no sanitizer runtime preloaded into them; the server gets it back.
+  gchar** env = g_get_environ();
+  if (const gchar* preload = g_environ_getenv(env, "LD_PRELOAD"))
+    env = g_environ_setenv(env, "VCLASSROOM_SERVER_PRELOAD", preload, TRUE);
+  env = g_environ_unsetenv(env, "LD_PRELOAD");
+  gchar* output = nullptr;
+  SlowLinkRun run;
+  GError* err = nullptr;
+  if (!g_spawn_sync(browser_dir().c_str(), const_cast<gchar**>(argv), env, G_SPAWN_SEARCH_PATH, nullptr, nullptr,
+                    &output, nullptr, &run.status, &err)) {
+    run.output = std::string("unshare failed to start: ") + (err ? err->message : "");
+    run.status = 77 << 8;
+  }
+  g_strfreev(env);
+  if (output) run.output += output;
+  g_free(output);
+  return run;
+}
+
+}  // namespace
+
+// A lecturer behind a slow link: server and browser in a network namespace of their own whose loopback
+// carries 1000 kbit/s (tests/browser/slow-link.sh: unshare -rn, tc tbf), the server at its default 4000.
+// The browser's receiver reports first tell of most packets lost; the session's rate comes down
+// (LossBasedRate) until the page sees five seconds with under 10 % lost and at least 25 frames shown
+// (tests/browser/slow-link-test.mjs). At a fixed 4000 kbit/s the loss stays and the page never settles.
+// Both sinks: whepserversink's shared encoder and whepviewsink's encoder of the lecturer's own view.
+TEST(WebrtcBrowser, ALecturerBehindASlowLinkGetsTheRateTheLinkCarries) {
+  const std::string skip = browser_skip_reason();
+  if (!skip.empty()) GTEST_SKIP() << skip;
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 960, 540);
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const std::string camera = "rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg";
+  for (const std::string& server :
+       {camera + " ! viewwarp rig=" + rig + " ! queue ! f.cam_0 viewfuse name=f rig=" + rig +
+            " ! whepserversink port={PORT} token=secret-token web-root=" + web,
+        "whepviewsink name=w port={PORT} token=secret-token rig=" + rig + " web-root=" + web + " " + camera +
+            " ! w.cam_0"}) {
+    const SlowLinkRun run = run_behind_slow_link(server, 1000);
+    const std::string& out = run.output;
+    if (WIFEXITED(run.status) && WEXITSTATUS(run.status) == 77) GTEST_SKIP() << out;
+    if (out.find("unshare failed") != std::string::npos) GTEST_SKIP() << "no user namespaces here: " << out;
+    EXPECT_TRUE(g_spawn_check_wait_status(run.status, nullptr)) << server << "\n" << out;
+    EXPECT_NE(out.find("ok settled"), std::string::npos) << server << "\n" << out;
+    // The server's side: a report of heavy loss, and a rate within the link's reach.
+    double worst_loss = 0;
+    int lowest_kbit = 1 << 30;
+    for (size_t at = out.find("vclassroom-lecturer-bitrate"); at != std::string::npos;
+         at = out.find("vclassroom-lecturer-bitrate", at + 1)) {
+      const size_t k = out.find("kbit=(int)", at), f = out.find("fraction-lost=(double)", at);
+      if (k != std::string::npos) lowest_kbit = std::min(lowest_kbit, std::atoi(out.c_str() + k + 10));
+      if (f != std::string::npos) worst_loss = std::max(worst_loss, std::atof(out.c_str() + f + 22));
+    }
+    EXPECT_GT(worst_loss, 0.10) << out;
+    EXPECT_LE(lowest_kbit, 1200) << out;
+    std::printf("%s", out.c_str());
+  }
 }
 
 namespace {

@@ -11,6 +11,8 @@
 #include <gst/gst.h>
 #include <gst/video/video.h>
 
+#include <algorithm>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -31,8 +33,9 @@ struct _GstWhepServerSink {
   GstElement* encoder;
   GstElement* tee;
   WhepEndpoint* endpoint;
-  std::mutex* lock;     // guards poses
+  std::mutex* lock;     // guards poses and rates
   PoseSession* poses;   // latest wins across the sessions
+  std::map<std::string, int>* rates;  // each session's kbit/s after its losses (the one encoder takes the least)
 };
 typedef struct _GstWhepServerSink GstWhepServerSink;
 struct GstWhepServerSinkClass {
@@ -69,6 +72,13 @@ static void on_session_pose(GstWhepServerSink* self, const std::string& session,
   gst_pad_push_event(self->sinkpad, event);
 }
 
+// Every lecturer shares the encoder: it codes at the rate the most lossy link stands.
+static void set_shared_rate_locked(GstWhepServerSink* self) {
+  int kbit = int(self->endpoint->bitrate_kbit());
+  for (const auto& kv : *self->rates) kbit = std::min(kbit, kv.second);
+  g_object_set(self->encoder, "bitrate", guint(kbit), nullptr);
+}
+
 static GstStateChangeReturn gst_whep_server_sink_change_state(GstElement* element, GstStateChange transition) {
   GstWhepServerSink* self = GST_WHEP_SERVER_SINK(element);
   if (transition == GST_STATE_CHANGE_NULL_TO_READY) {
@@ -80,6 +90,7 @@ static GstStateChangeReturn gst_whep_server_sink_change_state(GstElement* elemen
     self->endpoint->stop();
     std::lock_guard<std::mutex> g(*self->lock);
     self->poses->reset();
+    self->rates->clear();
   }
   return ret;
 }
@@ -97,9 +108,19 @@ static void gst_whep_server_sink_get_property(GObject* object, guint id, GValue*
 static void gst_whep_server_sink_init(GstWhepServerSink* self) {
   self->lock = new std::mutex;
   self->poses = new PoseSession;
+  self->rates = new std::map<std::string, int>;
   WhepEndpointHooks hooks;
   hooks.attach = [self](const std::string&) { return attach_session(self); };
-  hooks.detach = [self](const std::string&, GstPad* pad) { gst_element_release_request_pad(self->tee, pad); };
+  hooks.detach = [self](const std::string& session, GstPad* pad) {
+    gst_element_release_request_pad(self->tee, pad);
+    std::lock_guard<std::mutex> g(*self->lock);
+    if (self->rates->erase(session)) set_shared_rate_locked(self);
+  };
+  hooks.rate = [self](const std::string& session, int kbit) {
+    std::lock_guard<std::mutex> g(*self->lock);
+    (*self->rates)[session] = kbit;
+    set_shared_rate_locked(self);
+  };
   hooks.pose = [self](const std::string& session, const Pose& pose) { on_session_pose(self, session, pose); };
   self->endpoint = new WhepEndpoint(GST_BIN(self), "whepserversink", std::move(hooks));
   GstElement* queue = gst_element_factory_make("queue", nullptr);
@@ -133,6 +154,7 @@ static void gst_whep_server_sink_finalize(GObject* object) {
   GstWhepServerSink* self = GST_WHEP_SERVER_SINK(object);
   delete self->endpoint;
   delete self->poses;
+  delete self->rates;
   delete self->lock;
   G_OBJECT_CLASS(gst_whep_server_sink_parent_class)->finalize(object);
 }

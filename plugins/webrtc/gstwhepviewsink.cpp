@@ -48,6 +48,7 @@ struct View {
   std::vector<TeeLink> tee_pads;
   std::vector<GstElement*> elements;
   GstElement* fuse = nullptr;
+  GstElement* encoder = nullptr;  // its bitrate follows this lecturer's losses
   PoseSession poses;  // this lecturer's: latest wins
 };
 
@@ -143,7 +144,7 @@ static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& sess
   View& view = (*self->views)[session];
   view.fuse = add_element(self, &view, "viewfuse");
   GstElement* convert = add_element(self, &view, "videoconvert");
-  GstElement* encoder = add_element(self, &view, "x264enc");
+  GstElement* encoder = view.encoder = add_element(self, &view, "x264enc");
   GstElement* caps = add_element(self, &view, "capsfilter");
   // Started late in a live pipeline: the fused output starts at the first frame, not at running time 0.
   gst_util_set_object_arg(G_OBJECT(view.fuse), "start-time-selection", "first");
@@ -319,6 +320,11 @@ static void gst_whep_view_sink_init(GstWhepViewSink* self) {
   hooks.start = [self](const std::string& session) { start_view(self, session); };
   hooks.detach = [self](const std::string& session, GstPad*) { detach_view(self, session); };
   hooks.pose = [self](const std::string& session, const Pose& pose) { on_session_pose(self, session, pose); };
+  hooks.rate = [self](const std::string& session, int kbit) {
+    std::lock_guard<std::mutex> g(*self->lock);
+    auto it = self->views->find(session);
+    if (it != self->views->end() && it->second.encoder) g_object_set(it->second.encoder, "bitrate", guint(kbit), nullptr);
+  };
   self->endpoint = new WhepEndpoint(GST_BIN(self), "whepviewsink", std::move(hooks));
 }
 

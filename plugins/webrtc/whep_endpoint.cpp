@@ -219,6 +219,17 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   send.playout_extension_id = offered_extension_id(offer, kPlayoutDelayUri);
   send.playout_delay_ms = st->playout_delay_ms;
   send.ice_servers = st->ice_servers;
+  send.max_kbit = int(st->bitrate_kbit);
+  send.on_rate = [st, id](int kbit, double fraction_lost) {
+    GST_INFO_OBJECT(st->owner, "session %s: %.1f %% lost, now %d kbit/s", id.c_str(), 100 * fraction_lost, kbit);
+    gst_element_post_message(GST_ELEMENT(st->owner),
+                             gst_message_new_element(GST_OBJECT(st->owner),
+                                                     gst_structure_new("vclassroom-lecturer-bitrate", "session",
+                                                                       G_TYPE_STRING, id.c_str(), "kbit", G_TYPE_INT,
+                                                                       kbit, "fraction-lost", G_TYPE_DOUBLE,
+                                                                       fraction_lost, nullptr)));
+    if (st->hooks.rate) st->hooks.rate(id, kbit);
+  };
   s->branch = std::make_unique<WhepSendBranch>(st->owner, id, send);
   GstElement* webrtc = s->branch->webrtc();
   g_signal_connect(webrtc, "on-data-channel", G_CALLBACK(on_data_channel), s);
@@ -232,6 +243,15 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   g_signal_emit_by_name(webrtc, "set-remote-description", desc,
                         gst_promise_new_with_change_func(on_offer_set, s, nullptr));
   gst_webrtc_session_description_free(desc);
+}
+
+// Every second: each session's branch looks for a new receiver report (its bitrate follows the losses).
+gboolean poll_receiver_reports(gpointer user_data) {
+  State* st = static_cast<State*>(user_data);
+  std::lock_guard<std::mutex> g(st->lock);
+  for (auto& kv : st->sessions)
+    if (kv.second->branch) kv.second->branch->poll_receiver_reports();
+  return G_SOURCE_CONTINUE;
 }
 
 // Takes the session's branch out of the pipeline, lets the element take its source out, and frees it.
@@ -390,7 +410,11 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
   g_object_class_install_property(klass, p + kTlsKey,
       g_param_spec_string("tls-key", "TLS key", "PEM private key file of tls-certificate", "", rw()));
   g_object_class_install_property(klass, p + kBitrate,
-      g_param_spec_uint("bitrate", "Bitrate", "H.264 bitrate in kbit/s", 100, 50000, 4000, rw()));
+      g_param_spec_uint("bitrate", "Bitrate",
+                        "H.264 bitrate in kbit/s, the most a lecturer gets: each session's rate follows the losses "
+                        "its browser reports (posting a vclassroom-lecturer-bitrate element message: session, "
+                        "kbit, fraction-lost on each change; whepserversink's shared encoder takes the lowest)",
+                        100, 50000, 4000, rw()));
   g_object_class_install_property(klass, p + kMaxSessions,
       g_param_spec_uint("max-sessions", "Max sessions", "Lecturers at once; more get 503", 1, 64, 4, rw()));
   g_object_class_install_property(klass, p + kWebRoot,
@@ -514,6 +538,10 @@ bool WhepEndpoint::start() {
   if (uris) st->bound_port = g_uri_get_port(static_cast<GUri*>(uris->data));
   g_slist_free_full(uris, (GDestroyNotify)g_uri_unref);
   GST_INFO_OBJECT(st->owner, "WHEP on port %u", st->bound_port);
+  GSource* reports = g_timeout_source_new_seconds(1);
+  g_source_set_callback(reports, poll_receiver_reports, st, nullptr);
+  g_source_attach(reports, st->context);
+  g_source_unref(reports);
   st->thread = g_thread_new("whep-http", server_thread, st);
   return true;
 }

@@ -31,6 +31,9 @@ struct WhepEndpointHooks {
   std::function<void(const std::string& session, GstPad* pad)> detach;
   // A well-formed, plausible pose from the session's page (parse_pose_message, pose_is_plausible).
   std::function<void(const std::string& session, const Pose& pose)> pose;
+  // Optional: the session's bitrate (kbit/s, at most the bitrate property) after its browser reported
+  // losses (LossBasedRate); the element sets its encoder. Called from webrtcbin's thread.
+  std::function<void(const std::string& session, int kbit)> rate;
 };
 
 class WhepEndpoint {

@@ -7,10 +7,12 @@
 #include <gst/rtp/rtp.h>
 #include <gst/video/video.h>
 
+#include <algorithm>
 #include <map>
 #include <mutex>
 
 #include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/webrtc/loss_rate.h>
 #include <gst/vclassroom/webrtc/send_gate.h>
 
 #include "gstrtphdrextplayoutdelay.h"
@@ -48,9 +50,52 @@ struct WhepSendBranch::State {
   std::map<GstClockTime, FramePose> frame_poses;  // recent frames' poses by PTS (bounded)
 };
 
+// The session's rate, fed by webrtcbin's statistics answers, which may come after the branch is gone.
+struct WhepSendBranch::RateWatch {
+  std::mutex lock;
+  bool alive = true;  // false once the branch is gone: no more on_rate
+  std::string session;
+  LossBasedRate rate;
+  std::string last_report;  // the last receiver report seen, as text without its timestamp
+  std::function<void(int, double)> on_rate;
+};
+
 namespace {
 
 using State = WhepSendBranch::State;
+using RateWatch = WhepSendBranch::RateWatch;
+
+// webrtcbin's statistics: the browser's latest receiver report (remote-inbound-rtp), if it is a new one.
+void on_stats(GstPromise* promise, gpointer user_data) {
+  const std::shared_ptr<RateWatch>& watch = *static_cast<std::shared_ptr<RateWatch>*>(user_data);
+  if (gst_promise_wait(promise) != GST_PROMISE_RESULT_REPLIED) return;
+  const GstStructure* reply = gst_promise_get_reply(promise);
+  if (!reply) return;
+  for (int i = 0; i < gst_structure_n_fields(reply); ++i) {
+    const GValue* v = gst_structure_get_value(reply, gst_structure_nth_field_name(reply, i));
+    if (!GST_VALUE_HOLDS_STRUCTURE(v)) continue;
+    const GstStructure* stats = gst_value_get_structure(v);
+    GstWebRTCStatsType type;
+    double lost = 0;
+    if (!gst_structure_get(stats, "type", GST_TYPE_WEBRTC_STATS_TYPE, &type, nullptr) ||
+        type != GST_WEBRTC_STATS_REMOTE_INBOUND_RTP || !gst_structure_get_double(stats, "fraction-lost", &lost))
+      continue;
+    // The same report comes back until the browser sends the next one: only a new one counts.
+    GstStructure* report = gst_structure_copy(stats);
+    gst_structure_remove_field(report, "timestamp");
+    gchar* text = gst_structure_to_string(report);
+    gst_structure_free(report);
+    std::lock_guard<std::mutex> g(watch->lock);
+    const bool fresh = watch->alive && watch->last_report != text;
+    watch->last_report = text;
+    g_free(text);
+    if (!fresh) return;
+    const int before = watch->rate.kbit(), now = watch->rate.on_report(lost);
+    GST_LOG("session %s: receiver report, %.1f %% lost: %d kbit/s", watch->session.c_str(), 100 * lost, now);
+    if (now != before && watch->on_rate) watch->on_rate(now, lost);
+    return;
+  }
+}
 
 // Every encoded frame entering the branch: the send gate (a full queue drops the rest of the GOP and asks
 // the encoder for a key frame).
@@ -161,7 +206,7 @@ void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer) {
 }  // namespace
 
 WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const WhepSendSettings& settings)
-    : st_(new State) {
+    : st_(new State), rate_(new RateWatch) {
   static gsize debug_once = 0;
   if (g_once_init_enter(&debug_once)) {
     GST_DEBUG_CATEGORY_INIT(whep_send_debug, "whepsend", 0, "A WHEP session's video on its way out");
@@ -170,6 +215,9 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   State* st = st_.get();
   st->owner = owner;
   st->session = session;
+  rate_->session = session;
+  rate_->rate = LossBasedRate(LossRateParams{settings.max_kbit, std::min(250, settings.max_kbit)});
+  rate_->on_rate = settings.on_rate;
   st->queue = gst_element_factory_make("queue", nullptr);
   g_object_set(st->queue, "max-size-buffers", kSendQueueFrames, "max-size-time", guint64(0), "max-size-bytes", 0,
                nullptr);
@@ -217,6 +265,10 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
 }
 
 WhepSendBranch::~WhepSendBranch() {
+  {
+    std::lock_guard<std::mutex> g(rate_->lock);
+    rate_->alive = false;
+  }
   State* st = st_.get();
   for (GstElement* e : {st->webrtc, st->pay, st->queue}) {
     gst_element_set_state(e, GST_STATE_NULL);
@@ -227,6 +279,14 @@ WhepSendBranch::~WhepSendBranch() {
 }
 
 GstElement* WhepSendBranch::webrtc() const { return st_->webrtc; }
+
+void WhepSendBranch::poll_receiver_reports() {
+  GstPromise* promise = gst_promise_new_with_change_func(on_stats, new std::shared_ptr<RateWatch>(rate_), [](gpointer p) {
+    delete static_cast<std::shared_ptr<RateWatch>*>(p);
+  });
+  g_signal_emit_by_name(st_->webrtc, "get-stats", nullptr, promise);
+  gst_promise_unref(promise);
+}
 
 GstPad* WhepSendBranch::sink() const { return st_->sink; }
 

@@ -2,12 +2,14 @@
 //   queue (GopSendGate; answers serialized queries) ! rtph264pay (send-time
 //   stamps; the playout-delay extension) ! webrtcbin (nothing synced to the clock)
 // and, over the session's data channel, the echo of the pose each frame was
-// rendered for. Signalling (offer, answer, ICE) stays with the endpoint.
+// rendered for, and the session's bitrate from the browser's receiver reports
+// (LossBasedRate). Signalling (offer, answer, ICE) stays with the endpoint.
 #pragma once
 
 #include <gst/gst.h>
 #include <gst/webrtc/webrtc.h>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -21,6 +23,10 @@ struct WhepSendSettings {
   int playout_extension_id = 0;    // the offer's id for the playout-delay extension; 0: not sent
   int playout_delay_ms = 100;      // its maximum (the minimum is 0)
   std::vector<IceServer> ice_servers;
+  int max_kbit = 4000;  // the element's bitrate: the session's rate starts there and never exceeds it
+  // The session's rate changed (LossBasedRate, on a new receiver report with this loss); called from
+  // webrtcbin's thread, never after the branch is gone.
+  std::function<void(int kbit, double fraction_lost)> on_rate;
 };
 
 class WhepSendBranch {
@@ -38,11 +44,16 @@ class WhepSendBranch {
   // The page's data channel, once it opens one: the echo goes there. False (nothing taken) when the branch
   // has one already: a page opens one channel, others are ignored.
   bool set_echo_channel(GstWebRTCDataChannel* channel);
+  // Asks webrtcbin for its statistics; when they hold a receiver report not seen before, its loss updates
+  // the session's rate (settings.on_rate). Returns at once; the answer comes in webrtcbin's thread.
+  void poll_receiver_reports();
 
   struct State;
+  struct RateWatch;
 
  private:
   std::unique_ptr<State> st_;
+  std::shared_ptr<RateWatch> rate_;  // shared with webrtcbin's pending statistics answers
 };
 
 }  // namespace vclassroom

@@ -1,0 +1,20 @@
+#include <gst/vclassroom/webrtc/loss_rate.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace vclassroom {
+
+LossBasedRate::LossBasedRate(const LossRateParams& params)
+    : params_{std::max(1, params.max_kbit), std::clamp(params.min_kbit, 1, std::max(1, params.max_kbit))},
+      rate_kbit_(params_.max_kbit) {}
+
+int LossBasedRate::on_report(double fraction_lost) {
+  if (!std::isfinite(fraction_lost) || fraction_lost < 0 || fraction_lost > 1) return kbit();
+  if (fraction_lost > 0.10) rate_kbit_ *= 1 - 0.5 * fraction_lost;
+  else if (fraction_lost < 0.02) rate_kbit_ *= 1.05;
+  rate_kbit_ = std::clamp(rate_kbit_, double(params_.min_kbit), double(params_.max_kbit));
+  return kbit();
+}
+
+}  // namespace vclassroom

@@ -1,0 +1,30 @@
+// A lecturer's bitrate from the losses their browser reports (docs/lecturer.md,
+// "Bitrate"). GStreamer 1.22's webrtcbin has no congestion controller, but it
+// hands over the receiver reports: this is the loss-based half of Google
+// congestion control (draft-ietf-rmcat-gcc-02, section 6). Over 10 % lost, the
+// rate falls by half the loss; under 2 %, it grows by 5 % per report; in
+// between it holds. The link is then used up to where it starts losing, and a
+// lecturer behind a slow link gets fewer bits instead of a broken picture.
+#pragma once
+
+namespace vclassroom {
+
+struct LossRateParams {
+  int max_kbit = 4000;  // where it starts, and never above (the element's bitrate)
+  int min_kbit = 250;   // never below
+};
+
+class LossBasedRate {
+ public:
+  explicit LossBasedRate(const LossRateParams& params = LossRateParams());
+  // One receiver report: the share of the packets lost since the previous one
+  // (0..1; anything else is ignored). Returns the new rate.
+  int on_report(double fraction_lost);
+  int kbit() const { return int(rate_kbit_ + 0.5); }
+
+ private:
+  LossRateParams params_;
+  double rate_kbit_;
+};
+
+}  // namespace vclassroom
