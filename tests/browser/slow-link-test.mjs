@@ -26,7 +26,7 @@ try {
     return { seconds: (b.t - w[0].t) / 1000, lost: lost / (lost + got), shown: b.shown - a.shown,
              kbps: w.slice(-5).reduce((sum, x) => sum + (x.kbps || 0), 0) / 5,
              firstKbps: Math.max(...w.slice(1, 4).map(x => x.kbps || 0)) };
-  }, { timeout: 120000, polling: 250 });
+  }, { timeout: 180000, polling: 250 });
   const r = await settled.jsonValue();
   console.log(`ok settled after ${r.seconds.toFixed(0)} s: ${(100 * r.lost).toFixed(1)} % lost, ` +
               `${r.shown} frames shown in 5 s, ${r.kbps.toFixed(0)} kbit/s received (at first ${r.firstKbps.toFixed(0)})`);
