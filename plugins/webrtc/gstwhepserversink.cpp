@@ -72,9 +72,10 @@ static void on_session_pose(GstWhepServerSink* self, const std::string& session,
   gst_pad_push_event(self->sinkpad, event);
 }
 
-// Every lecturer shares the encoder: it codes at the rate the most lossy link stands.
-static void set_shared_rate_locked(GstWhepServerSink* self) {
-  int kbit = int(self->endpoint->bitrate_kbit());
+// Every lecturer shares the encoder: it codes at the rate the most lossy link stands. `max_kbit`: the
+// bitrate property (read before the lock: the endpoint's lock is never taken under ours).
+static void set_shared_rate_locked(GstWhepServerSink* self, int max_kbit) {
+  int kbit = max_kbit;
   for (const auto& kv : *self->rates) kbit = std::min(kbit, kv.second);
   g_object_set(self->encoder, "bitrate", guint(kbit), nullptr);
 }
@@ -113,13 +114,15 @@ static void gst_whep_server_sink_init(GstWhepServerSink* self) {
   hooks.attach = [self](const std::string&) { return attach_session(self); };
   hooks.detach = [self](const std::string& session, GstPad* pad) {
     gst_element_release_request_pad(self->tee, pad);
+    const int max_kbit = int(self->endpoint->bitrate_kbit());
     std::lock_guard<std::mutex> g(*self->lock);
-    if (self->rates->erase(session)) set_shared_rate_locked(self);
+    if (self->rates->erase(session)) set_shared_rate_locked(self, max_kbit);
   };
   hooks.rate = [self](const std::string& session, int kbit) {
+    const int max_kbit = int(self->endpoint->bitrate_kbit());
     std::lock_guard<std::mutex> g(*self->lock);
     (*self->rates)[session] = kbit;
-    set_shared_rate_locked(self);
+    set_shared_rate_locked(self, max_kbit);
   };
   hooks.pose = [self](const std::string& session, const Pose& pose) { on_session_pose(self, session, pose); };
   self->endpoint = new WhepEndpoint(GST_BIN(self), "whepserversink", std::move(hooks));

@@ -246,11 +246,18 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
 }
 
 // Every second: each session's branch looks for a new receiver report (its bitrate follows the losses).
+// Sessions start and end in this thread only (or after it stopped), so the branches stay while they are
+// polled; they are polled without the lock, because a webrtcbin that is not running answers at once and
+// the element's rate hook takes the element's lock.
 gboolean poll_receiver_reports(gpointer user_data) {
   State* st = static_cast<State*>(user_data);
-  std::lock_guard<std::mutex> g(st->lock);
-  for (auto& kv : st->sessions)
-    if (kv.second->branch) kv.second->branch->poll_receiver_reports();
+  std::vector<WhepSendBranch*> branches;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    for (auto& kv : st->sessions)
+      if (kv.second->branch) branches.push_back(kv.second->branch.get());
+  }
+  for (WhepSendBranch* b : branches) b->poll_receiver_reports();
   return G_SOURCE_CONTINUE;
 }
 
