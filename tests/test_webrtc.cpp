@@ -699,7 +699,7 @@ SlowLinkRun run_behind_slow_link(std::string server, int kbit) {
 // A lecturer behind a slow link: server and browser in a network namespace of their own whose loopback
 // carries a few hundred kbit/s (tests/browser/slow-link.sh: unshare -rn, tc tbf), the server at its default
 // 4000. The browser's receiver reports first tell of most packets lost; the session's rate comes down
-// (LossBasedRate) until the page sees five seconds with under 10 % lost and at least 25 frames shown
+// (LossBasedRate) until the page sees five seconds with under 10 % lost and at least 15 frames shown
 // (tests/browser/slow-link-test.mjs). At a fixed 4000 kbit/s the loss stays and the page never settles.
 // Both sinks: whepserversink's shared encoder (fed noise, which x264 cannot code below its target, so the
 // link is overrun whatever this machine's speed) and whepviewsink's encoder of the lecturer's own view of
