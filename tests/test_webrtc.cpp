@@ -514,7 +514,7 @@ BrowserRun run_browser_script(const std::string& server, const std::string& scri
   BrowserRun run;
   run.skip = browser_skip_reason();
   if (!run.skip.empty()) return run;
-  const std::string browser_dir = ::browser_dir();
+  const std::string dir = browser_dir();
   gchar* node = g_find_program_in_path("node");
   GError* err = nullptr;
   const int port = vctest::free_tcp_port();
@@ -533,7 +533,7 @@ BrowserRun run_browser_script(const std::string& server, const std::string& scri
     g_free(node);
     return run;
   }
-  const std::string script_path = browser_dir + "/" + script, base = "http://127.0.0.1:" + std::to_string(port);
+  const std::string script_path = dir + "/" + script, base = "http://127.0.0.1:" + std::to_string(port);
   std::vector<const gchar*> argv = {node, script_path.c_str(), base.c_str()};
   for (const std::string& a : args) argv.push_back(a.c_str());
   argv.push_back(nullptr);
@@ -541,8 +541,8 @@ BrowserRun run_browser_script(const std::string& server, const std::string& scri
   gint status = 0;
   // Node and Chromium are not ours: no sanitizer runtime preloaded into them (the sanitizer build's env).
   gchar** browser_env = g_environ_unsetenv(g_get_environ(), "LD_PRELOAD");
-  const gboolean spawned = g_spawn_sync(browser_dir.c_str(), const_cast<gchar**>(argv.data()), browser_env,
-                                        G_SPAWN_DEFAULT, nullptr, nullptr, &output, nullptr, &status, &err);
+  const gboolean spawned = g_spawn_sync(dir.c_str(), const_cast<gchar**>(argv.data()), browser_env, G_SPAWN_DEFAULT,
+                                        nullptr, nullptr, &output, nullptr, &status, &err);
   g_strfreev(browser_env);
   kill(server_pid, SIGTERM);
   waitpid(server_pid, nullptr, 0);

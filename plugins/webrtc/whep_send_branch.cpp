@@ -7,7 +7,6 @@
 #include <gst/rtp/rtp.h>
 #include <gst/video/video.h>
 
-#include <algorithm>
 #include <map>
 #include <mutex>
 
@@ -216,7 +215,7 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   st->owner = owner;
   st->session = session;
   rate_->session = session;
-  rate_->rate = LossBasedRate(LossRateParams{settings.max_kbit, std::min(250, settings.max_kbit)});
+  rate_->rate = LossBasedRate(LossRateParams{settings.max_kbit});  // (its floor never exceeds the maximum)
   rate_->on_rate = settings.on_rate;
   st->queue = gst_element_factory_make("queue", nullptr);
   g_object_set(st->queue, "max-size-buffers", kSendQueueFrames, "max-size-time", guint64(0), "max-size-bytes", 0,
