@@ -47,7 +47,8 @@ class BackgroundMemory {
   // != 0), or a pixel within room_margin of one, hides a room pixel the
   // memory knows steadily (the same colour for half its frames, so a
   // learner's edge the segmentation missed for a frame is not taken for the
-  // room); 0 elsewhere. *color is the remembered room. Call after update()
+  // room); 0 elsewhere. *color is the remembered room (the memory's own image,
+  // valid until the next update()). Call after update()
   // with the same label plane.
   void room_behind_learners(const cv::Mat& label, const cv::Mat& static_depth, cv::Mat* color,
                             cv::Mat* depth) const;
@@ -65,12 +66,14 @@ class BackgroundMemory {
   void reset() {
     mean_.release();
     count_.release();
+    remembered_.release();
   }
 
  private:
   BackgroundMemoryParams params_;
-  cv::Mat mean_;   // CV_32FC3
-  cv::Mat count_;  // CV_8UC1: frames in the mean, 0 = nothing remembered
+  cv::Mat mean_;        // CV_16UC3, 1/256 grey levels
+  cv::Mat count_;       // CV_8UC1: frames in the mean, 0 = nothing remembered
+  cv::Mat remembered_;  // CV_8UC3: the mean, rounded
   cv::Mat shown_, room_color_, room_depth_;  // apply()'s images of this frame
 };
 

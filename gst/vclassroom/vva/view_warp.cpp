@@ -906,7 +906,9 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   // z-buffer: the cells of source rows [row_begin, row_end) - the rows
   // holding the layer's pixels - with the camera's quality times
   // `weight_scale`.
-  auto splat_layer = [&](const ColorSampler& color, int row_begin, int row_end, float weight_scale) {
+  // `sparse`: the layer covers a small part of its rows (the room behind the
+  // learners); only the runs of drawn pixels are set up, one cell at a time.
+  auto splat_layer = [&](const ColorSampler& color, int row_begin, int row_end, float weight_scale, bool sparse) {
     // The cells read the rows next to the ones they draw (the mesh reads
     // every row).
     const int first_projected = prm.mesh ? 0 : std::max(0, (std::max(0, row_begin - 1) & ~1) - 1);
@@ -1109,9 +1111,26 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       // Candidate k of a block cell, relative to its first.
       ptrdiff_t block_offset[kBlockCandidates];
       for (int k = 0; k < kBlockCandidates; ++k) block_offset[k] = ptrdiff_t(k / 3) * VW + k % 3;
-      const bool coarse = prm.coarse_cells && W >= 2;
+      const bool coarse = prm.coarse_cells && W >= 2 && !sparse;
       no_blocks_.assign(size_t(W / 2 + 1), 0);
       const int32_t* const no_blocks = no_blocks_.data();
+      // The cells of row v's drawn pixels (all of them unless sparse).
+      auto row_cells = [&](int v) {
+        if (!sparse) {
+          fine_cells(v, 0, W, no_blocks);
+          return;
+        }
+        const uint16_t* d = &src_depth_[size_t(v) * W];
+        for (int u = 0; u < W;) {
+          if (!d[u]) {
+            ++u;
+            continue;
+          }
+          const int u0 = u;
+          while (u < W && d[u]) ++u;
+          fine_cells(v, u0, u, no_blocks);
+        }
+      };
       // Pairs of rows from an even one; the row above the first has no links.
       const int first_pair = std::max(0, row_begin - 1) & ~1;
       if (first_pair > 0) std::fill_n(links_row(first_pair - 1), W, 0u);
@@ -1119,8 +1138,8 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
         link_row(v);
         if (v + 1 < H) link_row(v + 1);
         if (!coarse || v + 1 >= H) {
-          fine_cells(v, 0, W, no_blocks);
-          if (v + 1 < H) fine_cells(v + 1, 0, W, no_blocks);
+          row_cells(v);
+          if (v + 1 < H) row_cells(v + 1);
           continue;
         }
         const size_t row = size_t(v) * W;
@@ -1182,7 +1201,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
       }
     }
   };
-  splat_layer(ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f);
+  splat_layer(ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false);
 
   if (!in.room_depth.empty()) {
     // The room behind the learners, remembered (BackgroundMemory), drawn
@@ -1201,7 +1220,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     std::fill(src_label_.begin(), src_label_.end(), 0);
     if (row_begin < row_end)
       splat_layer(ColorSampler{in.room_color.data, in.room_color.step, W - 1, H - 1}, row_begin, row_end,
-                  kRoomLayerWeight);
+                  kRoomLayerWeight, true);
   }
 
   out->color.create(VH, VW, CV_8UC3);
