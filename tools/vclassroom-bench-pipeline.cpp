@@ -21,6 +21,7 @@
 #include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/pose.h>
@@ -82,12 +83,15 @@ GstPadProbeReturn count_frame(GstPad*, GstPadProbeInfo*, gpointer data) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int frames = 300, learners = 6, cameras = 3, runs = 3;
+  int frames = 300, learners = 6, cameras = 3, runs = 3, memory = 0;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames per run (default 300, at least 40)", "N"},
       {"runs", 0, 0, G_OPTION_ARG_INT, &runs, "runs, each printed, then the median (default 3)", "R"},
       {"learners", 0, 0, G_OPTION_ARG_INT, &learners, "learners in the synthetic classroom (default 6)", "L"},
       {"cameras", 0, 0, G_OPTION_ARG_INT, &cameras, "cameras, 1 to 3 (default 3)", "C"},
+      {"memory", 0, 0, G_OPTION_ARG_INT, &memory,
+       "viewwarp background-memory=N with the empty room as its empty-room, as server.sh runs it (default 0: off)",
+       "N"},
       {}};
   vclassroom_tools::parse_command_line(
       &argc, &argv, "",
@@ -95,8 +99,8 @@ int main(int argc, char** argv) {
       "the virtual view following a lecturer's walk (a new pose every frame). Needs the plugins: run it inside\n"
       "`meson devenv -C build` or after `meson install`.",
       entries, gst_init_get_option_group());
-  if (frames < 40 || runs < 1 || learners < 0 || cameras < 1 || cameras > 3)
-    vclassroom_tools::usage_error("--frames must be at least 40, --runs at least 1, --cameras 1 to 3");
+  if (frames < 40 || runs < 1 || learners < 0 || cameras < 1 || cameras > 3 || memory < 0)
+    vclassroom_tools::usage_error("--frames must be at least 40, --runs at least 1, --cameras 1 to 3, --memory at least 0");
   for (const char* e : {"rgbdtestsrc", "learnerseg", "viewwarp", "viewfuse"})
     if (!gst_element_factory_find(e)) {
       std::fprintf(stderr, "element %s not found: run inside `meson devenv -C build` or install the plugins\n", e);
@@ -110,16 +114,20 @@ int main(int argc, char** argv) {
   }
   const std::string tmp = dir;
 
-  // The empty room's depth per camera (what V-DA's model gives), and the walk.
+  // The empty room's depth and colour per camera (what V-DA's model gives), and the walk.
   const Rig rig = default_classroom_rig();
   const Classroom empty(ClassroomConfig{1, 0, 2.0});
   ClassroomRenderer renderer;
-  std::vector<std::string> priors;
+  std::vector<std::string> priors, rooms;
   for (int k = 0; k < cameras; ++k) {
     RenderOutput r;
     renderer.render(empty, 0.0, rig.camera(k), &r);
     priors.push_back(tmp + "/prior-cam" + std::to_string(k) + ".png");
     cv::imwrite(priors.back(), r.depth);
+    rooms.push_back(tmp + "/room-cam" + std::to_string(k) + ".png");
+    cv::Mat bgr;
+    cv::cvtColor(r.color, bgr, cv::COLOR_RGB2BGR);
+    cv::imwrite(rooms.back(), bgr);
   }
   std::vector<PoseSample> walk;
   for (int f = 0; f < frames; ++f) {
@@ -154,6 +162,7 @@ int main(int argc, char** argv) {
     for (int k = 0; k < cameras; ++k)
       desc += " appsrc name=src" + std::to_string(k) + " format=time max-buffers=2 ! learnerseg prior-depth=" +
               priors[size_t(k)] + " ! viewwarp prior-depth=" + priors[size_t(k)] +
+              (memory > 0 ? " background-memory=" + std::to_string(memory) + " empty-room=" + rooms[size_t(k)] : "") +
               " ! queue max-size-buffers=2 ! fuse.cam_" + std::to_string(k);
     GError* err = nullptr;
     GstElement* pipeline = gst_parse_launch(desc.c_str(), &err);
@@ -232,6 +241,7 @@ int main(int argc, char** argv) {
                 med.fps, figs.front().fps, figs.back().fps, int(figs.size()), frames - 30, 30, med.cpu_ms);
   }
   for (const auto& p : priors) std::remove(p.c_str());
+  for (const auto& p : rooms) std::remove(p.c_str());
   std::remove(trace.c_str());
   rmdir(dir);
   return rc;
