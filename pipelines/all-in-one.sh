@@ -8,6 +8,8 @@
 # TRACE (pose trace CSV, default pipelines/lecturer-walk.csv), SEED (default 1),
 # LEARNERS (default 6), MODEL (a folder from vclassroom-build-model: when set, V-DA
 # (depthcomplete, planerefine) cleans each camera's depth and its prior depth is the static layer),
+# MEMORY (frames of viewwarp's background memory, default 8, 0: off; with MODEL it starts from the
+# model's empty-room colour and draws the room behind the learners, as server.sh),
 # BUILD (build folder for the tools when they are not on PATH, default build).
 # Needs the plugins on GST_PLUGIN_PATH (run it through scripts/demo.sh or `meson devenv -C build`).
 set -euo pipefail
@@ -17,7 +19,12 @@ FRAMES=${FRAMES:-300}
 TRACE=${TRACE:-$HERE/lecturer-walk.csv}
 SEED=${SEED:-1}
 LEARNERS=${LEARNERS:-6}
+MEMORY=${MEMORY:-8}
 BUILD=${BUILD:-build}
+if ! [[ $MEMORY =~ ^[0-9]+$ ]] || [ "$MEMORY" -gt 64 ]; then
+  echo "all-in-one.sh: MEMORY must be a number of frames, 0 (off) to 64 (got '$MEMORY')" >&2
+  exit 2
+fi
 mkdir -p "$(dirname "$OUT")"
 
 # The static layer's depth per camera: V-DA's prior depth when a model is given, else
@@ -36,9 +43,11 @@ fi
 
 branches=""
 for k in 0 1 2; do
+  memory=""
+  [ "$MEMORY" != 0 ] && memory="background-memory=$MEMORY${MODEL:+ empty-room=$MODEL/prior-color/cam$k.png}"
   branches="$branches rgbdtestsrc camera-id=$k seed=$SEED learners=$LEARNERS num-buffers=$FRAMES ground-truth=false $VDA \
     ! learnerseg prior-depth=$(prior $k) \
-    ! viewwarp prior-depth=$(prior $k) pose-trace=\"$TRACE\" ! queue max-size-buffers=2 ! fuse.cam_$k"
+    ! viewwarp prior-depth=$(prior $k) pose-trace=\"$TRACE\" $memory ! queue max-size-buffers=2 ! fuse.cam_$k"
 done
 echo "all-in-one: 3 cameras ${MODEL:+-> depthcomplete -> planerefine }-> learnerseg -> viewwarp -> viewfuse (pose trace $TRACE) -> $OUT"
 # I420: from viewfuse's RGB, x264enc would otherwise pick High 4:4:4, which browsers and most players cannot play.

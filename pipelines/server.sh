@@ -31,7 +31,7 @@
 #   STOP_GRACE (seconds the pipeline gets to end after Ctrl-C before it is killed, default 5).
 #   NAV_RIG (rig file with navigation bounds: every pose is moved into them, docs/navigation.md; default
 #   $MODEL/rig.yaml when MODEL is set, which vclassroom-build-model gives bounds; set it empty for none).
-#   MEMORY (frames of viewwarp's background memory, default 0: off; with MODEL it starts from the model's
+#   MEMORY (frames of viewwarp's background memory, default 8; 0: off; with MODEL it starts from the model's
 #   empty-room colour and draws the room behind the learners, docs/vva.md; with whep-views every lecturer's
 #   view keeps its own).
 set -euo pipefail
@@ -60,9 +60,13 @@ fi
 RTX=${RTX:-1}
 RTX_LATENCY=${RTX_LATENCY:-300}
 PREP_NICE=${PREP_NICE:-10}
-MEMORY=${MEMORY:-0}
+MEMORY=${MEMORY:-8}
 if ! [[ $PREP_NICE =~ ^[0-9]+$ ]] || [ "$PREP_NICE" -gt 19 ]; then
   echo "server.sh: PREP_NICE must be a nice value, 0 to 19 (got '$PREP_NICE')" >&2
+  exit 2
+fi
+if ! [[ $MEMORY =~ ^[0-9]+$ ]] || [ "$MEMORY" -gt 64 ]; then
+  echo "server.sh: MEMORY must be a number of frames, 0 (off) to 64 (got '$MEMORY')" >&2
   exit 2
 fi
 pose_key=""

@@ -734,8 +734,20 @@ TEST(Scripts, BadPortsAreRefused) {
   EXPECT_EQ(r.status, 2) << r.output;
 }
 
-// MEMORY reaches the server's viewwarps, which start from the model's empty room: a model without that
-// picture is an error naming it, before any camera sends.
+// A background memory length that is not a number of frames is refused before anything starts.
+TEST(Scripts, ABadMemoryLengthIsRefused) {
+  ScriptRun r = run_script("server.sh", {"MEMORY=x"}, 60);
+  EXPECT_TRUE(r.ended);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("MEMORY"), std::string::npos) << r.output;
+  r = run_script("all-in-one.sh", {"MEMORY=65"}, 60);
+  EXPECT_TRUE(r.ended);
+  EXPECT_EQ(r.status, 2) << r.output;
+  EXPECT_NE(r.output.find("MEMORY"), std::string::npos) << r.output;
+}
+
+// The background memory is on by default (MEMORY=8) and reaches the server's viewwarps, which start from
+// the model's empty room: a model without that picture is an error naming it, before any camera sends.
 TEST(Scripts, ServerMemoryStartsFromTheModelsEmptyRoom) {
   vctest::TempDir dir;
   const char* tools = g_getenv("VCLASSROOM_TOOLS_DIR");
@@ -746,7 +758,7 @@ TEST(Scripts, ServerMemoryStartsFromTheModelsEmptyRoom) {
   ASSERT_TRUE(std::filesystem::remove(dir / "model/prior-color/cam0.png"));
   const std::string base = port_base();
   ScriptRun r = run_script("server.sh",
-                           {"CAMERAS=0", "MODEL=" + dir / "model", "MEMORY=4", "BASE_PORT=" + base,
+                           {"CAMERAS=0", "MODEL=" + dir / "model", "BASE_PORT=" + base,
                             "VIDEO_PORT=" + std::to_string(std::stoi(base) + 10),
                             "POSE_PORT=" + std::to_string(std::stoi(base) + 11), "STOP_GRACE=2"},
                            120);

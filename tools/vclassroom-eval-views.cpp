@@ -42,7 +42,9 @@ struct Options {
   int width = 960, height = 540;
   int boundary_px = 1;
   bool mesh = false;
-  int memory = 0;  // classroom: each source camera's colour through a background memory of this many frames
+  // classroom: each source camera's colour through a background memory of this many frames (0: off), on by
+  // default as pipelines/server.sh runs it.
+  int memory = 8;
   std::string write_priors;  // folder: write the empty room's depth per camera and exit
   std::string model;         // V-DA model folder: the full system runs V-DA on the sensor depth
   // --dataset: leave-one-out on any dataset folder of the project's format.
@@ -452,6 +454,12 @@ void eval_classroom(const Options& opt) {
   else
     std::printf("Static prior = the empty room's clean depth rendered per camera: a STAND-IN for V-DA's static model.\n");
   std::printf("Leave-one-out: camera 0 synthesised from cameras 1 and 2, against camera 0's sensor image (Table I layout)\n");
+  if (opt.memory > 0)
+    std::printf("sources through a background memory of %d frames seeded with the empty room, as server.sh "
+                "(--memory 0: off)\n",
+                opt.memory);
+  else
+    std::printf("no background memory (--memory 0)\n");
   std::printf("%-52s | PSNR avg   max   min | SSIMx100 avg   max   min\n", "method");
   for (size_t c = 0; c < configs.size(); ++c)
     std::printf("%-52s | %7.2f %6.2f %6.2f | %11.2f %6.2f %6.2f\n", configs[c].name, psnr[c].avg(), psnr[c].max(),
@@ -506,7 +514,7 @@ int main(int argc, char** argv) {
       {"size", 0, 0, G_OPTION_ARG_STRING, &size, "synthetic classroom camera size (default 960x540)", "WxH"},
       {"memory", 0, 0, G_OPTION_ARG_INT, &opt.memory,
        "classroom: show each source camera's static room through a background memory of N frames (viewwarp's "
-       "background-memory; default 0: off)",
+       "background-memory; default 8, as pipelines/server.sh; 0: off)",
        "N"},
       {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 1)",
        "PX"},
@@ -580,6 +588,7 @@ int main(int argc, char** argv) {
   if (!opt.only.empty() && opt.only != "classroom" && opt.only != "middlebury" && opt.only != "teddy")
     vclassroom_tools::usage_error("--only must be classroom, middlebury or teddy (got '" + opt.only + "')");
   if (opt.frames < 1 || opt.boundary_px < 0) vclassroom_tools::usage_error("--frames must be at least 1, --boundary at least 0");
+  if (opt.memory < 0 || opt.memory > 64) vclassroom_tools::usage_error("--memory must be 0 (off) to 64 frames, as viewwarp's background-memory");
   for (const std::string& dir : {opt.images, opt.write_priors, opt.out})
     if (!dir.empty() && !vclassroom_tools::make_folder(dir)) return 1;
   try {
