@@ -575,7 +575,8 @@ std::string bounded_classroom_rig(const vctest::TempDir& dir, int width, int hei
 
 // The whole path in a real browser: the synthetic classroom rendered through viewfuse into whepserversink,
 // headless Chromium driven by tests/browser/lecturer-test.mjs (puppeteer-core): a wrong token
-// gets 401 and nothing else; the page joins and frames decode at 960x540; a
+// gets 401 and nothing else; the page joins (its first join lost on the way: it sends it again) and frames
+// decode at 960x540; a
 // scripted drag sends poses whose seq comes back with the frames and changes
 // the picture; a drag past the server's navigation bounds stops at the edge;
 // the XR frame loop's pose path (onXRPose) with a scripted headset pose does
@@ -591,7 +592,7 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheVi
       "lecturer-test.mjs", {"secret-token", "960", "540"});
   if (!run.skip.empty()) GTEST_SKIP() << run.skip;
   EXPECT_TRUE(run.ok) << run.output;
-  for (const char* check : {"ok wrong token: 401", "ok joined, frames 960x540", "ok playout delay answered", "ok drag:", "ok soft stop:", "ok XR pose:",
+  for (const char* check : {"ok wrong token: 401", "ok joined after a join lost on the way, frames 960x540", "ok playout delay answered", "ok drag:", "ok soft stop:", "ok XR pose:",
                             "ok XR eyes:", "ok left:"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());

@@ -31,10 +31,12 @@ export async function launchChromium() {
 }
 
 // A page of the lecturer's site, joined with `token`, its console echoed with `label`.
-export async function openLecturer(browser, base, token, label = 'page') {
+// `beforeLoad(page)`, if given, runs before the page loads (e.g. to intercept its requests).
+export async function openLecturer(browser, base, token, label = 'page', beforeLoad = null) {
   const page = await browser.newPage();
   await page.setViewport({ width: 960, height: 540 });
   page.on('console', m => console.log(`${label}: ${m.text()}`));
+  if (beforeLoad) await beforeLoad(page);
   await page.goto(`${base}/?token=${encodeURIComponent(token)}`);
   return page;
 }

@@ -20,12 +20,27 @@ console.log('ok wrong token: 401, empty');
 
 const chromium = await launchChromium();
 try {
-  const page = await openLecturer(chromium.browser, base, token);
+  // The page's first join is lost on the way, as when the network changes under it: the page sends it
+  // again.
+  let lostJoins = 0;
+  const page = await openLecturer(chromium.browser, base, token, 'page', async p => {
+    await p.setRequestInterception(true);
+    p.on('request', r => {
+      if (r.method() === 'POST' && new URL(r.url()).pathname === '/whep' && lostJoins === 0) {
+        ++lostJoins;
+        r.abort('internetdisconnected');
+      } else {
+        r.continue();
+      }
+    });
+  });
   // 2. Joined, and frames decode at the server's size.
   await page.waitForFunction(() => window.vclassroom && window.vclassroom.stats.framesShown > 10, { timeout });
   const size = await page.evaluate(() => [window.vclassroom.stats.width, window.vclassroom.stats.height]);
   if (size[0] !== Number(width) || size[1] !== Number(height)) fail(`frames of ${size}, expected ${width}x${height}`);
-  console.log(`ok joined, frames ${size[0]}x${size[1]}`);
+  const retries = await page.evaluate(() => window.vclassroom.stats.joinRetries);
+  if (lostJoins !== 1 || retries !== 1) fail(`join lost ${lostJoins} time(s), the page tried again ${retries} time(s)`);
+  console.log(`ok joined after a join lost on the way, frames ${size[0]}x${size[1]}`);
   // The answer carries the playout-delay extension the page's offer listed: the browser shows each frame
   // without growing a jitter buffer (docs/lecturer.md).
   const answer = await page.evaluate(async () => (await window.vclassroom.joined).pc.remoteDescription.sdp);

@@ -10,9 +10,12 @@ kbit=$1 port=$2 server=$3 script=$4
 shift 4
 # Loopback with an Ethernet MTU (the token bucket drops any packet larger than its burst). WebRTC gathers
 # no loopback candidates: a veth pair gives both ends an address, and traffic between the
-# namespace's own addresses still goes through loopback.
-{ ip link set lo up mtu 1500 && ip link add vc0 type veth peer name vc1 && ip addr add 10.201.0.1/24 dev vc0 &&
-  ip link set vc0 up && ip link set vc1 up; } 2>/dev/null ||
+# namespace's own addresses still goes through loopback. The veth ends get no IPv6 link-local address: one
+# that turns valid a moment later (duplicate address detection) is a network change to Chromium, which then
+# fails the requests under way (ERR_NETWORK_CHANGED), the page's join among them.
+{ ip link set lo up mtu 1500 && ip link add vc0 type veth peer name vc1 && ip link set vc0 addrgenmode none &&
+  ip link set vc1 addrgenmode none && ip addr add 10.201.0.1/24 dev vc0 && ip link set vc0 up &&
+  ip link set vc1 up; } 2>/dev/null ||
   { echo "cannot set up a network namespace with a veth pair (ip, unshare -rn)"; exit 77; }
 tc qdisc add dev lo root tbf rate "${kbit}kbit" burst 16kb latency 250ms 2>/dev/null ||
   { echo "cannot limit loopback with tc tbf"; exit 77; }

@@ -212,6 +212,8 @@ function iceServersFromLinks(header) {
   return servers;
 }
 
+const kJoinAttempts = 5;
+
 async function join() {
   const params = new URLSearchParams(location.search);
   const token = params.get('token') || '';
@@ -237,9 +239,22 @@ async function join() {
     pc.addEventListener('icegatheringstatechange', () => pc.iceGatheringState === 'complete' && resolve());
     setTimeout(resolve, 3000);
   });
-  const response = await fetch('whep?token=' + encodeURIComponent(token),
-                               { method: 'POST', headers: { 'Content-Type': 'application/sdp' }, body: pc.localDescription.sdp });
   const status = document.getElementById('status');
+  // A join lost on the way (the network changed: Wi-Fi roaming, a VPN coming up; fetch rejects) is sent
+  // again with the same offer, a few times, further apart each time. The server's answer, even a refusal,
+  // is final.
+  let response;
+  for (let attempt = 1; !response; ++attempt) {
+    try {
+      response = await fetch('whep?token=' + encodeURIComponent(token),
+                             { method: 'POST', headers: { 'Content-Type': 'application/sdp' }, body: pc.localDescription.sdp });
+    } catch (e) {
+      if (attempt === kJoinAttempts) { status.textContent = `cannot reach the server (${e.message})`; throw e; }
+      status.textContent = `network error, joining again (${attempt} of ${kJoinAttempts - 1})`;
+      stats.joinRetries = attempt;
+      await new Promise(resolve => setTimeout(resolve, 500 * attempt));
+    }
+  }
   if (response.status !== 201) { status.textContent = `refused (${response.status})`; return { status: response.status }; }
   await pc.setRemoteDescription({ type: 'answer', sdp: await response.text() });
   status.textContent = 'joined';
