@@ -11,6 +11,7 @@
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/webrtc/lecturer_silence.h>
 #include <gst/vclassroom/webrtc/loss_rate.h>
 #include <gst/vclassroom/webrtc/playout_delay.h>
 #include <gst/vclassroom/webrtc/send_gate.h>
@@ -410,6 +411,28 @@ TEST(WebrtcLossRate, HighLossCutsTheRateLowLossGrowsItBackWithinTheBounds) {
   EXPECT_EQ(rate.kbit(), 4000) << "a link that recovers gets the whole rate back";
 }
 
+// A lecturer is gone only when no receiver report came for the timeout while frames were being sent: a
+// stalled view (no frames) does not count against them, a report starts the count again, 0 never ends.
+TEST(WebrtcLecturerSilence, GoneOnlyAfterTheTimeoutWhileFramesWereSent) {
+  constexpr int64_t kSecond = 1000000000;
+  LecturerSilence silence(15 * kSecond, 30);
+  silence.start(100 * kSecond);
+  for (int i = 0; i < 1000; ++i) silence.on_frame();
+  EXPECT_FALSE(silence.gone(114 * kSecond)) << "before the timeout";
+  EXPECT_TRUE(silence.gone(115 * kSecond));
+  EXPECT_EQ(silence.silent_ns(115 * kSecond), 15 * kSecond);
+  silence.on_report(116 * kSecond);
+  EXPECT_FALSE(silence.gone(200 * kSecond)) << "no frame sent since the report: the view stalled, not the lecturer";
+  for (int i = 0; i < 29; ++i) silence.on_frame();
+  EXPECT_FALSE(silence.gone(200 * kSecond)) << "29 frames";
+  silence.on_frame();
+  EXPECT_TRUE(silence.gone(200 * kSecond));
+  LecturerSilence never(0);
+  never.start(0);
+  for (int i = 0; i < 1000; ++i) never.on_frame();
+  EXPECT_FALSE(never.gone(3600 * kSecond));
+}
+
 TEST(WebrtcSendGate, ADroppedFrameTakesTheRestOfItsGopAndAsksForOneKeyFrame) {
   GopSendGate gate;
   EXPECT_TRUE(gate.admit(true, false));
@@ -742,6 +765,79 @@ TEST(WebrtcBrowser, ALecturerBehindASlowLinkGetsTheRateTheLinkCarries) {
 
 namespace {
 
+// POSTs to the WHEP endpoint at `port` a browser's offer as webrtcbin needs it (ICE credentials, a DTLS
+// fingerprint) from a peer that never connects: the session's view is built and fed as soon as the answer is
+// made, and no receiver report ever comes. Returns the response's status line.
+std::string post_dead_offer(guint port, const std::string& token) {
+  std::string offer =
+      "v=0\r\no=- 1 2 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\na=group:BUNDLE 0\r\nm=video 9 UDP/TLS/RTP/SAVPF 102\r\n"
+      "c=IN IP4 0.0.0.0\r\na=ice-ufrag:dead\r\na=ice-pwd:deadpeertestpassword0000\r\n"
+      "a=fingerprint:sha-256 ";
+  for (int i = 0; i < 32; ++i) offer += (i ? ":" : "") + std::string("A5");
+  offer += "\r\na=setup:actpass\r\na=mid:0\r\na=recvonly\r\na=rtcp-mux\r\na=rtpmap:102 H264/90000\r\n"
+           "a=fmtp:102 level-asymmetry-allowed=1;packetization-mode=1;profile-level-id=42e01f\r\n";
+  return vctest::first_response_line(
+      int(port), false, "POST /whep?token=" + token + " HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
+      "application/sdp\r\nContent-Length: " + std::to_string(offer.size()) + "\r\nConnection: close\r\n\r\n" + offer);
+}
+
+// The elements of `bin` (not recursing) made by `factory`.
+std::set<GstElement*> elements_made_by(GstElement* bin, const char* factory) {
+  std::set<GstElement*> found;
+  GstIterator* it = gst_bin_iterate_elements(GST_BIN(bin));
+  GValue v = G_VALUE_INIT;
+  while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
+    GstElement* e = GST_ELEMENT(g_value_get_object(&v));
+    GstElementFactory* f = gst_element_get_factory(e);
+    if (f && g_strcmp0(GST_OBJECT_NAME(f), factory) == 0) found.insert(e);
+    g_value_reset(&v);
+  }
+  g_value_unset(&v);
+  gst_iterator_free(it);
+  return found;
+}
+
+// The child's side of ALecturerWhoFallsSilentIsEndedAndTheirViewFreed: exits 0 once the endpoint has ended
+// the session of a lecturer who never sent a receiver report, with a warning, and taken its view away.
+[[noreturn]] void silent_lecturer_child() {
+  auto fail = [](const std::string& why) {
+    std::fprintf(stderr, "%s\n", why.c_str());
+    _exit(1);
+  };
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 320, 180);
+  GError* err = nullptr;
+  const std::string launch = "whepviewsink name=w port=0 token=silent-token lecturer-timeout=1 rig=" + rig +
+                             " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0";
+  GstElement* pipeline = gst_parse_launch(launch.c_str(), &err);
+  if (!pipeline) fail(err ? err->message : "no pipeline");
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipeline), "w");
+  GstBus* bus = gst_element_get_bus(pipeline);
+  if (gst_element_set_state(pipeline, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE) fail("not playing");
+  guint port = 0;
+  g_object_get(sink, "bound-port", &port, nullptr);
+  const std::string status = post_dead_offer(port, "silent-token");
+  if (status != "HTTP/1.1 201 Created") fail("the offer got " + status);
+  guint sessions = 0;
+  g_object_get(sink, "sessions", &sessions, nullptr);
+  if (sessions != 1 || elements_made_by(sink, "viewwarp").size() != 1)
+    fail("after joining: " + std::to_string(sessions) + " sessions, " +
+         std::to_string(elements_made_by(sink, "viewwarp").size()) + " warps");
+  GstMessage* m = gst_bus_timed_pop_filtered(bus, 60 * GST_SECOND, GstMessageType(GST_MESSAGE_WARNING | GST_MESSAGE_ERROR));
+  if (!m || GST_MESSAGE_TYPE(m) != GST_MESSAGE_WARNING) fail(m ? "an error came instead of the warning" : "no warning in 60 s");
+  GError* warning = nullptr;
+  gst_message_parse_warning(m, &warning, nullptr);
+  const std::string text = warning->message;
+  g_error_free(warning);
+  gst_message_unref(m);
+  if (text.find("is gone") == std::string::npos) fail("another warning: " + text);
+  g_object_get(sink, "sessions", &sessions, nullptr);
+  if (sessions != 0) fail("the session is still there after: " + text);
+  if (elements_made_by(sink, "viewwarp").size() != 0) fail("the view is still there after: " + text);
+  std::fprintf(stderr, "ended: %s\n", text.c_str());
+  _exit(0);  // webrtcbin 1.22 outlives gst_deinit(): no teardown for the leaks tracer to count
+}
+
 // The child's side of ACameraLinkedWhileALecturerWatchesJoinsTheirView: exits 0 once camera 1, linked after
 // the lecturer joined, has frames warped into that lecturer's view; 1 otherwise, saying why on stderr.
 [[noreturn]] void late_camera_child() {
@@ -760,32 +856,9 @@ namespace {
   if (gst_element_set_state(pipeline, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE) fail("not playing");
   guint port = 0;
   g_object_get(sink, "bound-port", &port, nullptr);
-  // A browser's offer as webrtcbin needs it (ICE credentials, a DTLS fingerprint): nothing will connect, but
-  // the view is built and fed as soon as the answer is made.
-  std::string offer =
-      "v=0\r\no=- 1 2 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\na=group:BUNDLE 0\r\nm=video 9 UDP/TLS/RTP/SAVPF 102\r\n"
-      "c=IN IP4 0.0.0.0\r\na=ice-ufrag:late\r\na=ice-pwd:latecameratestpassword00\r\n"
-      "a=fingerprint:sha-256 ";
-  for (int i = 0; i < 32; ++i) offer += (i ? ":" : "") + std::string("A5");
-  offer += "\r\na=setup:actpass\r\na=mid:0\r\na=recvonly\r\na=rtcp-mux\r\na=rtpmap:102 H264/90000\r\n"
-           "a=fmtp:102 level-asymmetry-allowed=1;packetization-mode=1;profile-level-id=42e01f\r\n";
-  const std::string status = vctest::first_response_line(
-      int(port), false, "POST /whep?token=late-camera-token HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
-      "application/sdp\r\nContent-Length: " + std::to_string(offer.size()) + "\r\nConnection: close\r\n\r\n" + offer);
+  const std::string status = post_dead_offer(port, "late-camera-token");
   if (status != "HTTP/1.1 201 Created") fail("the offer got " + status);
-  auto warps = [&] {
-    std::set<GstElement*> found;
-    GstIterator* it = gst_bin_iterate_elements(GST_BIN(sink));
-    GValue v = G_VALUE_INIT;
-    while (gst_iterator_next(it, &v) == GST_ITERATOR_OK) {
-      GstElement* e = GST_ELEMENT(g_value_get_object(&v));
-      if (g_str_has_prefix(GST_OBJECT_NAME(gst_element_get_factory(e)), "viewwarp")) found.insert(e);
-      g_value_reset(&v);
-    }
-    g_value_unset(&v);
-    gst_iterator_free(it);
-    return found;
-  };
+  auto warps = [&] { return elements_made_by(sink, "viewwarp"); };
   const std::set<GstElement*> before = warps();
   if (before.size() != 1) fail("the view has " + std::to_string(before.size()) + " warps, not 1");
   // Camera 1 is linked now, while the lecturer watches.
@@ -844,6 +917,17 @@ TEST(WebrtcViewsDeathTest, ACameraLinkedWhileALecturerWatchesJoinsTheirView) {
     if (!gst_element_factory_find(factory)) GTEST_SKIP() << "needs " << factory;
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   EXPECT_EXIT(late_camera_child(), testing::ExitedWithCode(0), "camera 1 reached the view");
+}
+
+// A lecturer whose browser sends no receiver report while their view is sent (here a peer that never
+// connects; as well a closed laptop or a lost network) is gone after lecturer-timeout: the session is ended
+// with a warning, its place under the cap freed and its view taken out of whepviewsink. In a child process
+// (webrtcbin 1.22 outlives gst_deinit()).
+TEST(WebrtcViewsDeathTest, ALecturerWhoFallsSilentIsEndedAndTheirViewFreed) {
+  for (const char* factory : {"whepviewsink", "webrtcbin", "x264enc"})
+    if (!gst_element_factory_find(factory)) GTEST_SKIP() << "needs " << factory;
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(silent_lecturer_child(), testing::ExitedWithCode(0), "ended: Lecturer of session");
 }
 
 // whepviewsink without any camera linked cannot make a view: a lecturer's well-formed offer (H.264

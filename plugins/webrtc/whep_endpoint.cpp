@@ -28,7 +28,7 @@ namespace {
 
 enum Prop {
   kPort, kToken, kTlsCertificate, kTlsKey, kBitrate, kMaxSessions, kWebRoot, kBoundPort, kSessions, kPlayoutDelay,
-  kStunServer, kTurnServer, kCount
+  kStunServer, kTurnServer, kLecturerTimeout, kCount
 };
 
 struct Session {
@@ -104,6 +104,7 @@ struct WhepEndpoint::State {
   std::vector<IceServer> ice_servers;
   guint bitrate_kbit = 4000;
   guint max_sessions = 4;
+  guint lecturer_timeout_s = 15;  // no receiver report for this long: the lecturer is gone; 0: never
   // The playout-delay extension's maximum (its minimum is 0), -1: not sent. 0..100 ms measured a little
   // better than no extension or 0..0 (docs/lecturer.md, "Latency").
   int playout_delay_ms = 100;
@@ -220,6 +221,7 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   send.playout_delay_ms = st->playout_delay_ms;
   send.ice_servers = st->ice_servers;
   send.max_kbit = int(st->bitrate_kbit);
+  send.lecturer_timeout_ns = int64_t(st->lecturer_timeout_s) * GST_SECOND;
   send.on_rate = [st, id](int kbit, double fraction_lost) {
     GST_INFO_OBJECT(st->owner, "session %s: %.1f %% lost, now %d kbit/s", id.c_str(), 100 * fraction_lost, kbit);
     gst_element_post_message(GST_ELEMENT(st->owner),
@@ -245,22 +247,6 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   gst_webrtc_session_description_free(desc);
 }
 
-// Every second: each session's branch looks for a new receiver report (its bitrate follows the losses).
-// Sessions start and end in this thread only (or after it stopped), so the branches stay while they are
-// polled; they are polled without the lock, because a webrtcbin that is not running answers at once and
-// the element's rate hook takes the element's lock.
-gboolean poll_receiver_reports(gpointer user_data) {
-  State* st = static_cast<State*>(user_data);
-  std::vector<WhepSendBranch*> branches;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    for (auto& kv : st->sessions)
-      if (kv.second->branch) branches.push_back(kv.second->branch.get());
-  }
-  for (WhepSendBranch* b : branches) b->poll_receiver_reports();
-  return G_SOURCE_CONTINUE;
-}
-
 // Takes the session's branch out of the pipeline, lets the element take its source out, and frees it.
 // Lock not held.
 void end_session(State* st, Session* s) {
@@ -273,6 +259,38 @@ void end_session(State* st, Session* s) {
     soup_server_message_unpause(s->pending);
   }
   delete s;
+}
+
+// Every second: each session's branch looks for a new receiver report (its bitrate follows the losses), and
+// a session whose lecturer has gone silent (WhepSendBranch::lecturer_gone) is ended with a warning.
+// Sessions start and end in this thread only (or after it stopped), so the branches stay while they are
+// polled; they are polled without the lock, because a webrtcbin that is not running answers at once and
+// the element's rate hook takes the element's lock.
+gboolean poll_receiver_reports(gpointer user_data) {
+  State* st = static_cast<State*>(user_data);
+  std::vector<Session*> sessions;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    for (auto& kv : st->sessions)
+      if (kv.second->branch) sessions.push_back(kv.second);
+  }
+  for (Session* s : sessions) s->branch->poll_receiver_reports();
+  for (Session* s : sessions) {
+    int64_t silent_ns = 0;
+    if (s->pending || !s->branch->lecturer_gone(&silent_ns)) continue;
+    {
+      std::lock_guard<std::mutex> g(st->lock);
+      st->sessions.erase(s->id);
+      st->table.remove(s->id);
+    }
+    const std::string id = s->id;
+    end_session(st, s);
+    GST_ELEMENT_WARNING(st->owner, RESOURCE, READ,
+                        ("Lecturer of session %s is gone: no receiver report for %.0f s; the session is ended",
+                         id.c_str(), double(silent_ns) / GST_SECOND),
+                        ("lecturer-timeout %u s", st->lecturer_timeout_s));
+  }
+  return G_SOURCE_CONTINUE;
 }
 
 void on_request(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable* query, gpointer user_data) {
@@ -446,6 +464,12 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
       g_param_spec_string("turn-server", "TURN server",
                           "turn://user:password@host:port (or turns:// over TLS): a relay for lecturers behind NATs "
                           "that let no direct path through; the page gets it with its credentials", "", rw()));
+  g_object_class_install_property(klass, p + kLecturerTimeout,
+      g_param_spec_uint("lecturer-timeout", "Lecturer timeout",
+                        "Seconds without a receiver report from a lecturer's browser, while their view was sent, "
+                        "after which the lecturer is taken as gone (a closed laptop, a lost network, a handshake "
+                        "never finished): their session is ended with a warning and its place freed. 0: never",
+                        0, 3600, 15, rw()));
   return p + kCount;
 }
 
@@ -463,6 +487,7 @@ bool WhepEndpoint::set_property(guint id, const GValue* value) {
     case kPlayoutDelay: st_->playout_delay_ms = g_value_get_int(value); return true;
     case kStunServer: st_->stun_server = str(); return true;
     case kTurnServer: st_->turn_server = str(); return true;
+    case kLecturerTimeout: st_->lecturer_timeout_s = g_value_get_uint(value); return true;
     default: return false;
   }
 }
@@ -482,6 +507,7 @@ bool WhepEndpoint::get_property(guint id, GValue* value) {
     case kPlayoutDelay: g_value_set_int(value, st_->playout_delay_ms); return true;
     case kStunServer: g_value_set_string(value, st_->stun_server.c_str()); return true;
     case kTurnServer: g_value_set_string(value, st_->turn_server.c_str()); return true;
+    case kLecturerTimeout: g_value_set_uint(value, st_->lecturer_timeout_s); return true;
     default: return false;
   }
 }

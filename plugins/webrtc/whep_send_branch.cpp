@@ -11,6 +11,7 @@
 #include <mutex>
 
 #include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/webrtc/lecturer_silence.h>
 #include <gst/vclassroom/webrtc/loss_rate.h>
 #include <gst/vclassroom/webrtc/send_gate.h>
 
@@ -46,15 +47,18 @@ struct WhepSendBranch::State {
   std::mutex lock;                                    // what follows
   GstWebRTCDataChannel* channel = nullptr;
   GstClockTime last_echoed_pts = GST_CLOCK_TIME_NONE;
+  WhepSendBranch::ReportWatch* reports = nullptr;  // the branch's, for the frames offered
   std::map<GstClockTime, FramePose> frame_poses;  // recent frames' poses by PTS (bounded)
 };
 
-// The session's rate, fed by webrtcbin's statistics answers, which may come after the branch is gone.
-struct WhepSendBranch::RateWatch {
+// The browser's receiver reports, fed by webrtcbin's statistics answers (which may come after the branch is
+// gone): the session's rate, and whether its lecturer is still there.
+struct WhepSendBranch::ReportWatch {
   std::mutex lock;
   bool alive = true;  // false once the branch is gone: no more on_rate
   std::string session;
   LossBasedRate rate;
+  LecturerSilence silence{0};
   std::string last_report;  // the last receiver report seen, as text without its timestamp
   std::function<void(int, double)> on_rate;
 };
@@ -62,11 +66,11 @@ struct WhepSendBranch::RateWatch {
 namespace {
 
 using State = WhepSendBranch::State;
-using RateWatch = WhepSendBranch::RateWatch;
+using ReportWatch = WhepSendBranch::ReportWatch;
 
 // webrtcbin's statistics: the browser's latest receiver report (remote-inbound-rtp), if it is a new one.
 void on_stats(GstPromise* promise, gpointer user_data) {
-  const std::shared_ptr<RateWatch>& watch = *static_cast<std::shared_ptr<RateWatch>*>(user_data);
+  const std::shared_ptr<ReportWatch>& watch = *static_cast<std::shared_ptr<ReportWatch>*>(user_data);
   if (gst_promise_wait(promise) != GST_PROMISE_RESULT_REPLIED) return;
   const GstStructure* reply = gst_promise_get_reply(promise);
   if (!reply) return;
@@ -89,6 +93,7 @@ void on_stats(GstPromise* promise, gpointer user_data) {
     watch->last_report = text;
     g_free(text);
     if (!fresh) return;
+    watch->silence.on_report(g_get_monotonic_time() * 1000);
     const int before = watch->rate.kbit(), now = watch->rate.on_report(lost);
     GST_LOG("session %s: receiver report, %.1f %% lost: %d kbit/s", watch->session.c_str(), 100 * lost, now);
     if (now != before && watch->on_rate) watch->on_rate(now, lost);
@@ -102,6 +107,10 @@ GstPadProbeReturn on_frame_in(GstPad* pad, GstPadProbeInfo* info, gpointer user_
   State* st = static_cast<State*>(user_data);
   GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
   if (!buf) return GST_PAD_PROBE_OK;
+  {
+    std::lock_guard<std::mutex> g(st->reports->lock);
+    st->reports->silence.on_frame();
+  }
   guint queued = 0;
   g_object_get(st->queue, "current-level-buffers", &queued, nullptr);
   if (st->gate.admit(!GST_BUFFER_FLAG_IS_SET(buf, GST_BUFFER_FLAG_DELTA_UNIT), queued >= kSendQueueFrames))
@@ -205,7 +214,7 @@ void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer) {
 }  // namespace
 
 WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const WhepSendSettings& settings)
-    : st_(new State), rate_(new RateWatch) {
+    : st_(new State), reports_(new ReportWatch) {
   static gsize debug_once = 0;
   if (g_once_init_enter(&debug_once)) {
     GST_DEBUG_CATEGORY_INIT(whep_send_debug, "whepsend", 0, "A WHEP session's video on its way out");
@@ -214,9 +223,12 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   State* st = st_.get();
   st->owner = owner;
   st->session = session;
-  rate_->session = session;
-  rate_->rate = LossBasedRate(LossRateParams{settings.max_kbit});  // (its floor never exceeds the maximum)
-  rate_->on_rate = settings.on_rate;
+  reports_->session = session;
+  reports_->rate = LossBasedRate(LossRateParams{settings.max_kbit});  // (its floor never exceeds the maximum)
+  reports_->on_rate = settings.on_rate;
+  reports_->silence = LecturerSilence(settings.lecturer_timeout_ns);
+  reports_->silence.start(g_get_monotonic_time() * 1000);
+  st->reports = reports_.get();
   st->queue = gst_element_factory_make("queue", nullptr);
   g_object_set(st->queue, "max-size-buffers", kSendQueueFrames, "max-size-time", guint64(0), "max-size-bytes", 0,
                nullptr);
@@ -265,8 +277,8 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
 
 WhepSendBranch::~WhepSendBranch() {
   {
-    std::lock_guard<std::mutex> g(rate_->lock);
-    rate_->alive = false;
+    std::lock_guard<std::mutex> g(reports_->lock);
+    reports_->alive = false;
   }
   State* st = st_.get();
   for (GstElement* e : {st->webrtc, st->pay, st->queue}) {
@@ -280,14 +292,21 @@ WhepSendBranch::~WhepSendBranch() {
 GstElement* WhepSendBranch::webrtc() const { return st_->webrtc; }
 
 void WhepSendBranch::poll_receiver_reports() {
-  GstPromise* promise = gst_promise_new_with_change_func(on_stats, new std::shared_ptr<RateWatch>(rate_), [](gpointer p) {
-    delete static_cast<std::shared_ptr<RateWatch>*>(p);
+  GstPromise* promise = gst_promise_new_with_change_func(on_stats, new std::shared_ptr<ReportWatch>(reports_), [](gpointer p) {
+    delete static_cast<std::shared_ptr<ReportWatch>*>(p);
   });
   g_signal_emit_by_name(st_->webrtc, "get-stats", nullptr, promise);
   gst_promise_unref(promise);
 }
 
 GstPad* WhepSendBranch::sink() const { return st_->sink; }
+
+bool WhepSendBranch::lecturer_gone(int64_t* silent_ns) const {
+  std::lock_guard<std::mutex> g(reports_->lock);
+  const int64_t now = g_get_monotonic_time() * 1000;
+  *silent_ns = reports_->silence.silent_ns(now);
+  return reports_->silence.gone(now);
+}
 
 bool WhepSendBranch::set_echo_channel(GstWebRTCDataChannel* channel) {
   std::lock_guard<std::mutex> g(st_->lock);

@@ -2,8 +2,9 @@
 //   queue (GopSendGate; answers serialized queries) ! rtph264pay (send-time
 //   stamps; the playout-delay extension) ! webrtcbin (nothing synced to the clock)
 // and, over the session's data channel, the echo of the pose each frame was
-// rendered for, and the session's bitrate from the browser's receiver reports
-// (LossBasedRate). Signalling (offer, answer, ICE) stays with the endpoint.
+// rendered for; from the browser's receiver reports, the session's bitrate
+// (LossBasedRate) and whether the lecturer is still there (LecturerSilence).
+// Signalling (offer, answer, ICE) stays with the endpoint.
 #pragma once
 
 #include <gst/gst.h>
@@ -27,6 +28,9 @@ struct WhepSendSettings {
   // The session's rate changed (LossBasedRate, on a new receiver report with this loss); called from
   // webrtcbin's thread, never after the branch is gone.
   std::function<void(int kbit, double fraction_lost)> on_rate;
+  // No receiver report for this long while frames were offered: the lecturer is gone (LecturerSilence);
+  // <= 0: never.
+  int64_t lecturer_timeout_ns = 0;
 };
 
 class WhepSendBranch {
@@ -47,13 +51,16 @@ class WhepSendBranch {
   // Asks webrtcbin for its statistics; when they hold a receiver report not seen before, its loss updates
   // the session's rate (settings.on_rate). Returns at once; the answer comes in webrtcbin's thread.
   void poll_receiver_reports();
+  // Whether the lecturer is gone (settings.lecturer_timeout_ns); *silent_ns: how long no new receiver
+  // report came (as far as the polls saw).
+  bool lecturer_gone(int64_t* silent_ns) const;
 
   struct State;
-  struct RateWatch;
+  struct ReportWatch;
 
  private:
   std::unique_ptr<State> st_;
-  std::shared_ptr<RateWatch> rate_;  // shared with webrtcbin's pending statistics answers
+  std::shared_ptr<ReportWatch> reports_;  // shared with webrtcbin's pending statistics answers
 };
 
 }  // namespace vclassroom
