@@ -514,6 +514,38 @@ TEST(ViewFuse, HolesTakeTheBackgroundNotTheForeground) {
   }
 }
 
+// A hole beside a foreground object, in front of a striped wall: the smooth fill leaves the stripes out,
+// the textured fill carries them into the hole from the wall's side (the mirror image across the hole's
+// edge), never the foreground's colour.
+TEST(ViewFuse, ATexturedFillCarriesTheBackgroundsGrainIntoTheHole) {
+  const int w = 64, h = 16;
+  cv::Mat wall(h, w, CV_8UC3), depth(h, w, CV_16UC1, cv::Scalar(3000));
+  for (int x = 0; x < w; ++x) wall.col(x).setTo(x % 4 < 2 ? cv::Scalar(158, 158, 158) : cv::Scalar(98, 98, 98));
+  wall.colRange(10, 20).setTo(cv::Scalar(230, 20, 20));  // the foreground
+  depth.colRange(10, 20).setTo(cv::Scalar(1000));
+  depth.colRange(20, 30).setTo(cv::Scalar(0));  // what it uncovers
+  auto fill = [&](double texture) {
+    cv::Mat c = wall.clone(), d = depth.clone();
+    fill_holes_from_background(c, d, 0.08, 3, nullptr, texture);
+    // Along a row of the hole's far part (the smoothing also reaches over the foreground's edge).
+    const cv::Mat row = c(cv::Rect(24, 8, 6, 1));
+    std::vector<cv::Mat> ch;
+    cv::split(row, ch);
+    cv::Scalar mean, sd;
+    cv::meanStdDev(ch[1], mean, sd);
+    return std::make_tuple(sd[0], cv::mean(ch[0])[0] - mean[0]);  // grain, and how red
+  };
+  cv::Scalar wall_mean, wall_sd;
+  cv::meanStdDev(wall(cv::Rect(32, 8, 8, 1)).reshape(1), wall_mean, wall_sd);
+  const auto [smooth_grain, smooth_red] = fill(0);
+  const auto [grain, red] = fill(1);
+  // (The detail is taken against a 3x3 mean, which holds part of a stripe 2 px wide: about 0.6 of it comes.)
+  EXPECT_LT(smooth_grain, 0.2 * wall_sd[0]) << "the smooth fill is flat";
+  EXPECT_GT(grain, 0.4 * wall_sd[0]) << "the textured fill carries the stripes";
+  EXPECT_LT(std::abs(smooth_red), 10);
+  EXPECT_LT(std::abs(red), 10) << "the wall's grey, not the foreground's red";
+}
+
 // ---------------------------------------------------------------- segmentation
 
 TEST(LearnerSeg, IdsStayStableThroughMotionOcclusionAndReturn) {

@@ -37,6 +37,7 @@ enum {
   PROP_POSE_TRACE,
   PROP_DEPTH_TOLERANCE,
   PROP_FILL_HOLES,
+  PROP_FILL_TEXTURE,
   PROP_FRAMES_FUSED,
   PROP_POSE_WINDOW,
   PROP_CAMERA_TIMEOUT,
@@ -538,6 +539,9 @@ static void gst_view_fuse_set_property(GObject* object, guint prop_id, const GVa
     case PROP_FILL_HOLES:
       st->params.fill_holes = g_value_get_boolean(value);
       break;
+    case PROP_FILL_TEXTURE:
+      st->params.fill_texture = g_value_get_double(value);
+      break;
     case PROP_POSE_WINDOW:
       inputs.pose_window_ns = int64_t(g_value_get_uint64(value));
       break;
@@ -577,6 +581,9 @@ static void gst_view_fuse_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_FILL_HOLES:
       g_value_set_boolean(value, st->params.fill_holes);
+      break;
+    case PROP_FILL_TEXTURE:
+      g_value_set_double(value, st->params.fill_texture);
       break;
     case PROP_POSE_WINDOW:
       g_value_set_uint64(value, guint64(st->inputs.params().pose_window_ns));
@@ -666,6 +673,14 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
       g_param_spec_boolean("fill-holes", "Fill holes",
                            "Fill what no camera sees from its background side (else black)", d.fill_holes,
                            GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
+      gobject_class, PROP_FILL_TEXTURE,
+      g_param_spec_double("fill-texture", "Fill texture",
+                          "How much of the background's texture the hole filling carries into a hole: each filled "
+                          "pixel gets this share of the detail of its mirror image across the hole's edge on the "
+                          "background side (0: a smooth fill)",
+                          0, 1, d.fill_texture,
+                          GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       gobject_class, PROP_POSE_WINDOW,
       g_param_spec_uint64("pose-window", "Pose window",

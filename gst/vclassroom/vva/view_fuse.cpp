@@ -154,8 +154,15 @@ inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~
 // pixels, which the filling never writes, so `color` is filled in place.
 // The smoothing box-blurs only the tiles holding filled pixels.
 void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px, cv::Mat* new_depth,
-                cv::Mat& mask) {
+                cv::Mat& mask, float texture = 0.f) {
   const int W = color.cols, H = color.rows;
+  // Per hole pixel: the known background pixel its texture is taken from (the mirror image of the pixel
+  // across the hole's edge on its nearest background side), -1 for none.
+  struct TextureSource {
+    int hole, source, edge;
+  };
+  static thread_local std::vector<TextureSource> sources;
+  sources.clear();
   constexpr int kTileW = 64, kTileH = 16;
   const int tiles_x = (W + kTileW - 1) / kTileW, tiles_y = (H + kTileH - 1) / kTileH;
   std::vector<uint8_t> tile_used(size_t(tiles_x) * tiles_y, 0);
@@ -167,6 +174,8 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
   struct Cand {
     int z = 0, dist = 0;
     const uint8_t* c = nullptr;
+    int dx = 0, dy = 0;  // the step from the hole towards this candidate
+    int x = 0, y = 0;    // where it is
   };
   for (int y = 0; y < H; ++y) {
     const uint16_t* d = depth.ptr<uint16_t>(y);
@@ -199,20 +208,24 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
           below[h] = yb;
         }
         Cand k[4];
-        if (a > 0) k[0] = Cand{d[a - 1], h - (a - 1), c + 3 * (a - 1)};
-        if (b + 1 < W) k[1] = Cand{d[b + 1], b + 1 - h, c + 3 * (b + 1)};
+        if (a > 0) k[0] = Cand{d[a - 1], h - (a - 1), c + 3 * (a - 1), -1, 0, a - 1, y};
+        if (b + 1 < W) k[1] = Cand{d[b + 1], b + 1 - h, c + 3 * (b + 1), 1, 0, b + 1, y};
         if (above[h] >= 0)
-          k[2] = Cand{depth.ptr<uint16_t>(above[h])[h], y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h};
+          k[2] = Cand{depth.ptr<uint16_t>(above[h])[h], y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h, 0, -1, h,
+                      above[h]};
         if (below[h] < H)
-          k[3] = Cand{depth.ptr<uint16_t>(below[h])[h], below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h};
+          k[3] = Cand{depth.ptr<uint16_t>(below[h])[h], below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h, 0, 1, h,
+                      below[h]};
         int zmax = 0;
         for (const Cand& q : k) zmax = std::max(zmax, q.z);
         if (!zmax) continue;
         // Only the far (background) side counts, nearer candidates weighted more.
         const float zlo = float(zmax) * keep;
         float acc[3] = {0, 0, 0}, wsum = 0, zsum = 0;
+        const Cand* nearest = nullptr;
         for (const Cand& q : k) {
           if (!q.z || q.z < zlo) continue;
+          if (!nearest || q.dist < nearest->dist) nearest = &q;
           const float w = 1.0f / float(q.dist);
           acc[0] += w * q.c[0];
           acc[1] += w * q.c[1];
@@ -226,6 +239,15 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
         c[3 * h + 2] = uint8_t(acc[2] * iw + 0.5f);
         if (nd) nd[h] = uint16_t(zsum * iw + 0.5f);
         m[h] = 255;
+        if (texture > 0.f && nearest) {
+          // The mirror image across the edge, if it is known and on the background side too.
+          const int sx = nearest->x + nearest->dx * (nearest->dist - 1), sy = nearest->y + nearest->dy * (nearest->dist - 1);
+          if (sx >= 1 && sx + 1 < W && sy >= 1 && sy + 1 < H) {
+            const uint16_t zs = depth.ptr<uint16_t>(sy)[sx];
+            if (zs && float(zs) >= zlo)
+              sources.push_back({y * W + h, sy * W + sx, nearest->y * W + nearest->x});
+          }
+        }
         tile_used[size_t(y / kTileH) * tiles_x + h / kTileW] = 1;
       }
     }
@@ -252,6 +274,20 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
     cv::blur(color(r), dst, box);
   }
   for (const cv::Rect& r : rects) blurred(r).copyTo(color(r), mask(r));
+  if (texture <= 0.f) return;
+  // The texture: each filled pixel gets its source's deviation from the source's 3x3 neighbourhood mean.
+  const size_t step = color.step;
+  for (const TextureSource& t : sources) {
+    const uint8_t* src = color.data + size_t(t.source / W) * step + 3 * size_t(t.source % W);
+    uint8_t* out = color.data + size_t(t.hole / W) * step + 3 * size_t(t.hole % W);
+    for (int ch = 0; ch < 3; ++ch) {
+      int sum = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) sum += src[ptrdiff_t(dy) * ptrdiff_t(step) + 3 * dx + ch];
+      const float detail = float(src[ch]) - float(sum) / 9.f;
+      out[ch] = cv::saturate_cast<uint8_t>(float(out[ch]) + texture * detail);
+    }
+  }
 }
 
 // Blends the fill towards a neutral grey with the distance to the nearest
@@ -309,21 +345,22 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   const int unseen = int(out->depth.total()) - cv::countNonZero(out->depth);
   out->unseen_share = double(unseen) / double(out->depth.total());
   if (prm.fill_holes) {
-    fill_holes(out->color, out->depth, prm.background_ratio, prm.fill_smooth_px, nullptr, out->filled);
+    fill_holes(out->color, out->depth, prm.background_ratio, prm.fill_smooth_px, nullptr, out->filled,
+               float(prm.fill_texture));
     if (prm.fade_unseen && unseen > 0)
       fade_unseen(out->color, out->depth, prm.fade_start * size.width, prm.fade_length * size.width);
   }
 }
 
 void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px,
-                                cv::Mat* filled) {
+                                cv::Mat* filled, double texture) {
   CV_Assert(color.type() == CV_8UC3 && depth.type() == CV_16UC1 && color.size() == depth.size());
   cv::Mat mask = cv::Mat::zeros(color.size(), CV_8UC1);
   if (filled) *filled = mask;  // shares the data
   // The filled depth goes to a new buffer, as before: whoever shares the
   // caller's depth keeps the unfilled one.
   cv::Mat new_depth = depth.clone();
-  fill_holes(color, depth, background_ratio, smooth_px, &new_depth, mask);
+  fill_holes(color, depth, background_ratio, smooth_px, &new_depth, mask, float(texture));
   depth = new_depth;
 }
 
