@@ -44,10 +44,10 @@ struct WhepSendBranch::State {
   GstPad* sink = nullptr;
   GopSendGate gate;                                   // the queue's upstream thread's only (on_frame_in)
   GstClockTime last_sent_pts = GST_CLOCK_TIME_NONE;   // the payloader's thread's only (on_frame_out)
+  WhepSendBranch::ReportWatch* reports = nullptr;     // the branch's (its own lock), for the frames offered
   std::mutex lock;                                    // what follows
   GstWebRTCDataChannel* channel = nullptr;
   GstClockTime last_echoed_pts = GST_CLOCK_TIME_NONE;
-  WhepSendBranch::ReportWatch* reports = nullptr;  // the branch's, for the frames offered
   std::map<GstClockTime, FramePose> frame_poses;  // recent frames' poses by PTS (bounded)
 };
 

@@ -156,10 +156,10 @@ inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~
 void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px, cv::Mat* new_depth,
                 cv::Mat& mask, float texture = 0.f) {
   const int W = color.cols, H = color.rows;
-  // Per hole pixel: the known background pixel its texture is taken from (the mirror image of the pixel
-  // across the hole's edge on its nearest background side), -1 for none.
+  // For the hole pixels that have one: the known background pixel their texture is taken from (the mirror
+  // image of the pixel across the hole's edge on its nearest background side), as y * W + x.
   struct TextureSource {
-    int hole, source, edge;
+    int hole, source;
   };
   static thread_local std::vector<TextureSource> sources;
   sources.clear();
@@ -241,11 +241,11 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
         m[h] = 255;
         if (texture > 0.f && nearest) {
           // The mirror image across the edge, if it is known and on the background side too.
-          const int sx = nearest->x + nearest->dx * (nearest->dist - 1), sy = nearest->y + nearest->dy * (nearest->dist - 1);
+          const int beyond = nearest->dist - 1;
+          const int sx = nearest->x + nearest->dx * beyond, sy = nearest->y + nearest->dy * beyond;
           if (sx >= 1 && sx + 1 < W && sy >= 1 && sy + 1 < H) {
             const uint16_t zs = depth.ptr<uint16_t>(sy)[sx];
-            if (zs && float(zs) >= zlo)
-              sources.push_back({y * W + h, sy * W + sx, nearest->y * W + nearest->x});
+            if (zs && float(zs) >= zlo) sources.push_back({y * W + h, sy * W + sx});
           }
         }
         tile_used[size_t(y / kTileH) * tiles_x + h / kTileW] = 1;
