@@ -615,7 +615,8 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheVi
       "lecturer-test.mjs", {"secret-token", "960", "540"});
   if (!run.skip.empty()) GTEST_SKIP() << run.skip;
   EXPECT_TRUE(run.ok) << run.output;
-  for (const char* check : {"ok wrong token: 401", "ok joined after a join lost on the way, frames 960x540", "ok playout delay answered", "ok drag:", "ok soft stop:", "ok XR pose:",
+  for (const char* check : {"ok wrong token: 401", "ok joined after a join lost on the way, frames 960x540",
+                            "ok playout delay answered", "ok drag:", "ok soft stop:", "ok XR pose:",
                             "ok XR eyes:", "ok left:"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());
@@ -823,8 +824,10 @@ std::set<GstElement*> elements_made_by(GstElement* bin, const char* factory) {
   if (sessions != 1 || elements_made_by(sink, "viewwarp").size() != 1)
     fail("after joining: " + std::to_string(sessions) + " sessions, " +
          std::to_string(elements_made_by(sink, "viewwarp").size()) + " warps");
-  GstMessage* m = gst_bus_timed_pop_filtered(bus, 60 * GST_SECOND, GstMessageType(GST_MESSAGE_WARNING | GST_MESSAGE_ERROR));
-  if (!m || GST_MESSAGE_TYPE(m) != GST_MESSAGE_WARNING) fail(m ? "an error came instead of the warning" : "no warning in 60 s");
+  GstMessage* m =
+      gst_bus_timed_pop_filtered(bus, 60 * GST_SECOND, GstMessageType(GST_MESSAGE_WARNING | GST_MESSAGE_ERROR));
+  if (!m || GST_MESSAGE_TYPE(m) != GST_MESSAGE_WARNING)
+    fail(m ? "an error came instead of the warning" : "no warning in 60 s");
   GError* warning = nullptr;
   gst_message_parse_warning(m, &warning, nullptr);
   const std::string text = warning->message;

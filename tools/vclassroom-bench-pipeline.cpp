@@ -100,7 +100,8 @@ int main(int argc, char** argv) {
       "`meson devenv -C build` or after `meson install`.",
       entries, gst_init_get_option_group());
   if (frames < 40 || runs < 1 || learners < 0 || cameras < 1 || cameras > 3 || memory < 0)
-    vclassroom_tools::usage_error("--frames must be at least 40, --runs at least 1, --cameras 1 to 3, --memory at least 0");
+    vclassroom_tools::usage_error(
+        "--frames must be at least 40, --runs at least 1, --cameras 1 to 3, --memory at least 0");
   for (const char* e : {"rgbdtestsrc", "learnerseg", "viewwarp", "viewfuse"})
     if (!gst_element_factory_find(e)) {
       std::fprintf(stderr, "element %s not found: run inside `meson devenv -C build` or install the plugins\n", e);

@@ -588,7 +588,8 @@ int main(int argc, char** argv) {
   if (!opt.only.empty() && opt.only != "classroom" && opt.only != "middlebury" && opt.only != "teddy")
     vclassroom_tools::usage_error("--only must be classroom, middlebury or teddy (got '" + opt.only + "')");
   if (opt.frames < 1 || opt.boundary_px < 0) vclassroom_tools::usage_error("--frames must be at least 1, --boundary at least 0");
-  if (opt.memory < 0 || opt.memory > 64) vclassroom_tools::usage_error("--memory must be 0 (off) to 64 frames, as viewwarp's background-memory");
+  if (opt.memory < 0 || opt.memory > 64)
+    vclassroom_tools::usage_error("--memory must be 0 (off) to 64 frames, as viewwarp's background-memory");
   for (const std::string& dir : {opt.images, opt.write_priors, opt.out})
     if (!dir.empty() && !vclassroom_tools::make_folder(dir)) return 1;
   try {
