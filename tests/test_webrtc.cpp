@@ -798,26 +798,40 @@ std::set<GstElement*> elements_made_by(GstElement* bin, const char* factory) {
   return found;
 }
 
+// A death-test child's failure: says why on stderr and exits 1.
+[[noreturn]] void fail(const std::string& why) {
+  std::fprintf(stderr, "%s\n", why.c_str());
+  _exit(1);
+}
+
+// For the death tests' children: a playing whepviewsink `w` (with `properties`) fed by live camera 0 of the
+// classroom at 320x180.
+struct ViewsChild {
+  vctest::TempDir dir;
+  std::string rig = bounded_classroom_rig(dir, 320, 180);
+  GstElement* pipeline = nullptr;
+  GstElement* sink = nullptr;
+  guint port = 0;
+  explicit ViewsChild(const std::string& properties) {
+    GError* err = nullptr;
+    pipeline = gst_parse_launch(("whepviewsink name=w port=0 " + properties + " rig=" + rig +
+                                 " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0")
+                                    .c_str(),
+                                &err);
+    if (!pipeline) fail(err ? err->message : "no pipeline");
+    sink = gst_bin_get_by_name(GST_BIN(pipeline), "w");
+    if (gst_element_set_state(pipeline, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE) fail("not playing");
+    g_object_get(sink, "bound-port", &port, nullptr);
+  }
+};
+
 // The child's side of ALecturerWhoFallsSilentIsEndedAndTheirViewFreed: exits 0 once the endpoint has ended
 // the session of a lecturer who never sent a receiver report, with a warning, and taken its view away.
 [[noreturn]] void silent_lecturer_child() {
-  auto fail = [](const std::string& why) {
-    std::fprintf(stderr, "%s\n", why.c_str());
-    _exit(1);
-  };
-  vctest::TempDir dir;
-  const std::string rig = bounded_classroom_rig(dir, 320, 180);
-  GError* err = nullptr;
-  const std::string launch = "whepviewsink name=w port=0 token=silent-token lecturer-timeout=1 rig=" + rig +
-                             " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0";
-  GstElement* pipeline = gst_parse_launch(launch.c_str(), &err);
-  if (!pipeline) fail(err ? err->message : "no pipeline");
-  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipeline), "w");
-  GstBus* bus = gst_element_get_bus(pipeline);
-  if (gst_element_set_state(pipeline, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE) fail("not playing");
-  guint port = 0;
-  g_object_get(sink, "bound-port", &port, nullptr);
-  const std::string status = post_dead_offer(port, "silent-token");
+  ViewsChild child("token=silent-token lecturer-timeout=1");
+  GstElement* sink = child.sink;
+  GstBus* bus = gst_element_get_bus(child.pipeline);
+  const std::string status = post_dead_offer(child.port, "silent-token");
   if (status != "HTTP/1.1 201 Created") fail("the offer got " + status);
   guint sessions = 0;
   g_object_get(sink, "sessions", &sessions, nullptr);
@@ -844,21 +858,11 @@ std::set<GstElement*> elements_made_by(GstElement* bin, const char* factory) {
 // The child's side of ACameraLinkedWhileALecturerWatchesJoinsTheirView: exits 0 once camera 1, linked after
 // the lecturer joined, has frames warped into that lecturer's view; 1 otherwise, saying why on stderr.
 [[noreturn]] void late_camera_child() {
-  auto fail = [](const std::string& why) {
-    std::fprintf(stderr, "%s\n", why.c_str());
-    _exit(1);
-  };
-  vctest::TempDir dir;
-  const std::string rig = bounded_classroom_rig(dir, 320, 180);
+  ViewsChild child("token=late-camera-token background-memory=4");
+  GstElement *pipeline = child.pipeline, *sink = child.sink;
+  const std::string& rig = child.rig;
+  const guint port = child.port;
   GError* err = nullptr;
-  const std::string launch = "whepviewsink name=w port=0 token=late-camera-token background-memory=4 rig=" + rig +
-                             " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0";
-  GstElement* pipeline = gst_parse_launch(launch.c_str(), &err);
-  if (!pipeline) fail(err ? err->message : "no pipeline");
-  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipeline), "w");
-  if (gst_element_set_state(pipeline, GST_STATE_PLAYING) == GST_STATE_CHANGE_FAILURE) fail("not playing");
-  guint port = 0;
-  g_object_get(sink, "bound-port", &port, nullptr);
   const std::string status = post_dead_offer(port, "late-camera-token");
   if (status != "HTTP/1.1 201 Created") fail("the offer got " + status);
   auto warps = [&] { return elements_made_by(sink, "viewwarp"); };
