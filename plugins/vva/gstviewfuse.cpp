@@ -678,7 +678,8 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
       g_param_spec_double("fill-texture", "Fill texture",
                           "How much of the background's texture the hole filling carries into a hole: each filled "
                           "pixel gets this share of the detail of its mirror image across the hole's edge on the "
-                          "background side (0: a smooth fill)",
+                          "background side, up to 16 px into the hole (0: a smooth fill; costs encoder work "
+                          "downstream)",
                           0, 1, d.fill_texture,
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(

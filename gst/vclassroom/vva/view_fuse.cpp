@@ -153,6 +153,11 @@ inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~
 // of holes, found by walking down the run once). Candidates are always known
 // pixels, which the filling never writes, so `color` is filled in place.
 // The smoothing box-blurs only the tiles holding filled pixels.
+// The fill's texture reaches this far (px) into a hole: a disocclusion's width. Farther, a mirror image
+// has little to do with what is hidden, the fill fades out (fade_unseen) and the texture's work would grow
+// with every unseen pixel of a view that looks out of the room.
+constexpr int kTextureReach = 16;
+
 void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px, cv::Mat* new_depth,
                 cv::Mat& mask, float texture = 0.f) {
   const int W = color.cols, H = color.rows;
@@ -239,7 +244,7 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
         c[3 * h + 2] = uint8_t(acc[2] * iw + 0.5f);
         if (nd) nd[h] = uint16_t(zsum * iw + 0.5f);
         m[h] = 255;
-        if (texture > 0.f && nearest) {
+        if (texture > 0.f && nearest && nearest->dist <= kTextureReach) {
           // The mirror image across the edge, if it is known and on the background side too.
           const int beyond = nearest->dist - 1;
           const int sx = nearest->x + nearest->dx * beyond, sy = nearest->y + nearest->dy * beyond;

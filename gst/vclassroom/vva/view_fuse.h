@@ -28,12 +28,13 @@ struct FuseParams {
   // guess, and a smooth guess errs least (on Middlebury Art/Aloe it is worth
   // 0.5-1 dB, see docs/vva.md).
   int fill_smooth_px = 3;
-  // Texture on the smooth fill: each filled pixel gets, times this, the detail (deviation from its 3x3 mean)
-  // of its mirror image across the hole's edge on its nearest background side, where that pixel is known and
-  // on the background side too. A hole then carries the grain of the surface around it instead of a flat
-  // smear. Half the detail: a copied texture is not the hidden one, and the whole of it costs 0.05-0.08 dB
-  // on Middlebury where half costs 0.00-0.02 and gains 0.1 dB on Teddy (docs/vva.md). 0: smooth.
-  double fill_texture = 0.5;
+  // Texture on the smooth fill: each filled pixel within kTextureReach px of the hole's edge gets, times
+  // this, the detail (deviation from its 3x3 mean) of its mirror image across the edge on its nearest
+  // background side, where that pixel is known and on the background side too: a hole carries the grain of
+  // the surface beside it instead of a flat smear. Off by default: PSNR does not reward a copied texture
+  // (0.5 is within +-0.01 dB on Middlebury, +0.1 on Teddy), and a lecturer's encoder spends more on it
+  // (about 5 ms of server CPU per view frame with four lecturers; docs/vva.md). 0: smooth.
+  double fill_texture = 0;
   // What lies far from anything a camera saw cannot be guessed: beyond
   // fade_start (a share of the image width) from the nearest seen pixel the
   // fill fades over fade_length towards a neutral grey, a calm "outside the
