@@ -45,6 +45,7 @@ struct Options {
   // classroom: each source camera's colour through a background memory of this many frames (0: off), on by
   // default as pipelines/server.sh runs it.
   int memory = 8;
+  double fill_texture = 0;  // viewfuse fill-texture
   std::string write_priors;  // folder: write the empty room's depth per camera and exit
   std::string model;         // V-DA model folder: the full system runs V-DA on the sensor depth
   // --dataset: leave-one-out on any dataset folder of the project's format.
@@ -56,6 +57,12 @@ struct Options {
   int dataset_frames = 0;  // 0: every frame
   std::string out;
 };
+
+FuseParams fuse_params(const Options& opt) {
+  FuseParams p;
+  p.fill_texture = opt.fill_texture;
+  return p;
+}
 
 struct Stats {
   std::vector<double> v;
@@ -130,7 +137,8 @@ void write_plot(const std::string& path, const std::vector<double>& values, cons
 }
 
 DatasetScore eval_dataset(const Dataset& ds, const Rig& rig, int target, const std::vector<int>& sources,
-                          int crop_right, int frames, const WarpParams& wp, const std::string& out,
+                          int crop_right, int frames, const WarpParams& wp, const FuseParams& fp,
+                          const std::string& out,
                           const std::string& name) {
   size_t count = ds.frame_count(target);
   for (int s : sources) count = std::min(count, ds.frame_count(s));
@@ -154,7 +162,7 @@ DatasetScore eval_dataset(const Dataset& ds, const Rig& rig, int target, const s
       views.push_back(&warped[i]);
     }
     FusedView fused;
-    fuse_views(views, FuseParams(), &fused);
+    fuse_views(views, fp, &fused);
     const RgbdImages real = ds.load(target, f);
     score.psnr.add(psnr_rgb(fused.color, real.color, roi));
     score.ssim.add(ssim_luma(fused.color, real.color, roi));
@@ -189,7 +197,8 @@ void eval_any_dataset(const Options& opt) {
               camera_list(opt.sources).c_str(), opt.rig.empty() ? "" : (" with the rig " + opt.rig).c_str(),
               opt.crop_right);
   const DatasetScore s =
-      eval_dataset(ds, rig, opt.target, opt.sources, opt.crop_right, opt.dataset_frames, wp, opt.out, name);
+      eval_dataset(ds, rig, opt.target, opt.sources, opt.crop_right, opt.dataset_frames, wp, fuse_params(opt),
+                   opt.out, name);
   if (s.psnr.v.empty()) throw Error(opt.dataset + ": no frames to evaluate");
   std::printf("frames %zu, PSNR min %.2f max %.2f dB\n", s.psnr.v.size(), s.psnr.min(), s.psnr.max());
   std::printf("PSNR %.2f dB SSIM %.2f\n", s.psnr.avg(), 100 * s.ssim.avg());
@@ -214,7 +223,7 @@ void eval_middlebury(const Options& opt) {
                 scene.c_str());
     for (int k = 2; k <= 6; ++k) {
       // The same evaluation as --dataset DIR --target k --sources 1 --crop-right 50*(k-1).
-      const DatasetScore s = eval_dataset(ds, ds.rig(), k, {1}, 50 * (k - 1), 1, wp,
+      const DatasetScore s = eval_dataset(ds, ds.rig(), k, {1}, 50 * (k - 1), 1, wp, fuse_params(opt),
                                           k == 2 || k == 6 ? opt.images : "", "vva-" + scene + "-view1-to-" +
                                                                                   std::to_string(k));
       const double b = best.at(scene)[k - 2];
@@ -239,7 +248,7 @@ void eval_teddy(const Options& opt) {
     const WarpedView w = warp_view(ds.rig().camera(from), WarpSource{ref.color, ref.depth, {}, {}},
                                    ds.rig().camera(to), wp);
     FusedView f;
-    fuse_views({&w}, FuseParams(), &f);
+    fuse_views({&w}, fuse_params(opt), &f);
     // The border the other view cannot see: 4 x 16 px of disparity range; crop it like FW-DIBR's 50 px.
     const int crop = 64;
     const cv::Rect roi = to > from ? cv::Rect(0, 0, real.color.cols - crop, real.color.rows)
@@ -275,7 +284,7 @@ struct Config {
 // layer and learners.
 void synthesize(const std::vector<CameraCalib>& cams, const std::vector<RgbdImages>& in,
                 const std::vector<cv::Mat>& priors, const std::vector<cv::Mat>& labels, const Config& c,
-                const CameraCalib& virt, const WarpParams& wp, std::vector<ViewWarper>& warpers,
+                const CameraCalib& virt, const WarpParams& wp, const FuseParams& fp, std::vector<ViewWarper>& warpers,
                 const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms, FusedView* out) {
   std::vector<WarpedView> warped(cams.size());
   std::vector<const WarpedView*> ptrs;
@@ -293,10 +302,11 @@ void synthesize(const std::vector<CameraCalib>& cams, const std::vector<RgbdImag
     warpers[i].warp(cams[i], src, virt, wp, &warped[i]);
     ptrs.push_back(&warped[i]);
   }
-  fuse_views(ptrs, FuseParams(), out);
+  fuse_views(ptrs, fp, out);
 }
 
 void eval_classroom(const Options& opt) {
+  const FuseParams fp = fuse_params(opt);
   const Rig rig = default_classroom_rig();
   const ClassroomConfig cfg{1, 6, 2.0};
   const Classroom room(cfg), empty(ClassroomConfig{cfg.seed, 0, cfg.camera_height});
@@ -419,10 +429,10 @@ void eval_classroom(const Options& opt) {
       const auto* room_layers = opt.memory > 0 ? &rooms : nullptr;
       cv::Mat unseen;  // what no source sees now (the fusion's holes without the remembered room)
       if (c == 0 && room_layers) {
-        synthesize(sources, in, src_priors, src_labels, configs[c], target, wp, warpers, nullptr, &fused);
+        synthesize(sources, in, src_priors, src_labels, configs[c], target, wp, fp, warpers, nullptr, &fused);
         unseen = fused.filled.clone();
       }
-      synthesize(sources, in, src_priors, src_labels, configs[c], target, wp, warpers, room_layers, &fused);
+      synthesize(sources, in, src_priors, src_labels, configs[c], target, wp, fp, warpers, room_layers, &fused);
       if (c == 0) {
         if (unseen.empty()) unseen = fused.filled.clone();
         if (cv::countNonZero(unseen) > 0) hole_psnr.add(psnr_rgb_masked(fused.color, imgs[0].color, unseen));
@@ -437,7 +447,7 @@ void eval_classroom(const Options& opt) {
       for (size_t k = 0; k < novel.size(); ++k) {
         RenderOutput gt;
         renderer.render(room, t, novel[k], &gt);
-        synthesize(sources, in, src_priors, src_labels, configs[c], novel[k], wp, warpers, room_layers, &fused);
+        synthesize(sources, in, src_priors, src_labels, configs[c], novel[k], wp, fp, warpers, room_layers, &fused);
         npsnr[c].add(psnr_rgb(fused.color, gt.color));
         nssim[c].add(ssim_luma(fused.color, gt.color));
         if (c == 0 && k == 1 && f == opt.frames - 1 && !opt.images.empty())
@@ -516,6 +526,10 @@ int main(int argc, char** argv) {
        "classroom: show each source camera's static room through a background memory of N frames (viewwarp's "
        "background-memory; default 8, as pipelines/server.sh; 0: off)",
        "N"},
+      {"fill-texture", 0, 0, G_OPTION_ARG_DOUBLE, &opt.fill_texture,
+       "share of the background's texture the hole filling carries into a hole, as viewfuse's fill-texture "
+       "(default 0: a smooth fill)",
+       "T"},
       {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 1)",
        "PX"},
       {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,
@@ -588,6 +602,7 @@ int main(int argc, char** argv) {
   if (!opt.only.empty() && opt.only != "classroom" && opt.only != "middlebury" && opt.only != "teddy")
     vclassroom_tools::usage_error("--only must be classroom, middlebury or teddy (got '" + opt.only + "')");
   if (opt.frames < 1 || opt.boundary_px < 0) vclassroom_tools::usage_error("--frames must be at least 1, --boundary at least 0");
+  if (opt.fill_texture < 0 || opt.fill_texture > 1) vclassroom_tools::usage_error("--fill-texture must be 0 to 1");
   if (opt.memory < 0 || opt.memory > 64)
     vclassroom_tools::usage_error("--memory must be 0 (off) to 64 frames, as viewwarp's background-memory");
   for (const std::string& dir : {opt.images, opt.write_priors, opt.out})
