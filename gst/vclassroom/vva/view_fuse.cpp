@@ -145,6 +145,11 @@ void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_m
 // Whether any of 4 depths packed in `v` is 0 (a hole).
 inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~v & 0x8000800080008000ull) != 0; }
 
+// The fill's texture reaches this far (px) into a hole: a disocclusion's width. Farther, a mirror image
+// has little to do with what is hidden, the fill fades out (fade_unseen) and the texture's work would grow
+// with every unseen pixel of a view that looks out of the room.
+constexpr int kTextureReach = 16;
+
 // The hole filling of fill_holes_from_background. Holes are few (a few % of
 // a fused view), so the work is arranged to cost little elsewhere: rows are
 // scanned four depths at a time for holes, a hole's left/right candidates are
@@ -153,11 +158,6 @@ inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~
 // of holes, found by walking down the run once). Candidates are always known
 // pixels, which the filling never writes, so `color` is filled in place.
 // The smoothing box-blurs only the tiles holding filled pixels.
-// The fill's texture reaches this far (px) into a hole: a disocclusion's width. Farther, a mirror image
-// has little to do with what is hidden, the fill fades out (fade_unseen) and the texture's work would grow
-// with every unseen pixel of a view that looks out of the room.
-constexpr int kTextureReach = 16;
-
 void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px, cv::Mat* new_depth,
                 cv::Mat& mask, float texture = 0.f) {
   const int W = color.cols, H = color.rows;
