@@ -79,7 +79,8 @@ G_DEFINE_TYPE(GstWhepViewSink, gst_whep_view_sink, GST_TYPE_BIN)
 #define GST_WHEP_VIEW_SINK(o) ((GstWhepViewSink*)(o))
 
 enum {
-  PROP_0, PROP_RIG, PROP_NAVIGATION_RIG, PROP_MODEL, PROP_WIDTH, PROP_HEIGHT, PROP_FUSE_LATENCY, PROP_WARP_SYNC, PROP_BACKGROUND_MEMORY,
+  PROP_0, PROP_RIG, PROP_NAVIGATION_RIG, PROP_MODEL, PROP_WIDTH, PROP_HEIGHT, PROP_FUSE_LATENCY, PROP_WARP_SYNC,
+  PROP_BACKGROUND_MEMORY,
   PROP_ENDPOINT_FIRST
 };
 
@@ -323,7 +324,8 @@ static void gst_whep_view_sink_init(GstWhepViewSink* self) {
   hooks.rate = [self](const std::string& session, int kbit) {
     std::lock_guard<std::mutex> g(*self->lock);
     auto it = self->views->find(session);
-    if (it != self->views->end() && it->second.encoder) g_object_set(it->second.encoder, "bitrate", guint(kbit), nullptr);
+    if (it != self->views->end() && it->second.encoder)
+      g_object_set(it->second.encoder, "bitrate", guint(kbit), nullptr);
   };
   self->endpoint = new WhepEndpoint(GST_BIN(self), "whepviewsink", std::move(hooks));
 }

@@ -292,9 +292,9 @@ WhepSendBranch::~WhepSendBranch() {
 GstElement* WhepSendBranch::webrtc() const { return st_->webrtc; }
 
 void WhepSendBranch::poll_receiver_reports() {
-  GstPromise* promise = gst_promise_new_with_change_func(on_stats, new std::shared_ptr<ReportWatch>(reports_), [](gpointer p) {
-    delete static_cast<std::shared_ptr<ReportWatch>*>(p);
-  });
+  GstPromise* promise = gst_promise_new_with_change_func(
+      on_stats, new std::shared_ptr<ReportWatch>(reports_),
+      [](gpointer p) { delete static_cast<std::shared_ptr<ReportWatch>*>(p); });
   g_signal_emit_by_name(st_->webrtc, "get-stats", nullptr, promise);
   gst_promise_unref(promise);
 }

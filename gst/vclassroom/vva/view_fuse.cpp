@@ -179,9 +179,9 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
   struct Cand {
     int z = 0, dist = 0;
     const uint8_t* c = nullptr;
-    int dx = 0, dy = 0;  // the step from the hole towards this candidate
-    int x = 0, y = 0;    // where it is
   };
+  // k[0..3] below: the candidate to the left, right, above and below; the step from the hole towards each.
+  constexpr int kStepX[4] = {-1, 1, 0, 0}, kStepY[4] = {0, 0, -1, 1};
   for (int y = 0; y < H; ++y) {
     const uint16_t* d = depth.ptr<uint16_t>(y);
     uint8_t* c = color.ptr<uint8_t>(y);
@@ -213,24 +213,23 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
           below[h] = yb;
         }
         Cand k[4];
-        if (a > 0) k[0] = Cand{d[a - 1], h - (a - 1), c + 3 * (a - 1), -1, 0, a - 1, y};
-        if (b + 1 < W) k[1] = Cand{d[b + 1], b + 1 - h, c + 3 * (b + 1), 1, 0, b + 1, y};
+        if (a > 0) k[0] = Cand{d[a - 1], h - (a - 1), c + 3 * (a - 1)};
+        if (b + 1 < W) k[1] = Cand{d[b + 1], b + 1 - h, c + 3 * (b + 1)};
         if (above[h] >= 0)
-          k[2] = Cand{depth.ptr<uint16_t>(above[h])[h], y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h, 0, -1, h,
-                      above[h]};
+          k[2] = Cand{depth.ptr<uint16_t>(above[h])[h], y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h};
         if (below[h] < H)
-          k[3] = Cand{depth.ptr<uint16_t>(below[h])[h], below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h, 0, 1, h,
-                      below[h]};
+          k[3] = Cand{depth.ptr<uint16_t>(below[h])[h], below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h};
         int zmax = 0;
         for (const Cand& q : k) zmax = std::max(zmax, q.z);
         if (!zmax) continue;
         // Only the far (background) side counts, nearer candidates weighted more.
         const float zlo = float(zmax) * keep;
         float acc[3] = {0, 0, 0}, wsum = 0, zsum = 0;
-        const Cand* nearest = nullptr;
-        for (const Cand& q : k) {
+        int nearest = -1;  // the nearest background candidate, for the texture
+        for (int i = 0; i < 4; ++i) {
+          const Cand& q = k[i];
           if (!q.z || q.z < zlo) continue;
-          if (!nearest || q.dist < nearest->dist) nearest = &q;
+          if (nearest < 0 || q.dist < k[nearest].dist) nearest = i;
           const float w = 1.0f / float(q.dist);
           acc[0] += w * q.c[0];
           acc[1] += w * q.c[1];
@@ -244,10 +243,11 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
         c[3 * h + 2] = uint8_t(acc[2] * iw + 0.5f);
         if (nd) nd[h] = uint16_t(zsum * iw + 0.5f);
         m[h] = 255;
-        if (texture > 0.f && nearest && nearest->dist <= kTextureReach) {
-          // The mirror image across the edge, if it is known and on the background side too.
-          const int beyond = nearest->dist - 1;
-          const int sx = nearest->x + nearest->dx * beyond, sy = nearest->y + nearest->dy * beyond;
+        if (texture > 0.f && nearest >= 0 && k[nearest].dist <= kTextureReach) {
+          // The mirror image across the edge (as far beyond the edge as the hole pixel is before it), if it is
+          // known and on the background side too.
+          const int reach = 2 * k[nearest].dist - 1;
+          const int sx = h + kStepX[nearest] * reach, sy = y + kStepY[nearest] * reach;
           if (sx >= 1 && sx + 1 < W && sy >= 1 && sy + 1 < H) {
             const uint16_t zs = depth.ptr<uint16_t>(sy)[sx];
             if (zs && float(zs) >= zlo) sources.push_back({y * W + h, sy * W + sx});
