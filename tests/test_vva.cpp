@@ -277,6 +277,51 @@ TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
   }
 }
 
+// The far-side pixel next to a depth edge is the object's rim when its
+// colour is partly the object's: it moves with the object
+// (WarpParams::edge_to_near) instead of staying behind as a ghost contour on
+// the revealed background. A pixel that shows only background stays there,
+// so a depth map that fattens objects does not fatten them more.
+TEST(ViewWarp, AnObjectsRimMovesWithItAndTheBackgroundStays) {
+  const int w = 120, h = 80;
+  const CameraCalib src = pinhole(w, h, 100);
+  const cv::Rect box(50, 25, 20, 30);
+  const cv::Vec3b object(255, 0, 255), background(0, 160, 0), mixed(128, 80, 128);
+  CameraCalib virt = src;
+  virt.cam_to_rig.translation() = Eigen::Vector3d(0.15, 0, 0);  // the box moves 15 px left, the wall 3.75
+  const int y = box.y + box.height / 2, rim_x = box.br().x, rim_with_box = rim_x - 15;
+  for (bool rim_shows_object : {true, false}) {
+    WarpSource in;
+    in.color = cv::Mat(h, w, CV_8UC3, cv::Scalar(background));
+    in.depth = cv::Mat(h, w, CV_16UC1, cv::Scalar(4000));
+    in.label = cv::Mat::zeros(h, w, CV_8UC1);
+    in.color(box).setTo(cv::Scalar(object));
+    in.depth(box).setTo(cv::Scalar(1000));
+    in.label(box).setTo(cv::Scalar(1));
+    in.color(cv::Rect(rim_x, box.y, 1, box.height)).setTo(cv::Scalar(rim_shows_object ? mixed : background));
+    for (bool edge_to_near : {true, false}) {
+      WarpParams p;
+      p.edge_to_near = edge_to_near;
+      const WarpedView out = warp_view(src, in, virt, p);
+      const bool moved = rim_shows_object && edge_to_near;
+      SCOPED_TRACE(std::string(rim_shows_object ? "a mixed rim" : "a background rim") +
+                   (edge_to_near ? ", edge_to_near" : ""));
+      EXPECT_EQ(cv::countNonZero(out.depth.row(y) == 1000), box.width + (moved ? 1 : 0));
+      if (moved) {
+        EXPECT_EQ(out.color.at<cv::Vec3b>(y, rim_with_box), mixed);
+        EXPECT_EQ(out.label.at<uint8_t>(y, rim_with_box), 1) << "the rim is the learner's";
+      }
+      // Anything but background on the background: the ghost contour.
+      int ghost = 0;
+      for (int x = 0; x < w; ++x)
+        ghost += out.depth.at<uint16_t>(y, x) > 1000 && cv::norm(out.color.at<cv::Vec3b>(y, x), background) > 40;
+      EXPECT_EQ(ghost > 0, rim_shows_object && !edge_to_near);
+      // The rows above and below the box show background beside it: they stay.
+      EXPECT_EQ(cv::countNonZero(out.depth.row(box.y - 1) == 1000), 0);
+    }
+  }
+}
+
 // A slanted plane whose depth comes in steps, as from a sensor that
 // measures disparity in quarter pixels, in front of a far wall: no virtual
 // pixel inside the plane may show the wall (a see-through crack) or stay
@@ -956,9 +1001,7 @@ TEST(ViewWarpElement, APoseEventChangesTheNextFrame) {
   EXPECT_LT(psnr_rgb(c1, c2), 30.0) << "the view did not move";
   // The same frame warped by the library to that pose is what came out.
   const CameraCalib virt = virtual_camera(scale_camera(info.camera, 160, 90), pose.cam_to_rig(), NAN);
-  WarpParams p;
-  p.boundary_px = 1;
-  const WarpedView expect = warp_view(info.camera, WarpSource{r.color, r.depth, {}, {}}, virt, p);
+  const WarpedView expect = warp_view(info.camera, WarpSource{r.color, r.depth, {}, {}}, virt);  // viewwarp's defaults
   EXPECT_TRUE(vctest::same_image(expect.color, c2)) << "PSNR " << psnr_rgb(expect.color, c2);
   gst_buffer_unref(out1);
   gst_buffer_unref(out2);

@@ -70,7 +70,7 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
            bool memory = false) {
   Result r;
   WarpParams wp;
-  wp.boundary_px = 1;  // as viewwarp's default
+  wp.boundary_px = 0;  // as viewwarp's default
   FuseParams fp;
   FusedView fused;
   std::vector<double> seg_ms(cams.size()), memory_ms(cams.size()), warp_ms(cams.size());

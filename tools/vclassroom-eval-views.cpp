@@ -40,7 +40,7 @@ struct Options {
   std::string only;    // "classroom", "middlebury", "teddy" or "" = all
   int frames = 20;
   int width = 960, height = 540;
-  int boundary_px = 1;
+  int boundary_px = 0;
   bool mesh = false;
   // classroom: each source camera's colour through a background memory of this many frames (0: off), on by
   // default as pipelines/server.sh runs it.
@@ -530,7 +530,7 @@ int main(int argc, char** argv) {
        "share of the background's texture the hole filling carries into a hole, as viewfuse's fill-texture "
        "(default 0: a smooth fill)",
        "T"},
-      {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 1)",
+      {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 0)",
        "PX"},
       {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,
        "warp with the triangle mesh rasteriser (reference) instead of the cell splat", nullptr},

@@ -35,6 +35,7 @@ enum {
   PROP_FOV,
   PROP_PRIOR_DEPTH,
   PROP_BOUNDARY,
+  PROP_EDGE_TO_NEAR,
   PROP_RIG,
   PROP_REFERENCE,
   PROP_POSES_RECEIVED,
@@ -50,7 +51,8 @@ struct WarpState {
   int width = 0, height = 0;
   double fov = 0;
   std::string prior_path;
-  int boundary_px = 1;
+  int boundary_px = 0;
+  bool edge_to_near = true;
   int memory_frames = 0;  // background-memory; 0: off
   std::string empty_room_path;
   std::string rig_path;
@@ -262,6 +264,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     std::lock_guard<std::mutex> g(st->lock);
     pose = st->pose;
     params.boundary_px = st->boundary_px;
+    params.edge_to_near = st->edge_to_near;
     memory_frames = st->memory_frames;
   }
   if (!st->trace.empty()) {
@@ -365,6 +368,9 @@ static void gst_view_warp_set_property(GObject* object, guint prop_id, const GVa
     case PROP_BOUNDARY:
       st->boundary_px = g_value_get_int(value);
       break;
+    case PROP_EDGE_TO_NEAR:
+      st->edge_to_near = g_value_get_boolean(value);
+      break;
     case PROP_BACKGROUND_MEMORY:
       st->memory_frames = g_value_get_int(value);
       break;
@@ -403,6 +409,9 @@ static void gst_view_warp_get_property(GObject* object, guint prop_id, GValue* v
       break;
     case PROP_BOUNDARY:
       g_value_set_int(value, st->boundary_px);
+      break;
+    case PROP_EDGE_TO_NEAR:
+      g_value_set_boolean(value, st->edge_to_near);
       break;
     case PROP_BACKGROUND_MEMORY:
       g_value_set_int(value, st->memory_frames);
@@ -464,8 +473,15 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_BOUNDARY,
       g_param_spec_int("boundary", "Edge boundary",
-                       "Source pixels dropped on the far side of a depth edge (their colour mixes both surfaces)", 0,
-                       8, 1, playing));
+                       "Source pixels dropped on the far side of a depth edge (their colour mixes both surfaces), "
+                       "beyond the one edge-to-near gives the near side",
+                       0, 8, 0, playing));
+  g_object_class_install_property(
+      gobject_class, PROP_EDGE_TO_NEAR,
+      g_param_spec_boolean("edge-to-near", "Edge pixels to the near side",
+                           "The far-side pixel next to a depth edge (the object's rim, its colour mixed with the "
+                           "background) moves with the nearer surface instead of staying on the background",
+                           TRUE, playing));
   g_object_class_install_property(
       gobject_class, PROP_BACKGROUND_MEMORY,
       g_param_spec_int("background-memory", "Background memory",

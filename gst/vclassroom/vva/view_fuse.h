@@ -22,12 +22,14 @@ struct FuseParams {
   // Fill holes no camera covers from their background side.
   bool fill_holes = true;
   // A hole neighbour counts as background when its depth is within this share
-  // of the farthest neighbour found around the hole.
-  double background_ratio = 0.08;
+  // of the farthest neighbour found around the hole (0.12 rather than 0.08
+  // since the warp gives objects their rims, WarpParams::edge_to_near:
+  // +0.2 dB on the classroom and Middlebury Art at offset 1, docs/vva.md).
+  double background_ratio = 0.12;
   // The filled pixels are then box-blurred over (2r+1)² : a fill can only
   // guess, and a smooth guess errs least (on Middlebury Art/Aloe it is worth
-  // 0.5-1 dB, see docs/vva.md).
-  int fill_smooth_px = 3;
+  // 0.5-1 dB, see docs/vva.md; 2 rather than 3 with the rims).
+  int fill_smooth_px = 2;
   // Texture on the smooth fill: each filled pixel within kTextureReach px of the hole's edge gets, times
   // this, the detail (deviation from its 3x3 mean) of its mirror image across the edge on its nearest
   // background side, where that pixel is known and on the background side too: a hole carries the grain of
@@ -62,7 +64,7 @@ void fuse_views(const std::vector<const WarpedView*>& views, const FuseParams& p
 // smooths the filled pixels with a (2 smooth_px + 1)² box, then adds `texture`
 // times the background's detail (FuseParams::fill_texture). `depth` gets the
 // chosen background depth. `filled` (optional) marks what was filled.
-void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px = 3,
+void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px = 2,
                                 cv::Mat* filled = nullptr, double texture = 0);
 
 // The pose a camera's warped frame was made for (its PoseMeta), for the live
