@@ -814,6 +814,26 @@ void ViewWarper::smooth_stepped_depth(int W, int H, const WarpParams& prm) {
   }
 }
 
+VCLASSROOM_SIMD_CLONES
+void minus_one(size_t n, const uint16_t* __restrict d, uint16_t* __restrict out) {
+  for (size_t i = 0; i < n; ++i) out[i] = uint16_t(d[i] - 1);
+}
+
+// flag[i] = 1 where pixel i has depth and lies beyond the edge tolerance
+// behind nearest_minus_one[i] + 1 (the tolerance taken at nearest_minus_one[i]).
+// In 16-bit lanes, as depth_edges: the sum saturates (no depth around: never).
+VCLASSROOM_SIMD_CLONES
+void far_of_nearest(size_t n, const uint16_t* __restrict d, const uint16_t* __restrict nearest_minus_one,
+                    uint16_t ratio_q16, uint16_t min_mm, uint8_t* __restrict flag) {
+  for (size_t i = 0; i < n; ++i) {
+    const uint16_t near = nearest_minus_one[i], z = d[i];
+    const uint16_t rel = uint16_t((uint32_t(near) * ratio_q16) >> 16);
+    const uint16_t lim = rel > min_mm ? rel : min_mm;
+    const uint16_t reach = uint16_t(near > uint16_t(65535 - lim) ? 65535 : near + lim);
+    flag[i] = uint8_t((z != 0) & (reach < uint16_t(z - 1)));
+  }
+}
+
 // The share of the object's colour in the pixel's: its colour projected on
 // the line from the background's colour to the object's (1 when the two are
 // too alike to tell).
@@ -828,33 +848,31 @@ float object_share(const uint8_t* pixel, const uint8_t* object, const uint8_t* b
 }
 
 void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, const cv::Mat& color) {
-  // The nearest depth around each pixel: a 3x3 erosion with "no depth" as
-  // the farthest value.
-  cv::Mat depth(H, W, CV_16UC1, src_depth_.data());
+  // The nearest depth around each pixel, less 1: a 3x3 erosion of depth - 1,
+  // where "no depth" wraps round to the farthest value.
+  const size_t n = size_t(W) * H;
   nearest_around_.create(H, W, CV_16UC1);
-  for (int v = 0; v < H; ++v) {
-    const uint16_t* d = depth.ptr<uint16_t>(v);
-    uint16_t* o = nearest_around_.ptr<uint16_t>(v);
-    for (int u = 0; u < W; ++u) o[u] = d[u] ? d[u] : uint16_t(65535);
-  }
+  minus_one(n, src_depth_.data(), nearest_around_.ptr<uint16_t>());
   cv::erode(nearest_around_, nearest_around_, cv::Mat(), cv::Point(-1, -1), 1, cv::BORDER_CONSTANT,
             cv::Scalar(65535));
   const uint16_t ratio = tolerance_ratio_q16(prm.edge_ratio), min_mm = tolerance_min_mm(prm.edge_min_mm);
   // The candidates first (few: the rims of objects), then their new depth
   // and label, so that every pixel is judged on the depths as they came.
+  claim_flags_.resize(n + 8);
+  std::fill(claim_flags_.end() - 8, claim_flags_.end(), 0);
+  far_of_nearest(n, src_depth_.data(), nearest_around_.ptr<uint16_t>(), ratio, min_mm, claim_flags_.data());
   edge_claims_.clear();
-  for (int v = 0; v < H; ++v) {
-    const uint16_t* m = nearest_around_.ptr<uint16_t>(v);
-    const uint16_t* d = depth.ptr<uint16_t>(v);
-    for (int u = 0; u < W; ++u) {
-      const int z = d[u], near = m[u];
-      if (z && near + relative_tolerance(near, ratio, min_mm) < z) edge_claims_.push_back(EdgeClaim{v * W + u, 0});
-    }
+  for (size_t i = 0; i < n; i += 8) {
+    uint64_t eight;
+    std::memcpy(&eight, &claim_flags_[i], 8);
+    if (!eight) continue;
+    for (size_t j = i; j < std::min(n, i + 8); ++j)
+      if (claim_flags_[j]) edge_claims_.push_back(EdgeClaim{int(j), 0});
   }
   size_t kept = 0;
   for (const EdgeClaim& claim : edge_claims_) {
     const int u = claim.pixel % W, v = claim.pixel / W;
-    const uint16_t near = nearest_around_.ptr<uint16_t>(v)[u];
+    const uint16_t near = uint16_t(nearest_around_.ptr<uint16_t>(v)[u] + 1);
     // The neighbour on the near side: a nearest one, one beside the pixel
     // rather than across a corner.
     int nu = u, nv = v;
@@ -889,7 +907,7 @@ void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, co
   }
   edge_claims_.resize(kept);
   for (const EdgeClaim& claim : edge_claims_) {
-    src_depth_[size_t(claim.pixel)] = nearest_around_.ptr<uint16_t>(claim.pixel / W)[claim.pixel % W];
+    src_depth_[size_t(claim.pixel)] = uint16_t(nearest_around_.ptr<uint16_t>(claim.pixel / W)[claim.pixel % W] + 1);
     src_label_[size_t(claim.pixel)] = claim.label;
   }
 }

@@ -118,7 +118,8 @@ class ViewWarper {
   std::vector<uint8_t> crack_code_;  // one virtual row's cracks (close_cracks)
   std::vector<uint8_t> src_label_;
   std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
-  cv::Mat nearest_around_;                 // edge_to_near: per source pixel, the nearest depth in its 3x3
+  cv::Mat nearest_around_;                 // edge_to_near: per source pixel, the nearest depth in its 3x3, less 1
+  std::vector<uint8_t> claim_flags_;       // edge_to_near: 1 where a pixel lies behind its nearest neighbour
   struct EdgeClaim {
     int pixel;      // y * width + x
     uint8_t label;  // the near side's
