@@ -63,8 +63,9 @@ struct WarpParams {
   // nearer side's depth and label: its colour mixes both surfaces, and it is
   // the object's rim seen against the background, so it moves with the
   // object instead of leaving a ghost contour on the background (and depth
-  // maps' edges are often a pixel inside the colour edges). On Middlebury Art
-  // it is worth 1.5 dB at offset 1 over dropping the pixel (docs/vva.md).
+  // maps' edges are often a pixel inside the colour edges) - when its colour
+  // shows some of the object (view_warp.cpp, kMinObjectShare). On Middlebury
+  // Art it is worth 1.8 dB at offset 1 over dropping the pixel (docs/vva.md).
   bool edge_to_near = true;
   // Source pixels this close (px) to a depth edge, on its far side, are not
   // warped (after edge_to_near, beyond the claimed pixel): another way to keep
