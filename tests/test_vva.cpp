@@ -281,7 +281,8 @@ TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
 // colour is partly the object's: it moves with the object
 // (WarpParams::edge_to_near) instead of staying behind as a ghost contour on
 // the revealed background. A pixel that shows only background stays there,
-// so a depth map that fattens objects does not fatten them more.
+// so a depth map that fattens objects does not fatten them more, and so does
+// one whose depth is the static layer's (the room model's).
 TEST(ViewWarp, AnObjectsRimMovesWithItAndTheBackgroundStays) {
   const int w = 120, h = 80;
   const CameraCalib src = pinhole(w, h, 100);
@@ -319,6 +320,10 @@ TEST(ViewWarp, AnObjectsRimMovesWithItAndTheBackgroundStays) {
       // The rows above and below the box show background beside it: they stay.
       EXPECT_EQ(cv::countNonZero(out.depth.row(box.y - 1) == 1000), 0);
     }
+    // The room's depth from the static layer (a model's, not a sensor's edge): its rim stays.
+    in.static_depth = in.depth.clone();
+    const WarpedView layered = warp_view(src, in, virt);
+    EXPECT_EQ(cv::countNonZero(layered.depth.row(y) == 1000), box.width);
   }
 }
 

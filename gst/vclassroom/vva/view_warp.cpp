@@ -846,7 +846,8 @@ float object_share(const uint8_t* pixel, const uint8_t* object, const uint8_t* b
   return length2 > kAlikeColours ? along / length2 : 1.0f;
 }
 
-void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, const cv::Mat& color) {
+void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, const cv::Mat& color,
+                                         const cv::Mat& static_depth) {
   // The nearest depth around each pixel, less 1: a 3x3 erosion of depth - 1,
   // where "no depth" wraps round to the farthest value.
   const size_t n = size_t(W) * H;
@@ -871,6 +872,10 @@ void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, co
   size_t kept = 0;
   for (const EdgeClaim& claim : edge_claims_) {
     const int u = claim.pixel % W, v = claim.pixel / W;
+    // The static layer's depth is the room model's, whose edges come from
+    // geometry fitted over many frames, not from a sensor a pixel off the
+    // colour: its rims stay (moving them cost 0.13 dB on Table I).
+    if (!static_depth.empty() && src_label_[size_t(claim.pixel)] == 0 && static_depth.ptr<uint16_t>(v)[u]) continue;
     const uint16_t near = uint16_t(nearest_around_.ptr<uint16_t>(v)[u] + 1);
     // The neighbour on the near side: a nearest one, one beside the pixel
     // rather than across a corner.
@@ -971,7 +976,7 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     }
   }
   if (prm.step_ratio > 0) smooth_stepped_depth(W, H, prm);
-  if (prm.edge_to_near) give_edges_to_near_side(W, H, prm, in.color);
+  if (prm.edge_to_near) give_edges_to_near_side(W, H, prm, in.color, in.static_depth);
   if (prm.boundary_px > 0 && W >= 4 && H >= 4) {
     // Drop the far-side pixels next to a depth edge: their colour mixes both
     // surfaces and would draw a ghost contour where the background is revealed.

@@ -64,8 +64,10 @@ struct WarpParams {
   // the object's rim seen against the background, so it moves with the
   // object instead of leaving a ghost contour on the background (and depth
   // maps' edges are often a pixel inside the colour edges) - when its colour
-  // shows some of the object (view_warp.cpp, kMinObjectShare). On Middlebury
-  // Art it is worth 1.8 dB at offset 1 over dropping the pixel (docs/vva.md).
+  // shows some of the object (view_warp.cpp, kMinObjectShare) and its depth
+  // is not the static layer's (a model's edges are not a sensor's). On
+  // Middlebury Art it is worth 1.8 dB at offset 1 over dropping the pixel
+  // (docs/vva.md).
   bool edge_to_near = true;
   // Source pixels this close (px) to a depth edge, on its far side, are not
   // warped (after edge_to_near, beyond the claimed pixel): another way to keep
@@ -105,7 +107,8 @@ class ViewWarper {
   // src_depth_ with its steps smoothed (WarpParams::step_ratio).
   void smooth_stepped_depth(int width, int height, const WarpParams& params);
   // WarpParams::edge_to_near on src_depth_ and src_label_.
-  void give_edges_to_near_side(int width, int height, const WarpParams& params, const cv::Mat& color);
+  void give_edges_to_near_side(int width, int height, const WarpParams& params, const cv::Mat& color,
+                               const cv::Mat& static_depth);
   CameraCalib rays_for_;
   bool have_rays_ = false;
   std::vector<float> ray_x_, ray_y_;
