@@ -813,6 +813,8 @@ void ViewWarper::smooth_stepped_depth(int W, int H, const WarpParams& prm) {
   }
 }
 
+namespace {
+
 VCLASSROOM_SIMD_CLONES
 void minus_one(size_t n, const uint16_t* __restrict d, uint16_t* __restrict out) {
   for (size_t i = 0; i < n; ++i) out[i] = uint16_t(d[i] - 1);
@@ -845,6 +847,8 @@ float object_share(const uint8_t* pixel, const uint8_t* object, const uint8_t* b
   }
   return length2 > kAlikeColours ? along / length2 : 1.0f;
 }
+
+}  // namespace
 
 void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, const cv::Mat& color,
                                          const cv::Mat& static_depth) {
