@@ -67,11 +67,8 @@ double cpu_ms_now() {
 // over `threads` threads), then fused. The virtual view moves every frame, as
 // a lecturer's head does: nothing can be reused from the frame before.
 Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& virt_at_frame, int frames, int threads,
-           bool memory, bool edge_to_near) {
+           bool memory, const WarpParams& wp) {
   Result r;
-  WarpParams wp;
-  wp.boundary_px = 0;  // as viewwarp's defaults
-  wp.edge_to_near = edge_to_near;
   FuseParams fp;
   FusedView fused;
   std::vector<double> seg_ms(cams.size()), memory_ms(cams.size()), warp_ms(cams.size());
@@ -146,6 +143,8 @@ int main(int argc, char** argv) {
   if (frames < 1 || threads < 1 || memory < 0)
     vclassroom_tools::usage_error("--frames and --threads must be at least 1, --memory at least 0");
   cv::setNumThreads(1);  // our threads are the cameras
+  WarpParams warp;  // viewwarp's defaults
+  warp.edge_to_near = !no_edge_to_near;
   const Rig rig = default_classroom_rig();
   const Classroom room(ClassroomConfig{1, 6, 2.0}), empty(ClassroomConfig{1, 0, 2.0});
   const int recorded = 8;
@@ -192,25 +191,25 @@ int main(int argc, char** argv) {
   {
     std::vector<Camera> cams = make_cams({0, 1, 2});
     if (memory > 0) {
-      run(cams, virt_at(960, 540), 5, 1, true, !no_edge_to_near);  // warm-up
-      const Result m = run(cams, virt_at(960, 540), frames, 1, true, !no_edge_to_near);
+      run(cams, virt_at(960, 540), 5, 1, true, warp);  // warm-up
+      const Result m = run(cams, virt_at(960, 540), frames, 1, true, warp);
       std::printf("with background-memory=%d and the room behind the learners, 1 thread: CPU time per frame %.2f ms "
                   "(seg %.2f + memory %.2f + warp %.2f + fuse %.2f) -> at most %.1f fps on 2 idle cores\n",
                   memory, m.cpu_ms, m.seg_ms, m.memory_ms, m.warp_ms, m.fuse_ms, 2000.0 / m.cpu_ms);
     }
-    run(cams, virt_at(960, 540), 5, threads, false, !no_edge_to_near);  // warm-up
-    const Result r = run(cams, virt_at(960, 540), frames, threads, false, !no_edge_to_near);
+    run(cams, virt_at(960, 540), 5, threads, false, warp);  // warm-up
+    const Result r = run(cams, virt_at(960, 540), frames, threads, false, warp);
     std::printf("3 cameras -> 960x540: %.1f fps (%.2f ms/frame); per frame, summed over cameras: learnerseg %.2f ms, "
                 "viewwarp %.2f ms, viewfuse %.2f ms\n",
                 1000.0 / r.total_ms, r.total_ms, r.seg_ms, r.warp_ms, r.fuse_ms);
-    const Result r1 = run(cams, virt_at(960, 540), frames, 1, false, !no_edge_to_near);
+    const Result r1 = run(cams, virt_at(960, 540), frames, 1, false, warp);
     std::printf("same, 1 thread: %.1f fps (%.2f ms/frame)\n", 1000.0 / r1.total_ms, r1.total_ms);
     std::printf("CPU time per frame: %.2f ms (1 thread: seg %.2f + warp %.2f + fuse %.2f) -> at most %.1f fps on 2 "
                 "idle cores\n\n",
                 r1.cpu_ms, r1.seg_ms, r1.warp_ms, r1.fuse_ms, 2000.0 / r1.cpu_ms);
     std::printf("output resolution (3 cameras, %d threads):\n", threads);
     for (auto [w, h] : std::vector<std::pair<int, int>>{{480, 270}, {960, 540}, {1280, 720}, {1920, 1080}}) {
-      const Result q = run(cams, virt_at(w, h), std::max(10, frames / 3), threads, false, !no_edge_to_near);
+      const Result q = run(cams, virt_at(w, h), std::max(10, frames / 3), threads, false, warp);
       std::printf("  %4dx%-4d  %6.1f fps  (warp %.2f ms, fuse %.2f ms)\n", w, h, 1000.0 / q.total_ms, q.warp_ms,
                   q.fuse_ms);
     }
@@ -218,7 +217,7 @@ int main(int argc, char** argv) {
   std::printf("camera count (960x540 out, %d threads; the 4th camera repeats camera 0):\n", threads);
   for (const std::vector<int>& ids : std::vector<std::vector<int>>{{1}, {1, 2}, {0, 1, 2}, {0, 1, 2, 0}}) {
     std::vector<Camera> cams = make_cams(ids);
-    const Result q = run(cams, virt_at(960, 540), std::max(10, frames / 3), threads, false, !no_edge_to_near);
+    const Result q = run(cams, virt_at(960, 540), std::max(10, frames / 3), threads, false, warp);
     std::printf("  %zu camera(s)  %6.1f fps  (%.2f ms/frame)\n", ids.size(), 1000.0 / q.total_ms, q.total_ms);
   }
   return 0;
