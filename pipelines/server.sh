@@ -14,6 +14,9 @@
 #   WARP_SYNC (longest wait, ns, of each camera's warp for the others' next frames before it reads the
 #   lecturer's pose, so a pose shows after one camera frame, not the last of several; it waits two thirds of
 #   the frame interval within it; default 100000000; 0: no wait; docs/vva.md).
+#   LONGEST_TURN (whep-views only: the lecturers' views take turns to warp, so a frame's pose is as old as one
+#   view's warps, not every view's; a view holding the turn longer than this, ns, loses it to the next,
+#   default 100000000; 0: every view warps at once; docs/lecturer.md).
 #   POSE_KEY (file holding the pose key shared with lecturer.sh, e.g. `head -c 32 /dev/urandom > pose.key`:
 #   only poses tagged with it steer the view; empty: anyone who can reach POSE_PORT can steer it).
 #   CAMERA_HOSTS (one address per camera in CAMERAS order, default 127.0.0.1 each; a missing entry repeats the
@@ -138,8 +141,9 @@ done
 set -f
 FUSE_LATENCY=${FUSE_LATENCY:-100000000}
 WARP_SYNC=${WARP_SYNC:-100000000}
-if ! [[ $FUSE_LATENCY =~ ^[0-9]{1,18}$ ]] || ! [[ $WARP_SYNC =~ ^[0-9]{1,18}$ ]]; then
-  echo "server.sh: FUSE_LATENCY and WARP_SYNC are nanoseconds (got '$FUSE_LATENCY', '$WARP_SYNC')" >&2
+LONGEST_TURN=${LONGEST_TURN:-100000000}
+if ! [[ $FUSE_LATENCY =~ ^[0-9]{1,18}$ ]] || ! [[ $WARP_SYNC =~ ^[0-9]{1,18}$ ]] || ! [[ $LONGEST_TURN =~ ^[0-9]{1,10}$ ]]; then
+  echo "server.sh: FUSE_LATENCY, WARP_SYNC and LONGEST_TURN are nanoseconds (got '$FUSE_LATENCY', '$WARP_SYNC', '$LONGEST_TURN')" >&2
   exit 2
 fi
 NAV_RIG=${NAV_RIG-${MODEL:+$MODEL/rig.yaml}}
@@ -175,7 +179,8 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
     desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"
   else
     desc="whepviewsink name=views $whep ${RIG:+rig=$RIG} ${NAV_RIG:+navigation-rig=$NAV_RIG} ${MODEL:+model=$MODEL} \
-      width=$WIDTH height=$HEIGHT fuse-latency=$FUSE_LATENCY warp-sync=$WARP_SYNC background-memory=$MEMORY $branches"
+      width=$WIDTH height=$HEIGHT fuse-latency=$FUSE_LATENCY warp-sync=$WARP_SYNC longest-turn=$LONGEST_TURN background-memory=$MEMORY \
+      $branches"
   fi
   echo "server.sh: lecturer joins at http${whep_tls:+s}://$(hostname -f 2>/dev/null || hostname):$WHEP_PORT/?token=$TOKEN"
 fi

@@ -25,6 +25,7 @@
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>
 #include <gst/vclassroom/vva/virtual_view.h>
+#include <gst/vclassroom/vva/view_turns.h>
 #include <gst/vclassroom/vva/warp_start.h>
 
 #include "test_util.h"
@@ -1126,7 +1127,8 @@ TEST(ViewFuseElement, ALiveCameraThatGoesSilentDoesNotStallTheOutput) {
 namespace {
 constexpr int64_t kMs = 1'000'000;
 // Until `n` cameras wait in the barrier (a state to wait for, not a time).
-void until_waiting(const WarpStartBarrier& b, int n) {
+template <typename Waits>
+void until_waiting(const Waits& b, int n) {
   while (b.waiting() < n) std::this_thread::yield();
 }
 }  // namespace
@@ -1201,6 +1203,102 @@ TEST(WarpStart, ForgettingTheLastMissingCameraOrStoppingLetsTheWaitingOnesGo) {
   EXPECT_EQ(b.arrive(&a, 4 * kMs), WarpStartBarrier::Start::kAlone);
   b.resume();  // knows no camera
   EXPECT_EQ(b.arrive(&a, 5 * kMs), WarpStartBarrier::Start::kTogether);
+}
+
+TEST(WarpStart, TheCamerasThatGoTogetherShareAGroupAndNoOtherCameraHasIt) {
+  WarpStartBarrier b;
+  b.set_params(WarpStartParams{60'000 * kMs});
+  int a = 0, c = 0;
+  uint64_t first = 0, a_group = 0, c_group = 0;
+  b.arrive(&a, 0, -1, &first);  // camera a alone is every camera known: it goes
+  std::thread camera_c([&] { b.arrive(&c, 1 * kMs, -1, &c_group); });  // waits for camera a's next frame
+  until_waiting(b, 1);
+  b.arrive(&a, 33 * kMs, -1, &a_group);
+  camera_c.join();
+  EXPECT_EQ(a_group, c_group) << "one round";
+  EXPECT_NE(a_group, first);
+  // Off, every camera goes alone, each in a group of its own.
+  b.set_params(WarpStartParams{0});
+  uint64_t alone1 = 0, alone2 = 0;
+  b.arrive(&a, 66 * kMs, -1, &alone1);
+  b.arrive(&c, 67 * kMs, -1, &alone2);
+  EXPECT_NE(alone1, alone2);
+  EXPECT_NE(alone1, a_group);
+}
+
+TEST(ViewTurns, AViewsCamerasWarpTogetherWhileAnotherViewWaitsBeforeReadingItsPose) {
+  ViewTurns turns;
+  turns.set_params(ViewTurnsParams{60'000 * kMs});  // no turn runs out in this test
+  turns.begin(1, 10);  // view 1's round 10: camera a
+  turns.begin(1, 10);  // camera b of the same round goes too
+  EXPECT_EQ(turns.holder(), 1u);
+  std::thread view2([&] { turns.begin(2, 20); });
+  until_waiting(turns, 1);
+  turns.end(1);
+  EXPECT_EQ(turns.holder(), 1u) << "one of view 1's warps is still running";
+  EXPECT_EQ(turns.waiting(), 1);
+  turns.end(1);
+  view2.join();
+  EXPECT_EQ(turns.holder(), 2u);
+  turns.end(2);
+  EXPECT_EQ(turns.holder(), 0u);
+}
+
+TEST(ViewTurns, ViewsGetTheTurnInTheOrderTheyAskedAndAHolderDoesNotKeepItFromThem) {
+  ViewTurns turns;
+  turns.set_params(ViewTurnsParams{60'000 * kMs});
+  turns.begin(1, 10);
+  turns.begin(1, 11);  // view 1's next round while nobody waits: it keeps the turn
+  EXPECT_EQ(turns.holder(), 1u);
+  std::thread view2([&] { turns.begin(2, 20); });
+  until_waiting(turns, 1);
+  std::thread view3([&] { turns.begin(3, 30); });
+  until_waiting(turns, 2);
+  std::thread view1_next([&] { turns.begin(1, 12); });  // others wait: view 1's next round queues behind them
+  until_waiting(turns, 3);
+  turns.end(1);
+  turns.end(1);
+  view2.join();
+  EXPECT_EQ(turns.holder(), 2u);
+  turns.end(2);
+  view3.join();
+  EXPECT_EQ(turns.holder(), 3u);
+  turns.end(3);
+  view1_next.join();
+  EXPECT_EQ(turns.holder(), 1u);
+  EXPECT_EQ(turns.waiting(), 0);
+}
+
+TEST(ViewTurns, ATurnHeldTooLongIsTakenAndAGoneOrStoppedViewNeverWaits) {
+  ViewTurns turns;
+  turns.set_params(ViewTurnsParams{1 * kMs});
+  turns.begin(1, 10);  // view 1's frame is lost in its warp: it never ends its turn
+  turns.begin(2, 20);  // returns once view 1 held it for 1 ms
+  EXPECT_EQ(turns.holder(), 2u);
+  turns.end(1);  // view 1's late end does not end view 2's turn
+  EXPECT_EQ(turns.holder(), 2u);
+  turns.set_params(ViewTurnsParams{60'000 * kMs});
+  // A view that leaves: its waiting camera goes at once, and so do its later ones.
+  std::thread view3([&] { turns.begin(3, 30); });
+  until_waiting(turns, 1);
+  turns.forget(3);
+  view3.join();
+  EXPECT_EQ(turns.holder(), 2u);
+  turns.begin(3, 31);
+  // Stopping: a waiting camera goes, and so does every later one, until the element starts again.
+  std::thread view4([&] { turns.begin(4, 40); });
+  until_waiting(turns, 1);
+  turns.release();
+  view4.join();
+  turns.begin(5, 50);
+  EXPECT_EQ(turns.holder(), 2u);
+  turns.resume();  // nobody holds the turn
+  turns.begin(5, 51);
+  EXPECT_EQ(turns.holder(), 5u);
+  // Off: nobody waits.
+  turns.set_params(ViewTurnsParams{0});
+  turns.begin(6, 60);
+  EXPECT_EQ(turns.holder(), 5u);
 }
 
 namespace {

@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
   gint seconds = 20, cameras = 3;
   g_autofree gchar* size_text = nullptr;
   gboolean live_cameras = FALSE;
-  gint64 warp_sync = 100000000;
+  gint64 warp_sync = 100000000, longest_turn = 100000000;
   const GOptionEntry entries[] = {
       {"lecturers", 0, 0, G_OPTION_ARG_STRING, &counts_text, "Counts of lecturers to measure (default 1,2,4)", "N,N"},
       {"seconds", 0, 0, G_OPTION_ARG_INT, &seconds, "Measured window per count (default 20)", "S"},
@@ -61,6 +61,10 @@ int main(int argc, char** argv) {
       {"warp-sync", 0, 0, G_OPTION_ARG_INT64, &warp_sync,
        "How long (ns) each view's cameras wait for each other before reading the pose (whepviewsink warp-sync; "
        "default 100000000; 0: the behaviour before the wait existed)",
+       "NS"},
+      {"longest-turn", 0, 0, G_OPTION_ARG_INT64, &longest_turn,
+       "How long (ns) a view may hold the turn to warp before the next view takes it (whepviewsink longest-turn; "
+       "default 100000000; 0: every view warps at once, the behaviour before the turns existed)",
        "NS"},
       {"live-cameras", 0, 0, G_OPTION_ARG_NONE, &live_cameras,
        "Render the synthetic cameras live inside the server (gst-launch-1.0 rgbdtestsrc is-live=true ! learnerseg "
@@ -77,6 +81,7 @@ int main(int argc, char** argv) {
   if (cameras < 1 || cameras > 3) usage_error("--cameras must be 1 to 3");
   if (seconds < 5 || seconds > 600) usage_error("--seconds must be 5 to 600");
   if (warp_sync < 0 || warp_sync > 1000000000) usage_error("--warp-sync must be 0 to 1000000000 ns");
+  if (longest_turn < 0 || longest_turn > 1000000000) usage_error("--longest-turn must be 0 to 1000000000 ns");
   std::vector<int> counts;
   gchar** parts = g_strsplit(counts_text ? counts_text : "1,2,4", ",", -1);
   for (gchar** it = parts; *it; ++it) counts.push_back(std::atoi(*it));
@@ -123,7 +128,7 @@ int main(int argc, char** argv) {
     if (live_cameras) {
       std::string launch = "gst-launch-1.0 whepviewsink name=w port=" + std::to_string(port) +
                            " token=measure-token max-sessions=" + std::to_string(n) + " width=" + std::to_string(width) +
-                           " height=" + std::to_string(height) + " warp-sync=" + std::to_string(warp_sync) +
+                           " height=" + std::to_string(height) + " warp-sync=" + std::to_string(warp_sync) + " longest-turn=" + std::to_string(longest_turn) +
                            " web-root=" + root + "/web/lecturer";
       for (int k = 0; k < cameras; ++k)
         launch += " rgbdtestsrc camera-id=" + std::to_string(k) +
@@ -147,7 +152,7 @@ int main(int argc, char** argv) {
                   {{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
                    {"WHEP_PORT", std::to_string(port)}, {"WHEP_SESSIONS", std::to_string(n)},
                    {"WIDTH", std::to_string(width)}, {"HEIGHT", std::to_string(height)},
-                   {"WARP_SYNC", std::to_string(warp_sync)}},
+                   {"WARP_SYNC", std::to_string(warp_sync)}, {"LONGEST_TURN", std::to_string(longest_turn)}},
                   server_log);
       if (!replay.start(streams, camera_ids, 0.0, 65000)) {
         stop_tree(pid);

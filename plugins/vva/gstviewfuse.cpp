@@ -147,7 +147,12 @@ static gboolean gst_view_fuse_sink_query(GstAggregator* agg, GstAggregatorPad* p
   if (s && gst_structure_has_name(s, kWarpStartQueryName)) {
     guint64 frame = GST_CLOCK_TIME_NONE;
     gst_structure_get_uint64(s, "running-time", &frame);
-    if (st->live) st->warp_start.arrive(pad, g_get_monotonic_time() * 1000, time_ns(frame));
+    if (st->live) {
+      uint64_t group = 0;
+      st->warp_start.arrive(pad, g_get_monotonic_time() * 1000, time_ns(frame), &group);
+      // The cameras that go together share it (whepviewsink's views take turns by these rounds).
+      gst_structure_set(gst_query_writable_structure(query), "group", G_TYPE_UINT64, guint64(group), nullptr);
+    }
     return TRUE;
   }
   return GST_AGGREGATOR_CLASS(gst_view_fuse_parent_class)->sink_query(agg, pad, query);

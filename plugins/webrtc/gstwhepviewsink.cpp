@@ -20,6 +20,8 @@
 
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/net/pose_session.h>
+#include <gst/vclassroom/vva/view_turns.h>
+#include <gst/vclassroom/vva/warp_start.h>
 
 #include "whep_endpoint.h"
 
@@ -43,6 +45,7 @@ struct TeeLink {
 
 // One lecturer's view: per camera tee pad -> queue -> viewwarp -> fuse; fuse -> convert -> x264enc -> caps.
 struct View {
+  uint64_t id = 0;                   // its number among the views taking turns
   bool started = false;              // its webrtcbin is linked: camera branches are fed at once
   std::vector<TeeLink> unlinked;     // branch inputs until start_view links them to their tees
   std::vector<TeeLink> tee_pads;
@@ -57,6 +60,7 @@ struct ViewSettings {
   int width = 0, height = 0;
   guint64 fuse_latency = 100 * GST_MSECOND;
   guint64 warp_sync = 100 * GST_MSECOND;
+  guint64 longest_turn = 100 * GST_MSECOND;
   int background_memory = 0;  // frames; 0: off
 };
 
@@ -69,6 +73,8 @@ struct _GstWhepViewSink {
   ViewSettings* settings;
   std::vector<Camera>* cameras;
   std::map<std::string, View>* views;
+  uint64_t last_view_id;
+  ViewTurns* turns;  // thread-safe itself
 };
 typedef struct _GstWhepViewSink GstWhepViewSink;
 struct GstWhepViewSinkClass {
@@ -80,7 +86,7 @@ G_DEFINE_TYPE(GstWhepViewSink, gst_whep_view_sink, GST_TYPE_BIN)
 
 enum {
   PROP_0, PROP_RIG, PROP_NAVIGATION_RIG, PROP_MODEL, PROP_WIDTH, PROP_HEIGHT, PROP_FUSE_LATENCY, PROP_WARP_SYNC,
-  PROP_BACKGROUND_MEMORY,
+  PROP_BACKGROUND_MEMORY, PROP_LONGEST_TURN,
   PROP_ENDPOINT_FIRST
 };
 
@@ -93,6 +99,28 @@ static GstElement* add_element(GstWhepViewSink* self, View* view, const char* fa
   gst_bin_add(GST_BIN(self), e);
   view->elements.push_back(e);
   return e;
+}
+
+// A view's viewwarp takes its turn once viewfuse has let it start (the warp-start query's answer, which
+// names the round of the view's cameras), and ends it when its frame is out.
+struct TurnTaker {
+  ViewTurns* turns;
+  uint64_t view;
+};
+
+static GstPadProbeReturn take_turn(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  const TurnTaker* taker = static_cast<const TurnTaker*>(data);
+  if (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER) {
+    taker->turns->end(taker->view);
+    return GST_PAD_PROBE_OK;
+  }
+  if (!(GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_PULL)) return GST_PAD_PROBE_OK;  // not answered yet
+  GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
+  const GstStructure* s = GST_QUERY_TYPE(query) == GST_QUERY_CUSTOM ? gst_query_get_structure(query) : nullptr;
+  guint64 group;
+  if (s && gst_structure_has_name(s, kWarpStartQueryName) && gst_structure_get_uint64(s, "group", &group))
+    taker->turns->begin(taker->view, group);
+  return GST_PAD_PROBE_OK;
 }
 
 // Camera `cam`'s branch of a view (lock held): queue -> viewwarp -> the fuse's cam_K pad, fed from the
@@ -112,6 +140,10 @@ static void add_camera_branch_locked(GstWhepViewSink* self, View* view, const Ca
     if (!s.model.empty()) g_object_set(warp, "empty-room", (s.model + "/prior-color/" + camera).c_str(), nullptr);
   }
   gst_element_link(queue, warp);
+  GstPad* warp_src = gst_element_get_static_pad(warp, "src");
+  gst_pad_add_probe(warp_src, GstPadProbeType(GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM | GST_PAD_PROBE_TYPE_BUFFER), take_turn,
+                    new TurnTaker{self->turns, view->id}, [](gpointer p) { delete static_cast<TurnTaker*>(p); });
+  gst_object_unref(warp_src);
   const std::string fuse_pad = "cam_" + std::to_string(cam.index);
   gst_element_link_pads(warp, "src", view->fuse, fuse_pad.c_str());
   gst_element_sync_state_with_parent(warp);
@@ -143,6 +175,7 @@ static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& sess
       return nullptr;
     }
   View& view = (*self->views)[session];
+  view.id = ++self->last_view_id;
   view.fuse = add_element(self, &view, "viewfuse");
   GstElement* convert = add_element(self, &view, "videoconvert");
   GstElement* encoder = view.encoder = add_element(self, &view, "x264enc");
@@ -190,6 +223,7 @@ static void detach_view(GstWhepViewSink* self, const std::string& session) {
     view = std::move(it->second);
     self->views->erase(it);
   }
+  self->turns->forget(view.id);  // its cameras waiting for their turn go, and their threads can stop
   for (const TeeLink& input : view.unlinked) gst_object_unref(input.pad);  // never started
   for (const TeeLink& link : view.tee_pads) {
     GstPad* peer = gst_pad_get_peer(link.pad);
@@ -260,6 +294,8 @@ static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTem
 static GstStateChangeReturn gst_whep_view_sink_change_state(GstElement* element, GstStateChange transition) {
   GstWhepViewSink* self = GST_WHEP_VIEW_SINK(element);
   if (transition == GST_STATE_CHANGE_NULL_TO_READY && !self->endpoint->start()) return GST_STATE_CHANGE_FAILURE;
+  if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) self->turns->resume();
+  if (transition == GST_STATE_CHANGE_PAUSED_TO_READY) self->turns->release();  // before the streaming threads stop
   GstStateChangeReturn ret = GST_ELEMENT_CLASS(gst_whep_view_sink_parent_class)->change_state(element, transition);
   if (transition == GST_STATE_CHANGE_READY_TO_NULL) self->endpoint->stop();
   return ret;
@@ -283,6 +319,13 @@ static void gst_whep_view_sink_set_property(GObject* object, guint id, const GVa
     case PROP_FUSE_LATENCY: s.fuse_latency = g_value_get_uint64(value); break;
     case PROP_WARP_SYNC: s.warp_sync = g_value_get_uint64(value); break;
     case PROP_BACKGROUND_MEMORY: s.background_memory = g_value_get_int(value); break;
+    case PROP_LONGEST_TURN: {
+      s.longest_turn = g_value_get_uint64(value);
+      ViewTurnsParams p;
+      p.longest_turn_ns = int64_t(s.longest_turn);
+      self->turns->set_params(p);
+      break;
+    }
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
   }
 }
@@ -304,6 +347,7 @@ static void gst_whep_view_sink_get_property(GObject* object, guint id, GValue* v
     case PROP_FUSE_LATENCY: g_value_set_uint64(value, s.fuse_latency); break;
     case PROP_WARP_SYNC: g_value_set_uint64(value, s.warp_sync); break;
     case PROP_BACKGROUND_MEMORY: g_value_set_int(value, s.background_memory); break;
+    case PROP_LONGEST_TURN: g_value_set_uint64(value, s.longest_turn); break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, id, pspec);
   }
 }
@@ -313,6 +357,8 @@ static void gst_whep_view_sink_init(GstWhepViewSink* self) {
   self->settings = new ViewSettings;
   self->cameras = new std::vector<Camera>;
   self->views = new std::map<std::string, View>;
+  self->last_view_id = 0;
+  self->turns = new ViewTurns;
   WhepEndpointHooks hooks;
   hooks.attach = [self](const std::string& session) {
     std::lock_guard<std::mutex> g(*self->lock);
@@ -334,6 +380,7 @@ static void gst_whep_view_sink_finalize(GObject* object) {
   GstWhepViewSink* self = GST_WHEP_VIEW_SINK(object);
   delete self->endpoint;
   delete self->views;
+  delete self->turns;
   delete self->cameras;
   delete self->settings;
   delete self->lock;
@@ -375,6 +422,13 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
                        "Every view's viewwarp keeps a memory of the room of this many frames, started from the "
                        "model's empty room (MODEL/prior-color/camK.png) when model is set (docs/vva.md); each "
                        "view pays for its own. 0: off", 0, 64, 0, rw));
+  g_object_class_install_property(gobject_class, PROP_LONGEST_TURN,
+      g_param_spec_uint64("longest-turn", "Longest turn",
+                          "The views take turns to warp, each view's cameras on all cores while the others wait "
+                          "before reading their poses, so a frame's pose is as old as one view's warps, not all "
+                          "views' (docs/lecturer.md); a view holding the turn longer than this (ns) loses it to "
+                          "the next. 0: every view warps at once", 0, ViewTurnsParams::kLongestTurnNs, 100 * GST_MSECOND,
+                          GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &cam_template);
   gst_element_class_set_static_metadata(element_class, "WHEP view-per-lecturer sink", "Sink/Network",

@@ -48,7 +48,9 @@ void WarpStartBarrier::open_next_round_locked(bool together) {
   next_round_.notify_all();
 }
 
-WarpStartBarrier::Start WarpStartBarrier::arrive(const void* key, int64_t now_ns, int64_t frame_ns) {
+WarpStartBarrier::Start WarpStartBarrier::arrive(const void* key, int64_t now_ns, int64_t frame_ns, uint64_t* group) {
+  uint64_t unused;
+  if (!group) group = &unused;
   std::unique_lock<std::mutex> l(lock_);
   if (now_ns > latest_ns_) latest_ns_ = now_ns;
   const auto last = last_frame_ns_.find(key);
@@ -60,13 +62,16 @@ WarpStartBarrier::Start WarpStartBarrier::arrive(const void* key, int64_t now_ns
   }
   if (frame_ns >= 0) last_frame_ns_[key] = frame_ns;
   last_arrival_ns_[key] = now_ns;
-  if (released_ || params_.max_wait_ns <= 0) return Start::kAlone;
+  if (released_ || params_.max_wait_ns <= 0) {
+    *group = lone_group_++;
+    return Start::kAlone;
+  }
   arrived_.insert(key);
+  const uint64_t round = *group = round_;
   if (round_complete_locked()) {
     open_next_round_locked(true);
     return Start::kTogether;
   }
-  const uint64_t round = round_;
   ++waiting_;
   const bool woken =
       next_round_.wait_for(l, std::chrono::nanoseconds(wait_ns_locked()), [&] { return round_ != round; });

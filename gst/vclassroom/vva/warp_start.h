@@ -54,8 +54,10 @@ class WarpStartBarrier {
   // Camera `key` has a frame to warp at `now_ns` (a monotonic time), the frame
   // of running time `frame_ns` (< 0: unknown): returns when every camera that
   // arrived within forget_ns before now has arrived in this round, or after
-  // wait_ns(). A camera arrives once per frame.
-  Start arrive(const void* key, int64_t now_ns, int64_t frame_ns = -1);
+  // wait_ns(). A camera arrives once per frame. `group`, when given, is set
+  // to a number the cameras that go together share (one round), and no
+  // other camera's.
+  Start arrive(const void* key, int64_t now_ns, int64_t frame_ns = -1, uint64_t* group = nullptr);
   // A camera that is gone for good (its pad released): not waited for again.
   void forget(const void* key);
   // Stopping: every waiting camera goes now, and arrivals pass without waiting
@@ -81,6 +83,7 @@ class WarpStartBarrier {
   std::set<const void*> arrived_;  // in the current round
   int64_t latest_ns_ = 0;          // the newest arrival's time
   uint64_t round_ = 0;
+  uint64_t lone_group_ = uint64_t(1) << 63;  // the groups of cameras that go alone, above every round's
   int waiting_ = 0;
   bool last_round_together_ = false;  // how the last round ended
   bool released_ = false;
