@@ -243,6 +243,28 @@ TEST(ViewWarp, AReusedWarperGivesWhatAFreshOneGives) {
   }
 }
 
+TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeAndAPreparationServesOneWarp) {
+  // viewwarp prepares the source before it reads the pose, then warps it for the pose.
+  const Classroom room(ClassroomConfig{2, 5, 2.0});
+  const Rig rig = default_classroom_rig();
+  const CameraCalib cam = scale_camera(rig.camera(1), 240, 135);
+  const RenderOutput r = render(room, 1.5, cam);
+  const Pose p = sliders_to_pose(Sliders{35, 50, 50, 55, 50, 50}, rig.camera(0));
+  const CameraCalib virt = virtual_camera(cam, p.cam_to_rig(), NAN);
+  const WarpSource src{r.color, r.depth, r.label, cv::Mat()};
+  const WarpedView whole = warp_view(cam, src, virt);
+  ViewWarper halves;
+  WarpedView out;
+  halves.prepare(cam, src, WarpParams());
+  halves.warp_prepared(cam, src, virt, WarpParams(), &out);
+  EXPECT_GT(cv::countNonZero(whole.weight), 240 * 135 / 4) << "the test view should see much of the room";
+  EXPECT_EQ(cv::norm(out.color, whole.color, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(out.depth, whole.depth, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(out.label, whole.label, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(out.weight, whole.weight, cv::NORM_INF), 0);
+  EXPECT_THROW(halves.warp_prepared(cam, src, virt, WarpParams(), &out), cv::Exception) << "prepared once, warped once";
+}
+
 TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
   const int w = 120, h = 80;
   const CameraCalib src = pinhole(w, h, 100);

@@ -251,39 +251,18 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   Pose pose;
   WarpParams params;
   int memory_frames;
-  const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
-                                       ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
-                                       : GST_CLOCK_TIME_NONE;
-  // Live, viewfuse holds this until the view's other cameras have a frame to warp too (its warp-sync), so
-  // that all read the same newest pose below.
-  GstQuery* warp_start = gst_query_new_custom(
-      GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
-  gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start);
-  gst_query_unref(warp_start);
   {
     std::lock_guard<std::mutex> g(st->lock);
-    pose = st->pose;
     params.boundary_px = st->boundary_px;
     params.edge_to_near = st->edge_to_near;
     memory_frames = st->memory_frames;
   }
-  if (!st->trace.empty()) {
-    // The frame's own moment of the trace (trace_pose_for_frame()).
-    pose = trace_pose_for_frame(
-        st->trace, GST_CLOCK_TIME_IS_VALID(running_time) ? double(running_time) / GST_SECOND : NAN, st->frames);
-  }
-  ++st->frames;
   RgbdFrame in, out;
   std::string err;
   if (!in.map(inbuf, st->in_info, GST_MAP_READ, &err) || !out.map(outbuf, st->out_info, GST_MAP_WRITE, &err)) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", err.c_str()), (nullptr));
     return GST_FLOW_ERROR;
   }
-  const CameraCalib virt = virtual_camera(st->out_info.camera, pose.cam_to_rig(), pose.fov_deg);
-  GST_LOG_OBJECT(self, "pose seq %" G_GUINT64_FORMAT " at (%.3f, %.3f, %.3f); source camera %d at (%.3f, %.3f, %.3f)",
-                 pose.seq, pose.position.x(), pose.position.y(), pose.position.z(), st->in_info.camera.id,
-                 st->in_info.camera.cam_to_rig.translation().x(), st->in_info.camera.cam_to_rig.translation().y(),
-                 st->in_info.camera.cam_to_rig.translation().z());
   WarpSource src;
   src.color = in.color();
   src.depth = in.depth();
@@ -312,13 +291,45 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
       return GST_FLOW_ERROR;
     }
   }
+  // What does not depend on the pose (the memory above, the warp's preparation) is done before the pose is read:
+  // it is not part of the pose's latency.
+  try {
+    st->warper.prepare(st->in_info.camera, src, params);
+  } catch (const cv::Exception& e) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("view warp failed: %s", e.what()), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
+                                       ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
+                                       : GST_CLOCK_TIME_NONE;
+  // Live, viewfuse holds this until the view's other cameras have a frame to warp too (its warp-sync), so
+  // that all read the same newest pose below.
+  GstQuery* warp_start = gst_query_new_custom(
+      GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
+  gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start);
+  gst_query_unref(warp_start);
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    pose = st->pose;
+  }
+  if (!st->trace.empty()) {
+    // The frame's own moment of the trace (trace_pose_for_frame()).
+    pose = trace_pose_for_frame(
+        st->trace, GST_CLOCK_TIME_IS_VALID(running_time) ? double(running_time) / GST_SECOND : NAN, st->frames);
+  }
+  ++st->frames;
+  const CameraCalib virt = virtual_camera(st->out_info.camera, pose.cam_to_rig(), pose.fov_deg);
+  GST_LOG_OBJECT(self, "pose seq %" G_GUINT64_FORMAT " at (%.3f, %.3f, %.3f); source camera %d at (%.3f, %.3f, %.3f)",
+                 pose.seq, pose.position.x(), pose.position.y(), pose.position.z(), st->in_info.camera.id,
+                 st->in_info.camera.cam_to_rig.translation().x(), st->in_info.camera.cam_to_rig.translation().y(),
+                 st->in_info.camera.cam_to_rig.translation().z());
   // Warp straight into the output planes.
   st->warped.color = out.color();
   st->warped.depth = out.depth();
   st->warped.label = out.label();
   st->warped.weight = out.plane(Plane::Weight);
   try {
-    st->warper.warp(st->in_info.camera, src, virt, params, &st->warped);
+    st->warper.warp_prepared(st->in_info.camera, src, virt, params, &st->warped);
   } catch (const cv::Exception& e) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("view warp failed: %s", e.what()), (nullptr));
     return GST_FLOW_ERROR;

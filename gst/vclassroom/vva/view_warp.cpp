@@ -924,6 +924,11 @@ void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, co
 
 void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt, const WarpParams& prm,
                       WarpedView* out) {
+  prepare(src, in, prm);
+  warp_prepared(src, in, virt, prm, out);
+}
+
+void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
   CV_Assert(in.color.type() == CV_8UC3 && in.depth.type() == CV_16UC1);
   CV_Assert(in.color.cols == src.width && in.color.rows == src.height && in.depth.size() == in.color.size());
   CV_Assert(in.label.empty() || (in.label.type() == CV_8UC1 && in.label.size() == in.color.size()));
@@ -932,29 +937,11 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
   CV_Assert(in.room_depth.empty() || (in.room_depth.type() == CV_16UC1 && in.room_depth.size() == in.color.size() &&
                                       in.room_color.type() == CV_8UC3 && in.room_color.size() == in.color.size()));
   const int W = src.width, H = src.height;
-  const int VW = virt.width, VH = virt.height;
-  const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
+  const size_t n = size_t(W) * H;
   prepare_rays(src);
-  // Padded by a row and a pixel on both sides (zero: nothing drawn), so
-  // border pixels can read their neighbours without a test.
-  const size_t pad = size_t(W) + 1;
-  for (auto* a : {&px_, &py_, &pz_, &plim_, &pw_}) {
-    a->resize(n + 2 * pad);
-    std::fill_n(a->begin(), pad, 0.0f);
-    std::fill_n(a->end() - ptrdiff_t(pad), pad, 0.0f);
-  }
-  float *const PX = px_.data() + pad, *const PY = py_.data() + pad, *const PZ = pz_.data() + pad,
-               *const PW = pw_.data() + pad, *const PL = plim_.data() + pad;
   src_depth_.resize(n);
   src_label_.resize(n + 1);  // + 1: read as the last pixel's right neighbour
   src_label_[n] = 0;
-  // The z-buffer is left empty by the last frame's unpack: only a new size
-  // needs a fill (one pass less over 8 bytes per virtual pixel).
-  if (zbuf_.size() != vn) {
-    zbuf_.resize(vn);
-    std::fill(zbuf_.begin(), zbuf_.end(), kEmptyRecord);
-  }
-  Sample* const zbuf = reinterpret_cast<Sample*>(zbuf_.data());
 
   // The layered depth of every source pixel: learners live, the room static.
   const bool has_label = !in.label.empty();
@@ -1007,6 +994,34 @@ void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const Camera
     for (int k = 0; k < b && k < H; ++k) mark_far_side(int(n / W), k, W, code, drop);
     clear_dropped(n, drop, D);
   }
+  prepared_ = true;
+}
+
+void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt,
+                               const WarpParams& prm, WarpedView* out) {
+  CV_Assert(prepared_ && have_rays_ && src.width == rays_for_.width && src.height == rays_for_.height);
+  CV_Assert(in.color.cols == src.width && in.color.rows == src.height);
+  prepared_ = false;  // the room layer below takes the prepared depth's place
+  const int W = src.width, H = src.height;
+  const int VW = virt.width, VH = virt.height;
+  const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
+  // Padded by a row and a pixel on both sides (zero: nothing drawn), so
+  // border pixels can read their neighbours without a test.
+  const size_t pad = size_t(W) + 1;
+  for (auto* a : {&px_, &py_, &pz_, &plim_, &pw_}) {
+    a->resize(n + 2 * pad);
+    std::fill_n(a->begin(), pad, 0.0f);
+    std::fill_n(a->end() - ptrdiff_t(pad), pad, 0.0f);
+  }
+  float *const PX = px_.data() + pad, *const PY = py_.data() + pad, *const PZ = pz_.data() + pad,
+               *const PW = pw_.data() + pad, *const PL = plim_.data() + pad;
+  // The z-buffer is left empty by the last frame's unpack: only a new size
+  // needs a fill (one pass less over 8 bytes per virtual pixel).
+  if (zbuf_.size() != vn) {
+    zbuf_.resize(vn);
+    std::fill(zbuf_.begin(), zbuf_.end(), kEmptyRecord);
+  }
+  Sample* const zbuf = reinterpret_cast<Sample*>(zbuf_.data());
 
   // Source -> virtual camera.
   const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * src.cam_to_rig;

@@ -101,6 +101,15 @@ class ViewWarper {
   // distortion. `out` is reallocated only when its size changes.
   void warp(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt, const WarpParams& params,
             WarpedView* out);
+  // warp() in two halves: prepare() does what does not depend on the virtual
+  // camera (the source's layered depth and labels, its steps smoothed, its
+  // rims given to the near side), so a live view can do it before it reads
+  // the lecturer's pose; warp_prepared() then warps the prepared source, once
+  // (the room layer uses up what was prepared), with the same `source`, `in`
+  // and `params`.
+  void prepare(const CameraCalib& source, const WarpSource& in, const WarpParams& params);
+  void warp_prepared(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,
+                     const WarpParams& params, WarpedView* out);
 
  private:
   void prepare_rays(const CameraCalib& source);
@@ -111,6 +120,7 @@ class ViewWarper {
                                const cv::Mat& static_depth);
   CameraCalib rays_for_;
   bool have_rays_ = false;
+  bool prepared_ = false;  // prepare() ran and warp_prepared() did not yet
   std::vector<float> ray_x_, ray_y_;
   // Per source pixel: projected position, virtual depth (m; <= 0 invalid),
   // longest unbroken mesh edge (px), vertex weight.
