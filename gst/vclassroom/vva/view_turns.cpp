@@ -37,14 +37,15 @@ void ViewTurns::begin(uint64_t view, uint64_t group) {
     }
     const auto turn_over = taken_ + std::chrono::nanoseconds(params_.longest_turn_ns);
     const bool first = queue_.empty() || queue_.front() == view;
-    if ((holder_ == 0 && first) || (holder_ != 0 && first && std::chrono::steady_clock::now() >= turn_over)) {
+    const bool held = holder_ != 0 && std::chrono::steady_clock::now() < turn_over;
+    if (first && !held) {
       take_locked(view, group);
       return;
     }
     if (std::find(queue_.begin(), queue_.end(), view) == queue_.end()) queue_.push_back(view);
     ++waiting_;
-    if (holder_ != 0) changed_.wait_until(l, turn_over);
-    else changed_.wait(l);  // for the first in the queue to take it
+    if (held) changed_.wait_until(l, turn_over);
+    else changed_.wait(l);  // for the view before this one to take the turn
     --waiting_;
   }
 }
