@@ -25,6 +25,7 @@
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>
 #include <gst/vclassroom/vva/virtual_view.h>
+#include <gst/vclassroom/vva/prepared_frame.h>
 #include <gst/vclassroom/vva/view_turns.h>
 #include <gst/vclassroom/vva/warp_start.h>
 
@@ -243,7 +244,7 @@ TEST(ViewWarp, AReusedWarperGivesWhatAFreshOneGives) {
   }
 }
 
-TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeAndAPreparationServesOneWarp) {
+TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeForAnyWarperAndAnyNumberOfViews) {
   // viewwarp prepares the source before it reads the pose, then warps it for the pose.
   const Classroom room(ClassroomConfig{2, 5, 2.0});
   const Rig rig = default_classroom_rig();
@@ -253,16 +254,23 @@ TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeAndAPreparationServesOneWarp) {
   const CameraCalib virt = virtual_camera(cam, p.cam_to_rig(), NAN);
   const WarpSource src{r.color, r.depth, r.label, cv::Mat()};
   const WarpedView whole = warp_view(cam, src, virt);
-  ViewWarper halves;
-  WarpedView out;
-  halves.prepare(cam, src, WarpParams());
-  halves.warp_prepared(cam, src, virt, WarpParams(), &out);
+  ViewWarper preparer, view1, view2;
+  PreparedSource prepared;
+  preparer.prepare(cam, src, WarpParams(), &prepared);
   EXPECT_GT(cv::countNonZero(whole.weight), 240 * 135 / 4) << "the test view should see much of the room";
-  EXPECT_EQ(cv::norm(out.color, whole.color, cv::NORM_INF), 0);
-  EXPECT_EQ(cv::norm(out.depth, whole.depth, cv::NORM_INF), 0);
-  EXPECT_EQ(cv::norm(out.label, whole.label, cv::NORM_INF), 0);
-  EXPECT_EQ(cv::norm(out.weight, whole.weight, cv::NORM_INF), 0);
-  EXPECT_THROW(halves.warp_prepared(cam, src, virt, WarpParams(), &out), cv::Exception) << "prepared once, warped once";
+  // Any warper warps it, any number of times (one camera's frame prepared once for several views).
+  for (ViewWarper* w : {&view1, &view2, &view1}) {
+    WarpedView out;
+    w->warp_prepared(cam, src, prepared, virt, WarpParams(), &out);
+    EXPECT_EQ(cv::norm(out.color, whole.color, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(out.depth, whole.depth, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(out.label, whole.label, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(out.weight, whole.weight, cv::NORM_INF), 0);
+  }
+  PreparedSource other_size = prepared;
+  other_size.width = 120;
+  WarpedView out;
+  EXPECT_THROW(view1.warp_prepared(cam, src, other_size, virt, WarpParams(), &out), cv::Exception);
 }
 
 TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
@@ -848,6 +856,60 @@ TEST(ViewWarpElement, BackgroundMemorySteadiesTheViewOfANoisyStaticRoom) {
   };
   const double without = frame_changes(0), with = frame_changes(8);
   EXPECT_LT(with, without * 0.6) << with << " vs " << without;
+}
+
+// viewprep before a tee: each camera frame's memory and the warp's first half are done once, and every
+// view's viewwarp warps the prepared frame exactly as a viewwarp with the same settings warps the frame
+// alone; a viewwarp set otherwise (edge-to-near=false) prepares the frame again itself.
+TEST(ViewPrepElement, AFramePreparedOnceWarpsInEveryViewAsViewwarpAloneWarpsIt) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(1), 160, 90);
+  info.planes = {Plane::Color, Plane::Depth, Plane::Label};
+  const Classroom room(ClassroomConfig{2, 3, 2.0});
+  const RenderOutput r = render(room, 0.5, info.camera);
+  GstHarness* prep = gst_harness_new_parse("viewprep background-memory=4");
+  GstHarness* alone = gst_harness_new_parse(("viewwarp rig=" + rig + " background-memory=4").c_str());
+  // Prepared again by a viewwarp without a memory of its own: as one that never saw a prepared frame.
+  GstHarness* alone_other = gst_harness_new_parse(("viewwarp rig=" + rig + " edge-to-near=false").c_str());
+  GstHarness* view1 = gst_harness_new_parse(("viewwarp rig=" + rig).c_str());
+  GstHarness* view2 = gst_harness_new_parse(("viewwarp rig=" + rig).c_str());
+  GstHarness* view_other = gst_harness_new_parse(("viewwarp rig=" + rig + " edge-to-near=false").c_str());
+  for (GstHarness* h : {prep, alone, alone_other, view1, view2, view_other}) gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  cv::RNG rng(5);
+  bool settings_matter = false;
+  for (int i = 0; i < 6; ++i) {
+    GstBuffer* buf = rgbd_buffer_new(info);
+    {
+      RgbdFrame f;
+      std::string err;
+      EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+      cv::Mat noise(r.color.size(), CV_16SC3), noisy;
+      rng.fill(noise, cv::RNG::NORMAL, 0, 4);
+      r.color.convertTo(noisy, CV_16SC3);
+      noisy += noise;
+      noisy.convertTo(f.color(), CV_8UC3);
+      r.depth.copyTo(f.depth());
+      r.label.copyTo(f.label());
+    }
+    GST_BUFFER_PTS(buf) = i * GST_SECOND / 30;
+    const WarpedView expected = pull_warped(alone, gst_buffer_copy(buf));
+    const WarpedView expected_other = pull_warped(alone_other, gst_buffer_copy(buf));
+    settings_matter |= cv::norm(expected.color, expected_other.color, cv::NORM_INF) > 0;
+    ASSERT_EQ(gst_harness_push(prep, buf), GST_FLOW_OK);
+    GstBuffer* prepared = gst_harness_pull(prep);
+    ASSERT_NE(buffer_get_prepared_frame(prepared), nullptr) << "frame " << i;
+    for (auto [view, want] : {std::pair{view1, &expected}, std::pair{view2, &expected}, std::pair{view_other, &expected_other}}) {
+      const WarpedView got = pull_warped(view, gst_buffer_ref(prepared));
+      EXPECT_EQ(cv::norm(got.color, want->color, cv::NORM_INF), 0) << "frame " << i;
+      EXPECT_EQ(cv::norm(got.depth, want->depth, cv::NORM_INF), 0) << "frame " << i;
+      EXPECT_EQ(cv::norm(got.label, want->label, cv::NORM_INF), 0) << "frame " << i;
+    }
+    gst_buffer_unref(prepared);
+  }
+  EXPECT_TRUE(settings_matter) << "edge-to-near should change the view";
+  for (GstHarness* h : {prep, alone, alone_other, view1, view2, view_other}) gst_harness_teardown(h);
 }
 
 // Through viewwarp (background-memory=4, empty-room, prior-depth): camera 1

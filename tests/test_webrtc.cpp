@@ -866,7 +866,7 @@ struct ViewsChild {
   const std::string status = post_dead_offer(port, "late-camera-token");
   if (status != "HTTP/1.1 201 Created") fail("the offer got " + status);
   auto warps = [&] { return elements_made_by(sink, "viewwarp"); };
-  const std::set<GstElement*> before = warps();
+  const std::set<GstElement*> before = warps(), preps_before = elements_made_by(sink, "viewprep");
   if (before.size() != 1) fail("the view has " + std::to_string(before.size()) + " warps, not 1");
   // Camera 1 is linked now, while the lecturer watches.
   GstElement* camera = gst_parse_bin_from_description(
@@ -880,9 +880,14 @@ struct ViewsChild {
   for (GstElement* e : warps())
     if (!before.count(e)) added = e;
   if (!added) fail("no viewwarp was added for camera 1");
+  // The camera's memory is kept once for every view, by the viewprep before its tee.
+  GstElement* prep = nullptr;
+  for (GstElement* e : elements_made_by(sink, "viewprep"))
+    if (!preps_before.count(e)) prep = e;
+  if (!prep) fail("no viewprep was added for camera 1");
   gint memory = 0;
-  g_object_get(added, "background-memory", &memory, nullptr);
-  if (memory != 4) fail("camera 1's viewwarp has a background memory of " + std::to_string(memory) + ", not 4");
+  g_object_get(prep, "background-memory", &memory, nullptr);
+  if (memory != 4) fail("camera 1's viewprep has a background memory of " + std::to_string(memory) + ", not 4");
   struct Seen {
     GMutex lock;
     GCond cond;
@@ -914,7 +919,7 @@ struct ViewsChild {
 }  // namespace
 
 // whepviewsink: a camera linked while a lecturer watches joins that lecturer's view (a viewwarp for it, fed
-// from its tee at once, with the sink's settings such as background-memory); before, the views went on
+// from its tee at once, its viewprep with the sink's settings such as background-memory); before, the views went on
 // without it. The lecturer never finishes the DTLS
 // handshake here, so this also holds that such a session does not stop its view's encoder (the send queue
 // answers the encoder's serialized queries). In a child process of its own (gtest's threadsafe death-test

@@ -10,15 +10,12 @@
 #include <mutex>
 #include <string>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>
-#include <gst/vclassroom/datasets/dataset.h>
-#include <gst/vclassroom/vva/background_memory.h>
+#include <gst/vclassroom/vva/prepared_frame.h>
 #include <gst/vclassroom/vva/view_warp.h>
 #include <gst/vclassroom/vva/warp_start.h>
 #include <gst/vclassroom/vva/virtual_view.h>
@@ -71,9 +68,10 @@ struct WarpState {
   uint64_t frames = 0;
   ViewWarper warper;
   WarpedView warped;
-  BackgroundMemory memory;   // the static room's colour, when background-memory is set
-  int memory_for = 0;        // the frames `memory` was made for
-  cv::Mat empty_room;        // empty-room, RGB: the memory's seed
+  FramePreparer preparer;   // the memory and the warp's first half, for frames viewprep did not prepare
+  int memory_for = -1;      // the frames the preparer's memory was set for
+  cv::Mat empty_room;       // empty-room, RGB: the memory's seed
+  bool told_unprepared = false;  // the warning that a prepared frame's settings differ from ours
 };
 
 }  // namespace
@@ -222,25 +220,15 @@ static gboolean gst_view_warp_start(GstBaseTransform* trans) {
     }
   }
   st->prior.release();
-  if (!path.empty()) {
-    st->prior = cv::imread(path, cv::IMREAD_ANYDEPTH);
-    if (st->prior.empty() || st->prior.type() != CV_16UC1) {
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ,
-                        ("prior-depth %s: cannot read it as a 16-bit depth image (mm)", path.c_str()), (nullptr));
-      return FALSE;
-    }
-  }
   st->empty_room.release();
-  st->memory_for = 0;  // a new seed: the memory starts again
-  if (!empty_room_path.empty()) {
-    try {
-      cv::cvtColor(read_image(empty_room_path, cv::IMREAD_COLOR, "empty-room colour"), st->empty_room,
-                   cv::COLOR_BGR2RGB);
-    } catch (const Error& e) {
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()),
-                        ("property empty-room of %s", GST_OBJECT_NAME(self)));
-      return FALSE;
-    }
+  st->memory_for = -1;  // a new seed: the memory starts again
+  try {
+    if (!path.empty()) st->prior = load_static_depth(path);
+    if (!empty_room_path.empty()) st->empty_room = load_empty_room(empty_room_path);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("properties prior-depth and empty-room of %s",
+                                                                     GST_OBJECT_NAME(self)));
+    return FALSE;
   }
   return TRUE;
 }
@@ -263,42 +251,44 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", err.c_str()), (nullptr));
     return GST_FLOW_ERROR;
   }
-  WarpSource src;
-  src.color = in.color();
-  src.depth = in.depth();
-  src.label = in.label();
-  if (st->use_prior) src.static_depth = st->prior;
-  if (memory_frames > 0) {
-    try {
+  // What does not depend on the pose (the memory, the warp's first half) is done before the pose is read: it
+  // is not part of the pose's latency. A viewprep upstream may have done it once for every view.
+  std::shared_ptr<const PreparedFrame> prepared = buffer_get_prepared_frame(inbuf);
+  if (prepared && (prepared->edge_to_near != params.edge_to_near || prepared->boundary_px != params.boundary_px ||
+                   prepared->source.width != st->in_info.width() || prepared->source.height != st->in_info.height())) {
+    if (!st->told_unprepared)
+      GST_ELEMENT_WARNING(self, STREAM, FORMAT,
+                          ("camera %d's frames were prepared (viewprep) with other edge-to-near, boundary or size "
+                           "than this viewwarp's: it prepares them again itself", st->in_info.camera.id),
+                          (nullptr));
+    st->told_unprepared = true;
+    prepared = nullptr;
+  }
+  try {
+    if (!prepared) {
       if (memory_frames != st->memory_for) {
-        BackgroundMemoryParams mp;
-        mp.frames = memory_frames;
-        st->memory = BackgroundMemory(mp);
-        if (!st->empty_room.empty() && st->empty_room.size() != src.color.size())
+        const bool seed_fits = st->empty_room.empty() || st->empty_room.size() == in.color().size();
+        if (memory_frames > 0 && !seed_fits)
           GST_ELEMENT_WARNING(self, STREAM, FORMAT,
                               ("empty-room is %dx%d but camera %d streams %dx%d: the background memory learns the "
                                "room as it sees it",
-                               st->empty_room.cols, st->empty_room.rows, st->in_info.camera.id, src.color.cols,
-                               src.color.rows),
+                               st->empty_room.cols, st->empty_room.rows, st->in_info.camera.id, in.color().cols,
+                               in.color().rows),
                               (nullptr));
-        else if (!st->empty_room.empty())
-          st->memory.seed(st->empty_room);
+        st->preparer.set_memory(memory_frames, seed_fits ? st->empty_room : cv::Mat());
         st->memory_for = memory_frames;
       }
-      st->memory.apply(&src);
-    } catch (const Error& e) {
-      GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", e.what()), (nullptr));
-      return GST_FLOW_ERROR;
+      st->preparer.set_static_depth(st->use_prior ? st->prior : cv::Mat());
+      prepared = st->preparer.prepare(st->in_info.camera, in.color(), in.depth(), in.label(), params);
     }
-  }
-  // What does not depend on the pose (the memory above, the warp's preparation) is done before the pose is read:
-  // it is not part of the pose's latency.
-  try {
-    st->warper.prepare(st->in_info.camera, src, params);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", e.what()), (nullptr));
+    return GST_FLOW_ERROR;
   } catch (const cv::Exception& e) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("view warp failed: %s", e.what()), (nullptr));
     return GST_FLOW_ERROR;
   }
+  const WarpSource src = FramePreparer::source_of(*prepared, in.color(), in.depth(), in.label());
   const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
                                        ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
                                        : GST_CLOCK_TIME_NONE;
@@ -329,7 +319,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   st->warped.label = out.label();
   st->warped.weight = out.plane(Plane::Weight);
   try {
-    st->warper.warp_prepared(st->in_info.camera, src, virt, params, &st->warped);
+    st->warper.warp_prepared(st->in_info.camera, src, prepared->source, virt, params, &st->warped);
   } catch (const cv::Exception& e) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("view warp failed: %s", e.what()), (nullptr));
     return GST_FLOW_ERROR;

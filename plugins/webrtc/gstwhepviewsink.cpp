@@ -1,6 +1,6 @@
 // whepviewsink: a view per lecturer. Each camera's prepared stream (after
 // decoding, V-DA and learnerseg, which run once per camera) comes in on a cam_%u
-// pad and is teed; each WHEP session gets its own branch, a viewwarp per camera
+// pad, gets its memory and the warp's first half once (viewprep) and is teed; each WHEP session gets its own branch, a viewwarp per camera
 // and a viewfuse steered by that session's poses only, encoded by its own
 // x264enc. Sessions join and leave without touching the others' branches, and a
 // camera linked while lecturers watch joins every view; the WHEP server,
@@ -44,6 +44,7 @@ struct TeeLink {
 };
 
 // One lecturer's view: per camera tee pad -> queue -> viewwarp -> fuse; fuse -> convert -> x264enc -> caps.
+// The camera's viewprep before its tee has done the memory and the warp's first half once for all views.
 struct View {
   uint64_t id = 0;                   // its number among the views taking turns
   bool started = false;              // its webrtcbin is linked: camera branches are fed at once
@@ -133,12 +134,6 @@ static void add_camera_branch_locked(GstWhepViewSink* self, View* view, const Ca
   gst_util_set_object_arg(G_OBJECT(queue), "leaky", "downstream");
   g_object_set(warp, "width", s.width, "height", s.height, nullptr);
   if (!s.rig.empty()) g_object_set(warp, "rig", s.rig.c_str(), nullptr);
-  const std::string camera = "cam" + std::to_string(cam.index) + ".png";
-  if (!s.model.empty()) g_object_set(warp, "prior-depth", (s.model + "/prior-depth/" + camera).c_str(), nullptr);
-  if (s.background_memory > 0) {
-    g_object_set(warp, "background-memory", s.background_memory, nullptr);
-    if (!s.model.empty()) g_object_set(warp, "empty-room", (s.model + "/prior-color/" + camera).c_str(), nullptr);
-  }
   gst_element_link(queue, warp);
   GstPad* warp_src = gst_element_get_static_pad(warp, "src");
   gst_pad_add_probe(warp_src, GstPadProbeType(GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM | GST_PAD_PROBE_TYPE_BUFFER), take_turn,
@@ -267,16 +262,31 @@ static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTem
       ++index;
   for (const Camera& c : *self->cameras)
     if (c.index == index) return nullptr;  // that camera is linked already
+  GstElement* prep = gst_element_factory_make("viewprep", nullptr);
   GstElement* tee = gst_element_factory_make("tee", nullptr);
+  if (!prep || !tee) {
+    if (prep) gst_object_unref(prep);
+    if (tee) gst_object_unref(tee);
+    return nullptr;
+  }
+  // The memory and the warp's first half, once for every view of this camera.
+  const ViewSettings& s = *self->settings;
+  const std::string camera = "cam" + std::to_string(index) + ".png";
+  if (!s.model.empty()) g_object_set(prep, "prior-depth", (s.model + "/prior-depth/" + camera).c_str(), nullptr);
+  if (s.background_memory > 0) {
+    g_object_set(prep, "background-memory", s.background_memory, nullptr);
+    if (!s.model.empty()) g_object_set(prep, "empty-room", (s.model + "/prior-color/" + camera).c_str(), nullptr);
+  }
   g_object_set(tee, "allow-not-linked", TRUE, nullptr);
   // The camera's one permanent branch: a sink, so the bin posts EOS whether or not anyone watches.
   GstElement* drain = gst_element_factory_make("fakesink", nullptr);
   g_object_set(drain, "sync", FALSE, "async", FALSE, nullptr);
-  gst_bin_add_many(GST_BIN(self), tee, drain, nullptr);
-  gst_element_link(tee, drain);
+  gst_bin_add_many(GST_BIN(self), prep, tee, drain, nullptr);
+  gst_element_link_many(prep, tee, drain, nullptr);
   gst_element_sync_state_with_parent(drain);
   gst_element_sync_state_with_parent(tee);
-  GstPad* target = gst_element_get_static_pad(tee, "sink");
+  gst_element_sync_state_with_parent(prep);
+  GstPad* target = gst_element_get_static_pad(prep, "sink");
   const std::string pad_name = "cam_" + std::to_string(index);
   GstPad* pad = gst_ghost_pad_new_from_template(pad_name.c_str(), target, templ);
   gst_object_unref(target);
@@ -403,7 +413,7 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
       g_param_spec_string("navigation-rig", "Navigation rig",
                           "Rig YAML with navigation bounds, for every view's viewfuse (docs/navigation.md; empty: unbounded)", "", rw));
   g_object_class_install_property(gobject_class, PROP_MODEL,
-      g_param_spec_string("model", "Model", "Static model folder (vclassroom-build-model): viewwarp of camera K reads "
+      g_param_spec_string("model", "Model", "Static model folder (vclassroom-build-model): camera K's viewprep reads "
                           "MODEL/prior-depth/camK.png (empty: none)", "", rw));
   g_object_class_install_property(gobject_class, PROP_WIDTH,
       g_param_spec_int("width", "Width", "Width of every view (0: the cameras')", 0, 16384, 0, rw));
@@ -419,9 +429,9 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
                           0, 60 * GST_SECOND, 100 * GST_MSECOND, rw));
   g_object_class_install_property(gobject_class, PROP_BACKGROUND_MEMORY,
       g_param_spec_int("background-memory", "Background memory",
-                       "Every view's viewwarp keeps a memory of the room of this many frames, started from the "
-                       "model's empty room (MODEL/prior-color/camK.png) when model is set (docs/vva.md); each "
-                       "view pays for its own. 0: off", 0, 64, 0, rw));
+                       "Each camera's viewprep keeps a memory of the room of this many frames, started from the "
+                       "model's empty room (MODEL/prior-color/camK.png) when model is set (docs/vva.md), once for "
+                       "every view. 0: off", 0, 64, 0, rw));
   g_object_class_install_property(gobject_class, PROP_LONGEST_TURN,
       g_param_spec_uint64("longest-turn", "Longest turn",
                           "The views take turns to warp, each view's cameras on all cores while the others wait "

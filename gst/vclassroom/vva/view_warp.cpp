@@ -924,11 +924,34 @@ void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, co
 
 void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt, const WarpParams& prm,
                       WarpedView* out) {
-  prepare(src, in, prm);
-  warp_prepared(src, in, virt, prm, out);
+  prepare_here(src, in, prm);
+  warp_prepared_here(src, in, virt, prm, out);
 }
 
-void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
+void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const WarpParams& prm, PreparedSource* out) {
+  prepare_here(src, in, prm);
+  out->width = src.width;
+  out->height = src.height;
+  out->depth.swap(src_depth_);  // the old ones are scratch for the next frame
+  out->label.swap(src_label_);
+}
+
+void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, const PreparedSource& prepared,
+                               const CameraCalib& virt, const WarpParams& prm, WarpedView* out) {
+  const size_t n = size_t(src.width) * src.height;
+  CV_Assert(prepared.width == src.width && prepared.height == src.height && prepared.depth.size() == n &&
+            prepared.label.size() == n + 1);
+  CV_Assert(in.color.type() == CV_8UC3 && in.color.cols == src.width && in.color.rows == src.height);
+  CV_Assert(in.room_depth.empty() || (in.room_depth.type() == CV_16UC1 && in.room_depth.size() == in.color.size() &&
+                                      in.room_color.type() == CV_8UC3 && in.room_color.size() == in.color.size()));
+  prepare_rays(src);
+  // Copied: the room layer is drawn from the same buffers.
+  src_depth_.assign(prepared.depth.begin(), prepared.depth.end());
+  src_label_.assign(prepared.label.begin(), prepared.label.end());
+  warp_prepared_here(src, in, virt, prm, out);
+}
+
+void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
   CV_Assert(in.color.type() == CV_8UC3 && in.depth.type() == CV_16UC1);
   CV_Assert(in.color.cols == src.width && in.color.rows == src.height && in.depth.size() == in.color.size());
   CV_Assert(in.label.empty() || (in.label.type() == CV_8UC1 && in.label.size() == in.color.size()));
@@ -994,14 +1017,10 @@ void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const War
     for (int k = 0; k < b && k < H; ++k) mark_far_side(int(n / W), k, W, code, drop);
     clear_dropped(n, drop, D);
   }
-  prepared_ = true;
 }
 
-void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt,
-                               const WarpParams& prm, WarpedView* out) {
-  CV_Assert(prepared_ && have_rays_ && src.width == rays_for_.width && src.height == rays_for_.height);
-  CV_Assert(in.color.cols == src.width && in.color.rows == src.height);
-  prepared_ = false;  // the room layer below takes the prepared depth's place
+void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt,
+                                    const WarpParams& prm, WarpedView* out) {
   const int W = src.width, H = src.height;
   const int VW = virt.width, VH = virt.height;
   const size_t n = size_t(W) * H, vn = size_t(VW) * VH;

@@ -93,6 +93,14 @@ struct WarpedView {
   cv::Mat weight;  // CV_8UC1, 0 = hole, 1..255 quality (viewing angle, distance, stretch)
 };
 
+// What ViewWarper::prepare() makes of a source frame: the half of the warp
+// that does not depend on the virtual camera.
+struct PreparedSource {
+  int width = 0, height = 0;
+  std::vector<uint16_t> depth;  // the layered depth (mm), steps smoothed, rims given to the near side
+  std::vector<uint8_t> label;   // the labels likewise; width * height + 1 (a zero after the last)
+};
+
 // Keeps per-source precomputation (pixel rays) and scratch buffers between
 // frames; one per camera (not thread-safe, cheap to create).
 class ViewWarper {
@@ -104,14 +112,19 @@ class ViewWarper {
   // warp() in two halves: prepare() does what does not depend on the virtual
   // camera (the source's layered depth and labels, its steps smoothed, its
   // rims given to the near side), so a live view can do it before it reads
-  // the lecturer's pose; warp_prepared() then warps the prepared source, once
-  // (the room layer uses up what was prepared), with the same `source`, `in`
-  // and `params`.
-  void prepare(const CameraCalib& source, const WarpSource& in, const WarpParams& params);
-  void warp_prepared(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,
-                     const WarpParams& params, WarpedView* out);
+  // the lecturer's pose, and one camera's frame can be prepared once for
+  // several views; warp_prepared() then warps it (any warper, any number of
+  // times) with the same `source`, `in` and `params`. Throws cv::Exception
+  // when `prepared` is not of the source's size.
+  void prepare(const CameraCalib& source, const WarpSource& in, const WarpParams& params, PreparedSource* out);
+  void warp_prepared(const CameraCalib& source, const WarpSource& in, const PreparedSource& prepared,
+                     const CameraCalib& virt, const WarpParams& params, WarpedView* out);
 
  private:
+  // prepare() and warp_prepared() on src_depth_ and src_label_.
+  void prepare_here(const CameraCalib& source, const WarpSource& in, const WarpParams& params);
+  void warp_prepared_here(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,
+                          const WarpParams& params, WarpedView* out);
   void prepare_rays(const CameraCalib& source);
   // src_depth_ with its steps smoothed (WarpParams::step_ratio).
   void smooth_stepped_depth(int width, int height, const WarpParams& params);
@@ -120,7 +133,6 @@ class ViewWarper {
                                const cv::Mat& static_depth);
   CameraCalib rays_for_;
   bool have_rays_ = false;
-  bool prepared_ = false;  // prepare() ran and warp_prepared() did not yet
   std::vector<float> ray_x_, ray_y_;
   // Per source pixel: projected position, virtual depth (m; <= 0 invalid),
   // longest unbroken mesh edge (px), vertex weight.

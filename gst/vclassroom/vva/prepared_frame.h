@@ -1,0 +1,82 @@
+// A camera frame prepared for warping, once for every view (docs/vva.md,
+// viewprep): the background memory's colour and room layer and the warp's
+// half that does not depend on the lecturer's pose (ViewWarper::prepare).
+// With several lecturers, each view warps the same camera frames for its own
+// pose; what does not depend on the pose is then done once per camera, not
+// once per view. FramePreparer is GStreamer-free; the meta carries a
+// prepared frame from viewprep to every view's viewwarp.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include <gst/gst.h>
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/core/rig.h>
+#include <gst/vclassroom/vva/background_memory.h>
+#include <gst/vclassroom/vva/view_warp.h>
+
+namespace vclassroom {
+
+struct PreparedFrame {
+  PreparedSource source;
+  // The colour to warp where the memory shows the room as remembered; empty:
+  // the frame's own colour.
+  cv::Mat color;
+  cv::Mat room_color, room_depth;  // the room behind the learners (WarpSource::room_*); may be empty
+  // What it was prepared with: a viewwarp warping with other settings prepares the frame itself.
+  bool edge_to_near = true;
+  int boundary_px = 0;
+};
+
+// What viewwarp does to a camera frame before it reads the pose, for one camera.
+class FramePreparer {
+ public:
+  // The static layer's depth (CV_16UC1 mm, the camera's size; empty: none).
+  void set_static_depth(const cv::Mat& depth) { static_depth_ = depth; }
+  // The background memory's length in frames (0: off) and the empty room it
+  // starts from (RGB; empty: it learns the room as it sees it). A change
+  // starts the memory again.
+  void set_memory(int frames, const cv::Mat& empty_room);
+
+  // Prepares a frame (RGB colour, depth in mm, labels or empty), its images
+  // owned by the result. Throws Error or cv::Exception on images that do not
+  // fit the camera.
+  std::shared_ptr<PreparedFrame> prepare(const CameraCalib& camera, const cv::Mat& color, const cv::Mat& depth,
+                                         const cv::Mat& label, const WarpParams& params);
+
+  // The source to warp a prepared frame from: `frame`'s colour (or its
+  // memory's), labels and room layer (views into `prepared` and the frame).
+  static WarpSource source_of(const PreparedFrame& prepared, const cv::Mat& color, const cv::Mat& depth,
+                              const cv::Mat& label);
+
+ private:
+  cv::Mat static_depth_, empty_room_;
+  int memory_frames_ = 0;
+  bool memory_fresh_ = true;  // set_memory() since the last frame: the memory starts again
+  BackgroundMemory memory_;
+  ViewWarper warper_;
+  std::shared_ptr<PreparedFrame> last_;
+};
+
+// The static layer's depth, a 16-bit PNG (mm), and the empty room's colour
+// (returned RGB), as viewwarp's and viewprep's prior-depth and empty-room
+// name them. Throw Error when the file cannot be read as such.
+cv::Mat load_static_depth(const std::string& path);
+cv::Mat load_empty_room(const std::string& path);
+
+// The meta viewprep adds: a reference to the prepared frame, shared by every buffer that copies it.
+struct PreparedFrameMeta {
+  GstMeta meta;
+  std::shared_ptr<const PreparedFrame>* frame;  // owned by the meta
+};
+
+GType prepared_frame_meta_api_get_type();
+const GstMetaInfo* prepared_frame_meta_get_info();
+// Adds (or replaces) the meta on a writable buffer.
+void buffer_add_prepared_frame(GstBuffer* buf, std::shared_ptr<const PreparedFrame> frame);
+// The buffer's prepared frame, or nullptr.
+std::shared_ptr<const PreparedFrame> buffer_get_prepared_frame(GstBuffer* buf);
+
+}  // namespace vclassroom

@@ -1,0 +1,10 @@
+#pragma once
+
+#include <gst/base/gstbasetransform.h>
+
+G_BEGIN_DECLS
+
+#define GST_TYPE_VIEW_PREP (gst_view_prep_get_type())
+G_DECLARE_FINAL_TYPE(GstViewPrep, gst_view_prep, GST, VIEW_PREP, GstBaseTransform)
+
+G_END_DECLS
