@@ -131,7 +131,9 @@ for k in $CAMERAS; do
   memory=""
   [ "$MEMORY" != 0 ] && memory="background-memory=$MEMORY${MODEL:+ empty-room=$MODEL/prior-color/cam$k.png}"
   to_view="queue max-size-buffers=1 leaky=downstream ! viewwarp $rig width=$WIDTH height=$HEIGHT $prior $memory ! fuse.cam_$k"
-  [ "${LECTURER_OUT:-rtp}" = whep-views ] && to_view="queue max-size-buffers=1 leaky=downstream ! views.cam_$k"
+  # whepviewsink's viewprep (the memory, the warp's first half) runs in this queue's thread, at PREP_NICE too.
+  [ "${LECTURER_OUT:-rtp}" = whep-views ] &&
+    to_view="queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! views.cam_$k"
   branches="$branches $receive rtpgstdepay ! \
     queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k $rig stats-interval=$STATS ! \
     $vda learnerseg $prior ! $to_view"

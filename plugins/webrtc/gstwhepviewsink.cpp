@@ -1,10 +1,11 @@
 // whepviewsink: a view per lecturer. Each camera's prepared stream (after
 // decoding, V-DA and learnerseg, which run once per camera) comes in on a cam_%u
-// pad, gets its memory and the warp's first half once (viewprep) and is teed; each WHEP session gets its own branch, a viewwarp per camera
-// and a viewfuse steered by that session's poses only, encoded by its own
-// x264enc. Sessions join and leave without touching the others' branches, and a
-// camera linked while lecturers watch joins every view; the WHEP server,
-// signalling, data channel and echo are WhepEndpoint's.
+// pad, gets its memory and the warp's first half once (viewprep) and is teed;
+// each WHEP session gets its own branch, a viewwarp per camera and a viewfuse
+// steered by that session's poses only, encoded by its own x264enc. The views
+// take turns to warp (ViewTurns). Sessions join and leave without touching the
+// others' branches, and a camera linked while lecturers watch joins every view;
+// the WHEP server, signalling, data channel and echo are WhepEndpoint's.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
