@@ -15,7 +15,7 @@ PACKAGES=(
   gstreamer1.0-x gstreamer1.0-gl
   ccache
   libsoup-3.0-dev libgstreamer-plugins-bad1.0-dev gstreamer1.0-nice chromium
-  iproute2
+  iproute2 coturn
 )
 
 missing=()
@@ -28,6 +28,11 @@ if [ ${#missing[@]} -gt 0 ]; then
   [ "$(id -u)" -eq 0 ] || SUDO="sudo"
   $SUDO apt-get update -q
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
+  # coturn is here for one test, which runs its own turnserver in a network namespace; the system TURN
+  # service the package starts is stopped and disabled (only when this script installed it).
+  if [[ " ${missing[*]} " == *" coturn "* ]] && command -v systemctl > /dev/null; then
+    $SUDO systemctl disable --now coturn > /dev/null 2>&1 || true
+  fi
 fi
 
 # The browser test's driver (puppeteer-core, pinned by the lockfile) drives the system Chromium;

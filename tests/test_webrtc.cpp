@@ -686,28 +686,27 @@ TEST(WebrtcBrowser, StunAndTurnServersReachTheServersIceAndThePage) {
 
 namespace {
 
-// Runs tests/browser/slow-link.sh with the server `server` ({PORT} its port) behind a link of `kbit` kbit/s:
-// what it printed (stdout, then stderr), and its status.
-struct SlowLinkRun {
+// Runs `script` (tests/browser/slow-link.sh, turn-relay.sh) in a network namespace of its own (unshare -rn)
+// with `args`: what it printed (stdout, then stderr), and its status.
+struct NamespaceRun {
   std::string output;
   gint status = 0;
 };
-SlowLinkRun run_behind_slow_link(std::string server, int kbit) {
-  const std::string port = std::to_string(vctest::free_tcp_port());
-  server.replace(server.find("{PORT}"), 6, port);
-  const std::string script = browser_dir() + "/slow-link.sh", rate = std::to_string(kbit);
-  const gchar* argv[] = {"unshare", "-rn", "sh", script.c_str(), rate.c_str(), port.c_str(), server.c_str(),
-                         "slow-link-test.mjs", "secret-token", nullptr};
+NamespaceRun run_in_namespace(const std::string& script, const std::vector<std::string>& args) {
+  const std::string path = browser_dir() + "/" + script;
+  std::vector<const gchar*> argv = {"unshare", "-rn", "sh", path.c_str()};
+  for (const std::string& a : args) argv.push_back(a.c_str());
+  argv.push_back(nullptr);
   // Node and Chromium are not ours: no sanitizer runtime preloaded into them; the server gets it back.
   gchar** env = g_get_environ();
   if (const gchar* preload = g_environ_getenv(env, "LD_PRELOAD"))
     env = g_environ_setenv(env, "VCLASSROOM_SERVER_PRELOAD", preload, TRUE);
   env = g_environ_unsetenv(env, "LD_PRELOAD");
   gchar *output = nullptr, *errors = nullptr;
-  SlowLinkRun run;
+  NamespaceRun run;
   GError* err = nullptr;
-  if (!g_spawn_sync(browser_dir().c_str(), const_cast<gchar**>(argv), env, G_SPAWN_SEARCH_PATH, nullptr, nullptr,
-                    &output, &errors, &run.status, &err)) {
+  if (!g_spawn_sync(browser_dir().c_str(), const_cast<gchar**>(argv.data()), env, G_SPAWN_SEARCH_PATH, nullptr,
+                    nullptr, &output, &errors, &run.status, &err)) {
     run.output = std::string("unshare failed to start: ") + (err ? err->message : "");
     run.status = 77 << 8;
   }
@@ -717,6 +716,13 @@ SlowLinkRun run_behind_slow_link(std::string server, int kbit) {
   g_free(output);
   g_free(errors);
   return run;
+}
+
+// Runs tests/browser/slow-link.sh with the server `server` ({PORT} its port) behind a link of `kbit` kbit/s.
+NamespaceRun run_behind_slow_link(std::string server, int kbit) {
+  const std::string port = std::to_string(vctest::free_tcp_port());
+  server.replace(server.find("{PORT}"), 6, port);
+  return run_in_namespace("slow-link.sh", {std::to_string(kbit), port, server, "slow-link-test.mjs", "secret-token"});
 }
 
 }  // namespace
@@ -741,7 +747,7 @@ TEST(WebrtcBrowser, ALecturerBehindASlowLinkGetsTheRateTheLinkCarries) {
       {"whepviewsink name=w port={PORT} token=secret-token rig=" + rig + " web-root=" + web +
            " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0", 400}};
   for (const auto& [server, kbit] : servers) {
-    const SlowLinkRun run = run_behind_slow_link(server, kbit);
+    const NamespaceRun run = run_behind_slow_link(server, kbit);
     const std::string& out = run.output;
     if (WIFEXITED(run.status) && WEXITSTATUS(run.status) == 77) GTEST_SKIP() << out;
     if (out.find("unshare failed") != std::string::npos) GTEST_SKIP() << "no user namespaces here: " << out;
@@ -762,6 +768,29 @@ TEST(WebrtcBrowser, ALecturerBehindASlowLinkGetsTheRateTheLinkCarries) {
     EXPECT_LE(lowest_kbit, 2000) << out;
     std::printf("%s", out.c_str());
   }
+}
+
+// A lecturer with no route to the server, as behind two NATs that map no port, reaches it through a real TURN
+// server (coturn's turnserver): tests/browser/turn-relay.sh puts server and browser in network namespaces of
+// their own that reach only a middle one, which runs the TURN server and passes the page's HTTP on. The page
+// takes the TURN server from the WHEP endpoint's OPTIONS, whepserversink's ICE agent from turn-server, and the
+// page shows frames over a candidate pair with a relayed side. Skips, saying why, without user namespaces,
+// nsenter or turnserver.
+TEST(WebrtcBrowser, ALecturerWithNoRouteToTheServerIsRelayedByATurnServer) {
+  const std::string skip = browser_skip_reason();
+  if (!skip.empty()) GTEST_SKIP() << skip;
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const std::string port = "8080";  // the namespaces' own
+  const NamespaceRun run = run_in_namespace(
+      "turn-relay.sh", {port,
+                        "videotestsrc is-live=true ! video/x-raw,width=320,height=180 ! whepserversink port=" + port +
+                            " token=secret-token web-root=" + web + " turn-server=turn://alice:s3cret@10.1.0.1:3478",
+                        "turn-relay-test.mjs", "secret-token"});
+  if (WIFEXITED(run.status) && WEXITSTATUS(run.status) == 77) GTEST_SKIP() << run.output;
+  if (run.output.find("unshare failed") != std::string::npos) GTEST_SKIP() << "no user namespaces here: " << run.output;
+  EXPECT_TRUE(g_spawn_check_wait_status(run.status, nullptr)) << run.output;
+  EXPECT_NE(run.output.find("ok relayed"), std::string::npos) << run.output;
+  std::printf("%s", run.output.c_str());
 }
 
 namespace {
