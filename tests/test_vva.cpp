@@ -70,6 +70,25 @@ std::string small_classroom_rig(const vctest::TempDir& dir, int w = 160, int h =
 }
 
 // Pushes `in` through viewwarp's harness and returns the output frame's planes (copies).
+// Frame `index` (30 fps) of `info`'s planes from the render `r`, its colour with a camera's noise (sigma 4)
+// from `rng`; the label plane, where `info` has one, from the render's.
+GstBuffer* noisy_frame(const RgbdInfo& info, const RenderOutput& r, cv::RNG* rng, int index) {
+  GstBuffer* buf = rgbd_buffer_new(info);
+  RgbdFrame f;
+  std::string err;
+  EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+  cv::Mat noise(r.color.size(), CV_16SC3), noisy;
+  rng->fill(noise, cv::RNG::NORMAL, 0, 4);
+  r.color.convertTo(noisy, CV_16SC3);
+  noisy += noise;
+  noisy.convertTo(f.color(), CV_8UC3);
+  r.depth.copyTo(f.depth());
+  if (info.has(Plane::Label)) r.label.copyTo(f.label());
+  f.unmap();
+  GST_BUFFER_PTS(buf) = index * GST_SECOND / 30;
+  return buf;
+}
+
 WarpedView pull_warped(GstHarness* h, GstBuffer* in) {
   EXPECT_EQ(gst_harness_push(h, in), GST_FLOW_OK);
   GstBuffer* out = gst_harness_pull(h);
@@ -834,20 +853,7 @@ TEST(ViewWarpElement, BackgroundMemorySteadiesTheViewOfANoisyStaticRoom) {
     cv::Mat prev;
     double change = 0;
     for (int i = 0; i < 12; ++i) {
-      GstBuffer* buf = rgbd_buffer_new(info);
-      {
-        RgbdFrame f;
-        std::string err;
-        EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
-        cv::Mat noise(r.color.size(), CV_16SC3), noisy;
-        rng.fill(noise, cv::RNG::NORMAL, 0, 4);
-        r.color.convertTo(noisy, CV_16SC3);
-        noisy += noise;
-        noisy.convertTo(f.color(), CV_8UC3);
-        r.depth.copyTo(f.depth());
-      }
-      GST_BUFFER_PTS(buf) = i * GST_SECOND / 30;
-      const cv::Mat color = pull_warped(h, buf).color;
+      const cv::Mat color = pull_warped(h, noisy_frame(info, r, &rng, i)).color;
       if (i >= 4) change += cv::norm(color, prev, cv::NORM_L1);
       prev = color;
     }
@@ -880,20 +886,7 @@ TEST(ViewPrepElement, AFramePreparedOnceWarpsInEveryViewAsViewwarpAloneWarpsIt) 
   cv::RNG rng(5);
   bool settings_matter = false;
   for (int i = 0; i < 6; ++i) {
-    GstBuffer* buf = rgbd_buffer_new(info);
-    {
-      RgbdFrame f;
-      std::string err;
-      EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
-      cv::Mat noise(r.color.size(), CV_16SC3), noisy;
-      rng.fill(noise, cv::RNG::NORMAL, 0, 4);
-      r.color.convertTo(noisy, CV_16SC3);
-      noisy += noise;
-      noisy.convertTo(f.color(), CV_8UC3);
-      r.depth.copyTo(f.depth());
-      r.label.copyTo(f.label());
-    }
-    GST_BUFFER_PTS(buf) = i * GST_SECOND / 30;
+    GstBuffer* buf = noisy_frame(info, r, &rng, i);
     const WarpedView expected = pull_warped(alone, gst_buffer_copy(buf));
     const WarpedView expected_other = pull_warped(alone_other, gst_buffer_copy(buf));
     settings_matter |= cv::norm(expected.color, expected_other.color, cv::NORM_INF) > 0;
