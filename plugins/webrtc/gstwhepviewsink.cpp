@@ -444,9 +444,10 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
   gst_element_class_add_static_pad_template(element_class, &cam_template);
   gst_element_class_set_static_metadata(element_class, "WHEP view-per-lecturer sink", "Sink/Network",
       "Each lecturer joining over WHEP gets a view of their own: the prepared camera streams (cam_%u, after "
-      "learnerseg) feed, per session, a viewwarp per camera, a viewfuse steered by that lecturer's pose data "
-      "channel only, and an H.264 encoder to their webrtcbin; sessions come and go without disturbing the "
-      "others. Example: gst-launch-1.0 whepviewsink name=w port=0 token=secret max-sessions=2 "
+      "learnerseg), each with its memory and warp preparation done once (viewprep), feed, per session, a "
+      "viewwarp per camera, a viewfuse steered by that lecturer's pose data channel only, and an H.264 "
+      "encoder to their webrtcbin; the views take turns to warp, and sessions come and go without disturbing "
+      "the others. Example: gst-launch-1.0 whepviewsink name=w port=0 token=secret max-sessions=2 "
       "rgbdtestsrc camera-id=0 num-buffers=30 ! learnerseg ! w.cam_0",
       "gst-vclassroom");
 }
