@@ -10,7 +10,6 @@
 #include <mutex>
 #include <string>
 
-
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
