@@ -128,7 +128,8 @@ int main(int argc, char** argv) {
     if (live_cameras) {
       std::string launch = "gst-launch-1.0 whepviewsink name=w port=" + std::to_string(port) +
                            " token=measure-token max-sessions=" + std::to_string(n) + " width=" + std::to_string(width) +
-                           " height=" + std::to_string(height) + " warp-sync=" + std::to_string(warp_sync) + " longest-turn=" + std::to_string(longest_turn) +
+                           " height=" + std::to_string(height) + " warp-sync=" + std::to_string(warp_sync) +
+                           " longest-turn=" + std::to_string(longest_turn) +
                            " web-root=" + root + "/web/lecturer";
       for (int k = 0; k < cameras; ++k)
         launch += " rgbdtestsrc camera-id=" + std::to_string(k) +
