@@ -52,6 +52,13 @@ turnserver -n --listening-ip=10.1.0.1 --relay-ip=10.1.0.1 --listening-port=3478 
   --lt-cred-mech --user=alice:s3cret --realm=vclassroom --no-tls --no-dtls --no-cli --simple-log \
   --pidfile="$dir/turn.pid" --db="$dir/turn.db" --log-file=stdout > "$dir/turn.log" 2>&1 &
 pids="$pids $!"
+# Its listeners are up once it counts its servers (at most 10 s; a poll of its log, not a fixed wait).
+tries=0
+until grep -q "Total General servers" "$dir/turn.log" 2>/dev/null; do
+  tries=$((tries + 1))
+  [ "$tries" -gt 100 ] && { echo "turnserver did not start:"; cat "$dir/turn.log"; exit 1; }
+  sleep 0.1
+done
 node -e '
   const net = require("net");
   const [listen, port, to] = process.argv.slice(1);
