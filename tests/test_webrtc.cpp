@@ -788,7 +788,7 @@ TEST(WebrtcBrowser, ALecturerWithNoRouteToTheServerIsRelayedByATurnServer) {
                         "turn-relay-test.mjs", "secret-token"});
   if (WIFEXITED(run.status) && WEXITSTATUS(run.status) == 77) GTEST_SKIP() << run.output;
   if (run.output.find("unshare failed") != std::string::npos) GTEST_SKIP() << "no user namespaces here: " << run.output;
-  EXPECT_TRUE(g_spawn_check_wait_status(run.status, nullptr)) << run.output;
+  EXPECT_TRUE(g_spawn_check_wait_status(run.status, nullptr)) << "wait status " << run.status << ":\n" << run.output;
   EXPECT_NE(run.output.find("ok relayed"), std::string::npos) << run.output;
   std::printf("%s", run.output.c_str());
 }

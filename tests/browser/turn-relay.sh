@@ -59,12 +59,22 @@ until grep -q "Total General servers" "$dir/turn.log" 2>/dev/null; do
   [ "$tries" -gt 100 ] && { echo "turnserver did not start:"; cat "$dir/turn.log"; exit 1; }
   sleep 0.1
 done
+# The HTTP relay opens once the server answers, so the page's first requests meet a closed port (which the
+# script retries), never a connection cut behind an open one.
 node -e '
   const net = require("net");
   const [listen, port, to] = process.argv.slice(1);
-  net.createServer(c => { const s = net.connect(Number(port), to); c.pipe(s).pipe(c);
-                          c.on("error", () => s.destroy()); s.on("error", () => c.destroy()); })
-     .listen(Number(port), listen, () => console.log("relaying"));' 10.2.0.1 "$port" 10.1.0.2 > "$dir/http.log" 2>&1 &
+  const open = () => net.createServer(c => {
+    const s = net.connect(Number(port), to);
+    c.pipe(s).pipe(c);
+    c.on("error", () => s.destroy());
+    s.on("error", () => c.destroy());
+  }).listen(Number(port), listen, () => console.log("relaying"));
+  const probe = () => {
+    const t = net.connect(Number(port), to, () => { t.destroy(); open(); });
+    t.on("error", () => setTimeout(probe, 100));  // the server is still starting: poll again
+  };
+  probe();' 10.2.0.1 "$port" 10.1.0.2 > "$dir/http.log" 2>&1 &
 pids="$pids $!"
 # shellcheck disable=SC2086
 in_namespace "$server_ns" env ${VCLASSROOM_SERVER_PRELOAD:+LD_PRELOAD=$VCLASSROOM_SERVER_PRELOAD} gst-launch-1.0 -m $server \
