@@ -17,6 +17,8 @@
 
 #include "gstrtphdrextplayoutdelay.h"
 
+#include <gst/vclassroom/webrtc/playout_delay.h>
+
 GST_DEBUG_CATEGORY_STATIC(whep_send_debug);
 #define GST_CAT_DEFAULT whep_send_debug
 
@@ -263,6 +265,18 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   g_object_get(rtc_sink, "transceiver", &transceiver, nullptr);
   if (transceiver) {
     g_object_set(transceiver, "direction", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDONLY, nullptr);
+    // The answer names the offer's H.264 payload and, where sent, the playout-delay extension, whether or
+    // not the payloader's caps have reached webrtcbin yet (the first frame may come after the offer, and
+    // webrtcbin answers from the caps it has: under load the answer then lacked the extension).
+    GstCaps* preferences = gst_caps_new_simple("application/x-rtp", "media", G_TYPE_STRING, "video", "encoding-name",
+                                               G_TYPE_STRING, "H264", "clock-rate", G_TYPE_INT, 90000, "payload",
+                                               G_TYPE_INT, settings.payload, nullptr);
+    if (settings.playout_extension_id > 0 && settings.playout_delay_ms >= 0) {
+      const std::string field = "extmap-" + std::to_string(settings.playout_extension_id);
+      gst_caps_set_simple(preferences, field.c_str(), G_TYPE_STRING, kPlayoutDelayUri, nullptr);
+    }
+    g_object_set(transceiver, "codec-preferences", preferences, nullptr);
+    gst_caps_unref(preferences);
     gst_object_unref(transceiver);
   }
   gst_object_unref(rtc_sink);
