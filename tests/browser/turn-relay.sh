@@ -76,8 +76,10 @@ node -e '
   };
   probe();' 10.2.0.1 "$port" 10.1.0.2 > "$dir/http.log" 2>&1 &
 pids="$pids $!"
+# nsenter itself, not a subshell around it, runs in the background: it becomes the server, and killing its
+# pid stops the server.
 # shellcheck disable=SC2086
-in_namespace "$server_ns" env ${VCLASSROOM_SERVER_PRELOAD:+LD_PRELOAD=$VCLASSROOM_SERVER_PRELOAD} gst-launch-1.0 -m $server \
+nsenter -t "$server_ns" -n env ${VCLASSROOM_SERVER_PRELOAD:+LD_PRELOAD=$VCLASSROOM_SERVER_PRELOAD} gst-launch-1.0 -m $server \
   > "$dir/server.log" 2>&1 &
 pids="$pids $!"
 in_namespace "$browser_ns" node "$script" "http://10.2.0.1:$port" "$@"
