@@ -23,12 +23,13 @@ cleanup() {
   rm -rf "$dir"
 }
 trap cleanup EXIT
-# A network namespace held open by a sleeping process; prints its pid once it exists.
+# A network namespace held open by a sleeping process; prints its pid once it exists ("failed" when it
+# cannot be made: the reader is never left waiting).
 hold_namespace() {
   mkfifo "$dir/$1"
-  unshare -n sh -c 'echo ready > "$0"; exec sleep 3600' "$dir/$1" > /dev/null 2>&1 &
-  read -r _ < "$dir/$1"
-  echo $!
+  { unshare -n sh -c 'echo $$ > "$0"; exec sleep 3600' "$dir/$1" || echo failed > "$dir/$1"; } > /dev/null 2>&1 &
+  read -r holder < "$dir/$1"
+  echo "$holder"
 }
 in_namespace() {
   pid=$1
@@ -37,6 +38,9 @@ in_namespace() {
 }
 ip link set lo up 2>/dev/null || { echo "cannot set up a network namespace (ip, unshare -rn)"; exit 77; }
 server_ns=$(hold_namespace server) browser_ns=$(hold_namespace browser)
+case "$server_ns $browser_ns" in
+  *failed*) echo "cannot make a network namespace inside this one (unshare -n)"; exit 77 ;;
+esac
 pids="$server_ns $browser_ns"
 # The veth ends get no IPv6 link-local address: one that turns valid a moment later is a network change to
 # Chromium (see slow-link.sh).
