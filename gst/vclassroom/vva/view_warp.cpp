@@ -925,7 +925,7 @@ void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, co
 void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt, const WarpParams& prm,
                       WarpedView* out) {
   prepare_here(src, in, prm);
-  warp_prepared_here(src, in, virt, prm, out);
+  warp_prepared_here(src, in, src_depth_.data(), src_label_.data(), virt, prm, out);
 }
 
 void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const WarpParams& prm, PreparedSource* out) {
@@ -945,10 +945,7 @@ void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, con
   CV_Assert(in.room_depth.empty() || (in.room_depth.type() == CV_16UC1 && in.room_depth.size() == in.color.size() &&
                                       in.room_color.type() == CV_8UC3 && in.room_color.size() == in.color.size()));
   prepare_rays(src);
-  // Copied: the room layer is drawn from the same buffers.
-  src_depth_.assign(prepared.depth.begin(), prepared.depth.end());
-  src_label_.assign(prepared.label.begin(), prepared.label.end());
-  warp_prepared_here(src, in, virt, prm, out);
+  warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), virt, prm, out);
 }
 
 void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
@@ -1019,8 +1016,9 @@ void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, cons
   }
 }
 
-void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt,
-                                    const WarpParams& prm, WarpedView* out) {
+void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in, const uint16_t* depth,
+                                    const uint8_t* label, const CameraCalib& virt, const WarpParams& prm,
+                                    WarpedView* out) {
   const int W = src.width, H = src.height;
   const int VW = virt.width, VH = virt.height;
   const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
@@ -1056,7 +1054,10 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   const float max_u = float(W - 1), max_v = float(H - 1);
   const double er = prm.edge_ratio, emin = prm.edge_min_mm * 0.001;
   const float max_area2 = float(prm.max_stretch);
-  // One layer (src_depth_, src_label_, coloured by `color`) into the
+  // The layer being drawn: the prepared source, then the room behind the learners.
+  const uint16_t* layer_depth = depth;
+  const uint8_t* layer_label = label;
+  // One layer (layer_depth, layer_label, coloured by `color`) into the
   // z-buffer: the cells of source rows [row_begin, row_end) - the rows
   // holding the layer's pixels - with the camera's quality times
   // `weight_scale`.
@@ -1068,7 +1069,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
     const int first_projected = prm.mesh ? 0 : std::max(0, (std::max(0, row_begin - 1) & ~1) - 1);
     const int end_projected = prm.mesh ? H : std::min(H, row_end + 3);
     const size_t first = size_t(first_projected) * W, count = size_t(end_projected - first_projected) * W;
-    project_points(count, src_depth_.data() + first, ray_x_.data() + first, ray_y_.data() + first, proj, PX + first,
+    project_points(count, layer_depth + first, ray_x_.data() + first, ray_y_.data() + first, proj, PX + first,
                    PY + first, PZ + first, PL + first, PW + first);
     if (weight_scale != 1.0f)
       for (size_t i = first; i < first + count; ++i) PW[i] *= weight_scale;
@@ -1078,12 +1079,12 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
       auto consistent = [&](size_t a, size_t b, size_t c) {
         const float za = PZ[a], zb = PZ[b], zc = PZ[c];
         if (za <= 0 || zb <= 0 || zc <= 0) return false;
-        if (src_label_[a] != src_label_[b] || src_label_[a] != src_label_[c]) return false;
+        if (layer_label[a] != layer_label[b] || layer_label[a] != layer_label[c]) return false;
         const float lo = std::min(za, std::min(zb, zc)), hi = std::max(za, std::max(zb, zc));
         if (hi - lo <= std::max(emin, er * lo)) return true;
         // Different depths but not torn apart by this view (a slanted surface):
         // no edge longer than its source length at the local scale + max_gap_px.
-        const float scale = proj.link_scale * src_depth_[a] * 0.001f / za;
+        const float scale = proj.link_scale * layer_depth[a] * 0.001f / za;
         auto edge_ok = [&](size_t i, size_t j) {
           const float su = float(int(i % W) - int(j % W)), sv = float(int(i / W) - int(j / W));
           const float lim = scale * std::sqrt(su * su + sv * sv) + gap;
@@ -1105,7 +1106,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
         const float inv = 1.0f / area2;
         const float stretch = aa > 1.0f ? 1.0f / std::sqrt(aa) : 1.0f;
         const uint8_t wq = weight_byte((PW[a] + PW[b] + PW[c]) * (1.0f / 3.0f) * stretch);
-        const uint8_t lab = src_label_[a];
+        const uint8_t lab = layer_label[a];
         constexpr float eps = -0.02f;
         for (int y = ymin; y <= ymax; ++y) {
           const float fyv = float(y);
@@ -1162,11 +1163,11 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
         std::fill_n(out, W, 0u);
         // The last pixel too (its "right neighbour" is the next row's first,
         // or padding), then unlinked: a whole number of vectors.
-        link_neighbours(size_t(W), 1, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
+        link_neighbours(size_t(W), 1, PX + row, PY + row, PZ + row, PL + row, &layer_label[row], float(er),
                         float(emin), kRight, out);
         out[W - 1] &= ~kRight;
         if (v + 1 < H)
-          link_neighbours(size_t(W), W, PX + row, PY + row, PZ + row, PL + row, &src_label_[row], float(er),
+          link_neighbours(size_t(W), W, PX + row, PY + row, PZ + row, PL + row, &layer_label[row], float(er),
                           float(emin), kDown, out);
       };
       cell_x0_.resize(W);
@@ -1224,7 +1225,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
                       v > 0 ? links_row(v - 1) : no_links, cells);
         // Everything a cell's writes need in locals: a byte store may alias
         // anything the lambda reaches by reference.
-        const uint8_t* const lab = &src_label_[row];
+        const uint8_t* const lab = &layer_label[row];
         const float* const pz_row = PZ + row;
         const int32_t *const mask = cell_mask_.data(), *const x0 = cell_x0_.data(), *const y0 = cell_y0_.data(),
                       *const wt = cell_weight_.data();
@@ -1274,7 +1275,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
           fine_cells(v, 0, W, no_blocks);
           return;
         }
-        const uint16_t* d = &src_depth_[size_t(v) * W];
+        const uint16_t* d = &layer_depth[size_t(v) * W];
         for (int u = 0; u < W;) {
           if (!d[u]) {
             ++u;
@@ -1325,7 +1326,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
         if ((W & 1) && is_block[nb - 1]) add_fine_run(W - 1, W);
         for (int r = v; r <= v + 1; ++r)
           for (const auto& run : fine_runs_) fine_cells(r, run.first, run.second, is_block);
-        const uint8_t* const lab = &src_label_[row];
+        const uint8_t* const lab = &layer_label[row];
         const int32_t *const mask = block_mask_.data(), *const x0 = block_x0_.data(), *const y0 = block_y0_.data(),
                       *const wt = block_weight_.data(), *const bz = block_z_.data();
         const int32_t* const fixed_u = block_fixed_.data();
@@ -1362,6 +1363,9 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
     // behind everything the camera sees now: where the view looks past a
     // learner, it shows the room seen there before instead of a hole. Its
     // quality is halved, so a camera that sees that room now outweighs it.
+    // Drawn from the warper's own buffers (the prepared source, if it was drawn from them, is done).
+    src_depth_.resize(n);
+    src_label_.assign(n + 1, 0);
     int row_begin = H, row_end = 0;
     for (int v = 0; v < H; ++v) {
       const uint16_t* d = in.room_depth.ptr<uint16_t>(v);
@@ -1371,7 +1375,8 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
         row_end = v + 1;
       }
     }
-    std::fill(src_label_.begin(), src_label_.end(), 0);
+    layer_depth = src_depth_.data();
+    layer_label = src_label_.data();
     if (row_begin < row_end)
       splat_layer(ColorSampler{in.room_color.data, in.room_color.step, W - 1, H - 1}, row_begin, row_end,
                   kRoomLayerWeight, true);

@@ -121,10 +121,11 @@ class ViewWarper {
                      const CameraCalib& virt, const WarpParams& params, WarpedView* out);
 
  private:
-  // prepare() and warp_prepared() on src_depth_ and src_label_.
+  // prepare() into src_depth_ and src_label_; warp_prepared() of the prepared depth and labels given (which
+  // may be those two: the room layer is drawn from them after).
   void prepare_here(const CameraCalib& source, const WarpSource& in, const WarpParams& params);
-  void warp_prepared_here(const CameraCalib& source, const WarpSource& in, const CameraCalib& virt,
-                          const WarpParams& params, WarpedView* out);
+  void warp_prepared_here(const CameraCalib& source, const WarpSource& in, const uint16_t* depth,
+                          const uint8_t* label, const CameraCalib& virt, const WarpParams& params, WarpedView* out);
   void prepare_rays(const CameraCalib& source);
   // src_depth_ with its steps smoothed (WarpParams::step_ratio).
   void smooth_stepped_depth(int width, int height, const WarpParams& params);
