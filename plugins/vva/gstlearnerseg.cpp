@@ -11,7 +11,9 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/vva/learner_seg.h>
+#include <gst/vclassroom/vva/prepared_frame.h>
 #include <gst/vclassroom/core/rgbd.h>
 
 GST_DEBUG_CATEGORY_STATIC(learner_seg_debug);
@@ -108,13 +110,12 @@ static gboolean gst_learner_seg_start(GstBaseTransform* trans) {
   st->seg.reset();
   st->seg.set_static_depth(cv::Mat());
   if (!path.empty()) {
-    cv::Mat prior = cv::imread(path, cv::IMREAD_ANYDEPTH);
-    if (prior.empty() || prior.type() != CV_16UC1) {
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ,
-                        ("prior-depth %s: cannot read it as a 16-bit depth image (mm)", path.c_str()), (nullptr));
+    try {
+      st->seg.set_static_depth(load_static_depth(path));
+    } catch (const Error& e) {
+      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("property prior-depth of %s", GST_OBJECT_NAME(self)));
       return FALSE;
     }
-    st->seg.set_static_depth(prior);
   }
   return TRUE;
 }

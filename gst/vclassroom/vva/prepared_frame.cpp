@@ -9,9 +9,8 @@
 namespace vclassroom {
 
 cv::Mat load_static_depth(const std::string& path) {
-  cv::Mat depth = cv::imread(path, cv::IMREAD_ANYDEPTH);
-  if (depth.empty() || depth.type() != CV_16UC1)
-    throw Error("prior-depth " + path + ": cannot read it as a 16-bit depth image (mm)");
+  const cv::Mat depth = read_image(path, cv::IMREAD_ANYDEPTH, "prior depth");
+  if (depth.type() != CV_16UC1) throw Error("prior-depth " + path + ": cannot read it as a 16-bit depth image (mm)");
   return depth;
 }
 

@@ -61,8 +61,9 @@ class FramePreparer {
 };
 
 // The static layer's depth, a 16-bit PNG (mm), and the empty room's colour
-// (returned RGB), as viewwarp's and viewprep's prior-depth and empty-room
-// name them. Throw Error when the file cannot be read as such.
+// (returned RGB), as learnerseg's, viewwarp's and viewprep's prior-depth and
+// empty-room name them (read by read_image). Throw Error when the file cannot
+// be read as such.
 cv::Mat load_static_depth(const std::string& path);
 cv::Mat load_empty_room(const std::string& path);
 
