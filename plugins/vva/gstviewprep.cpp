@@ -34,7 +34,6 @@ struct PrepState {
   // Streaming thread only.
   RgbdInfo info;
   cv::Mat prior, empty_room;
-  int memory_for = -1;  // the frames the preparer's memory was set for
   FramePreparer preparer;
 };
 
@@ -62,7 +61,6 @@ static gboolean gst_view_prep_start(GstBaseTransform* trans) {
   }
   st->prior.release();
   st->empty_room.release();
-  st->memory_for = -1;
   try {
     if (!prior_path.empty()) st->prior = load_static_depth(prior_path);
     if (!empty_room_path.empty()) st->empty_room = load_empty_room(empty_room_path);
@@ -91,7 +89,6 @@ static gboolean gst_view_prep_set_caps(GstBaseTransform* trans, GstCaps* incaps,
                          st->info.camera.id, size.width, size.height),
                         (nullptr));
   st->preparer.set_static_depth(prior_fits ? st->prior : cv::Mat());
-  st->memory_for = -1;  // the memory starts again, with the seed only where it fits
   return TRUE;
 }
 
@@ -105,11 +102,7 @@ static GstFlowReturn gst_view_prep_transform_ip(GstBaseTransform* trans, GstBuff
     params.boundary_px = st->boundary_px;
     memory_frames = st->memory_frames;
   }
-  if (memory_frames != st->memory_for) {
-    const bool seed_fits = st->empty_room.size() == cv::Size(st->info.width(), st->info.height());
-    st->preparer.set_memory(memory_frames, seed_fits ? st->empty_room : cv::Mat());
-    st->memory_for = memory_frames;
-  }
+  st->preparer.set_memory(memory_frames, st->empty_room);
   std::shared_ptr<const PreparedFrame> prepared;
   {
     RgbdFrame frame;

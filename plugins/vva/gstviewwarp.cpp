@@ -68,7 +68,6 @@ struct WarpState {
   ViewWarper warper;
   WarpedView warped;
   FramePreparer preparer;   // the memory and the warp's first half, for frames viewprep did not prepare
-  int memory_for = -1;      // the frames the preparer's memory was set for
   cv::Mat empty_room;       // empty-room, RGB: the memory's seed
   bool told_unprepared = false;  // the warning that a prepared frame's settings differ from ours
 };
@@ -152,6 +151,20 @@ static gboolean gst_view_warp_set_caps(GstBaseTransform* trans, GstCaps* incaps,
                          st->in_info.height()),
                         (nullptr));
   }
+  int memory_frames;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    memory_frames = st->memory_frames;
+  }
+  if (memory_frames > 0 && !st->empty_room.empty() &&
+      (st->empty_room.cols != st->in_info.width() || st->empty_room.rows != st->in_info.height()))
+    GST_ELEMENT_WARNING(self, STREAM, FORMAT,
+                        ("empty-room is %dx%d but camera %d streams %dx%d: the background memory learns the room as "
+                         "it sees it",
+                         st->empty_room.cols, st->empty_room.rows, st->in_info.camera.id, st->in_info.width(),
+                         st->in_info.height()),
+                        (nullptr));
+  st->preparer.set_static_depth(st->use_prior ? st->prior : cv::Mat());
   GST_INFO_OBJECT(self, "camera %d %dx%d -> virtual view %dx%d (fx %.1f)", st->in_info.camera.id,
                   st->in_info.width(), st->in_info.height(), st->out_info.width(), st->out_info.height(),
                   st->out_info.camera.fx);
@@ -220,7 +233,6 @@ static gboolean gst_view_warp_start(GstBaseTransform* trans) {
   }
   st->prior.release();
   st->empty_room.release();
-  st->memory_for = -1;  // a new seed: the memory starts again
   try {
     if (!path.empty()) st->prior = load_static_depth(path);
     if (!empty_room_path.empty()) st->empty_room = load_empty_room(empty_room_path);
@@ -265,19 +277,8 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   }
   try {
     if (!prepared) {
-      if (memory_frames != st->memory_for) {
-        const bool seed_fits = st->empty_room.empty() || st->empty_room.size() == in.color().size();
-        if (memory_frames > 0 && !seed_fits)
-          GST_ELEMENT_WARNING(self, STREAM, FORMAT,
-                              ("empty-room is %dx%d but camera %d streams %dx%d: the background memory learns the "
-                               "room as it sees it",
-                               st->empty_room.cols, st->empty_room.rows, st->in_info.camera.id, in.color().cols,
-                               in.color().rows),
-                              (nullptr));
-        st->preparer.set_memory(memory_frames, seed_fits ? st->empty_room : cv::Mat());
-        st->memory_for = memory_frames;
-      }
-      st->preparer.set_static_depth(st->use_prior ? st->prior : cv::Mat());
+      // A new seed (start) or length starts the memory again.
+      st->preparer.set_memory(memory_frames, st->empty_room);
       prepared = st->preparer.prepare(st->in_info.camera, in.color(), in.depth(), in.label(), params);
     }
   } catch (const Error& e) {

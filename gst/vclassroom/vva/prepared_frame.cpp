@@ -21,6 +21,7 @@ cv::Mat load_empty_room(const std::string& path) {
 }
 
 void FramePreparer::set_memory(int frames, const cv::Mat& empty_room) {
+  if (frames == memory_frames_ && empty_room.data == empty_room_.data) return;  // the same: the memory goes on
   memory_frames_ = frames;
   empty_room_ = empty_room;
   memory_fresh_ = true;

@@ -36,8 +36,9 @@ class FramePreparer {
   // The static layer's depth (CV_16UC1 mm, the camera's size; empty: none).
   void set_static_depth(const cv::Mat& depth) { static_depth_ = depth; }
   // The background memory's length in frames (0: off) and the empty room it
-  // starts from (RGB; empty: it learns the room as it sees it). A change
-  // starts the memory again.
+  // starts from (RGB; empty: it learns the room as it sees it; one of
+  // another size than the frames is not used). A change starts the memory
+  // again; the same settings again change nothing (call it every frame).
   void set_memory(int frames, const cv::Mat& empty_room);
 
   // Prepares a frame (RGB colour, depth in mm, labels or empty), its images
