@@ -7,12 +7,16 @@
 // measure-lecturers.mjs, each its own browser, moving its head like a headset),
 // and reports per count: frames shown per second, bitrate and pose-to-photon
 // latency p50/p99 as the browsers saw them, and the server's CPU time per frame
-// it delivered (from /proc, over the same window). Browsers and server share
-// the machine: the figures are the whole loop on one host.
+// it delivered (from /proc, over the same window), and the video packets lost,
+// sent again and the freezes the browsers counted. With --loss, the server runs
+// with tools/lossy_udp.cpp preloaded: a share of its video packets never leaves.
+// Browsers and server share the machine: the figures are the whole loop on one
+// host.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -38,6 +42,9 @@ struct LecturerResult {
   // last packet (transport), that packet to the frame's display (receiver), of which jitter buffer and decode.
   double server_p50 = 0, receive_p50 = 0, display_p50 = 0, jitter_p50 = 0, decode_p50 = 0;
   long frames = 0, samples = 0;
+  // The video's counters over the window: packets received, lost, received again, key frames asked for,
+  // freezes and their seconds.
+  double packets = 0, lost = 0, resent = 0, key_frames_asked = 0, freezes = 0, frozen_s = 0;
 };
 
 double json_number(const std::string& json, const std::string& key) {
@@ -53,6 +60,7 @@ int main(int argc, char** argv) {
   g_autofree gchar* size_text = nullptr;
   gboolean live_cameras = FALSE;
   gint64 warp_sync = 100000000, longest_turn = 100000000;
+  gdouble loss_percent = 0;
   const GOptionEntry entries[] = {
       {"lecturers", 0, 0, G_OPTION_ARG_STRING, &counts_text, "Counts of lecturers to measure (default 1,2,4)", "N,N"},
       {"seconds", 0, 0, G_OPTION_ARG_INT, &seconds, "Measured window per count (default 20)", "S"},
@@ -66,6 +74,10 @@ int main(int argc, char** argv) {
        "How long (ns) a view may hold the turn to warp before the next view takes it (whepviewsink longest-turn; "
        "default 100000000; 0: every view warps at once, the behaviour before the turns existed)",
        "NS"},
+      {"loss", 0, 0, G_OPTION_ARG_DOUBLE, &loss_percent,
+       "Share of the server's video packets lost on the way, in % (tools/lossy_udp.cpp preloaded into the server; "
+       "default 0)",
+       "PERCENT"},
       {"live-cameras", 0, 0, G_OPTION_ARG_NONE, &live_cameras,
        "Render the synthetic cameras live inside the server (gst-launch-1.0 rgbdtestsrc is-live=true ! learnerseg "
        "! whepviewsink) instead of replaying their coded streams into pipelines/server.sh: the rendering then "
@@ -82,6 +94,23 @@ int main(int argc, char** argv) {
   if (seconds < 5 || seconds > 600) usage_error("--seconds must be 5 to 600");
   if (warp_sync < 0 || warp_sync > 1000000000) usage_error("--warp-sync must be 0 to 1000000000 ns");
   if (longest_turn < 0 || longest_turn > 1000000000) usage_error("--longest-turn must be 0 to 1000000000 ns");
+  if (!(loss_percent >= 0 && loss_percent <= 50)) usage_error("--loss must be 0 to 50 %");
+  // The lossy network, built beside this tool (a measuring aid of the build tree, not installed).
+  std::map<std::string, std::string> loss_env;
+  if (loss_percent > 0) {
+    gchar* self = g_file_read_link("/proc/self/exe", nullptr);
+    gchar* dir = self ? g_path_get_dirname(self) : g_strdup(".");
+    const std::string shim = std::string(dir) + "/liblossyudp.so";
+    g_free(dir);
+    g_free(self);
+    if (!g_file_test(shim.c_str(), G_FILE_TEST_EXISTS)) {
+      std::fprintf(stderr, "%s: --loss needs %s (built with the tools)\n", g_get_prgname(), shim.c_str());
+      return 1;
+    }
+    const char* preload = g_getenv("LD_PRELOAD");
+    loss_env = {{"LD_PRELOAD", preload && *preload ? std::string(preload) + ":" + shim : shim},
+                {"VCLASSROOM_LOSS_PERCENT", std::to_string(loss_percent)}};
+  }
   std::vector<int> counts;
   gchar** parts = g_strsplit(counts_text ? counts_text : "1,2,4", ",", -1);
   for (gchar** it = parts; *it; ++it) counts.push_back(std::atoi(*it));
@@ -137,7 +166,10 @@ int main(int argc, char** argv) {
       gchar** server_argv = nullptr;
       g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, nullptr);
       GError* err = nullptr;
-      server = g_subprocess_newv(server_argv, GSubprocessFlags(G_SUBPROCESS_FLAGS_STDOUT_SILENCE), &err);
+      GSubprocessLauncher* server_launcher = g_subprocess_launcher_new(G_SUBPROCESS_FLAGS_STDOUT_SILENCE);
+      for (const auto& [key, value] : loss_env) g_subprocess_launcher_setenv(server_launcher, key.c_str(), value.c_str(), TRUE);
+      server = g_subprocess_launcher_spawnv(server_launcher, server_argv, &err);
+      g_object_unref(server_launcher);
       g_strfreev(server_argv);
       if (!server) {
         std::fprintf(stderr, "%s: cannot start gst-launch-1.0: %s\n", g_get_prgname(), err->message);
@@ -149,12 +181,12 @@ int main(int argc, char** argv) {
       for (int k : camera_ids) ids += (ids.empty() ? "" : " ") + std::to_string(k);
       // RTX=0: the replay sends plain RTP, as classroom.sh with RTX=0 does; a server waiting for
       // retransmissions that never come holds each frame with a lost packet for RTX_LATENCY (300 ms).
-      pid = spawn(root + "/pipelines/server.sh",
-                  {{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
+      std::map<std::string, std::string> env = loss_env;
+      env.insert({{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
                    {"WHEP_PORT", std::to_string(port)}, {"WHEP_SESSIONS", std::to_string(n)},
                    {"WIDTH", std::to_string(width)}, {"HEIGHT", std::to_string(height)},
-                   {"WARP_SYNC", std::to_string(warp_sync)}, {"LONGEST_TURN", std::to_string(longest_turn)}},
-                  server_log);
+                  {"WARP_SYNC", std::to_string(warp_sync)}, {"LONGEST_TURN", std::to_string(longest_turn)}});
+      pid = spawn(root + "/pipelines/server.sh", env, server_log);
       if (!replay.start(streams, camera_ids, 0.0, 65000)) {
         stop_tree(pid);
         return 1;
@@ -200,6 +232,12 @@ int main(int argc, char** argv) {
         r.display_p50 = json_number(l, "display_p50");
         r.jitter_p50 = json_number(l, "jitter_p50");
         r.decode_p50 = json_number(l, "decode_p50");
+        r.packets = json_number(l, "packets");
+        r.lost = json_number(l, "lost");
+        r.resent = json_number(l, "resent");
+        r.key_frames_asked = json_number(l, "key_frames_asked");
+        r.freezes = json_number(l, "freezes");
+        r.frozen_s = json_number(l, "frozen_s");
         results.push_back(r);
       }
     }
@@ -250,6 +288,13 @@ int main(int argc, char** argv) {
                 list([](const LecturerResult& r) { return r.display_p50; }, "%.0f").c_str(),
                 list([](const LecturerResult& r) { return r.jitter_p50; }, "%.0f").c_str(),
                 list([](const LecturerResult& r) { return r.decode_p50; }, "%.1f").c_str());
+    std::printf("lecturers %d: video packets lost %s %%, sent again %s, key frames asked for %s, freezes %s "
+                "(%s s)\n",
+                n, list([](const LecturerResult& r) { return 100.0 * r.lost / std::max(1.0, r.packets + r.lost); }, "%.1f").c_str(),
+                list([](const LecturerResult& r) { return r.resent; }, "%.0f").c_str(),
+                list([](const LecturerResult& r) { return r.key_frames_asked; }, "%.0f").c_str(),
+                list([](const LecturerResult& r) { return r.freezes; }, "%.0f").c_str(),
+                list([](const LecturerResult& r) { return r.frozen_s; }, "%.2f").c_str());
     std::printf("lecturers %d: worst p50 %.0f ms, worst p99 %.0f ms, %ld frames shown in %.1f s\n", n, p50, p99, frames,
                 wall);
   }
