@@ -512,9 +512,6 @@ struct BrowserRun {
   bool ok = false;
 };
 
-// Runs `gst-launch-1.0 <server>` (with {PORT} replaced by a free TCP port) as a process of its own (webrtcbin
-// 1.22 keeps its ICE and DTLS agents alive past gst_deinit(), which this program's leaks tracer would count
-// as ours), then `node tests/browser/<script> http://127.0.0.1:PORT <args...>`, then stops the server.
 std::string browser_dir() {
   const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
   return std::string(source_dir ? source_dir : ".") + "/tests/browser";
@@ -533,7 +530,14 @@ std::string browser_skip_reason() {
   return "";
 }
 
-BrowserRun run_browser_script(const std::string& server, const std::string& script, const std::vector<std::string>& args) {
+// Runs `gst-launch-1.0 <server>` (with {PORT} replaced by a free TCP port) as a process of its own (webrtcbin
+// 1.22 keeps its ICE and DTLS agents alive past gst_deinit(), which this program's leaks tracer would count
+// as ours), then `node tests/browser/<script> http://127.0.0.1:PORT <args...>`, then stops the server. The
+// server gets `server_env` besides this program's environment, and `preload` after what this program
+// preloads (the sanitizer build's runtime).
+BrowserRun run_browser_script(const std::string& server, const std::string& script, const std::vector<std::string>& args,
+                              const std::vector<std::pair<std::string, std::string>>& server_env = {},
+                              const std::string& preload = "") {
   BrowserRun run;
   run.skip = browser_skip_reason();
   if (!run.skip.empty()) return run;
@@ -545,12 +549,19 @@ BrowserRun run_browser_script(const std::string& server, const std::string& scri
   launch.replace(launch.find("{PORT}"), 6, std::to_string(port));
   gchar** server_argv = nullptr;
   EXPECT_TRUE(g_shell_parse_argv(launch.c_str(), nullptr, &server_argv, &err));
+  gchar** env = g_get_environ();
+  for (const auto& [key, value] : server_env) env = g_environ_setenv(env, key.c_str(), value.c_str(), TRUE);
+  if (!preload.empty()) {
+    const gchar* before = g_environ_getenv(env, "LD_PRELOAD");
+    env = g_environ_setenv(env, "LD_PRELOAD", (before ? std::string(before) + ":" + preload : preload).c_str(), TRUE);
+  }
   GPid server_pid = 0;
   const gboolean started =
-      g_spawn_async(nullptr, server_argv, nullptr,
+      g_spawn_async(nullptr, server_argv, env,
                     GSpawnFlags(G_SPAWN_SEARCH_PATH | G_SPAWN_DO_NOT_REAP_CHILD | G_SPAWN_STDOUT_TO_DEV_NULL), nullptr,
                     nullptr, &server_pid, &err);
   g_strfreev(server_argv);
+  g_strfreev(env);
   EXPECT_TRUE(started) << (err ? err->message : "");
   if (!started) {
     g_free(node);
@@ -639,6 +650,30 @@ TEST(WebrtcBrowser, TwoLecturersGetTheirOwnViewsAndALeaverFreesItsPlace) {
   for (const char* check : {"ok two joined", "ok own views:", "ok third refused: 503", "ok one left, the other goes on",
                             "ok a new page joined in the freed place"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
+  std::printf("%s", run.output.c_str());
+}
+
+// A lecturer on a lossy link: the server drops 5 % of the video packets it sends (tools/lossy_udp.cpp
+// preloaded: the datagrams never reach the socket, as on a Wi-Fi link that loses them; ICE, DTLS and RTCP
+// pass). The page asks for each lost packet again (NACK) and the server sends it on the RTX stream the
+// browser's offer named (webrtcbin's transceiver with do-nack), so the picture goes on: the answer names the
+// RTX stream's SSRC, and the page shows 150 frames and counts retransmissions received
+// (tests/browser/lossy-link-test.mjs). Without them every loss spoils the frames up to the next key frame,
+// whose many packets are likely to lose one too: the same run without retransmission showed 156 frames in
+// 165 s, 108 s of it frozen (docs/lecturer.md).
+TEST(WebrtcBrowser, PacketsLostOnTheWayToTheLecturerAreSentAgainAndThePictureGoesOn) {
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 640, 360);
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const std::string shim = std::string(g_getenv("VCLASSROOM_TOOLS_DIR")) + "/liblossyudp.so";
+  ASSERT_TRUE(g_file_test(shim.c_str(), G_FILE_TEST_EXISTS)) << shim;
+  const BrowserRun run = run_browser_script(
+      "whepviewsink name=w port={PORT} token=secret-token rig=" + rig + " web-root=" + web +
+          " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0",
+      "lossy-link-test.mjs", {"secret-token", "150"}, {{"VCLASSROOM_LOSS_PERCENT", "5"}}, shim);
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
+  EXPECT_NE(run.output.find("ok repaired:"), std::string::npos) << run.output;
   std::printf("%s", run.output.c_str());
 }
 

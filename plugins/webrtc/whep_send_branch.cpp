@@ -235,8 +235,11 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   g_object_set(st->queue, "max-size-buffers", kSendQueueFrames, "max-size-time", guint64(0), "max-size-bytes", 0,
                nullptr);
   st->pay = gst_element_factory_make("rtph264pay", nullptr);
-  g_object_set(st->pay, "pt", settings.payload, "config-interval", -1, "aggregate-mode", 1 /* zero-latency */,
-               nullptr);
+  // The stream's SSRC is chosen here, not by the payloader when its first frame comes, so that the answer can
+  // name it whenever it is made (below).
+  const guint ssrc = g_random_int();
+  g_object_set(st->pay, "pt", settings.payload, "ssrc", ssrc, "config-interval", -1, "aggregate-mode",
+               1 /* zero-latency */, nullptr);
   // The browser may then show frames as soon as they are decoded rather than buffer them. The payloader's
   // caps name the extension, and webrtcbin answers with it.
   if (settings.playout_extension_id > 0 && settings.playout_delay_ms >= 0) {
@@ -264,13 +267,17 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   GstWebRTCRTPTransceiver* transceiver = nullptr;
   g_object_get(rtc_sink, "transceiver", &transceiver, nullptr);
   if (transceiver) {
-    g_object_set(transceiver, "direction", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDONLY, nullptr);
-    // The answer names the offer's H.264 payload and, where sent, the playout-delay extension, whether or
-    // not the payloader's caps have reached webrtcbin yet (the first frame may come after the offer, and
-    // webrtcbin answers from the caps it has: under load the answer then lacked the extension).
+    // A packet the lecturer's browser misses is sent again when it asks (NACK, RFC 4585; the copy on the offer's
+    // RTX payload, RFC 4588): a lost packet then costs a round trip, not every frame up to the next key frame.
+    g_object_set(transceiver, "direction", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDONLY, "do-nack", TRUE, nullptr);
+    // The answer names the offer's H.264 payload, the stream's SSRC and, where sent, the playout-delay
+    // extension, whether or not the payloader's caps have reached webrtcbin yet (the first frame may come
+    // after the offer, and webrtcbin answers from the caps it has: under load the answer then lacked the
+    // extension, and without the SSRC it names the RTX payload but not the RTX stream's SSRC (no ssrc-group),
+    // and Chromium decoded the frames without ever showing one).
     GstCaps* preferences = gst_caps_new_simple("application/x-rtp", "media", G_TYPE_STRING, "video", "encoding-name",
                                                G_TYPE_STRING, "H264", "clock-rate", G_TYPE_INT, 90000, "payload",
-                                               G_TYPE_INT, settings.payload, nullptr);
+                                               G_TYPE_INT, settings.payload, "ssrc", G_TYPE_UINT, ssrc, nullptr);
     if (settings.playout_extension_id > 0 && settings.playout_delay_ms >= 0) {
       const std::string field = "extmap-" + std::to_string(settings.playout_extension_id);
       gst_caps_set_simple(preferences, field.c_str(), G_TYPE_STRING, kPlayoutDelayUri, nullptr);
