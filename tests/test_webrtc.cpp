@@ -411,6 +411,29 @@ TEST(WebrtcLossRate, HighLossCutsTheRateLowLossGrowsItBackWithinTheBounds) {
   EXPECT_EQ(rate.kbit(), 4000) << "a link that recovers gets the whole rate back";
 }
 
+// Resent packets take at most their share of the current rate: at 1000 kbit/s and 15 %, 18750 bytes a
+// second, half a second's worth at once; a slower rate gives less, time gives more back, never more than the
+// bucket holds.
+TEST(WebrtcRetransmitBudget, ResentPacketsTakeAtMostTheirShareOfTheRate) {
+  RetransmitBudget budget(0.15);
+  const int64_t s = 1000000000;
+  int sent = 0;
+  while (budget.admit(1000, 0, 1000)) ++sent;
+  EXPECT_EQ(sent, 9) << "half a second's 9375 bytes at once";
+  EXPECT_FALSE(budget.admit(1000, s / 100, 1000)) << "10 ms give back 187 bytes";
+  EXPECT_TRUE(budget.admit(1000, s / 10, 1000)) << "100 ms give back 1875 bytes";
+  sent = 0;
+  for (int64_t t = s; t < 11 * s; t += s / 100)
+    if (budget.admit(1000, t, 1000)) ++sent;
+  EXPECT_NEAR(sent, 188, 10) << "over 10 s: the share of the rate, 18750 bytes a second";
+  RetransmitBudget slow(0.15);
+  sent = 0;
+  for (int64_t t = 0; t < 10 * s; t += s / 100)
+    if (slow.admit(1000, t, 250)) ++sent;
+  EXPECT_NEAR(sent, 49, 6) << "a quarter of the rate, a quarter of the resending";
+  EXPECT_FALSE(RetransmitBudget(0.15).admit(1, 0, 0)) << "no rate, no resending";
+}
+
 // A lecturer is gone only when no receiver report came for the timeout while frames were being sent: a
 // stalled view (no frames) does not count against them, a report starts the count again, 0 never ends.
 TEST(WebrtcLecturerSilence, GoneOnlyAfterTheTimeoutWhileFramesWereSent) {

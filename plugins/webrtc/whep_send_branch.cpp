@@ -46,6 +46,8 @@ struct WhepSendBranch::State {
   GstPad* sink = nullptr;
   GopSendGate gate;                                   // the queue's upstream thread's only (on_frame_in)
   GstClockTime last_sent_pts = GST_CLOCK_TIME_NONE;   // the payloader's thread's only (on_frame_out)
+  guint ssrc = 0;                                      // the video's; webrtcbin's resent packets have another
+  RetransmitBudget resend_budget;                      // the resending thread's only (on_resent)
   WhepSendBranch::ReportWatch* reports = nullptr;     // the branch's (its own lock), for the frames offered
   std::mutex lock;                                    // what follows
   GstWebRTCDataChannel* channel = nullptr;
@@ -62,6 +64,9 @@ struct WhepSendBranch::ReportWatch {
   LossBasedRate rate;
   LecturerSilence silence{0};
   std::string last_report;  // the last receiver report seen, as text without its timestamp
+  // The browser's NACKs and the packets sent, at the last report: a retransmitted packet was lost on the link
+  // even though the report, which counts it received once resent, may not say so.
+  guint64 last_nacks = 0, last_sent = 0;
   std::function<void(int, double)> on_rate;
 };
 
@@ -70,37 +75,53 @@ namespace {
 using State = WhepSendBranch::State;
 using ReportWatch = WhepSendBranch::ReportWatch;
 
-// webrtcbin's statistics: the browser's latest receiver report (remote-inbound-rtp), if it is a new one.
+// webrtcbin's statistics: the browser's latest receiver report (remote-inbound-rtp), if it is a new one, and the
+// NACKs it sent since the last (outbound-rtp). The link's loss is the larger of the report's share lost and
+// the share of packets asked for again.
 void on_stats(GstPromise* promise, gpointer user_data) {
   const std::shared_ptr<ReportWatch>& watch = *static_cast<std::shared_ptr<ReportWatch>*>(user_data);
   if (gst_promise_wait(promise) != GST_PROMISE_RESULT_REPLIED) return;
   const GstStructure* reply = gst_promise_get_reply(promise);
   if (!reply) return;
+  double lost = -1;
+  std::string text;
+  guint64 nacks = 0, sent = 0;
   for (int i = 0; i < gst_structure_n_fields(reply); ++i) {
     const GValue* v = gst_structure_get_value(reply, gst_structure_nth_field_name(reply, i));
     if (!GST_VALUE_HOLDS_STRUCTURE(v)) continue;
     const GstStructure* stats = gst_value_get_structure(v);
     GstWebRTCStatsType type;
-    double lost = 0;
-    if (!gst_structure_get(stats, "type", GST_TYPE_WEBRTC_STATS_TYPE, &type, nullptr) ||
-        type != GST_WEBRTC_STATS_REMOTE_INBOUND_RTP || !gst_structure_get_double(stats, "fraction-lost", &lost))
+    if (!gst_structure_get(stats, "type", GST_TYPE_WEBRTC_STATS_TYPE, &type, nullptr)) continue;
+    if (type == GST_WEBRTC_STATS_OUTBOUND_RTP) {
+      guint count = 0;
+      if (gst_structure_get_uint(stats, "nack-count", &count)) nacks += count;
+      guint64 packets = 0;
+      if (gst_structure_get_uint64(stats, "packets-sent", &packets)) sent += packets;
+      continue;
+    }
+    if (type != GST_WEBRTC_STATS_REMOTE_INBOUND_RTP || lost >= 0 || !gst_structure_get_double(stats, "fraction-lost", &lost))
       continue;
     // The same report comes back until the browser sends the next one: only a new one counts.
     GstStructure* report = gst_structure_copy(stats);
     gst_structure_remove_field(report, "timestamp");
-    gchar* text = gst_structure_to_string(report);
+    gchar* t = gst_structure_to_string(report);
+    text = t;
+    g_free(t);
     gst_structure_free(report);
-    std::lock_guard<std::mutex> g(watch->lock);
-    const bool fresh = watch->alive && watch->last_report != text;
-    watch->last_report = text;
-    g_free(text);
-    if (!fresh) return;
-    watch->silence.on_report(g_get_monotonic_time() * 1000);
-    const int before = watch->rate.kbit(), now = watch->rate.on_report(lost);
-    GST_LOG("session %s: receiver report, %.1f %% lost: %d kbit/s", watch->session.c_str(), 100 * lost, now);
-    if (now != before && watch->on_rate) watch->on_rate(now, lost);
-    return;
   }
+  if (lost < 0) return;
+  std::lock_guard<std::mutex> g(watch->lock);
+  const bool fresh = watch->alive && watch->last_report != text;
+  watch->last_report = text;
+  if (!fresh) return;
+  if (sent > watch->last_sent && nacks >= watch->last_nacks)
+    lost = std::max(lost, std::min(1.0, double(nacks - watch->last_nacks) / double(sent - watch->last_sent)));
+  watch->last_nacks = nacks;
+  watch->last_sent = sent;
+  watch->silence.on_report(g_get_monotonic_time() * 1000);
+  const int before = watch->rate.kbit(), now = watch->rate.on_report(lost);
+  GST_LOG("session %s: receiver report, %.1f %% lost: %d kbit/s", watch->session.c_str(), 100 * lost, now);
+  if (now != before && watch->on_rate) watch->on_rate(now, lost);
 }
 
 // Every encoded frame entering the branch: the send gate (a full queue drops the rest of the GOP and asks
@@ -204,13 +225,37 @@ GstPadProbeReturn on_rtp_out(GstPad*, GstPadProbeInfo* info, gpointer user_data)
   return GST_PAD_PROBE_OK;
 }
 
+// A packet resent on the browser's NACK (another SSRC than the video's) goes only within the retransmission
+// budget of the session's current rate.
+GstPadProbeReturn on_resent(GstPad*, GstPadProbeInfo* info, gpointer user_data) {
+  State* st = static_cast<State*>(user_data);
+  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
+  if (!buf || !gst_rtp_buffer_map(buf, GST_MAP_READ, &rtp)) return GST_PAD_PROBE_OK;
+  const guint ssrc = gst_rtp_buffer_get_ssrc(&rtp);
+  gst_rtp_buffer_unmap(&rtp);
+  if (ssrc == st->ssrc) return GST_PAD_PROBE_OK;
+  int kbit = 0;
+  {
+    std::lock_guard<std::mutex> g(st->reports->lock);
+    kbit = st->reports->rate.kbit();
+  }
+  return st->resend_budget.admit(gst_buffer_get_size(buf), g_get_monotonic_time() * 1000, kbit) ? GST_PAD_PROBE_OK
+                                                                                                  : GST_PAD_PROBE_DROP;
+}
+
 // webrtcbin's clocksync and nicesink sync on the clock: they hold every packet until its frame's running
 // time plus the pipeline's latency (which includes viewfuse's wait for late cameras), while a live view
-// should leave the moment it is encoded.
-void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer) {
+// should leave the moment it is encoded. Its rtprtxsend resends within the budget (on_resent).
+void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer user_data) {
   GstElementFactory* factory = gst_element_get_factory(element);
   const char* name = factory ? GST_OBJECT_NAME(factory) : "";
   if (g_strcmp0(name, "nicesink") == 0 || g_strcmp0(name, "clocksync") == 0) g_object_set(element, "sync", FALSE, nullptr);
+  if (g_strcmp0(name, "rtprtxsend") == 0) {
+    GstPad* src = gst_element_get_static_pad(element, "src");
+    gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_BUFFER, on_resent, user_data, nullptr);
+    gst_object_unref(src);
+  }
 }
 
 }  // namespace
@@ -237,7 +282,7 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   st->pay = gst_element_factory_make("rtph264pay", nullptr);
   // The stream's SSRC is chosen here, not by the payloader when its first frame comes, so that the answer can
   // name it whenever it is made (below).
-  const guint ssrc = g_random_int();
+  const guint ssrc = st->ssrc = g_random_int();
   g_object_set(st->pay, "pt", settings.payload, "ssrc", ssrc, "config-interval", -1, "aggregate-mode",
                1 /* zero-latency */, nullptr);
   // The browser may then show frames as soon as they are decoded rather than buffer them. The payloader's
@@ -253,7 +298,7 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   g_object_set(st->webrtc, "bundle-policy", GST_WEBRTC_BUNDLE_POLICY_MAX_BUNDLE, nullptr);
   for (const IceServer& ice : settings.ice_servers)
     g_object_set(st->webrtc, ice.scheme == "stun" ? "stun-server" : "turn-server", ice.uri.c_str(), nullptr);
-  g_signal_connect(st->webrtc, "deep-element-added", G_CALLBACK(on_webrtc_element_added), nullptr);
+  g_signal_connect(st->webrtc, "deep-element-added", G_CALLBACK(on_webrtc_element_added), st);
   gst_bin_add_many(owner, st->queue, st->pay, st->webrtc, nullptr);
   gst_element_link(st->queue, st->pay);
   GstPad* pay_sink = gst_element_get_static_pad(st->pay, "sink");

@@ -17,4 +17,14 @@ int LossBasedRate::on_report(double fraction_lost) {
   return kbit();
 }
 
+bool RetransmitBudget::admit(size_t bytes, int64_t now_ns, int kbit) {
+  const double per_second = share_ * double(kbit > 0 ? kbit : 0) * 1000.0 / 8.0, depth = per_second / 2;
+  if (last_ns_ < 0 || now_ns < last_ns_) tokens_ = depth;
+  else tokens_ = std::min(depth, tokens_ + per_second * double(now_ns - last_ns_) / 1e9);
+  last_ns_ = now_ns;
+  if (double(bytes) > tokens_) return false;
+  tokens_ -= double(bytes);
+  return true;
+}
+
 }  // namespace vclassroom

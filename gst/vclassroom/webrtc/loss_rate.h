@@ -7,6 +7,9 @@
 // lecturer behind a slow link gets fewer bits instead of a broken picture.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
+
 namespace vclassroom {
 
 struct LossRateParams {
@@ -25,6 +28,21 @@ class LossBasedRate {
  private:
   LossRateParams params_;
   double rate_kbit_;
+};
+
+// The retransmissions' share of a lecturer's link: a token bucket that lets resent packets take at most
+// `share` of the current rate (at most half a second's worth at once). Behind a congested link every loss
+// is asked for again, and resending all of it would add to the congestion that lost it.
+class RetransmitBudget {
+ public:
+  explicit RetransmitBudget(double share = 0.15) : share_(share) {}
+  // Whether a resent packet of `bytes` may go at `now_ns` (monotonic) with the link's rate `kbit`.
+  bool admit(size_t bytes, int64_t now_ns, int kbit);
+
+ private:
+  double share_;
+  double tokens_ = 0;  // bytes
+  int64_t last_ns_ = -1;
 };
 
 }  // namespace vclassroom
