@@ -411,6 +411,15 @@ TEST(WebrtcLossRate, HighLossCutsTheRateLowLossGrowsItBackWithinTheBounds) {
   EXPECT_EQ(rate.kbit(), 4000) << "a link that recovers gets the whole rate back";
 }
 
+// The link's loss is what the receiver report says, unless the browser asked for more of the packets again
+// (a report counts a resent packet as received).
+TEST(WebrtcLossRate, TheLinksLossIsTheReportOrTheShareAskedForAgainWhicheverIsLarger) {
+  EXPECT_DOUBLE_EQ(link_loss(0.0, 20, 100), 0.2) << "all resent: the report says nothing was lost";
+  EXPECT_DOUBLE_EQ(link_loss(0.3, 20, 100), 0.3) << "the report says more";
+  EXPECT_DOUBLE_EQ(link_loss(0.05, 0, 0), 0.05) << "nothing sent: the report alone";
+  EXPECT_DOUBLE_EQ(link_loss(0.0, 300, 100), 1.0) << "a packet asked for many times: at most all";
+}
+
 // Resent packets take at most their share of the current rate: at 1000 kbit/s and 15 %, 18750 bytes a
 // second, half a second's worth at once; a slower rate gives less, time gives more back, never more than the
 // bucket holds.

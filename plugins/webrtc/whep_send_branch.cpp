@@ -76,8 +76,7 @@ using State = WhepSendBranch::State;
 using ReportWatch = WhepSendBranch::ReportWatch;
 
 // webrtcbin's statistics: the browser's latest receiver report (remote-inbound-rtp), if it is a new one, and the
-// NACKs it sent since the last (outbound-rtp). The link's loss is the larger of the report's share lost and
-// the share of packets asked for again.
+// NACKs it sent since the last (outbound-rtp): the link's loss (link_loss).
 void on_stats(GstPromise* promise, gpointer user_data) {
   const std::shared_ptr<ReportWatch>& watch = *static_cast<std::shared_ptr<ReportWatch>*>(user_data);
   if (gst_promise_wait(promise) != GST_PROMISE_RESULT_REPLIED) return;
@@ -114,8 +113,8 @@ void on_stats(GstPromise* promise, gpointer user_data) {
   const bool fresh = watch->alive && watch->last_report != text;
   watch->last_report = text;
   if (!fresh) return;
-  if (sent > watch->last_sent && nacks >= watch->last_nacks)
-    lost = std::max(lost, std::min(1.0, double(nacks - watch->last_nacks) / double(sent - watch->last_sent)));
+  if (sent >= watch->last_sent && nacks >= watch->last_nacks)
+    lost = link_loss(lost, nacks - watch->last_nacks, sent - watch->last_sent);
   watch->last_nacks = nacks;
   watch->last_sent = sent;
   watch->silence.on_report(g_get_monotonic_time() * 1000);

@@ -17,6 +17,11 @@ int LossBasedRate::on_report(double fraction_lost) {
   return kbit();
 }
 
+double link_loss(double reported, uint64_t nacked, uint64_t sent) {
+  if (sent == 0) return reported;
+  return std::max(reported, std::min(1.0, double(nacked) / double(sent)));
+}
+
 bool RetransmitBudget::admit(size_t bytes, int64_t now_ns, int kbit) {
   const double per_second = share_ * double(kbit > 0 ? kbit : 0) * 1000.0 / 8.0, depth = per_second / 2;
   if (last_ns_ < 0 || now_ns < last_ns_) tokens_ = depth;

@@ -30,6 +30,11 @@ class LossBasedRate {
   double rate_kbit_;
 };
 
+// The link's loss over one receiver report's interval: the report's share lost, or the share of the packets
+// sent (`sent`) that the browser asked for again (`nacked`) where that is larger: a report counts a resent
+// packet as received, though the link lost it. Out of range values are clamped (no packets sent: the report).
+double link_loss(double reported, uint64_t nacked, uint64_t sent);
+
 // The retransmissions' share of a lecturer's link: a token bucket that lets resent packets take at most
 // `share` of the current rate (at most half a second's worth at once). Behind a congested link every loss
 // is asked for again, and resending all of it would add to the congestion that lost it.
