@@ -5,6 +5,7 @@
 
 #include <gst/check/gstharness.h>
 #include <gst/video/navigation.h>
+#include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
@@ -319,6 +320,55 @@ TEST(ViewFuseBounds, TheFrameCarriesThePoseAsClampedAndRendered) {
   EXPECT_NEAR(o[4], 5, 1e-4);
   gst_harness_teardown(bounded);
   gst_harness_teardown(unbounded);
+}
+
+// The fade as documented: the whole frame's distance transform, then the smoothstep towards grey. The fuse may
+// take the distance only where it matters; what it paints must be this.
+static void fade_whole_frame(cv::Mat& color, const cv::Mat& depth, double start, double length) {
+  cv::Mat distance;
+  cv::distanceTransform(depth == 0, distance, cv::DIST_L2, cv::DIST_MASK_3);
+  for (int y = 0; y < color.rows; ++y)
+    for (int x = 0; x < color.cols; ++x) {
+      const float d = distance.at<float>(y, x);
+      if (d <= float(start)) continue;
+      float a = std::min(1.0f, (d - float(start)) * (1.0f / float(length)));
+      a = a * a * (3 - 2 * a);
+      cv::Vec3b& c = color.at<cv::Vec3b>(y, x);
+      for (int k = 0; k < 3; ++k) c[k] = uint8_t(float(c[k]) * (1 - a) + 96.0f * a + 0.5f);
+    }
+}
+
+TEST(HonestEdge, TheFadeIsTheWholeFramesDistanceFadeWhateverTheHolesLookLike) {
+  cv::RNG rng(20261126);
+  for (int trial = 0; trial < 24; ++trial) {
+    // Every third frame small (the fade starts nearer than a block's diagonal: the whole frame is transformed).
+    const cv::Size size = trial % 3 == 2 ? cv::Size(200, 120) : cv::Size(960, 540);
+    WarpedView v;
+    v.color.create(size, CV_8UC3);
+    rng.fill(v.color, cv::RNG::UNIFORM, 0, 256);
+    v.depth.create(size, CV_16UC1);
+    rng.fill(v.depth, cv::RNG::UNIFORM, 1500, 5000);
+    v.weight = cv::Mat(size, CV_8UC1, cv::Scalar(255));
+    // Unseen: rectangles (some at the frame's edges), discs and speckle; trial 0 only speckle, trial 1 nothing seen.
+    const int shapes = trial == 0 ? 0 : rng.uniform(1, 6);
+    for (int i = 0; i < shapes; ++i) {
+      const cv::Point p(rng.uniform(-size.width / 4, size.width), rng.uniform(-size.height / 4, size.height));
+      if (rng.uniform(0, 2))
+        cv::rectangle(v.depth, cv::Rect(p, cv::Size(rng.uniform(4, size.width / 2), rng.uniform(4, size.height / 2))),
+                      cv::Scalar(0), cv::FILLED);
+      else
+        cv::circle(v.depth, p, rng.uniform(3, size.height / 3), cv::Scalar(0), cv::FILLED);
+    }
+    for (int i = 0; i < 400; ++i) v.depth.at<uint16_t>(rng.uniform(0, size.height), rng.uniform(0, size.width)) = 0;
+    if (trial == 1) v.depth.setTo(0);
+    FuseParams fade, plain;
+    plain.fade_unseen = false;
+    FusedView faded, unfaded;
+    fuse_views({&v}, fade, &faded);
+    fuse_views({&v}, plain, &unfaded);
+    fade_whole_frame(unfaded.color, unfaded.depth, fade.fade_start * size.width, fade.fade_length * size.width);
+    ASSERT_EQ(cv::norm(faded.color, unfaded.color, cv::NORM_INF), 0) << "trial " << trial;
+  }
 }
 
 TEST(HonestEdge, WhatNoCameraSawFadesToGreyAndIsCounted) {

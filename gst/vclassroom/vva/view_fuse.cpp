@@ -297,16 +297,65 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
 
 // Blends the fill towards a neutral grey with the distance to the nearest
 // seen pixel: untouched up to `start` px, grey from `start + length` px on.
+//
+// The distance is OpenCV's 3x3 chamfer (steps of kStraight and kDiagonal px),
+// and it is taken only where it can matter, with the very values the whole
+// frame's transform gives there: a pixel farther than `start` from everything
+// seen lies in a block of unseen pixels (kBlock px square: a seen pixel in
+// its block would be at most (kBlock - 1) * kDiagonal away), so only the box
+// around those blocks is faded; and the transform runs on that box grown by
+// the distance where the fade saturates, so every seen pixel nearer than that
+// to a faded one is inside it (a chamfer path stays within the box of its
+// ends). Most views have no such block and skip the transform, a full-frame
+// pass of a few ms.
 void fade_unseen(cv::Mat& color, const cv::Mat& depth, double start, double length) {
+  constexpr double kStraight = 0.955, kDiagonal = 1.3693;  // cv::distanceTransform's DIST_L2 3x3 mask
+  constexpr int kBlock = 8;
+  const int W = depth.cols, H = depth.rows;
+  cv::Rect unseen_blocks;  // where a pixel may be farther than `start`
+  if (start < (kBlock - 1) * kDiagonal) {
+    unseen_blocks = cv::Rect(0, 0, W, H);
+  } else {
+    int x0 = W, y0 = H, x1 = 0, y1 = 0;
+    std::vector<uint8_t> all_unseen(size_t((W + kBlock - 1) / kBlock));
+    for (int by = 0; by < H; by += kBlock) {
+      std::fill(all_unseen.begin(), all_unseen.end(), 1);
+      for (int y = by; y < std::min(H, by + kBlock); ++y) {
+        const uint16_t* d = depth.ptr<uint16_t>(y);
+        for (size_t b = 0; b < all_unseen.size(); ++b) {
+          if (!all_unseen[b]) continue;  // most blocks: settled by their first row
+          const int x_end = std::min(W, int(b + 1) * kBlock);
+          for (int x = int(b) * kBlock; x < x_end; ++x)
+            if (d[x]) {
+              all_unseen[b] = 0;
+              break;
+            }
+        }
+      }
+      for (size_t b = 0; b < all_unseen.size(); ++b) {
+        if (!all_unseen[b]) continue;
+        x0 = std::min(x0, int(b) * kBlock);
+        x1 = std::max(x1, std::min(W, int(b + 1) * kBlock));
+        y0 = std::min(y0, by);
+        y1 = std::max(y1, std::min(H, by + kBlock));
+      }
+    }
+    if (x0 >= x1) return;
+    unseen_blocks = cv::Rect(x0, y0, x1 - x0, y1 - y0);
+  }
+  const int margin = int(std::ceil((start + length) / kStraight)) + 1;
+  const cv::Rect around = cv::Rect(unseen_blocks.x - margin, unseen_blocks.y - margin,
+                                   unseen_blocks.width + 2 * margin, unseen_blocks.height + 2 * margin) &
+                          cv::Rect(0, 0, W, H);
   static thread_local cv::Mat holes, distance;
-  cv::compare(depth, 0, holes, cv::CMP_EQ);
+  cv::compare(depth(around), 0, holes, cv::CMP_EQ);
   cv::distanceTransform(holes, distance, cv::DIST_L2, cv::DIST_MASK_3);
   constexpr float kNeutral = 96.0f;  // a dim grey, calm beside any picture
   const float s = float(start), inv_len = 1.0f / float(std::max(length, 1.0));
-  for (int y = 0; y < color.rows; ++y) {
-    const float* d = distance.ptr<float>(y);
+  for (int y = unseen_blocks.y; y < unseen_blocks.y + unseen_blocks.height; ++y) {
+    const float* d = distance.ptr<float>(y - around.y) - around.x;
     uint8_t* c = color.ptr<uint8_t>(y);
-    for (int x = 0; x < color.cols; ++x) {
+    for (int x = unseen_blocks.x; x < unseen_blocks.x + unseen_blocks.width; ++x) {
       if (d[x] <= s) continue;
       float a = std::min(1.0f, (d[x] - s) * inv_len);
       a = a * a * (3 - 2 * a);  // smoothstep: no visible ring where the fade starts
