@@ -82,6 +82,37 @@ inline void depth_bounds(float sd, float margin, float ratio, uint16_t* lo, uint
 
 int fixed(double v, int one) { return int(std::lround(v * one)); }
 
+// Without a prior: a row's bounds from the learnt depth `bd`, depth_bounds()
+// for every pixel, written without branches so that it vectorises (the
+// learnt depth changes every frame, so this runs on every pixel of every frame).
+VCLASSROOM_SIMD_CLONES
+void learnt_depth_bounds_row(int W, const float* __restrict bd, float margin, float ratio, uint16_t* __restrict lo,
+                             uint16_t* __restrict hi) {
+  for (int x = 0; x < W; ++x) {
+    const bool known = bd[x] > 0;
+    const float sd = known ? bd[x] : 0.0f;
+    const float thr = std::max(margin, ratio * sd);
+    const uint16_t l = uint16_t(std::clamp(std::ceil(sd - thr), 0.0f, 65535.0f));
+    const uint16_t h = uint16_t(std::clamp(std::ceil(sd + thr), 1.0f, 65535.0f));
+    lo[x] = known ? l : 0;
+    hi[x] = known ? h : 0;
+  }
+}
+
+// Without a prior: the learnt depth follows the row's room pixels (not a
+// learner, depth known): it jumps to a depth behind it or where it knew none,
+// else moves towards the depth seen at `rate`. Without branches, as above.
+VCLASSROOM_SIMD_CLONES
+void learn_depth_row(int W, const uint16_t* __restrict d, const uint8_t* __restrict fg, float margin, float ratio,
+                     float rate, float* __restrict bd) {
+  for (int x = 0; x < W; ++x) {
+    const float b = bd[x], z = float(d[x]);
+    const bool jump = (z > b + std::max(margin, ratio * b)) | (b <= 0);
+    const float learnt = jump ? z : b + rate * (z - b);
+    bd[x] = (fg[x] != 0) | (d[x] == 0) ? b : learnt;
+  }
+}
+
 }  // namespace
 
 LearnerSegmenter::LearnerSegmenter(const SegParams& params) : p_(params) {}
@@ -261,19 +292,14 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
       lo = depth_lo_.ptr<uint16_t>(y);
       hi = depth_hi_.ptr<uint16_t>(y);
     } else {
-      for (int x = 0; x < W; ++x) depth_bounds(bd[x], margin, ratio, &row_lo[x], &row_hi[x]);
+      learnt_depth_bounds_row(W, bd, margin, ratio, row_lo.data(), row_hi.data());
       lo = row_lo.data();
       hi = row_hi.data();
     }
     uint8_t* f = fg_.ptr<uint8_t>(y);
     cue_row(W, color.ptr<uint8_t>(y), d, lo, hi, prev_label_.ptr<uint8_t>(y), bg_color_.ptr<uint16_t>(y),
             evidence_.ptr<int16_t>(y), f, k);
-    if (!has_prior)
-      for (int x = 0; x < W; ++x) {
-        if (f[x] || !d[x]) continue;
-        if (d[x] > bd[x] + std::max(margin, ratio * bd[x]) || bd[x] <= 0) bd[x] = d[x];
-        else bd[x] += rate * (float(d[x]) - bd[x]);
-      }
+    if (!has_prior) learn_depth_row(W, d, f, margin, ratio, rate, bd);
   }
   // Rectangular kernels: separable, several times cheaper than ellipses at this size.
   cv::morphologyEx(fg_, fg_, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
