@@ -52,52 +52,57 @@ class NibbleReader {
   NibbleReader(const uint8_t* data, size_t size) : data_(data), size_(size) {}
   // False on running out of data or a value longer than 32 bits.
   bool get(uint32_t* v) {
+    // The next nibbles wait in a register: a value costs a mask, a count of
+    // trailing zeros and a shift, with a load only every few values (the
+    // decoder's speed is this chain's length). The first nibble without the
+    // "more" bit ends the value, within its first 11 (33 bits).
+    if (avail_ < 11) refill();
+    uint64_t ends = ~bits_ & 0x88888888888ull;
+    if (avail_ < 11) ends &= (uint64_t(1) << (4 * avail_)) - 1;  // the data ends within the value's reach
+    if (!ends) return false;  // running out, or over 11 nibbles
+    const int nibbles = (__builtin_ctzll(ends) >> 2) + 1;
+    // The 3 value bits of each nibble packed together in four shift-and-mask steps.
+    uint64_t x = bits_ & 0x77777777777ull;
+    x = (x & 0x0707070707070707ull) | ((x >> 1) & 0x3838383838383838ull);
+    x = (x & 0x003F003F003F003Full) | ((x >> 2) & 0x0FC00FC00FC00FC0ull);
+    x = (x & 0x00000FFF00000FFFull) | ((x >> 4) & 0x00FFF00000FFF000ull);
+    x = (x & 0xFFFFFFull) | ((x >> 8) & 0xFFFFFF000000ull);
+    if (nibbles == 11 && ((x >> 32) & 1)) return false;  // bit 32 set: over 32 bits
+    *v = static_cast<uint32_t>(x & ((uint64_t(1) << (3 * nibbles)) - 1));
+    bits_ >>= 4 * nibbles;
+    avail_ -= nibbles;
+    pos_ += static_cast<size_t>(nibbles);
+    return true;
+  }
+
+ private:
+  // bits_ from nibble pos_ on: 15 or 16 nibbles, fewer only at the data's end.
+  void refill() {
     const size_t byte = pos_ >> 1;
+    uint64_t w = 0;
     if (byte + 8 <= size_) {
-      // Fast path: the value's (at most 11) nibbles are all in one 64-bit
-      // load; the first nibble without the "more" bit ends it, and the 3 value
-      // bits of each are packed together in four shift-and-mask steps.
-      uint64_t w;
       std::memcpy(&w, data_ + byte, 8);
 #if !defined(__BYTE_ORDER__) || !defined(__ORDER_BIG_ENDIAN__)
 #error "the depth codec needs the compiler's __BYTE_ORDER__"
 #elif __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
       w = __builtin_bswap64(w);
 #endif
-      w >>= (pos_ & 1) * 4;
-      const uint64_t ends = ~w & 0x88888888888ull;  // the "more" bits of nibbles 0..10
-      if (ends) {
-        const int nibbles = (__builtin_ctzll(ends) >> 2) + 1;
-        uint64_t x = w & 0x7777777777777777ull;
-        x = (x & 0x0707070707070707ull) | ((x >> 1) & 0x3838383838383838ull);
-        x = (x & 0x003F003F003F003Full) | ((x >> 2) & 0x0FC00FC00FC00FC0ull);
-        x = (x & 0x00000FFF00000FFFull) | ((x >> 4) & 0x00FFF00000FFF000ull);
-        x = (x & 0xFFFFFFull) | ((x >> 8) & 0xFFFFFF000000ull);
-        if (nibbles == 11 && ((x >> 32) & 1)) return false;  // bit 32 set: over 32 bits
-        *v = static_cast<uint32_t>(x & ((uint64_t(1) << (3 * nibbles)) - 1));
-        pos_ += nibbles;
-        return true;
-      }
+      avail_ = 16;
+    } else {
+      const size_t left = byte < size_ ? size_ - byte : 0;
+      for (size_t i = 0; i < left; ++i) w |= uint64_t(data_[byte + i]) << (8 * i);
+      avail_ = static_cast<int>(2 * left);
     }
-    uint32_t value = 0;
-    for (int shift = 0; shift < 33; shift += 3) {
-      if (pos_ >= 2 * size_) return false;
-      const uint32_t n = (data_[pos_ >> 1] >> ((pos_ & 1) * 4)) & 15;
-      ++pos_;
-      if (shift == 30 && (n & 4)) return false;  // over 32 bits
-      value |= (n & 7) << shift;
-      if (!(n & 8)) {
-        *v = value;
-        return true;
-      }
-    }
-    return false;
+    const int odd = static_cast<int>(pos_ & 1);
+    bits_ = w >> (4 * odd);
+    avail_ = std::max(0, avail_ - odd);
   }
 
- private:
   const uint8_t* data_;
   size_t size_;
-  size_t pos_ = 0;  // in nibbles
+  size_t pos_ = 0;     // in nibbles: the first of bits_
+  uint64_t bits_ = 0;  // the next avail_ nibbles, the rest zero
+  int avail_ = 0;
 };
 
 inline uint32_t zigzag(int32_t r) { return (static_cast<uint32_t>(r) << 1) ^ static_cast<uint32_t>(r >> 31); }
@@ -209,17 +214,35 @@ bool decode_depth_lossless(const uint8_t* data, size_t size, int width, int heig
       x -= width;
       ++y;
     }
-    for (uint32_t k = 0; k < valid; ++k) {
+    // The run a row at a time. Only a row's first pixel of the run needs the
+    // whole predict(): the others' left neighbour is the pixel just decoded,
+    // kept in a register (the decoder's speed is this chain's length).
+    for (uint32_t left = valid; left;) {
       uint16_t* row = base + static_cast<size_t>(y) * width;
+      const uint16_t* up = y > 0 ? row - width : nullptr;
+      const int end = x + static_cast<int>(std::min(left, static_cast<uint32_t>(width - x)));
+      left -= static_cast<uint32_t>(end - x);
       uint32_t u;
       if (!r.get(&u)) return false;
       // In 64 bits: a residual may be anything up to +-2^31 in damaged data, and
       // the sum must not overflow before it is checked.
-      const int64_t v = int64_t{predict(row, y > 0 ? row - width : nullptr, x, last)} + unzigzag(u);
+      int64_t v = int64_t{predict(row, up, x, last)} + unzigzag(u);
       if (v < 1 || v > 65535) return false;  // a valid pixel is never 0: damaged data
       row[x] = static_cast<uint16_t>(v);
-      last = static_cast<int>(v);
-      if (++x == width) {
+      int a = static_cast<int>(v);
+      for (++x; x < end; ++x) {
+        if (!r.get(&u)) return false;
+        // predict() with a known left neighbour a: the median edge detector where
+        // the pixels above are known too, else a.
+        const int b = up ? up[x] : 0, c = up ? up[x - 1] : 0;
+        const int med = std::min(std::max(a + b - c, std::min(a, b)), std::max(a, b));
+        v = int64_t{(b && c) ? med : a} + unzigzag(u);
+        if (v < 1 || v > 65535) return false;
+        row[x] = static_cast<uint16_t>(v);
+        a = static_cast<int>(v);
+      }
+      last = a;
+      if (x == width) {
         x = 0;
         ++y;
       }
