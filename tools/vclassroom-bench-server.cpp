@@ -123,12 +123,16 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
 
 int main(int argc, char** argv) {
   int frames = 60, threads = 2, memory = 0;
-  gboolean no_edge_to_near = FALSE;
+  gboolean no_edge_to_near = FALSE, no_model = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
       {"threads", 0, 0, G_OPTION_ARG_INT, &threads, "threads sharing the cameras (default 2: this machine's cores)", "T"},
       {"no-edge-to-near", 0, 0, G_OPTION_ARG_NONE, &no_edge_to_near,
        "warp as viewwarp edge-to-near=false (the objects' rims stay on the background), for comparison", nullptr},
+      {"no-model", 0, 0, G_OPTION_ARG_NONE, &no_model,
+       "no empty room's depth for learnerseg and viewwarp (what server.sh runs without MODEL: learnerseg learns "
+       "the room's depth as it goes)",
+       nullptr},
       {"memory", 0, 0, G_OPTION_ARG_INT, &memory,
        "also time viewwarp's background memory of N frames, seeded with the empty room, and the room behind the "
        "learners it draws (default 0: off)",
@@ -156,8 +160,10 @@ int main(int argc, char** argv) {
       c.calib = rig.camera(ids[i]);
       RenderOutput e;
       renderer.render(empty, 0.0, c.calib, &e);
-      c.prior = e.depth.clone();
-      c.seg.set_static_depth(c.prior);
+      if (!no_model) {
+        c.prior = e.depth.clone();
+        c.seg.set_static_depth(c.prior);
+      }
       if (memory > 0) {
         BackgroundMemoryParams mp;
         mp.frames = memory;
