@@ -306,8 +306,8 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
 // around those blocks is faded; and the transform runs on that box grown by
 // the distance where the fade saturates, so every seen pixel nearer than that
 // to a faded one is inside it (a chamfer path stays within the box of its
-// ends). Most views have no such block and skip the transform, a full-frame
-// pass of a few ms.
+// ends). A view with no such block skips the transform (a full-frame pass of
+// a few ms); one that turns from the room shows a band of them and gains less.
 void fade_unseen(cv::Mat& color, const cv::Mat& depth, double start, double length) {
   constexpr double kStraight = 0.955, kDiagonal = 1.3693;  // cv::distanceTransform's DIST_L2 3x3 mask
   constexpr int kBlock = 8;
