@@ -700,6 +700,28 @@ TEST(LearnerSeg, FindsTheClassroomLearners) {
   EXPECT_GT(s.fg_iou, 0.6);
 }
 
+// Without the empty room's depth (server.sh without a model) learnerseg learns the room's depth from what it
+// sees: after a few frames of the empty room, the learners who come in stand out in front of it.
+TEST(LearnerSeg, WithoutAPriorLearnsTheRoomAndFindsTheLearnersInFrontOfIt) {
+  const Classroom room(ClassroomConfig{1, 6, 2.0}), empty(ClassroomConfig{1, 0, 2.0});
+  const CameraCalib cam = scale_camera(default_classroom_rig().camera(0), 320, 180);
+  LearnerSegmenter seg;
+  cv::Mat depth, color, label;
+  for (int f = 0; f < 10; ++f) {
+    apply_sensor_model(render(empty, f / 10.0, cam), cam, SensorParams(), 1, uint64_t(f), &depth, &color);
+    seg.segment(color, depth, &label);
+  }
+  EXPECT_EQ(cv::countNonZero(label), 0) << "the empty room's own noise taken for learners";
+  SegScore s;
+  for (int f = 0; f < 3; ++f) {
+    const RenderOutput r = render(room, f / 10.0, cam);
+    apply_sensor_model(r, cam, SensorParams(), 1, uint64_t(10 + f), &depth, &color);
+    seg.segment(color, depth, &label);
+    s = score_segmentation(label, r.label);
+  }
+  EXPECT_GT(s.fg_iou, 0.6);
+}
+
 // ---------------------------------------------------------------- elements
 
 // With a pose trace each frame is warped for the trace's pose at its own
