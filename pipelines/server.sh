@@ -8,8 +8,8 @@
 #   WIDTH/HEIGHT (virtual view, default 960x540), QUALITY (JPEG quality of the lecturer's video, default 90).
 #   STATS (0: quiet; N: every N frames each camera's decoder posts vclassroom-codec-stats, printed by -m),
 #   MTU (largest RTP packet received from the cameras and sent to the lecturer, default 1400; as classroom.sh),
-#   PREP_NICE (nice value of the threads that decode, complete and segment camera frames, default 10: when
-#   the CPU is short, warping, fusing and sending the lecturer's view go first; 0 shares it evenly),
+#   PREP_NICE (nice value of the threads that decode, complete and segment camera frames, default 19: when
+#   the CPU is short, warping, fusing and sending the lecturers' views go first; 0 shares it evenly),
 #   FUSE_LATENCY (ns the fuse waits for a late camera's frame before rendering without it, default 100000000).
 #   WARP_SYNC (longest wait, ns, of each camera's warp for the others' next frames before it reads the
 #   lecturer's pose, so a pose shows after one camera frame, not the last of several; it waits two thirds of
@@ -62,7 +62,7 @@ if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
 fi
 RTX=${RTX:-1}
 RTX_LATENCY=${RTX_LATENCY:-300}
-PREP_NICE=${PREP_NICE:-10}
+PREP_NICE=${PREP_NICE:-19}
 MEMORY=${MEMORY:-8}
 if ! [[ $PREP_NICE =~ ^[0-9]+$ ]] || [ "$PREP_NICE" -gt 19 ]; then
   echo "server.sh: PREP_NICE must be a nice value, 0 to 19 (got '$PREP_NICE')" >&2
