@@ -254,8 +254,9 @@ int main(int argc, char** argv) {
       stop_tree(pid);
     }
     if (!browsers_ok || int(results.size()) != n || cpu_start < 0 || cpu_end < 0) {
-      std::fprintf(stderr, "%s: %d lecturer(s): the browsers did not finish (%zu results)\n", g_get_prgname(), n,
-                   results.size());
+      std::fprintf(stderr,
+                   "%s: %d lecturer(s): the browsers did not finish (%zu results); the server's log is kept: %s\n",
+                   g_get_prgname(), n, results.size(), server_log.c_str());
       return 1;
     }
     auto list = [&](auto field, const char* format) {
