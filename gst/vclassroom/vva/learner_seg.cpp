@@ -67,33 +67,22 @@ void cue_row(int W, const uint8_t* __restrict c, const uint16_t* __restrict d, c
   }
 }
 
-// The depth cue's bounds for static depth `sd` (mm, <= 0 unknown): a depth is
-// in front below `lo` and on the surface below `hi` (integer depths compare
-// with a float bound exactly as with its ceiling); hi = 0 marks unknown.
-inline void depth_bounds(float sd, float margin, float ratio, uint16_t* lo, uint16_t* hi) {
-  if (!(sd > 0)) {
-    *lo = *hi = 0;
-    return;
-  }
-  const float thr = std::max(margin, ratio * sd);
-  *lo = uint16_t(std::clamp(std::ceil(sd - thr), 0.0f, 65535.0f));
-  *hi = uint16_t(std::clamp(std::ceil(sd + thr), 1.0f, 65535.0f));
-}
-
 int fixed(double v, int one) { return int(std::lround(v * one)); }
 
-// Without a prior: a row's bounds from the learnt depth `bd`, depth_bounds()
-// for every pixel, written without branches so that it vectorises (the
-// learnt depth changes every frame, so this runs on every pixel of every frame).
+// The depth cue's bounds for a row of static depth `sd` (mm, <= 0 unknown): a
+// depth is in front below `lo` and on the surface below `hi` (integer depths
+// compare with a float bound exactly as with its ceiling); hi = 0 marks
+// unknown. Without branches, so that it vectorises: without a prior the
+// learnt depth changes every frame, and this runs on every pixel of every frame.
 VCLASSROOM_SIMD_CLONES
-void learnt_depth_bounds_row(int W, const float* __restrict bd, float margin, float ratio, uint16_t* __restrict lo,
-                             uint16_t* __restrict hi) {
+void depth_bounds_row(int W, const float* __restrict sd, float margin, float ratio, uint16_t* __restrict lo,
+                      uint16_t* __restrict hi) {
   for (int x = 0; x < W; ++x) {
-    const bool known = bd[x] > 0;
-    const float sd = known ? bd[x] : 0.0f;
-    const float thr = std::max(margin, ratio * sd);
-    const uint16_t l = uint16_t(std::clamp(std::ceil(sd - thr), 0.0f, 65535.0f));
-    const uint16_t h = uint16_t(std::clamp(std::ceil(sd + thr), 1.0f, 65535.0f));
+    const bool known = sd[x] > 0;
+    const float d = known ? sd[x] : 0.0f;
+    const float thr = std::max(margin, ratio * d);
+    const uint16_t l = uint16_t(std::clamp(std::ceil(d - thr), 0.0f, 65535.0f));
+    const uint16_t h = uint16_t(std::clamp(std::ceil(d + thr), 1.0f, 65535.0f));
     lo[x] = known ? l : 0;
     hi[x] = known ? h : 0;
   }
@@ -156,12 +145,11 @@ void LearnerSegmenter::update_depth_bounds() {
   const float margin = float(p_.depth_margin_mm), ratio = float(p_.depth_margin_ratio);
   depth_lo_.create(prior_.size(), CV_16UC1);
   depth_hi_.create(prior_.size(), CV_16UC1);
-  for (int y = 0; y < prior_.rows; ++y) {
-    const uint16_t* pr = prior_.ptr<uint16_t>(y);
-    uint16_t* lo = depth_lo_.ptr<uint16_t>(y);
-    uint16_t* hi = depth_hi_.ptr<uint16_t>(y);
-    for (int x = 0; x < prior_.cols; ++x) depth_bounds(float(pr[x]), margin, ratio, &lo[x], &hi[x]);
-  }
+  cv::Mat prior_mm;
+  prior_.convertTo(prior_mm, CV_32F);
+  for (int y = 0; y < prior_.rows; ++y)
+    depth_bounds_row(prior_.cols, prior_mm.ptr<float>(y), margin, ratio, depth_lo_.ptr<uint16_t>(y),
+                     depth_hi_.ptr<uint16_t>(y));
   bounds_margin_ = p_.depth_margin_mm;
   bounds_ratio_ = p_.depth_margin_ratio;
 }
@@ -292,7 +280,7 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
       lo = depth_lo_.ptr<uint16_t>(y);
       hi = depth_hi_.ptr<uint16_t>(y);
     } else {
-      learnt_depth_bounds_row(W, bd, margin, ratio, row_lo.data(), row_hi.data());
+      depth_bounds_row(W, bd, margin, ratio, row_lo.data(), row_hi.data());
       lo = row_lo.data();
       hi = row_hi.data();
     }
