@@ -108,16 +108,19 @@ class NibbleReader {
 inline uint32_t zigzag(int32_t r) { return (static_cast<uint32_t>(r) << 1) ^ static_cast<uint32_t>(r >> 31); }
 inline int32_t unzigzag(uint32_t u) { return static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1); }
 
-// Prediction of a valid pixel from its decoded neighbours (LOCO-I's median
-// edge detector where all three are valid, else the nearest valid one).
+// LOCO-I's median edge detector from the left (a), upper (b) and upper-left
+// (c) neighbours: a + b - c clamped to [min(a, b), max(a, b)].
+inline int median_edge(int a, int b, int c) { return std::min(std::max(a + b - c, std::min(a, b)), std::max(a, b)); }
+
+// Prediction of a valid pixel from its decoded neighbours (the median edge
+// detector where all three are valid, else the nearest valid one).
 inline int predict(const uint16_t* row, const uint16_t* up, int x, int last) {
   const int a = x > 0 ? row[x - 1] : 0;
   const int b = up ? up[x] : 0;
   const int c = (up && x > 0) ? up[x - 1] : 0;
   // Written as selects, not branches: which case applies changes from pixel
-  // to pixel in noisy depth. The median edge detector is a + b - c clamped
-  // to [min(a, b), max(a, b)].
-  const int med = std::min(std::max(a + b - c, std::min(a, b)), std::max(a, b));
+  // to pixel in noisy depth.
+  const int med = median_edge(a, b, c);
   int p = b ? b : last;
   p = a ? a : p;
   return (a && b && c) ? med : p;
@@ -234,8 +237,7 @@ bool decode_depth_lossless(const uint8_t* data, size_t size, int width, int heig
         if (!r.get(&u)) return false;
         // predict() with a known left neighbour a: the median edge detector where
         // the pixels above are known too, else a.
-        const int b = up ? up[x] : 0, c = up ? up[x - 1] : 0;
-        const int med = std::min(std::max(a + b - c, std::min(a, b)), std::max(a, b));
+        const int b = up ? up[x] : 0, c = up ? up[x - 1] : 0, med = median_edge(a, b, c);
         v = int64_t{(b && c) ? med : a} + unzigzag(u);
         if (v < 1 || v > 65535) return false;
         row[x] = static_cast<uint16_t>(v);
