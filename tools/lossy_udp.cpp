@@ -51,15 +51,14 @@ bool is_rtp(const uint8_t* p, size_t n) {
 // The first bytes of a message, gathered from its iovecs.
 bool message_is_rtp(const struct msghdr* msg) {
   uint8_t head[12];
-  size_t have = 0, total = 0;
-  for (size_t i = 0; i < msg->msg_iovlen; ++i) {
+  size_t have = 0;
+  for (size_t i = 0; i < msg->msg_iovlen && have < sizeof head; ++i) {
     const struct iovec& v = msg->msg_iov[i];
-    total += v.iov_len;
     const size_t take = v.iov_len < sizeof head - have ? v.iov_len : sizeof head - have;
     std::memcpy(head + have, v.iov_base, take);
     have += take;
   }
-  return have == sizeof head && is_rtp(head, total);
+  return is_rtp(head, have);
 }
 
 size_t message_bytes(const struct msghdr* msg) {
