@@ -2,8 +2,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <random>
+#include <vector>
 
+#include <gst/vclassroom/core/checksum.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/net/pose_session.h>
 
@@ -344,7 +347,7 @@ TEST(PoseWire, TaggedPacketsNeedTheRightKey) {
   PoseWireInfo info;
   ASSERT_TRUE(pose_from_wire(tagged, kPoseWireMaxSize, &back, &err, &key, &info)) << err;
   expect_same_pose(back, p);
-  EXPECT_EQ(info.session, 42u);
+  EXPECT_EQ(info.stamp.session, 42u);
   EXPECT_TRUE(info.tagged);
   EXPECT_FALSE(pose_from_wire(tagged, kPoseWireMaxSize, &back, &err, &other, &info));
   EXPECT_EQ(info.error, PoseWireError::kUnauthenticated);
@@ -378,7 +381,8 @@ TEST(PoseChannel, CountsEachKindAndWarnsOncePerIntervalWithTheRestAtTheEnd) {
   Pose p = sample_pose();
   p.position = Eigen::Vector3d(1, 0, 2);
   p.seq = 1;
-  pose_to_wire(p, wire, 5, &c.key);
+  uint64_t packet = 0;  // a sender numbers its packets (the replay window's)
+  pose_to_wire(p, wire, PoseWireStamp(5, ++packet), &c.key);
   PoseChannel::Outcome o = ch.receive(wire, kPoseWireMaxSize, "ssrc 1", 0);
   EXPECT_TRUE(o.obey);
   EXPECT_TRUE(o.warning.empty());
@@ -386,7 +390,7 @@ TEST(PoseChannel, CountsEachKindAndWarnsOncePerIntervalWithTheRestAtTheEnd) {
   int warnings = 0;
   for (int i = 0; i < 10; ++i) {
     p.seq = 2 + i;
-    pose_to_wire(p, wire, 5, &wrong);
+    pose_to_wire(p, wire, PoseWireStamp(5, ++packet), &wrong);
     o = ch.receive(wire, kPoseWireMaxSize, "ssrc 1", i * 100 * kMs);
     EXPECT_FALSE(o.obey);
     warnings += !o.warning.empty();
@@ -396,10 +400,10 @@ TEST(PoseChannel, CountsEachKindAndWarnsOncePerIntervalWithTheRestAtTheEnd) {
   Pose far = p;
   far.position = Eigen::Vector3d(0, 0, 999);
   far.seq = 20;
-  pose_to_wire(far, wire, 5, &c.key);
+  pose_to_wire(far, wire, PoseWireStamp(5, ++packet), &c.key);
   EXPECT_FALSE(ch.receive(wire, kPoseWireMaxSize, "ssrc 1", kMs).obey);
   p.seq = UINT64_MAX;
-  pose_to_wire(p, wire, 5, &c.key);
+  pose_to_wire(p, wire, PoseWireStamp(5, ++packet), &c.key);
   EXPECT_FALSE(ch.receive(wire, kPoseWireMaxSize, "ssrc 1", kMs).obey);
   EXPECT_FALSE(ch.receive(wire, 7, "ssrc 1", kMs).obey);
   const PoseChannelCounts n = ch.counts();
@@ -413,4 +417,190 @@ TEST(PoseChannel, CountsEachKindAndWarnsOncePerIntervalWithTheRestAtTheEnd) {
   const std::vector<std::string> rest = ch.final_warnings();
   ASSERT_EQ(rest.size(), 1u);  // the 9 unauthenticated ones after the first message
   EXPECT_NE(rest[0].find("9 unauthenticated pose packets"), std::string::npos) << rest[0];
+}
+
+// ---- Replay-proof signed poses (ReplayGuard, PoseChannel with a key): times are given, no sleeps.
+
+namespace {
+// A signed pose packet of `session`, numbered `packet`, sent at `sent_ns`.
+std::vector<uint8_t> signed_packet(const PoseKey& key, uint64_t session, uint64_t packet, int64_t sent_ns,
+                                   uint64_t seq) {
+  Pose p = sample_pose();
+  p.position = Eigen::Vector3d(0.01 * double(seq % 50), 0, 1);
+  p.seq = seq;
+  p.viewer_time_ns = sent_ns;
+  std::vector<uint8_t> wire(kPoseWireMaxSize);
+  wire.resize(pose_to_wire(p, wire.data(), PoseWireStamp(session, packet, sent_ns), &key));
+  return wire;
+}
+}  // namespace
+
+TEST(PoseWire, TheTagCoversTheSessionThePacketNumberAndTheTimes) {
+  PoseKey key;
+  key.bytes.assign(32, 9);
+  Pose p = sample_pose();
+  p.seq = 77;
+  p.viewer_time_ns = 123456789;
+  uint8_t wire[kPoseWireMaxSize];
+  ASSERT_EQ(pose_to_wire(p, wire, PoseWireStamp(0x1122334455667788ull, 42, 987654321), &key), kPoseWireMaxSize);
+  Pose back;
+  std::string err;
+  PoseWireInfo info;
+  ASSERT_TRUE(pose_from_wire(wire, kPoseWireMaxSize, &back, &err, &key, &info)) << err;
+  EXPECT_EQ(info.stamp.session, 0x1122334455667788ull);
+  EXPECT_EQ(info.stamp.packet, 42u);
+  EXPECT_EQ(info.stamp.sent_ns, 987654321);
+  EXPECT_EQ(back.seq, 77u);
+  EXPECT_EQ(back.viewer_time_ns, 123456789);
+  // Each field changed by someone without the key (the checksum written again, as anyone can): the tag refuses it.
+  for (size_t offset : {8u, 16u, 24u, 32u, 40u}) {  // session, packet, sent time, seq, viewer time
+    uint8_t forged[kPoseWireMaxSize];
+    std::memcpy(forged, wire, sizeof forged);
+    forged[offset] ^= 1;
+    const uint32_t crc = crc32(forged, kPoseWireSize - 4);
+    for (int b = 0; b < 4; ++b) forged[kPoseWireSize - 4 + b] = static_cast<uint8_t>(crc >> (8 * b));
+    EXPECT_FALSE(pose_from_wire(forged, kPoseWireMaxSize, &back, &err, &key, &info)) << "byte " << offset;
+    EXPECT_EQ(info.error, PoseWireError::kUnauthenticated) << "byte " << offset;
+  }
+  // The version before (VCP2) is named when refused.
+  std::memcpy(wire, "VCP2", 4);
+  EXPECT_FALSE(pose_from_wire(wire, kPoseWireMaxSize, &back, &err, &key, &info));
+  EXPECT_NE(err.find("version 2"), std::string::npos) << err;
+}
+
+TEST(ReplayGuard, EachPacketNumberOnceWithinTheWindowAndNothingBelowIt) {
+  ReplayGuard g;
+  int64_t t = 0;
+  for (uint64_t n = 1; n <= 100; ++n, t += kFrame) EXPECT_EQ(g.check(7, n, t, t), ReplayVerdict::kFresh);
+  EXPECT_EQ(g.check(7, 100, t, t), ReplayVerdict::kReplayed);
+  EXPECT_EQ(g.check(7, 60, t, t), ReplayVerdict::kReplayed);  // inside the window, seen
+  EXPECT_EQ(g.check(7, 100 - ReplayGuard::kWindow, t, t), ReplayVerdict::kTooOld);
+  EXPECT_EQ(g.check(7, 1, t, t), ReplayVerdict::kTooOld);
+  // Reordering inside the window: a skipped number arriving late is taken once.
+  EXPECT_EQ(g.check(7, 103, t, t), ReplayVerdict::kFresh);
+  EXPECT_EQ(g.check(7, 102, t, t), ReplayVerdict::kFresh);
+  EXPECT_EQ(g.check(7, 102, t, t), ReplayVerdict::kReplayed);
+  EXPECT_EQ(g.check(7, 101, t, t), ReplayVerdict::kFresh);
+  // A jump far ahead clears the window; what was below it is too old now.
+  EXPECT_EQ(g.check(7, 10'000, t, t), ReplayVerdict::kFresh);
+  EXPECT_EQ(g.check(7, 103, t, t), ReplayVerdict::kTooOld);
+  // Another session has numbers of its own.
+  EXPECT_EQ(g.check(8, 1, t, t), ReplayVerdict::kFresh);
+  EXPECT_EQ(g.sessions(), 2u);
+}
+
+TEST(ReplayGuard, APacketHeldBackLongerThanTheLimitIsRefused) {
+  ReplayGuardConfig c;
+  c.max_delay_ns = 2'000 * kMs;
+  ReplayGuard g(c);
+  // The sender's clock runs 5000 s ahead of ours (unrelated monotonic clocks); the path takes 10-30 ms.
+  const int64_t ahead = 5'000'000 * kMs;
+  for (int i = 0; i < 30; ++i) {
+    const int64_t sent = ahead + i * kFrame;
+    EXPECT_EQ(g.check(1, uint64_t(i + 1), sent, sent - ahead + (10 + i % 3 * 10) * kMs), ReplayVerdict::kFresh);
+  }
+  // Packet 31 was held on the way (never delivered) and is released 2.5 s after it was sent.
+  const int64_t sent31 = ahead + 30 * kFrame;
+  EXPECT_EQ(g.check(1, 31, sent31, sent31 - ahead + 2'500 * kMs), ReplayVerdict::kHeldBack);
+  // 1.9 s late is within the limit.
+  const int64_t sent32 = ahead + 31 * kFrame;
+  EXPECT_EQ(g.check(1, 32, sent32, sent32 - ahead + 1'900 * kMs), ReplayVerdict::kFresh);
+  // A packet without a sending time is judged by its number alone.
+  EXPECT_EQ(g.check(1, 33, -1, 1'000'000 * kMs), ReplayVerdict::kFresh);
+}
+
+TEST(ReplayGuard, BeyondItsSessionLimitTheLeastRecentlyHeardIsForgotten) {
+  ReplayGuardConfig c;
+  c.max_sessions = 3;
+  ReplayGuard g(c);
+  for (uint64_t s = 1; s <= 3; ++s) EXPECT_EQ(g.check(s, 1, -1, int64_t(s)), ReplayVerdict::kFresh);
+  EXPECT_EQ(g.check(1, 2, -1, 10), ReplayVerdict::kFresh);  // session 1 heard again: 2 is now the least recent
+  EXPECT_EQ(g.check(4, 1, -1, 11), ReplayVerdict::kFresh);
+  EXPECT_EQ(g.sessions(), 3u);
+  EXPECT_EQ(g.check(1, 2, -1, 12), ReplayVerdict::kReplayed);  // still remembered
+  EXPECT_EQ(g.check(3, 1, -1, 13), ReplayVerdict::kReplayed);
+}
+
+// The attack of issue 29: a captured signed pose replayed every 100 ms under a new SSRC, from when the
+// lecturer held still (sent nothing) for a second, used to take the view over and lock the lecturer out.
+TEST(PoseChannel, ACapturedSignedPoseReplayedUnderAnotherSsrcNeverSteers) {
+  PoseChannelConfig c;
+  c.key.bytes.assign(32, 5);
+  PoseChannel ch(c);
+  const uint64_t session = 0xC0FFEE;
+  uint64_t packet = 0, seq = 0;
+  int64_t t = 0;
+  std::vector<uint8_t> captured;
+  for (int i = 0; i < 30; ++i, t += kFrame) {
+    const std::vector<uint8_t> w = signed_packet(c.key, session, ++packet, t, ++seq);
+    if (i == 10) captured = w;
+    ASSERT_TRUE(ch.receive(w.data(), w.size(), "ssrc 0000aaaa", t).obey);
+  }
+  // One second of silence from the lecturer, the replay every 100 ms.
+  for (int i = 0; i < 10; ++i) {
+    t += 100 * kMs;
+    EXPECT_FALSE(ch.receive(captured.data(), captured.size(), "ssrc 0000eeee", t).obey);
+  }
+  // The lecturer moves again: every one of its 120 poses is obeyed while the replay goes on.
+  int obeyed = 0;
+  for (int i = 0; i < 120; ++i, t += kFrame) {
+    const std::vector<uint8_t> w = signed_packet(c.key, session, ++packet, t, ++seq);
+    obeyed += ch.receive(w.data(), w.size(), "ssrc 0000aaaa", t).obey;
+    if (i % 3 == 0) EXPECT_FALSE(ch.receive(captured.data(), captured.size(), "ssrc 0000eeee", t).obey);
+  }
+  EXPECT_EQ(obeyed, 120);
+  EXPECT_EQ(ch.counts().replayed, 50u);
+  EXPECT_EQ(ch.counts().session_switches, 0u);
+}
+
+// A lecturer who left: replaying its last packet must not keep its session alive against the next lecturer.
+TEST(PoseChannel, ReplayingALecturerWhoLeftDoesNotHoldTheViewAgainstTheNextOne) {
+  PoseChannelConfig c;
+  c.key.bytes.assign(32, 6);
+  PoseChannel ch(c);
+  int64_t t = 0;
+  std::vector<uint8_t> last;
+  for (uint64_t n = 1; n <= 10; ++n, t += kFrame) {
+    last = signed_packet(c.key, 1, n, t, n);
+    ASSERT_TRUE(ch.receive(last.data(), last.size(), "ssrc 1", t).obey);
+  }
+  // The first lecturer is gone; its last packet comes again every 100 ms; the next lecturer starts.
+  bool next_obeyed = false;
+  for (uint64_t n = 1; n <= 30 && !next_obeyed; ++n) {
+    t += 100 * kMs;
+    EXPECT_FALSE(ch.receive(last.data(), last.size(), "ssrc 1", t).obey);
+    const std::vector<uint8_t> w = signed_packet(c.key, 2, n, t, n);
+    next_obeyed = ch.receive(w.data(), w.size(), "ssrc 2", t).obey;
+  }
+  EXPECT_TRUE(next_obeyed) << "the replayed packets kept the departed lecturer's session alive";
+  EXPECT_LE(t, 1'100 * kMs);  // within the session timeout of the first lecturer's last real packet
+}
+
+TEST(PoseChannel, ObeyedPosesNameTheirSessionAndASignedSessionIsOneWhateverItsSsrc) {
+  PoseChannel open;
+  Pose p = sample_pose();
+  p.position = Eigen::Vector3d(0, 0, 1);
+  p.seq = 1;
+  uint8_t wire[kPoseWireMaxSize];
+  size_t n = pose_to_wire(p, wire, PoseWireStamp(3, 1));
+  const PoseChannel::Outcome a = open.receive(wire, n, "ssrc 1", 0);
+  ASSERT_TRUE(a.obey);
+  EXPECT_NE(a.pose.session, 0u);
+  // Unsigned, the SSRC is part of the session: another SSRC is another session.
+  p.seq = 2;
+  n = pose_to_wire(p, wire, PoseWireStamp(3, 2));
+  EXPECT_FALSE(open.receive(wire, n, "ssrc 2", kFrame).obey);
+  // Signed, the session number alone (authenticated) is the session.
+  PoseChannelConfig c;
+  c.key.bytes.assign(32, 1);
+  PoseChannel keyed(c);
+  p.seq = 1;
+  n = pose_to_wire(p, wire, PoseWireStamp(3, 1), &c.key);
+  const PoseChannel::Outcome k1 = keyed.receive(wire, n, "ssrc 1", 0);
+  p.seq = 2;
+  n = pose_to_wire(p, wire, PoseWireStamp(3, 2), &c.key);
+  const PoseChannel::Outcome k2 = keyed.receive(wire, n, "ssrc 2", kFrame);
+  ASSERT_TRUE(k1.obey);
+  ASSERT_TRUE(k2.obey);
+  EXPECT_EQ(k1.pose.session, k2.pose.session);
 }

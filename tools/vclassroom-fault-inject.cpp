@@ -97,7 +97,7 @@ struct LecturerStream {
   std::mutex lock;
   bool seen = false;
   uint32_t ssrc = 0;
-  uint64_t session = 0, seq = 0;
+  uint64_t session = 0, packet = 0, seq = 0;
 };
 
 GstPadProbeReturn on_pose_packet(GstPad*, GstPadProbeInfo* info, gpointer data) {
@@ -109,8 +109,10 @@ GstPadProbeReturn on_pose_packet(GstPad*, GstPadProbeInfo* info, gpointer data) 
     std::lock_guard<std::mutex> g(s->lock);
     s->seen = true;
     s->ssrc = gst_rtp_buffer_get_ssrc(&rtp);
+    // The fields' offsets in version 3 (docs/network.md, "Wire payload").
     s->session = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 8));
-    s->seq = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 16));
+    s->packet = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 16));
+    s->seq = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 32));
   }
   gst_rtp_buffer_unmap(&rtp);
   return GST_PAD_PROBE_OK;
@@ -299,12 +301,13 @@ bool run_flow(const Options& o, const std::string& scenario, Result* r) {
       for (uint64_t n = 0; faulting; ++n) {
         std::this_thread::sleep_until(t0 + std::chrono::microseconds(n * 1000000 / 30));
         uint32_t ssrc;
-        uint64_t session, seq;
+        uint64_t session, packet, seq;
         {
           std::lock_guard<std::mutex> g(stream.lock);
           if (!stream.seen) continue;
           ssrc = stream.ssrc;
           session = stream.session;
+          packet = stream.packet;
           seq = stream.seq;
         }
         // Pose carries any numbers; only validate_pose() (not pose_to_wire) refuses them.
@@ -319,7 +322,8 @@ bool run_flow(const Options& o, const std::string& scenario, Result* r) {
         }
         p.seq = seq + 1;  // the lecturer's next
         p.viewer_time_ns = static_cast<int64_t>(gst_util_get_timestamp());
-        const size_t size = pose_to_wire(p, wire, session, &key);
+        const PoseWireStamp stamp(session, packet + 1, static_cast<int64_t>(gst_util_get_timestamp()));
+        const size_t size = pose_to_wire(p, wire, stamp, &key);
         udp.send(ports.pose(), pose_rtp_packet(wire, size, ssrc, static_cast<uint16_t>(n)));
       }
     });

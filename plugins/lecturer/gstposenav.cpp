@@ -49,6 +49,7 @@ struct NavState {
   double drag_x = 0, drag_y = 0;
   bool started = false;         // the start pose has been sent
   uint64_t seq = 0;
+  uint64_t session = new_pose_session_id();  // this element's poses are one session: seq counts on within it
   uint64_t server_clamped = 0;  // frames showing the latest pose as the server moved it into its bounds
 };
 
@@ -78,6 +79,7 @@ static bool clamp_to_navigation_locked(GstPoseNav* self, Pose* pose, const char*
 static GstEvent* make_pose_event_locked(GstPoseNav* self, Pose pose) {
   NavState* st = self->st;
   pose.seq = ++st->seq;
+  pose.session = st->session;
   pose.viewer_time_ns = static_cast<int64_t>(gst_util_get_timestamp());
   if (st->fov > 0) pose.fov_deg = st->fov;
   try {

@@ -30,7 +30,7 @@ using namespace vclassroom;
 
 enum {
   PROP_0, PROP_RECEIVED, PROP_INJECTED, PROP_LAST_SEQ, PROP_DAMAGED, PROP_UNAUTHENTICATED, PROP_IMPLAUSIBLE,
-  PROP_REJECTED, PROP_SESSION_SWITCHES, PROP_KEY_FILE, PROP_MAX_DISTANCE, PROP_SESSION_TIMEOUT, PROP_STATS_INTERVAL
+  PROP_REJECTED, PROP_REPLAYED, PROP_SESSION_SWITCHES, PROP_KEY_FILE, PROP_MAX_DISTANCE, PROP_SESSION_TIMEOUT, PROP_STATS_INTERVAL
 };
 
 namespace {
@@ -79,8 +79,8 @@ static GstMessage* stats_message_locked(GstPoseRecv* self) {
   GstStructure* s = gst_structure_new(
       "vclassroom-pose-stats", "received", G_TYPE_UINT64, c.received, "injected", G_TYPE_UINT64, c.injected,
       "damaged", G_TYPE_UINT64, c.damaged, "unauthenticated", G_TYPE_UINT64, c.unauthenticated, "implausible",
-      G_TYPE_UINT64, c.implausible, "rejected", G_TYPE_UINT64, c.rejected, "session-switches", G_TYPE_UINT64,
-      c.session_switches, "last-seq", G_TYPE_UINT64, self->st->channel.last_seq(), nullptr);
+      G_TYPE_UINT64, c.implausible, "rejected", G_TYPE_UINT64, c.rejected, "replayed", G_TYPE_UINT64, c.replayed,
+      "session-switches", G_TYPE_UINT64, c.session_switches, "last-seq", G_TYPE_UINT64, self->st->channel.last_seq(), nullptr);
   return gst_message_new_element(GST_OBJECT(self), s);
 }
 
@@ -193,6 +193,7 @@ static void gst_pose_recv_get_property(GObject* object, guint prop_id, GValue* v
     case PROP_UNAUTHENTICATED: g_value_set_uint64(value, st->channel.counts().unauthenticated); break;
     case PROP_IMPLAUSIBLE: g_value_set_uint64(value, st->channel.counts().implausible); break;
     case PROP_REJECTED: g_value_set_uint64(value, st->channel.counts().rejected); break;
+    case PROP_REPLAYED: g_value_set_uint64(value, st->channel.counts().replayed); break;
     case PROP_SESSION_SWITCHES: g_value_set_uint64(value, st->channel.counts().session_switches); break;
     case PROP_KEY_FILE: g_value_set_string(value, st->key_file.c_str()); break;
     case PROP_MAX_DISTANCE: g_value_set_double(value, st->max_distance); break;
@@ -232,6 +233,9 @@ static void gst_pose_recv_class_init(GstPoseRecvClass* klass) {
   install_count(gobject_class, PROP_REJECTED, "rejected", "Rejected poses",
                 "Poses dropped for a seq far ahead of the session's, or from another session while the obeyed "
                 "one is alive");
+  install_count(gobject_class, PROP_REPLAYED, "replayed", "Replayed packets",
+                "Authenticated packets dropped as replays: a packet number seen before or below the window, or "
+                "held back (with key-file set)");
   install_count(gobject_class, PROP_SESSION_SWITCHES, "session-switches", "Session switches",
                 "Times a new or restarted lecturer's session took over");
   const auto rw_ready = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);

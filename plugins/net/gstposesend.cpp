@@ -63,6 +63,7 @@ struct SendState {
   guint16 rtp_seq = 0;
   guint32 ssrc = 0;
   guint64 session = 0;  // this run's number in every packet: a restarted lecturer is a new session
+  guint64 packets = 0;  // packets of this session so far: each carries the next number (the replay window's)
   std::optional<Pose> latest;
   std::deque<GstBuffer*> outbox;
   bool started = false;      // the task has sent stream-start, caps, segment and GAP
@@ -105,7 +106,10 @@ static void send_locked(GstPoseSend* self, const Pose& pose) {
   const guint64 t = pose.viewer_time_ns >= 0 ? static_cast<guint64>(pose.viewer_time_ns) : gst_util_get_timestamp();
   gst_rtp_buffer_set_timestamp(&rtp, static_cast<guint32>(gst_util_uint64_scale(t, 90000, GST_SECOND)));
   gst_rtp_buffer_set_marker(&rtp, TRUE);
-  pose_to_wire(pose, static_cast<uint8_t*>(gst_rtp_buffer_get_payload(&rtp)), st->session, key);
+  // A repeat is a new packet: its number and sending time are fresh, so an authenticated receiver tells it
+  // from a replay (docs/network.md, "Replayed packets").
+  const PoseWireStamp stamp(st->session, ++st->packets, static_cast<int64_t>(gst_util_get_timestamp()));
+  pose_to_wire(pose, static_cast<uint8_t*>(gst_rtp_buffer_get_payload(&rtp)), stamp, key);
   gst_rtp_buffer_unmap(&rtp);
   if (st->outbox.size() >= kOutboxLimit) {
     gst_buffer_unref(st->outbox.front());
@@ -268,7 +272,8 @@ static GstStateChangeReturn gst_pose_send_change_state(GstElement* element, GstS
     // A new session each start: the server tells a restarted lecturer by it.
     st->latest.reset();
     st->ssrc = g_random_int();
-    st->session = (static_cast<guint64>(g_random_int()) << 32) | g_random_int();
+    st->session = new_pose_session_id();
+    st->packets = 0;
     st->rtp_seq = static_cast<guint16>(g_random_int());
   }
   return GST_ELEMENT_CLASS(gst_pose_send_parent_class)->change_state(element, transition);

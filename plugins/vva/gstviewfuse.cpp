@@ -59,6 +59,7 @@ struct FuseState {
   std::string trace_path;
   std::string rig_path;
   NavigationClamp bounds;  // every pose sent upstream stays inside the rig's navigation bounds
+  std::optional<uint64_t> steering_session;  // the session of the latest pose sent upstream (stale_poses())
   double unseen_share = 0;  // of the last picture
   guint stats_interval = 0;  // frames between vclassroom-view-stats messages; 0: none
   FuseParams params;
@@ -73,6 +74,7 @@ struct FuseState {
   // Streaming thread only.
   std::vector<PoseSample> trace;
   size_t trace_next = 0;
+  uint64_t trace_session = 0;  // the trace's poses are a session of their own, new each start
   GstVideoInfo out_info{};
   bool have_out = false;
   FusedView fused;
@@ -126,6 +128,12 @@ static GstEvent* clamped_pose_event(GstViewFuse* self, GstEvent* event) {
 
 static void forward_pose(GstViewFuse* self, GstEvent* event) {
   event = clamped_pose_event(self, event);
+  guint64 session = 0;  // absent: the unnamed session
+  gst_structure_get_uint64(gst_event_get_structure(event), "session", &session);
+  {
+    std::lock_guard<std::mutex> g(self->st->lock);
+    self->st->steering_session = session;
+  }
   gst_element_foreach_sink_pad(GST_ELEMENT(self), push_pose_to_pad, event);
   gst_event_unref(event);
 }
@@ -222,6 +230,7 @@ static void send_trace_pose(GstViewFuse* self) {
   if (st->trace.empty()) return;
   Pose pose = trace_pose_in_turn(st->trace, st->trace_next++);
   pose.viewer_time_ns = g_get_monotonic_time() * 1000;
+  pose.session = st->trace_session;
   try {
     forward_pose(self, pose_event_new(pose));
   } catch (const Error& e) {
@@ -314,7 +323,7 @@ static GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, 
   if (GST_CLOCK_TIME_IS_VALID(in_segment)) pts = in_segment;
   GST_BUFFER_PTS(out) = pts;
   GST_BUFFER_DURATION(out) = duration;
-  if (pose) buffer_add_pose_meta(out, pose->seq, pose->viewer_time_ns, pose->rendered);
+  if (pose) buffer_add_pose_meta(out, pose->seq, pose->viewer_time_ns, pose->rendered, pose->session);
   {
     GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
     GST_OBJECT_LOCK(agg);
@@ -419,13 +428,15 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
   for (size_t i = 0; i < pads.size(); ++i) {
     pending[i].key = pads[i];
     pending[i].running_time_ns = time_ns(aggregator_pad_running_time(pads[i], bufs[i]));
-    if (const PoseMeta* m = buffer_get_pose_meta(bufs[i])) pending[i].pose = WarpedPose{true, m->seq, m->viewer_time_ns, m->rendered};
+    if (const PoseMeta* m = buffer_get_pose_meta(bufs[i]))
+      pending[i].pose = WarpedPose{true, m->seq, m->viewer_time_ns, m->rendered, m->session};
   }
   FuseRound round;
   std::vector<RgbdInfo> infos;
   FuseParams params;
   {
     std::lock_guard<std::mutex> g(st->lock);
+    ctx.steering_session = st->steering_session;
     round = st->inputs.decide(pending, ctx);
     for (GstAggregatorPad* pad : pads) infos.push_back(st->pad_info[pad]);
     params = st->params;
@@ -471,10 +482,12 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     // Request pads outlive a restart; their caps (maybe a new virtual size) come again.
     st->pad_info.clear();
     st->inputs.clear();
+    st->steering_session.reset();
   }
   st->warp_start.resume();
   st->trace.clear();
   st->trace_next = 0;
+  st->trace_session = new_pose_session_id();
   st->last_out = GST_CLOCK_TIME_NONE;
   st->have_out = false;
   st->have_fused = false;

@@ -54,7 +54,8 @@ struct WarpState {
   std::string rig_path;
   int reference_id = 0;
   std::string trace_path;
-  // Latest pose (highest seq wins); the rig's reference camera until one arrives.
+  // Latest pose (a new session's first, then the highest seq within it); the rig's reference camera until one
+  // arrives.
   Pose pose;
   bool have_pose = false;
   guint64 poses_received = 0;
@@ -324,7 +325,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("view warp failed: %s", e.what()), (nullptr));
     return GST_FLOW_ERROR;
   }
-  buffer_add_pose_meta(outbuf, pose.seq, pose.viewer_time_ns, rendered_pose_of(pose));
+  buffer_add_pose_meta(outbuf, pose.seq, pose.viewer_time_ns, rendered_pose_of(pose), pose.session);
   return GST_FLOW_OK;
 }
 
@@ -339,7 +340,10 @@ static gboolean gst_view_warp_src_event(GstBaseTransform* trans, GstEvent* event
     } else {
       std::lock_guard<std::mutex> g(self->st->lock);
       ++self->st->poses_received;
-      if (!self->st->have_pose || pose.seq >= self->st->pose.seq) {
+      // The receiver upstream of the fuse chose the session; a pose of another session than the one shown is
+      // the new steering one (docs/network.md, "Sessions"), and within a session the latest seq wins.
+      const Pose& shown = self->st->pose;
+      if (!self->st->have_pose || pose.session != shown.session || pose.seq >= shown.seq) {
         self->st->pose = pose;
         self->st->have_pose = true;
       }
@@ -527,8 +531,8 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
   gst_element_class_set_static_metadata(
       element_class, "View warp", "Filter/Effect/Video",
       "Warps one camera's video/x-rgbd stream (static layer with the prior depth, learners with live depth) to the "
-      "virtual view of the latest vclassroom/pose event (highest seq wins; the rig's reference camera until one "
-      "arrives) as a triangle mesh with depth-edge rejection and bilinear colour. Output: video/x-rgbd of the "
+      "virtual view of the latest vclassroom/pose event (within a session the highest seq wins, a new session "
+      "steers from its first pose; the rig's reference camera until one arrives) as a triangle mesh with depth-edge rejection and bilinear colour. Output: video/x-rgbd of the "
       "virtual camera with planes color,depth,label,weight; camera-id stays the source camera's, virtual-view = "
       "true; each buffer carries the pose meta (seq, viewer time). Pose events are consumed, not forwarded. Example: "
       "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! learnerseg ! "

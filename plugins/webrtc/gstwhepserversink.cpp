@@ -34,6 +34,9 @@ struct _GstWhepServerSink {
   GstElement* tee;
   WhepEndpoint* endpoint;
   std::mutex* lock;     // guards poses and rates
+  // Held from a pose's verdict until its event has reached the cameras, so the renderers see the sessions'
+  // poses in the order they were judged (never taken under `lock`).
+  std::mutex* pose_order;
   PoseSession* poses;   // latest wins across the sessions
   std::map<std::string, int>* rates;  // each session's kbit/s after its losses (the one encoder takes the least)
 };
@@ -61,13 +64,16 @@ static GstPad* attach_session(GstWhepServerSink* self) {
 }
 
 static void on_session_pose(GstWhepServerSink* self, const std::string& session, const Pose& pose) {
+  std::lock_guard<std::mutex> order(*self->pose_order);
   GstEvent* event = nullptr;
   {
     std::lock_guard<std::mutex> g(*self->lock);
     const PoseVerdict v = self->poses->offer(session, pose.seq, pose.viewer_time_ns, g_get_monotonic_time() * 1000);
     GST_LOG_OBJECT(self, "session %s: pose %" G_GUINT64_FORMAT " %s", session.c_str(), pose.seq, pose_verdict_name(v));
     if (!pose_verdict_obeys(v)) return;
-    event = pose_event_new(pose);
+    Pose named = pose;
+    named.session = pose_session_id("whep " + session);
+    event = pose_event_new(named);
   }
   gst_pad_push_event(self->sinkpad, event);
 }
@@ -108,6 +114,7 @@ static void gst_whep_server_sink_get_property(GObject* object, guint id, GValue*
 
 static void gst_whep_server_sink_init(GstWhepServerSink* self) {
   self->lock = new std::mutex;
+  self->pose_order = new std::mutex;
   self->poses = new PoseSession;
   self->rates = new std::map<std::string, int>;
   WhepEndpointHooks hooks;
@@ -159,6 +166,7 @@ static void gst_whep_server_sink_finalize(GObject* object) {
   delete self->poses;
   delete self->rates;
   delete self->lock;
+  delete self->pose_order;
   G_OBJECT_CLASS(gst_whep_server_sink_parent_class)->finalize(object);
 }
 

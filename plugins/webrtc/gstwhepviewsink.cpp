@@ -248,7 +248,9 @@ static void on_session_pose(GstWhepViewSink* self, const std::string& session, c
     if (!pose_verdict_obeys(v)) return;
     fuse_src = gst_element_get_static_pad(it->second.fuse, "src");
   }
-  gst_pad_send_event(fuse_src, pose_event_new(pose));
+  Pose named = pose;
+  named.session = pose_session_id("whep " + session);
+  gst_pad_send_event(fuse_src, pose_event_new(named));
   gst_object_unref(fuse_src);
 }
 

@@ -54,12 +54,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     std::abort();  // accepted from the wire but invalid
   }
   uint8_t again[kPoseWireMaxSize];
-  const size_t n = pose_to_wire(pose, again, info.session, info.tagged ? &fuzz_key() : nullptr);
+  const size_t n = pose_to_wire(pose, again, info.stamp, info.tagged ? &fuzz_key() : nullptr);
   Pose back;
   PoseWireInfo back_info;
   if (!pose_from_wire(again, n, &back, &error, info.tagged ? &fuzz_key() : nullptr, &back_info) ||
       back.seq != pose.seq || back.viewer_time_ns != pose.viewer_time_ns || !(back.position == pose.position) ||
-      back_info.session != info.session)
+      back_info.stamp.session != info.stamp.session || back_info.stamp.packet != info.stamp.packet ||
+      back_info.stamp.sent_ns != info.stamp.sent_ns)
     std::abort();
   return 0;
 }

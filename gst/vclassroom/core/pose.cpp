@@ -72,6 +72,19 @@ Pose Pose::from_cam_to_rig(const Eigen::Isometry3d& T) {
   return p;
 }
 
+uint64_t pose_session_id(const std::string& name) {
+  // FNV-1a: stable across runs and machines, so a log's session numbers can be compared.
+  uint64_t h = 0xcbf29ce484222325ull;
+  for (unsigned char c : name) h = (h ^ c) * 0x100000001b3ull;
+  return h != 0 ? h : 1;
+}
+
+uint64_t new_pose_session_id() {
+  uint64_t id = 0;
+  while (id == 0) id = (static_cast<uint64_t>(g_random_int()) << 32) | g_random_int();
+  return id;
+}
+
 void validate_pose(const Pose& p) {
   if (!p.position.allFinite()) throw Error("pose: position is not finite (NaN or infinity)");
   if (p.position.norm() > kMaxPoseDistance) {
@@ -138,6 +151,7 @@ GstEvent* pose_event_new(const Pose& p) {
                                       p.position.y(), "z", G_TYPE_DOUBLE, p.position.z(), "qw", G_TYPE_DOUBLE, q.w(),
                                       "qx", G_TYPE_DOUBLE, q.x(), "qy", G_TYPE_DOUBLE, q.y(), "qz", G_TYPE_DOUBLE,
                                       q.z(), "seq", G_TYPE_UINT64, static_cast<guint64>(p.seq), nullptr);
+  if (p.session != 0) gst_structure_set(s, "session", G_TYPE_UINT64, static_cast<guint64>(p.session), nullptr);
   if (p.has_fov()) gst_structure_set(s, "fov", G_TYPE_DOUBLE, p.fov_deg, nullptr);
   if (p.viewer_time_ns >= 0) gst_structure_set(s, "viewer-time", G_TYPE_INT64, static_cast<gint64>(p.viewer_time_ns), nullptr);
   if (p.clamped) gst_structure_set(s, "clamped", G_TYPE_BOOLEAN, TRUE, nullptr);
@@ -174,6 +188,10 @@ bool pose_event_parse(GstEvent* event, Pose* out, std::string* error) {
   }
   if (!get_u64(s, "seq", &p.seq)) {
     *error = "pose event: field 'seq' missing or not an unsigned integer";
+    return false;
+  }
+  if (gst_structure_has_field(s, "session") && !get_u64(s, "session", &p.session)) {
+    *error = "pose event: field 'session' is not an unsigned integer";
     return false;
   }
   if (gst_structure_has_field(s, "viewer-time") && !get_i64(s, "viewer-time", &p.viewer_time_ns)) {
@@ -293,7 +311,7 @@ T get_le(const uint8_t*& p) {
 }  // namespace
 
 namespace {
-constexpr char kPoseWireMagic[4] = {'V', 'C', 'P', '2'};
+constexpr char kPoseWireMagic[4] = {'V', 'C', 'P', '3'};
 
 // HMAC-SHA256 of data through GLib, truncated to kPoseTagSize bytes.
 void pose_tag(const PoseKey& key, const uint8_t* data, size_t size, uint8_t tag[kPoseTagSize]) {
@@ -332,12 +350,14 @@ PoseKey load_pose_key(const std::string& path) {
   return key;
 }
 
-size_t pose_to_wire(const Pose& pose, uint8_t* out, uint64_t session, const PoseKey* key) {
+size_t pose_to_wire(const Pose& pose, uint8_t* out, const PoseWireStamp& stamp, const PoseKey* key) {
   const bool tagged = key && !key->empty();
   uint8_t* p = out;
   for (char c : kPoseWireMagic) *p++ = static_cast<uint8_t>(c);
   put_le<uint32_t>(p, tagged ? kPoseWireFlagTagged : 0u);
-  put_le<uint64_t>(p, session);
+  put_le<uint64_t>(p, stamp.session);
+  put_le<uint64_t>(p, stamp.packet);
+  put_le<int64_t>(p, stamp.sent_ns);
   put_le<uint64_t>(p, pose.seq);
   put_le<int64_t>(p, pose.viewer_time_ns);
   const Eigen::Quaterniond q = pose.orientation.normalized();
@@ -360,9 +380,10 @@ bool pose_from_wire(const uint8_t* data, size_t size, Pose* out, std::string* er
     return false;
   };
   if (size < 8 || std::memcmp(data, kPoseWireMagic, 4) != 0) {
-    if (size >= 4 && std::memcmp(data, "VCP1", 4) == 0)
-      return fail(PoseWireError::kDamaged, "pose packet of version 1 (VCP1): this receiver reads version 2 (VCP2); "
-                                           "update the lecturer's side");
+    if (size >= 4 && (std::memcmp(data, "VCP1", 4) == 0 || std::memcmp(data, "VCP2", 4) == 0))
+      return fail(PoseWireError::kDamaged, std::string("pose packet of version ") + char(data[3]) + " (VCP" +
+                                               char(data[3]) + "): this receiver reads version 3 (VCP3); "
+                                               "update the lecturer's side");
     return fail(PoseWireError::kDamaged, "not a pose packet (size " + std::to_string(size) + ")");
   }
   const uint8_t* p = data + 4;
@@ -384,7 +405,9 @@ bool pose_from_wire(const uint8_t* data, size_t size, Pose* out, std::string* er
     if (!same_tag(tag, data + kPoseWireSize))
       return fail(PoseWireError::kUnauthenticated, "pose packet with a wrong authentication tag (another key?)");
   }
-  info->session = get_le<uint64_t>(p);
+  info->stamp.session = get_le<uint64_t>(p);
+  info->stamp.packet = get_le<uint64_t>(p);
+  info->stamp.sent_ns = get_le<int64_t>(p);
   Pose pose;
   pose.seq = get_le<uint64_t>(p);
   pose.viewer_time_ns = get_le<int64_t>(p);
@@ -478,12 +501,11 @@ bool clamp_to_navigation(const NavigationBounds& bounds, const CameraCalib& refe
     v[i] = std::clamp(v[i], bounds.min[i], bounds.max[i]);
   }
   if (!outside) return false;
-  Pose clamped = offset_to_pose(ViewOffset{v[0], v[1], v[2], v[3], v[4], v[5]}, reference);
-  clamped.seq = pose->seq;
-  clamped.viewer_time_ns = pose->viewer_time_ns;
-  clamped.fov_deg = pose->fov_deg;
-  clamped.clamped = true;
-  *pose = clamped;
+  // Only where it looks moves: seq, session, times and field of view stay the lecturer's.
+  const Pose clamped = offset_to_pose(ViewOffset{v[0], v[1], v[2], v[3], v[4], v[5]}, reference);
+  pose->position = clamped.position;
+  pose->orientation = clamped.orientation;
+  pose->clamped = true;
   return true;
 }
 

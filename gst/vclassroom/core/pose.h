@@ -31,6 +31,10 @@ struct Pose {
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
   double fov_deg = std::numeric_limits<double>::quiet_NaN();  // optional horizontal field of view
   uint64_t seq = 0;
+  // Whose stream the pose belongs to: seqs are ordered only within one
+  // session (docs/network.md, "Sessions"). Named by the receiver that obeyed
+  // the pose (pose_session_id()); 0: unnamed, one local source.
+  uint64_t session = 0;
   int64_t viewer_time_ns = -1;  // -1: not given
   // The server moved this pose into the rig's navigation bounds (docs/navigation.md); carried by the pose
   // event to the renderers and echoed with the frame, never sent by a client.
@@ -55,6 +59,13 @@ Pose pose_of(const RenderedPose& rendered);
 // False when the values are not a usable pose (not finite, absurd position, not a unit quaternion at float
 // precision): it came from the network.
 bool rendered_pose_is_valid(const RenderedPose& rendered);
+
+// A session's number in pose events from the receiver's name for it (an RTP
+// stream's SSRC and session number, a WHEP session id): a stable 64-bit hash,
+// never 0.
+uint64_t pose_session_id(const std::string& name);
+// A fresh random session number for a local pose source that starts (never 0).
+uint64_t new_pose_session_id();
 
 // Throws Error when the pose is not usable: NaN, non-unit quaternion, absurd
 // position or field of view.
@@ -94,7 +105,7 @@ Sliders offset_to_sliders(const ViewOffset& o);
 // The pose nearest to `pose` inside the navigation bounds (each of the six
 // offsets from the reference camera clamped to its range). Returns false and
 // leaves `pose` untouched, bit for bit, when it is inside already. seq,
-// viewer time and field of view are kept; `clamped` is set.
+// session, viewer time and field of view are kept; `clamped` is set.
 bool clamp_to_navigation(const NavigationBounds& bounds, const CameraCalib& reference, Pose* pose);
 
 Pose sliders_to_pose(const Sliders& s, const CameraCalib& reference);
@@ -104,17 +115,31 @@ Sliders pose_to_sliders(const Pose& pose, const CameraCalib& reference);
 Sliders parse_sliders(const std::string& text);
 std::string format_sliders(const Sliders& s);
 
-// The pose on the wire: the RTP payload of the back channel, version 2
+// The pose on the wire: the RTP payload of the back channel, version 3
 // (docs/network.md), little-endian:
-//   "VCP2", flags u32 (bit 0: a tag follows), session u64 (the sender's
+//   "VCP3", flags u32 (bit 0: a tag follows), session u64 (the sender's
 //   random number for this run: a restarted lecturer is a new session),
-//   seq u64, viewer-time i64, x y z qw qx qy qz fov as IEEE doubles (fov NaN
-//   = none), CRC-32 of all before it; then, with flag bit 0, a 16-byte tag:
-//   HMAC-SHA256 (key from a file) of all before it, truncated.
-inline constexpr size_t kPoseWireSize = 4 + 4 + 8 + 8 + 8 + 8 * 8 + 4;  // untagged
+//   packet u64 (numbers every packet of the session, repeats included),
+//   sent-time i64 (the sender's monotonic clock when it sent the packet, ns;
+//   -1 none), seq u64, viewer-time i64, x y z qw qx qy qz fov as IEEE doubles
+//   (fov NaN = none), CRC-32 of all before it; then, with flag bit 0, a
+//   16-byte tag: HMAC-SHA256 (key from a file) of all before it, truncated.
+//   The tag covers session, packet number and times, so a receiver's replay
+//   window (net/pose_session.h) can trust them.
+inline constexpr size_t kPoseWireSize = 4 + 4 + 8 + 8 + 8 + 8 + 8 + 8 * 8 + 4;  // untagged
 inline constexpr size_t kPoseTagSize = 16;
 inline constexpr size_t kPoseWireMaxSize = kPoseWireSize + kPoseTagSize;  // tagged
 inline constexpr uint32_t kPoseWireFlagTagged = 1u;
+
+// What a packet says of its sending apart from the pose. Built from a bare
+// session number where the rest does not matter (tests, untagged senders).
+struct PoseWireStamp {
+  uint64_t session = 0;
+  uint64_t packet = 0;
+  int64_t sent_ns = -1;
+  PoseWireStamp(uint64_t session_ = 0, uint64_t packet_ = 0, int64_t sent_ns_ = -1)  // NOLINT: implicit on purpose
+      : session(session_), packet(packet_), sent_ns(sent_ns_) {}
+};
 
 // The shared secret that authenticates poses: a file's whole content, raw
 // bytes (e.g. `head -c 32 /dev/urandom > pose.key`).
@@ -136,18 +161,18 @@ enum class PoseWireError {
   kInvalid,          // well-formed but a pose validate_pose() rejects (NaN, not a unit quaternion, ...)
 };
 struct PoseWireInfo {
-  uint64_t session = 0;  // the sender's session number
+  PoseWireStamp stamp;   // the sender's session number, packet number and sending time
   bool tagged = false;   // whether the packet carried a tag (checked only when a key is given)
   PoseWireError error = PoseWireError::kNone;
 };
 
 // Writes the packet into `out` (room for kPoseWireMaxSize bytes); returns its
 // size: kPoseWireSize, or kPoseWireMaxSize when a non-empty key tags it.
-size_t pose_to_wire(const Pose& pose, uint8_t* out, uint64_t session = 0, const PoseKey* key = nullptr);
+size_t pose_to_wire(const Pose& pose, uint8_t* out, const PoseWireStamp& stamp = {}, const PoseKey* key = nullptr);
 // False with a message on a wrong size, version, flags or checksum, a pose
 // validate_pose() rejects, or, when `key` is non-empty, a missing or wrong
 // tag (without a key a tag is not checked: anyone can steer, docs/network.md).
-// `info` (optional) receives the session and why the packet was refused.
+// `info` (optional) receives the stamp and why the packet was refused.
 bool pose_from_wire(const uint8_t* data, size_t size, Pose* pose, std::string* error, const PoseKey* key = nullptr,
                     PoseWireInfo* info = nullptr);
 

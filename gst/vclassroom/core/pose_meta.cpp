@@ -8,6 +8,7 @@ gboolean pose_meta_init(GstMeta* meta, gpointer, GstBuffer*) {
   auto* m = reinterpret_cast<PoseMeta*>(meta);
   m->seq = 0;
   m->viewer_time_ns = -1;
+  m->session = 0;
   m->rendered = RenderedPose{};
   return TRUE;
 }
@@ -15,7 +16,7 @@ gboolean pose_meta_init(GstMeta* meta, gpointer, GstBuffer*) {
 // Copies, scaling and conversions keep the pose the frame shows.
 gboolean pose_meta_transform(GstBuffer* dest, GstMeta* meta, GstBuffer*, GQuark, gpointer) {
   auto* m = reinterpret_cast<PoseMeta*>(meta);
-  buffer_add_pose_meta(dest, m->seq, m->viewer_time_ns, m->rendered);
+  buffer_add_pose_meta(dest, m->seq, m->viewer_time_ns, m->rendered, m->session);
   return TRUE;
 }
 
@@ -41,11 +42,13 @@ const GstMetaInfo* pose_meta_get_info() {
   return info;
 }
 
-PoseMeta* buffer_add_pose_meta(GstBuffer* buf, uint64_t seq, int64_t viewer_time_ns, const RenderedPose& rendered) {
+PoseMeta* buffer_add_pose_meta(GstBuffer* buf, uint64_t seq, int64_t viewer_time_ns, const RenderedPose& rendered,
+                               uint64_t session) {
   PoseMeta* m = buffer_get_pose_meta(buf);
   if (!m) m = reinterpret_cast<PoseMeta*>(gst_buffer_add_meta(buf, pose_meta_get_info(), nullptr));
   m->seq = seq;
   m->viewer_time_ns = viewer_time_ns;
+  m->session = session;
   m->rendered = rendered;
   return m;
 }

@@ -108,7 +108,7 @@ FuseRound FuseInputs::decide(const std::vector<PendingFrame>& frames, const Roun
       poses.push_back(frames[i].pose);
       index.push_back(i);
     }
-  const std::vector<bool> stale = stale_poses(poses, params_.pose_window_ns);
+  const std::vector<bool> stale = stale_poses(poses, params_.pose_window_ns, ctx.steering_session);
   bool dropped = false;
   for (size_t j = 0; ctx.live && j < index.size(); ++j) {
     const PendingFrame& f = frames[index[j]];
@@ -147,7 +147,11 @@ OutputStamp output_stamp(const std::vector<FrameStamp>& fused) {
     const FrameStamp& f = fused[i];
     if (f.running_time_ns >= 0 && (out.time_from < 0 || f.running_time_ns > fused[out.time_from].running_time_ns))
       out.time_from = int(i);
-    if (f.pose.known && (out.pose_from < 0 || f.pose.seq < fused[out.pose_from].pose.seq)) out.pose_from = int(i);
+    // Seqs order poses of one session only; a round of mixed sessions (no steering session known) names
+    // the first input's.
+    if (f.pose.known && (out.pose_from < 0 || (f.pose.session == fused[out.pose_from].pose.session &&
+                                               f.pose.seq < fused[out.pose_from].pose.seq)))
+      out.pose_from = int(i);
   }
   return out;
 }

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,6 +55,9 @@ struct RoundContext {
   int64_t last_out_ns = -1;  // running time of the last output frame
   bool have_picture = false;  // a fused picture was sent and can be sent again
   int64_t monotonic_ns = 0;  // for rate-limiting the warnings
+  // The session of the latest pose passed upstream to the warps, when one was: frames warped for another
+  // session's pose are stale (stale_poses()).
+  std::optional<uint64_t> steering_session;
 };
 
 enum class FrameVerdict {

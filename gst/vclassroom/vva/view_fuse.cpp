@@ -418,17 +418,22 @@ void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double backgroun
   depth = new_depth;
 }
 
-std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns) {
-  const WarpedPose* newest = nullptr;
-  for (const WarpedPose& p : inputs)
-    if (p.known && (!newest || p.seq > newest->seq)) newest = &p;
+std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns,
+                              std::optional<uint64_t> steering_session) {
   std::vector<bool> stale(inputs.size(), false);
-  if (!newest) return stale;
+  const bool any_known = std::any_of(inputs.begin(), inputs.end(), [](const WarpedPose& p) { return p.known; });
+  if (!any_known) return stale;
   for (size_t i = 0; i < inputs.size(); ++i) {
     const WarpedPose& p = inputs[i];
-    if (!p.known) {
+    if (!p.known || (steering_session && p.session != *steering_session)) {
       stale[i] = true;
-    } else if (p.seq < newest->seq) {
+      continue;
+    }
+    // The newest pose of its own session.
+    const WarpedPose* newest = &p;
+    for (const WarpedPose& q : inputs)
+      if (q.known && q.session == p.session && q.seq > newest->seq) newest = &q;
+    if (newest != &p) {
       const bool timed = p.viewer_time_ns >= 0 && newest->viewer_time_ns >= 0;
       stale[i] = !timed || newest->viewer_time_ns - p.viewer_time_ns > window_ns;
     }

@@ -2,6 +2,7 @@
 // (docs/vva.md). GStreamer-free.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -74,6 +75,7 @@ struct WarpedPose {
   uint64_t seq = 0;
   int64_t viewer_time_ns = -1;  // when the viewer took the pose; < 0 unknown
   RenderedPose rendered;        // the pose as rendered (after the navigation bounds), echoed with the frame
+  uint64_t session = 0;         // whose pose (Pose::session): seqs are ordered within a session only
 };
 
 // Live, one output frame should show one view: a camera's frame warped for
@@ -82,7 +84,12 @@ struct WarpedPose {
 // a new pose at slightly different moments; at 30 poses a second waiting for
 // exact agreement would drop frames all the time, while poses 50 ms apart
 // differ by a few centimetres and degrees). Frames without a pose are stale
-// when another has one. Returns one flag per input.
-std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns);
+// when another has one. Seqs are compared within a session only: with the
+// steering session known (the session of the latest pose the fuse passed
+// upstream), a frame warped for another session's pose is stale; without it,
+// frames of different sessions are not stale for each other. Returns one flag
+// per input.
+std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns,
+                              std::optional<uint64_t> steering_session = std::nullopt);
 
 }  // namespace vclassroom
