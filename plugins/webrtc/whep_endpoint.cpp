@@ -14,9 +14,11 @@
 #include <vector>
 
 #include <gst/vclassroom/net/pose_session.h>
+#include <gst/vclassroom/core/warning_limiter.h>
 #include <gst/vclassroom/webrtc/playout_delay.h>
 #include <gst/vclassroom/webrtc/whep.h>
 
+#include "whep_http_server.h"
 #include "whep_send_branch.h"
 
 GST_DEBUG_CATEGORY_STATIC(whep_endpoint_debug);
@@ -28,7 +30,8 @@ namespace {
 
 enum Prop {
   kPort, kToken, kTlsCertificate, kTlsKey, kBitrate, kMaxSessions, kWebRoot, kBoundPort, kSessions, kPlayoutDelay,
-  kStunServer, kTurnServer, kLecturerTimeout, kCount
+  kStunServer, kTurnServer, kLecturerTimeout, kListenAddresses, kHttpTimeout, kMaxConnections,
+  kMaxConnectionsPerAddress, kCount
 };
 
 struct Session {
@@ -42,53 +45,6 @@ struct Session {
 void respond(SoupServerMessage* msg, int status, const char* type = nullptr, const std::string& body = "") {
   soup_server_message_set_status(msg, status, nullptr);
   if (type) soup_server_message_set_response(msg, type, SOUP_MEMORY_COPY, body.data(), body.size());
-}
-
-// The offer's first H.264 payload type a browser decodes as constrained
-// baseline in packetization mode 1; -1 when it offers none.
-int pick_h264_payload(const GstSDPMessage* sdp) {
-  for (guint m = 0; m < gst_sdp_message_medias_len(sdp); ++m) {
-    const GstSDPMedia* media = gst_sdp_message_get_media(sdp, m);
-    if (g_strcmp0(gst_sdp_media_get_media(media), "video") != 0) continue;
-    for (guint f = 0; f < gst_sdp_media_formats_len(media); ++f) {
-      const int pt = atoi(gst_sdp_media_get_format(media, f));
-      GstCaps* caps = gst_sdp_media_get_caps_from_media(media, pt);
-      if (!caps) continue;
-      const GstStructure* s = gst_caps_get_structure(caps, 0);
-      const char* name = gst_structure_get_string(s, "encoding-name");
-      const char* mode = gst_structure_get_string(s, "packetization-mode");
-      // GstSDP turns profile-level-id 42e0xx into profile=constrained-baseline.
-      const char* profile = gst_structure_get_string(s, "profile");
-      const bool ok = name && g_ascii_strcasecmp(name, "H264") == 0 && g_strcmp0(mode, "1") == 0 &&
-                      g_strcmp0(profile, "constrained-baseline") == 0;
-      gst_caps_unref(caps);
-      if (ok) return pt;
-    }
-  }
-  return -1;
-}
-
-// The id the offer's video gives the extension `uri` (a=extmap, as GstSDP reads it into extmap-<id> caps
-// fields: the URI alone, or <direction, URI, attributes>), or 0 when it offers none.
-int offered_extension_id(const GstSDPMessage* sdp, const char* uri) {
-  int id = 0;
-  for (guint m = 0; m < gst_sdp_message_medias_len(sdp) && id == 0; ++m) {
-    const GstSDPMedia* media = gst_sdp_message_get_media(sdp, m);
-    if (g_strcmp0(gst_sdp_media_get_media(media), "video") != 0) continue;
-    GstCaps* caps = gst_caps_new_empty_simple("application/x-rtp");
-    gst_sdp_media_attributes_to_caps(media, caps);
-    const GstStructure* s = gst_caps_get_structure(caps, 0);
-    for (int f = 0; f < gst_structure_n_fields(s) && id == 0; ++f) {
-      const char* field = gst_structure_nth_field_name(s, f);
-      if (!g_str_has_prefix(field, "extmap-")) continue;
-      const GValue* v = gst_structure_get_value(s, field);
-      if (GST_VALUE_HOLDS_ARRAY(v)) v = gst_value_array_get_size(v) > 1 ? gst_value_array_get_value(v, 1) : nullptr;
-      const int n = atoi(field + 7);
-      if (v && G_VALUE_HOLDS_STRING(v) && g_strcmp0(g_value_get_string(v), uri) == 0 && n >= 1 && n <= 255) id = n;
-    }
-    gst_caps_unref(caps);
-  }
-  return id;
 }
 
 }  // namespace
@@ -112,7 +68,13 @@ struct WhepEndpoint::State {
   GThread* thread = nullptr;
   GMainContext* context = nullptr;
   GMainLoop* loop = nullptr;
-  SoupServer* server = nullptr;
+  // Where and how long the HTTP server listens and waits (WhepHttpServer); the defaults serve a school's
+  // LAN on every interface, IPv4 and IPv6 (docs/lecturer.md).
+  std::string listen_addresses = "0.0.0.0,::";
+  guint http_timeout_s = 5;
+  guint max_connections = 64, max_connections_per_address = 16;
+  std::unique_ptr<WhepHttpServer> http;
+  WarningLimiter offer_warnings;  // offers refused for values out of range (server thread only)
   guint bound_port = 0;
   WhepSessionTable table{4};
   std::map<std::string, Session*> sessions;
@@ -209,15 +171,15 @@ void on_offer_set(GstPromise* promise, gpointer user_data) {
 
 // Feeds the element's `source` (taken) for session `id` through its send branch and starts answering
 // `offer` (taken). Called with the lock held.
-void start_session_locked(State* st, const std::string& id, GstPad* source, GstSDPMessage* offer, int payload,
-                          SoupServerMessage* msg) {
+void start_session_locked(State* st, const std::string& id, GstPad* source, GstSDPMessage* offer,
+                          const WhepOffer& offered, SoupServerMessage* msg) {
   Session* s = new Session;
   s->owner = st;
   s->id = id;
   s->source = source;
   WhepSendSettings send;
-  send.payload = payload;
-  send.playout_extension_id = offered_extension_id(offer, kPlayoutDelayUri);
+  send.payload = offered.h264_payload;
+  send.playout_extension_id = offered.playout_delay_extension_id;
   send.playout_delay_ms = st->playout_delay_ms;
   send.ice_servers = st->ice_servers;
   send.max_kbit = int(st->bitrate_kbit);
@@ -293,52 +255,90 @@ gboolean poll_receiver_reports(gpointer user_data) {
   return G_SOURCE_CONTINUE;
 }
 
-void on_request(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable* query, gpointer user_data) {
-  State* st = static_cast<State*>(user_data);
-  SoupMessageHeaders* headers = soup_server_message_get_request_headers(msg);
+// GET of the lecturer page's files (lecturer_page_file), with the token.
+void serve_page(State* st, SoupServerMessage* msg, const WhepRequest& r, const std::string& file,
+                const std::string& mime_type) {
+  std::string root;
+  bool allowed;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    root = st->web_root;
+    allowed = token_equal(st->token, r.token);
+  }
+  gchar* contents = nullptr;
+  gsize length = 0;
+  const std::string full = root + "/" + file;
+  if (!allowed) {
+    respond(msg, 401);
+  } else if (root.empty() || !g_file_get_contents(full.c_str(), &contents, &length, nullptr)) {
+    GST_WARNING_OBJECT(st->owner, "no lecturer page at %s (web-root)", full.c_str());
+    respond(msg, 404);
+  } else {
+    respond(msg, 200, mime_type.c_str(), std::string(contents, length));
+    soup_message_headers_replace(soup_server_message_get_response_headers(msg), "Cache-Control", "no-store");
+  }
+  g_free(contents);
+}
+
+// An offer refused for its contents: 400 for a value out of range (with a rate-limited warning: a browser
+// does not send those), 406 for no usable H.264. Nothing else is touched.
+void refuse_offer(State* st, SoupServerMessage* msg, int status, const std::string& why) {
+  GST_INFO_OBJECT(st->owner, "offer refused %d: %s", status, why.c_str());
+  uint64_t count = 0;
+  int64_t span = 0;
+  if (status == 400 && st->offer_warnings.note(g_get_monotonic_time() * 1000, &count, &span)) {
+    const std::string text = describe_occurrences(count, "a malformed offer refused", "malformed offers refused", "", span);
+    GST_ELEMENT_WARNING(st->owner, STREAM, DECODE, ("WHEP server: %s", text.c_str()), ("latest: %s", why.c_str()));
+  }
+  respond(msg, status);
+}
+
+// POST of an offer that check_whep_request let through: inspected here (every value range-checked, without
+// GStreamer) before GstSDP and webrtcbin read it; a session is made for a usable one.
+void join(State* st, SoupServerMessage* msg, const std::string& body) {
+  WhepOffer offered;
+  std::string why;
+  GstSDPMessage* offer = nullptr;
+  if (!inspect_whep_offer(body, &offered, &why)) return refuse_offer(st, msg, 400, why);
+  if (offered.h264_payload < 0)
+    return refuse_offer(st, msg, 406, "no H.264 constrained baseline (packetization-mode 1) offered");
+  if (gst_sdp_message_new_from_text(body.c_str(), &offer) != GST_SDP_OK) {
+    if (offer) gst_sdp_message_free(offer);
+    return refuse_offer(st, msg, 400, "GstSDP does not read the offer");
+  }
+  // The element builds the session's video without the lock (it may read the settings); requests are
+  // handled one at a time in this thread, so the session count checked before still holds.
+  const std::string id = new_whep_session_id();
+  GstPad* source = st->hooks.attach(id);
+  if (!source) {
+    GST_WARNING_OBJECT(st->owner, "no view for a new session: 503");
+    gst_sdp_message_free(offer);
+    respond(msg, 503);
+    return;
+  }
+  soup_server_message_pause(msg);
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    start_session_locked(st, id, source, offer, offered, msg);
+  }
+  if (st->hooks.start) st->hooks.start(id);
+}
+
+// A request whose head WhepHttpServer accepted and whose body (bounded) it read.
+void on_request(State* st, SoupServerMessage* msg, const char* path, GHashTable* query, const std::string& body) {
   WhepRequest r;
   r.method = soup_server_message_get_method(msg);
   r.path = path;
-  const char* token = query ? static_cast<const char*>(g_hash_table_lookup(query, "token")) : nullptr;
-  const char* auth = soup_message_headers_get_one(headers, "Authorization");
-  if (token) r.token = token;
-  else if (auth && g_str_has_prefix(auth, "Bearer ")) r.token = auth + 7;
-  const char* type = soup_message_headers_get_content_type(headers, nullptr);
+  r.token = whep_request_token(msg, query);
+  const char* type = soup_message_headers_get_content_type(soup_server_message_get_request_headers(msg), nullptr);
   r.content_type = type ? type : "";
-  SoupMessageBody* body = soup_server_message_get_request_body(msg);
-  r.body_size = body->length < 0 ? 0 : static_cast<size_t>(body->length);
-  std::string body_text;
-  if (body->length >= 0 && static_cast<size_t>(body->length) <= WhepLimits().max_offer_bytes) {
-    GBytes* bytes = soup_message_body_flatten(body);
-    gsize n = 0;
-    const char* data = static_cast<const char*>(g_bytes_get_data(bytes, &n));
-    body_text.assign(data ? data : "", n);
-    g_bytes_unref(bytes);
-  }
-  r.body = body_text;
-
+  r.body_size = body.size();
+  r.body = body;
+  std::string file, mime_type;
+  if (r.method == "GET" && lecturer_page_file(r.path, &file, &mime_type)) return serve_page(st, msg, r, file, mime_type);
   Session* leaving = nullptr;
-  GstSDPMessage* offer = nullptr;
-  int payload = -1;
   {
     std::lock_guard<std::mutex> g(st->lock);
-    std::string file, mime_type;
-    if (r.method == "GET" && lecturer_page_file(r.path, &file, &mime_type)) {
-      gchar* contents = nullptr;
-      gsize length = 0;
-      const std::string full = st->web_root + "/" + file;
-      if (!token_equal(st->token, r.token)) {
-        respond(msg, 401);
-      } else if (st->web_root.empty() || !g_file_get_contents(full.c_str(), &contents, &length, nullptr)) {
-        GST_WARNING_OBJECT(st->owner, "no lecturer page at %s (web-root)", full.c_str());
-        respond(msg, 404);
-      } else {
-        respond(msg, 200, mime_type.c_str(), std::string(contents, length));
-        soup_message_headers_replace(soup_server_message_get_response_headers(msg), "Cache-Control", "no-store");
-      }
-      g_free(contents);
-      return;
-    }
     WhepLimits limits;
     limits.max_sessions = st->max_sessions;
     const WhepDecision d = check_whep_request(r, st->token, limits, st->sessions.size());
@@ -364,33 +364,9 @@ void on_request(SoupServer*, SoupServerMessage* msg, const char* path, GHashTabl
       leaving = it->second;
       st->sessions.erase(it);
       st->table.remove(d.session_id);
-    } else if (gst_sdp_message_new_from_text(body_text.c_str(), &offer) != GST_SDP_OK ||
-               (payload = pick_h264_payload(offer)) < 0) {
-      if (offer) gst_sdp_message_free(offer);
-      GST_INFO_OBJECT(st->owner, "offer without H.264 constrained baseline (packetization-mode 1): 406");
-      respond(msg, 406);  // no H.264 constrained baseline offered
-      return;
     }
   }
-  if (offer) {
-    // The element builds the session's video without this lock (it may read the settings); requests are
-    // handled one at a time in this thread, so the session count checked above still holds.
-    const std::string id = new_whep_session_id();
-    GstPad* source = st->hooks.attach(id);
-    if (!source) {
-      GST_WARNING_OBJECT(st->owner, "no view for a new session: 503");
-      gst_sdp_message_free(offer);
-      respond(msg, 503);
-      return;
-    }
-    soup_server_message_pause(msg);
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      start_session_locked(st, id, source, offer, payload, msg);
-    }
-    if (st->hooks.start) st->hooks.start(id);
-    return;
-  }
+  if (!leaving) return join(st, msg, body);
   GST_INFO_OBJECT(st->owner, "session %s left", leaving->id.c_str());
   end_session(st, leaving);
   respond(msg, 200);
@@ -402,6 +378,57 @@ gpointer server_thread(gpointer data) {
   g_main_loop_run(st->loop);
   g_main_context_pop_thread_default(st->context);
   return nullptr;
+}
+
+// The HTTP server on the listen-addresses, its caps and timeout from the properties, in a new context that
+// the server thread will run; false after posting an error on the owner.
+bool start_http(State* st) {
+  WhepHttpSettings settings;
+  std::string why;
+  auto fail = [st](const std::string& text) {
+    GST_ELEMENT_ERROR(st->owner, RESOURCE, OPEN_READ, ("Cannot serve WHEP on port %u: %s", st->port, text.c_str()),
+                      (nullptr));
+    return false;
+  };
+  if (!parse_listen_addresses(st->listen_addresses, &settings.addresses, &why)) return fail("listen-addresses: " + why);
+  GError* err = nullptr;
+  if (!st->tls_certificate.empty()) {
+    settings.tls = g_tls_certificate_new_from_files(st->tls_certificate.c_str(), st->tls_key.c_str(), &err);
+    if (!settings.tls) {
+      const std::string text = err->message;
+      g_clear_error(&err);
+      return fail(text);
+    }
+  }
+  settings.port = st->port;
+  settings.timeout_s = st->http_timeout_s;
+  settings.connections.max_total = st->max_connections;
+  settings.connections.max_per_address = st->max_connections_per_address;
+  GTlsCertificate* tls = settings.tls;
+  st->context = g_main_context_new();
+  st->loop = g_main_loop_new(st->context, FALSE);
+  st->http = std::make_unique<WhepHttpServer>(
+      GST_ELEMENT(st->owner), st->context, std::move(settings),
+      [st] {
+        std::lock_guard<std::mutex> g(st->lock);
+        return st->token;
+      },
+      [st](SoupServerMessage* msg, const char* path, GHashTable* query, const std::string& body) {
+        on_request(st, msg, path, query, body);
+      });
+  if (tls) g_object_unref(tls);  // the server took its own reference
+  if (!st->http->start(&err)) {
+    const std::string text = err->message;
+    g_clear_error(&err);
+    st->http.reset();
+    g_main_loop_unref(st->loop);
+    g_main_context_unref(st->context);
+    st->loop = nullptr;
+    st->context = nullptr;
+    return fail(text);
+  }
+  st->bound_port = st->http->bound_port();
+  return true;
 }
 
 GParamFlags rw() { return GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY); }
@@ -470,6 +497,24 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
                         "after which the lecturer is taken as gone (a closed laptop, a lost network, a handshake "
                         "never finished): their session is ended with a warning and its place freed. 0: never",
                         0, 3600, 15, rw()));
+  g_object_class_install_property(klass, p + kListenAddresses,
+      g_param_spec_string("listen-addresses", "Listen addresses",
+                          "Comma-separated IP addresses the WHEP/HTTP server listens on: 0.0.0.0 every IPv4 "
+                          "interface, :: every IPv6 one (skipped where the system has no IPv6), or one "
+                          "interface's address such as 192.168.1.10", "0.0.0.0,::", rw()));
+  g_object_class_install_property(klass, p + kHttpTimeout,
+      g_param_spec_uint("http-timeout", "HTTP timeout",
+                        "Seconds a connection has from its accept to the end of its request (headers and body), "
+                        "and the longest a read or write on it may wait; slower or idle connections are closed",
+                        1, 300, 5, rw()));
+  g_object_class_install_property(klass, p + kMaxConnections,
+      g_param_spec_uint("max-connections", "Max connections",
+                        "HTTP connections open at once; one more is closed at once (each carries one request)",
+                        1, 4096, 64, rw()));
+  g_object_class_install_property(klass, p + kMaxConnectionsPerAddress,
+      g_param_spec_uint("max-connections-per-address", "Max connections per address",
+                        "HTTP connections open at once from one IP address; one more is closed at once",
+                        1, 4096, 16, rw()));
   return p + kCount;
 }
 
@@ -488,6 +533,10 @@ bool WhepEndpoint::set_property(guint id, const GValue* value) {
     case kStunServer: st_->stun_server = str(); return true;
     case kTurnServer: st_->turn_server = str(); return true;
     case kLecturerTimeout: st_->lecturer_timeout_s = g_value_get_uint(value); return true;
+    case kListenAddresses: st_->listen_addresses = str(); return true;
+    case kHttpTimeout: st_->http_timeout_s = g_value_get_uint(value); return true;
+    case kMaxConnections: st_->max_connections = g_value_get_uint(value); return true;
+    case kMaxConnectionsPerAddress: st_->max_connections_per_address = g_value_get_uint(value); return true;
     default: return false;
   }
 }
@@ -508,6 +557,10 @@ bool WhepEndpoint::get_property(guint id, GValue* value) {
     case kStunServer: g_value_set_string(value, st_->stun_server.c_str()); return true;
     case kTurnServer: g_value_set_string(value, st_->turn_server.c_str()); return true;
     case kLecturerTimeout: g_value_set_uint(value, st_->lecturer_timeout_s); return true;
+    case kListenAddresses: g_value_set_string(value, st_->listen_addresses.c_str()); return true;
+    case kHttpTimeout: g_value_set_uint(value, st_->http_timeout_s); return true;
+    case kMaxConnections: g_value_set_uint(value, st_->max_connections); return true;
+    case kMaxConnectionsPerAddress: g_value_set_uint(value, st_->max_connections_per_address); return true;
     default: return false;
   }
 }
@@ -539,37 +592,7 @@ bool WhepEndpoint::start() {
   if (!add_ice_server("stun-server", st->stun_server, true) || !add_ice_server("turn-server", st->turn_server, false))
     return false;
   st->table = WhepSessionTable(st->max_sessions);
-  GError* err = nullptr;
-  st->context = g_main_context_new();
-  st->loop = g_main_loop_new(st->context, FALSE);
-  g_main_context_push_thread_default(st->context);
-  st->server = soup_server_new(nullptr, nullptr);
-  soup_server_add_handler(st->server, nullptr, on_request, st, nullptr);
-  bool ok = true;
-  if (!st->tls_certificate.empty()) {
-    GTlsCertificate* cert = g_tls_certificate_new_from_files(st->tls_certificate.c_str(), st->tls_key.c_str(), &err);
-    if (cert) {
-      soup_server_set_tls_certificate(st->server, cert);
-      g_object_unref(cert);
-    } else {
-      ok = false;
-    }
-  }
-  if (ok)
-    ok = soup_server_listen_all(st->server, st->port,
-                                st->tls_certificate.empty() ? SoupServerListenOptions(0) : SOUP_SERVER_LISTEN_HTTPS,
-                                &err);
-  g_main_context_pop_thread_default(st->context);
-  if (!ok) {
-    GST_ELEMENT_ERROR(st->owner, RESOURCE, OPEN_READ, ("Cannot serve WHEP on port %u: %s", st->port, err->message),
-                      (nullptr));
-    g_clear_error(&err);
-    stop();
-    return false;
-  }
-  GSList* uris = soup_server_get_uris(st->server);
-  if (uris) st->bound_port = g_uri_get_port(static_cast<GUri*>(uris->data));
-  g_slist_free_full(uris, (GDestroyNotify)g_uri_unref);
+  if (!start_http(st)) return false;
   GST_INFO_OBJECT(st->owner, "WHEP on port %u", st->bound_port);
   GSource* reports = g_timeout_source_new_seconds(1);
   g_source_set_callback(reports, poll_receiver_reports, st, nullptr);
@@ -594,11 +617,7 @@ void WhepEndpoint::stop() {
     st->table = WhepSessionTable(st->max_sessions);
   }
   for (auto& kv : sessions) end_session(st, kv.second);
-  if (st->server) {
-    soup_server_disconnect(st->server);
-    g_object_unref(st->server);
-    st->server = nullptr;
-  }
+  st->http.reset();  // closes the listeners and every connection
   g_main_loop_unref(st->loop);
   g_main_context_unref(st->context);
   st->loop = nullptr;

@@ -44,7 +44,8 @@ class WhepEndpoint {
   WhepEndpoint& operator=(const WhepEndpoint&) = delete;
 
   // The endpoint's properties (port, token, tls-certificate, tls-key, bitrate, max-sessions, web-root,
-  // bound-port, sessions) on the element's class, with ids from `first_id`; returns the next free id.
+  // bound-port, sessions, playout-delay, stun-server, turn-server, lecturer-timeout, listen-addresses,
+  // http-timeout, max-connections, max-connections-per-address) on the element's class, with ids from `first_id`; returns the next free id.
   static guint install_properties(GObjectClass* klass, guint first_id);
   // False when `id` is not one of the endpoint's.
   bool set_property(guint id, const GValue* value);

@@ -4,11 +4,14 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <utility>
 #include <vector>
 
 #include <glib.h>
 
 #include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/webrtc/playout_delay.h>
 
 namespace vclassroom {
 
@@ -301,6 +304,263 @@ bool parse_frame_echo(std::string_view message, uint32_t* rtp_timestamp, uint64_
   *seq = s;
   *viewer_time_ms = t;
   if (rendered) *rendered = r;
+  return true;
+}
+
+}  // namespace vclassroom
+
+namespace vclassroom {
+
+WhepHeadVerdict judge_request_head(const WhepRequestHead& head, std::string_view expected_token,
+                                   const WhepLimits& limits) {
+  auto refuse_head = [](int status, std::string why) {
+    WhepHeadVerdict v;
+    v.status = status;
+    v.why = std::move(why);
+    return v;
+  };
+  // The token first, as check_whep_request: a stranger learns nothing else, and sends nothing more.
+  if (!token_equal(expected_token, head.token)) return refuse_head(401, head.token.empty() ? "no token" : "wrong token");
+  if (head.path.size() > kMaxWhepPathBytes)
+    return refuse_head(414, "path of " + std::to_string(head.path.size()) + " bytes");
+  if (head.content_length > 0 && static_cast<uint64_t>(head.content_length) > limits.max_offer_bytes)
+    return refuse_head(413, "body of " + std::to_string(head.content_length) + " bytes announced (at most " +
+                                std::to_string(limits.max_offer_bytes) + ")");
+  // Only an offer has a body; reading one nobody wants would be the same attack with another method.
+  const bool has_body = head.chunked || head.content_length > 0;
+  if (has_body && head.method != "POST") return refuse_head(400, std::string(head.method) + " with a body");
+  return WhepHeadVerdict{};
+}
+
+bool ConnectionCounter::admit(const std::string& address) {
+  if (total_ >= limits_.max_total) return false;
+  size_t& n = per_address_[address];
+  if (n >= limits_.max_per_address) {
+    if (n == 0) per_address_.erase(address);
+    return false;
+  }
+  ++n;
+  ++total_;
+  return true;
+}
+
+void ConnectionCounter::release(const std::string& address) {
+  auto it = per_address_.find(address);
+  if (it == per_address_.end()) return;
+  if (--it->second == 0) per_address_.erase(it);
+  --total_;
+}
+
+size_t ConnectionCounter::from(const std::string& address) const {
+  auto it = per_address_.find(address);
+  return it == per_address_.end() ? 0 : it->second;
+}
+
+bool parse_listen_addresses(std::string_view text, std::vector<std::string>* addresses, std::string* why) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (start <= text.size()) {
+    size_t end = text.find(',', start);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view item = text.substr(start, end - start);
+    while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
+    while (!item.empty() && item.back() == ' ') item.remove_suffix(1);
+    const std::string address(item);
+    // Literal addresses only: a name would be resolved at start, and an interface's address may change.
+    if (address.empty() || !g_hostname_is_ip_address(address.c_str()))
+      return fail(why, "listen address \"" + address + "\" is not an IPv4 or IPv6 address");
+    if (std::find(out.begin(), out.end(), address) == out.end()) out.push_back(address);
+    if (out.size() > 16) return fail(why, "more than 16 listen addresses");
+    start = end + 1;
+  }
+  *addresses = std::move(out);
+  return true;
+}
+
+namespace {
+
+// A decimal number of at most `max_digits` digits and nothing else (no sign, no spaces), into `*value`.
+bool parse_decimal(std::string_view s, size_t max_digits, uint64_t* value) {
+  if (s.empty() || s.size() > max_digits) return false;
+  uint64_t v = 0;
+  for (char c : s) {
+    if (c < '0' || c > '9') return false;
+    v = v * 10 + static_cast<uint64_t>(c - '0');
+  }
+  *value = v;
+  return true;
+}
+
+// A payload type as SDP writes it: 0..127 (RFC 3551: 7 bits in the RTP header).
+bool parse_payload_type(std::string_view s, int* pt) {
+  uint64_t v = 0;
+  if (!parse_decimal(s, 3, &v) || v > 127) return false;
+  *pt = static_cast<int>(v);
+  return true;
+}
+
+// Splits at the first space: "a b c" -> "a", "b c".
+std::pair<std::string_view, std::string_view> first_word(std::string_view s) {
+  const size_t sp = s.find(' ');
+  if (sp == std::string_view::npos) return {s, {}};
+  return {s.substr(0, sp), s.substr(sp + 1)};
+}
+
+// What one media section says of its formats, while it is read.
+struct MediaSection {
+  bool video = false;
+  bool rtp = false;               // an RTP profile: its formats are payload types
+  std::vector<int> formats;       // in the m= line's order
+  std::map<int, bool> h264;       // payload type -> rtpmap H264/90000
+  std::map<int, bool> baseline;   // payload type -> fmtp packetization-mode=1 and constrained baseline
+  int playout_id = 0;
+};
+
+// "packetization-mode=1;profile-level-id=42e01f": constrained baseline in mode 1, as GstSDP reads it
+// (profile_idc 66 with constraint_set1 is "constrained-baseline").
+bool fmtp_is_constrained_baseline_mode1(std::string_view params) {
+  bool mode1 = false, baseline = false;
+  size_t start = 0;
+  while (start < params.size()) {
+    size_t end = params.find(';', start);
+    if (end == std::string_view::npos) end = params.size();
+    std::string_view p = params.substr(start, end - start);
+    while (!p.empty() && p.front() == ' ') p.remove_prefix(1);
+    if (p == "packetization-mode=1") mode1 = true;
+    if (p.size() == 23 && p.substr(0, 17) == "profile-level-id=") {
+      const std::string hex(p.substr(17));
+      char* stop = nullptr;
+      const unsigned long v = std::strtoul(hex.c_str(), &stop, 16);
+      if (stop == hex.c_str() + 6 && std::all_of(hex.begin(), hex.end(), [](char c) { return g_ascii_isxdigit(c) != 0; }))
+        baseline = (v >> 16) == 0x42 && ((v >> 8) & 0x40) != 0;
+    }
+    start = end + 1;
+  }
+  return mode1 && baseline;
+}
+
+// The m= line: "<media> <port>[/<count>] <proto> <fmt> ...".
+bool read_media_line(std::string_view value, MediaSection* m, std::string* why) {
+  auto [media, rest] = first_word(value);
+  auto [port_text, rest2] = first_word(rest);
+  auto [proto, formats] = first_word(rest2);
+  if (media.empty() || port_text.empty() || proto.empty()) return fail(why, "m= line without media, port and proto");
+  const size_t slash = port_text.find('/');
+  uint64_t port = 0, count = 1;
+  if (!parse_decimal(port_text.substr(0, slash), 5, &port) || port > 65535 ||
+      (slash != std::string_view::npos && (!parse_decimal(port_text.substr(slash + 1), 2, &count) || count < 1 ||
+                                           count > 16)))
+    return fail(why, "m= port \"" + std::string(port_text) + "\" out of range");
+  m->video = media == "video";
+  m->rtp = proto.find("RTP/") != std::string_view::npos;
+  size_t n = 0;
+  while (!formats.empty()) {
+    auto [fmt, more] = first_word(formats);
+    formats = more;
+    if (fmt.empty()) continue;
+    if (++n > kMaxOfferFormats) return fail(why, "more than " + std::to_string(kMaxOfferFormats) + " formats");
+    int pt = 0;
+    if (m->rtp) {
+      if (!parse_payload_type(fmt, &pt)) return fail(why, "payload type \"" + std::string(fmt) + "\" not in 0..127");
+      m->formats.push_back(pt);
+    }
+  }
+  return true;
+}
+
+// An a= line inside a media section; the attributes whose numbers anyone reads are checked.
+bool read_media_attribute(std::string_view attr, MediaSection* m, std::string* why) {
+  const size_t colon = attr.find(':');
+  const std::string_view name = attr.substr(0, colon);
+  const std::string_view value = colon == std::string_view::npos ? std::string_view() : attr.substr(colon + 1);
+  auto [first, rest] = first_word(value);
+  int pt = 0;
+  if (name == "rtpmap" || name == "fmtp" || (name == "rtcp-fb" && first != "*")) {
+    if (!parse_payload_type(first, &pt))
+      return fail(why, "a=" + std::string(name) + " payload type \"" + std::string(first) + "\" not in 0..127");
+  }
+  if (name == "rtpmap") {
+    // <encoding>/<clock rate>[/<channels>]
+    const size_t s1 = rest.find('/');
+    const std::string_view encoding = rest.substr(0, s1);
+    const std::string_view clock_rest = s1 == std::string_view::npos ? std::string_view() : rest.substr(s1 + 1);
+    const std::string_view clock = clock_rest.substr(0, clock_rest.find('/'));
+    uint64_t rate = 0;
+    if (encoding.empty() || !parse_decimal(clock, 9, &rate) || rate == 0)
+      return fail(why, "a=rtpmap:" + std::to_string(pt) + " without an encoding and clock rate");
+    if (encoding.size() == 4 && g_ascii_strncasecmp(encoding.data(), "H264", 4) == 0) {
+      if (m->rtp && pt < 96) return fail(why, "H.264 on payload type " + std::to_string(pt) + " (not 96..127)");
+      m->h264[pt] = rate == 90000;
+    }
+  } else if (name == "fmtp") {
+    m->baseline[pt] = fmtp_is_constrained_baseline_mode1(rest);
+  } else if (name == "extmap") {
+    // <id>[/<direction>] <uri> [<attributes>]
+    const std::string_view id_text = first.substr(0, first.find('/'));
+    uint64_t id = 0;
+    if (!parse_decimal(id_text, 3, &id) || id < 1 || id > 255)
+      return fail(why, "a=extmap id \"" + std::string(id_text) + "\" not in 1..255");
+    if (m->video && m->playout_id == 0 && first_word(rest).first == kPlayoutDelayUri) m->playout_id = int(id);
+  } else if (name == "ssrc") {
+    uint64_t ssrc = 0;
+    if (!parse_decimal(first, 10, &ssrc) || ssrc > 0xffffffffu) return fail(why, "a=ssrc not a 32-bit number");
+  } else if (name == "rtcp") {
+    uint64_t port = 0;
+    if (!parse_decimal(first, 5, &port) || port > 65535) return fail(why, "a=rtcp port out of range");
+  }
+  return true;
+}
+
+// The offer's pick from a finished media section.
+void take_media(const MediaSection& m, WhepOffer* offer) {
+  if (!m.video || !m.rtp || offer->h264_payload >= 0) return;
+  for (int pt : m.formats) {
+    auto h = m.h264.find(pt);
+    auto b = m.baseline.find(pt);
+    if (h != m.h264.end() && h->second && b != m.baseline.end() && b->second && pt >= 96) {
+      offer->h264_payload = pt;
+      offer->playout_delay_extension_id = m.playout_id;
+      return;
+    }
+  }
+}
+
+}  // namespace
+
+bool inspect_whep_offer(std::string_view sdp, WhepOffer* offer, std::string* why) {
+  if (sdp.size() > WhepLimits().max_offer_bytes) return fail(why, "offer of " + std::to_string(sdp.size()) + " bytes");
+  if (sdp.substr(0, 4) != "v=0\r" && sdp.substr(0, 4) != "v=0\n") return fail(why, "not an SDP offer");
+  WhepOffer result;
+  MediaSection media;
+  bool in_media = false;
+  size_t lines = 0, sections = 0, start = 0;
+  while (start < sdp.size()) {
+    size_t end = sdp.find('\n', start);
+    if (end == std::string_view::npos) end = sdp.size();
+    std::string_view line = sdp.substr(start, end - start);
+    start = end + 1;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    if (line.empty()) continue;
+    if (++lines > kMaxOfferLines) return fail(why, "more than " + std::to_string(kMaxOfferLines) + " lines");
+    if (line.size() > kMaxOfferLineBytes)
+      return fail(why, "a line of " + std::to_string(line.size()) + " bytes (at most " +
+                           std::to_string(kMaxOfferLineBytes) + ")");
+    for (char c : line)
+      if (static_cast<unsigned char>(c) < 0x20 && c != '\t') return fail(why, "a control character in a line");
+    if (line.size() < 2 || line[1] != '=' || !g_ascii_islower(line[0])) return fail(why, "not a <type>=<value> line");
+    const std::string_view value = line.substr(2);
+    if (line[0] == 'm') {
+      if (in_media) take_media(media, &result);
+      if (++sections > kMaxOfferMedia) return fail(why, "more than " + std::to_string(kMaxOfferMedia) + " media");
+      media = MediaSection();
+      in_media = true;
+      if (!read_media_line(value, &media, why)) return false;
+    } else if (line[0] == 'a' && in_media) {
+      if (!read_media_attribute(value, &media, why)) return false;
+    }
+  }
+  if (in_media) take_media(media, &result);
+  *offer = result;
   return true;
 }
 

@@ -10,6 +10,7 @@
 #include <map>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <gst/vclassroom/core/pose.h>
 
@@ -57,6 +58,81 @@ inline constexpr size_t kWhepSessionIdChars = 32;  // 16 random bytes, lower-cas
 // the request says (checked first, so a stranger learns nothing else).
 WhepDecision check_whep_request(const WhepRequest& request, std::string_view expected_token,
                                 const WhepLimits& limits, size_t sessions_now);
+
+// The head of an HTTP request as the server has it once the headers are read and before any byte of the
+// body: what judge_request_head() decides from. Views into the caller's strings.
+struct WhepRequestHead {
+  std::string_view method;
+  std::string_view path;          // without the query
+  std::string_view token;         // as in WhepRequest
+  int64_t content_length = -1;    // the Content-Length header; -1 when absent
+  bool chunked = false;           // Transfer-Encoding: chunked (no length known in advance)
+};
+
+// Longer paths are refused (414): the server's own are a few characters, and a path is logged.
+inline constexpr size_t kMaxWhepPathBytes = 1024;
+
+// What to do with a request before its body is read: `status` 0 means read the body (at most
+// limits.max_offer_bytes, counted as it comes), anything else is the answer to send at once before the
+// connection is closed, unread: 401 (wrong or missing token, checked first as in check_whep_request),
+// 414 (path too long), 413 (a Content-Length over the limit), 400 (a body on a method that takes none).
+struct WhepHeadVerdict {
+  int status = 0;
+  std::string why;  // for the log, never sent
+};
+WhepHeadVerdict judge_request_head(const WhepRequestHead& head, std::string_view expected_token,
+                                   const WhepLimits& limits);
+
+// The connections the HTTP server keeps open at once, in all and from one address: a peer that opens
+// connections and sends nothing must not take every descriptor the process has (docs/reliability.md).
+// One request per connection, so a legitimate browser needs a few at a time.
+struct ConnectionLimits {
+  size_t max_total = 64;
+  size_t max_per_address = 16;
+};
+
+// Counts open connections by peer address. Not thread-safe: callers lock (the server's one thread).
+class ConnectionCounter {
+ public:
+  explicit ConnectionCounter(ConnectionLimits limits = ConnectionLimits()) : limits_(limits) {}
+  // True, and counted, when one more connection from `address` stays within both caps; false: close it.
+  bool admit(const std::string& address);
+  // A connection admitted from `address` has closed. Releasing more than was admitted is ignored.
+  void release(const std::string& address);
+  size_t total() const { return total_; }
+  size_t from(const std::string& address) const;
+  const ConnectionLimits& limits() const { return limits_; }
+
+ private:
+  ConnectionLimits limits_;
+  size_t total_ = 0;
+  std::map<std::string, size_t> per_address_;
+};
+
+// A comma-separated list of IP addresses to listen on ("0.0.0.0,::", "192.168.1.10", "::1"), spaces around
+// the commas allowed; false, with a reason, for an empty list, a host name, or more than 16 addresses.
+bool parse_listen_addresses(std::string_view text, std::vector<std::string>* addresses, std::string* why);
+
+// What the server takes from a browser's SDP offer (RFC 8866), read here without GStreamer so that
+// every value is range-checked before GstSDP and webrtcbin see the offer.
+struct WhepOffer {
+  // The first video format that is H.264 constrained baseline (profile-level-id 42xxxx with
+  // constraint_set1, as GstSDP calls constrained-baseline) in packetization mode 1, at 90 kHz; a dynamic
+  // payload type (96..127). -1: none offered.
+  int h264_payload = -1;
+  int playout_delay_extension_id = 0;  // the video's a=extmap id (1..255) for kPlayoutDelayUri; 0: none
+};
+// Bounds of an offer: Chrome's and Firefox's are 3-8 kB in 60-200 lines with 3-4 media sections.
+inline constexpr size_t kMaxOfferLineBytes = 4096;
+inline constexpr size_t kMaxOfferLines = 2000;
+inline constexpr size_t kMaxOfferMedia = 16;
+inline constexpr size_t kMaxOfferFormats = 64;  // per media section
+// False, with a reason (the request gets 400), when the offer is not SDP or any value the server, GstSDP or
+// webrtcbin reads is out of range: its size, line count and lengths, control characters, the media
+// sections' count, port (0..65535) and port count, every RTP payload type (0..127, in m=, a=rtpmap, a=fmtp,
+// a=rtcp-fb), an H.264 payload type outside 96..127, a clock rate, an a=extmap id (1..255), an a=ssrc
+// (32 bits), an a=rtcp port. True otherwise, with `offer` filled (h264_payload -1: no usable H.264, 406).
+bool inspect_whep_offer(std::string_view sdp, WhepOffer* offer, std::string* why);
 
 // A STUN or TURN server, as webrtcbin takes it: "stun://host:port", "turn://user:password@host:port" or
 // "turns://..." (TURN over TLS), read by GLib's URI parser. Host names, IPv4 or [IPv6] addresses; user and
