@@ -5,14 +5,20 @@
 #include <gio/gio.h>
 #include <gst/check/gstharness.h>
 #include <gst/check/gsttestclock.h>
+#include <gst/app/gstappsink.h>
 #include <gst/app/gstappsrc.h>
+#include <gst/rtp/rtp.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/core/warning_limiter.h>
+#include <gst/vclassroom/synthetic/classroom.h>
 
 #include <algorithm>
 #include <cstring>
 #include <random>
+#include <set>
 #include <utility>
 
 #include "test_util.h"
@@ -449,6 +455,18 @@ struct Server {
     EXPECT_EQ(gst_pad_push(link.pad, packet), GST_FLOW_OK);
     return injected_seqs(h);
   }
+  // Pushes one packet; the pose events it made poserecv send upstream (the caller's to forward or unref).
+  std::vector<GstEvent*> push_for_events(GstBuffer* packet) {
+    EXPECT_EQ(gst_pad_push(link.pad, packet), GST_FLOW_OK);
+    std::vector<GstEvent*> out;
+    while (GstEvent* ev = gst_harness_try_pull_upstream_event(h)) {
+      if (is_pose_event(ev))
+        out.push_back(ev);
+      else
+        gst_event_unref(ev);
+    }
+    return out;
+  }
   guint64 count(const char* property) {
     guint64 v = 0;
     g_object_get(h->element, property, &v, nullptr);
@@ -721,4 +739,192 @@ TEST(PoseSendTrace, TheLecturerRecordsEveryPoseItSentWithItsRunningTime) {
   const auto bad = vctest::run_launch("videotestsrc num-buffers=1 ! posesend name=s trace-location=" +
                                       (dir / "no-such-dir/sent.csv") + " ! fakesink  s.rtp ! fakesink");
   EXPECT_NE(bad.error.find("cannot write pose trace"), std::string::npos) << bad.error;
+}
+
+// ---- Pose sessions end to end: the receiver's pose events steer the renderers (viewwarp, viewfuse)
+
+namespace {
+// One camera's viewwarp in a harness, fed what poserecv sends upstream, as the fuse forwards it.
+struct Renderer {
+  vctest::TempDir dir;
+  GstHarness* h = nullptr;
+  RgbdInfo info;
+  Renderer() {
+    Rig rig = default_classroom_rig();
+    for (auto& c : rig.cameras) c = scale_camera(c, 32, 18);
+    const std::string path = dir / "rig.yaml";
+    save_rig(rig, path);
+    h = gst_harness_new_parse(("viewwarp rig=" + path).c_str());
+    info.camera = rig.camera(1);
+    info.planes = {Plane::Color, Plane::Depth};
+    gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  }
+  ~Renderer() { gst_harness_teardown(h); }
+  void steer(const std::vector<GstEvent*>& events) {
+    for (GstEvent* ev : events) EXPECT_TRUE(gst_harness_push_upstream_event(h, ev));
+  }
+  // The pose (session, seq) the next camera frame is rendered for.
+  std::pair<uint64_t, uint64_t> next_frame() {
+    GstBuffer* in = rgbd_buffer_new(info);
+    gst_buffer_memset(in, 0, 0, gst_buffer_get_size(in));
+    EXPECT_EQ(gst_harness_push(h, in), GST_FLOW_OK);
+    GstBuffer* out = gst_harness_pull(h);
+    const PoseMeta* m = out ? buffer_get_pose_meta(out) : nullptr;
+    EXPECT_NE(m, nullptr);
+    const std::pair<uint64_t, uint64_t> shown(m ? m->session : 0, m ? m->seq : 0);
+    if (out) gst_buffer_unref(out);
+    return shown;
+  }
+};
+}  // namespace
+
+// issue 29: viewwarp kept the highest seq it had ever seen, across sessions: a restarted lecturer (seq from
+// 1 again) was ignored by the renderer although poserecv obeyed it.
+TEST(PoseSessions, ARestartedLecturerSteersTheViewFromItsFirstPose) {
+  Server srv;
+  Renderer view;
+  GstClockTime t = 0;
+  for (uint64_t seq = 1; seq <= 41; ++seq, t += kFrameTime) {
+    srv.at(t);
+    view.steer(srv.push_for_events(pose_packet(pose_with_seq(seq), 0xAAAA, 1)));
+  }
+  const std::pair<uint64_t, uint64_t> before = view.next_frame();
+  EXPECT_EQ(before.second, 41u);
+  // The lecturer restarts: a new SSRC and session, seq from 1, after the session timeout.
+  t += 600 * GST_MSECOND;
+  for (uint64_t seq = 1; seq <= 5; ++seq, t += kFrameTime) {
+    srv.at(t);
+    const std::vector<GstEvent*> obeyed = srv.push_for_events(pose_packet(pose_with_seq(seq), 0xBBBB, 2));
+    ASSERT_EQ(obeyed.size(), 1u) << "poserecv did not obey seq " << seq;
+    view.steer(obeyed);
+    const std::pair<uint64_t, uint64_t> shown = view.next_frame();
+    EXPECT_EQ(shown.second, seq) << "the renderer did not follow the restarted lecturer";
+    EXPECT_NE(shown.first, before.first);
+  }
+}
+
+// issue 29: one pose with seq 2^64-1 froze the view until the server restarted.
+TEST(PoseSessions, ASeqOf2To64Minus1FromAnotherSessionDoesNotFreezeTheView) {
+  Server srv;
+  Renderer view;
+  GstClockTime t = 0;
+  for (uint64_t seq = 1; seq <= 10; ++seq, t += kFrameTime) {
+    srv.at(t);
+    view.steer(srv.push_for_events(pose_packet(pose_with_seq(seq), 0x1111, 7)));
+  }
+  // The lecturer pauses; a stranger's single pose takes over (the session rule allows it) ...
+  t += 600 * GST_MSECOND;
+  srv.at(t);
+  view.steer(srv.push_for_events(pose_packet(pose_with_seq(UINT64_MAX), 0x6666, 66)));
+  EXPECT_EQ(view.next_frame().second, UINT64_MAX);
+  // ... and once it is silent, the lecturer steers again, from where its seq stands.
+  t += 600 * GST_MSECOND;
+  for (uint64_t seq = 11; seq <= 15; ++seq, t += kFrameTime) {
+    srv.at(t);
+    view.steer(srv.push_for_events(pose_packet(pose_with_seq(seq), 0x1111, 7)));
+    EXPECT_EQ(view.next_frame().second, seq);
+  }
+}
+
+// A pose of another session than the obeyed one never reaches the renderer, and so never moves the view.
+TEST(PoseSessions, APoseOfASessionThatIsNotSteeringNeverMovesTheView) {
+  Server srv;
+  Renderer view;
+  GstClockTime t = 0;
+  for (uint64_t seq = 1; seq <= 30; ++seq, t += kFrameTime) {
+    srv.at(t);
+    view.steer(srv.push_for_events(pose_packet(pose_with_seq(seq), 0xAAAA, 1)));
+    view.steer(srv.push_for_events(pose_packet(pose_with_seq(1000 + seq), 0xBBBB, 2)));
+    EXPECT_EQ(view.next_frame().second, seq);
+  }
+}
+
+// With a key, the lecturer's repeats (posesend sends its latest pose again with every video frame) are
+// fresh packets, never taken for replays, and keep its session while another sender is refused.
+TEST(PoseAuthentication, TheLecturersRepeatsAreFreshPacketsNotReplays) {
+  vctest::TempDir dir;
+  const std::string key_file = dir / "pose.key";
+  vctest::write_text(key_file, "the classroom's 32-byte pose key");
+  Server srv(Server::Props{{"key-file", key_file}});
+  GstElement* e = gst_element_factory_make("posesend", nullptr);
+  g_object_set(e, "key-file", key_file.c_str(), nullptr);
+  GstHarness* lect = gst_harness_new_with_element(e, "sink", "src");
+  gst_object_unref(e);
+  gst_harness_set_src_caps_str(lect, kVideoCaps);
+  Capture packets;
+  packets.attach(lect->element, "rtp");
+  EXPECT_TRUE(gst_harness_push_upstream_event(lect, pose_event_new(pose_with_seq(3))));
+  for (int i = 0; i < 20; ++i) ASSERT_EQ(gst_harness_push(lect, gst_harness_create_buffer(lect, 48)), GST_FLOW_OK);
+  ASSERT_TRUE(packets.wait_for(21));
+  // Received at the times they were sent (the receiver's clock set to the sender's).
+  std::set<uint64_t> numbers;
+  for (size_t i = 0; i < 21; ++i) {
+    GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
+    ASSERT_TRUE(gst_rtp_buffer_map(packets.buffers[i], GST_MAP_READ, &rtp));
+    Pose p;
+    PoseWireInfo info;
+    ASSERT_TRUE(pose_from_wire(static_cast<const uint8_t*>(gst_rtp_buffer_get_payload(&rtp)),
+                               gst_rtp_buffer_get_payload_len(&rtp), &p, nullptr, nullptr, &info));
+    gst_rtp_buffer_unmap(&rtp);
+    EXPECT_EQ(p.seq, 3u);
+    numbers.insert(info.stamp.packet);
+    srv.at(GstClockTime(info.stamp.sent_ns));
+    const std::vector<uint64_t> obeyed = srv.push(gst_buffer_ref(packets.buffers[i]));
+    EXPECT_EQ(obeyed.size(), i == 0 ? 1u : 0u);  // the pose once; its repeats keep the session
+  }
+  EXPECT_EQ(numbers.size(), 21u) << "posesend numbered its repeats alike";
+  EXPECT_EQ(srv.count("replayed"), 0u);
+  EXPECT_EQ(srv.count("received"), 21u);
+  // Replayed as they were captured, every one is refused.
+  for (size_t i = 0; i < 21; ++i) EXPECT_TRUE(srv.push(gst_buffer_ref(packets.buffers[i])).empty());
+  EXPECT_EQ(srv.count("replayed"), 21u);
+  gst_harness_teardown(lect);
+}
+
+// viewfuse with two cameras' viewwarps: a new session's first pose reaches every camera and the fused view
+// shows it at once, whatever seq the session before had reached.
+TEST(PoseSessions, TheFusedViewFollowsANewSessionAtOnce) {
+  vctest::TempDir dir;
+  Rig rig = default_classroom_rig();
+  for (auto& c : rig.cameras) c = scale_camera(c, 64, 36);
+  const std::string r = dir / "rig.yaml";
+  save_rig(rig, r);
+  std::string desc = "viewfuse name=f ! appsink name=out sync=false max-buffers=1";
+  for (int i = 1; i <= 2; ++i)
+    desc += " rgbdtestsrc rig=" + r + " camera-id=" + std::to_string(i) + " learners=1 ! viewwarp rig=" + r +
+            " ! queue max-size-buffers=1 ! f.cam_" + std::to_string(i);
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  GstPad* sinkpad = gst_element_get_static_pad(sink, "sink");
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  // Pulls frames until one shows (session, seq), then checks that the next ones do too.
+  auto shows_from_now_on = [&](uint64_t session, uint64_t seq) {
+    bool seen = false;
+    for (int i = 0; i < 12; ++i) {
+      GstSample* s = gst_app_sink_pull_sample(GST_APP_SINK(sink));
+      if (!s) return false;
+      const PoseMeta* m = buffer_get_pose_meta(gst_sample_get_buffer(s));
+      const bool match = m && m->session == session && m->seq == seq;
+      gst_sample_unref(s);
+      if (seen && !match) return false;  // went back
+      seen = seen || match;
+    }
+    return seen;
+  };
+  Pose a = sliders_to_pose(Sliders{60, 50, 55, 45, 50, 50}, rig.camera(0));
+  a.session = 0xA;
+  a.seq = 41;
+  ASSERT_TRUE(gst_pad_push_event(sinkpad, pose_event_new(a)));
+  EXPECT_TRUE(shows_from_now_on(0xA, 41));
+  Pose b = sliders_to_pose(Sliders{40, 50, 50, 55, 50, 50}, rig.camera(0));
+  b.session = 0xB;
+  b.seq = 1;
+  ASSERT_TRUE(gst_pad_push_event(sinkpad, pose_event_new(b)));
+  EXPECT_TRUE(shows_from_now_on(0xB, 1)) << "the fused view did not follow the new session's first pose";
+  gst_object_unref(sinkpad);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
 }

@@ -18,6 +18,7 @@
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/image_metrics.h>
 #include <gst/vclassroom/vva/background_memory.h>
+#include <gst/vclassroom/vva/fuse_inputs.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_meta.h>
@@ -596,6 +597,22 @@ TEST(ViewFuse, LivePairingToleratesPosesTakenCloseTogether) {
   // A frame without a pose is stale beside one with a pose; frames without any are all fine.
   EXPECT_EQ(stale_poses({none, p10}, 50 * ms), (std::vector<bool>{true, false}));
   EXPECT_EQ(stale_poses({none, none}, 50 * ms), (std::vector<bool>{false, false}));
+}
+
+// Seqs are ordered within a session only (issue 29): a new lecturer's seq 1 is not older than the last
+// lecturer's seq 41. With the steering session known, the other session's frames are the stale ones.
+TEST(ViewFuse, PosesOfDifferentSessionsAreNeverComparedBySeq) {
+  const int64_t ms = 1000000;
+  const WarpedPose a41{true, 41, 1000 * ms, {}, 0xA}, a40{true, 40, 900 * ms, {}, 0xA}, b1{true, 1, 5 * ms, {}, 0xB};
+  EXPECT_EQ(stale_poses({a41, b1}, 50 * ms, 0xB), (std::vector<bool>{true, false}));
+  EXPECT_EQ(stale_poses({a41, b1}, 50 * ms, 0xA), (std::vector<bool>{false, true}));
+  // Not known: neither is stale for the other, but within a session the older still is.
+  EXPECT_EQ(stale_poses({a41, b1, a40}, 50 * ms), (std::vector<bool>{false, false, true}));
+  // The fused frame names a pose of one session: the oldest within it.
+  const OutputStamp stamp = output_stamp({FrameStamp{10, b1}, FrameStamp{10, a41}, FrameStamp{10, a40}});
+  EXPECT_EQ(stamp.pose_from, 0);
+  const OutputStamp same = output_stamp({FrameStamp{10, a41}, FrameStamp{10, a40}});
+  EXPECT_EQ(same.pose_from, 1);
 }
 
 TEST(ViewFuse, HolesTakeTheBackgroundNotTheForeground) {
