@@ -4,7 +4,7 @@
 // applied: packet loss on the camera links (the scripts' DROP), garbage UDP on
 // every port, a camera killed and restarted, a 1 kHz flood of foreign and
 // garbage poses, or broken poses (NaN, Inf, absurd) in the lecturer's own
-// authenticated session. For each it prints frames displayed per second,
+// authenticated session, or a captured signed pose replayed. For each it prints frames displayed per second,
 // pose-to-display latency p50/p99, the warnings and errors the server posted,
 // and every process's resident memory at the start and end of the measured span.
 // --soak runs the fault-free flow for long and samples memory every 10 s.
@@ -92,12 +92,14 @@ std::vector<uint8_t> pose_rtp_packet(const uint8_t* payload, size_t size, uint32
   return out;
 }
 
-// The lecturer's pose stream as it leaves posesend: its SSRC, session and latest seq.
+// The lecturer's pose stream as it leaves posesend: its SSRC, session, latest packet number and seq, and its
+// first packet's payload as captured on the way (for the replay).
 struct LecturerStream {
   std::mutex lock;
   bool seen = false;
   uint32_t ssrc = 0;
   uint64_t session = 0, packet = 0, seq = 0;
+  std::vector<uint8_t> first_payload;
 };
 
 GstPadProbeReturn on_pose_packet(GstPad*, GstPadProbeInfo* info, gpointer data) {
@@ -113,6 +115,7 @@ GstPadProbeReturn on_pose_packet(GstPad*, GstPadProbeInfo* info, gpointer data) 
     s->session = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 8));
     s->packet = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 16));
     s->seq = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 32));
+    if (s->first_payload.empty()) s->first_payload.assign(p, p + gst_rtp_buffer_get_payload_len(&rtp));
   }
   gst_rtp_buffer_unmap(&rtp);
   return GST_PAD_PROBE_OK;
@@ -131,6 +134,7 @@ const std::vector<Scenario> kScenarios = {
     {"camera-restart", "the first camera killed (SIGKILL) a third into the span, restarted 5 s later"},
     {"pose-flood", "1000 pose packets/s: foreign sessions untagged, wrongly tagged, seq 2^64-1, garbage"},
     {"bad-poses", "30/s NaN, Inf and absurd poses in the lecturer's own session, tagged with the real key"},
+    {"pose-replay", "the lecturer's first signed pose packet, captured, replayed 10/s under a new SSRC each time"},
 };
 
 // One process's resident memory over a run.
@@ -327,6 +331,23 @@ bool run_flow(const Options& o, const std::string& scenario, Result* r) {
         udp.send(ports.pose(), pose_rtp_packet(wire, size, ssrc, static_cast<uint16_t>(n)));
       }
     });
+  } else if (scenario == "pose-replay") {
+    injector = std::thread([&, seed = rng()] {
+      std::mt19937 g(seed);
+      UdpSender udp;
+      const auto t0 = std::chrono::steady_clock::now();
+      for (uint64_t n = 0; faulting; ++n) {
+        std::this_thread::sleep_until(t0 + std::chrono::milliseconds(n * 100));  // 10/s
+        std::vector<uint8_t> captured;
+        {
+          std::lock_guard<std::mutex> lk(stream.lock);
+          captured = stream.first_payload;
+        }
+        if (captured.empty()) continue;
+        udp.send(ports.pose(), pose_rtp_packet(captured.data(), captured.size(), static_cast<uint32_t>(g()),
+                                               static_cast<uint16_t>(n)));
+      }
+    });
   } else if (scenario == "camera-restart") {
     injector = std::thread([&] {
       auto pause = [&](int seconds) {
@@ -419,7 +440,7 @@ int main(int argc, char** argv) {
   gint seed = 1;
   const GOptionEntry entries[] = {
       {"scenario", 0, 0, G_OPTION_ARG_STRING, &scenario,
-       "one of baseline, loss5, loss30, garbage, camera-restart, pose-flood, bad-poses, or all (default)", "NAME"},
+       "one of baseline, loss5, loss30, garbage, camera-restart, pose-flood, bad-poses, pose-replay, or all (default)", "NAME"},
       {"seconds", 0, 0, G_OPTION_ARG_INT, &o.seconds, "measured seconds per scenario (default 25)", "N"},
       {"warmup", 0, 0, G_OPTION_ARG_INT, &o.warmup, "seconds the flow runs before each measured span (default 8)",
        "N"},
