@@ -9,6 +9,8 @@
 #include <gst/video/navigation.h>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/webrtc/lecturer_silence.h>
@@ -865,14 +867,15 @@ namespace {
 // POSTs to the WHEP endpoint at `port` a browser's offer as webrtcbin needs it (ICE credentials, a DTLS
 // fingerprint) from a peer that never connects: the session's view is built and fed as soon as the answer is
 // made, and no receiver report ever comes. Returns the response's status line.
-std::string post_dead_offer(guint port, const std::string& token) {
+// `pt` replaces the H.264 payload type 102 (a hostile offer's).
+std::string post_dead_offer(guint port, const std::string& token, const std::string& pt = "102") {
   std::string offer =
-      "v=0\r\no=- 1 2 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\na=group:BUNDLE 0\r\nm=video 9 UDP/TLS/RTP/SAVPF 102\r\n"
+      "v=0\r\no=- 1 2 IN IP4 127.0.0.1\r\ns=-\r\nt=0 0\r\na=group:BUNDLE 0\r\nm=video 9 UDP/TLS/RTP/SAVPF " + pt + "\r\n"
       "c=IN IP4 0.0.0.0\r\na=ice-ufrag:dead\r\na=ice-pwd:deadpeertestpassword0000\r\n"
       "a=fingerprint:sha-256 ";
   for (int i = 0; i < 32; ++i) offer += (i ? ":" : "") + std::string("A5");
-  offer += "\r\na=setup:actpass\r\na=mid:0\r\na=recvonly\r\na=rtcp-mux\r\na=rtpmap:102 H264/90000\r\n"
-           "a=fmtp:102 level-asymmetry-allowed=1;packetization-mode=1;profile-level-id=42e01f\r\n";
+  offer += "\r\na=setup:actpass\r\na=mid:0\r\na=recvonly\r\na=rtcp-mux\r\na=rtpmap:" + pt + " H264/90000\r\n"
+           "a=fmtp:" + pt + " level-asymmetry-allowed=1;packetization-mode=1;profile-level-id=42e01f\r\n";
   return vctest::first_response_line(
       int(port), false, "POST /whep?token=" + token + " HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: "
       "application/sdp\r\nContent-Length: " + std::to_string(offer.size()) + "\r\nConnection: close\r\n\r\n" + offer);
@@ -1012,6 +1015,58 @@ struct ViewsChild {
   _exit(0);  // webrtcbin 1.22 outlives gst_deinit(): no teardown for the leaks tracer to count
 }
 
+// The child of AnOfferWithAnOutOfRangePayloadTypeIsRefusedAndTheRestGoesOn: a lecturer joins, then offers
+// naming H.264 on payload types 200 and 99999 (7 bits in RTP) are refused 400; the lecturer's session stays
+// and leaves normally, and no error reaches the bus (before, such an offer stopped the whole pipeline).
+[[noreturn]] void bad_payload_child() {
+  ViewsChild child("token=bad-pt-token");
+  GstBus* bus = gst_element_get_bus(child.pipeline);
+  std::string status = post_dead_offer(child.port, "bad-pt-token");
+  if (status != "HTTP/1.1 201 Created") fail("the good offer got " + status);
+  for (const char* pt : {"200", "99999", "-5"}) {
+    status = post_dead_offer(child.port, "bad-pt-token", pt);
+    if (status != "HTTP/1.1 400 Bad Request") fail(std::string("payload type ") + pt + " got " + status);
+  }
+  guint sessions = 0;
+  g_object_get(child.sink, "sessions", &sessions, nullptr);
+  if (sessions != 1) fail("after the bad offers: " + std::to_string(sessions) + " sessions");
+  // The camera's frames still reach the lecturer's view: its warp keeps warping.
+  std::set<GstElement*> warps = elements_made_by(child.sink, "viewwarp");
+  if (warps.size() != 1) fail("the view has " + std::to_string(warps.size()) + " warps");
+  GstElement* warp = *warps.begin();
+  struct Seen {
+    GMutex lock;
+    GCond cond;
+    int frames = 0;
+  } seen;
+  g_mutex_init(&seen.lock);
+  g_cond_init(&seen.cond);
+  GstPad* warped = gst_element_get_static_pad(warp, "src");
+  gst_pad_add_probe(warped, GST_PAD_PROBE_TYPE_BUFFER, [](GstPad*, GstPadProbeInfo*, gpointer data) {
+    Seen* s = static_cast<Seen*>(data);
+    g_mutex_lock(&s->lock);
+    ++s->frames;
+    g_cond_signal(&s->cond);
+    g_mutex_unlock(&s->lock);
+    return GST_PAD_PROBE_OK;
+  }, &seen, nullptr);
+  const gint64 deadline = g_get_monotonic_time() + 60 * G_TIME_SPAN_SECOND;
+  g_mutex_lock(&seen.lock);
+  while (seen.frames < 3 && g_cond_wait_until(&seen.cond, &seen.lock, deadline)) {
+  }
+  const int frames = seen.frames;
+  g_mutex_unlock(&seen.lock);
+  if (frames < 3) fail("the view warped " + std::to_string(frames) + " frames after the bad offers");
+  GstMessage* error = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
+  if (error) {
+    GError* e = nullptr;
+    gst_message_parse_error(error, &e, nullptr);
+    fail(std::string("an error on the bus: ") + e->message);
+  }
+  std::fprintf(stderr, "refused, the session went on: %d frames\n", frames);
+  _exit(0);  // webrtcbin 1.22 outlives gst_deinit(): no teardown for the leaks tracer to count
+}
+
 }  // namespace
 
 // whepviewsink: a camera linked while a lecturer watches joins that lecturer's view (a viewwarp for it, fed
@@ -1036,6 +1091,16 @@ TEST(WebrtcViewsDeathTest, ALecturerWhoFallsSilentIsEndedAndTheirViewFreed) {
     if (!gst_element_factory_find(factory)) GTEST_SKIP() << "needs " << factory;
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   EXPECT_EXIT(silent_lecturer_child(), testing::ExitedWithCode(0), "ended: Lecturer of session");
+}
+
+// An offer whose H.264 payload type is out of RTP's 7 bits (200, 99999) is refused 400 by the library's
+// offer inspection before GstSDP or webrtcbin see it; a lecturer already there keeps their view, and the
+// pipeline no error. In a child process (webrtcbin 1.22 outlives gst_deinit()).
+TEST(WebrtcViewsDeathTest, AnOfferWithAnOutOfRangePayloadTypeIsRefusedAndTheRestGoesOn) {
+  for (const char* factory : {"whepviewsink", "webrtcbin", "x264enc"})
+    if (!gst_element_factory_find(factory)) GTEST_SKIP() << "needs " << factory;
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(bad_payload_child(), testing::ExitedWithCode(0), "refused, the session went on");
 }
 
 // whepviewsink without any camera linked cannot make a view: a lecturer's well-formed offer (H.264
