@@ -198,6 +198,36 @@ TEST(Datasets, BadInputPostsClearErrors) {
   EXPECT_NE(r.error.find("color/000001.png has no depth image of the same name"), std::string::npos) << r.error;
 }
 
+// Issue 29: a 16-bit grey PNG in color/ was read as colour without a word
+// (OpenCV converts it). Colour images must be 8-bit with three channels; any
+// other is an Error naming the file and what it is.
+TEST(Datasets, ColourImagesMustBe8BitRgb) {
+  vctest::TempDir dir;
+  write_small_dataset(dir.path(), 2);
+  const std::string color0 = dataset_camera_dir(dir.path(), 0) + "/color/000000.png";
+  const Dataset ds = Dataset::open(dir.path());
+  EXPECT_NO_THROW(ds.load(0, 0));
+  const std::pair<cv::Mat, std::string> cases[] = {{cv::Mat(30, 40, CV_16UC1, cv::Scalar(4000)), "16-bit grey"},
+                                                   {cv::Mat(30, 40, CV_8UC1, cv::Scalar(40)), "8-bit grey"},
+                                                   {cv::Mat(30, 40, CV_16UC3, cv::Scalar(9, 99, 999)), "16-bit colour"},
+                                                   {cv::Mat(30, 40, CV_8UC4, cv::Scalar(1, 2, 3, 4)), "RGBA"}};
+  for (const auto& [image, kind] : cases) {
+    ASSERT_TRUE(cv::imwrite(color0, image));
+    try {
+      ds.load(0, 0);
+      ADD_FAILURE() << kind << " colour image accepted";
+    } catch (const Error& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find(color0), std::string::npos) << msg;
+      EXPECT_NE(msg.find(kind), std::string::npos) << msg;
+      EXPECT_NE(msg.find("expected 8-bit RGB"), std::string::npos) << msg;
+    }
+  }
+  // The other camera's frames and this camera's next frame still load.
+  EXPECT_NO_THROW(ds.load(1, 0));
+  EXPECT_NO_THROW(ds.load(0, 1));
+}
+
 TEST(Datasets, ColourAndDepthPairByNameNotByPosition) {
   // Issue 17: a renamed depth file silently shifted the pairing (frames paired
   // by sorted position). Now a name without a partner is an error naming both files.

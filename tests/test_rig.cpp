@@ -317,7 +317,7 @@ TEST(Rig, SavedTextRoundTripsOddNamesAndNumbers) {
   rig.name = "room \"7\": a\\b\n#x";
   rig.cameras[0].name = "- [weird] {name}";
   rig.cameras[0].cx = -0.0;
-  rig.cameras[1].fx = 5e-324 + 1e-300;
+  rig.cameras[1].fx = 100.0 / 3.0;
   rig.cameras[1].cy = 0.1 + 0.2;
   Rig back = parse_rig_text(rig_to_text(rig), "mem");
   EXPECT_EQ(back.name, rig.name);
@@ -333,7 +333,7 @@ TEST(Rig, SavedTextRoundTripsOddNamesAndNumbers) {
 TEST(RigThroughElements, HugeCameraStopsRgbdTestSrcWithAnError) {
   vctest::TempDir dir;
   Rig rig = vctest::make_rig(1, 64, 48);
-  rig.cameras[0].width = rig.cameras[0].height = 16384;
+  rig.cameras[0] = scale_camera(rig.cameras[0], 16384, 16384);
   save_rig(rig, dir / "huge.yaml");
   // 30 s: far beyond what the refusal takes, far below the minutes the old code spun.
   const vctest::RunResult r = vctest::run_launch(
@@ -344,17 +344,46 @@ TEST(RigThroughElements, HugeCameraStopsRgbdTestSrcWithAnError) {
 }
 
 TEST(RigThroughElements, ExtremeIntrinsicsRenderWithoutError) {
-  // Focal lengths and principal points far outside any real camera (yet finite,
-  // so the rig is valid) render empty frames instead of overflowing.
+  // Focal lengths and principal points at the edges of the plausible ranges
+  // (docs/rig-format.md) render without error instead of overflowing.
   vctest::TempDir dir;
   Rig rig = vctest::make_rig(2, 64, 48);
-  rig.cameras[0].fx = rig.cameras[0].fy = 1e-300;
-  rig.cameras[1].fx = rig.cameras[1].fy = 1e300;
-  rig.cameras[1].cx = -1e300;
+  rig.cameras[0].fx = rig.cameras[0].fy = kMinFocalPerSide * 64;
+  rig.cameras[1].fx = rig.cameras[1].fy = kMaxFocalPerSide * 64;
+  rig.cameras[1].cx = -0.5;
+  rig.cameras[1].cy = 47.5;
   save_rig(rig, dir / "extreme.yaml");
   for (int id : {0, 1}) {
     const vctest::RunResult r = vctest::run_launch("rgbdtestsrc rig=" + (dir / "extreme.yaml") + " camera-id=" +
                                                    std::to_string(id) + " num-buffers=2 ! fakesink", 30 * GST_SECOND);
     EXPECT_EQ(r.error, "") << "camera " << id;
   }
+}
+
+// Issue 29: a focal length of 1e-300 px was accepted (finite and > 0) and
+// sent every projection to infinity. Intrinsics outside the plausible ranges
+// are an Error naming the file, the camera, the field and the range.
+TEST(Rig, ImplausibleIntrinsicsAreErrorsNamingTheFieldAndTheRange) {
+  vctest::TempDir dir;
+  const std::string file = dir / "rig.yaml";
+  const std::vector<BadRigCase> cases = {
+      {"vanishing focal", "    fx: 500\n", "    fx: 1e-300\n", {file, "camera 0", "'fx'", "1e-300", "implausible", "32..64000"}},
+      {"huge focal", "    fy: 509.25\n", "    fy: 1e300\n", {file, "camera 1", "'fy'", "implausible"}},
+      {"centre left of the image", "    cx: 320\n", "    cx: -40\n", {file, "camera 1", "'cx'", "outside the image"}},
+      {"centre below the image", "    cy: 240\n", "    cy: 480\n", {file, "camera 1", "'cy'", "-0.5..479.5"}},
+      {"depth lens of a vanishing focal", "      translation: [-0.032, 0, 0]\n",
+       "      translation: [-0.032, 0, 0]\n      width: 640\n      height: 480\n      fx: 1e-300\n      fy: 385\n"
+       "      cx: 319.5\n      cy: 239.5\n",
+       {file, "camera 1", "depth_to_color", "'fx'", "implausible"}},
+  };
+  for (const auto& c : cases) {
+    const std::string msg = load_error(dir, replace_once(kGoodRig, c.from, c.to));
+    ASSERT_FALSE(msg.empty()) << c.what << ": an implausible rig loaded";
+    for (const auto& part : c.message_parts)
+      EXPECT_NE(msg.find(part), std::string::npos) << c.what << ": '" << msg << "' lacks '" << part << "'";
+  }
+  // The edges of the ranges are plausible.
+  EXPECT_EQ(load_error(dir, replace_once(replace_once(kGoodRig, "    fx: 500\n", "    fx: 32\n"), "    cx: 320\n",
+                                         "    cx: 639.5\n")),
+            "");
 }

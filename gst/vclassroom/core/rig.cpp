@@ -1,5 +1,6 @@
 #include <gst/vclassroom/core/rig.h>
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -412,10 +413,41 @@ Eigen::Isometry3d Rig::transform(int from, int to) const {
 
 namespace {
 
+std::string pixels_text(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+// Finite and positive is not enough: a focal length of 1e-300 px (a unit
+// slip, a corrupted file) passes and then turns every projection into
+// infinities far from where the file was read. Real lenses, from a fisheye
+// (about 0.15 of the image's side) to a long telephoto, lie well inside
+// kMinFocalPerSide..kMaxFocalPerSide times the image's larger side, and the
+// principal point lies on the image (docs/rig-format.md).
+template <typename Fail>
+void check_intrinsics_plausible(const CameraCalib& c, Fail fail) {
+  const double side = std::max(c.width, c.height);
+  const double lo = kMinFocalPerSide * side, hi = kMaxFocalPerSide * side;
+  const std::string range = pixels_text(lo) + ".." + pixels_text(hi) + " pixels (" + pixels_text(kMinFocalPerSide) +
+                            " to " + pixels_text(kMaxFocalPerSide) + " times the image's larger side)";
+  if (!(c.fx >= lo && c.fx <= hi)) fail("fx", "focal length " + pixels_text(c.fx) + " is implausible: expected " + range);
+  if (!(c.fy >= lo && c.fy <= hi)) fail("fy", "focal length " + pixels_text(c.fy) + " is implausible: expected " + range);
+  // Pixel centres are at integer coordinates, so the image spans -0.5 .. size - 0.5.
+  if (!(c.cx >= -0.5 && c.cx <= c.width - 0.5))
+    fail("cx", "principal point " + pixels_text(c.cx) + " lies outside the image (expected -0.5.." +
+                   pixels_text(c.width - 0.5) + ")");
+  if (!(c.cy >= -0.5 && c.cy <= c.height - 0.5))
+    fail("cy", "principal point " + pixels_text(c.cy) + " lies outside the image (expected -0.5.." +
+                   pixels_text(c.height - 0.5) + ")");
+}
+
 // The checks of validate_camera, each message carrying the line of the field
 // when the camera came from a file.
+// `plausible`: also the ranges of a real lens (rig files); caps checked alone
+// skip them, as a virtual view may be any field of view the lecturer asks for.
 template <typename LineOf>
-void check_camera(const CameraCalib& c, const Where& w, LineOf line_of) {
+void check_camera(const CameraCalib& c, const Where& w, LineOf line_of, bool plausible = true) {
   auto fail = [&](const char* field, const std::string& what) { fail_at(w, line_of(field), field, what); };
   if (c.id < 0) fail("id", "expected an integer >= 0");
   if (c.width <= 0 || c.width > 16384) fail("width", "expected 1..16384 pixels");
@@ -424,6 +456,7 @@ void check_camera(const CameraCalib& c, const Where& w, LineOf line_of) {
   if (!(std::isfinite(c.fy) && c.fy > 0)) fail("fy", "expected a focal length > 0 (pixels)");
   if (!std::isfinite(c.cx)) fail("cx", "expected a finite principal point (pixels)");
   if (!std::isfinite(c.cy)) fail("cy", "expected a finite principal point (pixels)");
+  if (plausible) check_intrinsics_plausible(c, fail);
   for (double d : c.distortion)
     if (!std::isfinite(d)) fail("distortion", "expected finite coefficients");
   if (!(std::isfinite(c.depth_scale) && c.depth_scale > 0)) fail("depth_scale", "expected millimetres per depth unit > 0");
@@ -443,7 +476,7 @@ std::string camera_context(size_t index, int id) {
 }  // namespace
 
 void validate_camera(const CameraCalib& c, const std::string& where) {
-  check_camera(c, Where{where, ""}, [](const char*) { return 0; });
+  check_camera(c, Where{where, ""}, [](const char*) { return 0; }, false);
 }
 
 void validate_rig(const Rig& rig, const std::string& where) {
@@ -456,7 +489,7 @@ void validate_rig(const Rig& rig, const std::string& where) {
   std::set<int> ids;
   for (size_t i = 0; i < rig.cameras.size(); ++i) {
     const std::string cw = where + ": " + camera_context(i, rig.cameras[i].id);
-    validate_camera(rig.cameras[i], cw);
+    check_camera(rig.cameras[i], Where{cw, ""}, [](const char*) { return 0; });
     if (!ids.insert(rig.cameras[i].id).second) fail_at(Where{cw, ""}, 0, "id", "duplicate camera id");
   }
 }

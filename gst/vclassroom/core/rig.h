@@ -94,9 +94,17 @@ Rig load_rig(const std::string& path);
 Rig parse_rig_text(const std::string& text, const std::string& file);
 // The YAML that save_rig writes.
 std::string rig_to_text(const Rig& rig);
-// Checks one camera; `where` prefixes messages (e.g. "rig.yaml: camera 1").
+// The plausible focal lengths (fx and fy, pixels) as multiples of the image's
+// larger side: a fisheye is about 0.15 of it, a long telephoto tens of it.
+inline constexpr double kMinFocalPerSide = 0.05;
+inline constexpr double kMaxFocalPerSide = 100.0;
+// Checks one camera's fields (sizes, finite positive focal lengths, a proper
+// rotation...); `where` prefixes messages (e.g. "rig.yaml: camera 1").
 void validate_camera(const CameraCalib& cam, const std::string& where);
-// Checks the whole rig (1..8 cameras, unique ids, each camera valid).
+// Checks the whole rig (1..8 cameras, unique ids, each camera valid). A rig's
+// cameras (as every rig file's) must also have plausible intrinsics: fx and
+// fy within kMinFocalPerSide..kMaxFocalPerSide times max(width, height), and
+// the principal point on the image (-0.5 .. width - 0.5, -0.5 .. height - 0.5).
 void validate_rig(const Rig& rig, const std::string& where);
 // Throws Error when the navigation bounds (if any) name no camera of the rig,
 // are not finite, exceed ±1000 m / ±180°, or leave out the reference view.

@@ -173,6 +173,22 @@ cv::Mat read_image(const std::string& path, int flags, const std::string& what, 
   return decode_image(data.data(), data.size(), flags, what, path, expected, expected_from);
 }
 
+cv::Mat read_color_image(const std::string& path, const std::string& what, cv::Size expected,
+                         const std::string& expected_from) {
+  cv::Mat m = read_image(path, cv::IMREAD_UNCHANGED, what, expected, expected_from);
+  if (m.type() != CV_8UC3) {
+    static const char* const depths[] = {"8-bit", "8-bit signed", "16-bit", "16-bit signed", "32-bit integer",
+                                         "32-bit float", "64-bit float", "16-bit float"};
+    const int channels = m.channels();
+    const std::string kind = channels == 1 ? "grey" : channels == 2 ? "grey with alpha" : channels == 4 ? "RGBA"
+                                                                                                        : "colour";
+    throw Error(path + ": " + what + " image is " + depths[m.depth() & 7] + " " + kind + " (" +
+                std::to_string(channels) + " channel" + (channels == 1 ? "" : "s") +
+                "); expected 8-bit RGB (3 channels)");
+  }
+  return m;
+}
+
 std::vector<std::string> pair_by_name(const std::vector<std::string>& color, const std::vector<std::string>& plane,
                                       const std::string& plane_name) {
   std::vector<std::string> paired;
@@ -317,7 +333,7 @@ RgbdImages Dataset::load(int camera_id, size_t index) const {
   // from its header, before decoding allocates for it.
   const cv::Size expected(c.width, c.height);
   const std::string camera_name = "rig camera " + std::to_string(c.id);
-  cv::Mat bgr = read_image(f.color[index], cv::IMREAD_COLOR, "colour", expected, camera_name);
+  cv::Mat bgr = read_color_image(f.color[index], "colour", expected, camera_name);
   cv::cvtColor(bgr, out.color, cv::COLOR_BGR2RGB);
   if (!f.depth.empty()) out.depth = read_depth_mm(f.depth[index], c.depth_scale, expected, camera_name);
   else out.depth = cv::Mat::zeros(c.height, c.width, CV_16UC1);

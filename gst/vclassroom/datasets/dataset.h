@@ -87,6 +87,12 @@ cv::Mat read_depth_mm(const std::string& path, double depth_scale, cv::Size expe
 // plane ("colour", "depth").
 cv::Mat read_image(const std::string& path, int flags, const std::string& what, cv::Size expected = {},
                    const std::string& expected_from = "");
+// A colour image as read_image reads it, which must be 8-bit with three
+// channels (BGR, as OpenCV reads them): a 16-bit or grey image in a colour
+// folder is a mistake (a depth map put there, a wrong export) that reading it
+// with conversion would hide, so it is an Error naming the file and what it is.
+cv::Mat read_color_image(const std::string& path, const std::string& what, cv::Size expected = {},
+                         const std::string& expected_from = "");
 // The width and height a PNG, JPEG or PNM image declares in its header; false
 // when the bytes are none of these (or the header is cut short).
 bool image_header_size(const uint8_t* data, size_t size, uint32_t* width, uint32_t* height);

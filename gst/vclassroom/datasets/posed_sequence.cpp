@@ -86,7 +86,7 @@ ImportSummary import_posed_sequence(const std::string& scene_dir, const std::str
     if (!(line >> depth_file >> color_file))
       throw Error((dir / "rgbd.match").string() + ":" + std::to_string(f + 1) + ": expected a depth and a colour file");
     RgbdImages images;
-    cv::cvtColor(read_image((dir / color_file).string(), cv::IMREAD_COLOR, "colour"), images.color,
+    cv::cvtColor(read_color_image((dir / color_file).string(), "colour"), images.color,
                  cv::COLOR_BGR2RGB);
     images.depth = read_depth_mm((dir / depth_file).string(), k.depth_mm_per_unit, images.color.size(),
                                  "its colour image");

@@ -638,7 +638,7 @@ StaticModel load_static_model(const std::string& folder) {
             read_image(measured_path(folder, cam.id), cv::IMREAD_GRAYSCALE, "measured mask", size, camera_name);
       // Optional: without it depthcomplete skips its colour test.
       if (exists(color_path(folder, cam.id))) {
-        const cv::Mat bgr = read_image(color_path(folder, cam.id), cv::IMREAD_COLOR, "prior colour", size, camera_name);
+        const cv::Mat bgr = read_color_image(color_path(folder, cam.id), "prior colour", size, camera_name);
         cv::Mat rgb;
         cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
         m.prior_color[cam.id] = rgb;

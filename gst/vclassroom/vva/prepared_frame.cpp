@@ -16,7 +16,7 @@ cv::Mat load_static_depth(const std::string& path) {
 
 cv::Mat load_empty_room(const std::string& path) {
   cv::Mat rgb;
-  cv::cvtColor(read_image(path, cv::IMREAD_COLOR, "empty-room colour"), rgb, cv::COLOR_BGR2RGB);
+  cv::cvtColor(read_color_image(path, "empty-room colour"), rgb, cv::COLOR_BGR2RGB);
   return rgb;
 }
 
