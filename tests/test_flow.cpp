@@ -26,6 +26,9 @@
 #include <gst/video/video.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_offset.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

@@ -5,6 +5,8 @@
 #include <gst/check/gstharness.h>
 #include <gst/video/navigation.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_offset.h>
 
 #include "test_util.h"
 

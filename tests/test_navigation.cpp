@@ -8,6 +8,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_offset.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/core/rig.h>

@@ -8,6 +8,10 @@
 
 #include <gst/vclassroom/core/checksum.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_offset.h>
+#include <gst/vclassroom/net/pose_wire.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/net/pose_session.h>
 
 #include "test_util.h"

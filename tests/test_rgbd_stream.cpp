@@ -6,6 +6,7 @@
 
 #include <gst/app/gstappsrc.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
 #include <gst/vclassroom/core/rgbd.h>
 
 #include "test_util.h"

@@ -21,6 +21,9 @@
 #include <gst/vclassroom/vva/fuse_inputs.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_offset.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/vva/view_fuse.h>

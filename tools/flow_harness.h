@@ -29,6 +29,8 @@
 #include <gst/gst.h>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/core/pose_meta.h>
 
 #include "tool_support.h"

@@ -19,6 +19,7 @@
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>
 

@@ -23,7 +23,7 @@
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/datasets/middlebury.h>
 #include <gst/vclassroom/vda/plane_refine.h>
-#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/vda/static_model.h>
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>

@@ -19,6 +19,8 @@
 #include <functional>
 #include <random>
 
+#include <gst/vclassroom/net/pose_wire.h>
+
 #include "flow_harness.h"
 #include "tool_options.h"
 #include "tool_support.h"

@@ -18,6 +18,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/view_offset.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/vva/view_warp.h>
 

@@ -26,7 +26,7 @@
 #include <gst/app/gstappsrc.h>
 #include <gst/gst.h>
 
-#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/net/pose_wire.h>
 #include <gst/vclassroom/core/pose_meta.h>
 
 #include "flow_harness.h"

@@ -16,6 +16,9 @@
 #include <vector>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_offset.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/vva/navigation.h>
 

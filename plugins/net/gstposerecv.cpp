@@ -19,6 +19,8 @@
 #include <vector>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/net/pose_wire.h>
 #include <gst/vclassroom/net/pose_session.h>
 
 #include "poseback.h"

@@ -34,7 +34,11 @@
 #include <mutex>
 #include <optional>
 
+#include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/net/pose_wire.h>
+#include <gst/vclassroom/core/pose_trace.h>
 
 #include "poseback.h"
 

@@ -6,7 +6,8 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/net/pose_wire.h>
 
 inline constexpr const char* kPoseRtpCaps =
     "application/x-rtp, media = (string) application, clock-rate = (int) 90000, "

@@ -20,6 +20,8 @@
 #include <gst/vclassroom/vva/camera_liveness.h>
 #include <gst/vclassroom/vva/fuse_inputs.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/vva/navigation.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>

@@ -12,6 +12,8 @@
 
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/vva/prepared_frame.h>

@@ -18,6 +18,7 @@
 #include <string>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
 #include <gst/vclassroom/net/pose_session.h>
 
 #include "whep_endpoint.h"

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/vva/view_turns.h>
 #include <gst/vclassroom/vva/warp_start.h>

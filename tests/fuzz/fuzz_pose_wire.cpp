@@ -8,7 +8,9 @@
 #include <vector>
 
 #include <gst/vclassroom/core/checksum.h>
+#include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/net/pose_wire.h>
 
 using namespace vclassroom;
 

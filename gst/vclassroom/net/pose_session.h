@@ -13,6 +13,7 @@
 #include <vector>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/net/pose_wire.h>
 #include <gst/vclassroom/core/warning_limiter.h>
 
 namespace vclassroom {

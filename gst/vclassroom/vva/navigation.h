@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/core/warning_limiter.h>
 #include <gst/vclassroom/vva/view_warp.h>

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/rig.h>
 
 namespace vclassroom {
