@@ -5,6 +5,8 @@
 #   CAMERA_PORTS (one port per camera in CAMERAS order, instead of BASE_PORT + k),
 #   LECTURER (host, default 127.0.0.1), VIDEO_PORT (default 5010), POSE_PORT (default 5011),
 #   MODEL (folder from vclassroom-build-model; empty: no V-DA), RIG (rig file; empty: the default classroom rig),
+#   each camera's stream must have its size in RIG, or without RIG in MODEL's rig: another size is refused
+#   (frames dropped, a rate-limited warning) and the other cameras go on,
 #   WIDTH/HEIGHT (virtual view, default 960x540), QUALITY (JPEG quality of the lecturer's video, default 90).
 #   STATS (0: quiet; N: every N frames each camera's decoder posts vclassroom-codec-stats, printed by -m),
 #   MTU (largest RTP packet received from the cameras and sent to the lecturer, default 1400; as classroom.sh),
@@ -108,6 +110,10 @@ for k in $CAMERAS; do
   [ -n "$MODEL" ] && prior="prior-depth=$MODEL/prior-depth/cam$k.png"
   rig=""
   [ -n "$RIG" ] && rig="rig=$RIG"
+  # The decoder refuses a stream of another size than its rig camera's before it allocates anything; without
+  # RIG the model's rig is the one the stream must fit (depthcomplete would refuse it later, after decoding).
+  dec_rig=$rig
+  [ -z "$RIG" ] && [ -n "$MODEL" ] && dec_rig="rig=$MODEL/rig.yaml"
   # Camera k's link: only its host, one stream (senderfilter); with RTX an RTCP session (AVPF: a NACK goes
   # out at once; rtcp-min-interval and bandwidth let it send one every few ms, as a LAN's RTT is tiny) whose
   # requests rtprtxreceive matches with the resent packets before the jitter buffer. probation=0: the first
@@ -135,7 +141,7 @@ for k in $CAMERAS; do
   [ "${LECTURER_OUT:-rtp}" = whep-views ] &&
     to_view="queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! views.cam_$k"
   branches="$branches $receive rtpgstdepay ! \
-    queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k $rig stats-interval=$STATS ! \
+    queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k $dec_rig stats-interval=$STATS ! \
     $vda learnerseg $prior ! $to_view"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per

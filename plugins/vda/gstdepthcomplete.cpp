@@ -46,6 +46,7 @@ struct CompleteState {
   // Streaming thread (set in set_caps).
   RgbdInfo info;
   StaticPrior prior;
+  vda::RefusedStream refused;  // the model has not this camera at this size
 };
 }  // namespace
 
@@ -85,10 +86,11 @@ static gboolean gst_depth_complete_set_caps(GstBaseTransform* trans, GstCaps* in
     use_prior = st->options.use_prior;
   }
   st->prior = StaticPrior();
+  std::string refused;
   if (!folder.empty()) {
     try {
-      const StaticModel m = vda::load_model_for_stream(folder, info);
-      st->prior = m.prior_for(info.camera.id);
+      const StaticModel m = vda::load_model_for_stream(folder, info, &refused);
+      if (refused.empty()) st->prior = m.prior_for(info.camera.id);
     } catch (const Error& e) {
       GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("depthcomplete model=%s", folder.c_str()));
       return FALSE;
@@ -97,9 +99,13 @@ static gboolean gst_depth_complete_set_caps(GstBaseTransform* trans, GstCaps* in
     GST_ELEMENT_WARNING(self, RESOURCE, NOT_FOUND, ("depthcomplete has no static model: the prior stage is off"),
                         ("set the 'model' property to a folder written by vclassroom-build-model"));
   }
+  // Caps come from the network: a camera the model cannot serve must not stop
+  // the others, so its frames are dropped (with a warning) until caps it fits.
+  st->refused.set(refused, info.camera.id);
   st->info = info;
-  GST_INFO_OBJECT(self, "camera %d %dx%d, planes %s, model '%s'", info.camera.id, info.width(), info.height(),
-                  info.planes_string().c_str(), folder.c_str());
+  GST_INFO_OBJECT(self, "camera %d %dx%d, planes %s, model '%s'%s%s", info.camera.id, info.width(), info.height(),
+                  info.planes_string().c_str(), folder.c_str(), refused.empty() ? "" : ": refused, ",
+                  refused.c_str());
   return TRUE;
 }
 
@@ -107,6 +113,7 @@ static GstFlowReturn gst_depth_complete_prepare_output_buffer(GstBaseTransform* 
                                                               GstBuffer** out) {
   GstDepthComplete* self = GST_DEPTH_COMPLETE(trans);
   CompleteState* st = self->st;
+  if (st->refused.refused()) return st->refused.drop(GST_ELEMENT(self));
   DepthCompleteOptions o;
   bool use_labels;
   {
@@ -223,7 +230,8 @@ static void gst_depth_complete_class_init(GstDepthCompleteClass* klass) {
       gobject_class, PROP_MODEL,
       g_param_spec_string("model", "Static model folder",
                           "Folder written by vclassroom-build-model; the prior depth of the stream's camera-id is "
-                          "used (read when caps arrive; its size must match the stream). Empty: no prior stage",
+                          "used (read when caps arrive). A stream of a camera the model lacks, or of another size, has its frames "
+                          "dropped with a rate-limited warning. Empty: no prior stage",
                           "", GParamFlags(flags | GST_PARAM_MUTABLE_READY)));
   g_object_class_install_property(
       gobject_class, PROP_USE_PRIOR,

@@ -35,6 +35,7 @@ struct RefineState {
   RgbdInfo info;
   PlaneMaps maps;
   bool have_maps = false;
+  vda::RefusedStream refused;  // the model has not this camera at this size
 };
 }  // namespace
 
@@ -75,25 +76,32 @@ static gboolean gst_plane_refine_set_caps(GstBaseTransform* trans, GstCaps* inca
                       ("set the 'model' property to a folder written by vclassroom-build-model"));
     return FALSE;
   }
+  std::string refused;
   try {
-    const StaticModel m = vda::load_model_for_stream(folder, info);
-    // The planes are carried into this camera through the model's (refined) extrinsics.
-    const CameraCalib& cam = m.rig.camera(info.camera.id);
-    st->maps = plane_maps_for_camera(m.planes, cam, m.prior(cam.id));
-    st->have_maps = true;
+    const StaticModel m = vda::load_model_for_stream(folder, info, &refused);
+    if (refused.empty()) {
+      // The planes are carried into this camera through the model's (refined) extrinsics.
+      const CameraCalib& cam = m.rig.camera(info.camera.id);
+      st->maps = plane_maps_for_camera(m.planes, cam, m.prior(cam.id));
+    }
+    st->have_maps = refused.empty();
   } catch (const Error& e) {
     GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("planerefine model=%s", folder.c_str()));
     return FALSE;
   }
+  // As depthcomplete: a camera the model cannot serve has its frames dropped, the others go on.
+  st->refused.set(refused, info.camera.id);
   st->info = info;
-  GST_INFO_OBJECT(self, "camera %d %dx%d: %d plane pixels", info.camera.id, info.width(), info.height(),
-                  info.width() * info.height() - cv::countNonZero(st->maps.index == PlaneMaps::kNoPlane));
+  if (st->have_maps)
+    GST_INFO_OBJECT(self, "camera %d %dx%d: %d plane pixels", info.camera.id, info.width(), info.height(),
+                    info.width() * info.height() - cv::countNonZero(st->maps.index == PlaneMaps::kNoPlane));
   return TRUE;
 }
 
 static GstFlowReturn gst_plane_refine_prepare_output_buffer(GstBaseTransform* trans, GstBuffer* in, GstBuffer** out) {
   GstPlaneRefine* self = GST_PLANE_REFINE(trans);
   RefineState* st = self->st;
+  if (st->refused.refused()) return st->refused.drop(GST_ELEMENT(self));
   PlaneTolerance tol;
   bool use_labels;
   {

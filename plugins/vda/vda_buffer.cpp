@@ -1,26 +1,36 @@
 #include "vda_buffer.h"
 
+#include <gst/base/gstbasetransform.h>
+
 #include <gst/vclassroom/core/error.h>
 
 using namespace vclassroom;
 
 namespace vda {
 
-StaticModel load_model_for_stream(const std::string& folder, const RgbdInfo& info) {
+StaticModel load_model_for_stream(const std::string& folder, const RgbdInfo& info, std::string* refused) {
   StaticModel m = load_static_model(folder);
-  const CameraCalib* cam = m.rig.find(info.camera.id);
-  if (!cam) {
-    std::string ids;
-    for (const CameraCalib& c : m.rig.cameras) ids += (ids.empty() ? "" : ", ") + std::to_string(c.id);
-    throw Error("static model folder '" + folder + "' has no camera " + std::to_string(info.camera.id) +
-                " (the stream's camera-id); it has camera(s) " + ids);
-  }
-  if (cam->width != info.width() || cam->height != info.height())
-    throw Error("static model folder '" + folder + "': camera " + std::to_string(cam->id) + " is " +
-                std::to_string(cam->width) + "x" + std::to_string(cam->height) + " but the stream is " +
-                std::to_string(info.width()) + "x" + std::to_string(info.height()) +
-                " (rebuild the model at the stream's size)");
+  *refused = model_stream_mismatch(m, folder, info.camera.id, info.width(), info.height());
   return m;
+}
+
+void RefusedStream::set(const std::string& why, int camera_id) {
+  if (why != why_ || camera_id != camera_id_) warnings_.reset();  // a new refusal is told at once
+  why_ = why;
+  camera_id_ = camera_id;
+}
+
+GstFlowReturn RefusedStream::drop(GstElement* element) {
+  uint64_t count = 0;
+  int64_t span = 0;
+  if (warnings_.note(int64_t(g_get_monotonic_time()) * 1000, &count, &span)) {
+    const std::string what =
+        describe_occurrences(count, "a frame", "frames", "camera " + std::to_string(camera_id_), span);
+    GST_ELEMENT_WARNING(element, STREAM, WRONG_TYPE,
+                        ("%s: dropped %s; %s", GST_OBJECT_NAME(element), what.c_str(), why_.c_str()),
+                        ("%" G_GUINT64_FORMAT " frames dropped since these caps came", guint64(warnings_.total())));
+  }
+  return GST_BASE_TRANSFORM_FLOW_DROPPED;
 }
 
 GstFlowReturn replace_depth(GstElement* element, GstBuffer* in, const RgbdInfo& info,

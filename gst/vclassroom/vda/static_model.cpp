@@ -572,6 +572,21 @@ void save_static_model(const StaticModel& m, const std::string& folder) {
   if (!m.points.empty()) write_ply(folder + "/fused.ply", m.points, m.colors);
 }
 
+std::string model_stream_mismatch(const StaticModel& m, const std::string& folder, int camera_id, int width,
+                                  int height) {
+  const CameraCalib* cam = m.rig.find(camera_id);
+  if (!cam) {
+    std::string ids;
+    for (const CameraCalib& c : m.rig.cameras) ids += (ids.empty() ? "" : ", ") + std::to_string(c.id);
+    return "static model folder '" + folder + "' has no camera " + std::to_string(camera_id) +
+           " (the stream's camera-id); it has camera(s) " + ids;
+  }
+  if (cam->width == width && cam->height == height) return "";
+  return "static model folder '" + folder + "': camera " + std::to_string(cam->id) + " is " +
+         std::to_string(cam->width) + "x" + std::to_string(cam->height) + " but the stream is " +
+         std::to_string(width) + "x" + std::to_string(height) + " (rebuild the model at the stream's size)";
+}
+
 StaticModel load_static_model(const std::string& folder) {
   const std::string where = "static model folder '" + folder + "'";
   if (folder.empty()) throw Error("static model: no model folder given");

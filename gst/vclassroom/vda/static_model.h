@@ -122,6 +122,12 @@ void save_static_model(const StaticModel& m, const std::string& folder);
 // Reads rig.yaml, planes.csv, every camera's prior depth and (when present)
 // colour; the cloud is not needed per frame and not read. Throws Error naming the folder and file.
 StaticModel load_static_model(const std::string& folder);
+// Why a camera stream (its camera-id and size) cannot use the model read from
+// `folder`: no such camera, or the camera at another size; "" when it can.
+// The stream comes from the network, so this is the stream's fault, not the
+// model's: the elements drop its frames with a warning rather than stop.
+std::string model_stream_mismatch(const StaticModel& m, const std::string& folder, int camera_id, int width,
+                                  int height);
 
 // Writes a binary little-endian PLY (x y z float, red green blue uchar).
 void write_ply(const std::string& path, const std::vector<Eigen::Vector3f>& points,
