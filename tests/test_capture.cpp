@@ -13,7 +13,7 @@
 #include <gst/vclassroom/capture/frame_pairing.h>
 #include <gst/vclassroom/capture/pixel_formats.h>
 #include <gst/vclassroom/capture/v4l2_device.h>
-#include <gst/vclassroom/net/rgbd_codec.h>
+#include <gst/vclassroom/core/jpeg.h>
 
 #include "test_util.h"
 

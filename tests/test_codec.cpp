@@ -7,6 +7,7 @@
 #include <gst/vclassroom/net/pose_stamp.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/jpeg.h>
 #include <gst/vclassroom/net/rgbd_codec.h>
 #include <opencv2/imgproc.hpp>
 

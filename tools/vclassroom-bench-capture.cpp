@@ -11,7 +11,7 @@
 
 #include <gst/vclassroom/capture/depth_registration.h>
 #include <gst/vclassroom/capture/pixel_formats.h>
-#include <gst/vclassroom/net/rgbd_codec.h>
+#include <gst/vclassroom/core/jpeg.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 
 #include "tool_options.h"

@@ -15,6 +15,7 @@
 
 #include <gst/vclassroom/core/checksum.h>
 #include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/core/jpeg.h>
 #include <gst/vclassroom/net/rgbd_codec.h>
 
 #include "tool_options.h"

@@ -55,7 +55,7 @@
 
 #include <gst/vclassroom/capture/pixel_formats.h>
 #include <gst/vclassroom/core/rig.h>
-#include <gst/vclassroom/net/rgbd_codec.h>
+#include <gst/vclassroom/core/jpeg.h>
 #include <gst/vclassroom/synthetic/board_trace.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 

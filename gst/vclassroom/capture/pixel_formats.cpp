@@ -2,7 +2,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include <gst/vclassroom/net/rgbd_codec.h>
+#include <gst/vclassroom/core/jpeg.h>
 
 // Depth words are read as host 16-bit values: right on little-endian hosts only.
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "Z16/Y16 are little-endian: byte-swap them on this host");

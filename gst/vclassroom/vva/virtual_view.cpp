@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <gst/vclassroom/synthetic/classroom.h>
-
 namespace vclassroom {
 
 CameraCalib virtual_view_base(const CameraCalib& src, int width, int height, double fov_deg) {
