@@ -169,11 +169,17 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+r
 # WHEP_TLS_CERT and WHEP_TLS_KEY (PEM files: HTTPS, which browsers need for WebXR off localhost),
 # WHEP_BITRATE (kbit/s, default 4000), WHEP_STUN (stun://host:port) and WHEP_TURN (turn://user:password@host:port
 # or turns://...) for lecturers behind NAT, WHEP_LECTURER_TIMEOUT (seconds without a receiver report after which
-# a lecturer is gone and their session ended, default 15, 0: never) (docs/lecturer.md).
+# a lecturer is gone and their session ended, default 15, 0: never), WHEP_LISTEN (comma-separated IP addresses
+# the HTTP(S) server listens on, default 0.0.0.0,:: = every interface, IPv4 and IPv6) (docs/lecturer.md).
 if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ]; then
   WHEP_PORT=${WHEP_PORT:-8080}
   if ! [[ ${TOKEN:-} =~ ^[A-Za-z0-9._~-]{8,}$ ]] || ! [[ $WHEP_PORT =~ ^[0-9]+$ ]]; then
     echo "server.sh: LECTURER_OUT=whep needs TOKEN (8 or more of A-Z a-z 0-9 . _ ~ -) and a numeric WHEP_PORT" >&2
+    exit 2
+  fi
+  # Addresses only (hex digits, dots, colons, commas): the element checks each is an IP address.
+  if [ -n "${WHEP_LISTEN:-}" ] && ! [[ $WHEP_LISTEN =~ ^[0-9A-Fa-f.:,]+$ ]]; then
+    echo "server.sh: WHEP_LISTEN is a comma-separated list of IP addresses, e.g. 192.168.1.10 or 0.0.0.0,::" >&2
     exit 2
   fi
   whep_tls=""
@@ -181,7 +187,7 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
   [ -n "${WHEP_TLS_CERT:-}" ] && whep_tls="tls-certificate=$WHEP_TLS_CERT tls-key=${WHEP_TLS_KEY:?WHEP_TLS_KEY}"
   whep="port=$WHEP_PORT token=$TOKEN bitrate=${WHEP_BITRATE:-4000} max-sessions=${WHEP_SESSIONS:-4} $whep_tls \
     ${WHEP_STUN:+stun-server=$WHEP_STUN} ${WHEP_TURN:+turn-server=$WHEP_TURN} \
-    ${WHEP_LECTURER_TIMEOUT:+lecturer-timeout=$WHEP_LECTURER_TIMEOUT} \
+    ${WHEP_LECTURER_TIMEOUT:+lecturer-timeout=$WHEP_LECTURER_TIMEOUT} ${WHEP_LISTEN:+listen-addresses=$WHEP_LISTEN} \
     web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\""
   if [ "$LECTURER_OUT" = whep ]; then
     desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"
