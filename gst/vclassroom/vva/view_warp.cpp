@@ -1016,372 +1016,441 @@ void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, cons
   }
 }
 
+namespace {
+
+// Where cells are drawn: the z-buffer, its row length, and the source's last column and row (positions are
+// clamped to them).
+struct SplatTarget {
+  Sample* zbuf;
+  ptrdiff_t vw;
+  float max_u, max_v;
+};
+
+// A cell the view magnifies: every virtual pixel of its bounding box tested against the cell as prepared
+// (centre (fu, fv), reaching umin..umax, vmin..vmax source px from it).
+void splat_big_cell(const SplatTarget& t, const ColorSampler& color, const CellRow& c, int i, float fu, float fv,
+                    float umin, float umax, float vmin, float vmax, uint16_t zmm, uint8_t label) {
+  const float su0 = c.su[i], sv0 = c.sv[i];
+  const float a00 = c.dsu_dx[i], a10 = c.dsv_dx[i], a01 = c.dsu_dy[i], a11 = c.dsv_dy[i];
+  const int x0 = c.x0[i], y0 = c.y0[i];
+  const uint8_t wq = uint8_t(c.weight[i]);
+  for (int yi = y0; yi <= c.y1[i]; ++yi) {
+    const float ky = float(yi - y0);
+    Sample* row = t.zbuf + size_t(yi) * t.vw;
+    for (int xi = x0; xi <= c.x1[i]; ++xi) {
+      const float kx = float(xi - x0);
+      const float su = su0 + a00 * kx + a01 * ky, sv = sv0 + a10 * kx + a11 * ky;
+      const float du = su - fu, dv = sv - fv;
+      if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
+      Sample& s = row[xi];
+      if (zmm >= s.z) continue;
+      store(s, zmm, to_fixed(su, t.max_u), to_fixed(sv, t.max_v), color, wq, label);
+    }
+  }
+}
+
+}  // namespace
+
+// One warp in progress: the source projected into the virtual camera (padded by a row and a pixel on both
+// sides, so border pixels read their neighbours without a test), the z-buffer, and the tolerances.
+struct ViewWarper::Frame {
+  int W, H, VW, VH;
+  float *PX, *PY, *PZ, *PW, *PL;
+  Sample* zbuf;
+  Projection proj;
+  float max_u, max_v;  // the last source column and row
+  float er, emin;      // depth-edge tolerance: ratio, and minimum in metres
+  float max_area2;     // a drawn triangle's or cell's largest area
+};
+
+// One layer drawn into the z-buffer (the prepared source, then the room behind the learners): its depth,
+// labels and colour, the source rows [row_begin, row_end) holding its pixels, the camera's quality times
+// weight_scale, and `sparse` when it covers a small part of its rows (only the runs of drawn pixels are set
+// up, one cell at a time).
+struct ViewWarper::Layer {
+  const uint16_t* depth;
+  const uint8_t* label;
+  ColorSampler color;
+  int row_begin, row_end;
+  float weight_scale;
+  bool sparse;
+};
+
+// What the cell warp of one layer keeps for every row: the cell and block rows, and where a block cell's
+// candidates lie.
+struct ViewWarper::CellPass {
+  CellGeometry geom;
+  CellRow cells, blocks;
+  int blocks_per_row;
+  ptrdiff_t block_offset[kBlockCandidates];  // candidate k of a block cell, relative to its first
+  const int32_t* no_blocks;                  // all zero: a row pair without block cells
+  uint32_t* no_links;                        // the row above row 0
+  bool coarse;
+};
+
 void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in, const uint16_t* depth,
                                     const uint8_t* label, const CameraCalib& virt, const WarpParams& prm,
                                     WarpedView* out) {
   const int W = src.width, H = src.height;
   const int VW = virt.width, VH = virt.height;
   const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
-  // Padded by a row and a pixel on both sides (zero: nothing drawn), so
-  // border pixels can read their neighbours without a test.
   const size_t pad = size_t(W) + 1;
   for (auto* a : {&px_, &py_, &pz_, &plim_, &pw_}) {
     a->resize(n + 2 * pad);
     std::fill_n(a->begin(), pad, 0.0f);
     std::fill_n(a->end() - ptrdiff_t(pad), pad, 0.0f);
   }
-  float *const PX = px_.data() + pad, *const PY = py_.data() + pad, *const PZ = pz_.data() + pad,
-               *const PW = pw_.data() + pad, *const PL = plim_.data() + pad;
   // The z-buffer is left empty by the last frame's unpack: only a new size
   // needs a fill (one pass less over 8 bytes per virtual pixel).
   if (zbuf_.size() != vn) {
     zbuf_.resize(vn);
     std::fill(zbuf_.begin(), zbuf_.end(), kEmptyRecord);
   }
-  Sample* const zbuf = reinterpret_cast<Sample*>(zbuf_.data());
-
+  Frame f{W, H, VW, VH, px_.data() + pad, py_.data() + pad, pz_.data() + pad, pw_.data() + pad,
+          plim_.data() + pad, reinterpret_cast<Sample*>(zbuf_.data()), {}, float(W - 1), float(H - 1),
+          float(prm.edge_ratio), float(prm.edge_min_mm * 0.001), float(prm.max_stretch)};
   // Source -> virtual camera.
   const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * src.cam_to_rig;
-  Projection proj;
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) proj.r[3 * r + c] = float(T.linear()(r, c));
-    proj.t[r] = float(T.translation()(r));
+    for (int c = 0; c < 3; ++c) f.proj.r[3 * r + c] = float(T.linear()(r, c));
+    f.proj.t[r] = float(T.translation()(r));
   }
-  proj.fx = float(virt.fx), proj.fy = float(virt.fy), proj.cx = float(virt.cx), proj.cy = float(virt.cy);
-  proj.link_scale = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
-  proj.link_gap = float(prm.max_gap_px);
+  f.proj.fx = float(virt.fx), f.proj.fy = float(virt.fy), f.proj.cx = float(virt.cx), f.proj.cy = float(virt.cy);
+  f.proj.link_scale = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
+  f.proj.link_gap = float(prm.max_gap_px);
 
-  const float max_u = float(W - 1), max_v = float(H - 1);
+  splat_layer(f, Layer{depth, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false},
+              prm);
+  if (!in.room_depth.empty()) draw_room_layer(f, in, prm);
+  unpack_view(f, prm, out);
+}
+
+void ViewWarper::splat_layer(const Frame& f, const Layer& layer, const WarpParams& prm) {
+  const int W = f.W, H = f.H;
+  // The cells read the rows next to the ones they draw (the mesh reads every row).
+  const int first_projected = prm.mesh ? 0 : std::max(0, (std::max(0, layer.row_begin - 1) & ~1) - 1);
+  const int end_projected = prm.mesh ? H : std::min(H, layer.row_end + 3);
+  const size_t first = size_t(first_projected) * W, count = size_t(end_projected - first_projected) * W;
+  project_points(count, layer.depth + first, ray_x_.data() + first, ray_y_.data() + first, f.proj, f.PX + first,
+                 f.PY + first, f.PZ + first, f.PL + first, f.PW + first);
+  if (layer.weight_scale != 1.0f)
+    for (size_t i = first; i < first + count; ++i) f.PW[i] *= layer.weight_scale;
+  if (prm.mesh) splat_mesh(f, layer, prm);
+  else splat_cells(f, layer, prm);
+}
+
+// The reference: the two triangles of every 2x2 block, rasterised.
+void ViewWarper::splat_mesh(const Frame& f, const Layer& layer, const WarpParams& prm) {
+  const int W = f.W, H = f.H, VW = f.VW, VH = f.VH;
+  const float *const PX = f.PX, *const PY = f.PY, *const PZ = f.PZ, *const PW = f.PW;
+  const uint16_t* const layer_depth = layer.depth;
+  const uint8_t* const layer_label = layer.label;
+  // In double, as the mesh's tolerance has always been computed.
   const double er = prm.edge_ratio, emin = prm.edge_min_mm * 0.001;
-  const float max_area2 = float(prm.max_stretch);
-  // The layer being drawn: the prepared source, then the room behind the learners.
-  const uint16_t* layer_depth = depth;
-  const uint8_t* layer_label = label;
-  // One layer (layer_depth, layer_label, coloured by `color`) into the
-  // z-buffer: the cells of source rows [row_begin, row_end) - the rows
-  // holding the layer's pixels - with the camera's quality times
-  // `weight_scale`.
-  // `sparse`: the layer covers a small part of its rows (the room behind the
-  // learners); only the runs of drawn pixels are set up, one cell at a time.
-  auto splat_layer = [&](const ColorSampler& color, int row_begin, int row_end, float weight_scale, bool sparse) {
-    // The cells read the rows next to the ones they draw (the mesh reads
-    // every row).
-    const int first_projected = prm.mesh ? 0 : std::max(0, (std::max(0, row_begin - 1) & ~1) - 1);
-    const int end_projected = prm.mesh ? H : std::min(H, row_end + 3);
-    const size_t first = size_t(first_projected) * W, count = size_t(end_projected - first_projected) * W;
-    project_points(count, layer_depth + first, ray_x_.data() + first, ray_y_.data() + first, proj, PX + first,
-                   PY + first, PZ + first, PL + first, PW + first);
-    if (weight_scale != 1.0f)
-      for (size_t i = first; i < first + count; ++i) PW[i] *= weight_scale;
-    if (prm.mesh) {
-      // Rasterise the two triangles of every 2x2 block.
-      const float gap = float(prm.max_gap_px);
-      auto consistent = [&](size_t a, size_t b, size_t c) {
-        const float za = PZ[a], zb = PZ[b], zc = PZ[c];
-        if (za <= 0 || zb <= 0 || zc <= 0) return false;
-        if (layer_label[a] != layer_label[b] || layer_label[a] != layer_label[c]) return false;
-        const float lo = std::min(za, std::min(zb, zc)), hi = std::max(za, std::max(zb, zc));
-        if (hi - lo <= std::max(emin, er * lo)) return true;
-        // Different depths but not torn apart by this view (a slanted surface):
-        // no edge longer than its source length at the local scale + max_gap_px.
-        const float scale = proj.link_scale * layer_depth[a] * 0.001f / za;
-        auto edge_ok = [&](size_t i, size_t j) {
-          const float su = float(int(i % W) - int(j % W)), sv = float(int(i / W) - int(j / W));
-          const float lim = scale * std::sqrt(su * su + sv * sv) + gap;
-          const float dx = PX[i] - PX[j], dy = PY[i] - PY[j];
-          return dx * dx + dy * dy <= lim * lim;
-        };
-        return edge_ok(a, b) && edge_ok(b, c) && edge_ok(a, c);
-      };
-      auto raster = [&](size_t a, size_t b, size_t c, float ua, float va, float ub, float vb, float uc, float vc) {
-        const float x0 = PX[a], y0 = PY[a], x1 = PX[b], y1 = PY[b], x2 = PX[c], y2 = PY[c];
-        const float area2 = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
-        const float aa = std::fabs(area2);
-        if (aa < 1e-12f || aa > max_area2) return;
-        const int xmin = std::max(0, fast_ceil(std::min(x0, std::min(x1, x2))));
-        const int xmax = std::min(VW - 1, fast_floor(std::max(x0, std::max(x1, x2))));
-        const int ymin = std::max(0, fast_ceil(std::min(y0, std::min(y1, y2))));
-        const int ymax = std::min(VH - 1, fast_floor(std::max(y0, std::max(y1, y2))));
-        if (xmin > xmax || ymin > ymax) return;
-        const float inv = 1.0f / area2;
-        const float stretch = aa > 1.0f ? 1.0f / std::sqrt(aa) : 1.0f;
-        const uint8_t wq = weight_byte((PW[a] + PW[b] + PW[c]) * (1.0f / 3.0f) * stretch);
-        const uint8_t lab = layer_label[a];
-        constexpr float eps = -0.02f;
-        for (int y = ymin; y <= ymax; ++y) {
-          const float fyv = float(y);
-          for (int x = xmin; x <= xmax; ++x) {
-            const float fxv = float(x);
-            const float l1 = ((fxv - x0) * (y2 - y0) - (x2 - x0) * (fyv - y0)) * inv;
-            const float l2 = ((x1 - x0) * (fyv - y0) - (fxv - x0) * (y1 - y0)) * inv;
-            const float l0 = 1.0f - l1 - l2;
-            if (l0 < eps || l1 < eps || l2 < eps) continue;
-            const float z = l0 * PZ[a] + l1 * PZ[b] + l2 * PZ[c];
-            Sample& s = zbuf[size_t(y) * VW + x];
-            const uint16_t zmm = depth_mm(z);
-            if (zmm >= s.z) continue;
-            store(s, zmm, to_fixed(l0 * ua + l1 * ub + l2 * uc, max_u), to_fixed(l0 * va + l1 * vb + l2 * vc, max_v),
-                  color, wq, lab);
-          }
-        }
-      };
-      for (int v = 0; v + 1 < H; ++v) {
-        const float fv = float(v), fv1 = fv + 1.0f;
-        for (int u = 0; u + 1 < W; ++u) {
-          const size_t a = size_t(v) * W + u, b = a + 1, c = a + W, d = c + 1;
-          if (PZ[a] <= 0 && PZ[d] <= 0) continue;
-          const float fu = float(u), fu1 = fu + 1.0f;
-          const bool t1 = consistent(a, b, c), t2 = consistent(b, d, c);
-          if (t1 && t2) {
-            raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
-            raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
-            continue;
-          }
-          // The other diagonal may keep one surface whole.
-          const bool t3 = consistent(a, b, d), t4 = consistent(a, d, c);
-          if (t1) raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
-          if (t2) raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
-          if (t3) raster(a, b, d, fu, fv, fu1, fv, fu1, fv1);
-          if (t4) raster(a, d, c, fu, fv, fu1, fv1, fu, fv1);
-        }
-      }
-    } else {
-      // Each source pixel's cell [u +- 0.5] x [v +- 0.5] mapped by the local
-      // affine map J (from the neighbours on the same surface) covers the
-      // virtual pixels whose pre-image lies inside it: the mesh's coverage
-      // without its per-triangle set-up. Pixels with no neighbour on their
-      // surface (flying pixels, speckle) are not drawn.
-      // Which neighbours lie on the same surface, a row at a time just before
-      // its cells are set up (three rows kept: the rows are taken in pairs, and
-      // a cell also looks at the row above).
-      links_.assign(4 * size_t(W + 2), 0);
-      uint32_t* const no_links = links_.data() + 3 * size_t(W + 2) + 1;  // the row above row 0
-      auto links_row = [&](int v) { return links_.data() + size_t(v % 3) * (W + 2) + 1; };
-      auto link_row = [&](int v) {
-        const size_t row = size_t(v) * W;
-        uint32_t* out = links_row(v);
-        std::fill_n(out, W, 0u);
-        // The last pixel too (its "right neighbour" is the next row's first,
-        // or padding), then unlinked: a whole number of vectors.
-        link_neighbours(size_t(W), 1, PX + row, PY + row, PZ + row, PL + row, &layer_label[row], float(er),
-                        float(emin), kRight, out);
-        out[W - 1] &= ~kRight;
-        if (v + 1 < H)
-          link_neighbours(size_t(W), W, PX + row, PY + row, PZ + row, PL + row, &layer_label[row], float(er),
-                          float(emin), kDown, out);
-      };
-      cell_x0_.resize(W);
-      cell_y0_.resize(W);
-      cell_x1_.resize(W);
-      cell_y1_.resize(W);
-      cell_sides_.resize(W);
-      cell_mask_.resize(W);
-      cell_weight_.resize(W);
-      cell_pos_.resize(size_t(W) * 6);
-      float* const pos = cell_pos_.data();
-      const CellRow cells{cell_x0_.data(), cell_y0_.data(), cell_x1_.data(), cell_y1_.data(), cell_sides_.data(),
-                          cell_mask_.data(), cell_weight_.data(), pos, pos + W, pos + 2 * W, pos + 3 * W,
-                          pos + 4 * W, pos + 5 * W};
-      const int NB = W / 2 + 1;
-      for (auto* a : {&block_x0_, &block_y0_, &block_x1_, &block_y1_, &block_coarse_, &block_mask_, &block_weight_,
-                      &block_z_})
-        a->resize(NB);
-      block_pos_.resize(size_t(NB) * 6);
-      block_fixed_.resize(size_t(NB) * 2 * kBlockCandidates);
-      float* const bpos = block_pos_.data();
-      const CellRow blocks{block_x0_.data(),   block_y0_.data(),   block_x1_.data(),   block_y1_.data(),
-                           block_coarse_.data(), block_mask_.data(), block_weight_.data(), bpos,
-                           bpos + NB,          bpos + 2 * NB,      bpos + 3 * NB,      bpos + 4 * NB,
-                           bpos + 5 * NB};
-      // A cell the view magnifies: every virtual pixel of its bounding box
-      // tested against the cell as prepared (centre (fu, fv), reaching
-      // umin..umax, vmin..vmax source px from it).
-      auto splat_big_cell = [&](const CellRow& c, int i, float fu, float fv, float umin, float umax, float vmin,
-                                float vmax, uint16_t zmm, uint8_t label) {
-        const float su0 = c.su[i], sv0 = c.sv[i];
-        const float a00 = c.dsu_dx[i], a10 = c.dsv_dx[i], a01 = c.dsu_dy[i], a11 = c.dsv_dy[i];
-        const int x0 = c.x0[i], y0 = c.y0[i];
-        const uint8_t wq = uint8_t(c.weight[i]);
-        for (int yi = y0; yi <= c.y1[i]; ++yi) {
-          const float ky = float(yi - y0);
-          Sample* row = zbuf + size_t(yi) * VW;
-          for (int xi = x0; xi <= c.x1[i]; ++xi) {
-            const float kx = float(xi - x0);
-            const float su = su0 + a00 * kx + a01 * ky, sv = sv0 + a10 * kx + a11 * ky;
-            const float du = su - fu, dv = sv - fv;
-            if (du > umax || du < umin || dv > vmax || dv < vmin) continue;
-            Sample& s = row[xi];
-            if (zmm >= s.z) continue;
-            store(s, zmm, to_fixed(su, max_u), to_fixed(sv, max_v), color, wq, label);
-          }
-        }
-      };
-      const CellGeometry geom{W, H, VW, VH, max_area2};
-      // The cells of pixels u_begin..u_end - 1 of row v, set up and splatted.
-      // Pixels of blocks drawn as one cell (skip[u / 2]) are skipped.
-      auto fine_cells = [&](int v, int u_begin, int u_end, const int32_t* skip) {
-        const size_t row = size_t(v) * W;
-        prepare_cells(geom, v, u_begin, u_end, PX + row, PY + row, PZ + row, PW + row, links_row(v),
-                      v > 0 ? links_row(v - 1) : no_links, cells);
-        // Everything a cell's writes need in locals: a byte store may alias
-        // anything the lambda reaches by reference.
-        const uint8_t* const lab = &layer_label[row];
-        const float* const pz_row = PZ + row;
-        const int32_t *const mask = cell_mask_.data(), *const x0 = cell_x0_.data(), *const y0 = cell_y0_.data(),
-                      *const wt = cell_weight_.data();
-        const float *const su0 = cells.su, *const sv0 = cells.sv, *const a00 = cells.dsu_dx,
-                    *const a10 = cells.dsv_dx, *const a01 = cells.dsu_dy, *const a11 = cells.dsv_dy;
-        Sample* const zb = zbuf;
-        const ptrdiff_t vw = VW;
-        const ColorSampler col = color;
-        const float mu = max_u, mv = max_v;
-        for (int u = u_begin; u < u_end; ++u) {
-          const int32_t m = mask[u];
-          if (!m || skip[u >> 1]) continue;
-          const uint16_t zmm = depth_mm(pz_row[u]);
-          const uint8_t label = lab[u];
-          if (m == kBigCell) {
-            const int32_t sides = cell_sides_[u];
-            splat_big_cell(cells, u, float(u), float(v), sides & kOpenLeft ? -kCell : -kEdge,
-                           sides & kOpenRight ? kCell : kEdge, sides & kOpenUp ? -kCell : -kEdge,
-                           sides & kOpenDown ? kCell : kEdge, zmm, label);
-            continue;
-          }
-          Sample* const first = zb + y0[u] * vw + x0[u];
-          const float cu = su0[u], cv = sv0[u], cux = a00[u], cvx = a10[u], cuy = a01[u], cvy = a11[u];
-          const uint8_t weight = uint8_t(wt[u]);
-          // Usually one candidate: a loop over the set bits costs one predictable
-          // branch, where testing each bit mispredicts.
-          for (unsigned bits = m; bits; bits &= bits - 1) {
-            const int k = __builtin_ctz(bits);
-            Sample& s = first[(k >> 1) * vw + (k & 1)];
-            if (zmm >= s.z) continue;
-            const float kx = float(k & 1), ky = float(k >> 1);
-            const float su = cu + cux * kx + cuy * ky;
-            const float sv = cv + cvx * kx + cvy * ky;
-            store(s, zmm, to_fixed(su, mu), to_fixed(sv, mv), col, weight, label);
-          }
-        }
-      };
-      // Candidate k of a block cell, relative to its first.
-      ptrdiff_t block_offset[kBlockCandidates];
-      for (int k = 0; k < kBlockCandidates; ++k) block_offset[k] = ptrdiff_t(k / 3) * VW + k % 3;
-      const bool coarse = prm.coarse_cells && W >= 2 && !sparse;
-      no_blocks_.assign(size_t(W / 2 + 1), 0);
-      const int32_t* const no_blocks = no_blocks_.data();
-      // The cells of row v's drawn pixels (all of them unless sparse).
-      auto row_cells = [&](int v) {
-        if (!sparse) {
-          fine_cells(v, 0, W, no_blocks);
-          return;
-        }
-        const uint16_t* d = &layer_depth[size_t(v) * W];
-        for (int u = 0; u < W;) {
-          if (!d[u]) {
-            ++u;
-            continue;
-          }
-          const int u0 = u;
-          while (u < W && d[u]) ++u;
-          fine_cells(v, u0, u, no_blocks);
-        }
-      };
-      // Pairs of rows from an even one; the row above the first has no links.
-      const int first_pair = std::max(0, row_begin - 1) & ~1;
-      if (first_pair > 0) std::fill_n(links_row(first_pair - 1), W, 0u);
-      for (int v = first_pair; v < std::min(H, row_end + 1); v += 2) {
-        link_row(v);
-        if (v + 1 < H) link_row(v + 1);
-        if (!coarse || v + 1 >= H) {
-          row_cells(v);
-          if (v + 1 < H) row_cells(v + 1);
-          continue;
-        }
-        const size_t row = size_t(v) * W;
-        const int nb = W / 2;
-        prepare_blocks(geom, v, nb, PX + row, PY + row, PZ + row, PW + row, links_row(v), links_row(v + 1),
-                       v > 0 ? links_row(v - 1) : no_links, blocks, block_z_.data(), max_u, max_v,
-                       block_fixed_.data());
-        // The pixels of the blocks that are not one cell, in runs.
-        const int32_t* is_block = block_coarse_.data();
-        // Each run widened to whole kRunChunk chunks, runs that then touch
-        // joined; the pixels of block cells inside them are skipped.
-        block_coarse_[nb] = 0;  // the last column when W is odd
-        fine_runs_.clear();
-        auto add_fine_run = [&](int u0, int u1) {
-          u0 -= u0 % kRunChunk;
-          u1 = std::min(W, u1 + (kRunChunk - u1 % kRunChunk) % kRunChunk);
-          if (!fine_runs_.empty() && u0 <= fine_runs_.back().second) fine_runs_.back().second = u1;
-          else fine_runs_.emplace_back(u0, u1);
-        };
-        for (int j = 0; j < nb;) {
-          if (is_block[j]) {
-            ++j;
-            continue;
-          }
-          const int j0 = j;
-          while (j < nb && !is_block[j]) ++j;
-          add_fine_run(2 * j0, j == nb ? W : 2 * j);
-        }
-        if ((W & 1) && is_block[nb - 1]) add_fine_run(W - 1, W);
-        for (int r = v; r <= v + 1; ++r)
-          for (const auto& run : fine_runs_) fine_cells(r, run.first, run.second, is_block);
-        const uint8_t* const lab = &layer_label[row];
-        const int32_t *const mask = block_mask_.data(), *const x0 = block_x0_.data(), *const y0 = block_y0_.data(),
-                      *const wt = block_weight_.data(), *const bz = block_z_.data();
-        const int32_t* const fixed_u = block_fixed_.data();
-        const int32_t* const fixed_v = fixed_u + size_t(kBlockCandidates) * nb;
-        const ptrdiff_t vw = VW;
-        const ColorSampler col = color;
-        for (int j = 0; j < nb; ++j) {
-          const int32_t m = mask[j];
-          if (!m) continue;
-          const uint16_t zmm = uint16_t(bz[j]);
-          const int u = 2 * j;
-          const uint8_t label = lab[u];
-          if (m == kBigCell) {
-            splat_big_cell(blocks, j, float(u) + 0.5f, float(v) + 0.5f, -kBlock, kBlock, -kBlock, kBlock, zmm, label);
-            continue;
-          }
-          Sample* const first = zbuf + y0[j] * vw + x0[j];
-          const uint8_t weight = uint8_t(wt[j]);
-          for (unsigned bits = m; bits; bits &= bits - 1) {
-            const int k = __builtin_ctz(bits);
-            Sample& s = first[block_offset[k]];
-            if (zmm >= s.z) continue;
-            const size_t at = size_t(k) * nb + j;
-            store(s, zmm, fixed_u[at], fixed_v[at], col, weight, label);
-          }
-        }
+  const float max_area2 = f.max_area2, max_u = f.max_u, max_v = f.max_v;
+  const float gap = float(prm.max_gap_px);
+  auto consistent = [&](size_t a, size_t b, size_t c) {
+    const float za = PZ[a], zb = PZ[b], zc = PZ[c];
+    if (za <= 0 || zb <= 0 || zc <= 0) return false;
+    if (layer_label[a] != layer_label[b] || layer_label[a] != layer_label[c]) return false;
+    const float lo = std::min(za, std::min(zb, zc)), hi = std::max(za, std::max(zb, zc));
+    if (hi - lo <= std::max(emin, er * lo)) return true;
+    // Different depths but not torn apart by this view (a slanted surface):
+    // no edge longer than its source length at the local scale + max_gap_px.
+    const float scale = f.proj.link_scale * layer_depth[a] * 0.001f / za;
+    auto edge_ok = [&](size_t i, size_t j) {
+      const float su = float(int(i % W) - int(j % W)), sv = float(int(i / W) - int(j / W));
+      const float lim = scale * std::sqrt(su * su + sv * sv) + gap;
+      const float dx = PX[i] - PX[j], dy = PY[i] - PY[j];
+      return dx * dx + dy * dy <= lim * lim;
+    };
+    return edge_ok(a, b) && edge_ok(b, c) && edge_ok(a, c);
+  };
+  auto raster = [&](size_t a, size_t b, size_t c, float ua, float va, float ub, float vb, float uc, float vc) {
+    const float x0 = PX[a], y0 = PY[a], x1 = PX[b], y1 = PY[b], x2 = PX[c], y2 = PY[c];
+    const float area2 = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+    const float aa = std::fabs(area2);
+    if (aa < 1e-12f || aa > max_area2) return;
+    const int xmin = std::max(0, fast_ceil(std::min(x0, std::min(x1, x2))));
+    const int xmax = std::min(VW - 1, fast_floor(std::max(x0, std::max(x1, x2))));
+    const int ymin = std::max(0, fast_ceil(std::min(y0, std::min(y1, y2))));
+    const int ymax = std::min(VH - 1, fast_floor(std::max(y0, std::max(y1, y2))));
+    if (xmin > xmax || ymin > ymax) return;
+    const float inv = 1.0f / area2;
+    const float stretch = aa > 1.0f ? 1.0f / std::sqrt(aa) : 1.0f;
+    const uint8_t wq = weight_byte((PW[a] + PW[b] + PW[c]) * (1.0f / 3.0f) * stretch);
+    const uint8_t lab = layer_label[a];
+    constexpr float eps = -0.02f;
+    for (int y = ymin; y <= ymax; ++y) {
+      const float fyv = float(y);
+      for (int x = xmin; x <= xmax; ++x) {
+        const float fxv = float(x);
+        const float l1 = ((fxv - x0) * (y2 - y0) - (x2 - x0) * (fyv - y0)) * inv;
+        const float l2 = ((x1 - x0) * (fyv - y0) - (fxv - x0) * (y1 - y0)) * inv;
+        const float l0 = 1.0f - l1 - l2;
+        if (l0 < eps || l1 < eps || l2 < eps) continue;
+        const float z = l0 * PZ[a] + l1 * PZ[b] + l2 * PZ[c];
+        Sample& s = f.zbuf[size_t(y) * VW + x];
+        const uint16_t zmm = depth_mm(z);
+        if (zmm >= s.z) continue;
+        store(s, zmm, to_fixed(l0 * ua + l1 * ub + l2 * uc, max_u), to_fixed(l0 * va + l1 * vb + l2 * vc, max_v),
+              layer.color, wq, lab);
       }
     }
   };
-  splat_layer(ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false);
-
-  if (!in.room_depth.empty()) {
-    // The room behind the learners, remembered (BackgroundMemory), drawn
-    // behind everything the camera sees now: where the view looks past a
-    // learner, it shows the room seen there before instead of a hole. Its
-    // quality is halved, so a camera that sees that room now outweighs it.
-    // Drawn from the warper's own buffers (the prepared source, if it was drawn from them, is done).
-    src_depth_.resize(n);
-    src_label_.assign(n + 1, 0);
-    int row_begin = H, row_end = 0;
-    for (int v = 0; v < H; ++v) {
-      const uint16_t* d = in.room_depth.ptr<uint16_t>(v);
-      std::memcpy(&src_depth_[size_t(v) * W], d, size_t(W) * sizeof(uint16_t));
-      if (std::any_of(d, d + W, [](uint16_t z) { return z != 0; })) {
-        row_begin = std::min(row_begin, v);
-        row_end = v + 1;
+  for (int v = 0; v + 1 < H; ++v) {
+    const float fv = float(v), fv1 = fv + 1.0f;
+    for (int u = 0; u + 1 < W; ++u) {
+      const size_t a = size_t(v) * W + u, b = a + 1, c = a + W, d = c + 1;
+      if (PZ[a] <= 0 && PZ[d] <= 0) continue;
+      const float fu = float(u), fu1 = fu + 1.0f;
+      const bool t1 = consistent(a, b, c), t2 = consistent(b, d, c);
+      if (t1 && t2) {
+        raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
+        raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
+        continue;
       }
+      // The other diagonal may keep one surface whole.
+      const bool t3 = consistent(a, b, d), t4 = consistent(a, d, c);
+      if (t1) raster(a, b, c, fu, fv, fu1, fv, fu, fv1);
+      if (t2) raster(b, d, c, fu1, fv, fu1, fv1, fu, fv1);
+      if (t3) raster(a, b, d, fu, fv, fu1, fv, fu1, fv1);
+      if (t4) raster(a, d, c, fu, fv, fu1, fv1, fu, fv1);
     }
-    layer_depth = src_depth_.data();
-    layer_label = src_label_.data();
-    if (row_begin < row_end)
-      splat_layer(ColorSampler{in.room_color.data, in.room_color.step, W - 1, H - 1}, row_begin, row_end,
-                  kRoomLayerWeight, true);
   }
+}
 
+// Each source pixel's cell [u +- 0.5] x [v +- 0.5] mapped by the local affine map J (from the neighbours on
+// the same surface) covers the virtual pixels whose pre-image lies inside it: the mesh's coverage without its
+// per-triangle set-up. Pixels with no neighbour on their surface (flying pixels, speckle) are not drawn.
+// Inside one surface a 2x2 block is drawn as one cell of twice the size (WarpParams::coarse_cells).
+void ViewWarper::splat_cells(const Frame& f, const Layer& layer, const WarpParams& prm) {
+  const int W = f.W, H = f.H;
+  // Which neighbours lie on the same surface, a row at a time just before its cells are set up (three rows
+  // kept: the rows are taken in pairs, and a cell also looks at the row above).
+  links_.assign(4 * size_t(W + 2), 0);
+  cell_x0_.resize(W);
+  cell_y0_.resize(W);
+  cell_x1_.resize(W);
+  cell_y1_.resize(W);
+  cell_sides_.resize(W);
+  cell_mask_.resize(W);
+  cell_weight_.resize(W);
+  cell_pos_.resize(size_t(W) * 6);
+  float* const pos = cell_pos_.data();
+  const int NB = W / 2 + 1;
+  for (auto* a : {&block_x0_, &block_y0_, &block_x1_, &block_y1_, &block_coarse_, &block_mask_, &block_weight_,
+                  &block_z_})
+    a->resize(NB);
+  block_pos_.resize(size_t(NB) * 6);
+  block_fixed_.resize(size_t(NB) * 2 * kBlockCandidates);
+  float* const bpos = block_pos_.data();
+  no_blocks_.assign(size_t(W / 2 + 1), 0);
+  CellPass pass{CellGeometry{W, H, f.VW, f.VH, f.max_area2},
+                CellRow{cell_x0_.data(), cell_y0_.data(), cell_x1_.data(), cell_y1_.data(), cell_sides_.data(),
+                        cell_mask_.data(), cell_weight_.data(), pos, pos + W, pos + 2 * W, pos + 3 * W, pos + 4 * W,
+                        pos + 5 * W},
+                CellRow{block_x0_.data(), block_y0_.data(), block_x1_.data(), block_y1_.data(), block_coarse_.data(),
+                        block_mask_.data(), block_weight_.data(), bpos, bpos + NB, bpos + 2 * NB, bpos + 3 * NB,
+                        bpos + 4 * NB, bpos + 5 * NB},
+                NB,
+                {},
+                no_blocks_.data(),
+                links_.data() + 3 * size_t(W + 2) + 1,
+                prm.coarse_cells && W >= 2 && !layer.sparse};
+  for (int k = 0; k < kBlockCandidates; ++k) pass.block_offset[k] = ptrdiff_t(k / 3) * f.VW + k % 3;
+  // Pairs of rows from an even one; the row above the first has no links.
+  const int first_pair = std::max(0, layer.row_begin - 1) & ~1;
+  if (first_pair > 0) std::fill_n(links_row(W, first_pair - 1), W, 0u);
+  for (int v = first_pair; v < std::min(H, layer.row_end + 1); v += 2) {
+    link_row(f, layer, v);
+    if (v + 1 < H) link_row(f, layer, v + 1);
+    if (!pass.coarse || v + 1 >= H) {
+      splat_row_cells(f, layer, pass, v);
+      if (v + 1 < H) splat_row_cells(f, layer, pass, v + 1);
+      continue;
+    }
+    splat_block_pair(f, layer, pass, v);
+  }
+}
+
+uint32_t* ViewWarper::links_row(int W, int v) { return links_.data() + size_t(v % 3) * (W + 2) + 1; }
+
+void ViewWarper::link_row(const Frame& f, const Layer& layer, int v) {
+  const int W = f.W;
+  const size_t row = size_t(v) * W;
+  uint32_t* out = links_row(W, v);
+  std::fill_n(out, W, 0u);
+  // The last pixel too (its "right neighbour" is the next row's first, or padding), then unlinked: a whole
+  // number of vectors.
+  link_neighbours(size_t(W), 1, f.PX + row, f.PY + row, f.PZ + row, f.PL + row, &layer.label[row], f.er, f.emin,
+                  kRight, out);
+  out[W - 1] &= ~kRight;
+  if (v + 1 < f.H)
+    link_neighbours(size_t(W), W, f.PX + row, f.PY + row, f.PZ + row, f.PL + row, &layer.label[row], f.er, f.emin,
+                    kDown, out);
+}
+
+// The cells of pixels u_begin..u_end - 1 of row v, set up and splatted; pixels of blocks drawn as one cell
+// (skip[u / 2]) are skipped.
+void ViewWarper::splat_fine_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v, int u_begin,
+                                  int u_end, const int32_t* skip) {
+  const size_t row = size_t(v) * f.W;
+  const CellRow& cells = pass.cells;
+  prepare_cells(pass.geom, v, u_begin, u_end, f.PX + row, f.PY + row, f.PZ + row, f.PW + row, links_row(f.W, v),
+                v > 0 ? links_row(f.W, v - 1) : pass.no_links, cells);
+  // Everything a cell's writes need in locals: a byte store may alias anything reached through a pointer.
+  const uint8_t* const lab = &layer.label[row];
+  const float* const pz_row = f.PZ + row;
+  const int32_t *const mask = cells.mask, *const x0 = cells.x0, *const y0 = cells.y0, *const wt = cells.weight,
+                *const sides = cells.sides;
+  const float *const su0 = cells.su, *const sv0 = cells.sv, *const a00 = cells.dsu_dx, *const a10 = cells.dsv_dx,
+              *const a01 = cells.dsu_dy, *const a11 = cells.dsv_dy;
+  Sample* const zb = f.zbuf;
+  const ptrdiff_t vw = f.VW;
+  const ColorSampler col = layer.color;
+  const float mu = f.max_u, mv = f.max_v;
+  for (int u = u_begin; u < u_end; ++u) {
+    const int32_t m = mask[u];
+    if (!m || skip[u >> 1]) continue;
+    const uint16_t zmm = depth_mm(pz_row[u]);
+    const uint8_t label = lab[u];
+    if (m == kBigCell) {
+      const int32_t s = sides[u];
+      splat_big_cell(SplatTarget{zb, vw, mu, mv}, col, cells, u, float(u), float(v), s & kOpenLeft ? -kCell : -kEdge,
+                     s & kOpenRight ? kCell : kEdge, s & kOpenUp ? -kCell : -kEdge, s & kOpenDown ? kCell : kEdge,
+                     zmm, label);
+      continue;
+    }
+    Sample* const first = zb + y0[u] * vw + x0[u];
+    const float cu = su0[u], cv = sv0[u], cux = a00[u], cvx = a10[u], cuy = a01[u], cvy = a11[u];
+    const uint8_t weight = uint8_t(wt[u]);
+    // Usually one candidate: a loop over the set bits costs one predictable branch, where testing each bit
+    // mispredicts.
+    for (unsigned bits = m; bits; bits &= bits - 1) {
+      const int k = __builtin_ctz(bits);
+      Sample& s = first[(k >> 1) * vw + (k & 1)];
+      if (zmm >= s.z) continue;
+      const float kx = float(k & 1), ky = float(k >> 1);
+      const float su = cu + cux * kx + cuy * ky;
+      const float sv = cv + cvx * kx + cvy * ky;
+      store(s, zmm, to_fixed(su, mu), to_fixed(sv, mv), col, weight, label);
+    }
+  }
+}
+
+// The cells of row v's drawn pixels: all of them, or the runs of drawn pixels of a sparse layer.
+void ViewWarper::splat_row_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v) {
+  const int W = f.W;
+  if (!layer.sparse) {
+    splat_fine_cells(f, layer, pass, v, 0, W, pass.no_blocks);
+    return;
+  }
+  const uint16_t* d = &layer.depth[size_t(v) * W];
+  for (int u = 0; u < W;) {
+    if (!d[u]) {
+      ++u;
+      continue;
+    }
+    const int u0 = u;
+    while (u < W && d[u]) ++u;
+    splat_fine_cells(f, layer, pass, v, u0, u, pass.no_blocks);
+  }
+}
+
+// Rows v and v + 1 with their 2x2 blocks inside one surface drawn as one cell each, the other pixels as
+// cells of their own.
+void ViewWarper::splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v) {
+  const int W = f.W;
+  const size_t row = size_t(v) * W;
+  const int nb = W / 2;
+  const CellRow& blocks = pass.blocks;
+  prepare_blocks(pass.geom, v, nb, f.PX + row, f.PY + row, f.PZ + row, f.PW + row, links_row(W, v),
+                 links_row(W, v + 1), v > 0 ? links_row(W, v - 1) : pass.no_links, blocks, block_z_.data(), f.max_u,
+                 f.max_v, block_fixed_.data());
+  // The pixels of the blocks that are not one cell, in runs.
+  const int32_t* is_block = block_coarse_.data();
+  // Each run widened to whole kRunChunk chunks, runs that then touch joined; the pixels of block cells
+  // inside them are skipped.
+  block_coarse_[nb] = 0;  // the last column when W is odd
+  fine_runs_.clear();
+  auto add_fine_run = [&](int u0, int u1) {
+    u0 -= u0 % kRunChunk;
+    u1 = std::min(W, u1 + (kRunChunk - u1 % kRunChunk) % kRunChunk);
+    if (!fine_runs_.empty() && u0 <= fine_runs_.back().second) fine_runs_.back().second = u1;
+    else fine_runs_.emplace_back(u0, u1);
+  };
+  for (int j = 0; j < nb;) {
+    if (is_block[j]) {
+      ++j;
+      continue;
+    }
+    const int j0 = j;
+    while (j < nb && !is_block[j]) ++j;
+    add_fine_run(2 * j0, j == nb ? W : 2 * j);
+  }
+  if ((W & 1) && is_block[nb - 1]) add_fine_run(W - 1, W);
+  for (int r = v; r <= v + 1; ++r)
+    for (const auto& run : fine_runs_) splat_fine_cells(f, layer, pass, r, run.first, run.second, is_block);
+  const uint8_t* const lab = &layer.label[row];
+  const int32_t *const mask = blocks.mask, *const x0 = blocks.x0, *const y0 = blocks.y0, *const wt = blocks.weight,
+                *const bz = block_z_.data();
+  const int32_t* const fixed_u = block_fixed_.data();
+  const int32_t* const fixed_v = fixed_u + size_t(kBlockCandidates) * nb;
+  const ptrdiff_t vw = f.VW;
+  const ColorSampler col = layer.color;
+  for (int j = 0; j < nb; ++j) {
+    const int32_t m = mask[j];
+    if (!m) continue;
+    const uint16_t zmm = uint16_t(bz[j]);
+    const int u = 2 * j;
+    const uint8_t label = lab[u];
+    if (m == kBigCell) {
+      splat_big_cell(SplatTarget{f.zbuf, vw, f.max_u, f.max_v}, col, blocks, j, float(u) + 0.5f, float(v) + 0.5f,
+                     -kBlock, kBlock, -kBlock, kBlock, zmm, label);
+      continue;
+    }
+    Sample* const first = f.zbuf + y0[j] * vw + x0[j];
+    const uint8_t weight = uint8_t(wt[j]);
+    for (unsigned bits = m; bits; bits &= bits - 1) {
+      const int k = __builtin_ctz(bits);
+      Sample& s = first[pass.block_offset[k]];
+      if (zmm >= s.z) continue;
+      const size_t at = size_t(k) * nb + j;
+      store(s, zmm, fixed_u[at], fixed_v[at], col, weight, label);
+    }
+  }
+}
+
+// The room behind the learners, remembered (BackgroundMemory), drawn behind everything the camera sees now:
+// where the view looks past a learner, it shows the room seen there before instead of a hole. Its quality is
+// halved, so a camera that sees that room now outweighs it. Drawn from the warper's own buffers (the
+// prepared source, if it was drawn from them, is done).
+void ViewWarper::draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& prm) {
+  const int W = f.W, H = f.H;
+  const size_t n = size_t(W) * H;
+  src_depth_.resize(n);
+  src_label_.assign(n + 1, 0);
+  int row_begin = H, row_end = 0;
+  for (int v = 0; v < H; ++v) {
+    const uint16_t* d = in.room_depth.ptr<uint16_t>(v);
+    std::memcpy(&src_depth_[size_t(v) * W], d, size_t(W) * sizeof(uint16_t));
+    if (std::any_of(d, d + W, [](uint16_t z) { return z != 0; })) {
+      row_begin = std::min(row_begin, v);
+      row_end = v + 1;
+    }
+  }
+  if (row_begin < row_end)
+    splat_layer(f,
+                Layer{src_depth_.data(), src_label_.data(),
+                      ColorSampler{in.room_color.data, in.room_color.step, W - 1, H - 1}, row_begin, row_end,
+                      kRoomLayerWeight, true},
+                prm);
+}
+
+// The z-buffer into the view's planes, and the cracks closed.
+void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* out) {
+  const int VW = f.VW, VH = f.VH;
   out->color.create(VH, VW, CV_8UC3);
   out->depth.create(VH, VW, CV_16UC1);
   out->label.create(VH, VW, CV_8UC1);
@@ -1394,7 +1463,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   const int band = continuous ? 32 : 1;
   for (int y = 0; y < VH; y += band) {
     const int rows = std::min(band, VH - y);
-    unpack_samples(rows * VW, zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
+    unpack_samples(rows * VW, f.zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
                    out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
     std::fill_n(zbuf_.data() + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
   }

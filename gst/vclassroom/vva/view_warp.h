@@ -126,6 +126,23 @@ class ViewWarper {
   void prepare_here(const CameraCalib& source, const WarpSource& in, const WarpParams& params);
   void warp_prepared_here(const CameraCalib& source, const WarpSource& in, const uint16_t* depth,
                           const uint8_t* label, const CameraCalib& virt, const WarpParams& params, WarpedView* out);
+  // The steps of warp_prepared_here() (view_warp.cpp defines the structures): one layer projected and drawn
+  // into the z-buffer, as triangles (mesh) or cells; the room behind the learners as a second layer; the
+  // z-buffer unpacked into the view.
+  struct Frame;
+  struct Layer;
+  struct CellPass;
+  void splat_layer(const Frame& f, const Layer& layer, const WarpParams& params);
+  void splat_mesh(const Frame& f, const Layer& layer, const WarpParams& params);
+  void splat_cells(const Frame& f, const Layer& layer, const WarpParams& params);
+  uint32_t* links_row(int width, int v);
+  void link_row(const Frame& f, const Layer& layer, int v);
+  void splat_row_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v);
+  void splat_fine_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v, int u_begin, int u_end,
+                        const int32_t* skip);
+  void splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v);
+  void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
+  void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
   void prepare_rays(const CameraCalib& source);
   // src_depth_ with its steps smoothed (WarpParams::step_ratio).
   void smooth_stepped_depth(int width, int height, const WarpParams& params);
