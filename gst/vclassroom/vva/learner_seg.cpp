@@ -244,6 +244,26 @@ void LearnerSegmenter::find_blobs() {
 void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::Mat* label) {
   CV_Assert(color.type() == CV_8UC3 && depth.type() == CV_16UC1 && color.size() == depth.size());
   const int W = color.cols, H = color.rows;
+  classify_pixels(color, depth);
+  find_blobs();
+  const int min_area = std::max(20, int(p_.min_area_ratio * W * H));
+  const std::vector<BlobLook> looks = describe_blobs(color, depth, min_area);
+  const std::vector<int> blob_id = identify_blobs(looks, min_area, W, H);
+  update_tracks(looks, blob_id);
+  // The labels become the next frame's fast state.
+  prev_label_.setTo(0);
+  for (size_t r = 0; r < runs_.size(); ++r) {
+    const int id = blob_id[run_blob_[r]];
+    if (id) std::memset(prev_label_.ptr<uint8_t>(runs_[r].y) + runs_[r].x0, id, size_t(runs_[r].x1 - runs_[r].x0 + 1));
+  }
+  prev_label_.copyTo(*label);
+  ++frame_;
+}
+
+// Each pixel's colour and depth cues, remembered over frames (evidence_), give the foreground mask fg_; the
+// learnt background follows the room where no prior depth is given.
+void LearnerSegmenter::classify_pixels(const cv::Mat& color, const cv::Mat& depth) {
+  const int W = color.cols, H = color.rows;
   const bool first = bg_color_.empty() || bg_color_.size() != color.size();
   if (first) {
     reset();
@@ -292,12 +312,13 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
   // Rectangular kernels: separable, several times cheaper than ellipses at this size.
   cv::morphologyEx(fg_, fg_, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
   cv::morphologyEx(fg_, fg_, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(7, 7)));
-  find_blobs();
-  const int n = int(blobs_.size());
-  const int min_area = std::max(20, int(p_.min_area_ratio * W * H));
+}
 
-  // Colour, depth and overlap with last frame's learners, for the blobs big
-  // enough to be learners (the rest only ever become label 0).
+// Colour, depth and overlap with last frame's learners, for the blobs big enough to be learners (the rest
+// only ever become label 0).
+std::vector<LearnerSegmenter::BlobLook> LearnerSegmenter::describe_blobs(const cv::Mat& color, const cv::Mat& depth,
+                                                                         int min_area) {
+  const int n = int(blobs_.size());
   int big = 0;
   for (int i = 1; i < n; ++i)
     if (blobs_[i].area >= min_area) blobs_[i].slot = big++;
@@ -325,26 +346,28 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
     b.depth_sum += ds;
     b.depth_count += dn;
   }
-  auto find_active = [&](int id) -> const LearnerTrack* {
-    for (const auto& t : active_)
-      if (t.id == id) return &t;
-    return nullptr;
-  };
-  struct Desc {
-    cv::Vec3f color{0, 0, 0};
-    float depth = 0;
-    int area = 0;
-    cv::Point2f centroid;
-  };
-  std::vector<Desc> desc(n);
-  std::vector<int> blob_id(n, 0);
+  std::vector<BlobLook> looks(n);
   for (int i = 1; i < n; ++i) {
     const Blob& b = blobs_[i];
-    desc[i].area = int(b.area);
-    desc[i].color = cv::Vec3f(cv::Vec3d(double(b.color[0]), double(b.color[1]), double(b.color[2])) / int(b.area));
-    desc[i].depth = b.depth_count ? float(double(b.depth_sum) / double(b.depth_count)) : 0.f;
-    desc[i].centroid = cv::Point2f(float(double(b.sum_x) / double(b.area)), float(double(b.sum_y) / double(b.area)));
+    looks[i].area = int(b.area);
+    looks[i].color = cv::Vec3f(cv::Vec3d(double(b.color[0]), double(b.color[1]), double(b.color[2])) / int(b.area));
+    looks[i].depth = b.depth_count ? float(double(b.depth_sum) / double(b.depth_count)) : 0.f;
+    looks[i].centroid = cv::Point2f(float(double(b.sum_x) / double(b.area)), float(double(b.sum_y) / double(b.area)));
   }
+  return looks;
+}
+
+const LearnerTrack* LearnerSegmenter::find_active(int id) const {
+  for (const auto& t : active_)
+    if (t.id == id) return &t;
+  return nullptr;
+}
+
+// Which learner each blob is (0: none): the one it overlaps most in the last frame (the fast state), else a
+// lost learner it looks like (the long-term memory), else a new one.
+std::vector<int> LearnerSegmenter::identify_blobs(const std::vector<BlobLook>& looks, int min_area, int W, int H) {
+  const int n = int(looks.size());
+  std::vector<int> blob_id(n, 0);
   // 1. Fast state: a blob keeps the id it overlaps most (split blobs share it).
   for (int i = 1; i < n; ++i) {
     if (blobs_[i].slot < 0) continue;
@@ -352,19 +375,20 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
     int best = 0, best_count = 0;
     for (int id = 1; id < 256; ++id)
       if (ov[id] > best_count) best = id, best_count = ov[id];
-    if (best && best_count >= std::min(desc[i].area, find_active(best) ? find_active(best)->area : 1) / 5)
+    if (best && best_count >= std::min(looks[i].area, find_active(best) ? find_active(best)->area : 1) / 5)
       blob_id[i] = best;
   }
   // 2. Long-term memory: unmatched blobs that look like a remembered learner.
   for (int i = 1; i < n; ++i) {
-    if (desc[i].area < min_area || blob_id[i]) continue;
+    if (looks[i].area < min_area || blob_id[i]) continue;
     double best_cost = 1e9;
     int best = -1;
     for (size_t j = 0; j < lost_.size(); ++j) {
       const LearnerTrack& t = lost_[j];
-      const double dcol = cv::norm(t.mean_color - desc[i].color);
-      const double dpos = cv::norm(t.centroid - desc[i].centroid) / std::max(W, H);
-      const double ddep = (t.depth_mm > 0 && desc[i].depth > 0) ? std::abs(t.depth_mm - desc[i].depth) / 1000.0 : 0.3;
+      const double dcol = cv::norm(t.mean_color - looks[i].color);
+      const double dpos = cv::norm(t.centroid - looks[i].centroid) / std::max(W, H);
+      const double ddep =
+          (t.depth_mm > 0 && looks[i].depth > 0) ? std::abs(t.depth_mm - looks[i].depth) / 1000.0 : 0.3;
       const double cost = dcol / 40.0 + dpos / 0.15 + ddep / 0.5;
       if (dcol < 45 && cost < best_cost) best_cost = cost, best = int(j);
     }
@@ -379,25 +403,31 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
       active_.push_back(t);  // reserve the id while matching
     }
   }
-  // Track states: merge the blobs of each id.
+  return blob_id;
+}
+
+// The learners' tracks from this frame's blobs: the blobs of each id merged, the long-term descriptor moved
+// slowly, learners not seen any more remembered as lost for keep_lost_frames.
+void LearnerSegmenter::update_tracks(const std::vector<BlobLook>& looks, const std::vector<int>& blob_id) {
+  const int n = int(looks.size());
   LearnerTrack by_id[256];
   for (int i = 1; i < n; ++i) {
     if (!blob_id[i]) continue;
     LearnerTrack& t = by_id[blob_id[i]];
     const LearnerTrack* old = find_active(blob_id[i]);
-    const double a0 = t.area, a1 = desc[i].area;
+    const double a0 = t.area, a1 = looks[i].area;
     if (t.area == 0) {
       t.id = blob_id[i];
       t.first_seen = old ? old->first_seen : frame_;
-      t.mean_color = desc[i].color;
-      t.depth_mm = desc[i].depth;
-      t.centroid = desc[i].centroid;
+      t.mean_color = looks[i].color;
+      t.depth_mm = looks[i].depth;
+      t.centroid = looks[i].centroid;
     } else {
-      t.mean_color = (t.mean_color * a0 + desc[i].color * a1) / (a0 + a1);
-      t.centroid = (t.centroid * a0 + desc[i].centroid * a1) / (a0 + a1);
-      if (desc[i].depth > 0) t.depth_mm = t.depth_mm > 0 ? std::min(t.depth_mm, desc[i].depth) : desc[i].depth;
+      t.mean_color = (t.mean_color * a0 + looks[i].color * a1) / (a0 + a1);
+      t.centroid = (t.centroid * a0 + looks[i].centroid * a1) / (a0 + a1);
+      if (looks[i].depth > 0) t.depth_mm = t.depth_mm > 0 ? std::min(t.depth_mm, looks[i].depth) : looks[i].depth;
     }
-    t.area += desc[i].area;
+    t.area += looks[i].area;
     t.last_seen = frame_;
   }
   std::vector<LearnerTrack> next;
@@ -415,15 +445,6 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
                              [&](const LearnerTrack& t) { return frame_ - t.last_seen > p_.keep_lost_frames; }),
               lost_.end());
   active_ = std::move(next);
-
-  // The labels become the next frame's fast state.
-  prev_label_.setTo(0);
-  for (size_t r = 0; r < runs_.size(); ++r) {
-    const int id = blob_id[run_blob_[r]];
-    if (id) std::memset(prev_label_.ptr<uint8_t>(runs_[r].y) + runs_[r].x0, id, size_t(runs_[r].x1 - runs_[r].x0 + 1));
-  }
-  prev_label_.copyTo(*label);
-  ++frame_;
 }
 
 SegScore score_segmentation(const cv::Mat& pred, const cv::Mat& truth) {

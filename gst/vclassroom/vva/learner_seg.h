@@ -80,9 +80,24 @@ class LearnerSegmenter {
     uint32_t order_key = 0;
     int slot = -1;  // row in overlap_ when big enough to be a learner
   };
+  // A blob's look: its mean colour and depth, area and centre (what a learner is recognised by).
+  struct BlobLook {
+    cv::Vec3f color{0, 0, 0};
+    float depth = 0;
+    int area = 0;
+    cv::Point2f centroid;
+  };
   int new_id();
   void update_depth_bounds();
+  // The steps of segment(): each pixel's cues into the foreground mask fg_, cleaned; the blobs' colour,
+  // depth and overlap with the last frame's learners; which learner each blob is; the learners' tracks;
+  // the labels.
+  void classify_pixels(const cv::Mat& color, const cv::Mat& depth);
   void find_blobs();
+  std::vector<BlobLook> describe_blobs(const cv::Mat& color, const cv::Mat& depth, int min_area);
+  std::vector<int> identify_blobs(const std::vector<BlobLook>& looks, int min_area, int width, int height);
+  void update_tracks(const std::vector<BlobLook>& looks, const std::vector<int>& blob_id);
+  const LearnerTrack* find_active(int id) const;
   SegParams p_;
   cv::Mat prior_;       // CV_16UC1 given static depth
   cv::Mat bg_depth_;    // CV_32F learnt static depth (mm)
