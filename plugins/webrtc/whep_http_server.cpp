@@ -45,6 +45,7 @@ struct Connection {
   GSocket* socket = nullptr;          // the connection's, alive as long as this record
   GSocketAddress* remote = nullptr;   // a reference; libsoup hands it back with each message
   GSource* deadline = nullptr;        // until the request has been read whole
+  bool head_seen = false;             // its request's headers arrived
 };
 
 // The body of a request as it arrives, at most the limit.
@@ -116,11 +117,14 @@ void cancel_deadline(Connection* c) {
 }
 
 // The connection has not sent its whole request in time (an idle or slow peer): shutting the socket down
-// ends libsoup's wait at once, and libsoup lets the connection go.
+// ends libsoup's wait at once, and libsoup lets the connection go. One that sent no whole head is only
+// logged: browsers open spare connections they may never use; a body that stalls is warned about.
 gboolean on_deadline(gpointer data) {
   Connection* c = static_cast<Connection*>(data);
-  warn(c->impl, kTimedOut, "a connection closed for sending no whole request in time",
-       "connections closed for sending no whole request in time", c->address);
+  if (c->head_seen)
+    warn(c->impl, kTimedOut, "a request whose body stalled closed", "requests whose body stalled closed", c->address);
+  else
+    GST_INFO_OBJECT(c->impl->owner, "connection from %s closed: no whole request head in time", c->address.c_str());
   g_socket_shutdown(c->socket, TRUE, TRUE, nullptr);
   g_source_unref(c->deadline);
   c->deadline = nullptr;
@@ -291,6 +295,7 @@ void on_body_chunk(SoupServerMessage* msg, GBytes* chunk, gpointer data) {
 // After the headers, before any byte of the body.
 void on_request_head(SoupServer*, SoupServerMessage* msg, const char* path, GHashTable* query, gpointer data) {
   Impl* impl = static_cast<Impl*>(data);
+  if (Connection* c = connection_of(msg)) c->head_seen = true;
   SoupMessageHeaders* headers = soup_server_message_get_request_headers(msg);
   const std::string token = whep_request_token(msg, query);
   WhepRequestHead head;

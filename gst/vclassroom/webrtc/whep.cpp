@@ -488,10 +488,8 @@ bool read_media_attribute(std::string_view attr, MediaSection* m, std::string* w
     uint64_t rate = 0;
     if (encoding.empty() || !parse_decimal(clock, 9, &rate) || rate == 0)
       return fail(why, "a=rtpmap:" + std::to_string(pt) + " without an encoding and clock rate");
-    if (encoding.size() == 4 && g_ascii_strncasecmp(encoding.data(), "H264", 4) == 0) {
-      if (m->rtp && pt < 96) return fail(why, "H.264 on payload type " + std::to_string(pt) + " (not 96..127)");
-      m->h264[pt] = rate == 90000;
-    }
+    // Chrome also puts codecs on 35..63 once 96..127 are taken (JSEP); H.264 there is never picked.
+    if (encoding.size() == 4 && g_ascii_strncasecmp(encoding.data(), "H264", 4) == 0) m->h264[pt] = rate == 90000;
   } else if (name == "fmtp") {
     m->baseline[pt] = fmtp_is_constrained_baseline_mode1(rest);
   } else if (name == "extmap") {

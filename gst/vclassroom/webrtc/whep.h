@@ -130,8 +130,9 @@ inline constexpr size_t kMaxOfferFormats = 64;  // per media section
 // False, with a reason (the request gets 400), when the offer is not SDP or any value the server, GstSDP or
 // webrtcbin reads is out of range: its size, line count and lengths, control characters, the media
 // sections' count, port (0..65535) and port count, every RTP payload type (0..127, in m=, a=rtpmap, a=fmtp,
-// a=rtcp-fb), an H.264 payload type outside 96..127, a clock rate, an a=extmap id (1..255), an a=ssrc
-// (32 bits), an a=rtcp port. True otherwise, with `offer` filled (h264_payload -1: no usable H.264, 406).
+// a=rtcp-fb), a clock rate, an a=extmap id (1..255), an a=ssrc (32 bits), an a=rtcp port. True otherwise,
+// with `offer` filled (h264_payload -1: no usable H.264, 406); H.264 on a payload type outside 96..127
+// (Chrome puts further codecs on 35..63) is well-formed but never picked.
 bool inspect_whep_offer(std::string_view sdp, WhepOffer* offer, std::string* why);
 
 // A STUN or TURN server, as webrtcbin takes it: "stun://host:port", "turn://user:password@host:port" or
