@@ -452,6 +452,41 @@ TEST(FuseInputs, ALiveSilentCameraIsReportedLostOnceThenBackAndNamedOnTheBanner)
   EXPECT_TRUE(offline.decide({}, later).status_changes.empty());
 }
 
+// Issue 29: a camera configured (the fuse has its pad) that never sent was
+// never missed: no warning, no banner. Expected inputs are watched from the
+// first live round and lost after the timeout, named by their pad's camera
+// until caps say which camera they are.
+TEST(FuseInputs, ACameraSilentFromTheStartIsLostAfterTheTimeoutAndNamedByItsPad) {
+  FuseInputs inputs(FuseInputsParams{50'000'000, 1000, true});
+  inputs.expect(kPadA, 0);
+  inputs.expect(kPadB, 1);
+  inputs.configure(kPadB, 1, 64, 36);
+  inputs.expect(kPadB, 7);  // an input with caps keeps its camera
+  EXPECT_EQ(inputs.first_accepted(), kPadB) << "an input without caps gives the output no size";
+  FuseRound round = inputs.decide({pending(kPadB)}, live_round(100));
+  EXPECT_TRUE(round.status_changes.empty());
+  EXPECT_EQ(round.action, RoundAction::kFuse);
+  round = inputs.decide({pending(kPadB)}, live_round(1200));
+  ASSERT_EQ(round.status_changes.size(), 1u);
+  EXPECT_EQ(round.status_changes[0].camera_id, 0);
+  EXPECT_TRUE(round.status_changes[0].lost);
+  EXPECT_TRUE(round.status_changes[0].never_seen);
+  EXPECT_EQ(round.status_changes[0].silent_ns, 1100);
+  EXPECT_EQ(round.banner, "camera 0 missing");
+  EXPECT_EQ(round.action, RoundAction::kFuse);
+  EXPECT_EQ(camera_status_text(round.status_changes[0], round.missing, round.all_lost),
+            "camera 0 has sent no frame in the 0.0 s since the view started: the view goes on without it");
+  // It sends at last, under caps that name camera 3: the guess is forgotten, camera 3 is watched.
+  inputs.configure(kPadA, 3, 64, 36);
+  round = inputs.decide({pending(kPadA), pending(kPadB)}, live_round(1300));
+  EXPECT_TRUE(round.missing.empty());
+  EXPECT_EQ(round.banner, "");
+  round = inputs.decide({pending(kPadB)}, live_round(2400));
+  ASSERT_EQ(round.status_changes.size(), 1u);
+  EXPECT_EQ(round.status_changes[0].camera_id, 3);
+  EXPECT_FALSE(round.status_changes[0].never_seen);
+}
+
 TEST(FuseInputs, WithEveryCameraLostTheLastPictureIsRepeatedMarkedWhenTheLatencyRunsOut) {
   const auto round_after_all_lost = [](bool show_missing, bool timeout, bool have_picture) {
     FuseInputs inputs(FuseInputsParams{50'000'000, 1000, show_missing});

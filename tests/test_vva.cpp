@@ -1634,3 +1634,62 @@ TEST(ViewFuseElement, ASeekBackRestartsTheOutputTimeline) {
   gst_object_unref(out);
   gst_object_unref(p);
 }
+
+// Issue 29: with CAMERAS="0 1" and only camera 1 sending, server.sh's view
+// produced nothing, silently. Camera 0's branch was not connected to a source
+// (rtpssrcdemux makes its pad at the camera's first packet), so it could not
+// answer the latency query, GstAggregator took the fuse for not live and
+// waited for a frame on every pad. Here camera 0's branch has no source at
+// all: the view must go on with camera 1, and camera 0 be named as missing on
+// the bus and on the picture.
+TEST(ViewFuseElement, ACameraSilentFromTheStartIsNamedAndTheOthersAreFused) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 96, 54);
+  const std::string desc = "viewfuse name=f camera-timeout=200000000 ! appsink name=out sync=false max-buffers=1 "
+                           "drop=true viewwarp rig=" + rig + " ! queue ! f.cam_0 "
+                           "rgbdtestsrc is-live=true rig=" + rig + " camera-id=1 ! viewwarp rig=" + rig +
+                           " ! queue ! f.cam_1";
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  GstBus* bus = gst_element_get_bus(pipe);
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  for (int i = 0; i < 3; ++i) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "no fused frame while camera 0 never sends (frame " << i << ")";
+    gst_sample_unref(s);
+  }
+  // The camera is named once it has been silent for the camera timeout since the view started.
+  std::string warning;
+  while (warning.find("camera 0") == std::string::npos) {
+    GstMessage* m = gst_bus_timed_pop_filtered(bus, 20 * GST_SECOND, GstMessageType(GST_MESSAGE_WARNING | GST_MESSAGE_ERROR));
+    ASSERT_NE(m, nullptr) << "no warning names camera 0";
+    ASSERT_NE(GST_MESSAGE_TYPE(m), GST_MESSAGE_ERROR);
+    GError* e = nullptr;
+    gst_message_parse_warning(m, &e, nullptr);
+    warning = e ? e->message : "";
+    g_clear_error(&e);
+    gst_message_unref(m);
+  }
+  EXPECT_NE(warning.find("since the view started"), std::string::npos) << warning;
+  EXPECT_EQ(warning.find("camera 1"), std::string::npos) << warning;
+  // And the picture says so: the banner's red in its top-left corner, within a few frames.
+  bool banner = false;
+  for (int i = 0; i < 10 && !banner; ++i) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "the view stopped after camera 0 was named";
+    GstMapInfo map;
+    GstBuffer* b = gst_sample_get_buffer(s);
+    ASSERT_TRUE(gst_buffer_map(b, &map, GST_MAP_READ));
+    banner = map.data[0] == kMissingBannerColor[0] && map.data[1] == kMissingBannerColor[1] &&
+             map.data[2] == kMissingBannerColor[2];
+    gst_buffer_unmap(b, &map);
+    gst_sample_unref(s);
+  }
+  EXPECT_TRUE(banner) << "no 'camera 0 missing' banner on the picture";
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(bus);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}

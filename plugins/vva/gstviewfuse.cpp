@@ -11,6 +11,7 @@
 #include <gst/video/video.h>
 
 #include <atomic>
+#include <cstdio>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -284,7 +285,8 @@ static void post_camera_status(GstViewFuse* self, const CameraStatusChange& chan
   GstStructure* s = gst_structure_new(
       "vclassroom-camera-status", "camera-id", G_TYPE_INT, change.camera_id, "status", G_TYPE_STRING,
       change.lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(change.silent_ns), "missing",
-      G_TYPE_STRING, camera_id_list(missing).c_str(), "cameras-missing", G_TYPE_UINT, guint(missing.size()), nullptr);
+      G_TYPE_STRING, camera_id_list(missing).c_str(), "cameras-missing", G_TYPE_UINT, guint(missing.size()),
+      "since-start", G_TYPE_BOOLEAN, gboolean(change.never_seen), nullptr);
   const std::string text = camera_status_text(change, missing, all_lost);
   if (change.lost)
     GST_ELEMENT_WARNING(self, STREAM, FAILED, ("%s", text.c_str()), (nullptr));
@@ -404,10 +406,14 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
 
   std::vector<GstAggregatorPad*> pads;
   std::vector<GstBuffer*> bufs;
+  std::vector<std::pair<InputKey, int>> every_pad;  // and the camera its name says (cam_K: camera K)
   bool all_eos = true;
   GST_OBJECT_LOCK(agg);
   for (GList* l = GST_ELEMENT(agg)->sinkpads; l; l = l->next) {
     GstAggregatorPad* pad = GST_AGGREGATOR_PAD(l->data);
+    int named = 0;
+    std::sscanf(GST_PAD_NAME(pad), "cam_%d", &named);
+    every_pad.emplace_back(pad, named);
     GstBuffer* buf = gst_aggregator_pad_peek_buffer(pad);
     if (!gst_aggregator_pad_is_eos(pad) || buf) all_eos = false;
     if (buf) {
@@ -439,6 +445,8 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
   {
     std::lock_guard<std::mutex> g(st->lock);
     ctx.steering_session = st->steering_session;
+    // A camera that never sends has no caps to name it: its pad does (server.sh feeds camera K to cam_K).
+    for (const auto& [key, named] : every_pad) st->inputs.expect(key, named);
     round = st->inputs.decide(pending, ctx);
     for (GstAggregatorPad* pad : pads) infos.push_back(st->pad_info[pad]);
     params = st->params;
@@ -532,6 +540,37 @@ static gboolean gst_view_fuse_stop(GstAggregator* agg) {
   self->st->warp_start.release();
   self->st->live = false;
   return TRUE;
+}
+
+// GstAggregator asks every sink pad's upstream for its latency and, when one
+// cannot answer, takes the whole element for not live: it then waits for a
+// frame on every pad, forever for a camera that never sends. A camera branch
+// cannot answer while it is not connected to its source yet (server.sh's
+// rtpssrcdemux makes the camera's pad at its first packet). Such a branch is
+// answered here as an unlinked pad would be (GStreamer leaves those out): no
+// latency of its own, so the view is live with the cameras that send.
+static GstPadProbeReturn answer_latency_of_unconnected_branch(GstPad* pad, GstPadProbeInfo* info, gpointer) {
+  GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
+  if (GST_QUERY_TYPE(query) != GST_QUERY_LATENCY) return GST_PAD_PROBE_OK;
+  GstPad* peer = gst_pad_get_peer(pad);
+  if (!peer) return GST_PAD_PROBE_OK;
+  const gboolean answered = gst_pad_query(peer, query);
+  gst_object_unref(peer);
+  if (!answered) {
+    GST_DEBUG_OBJECT(pad, "camera branch not connected to its source: no latency of its own");
+    gst_query_set_latency(query, FALSE, 0, GST_CLOCK_TIME_NONE);
+  }
+  return GST_PAD_PROBE_HANDLED;
+}
+
+static GstAggregatorPad* gst_view_fuse_create_new_pad(GstAggregator* agg, GstPadTemplate* templ, const gchar* name,
+                                                      const GstCaps* caps) {
+  GstAggregatorPad* pad =
+      GST_AGGREGATOR_CLASS(gst_view_fuse_parent_class)->create_new_pad(agg, templ, name, caps);
+  if (pad)
+    gst_pad_add_probe(GST_PAD(pad), GstPadProbeType(GST_PAD_PROBE_TYPE_QUERY_UPSTREAM | GST_PAD_PROBE_TYPE_PUSH),
+                      answer_latency_of_unconnected_branch, nullptr, nullptr);
+  return pad;
 }
 
 static void gst_view_fuse_release_pad(GstElement* element, GstPad* pad) {
@@ -761,6 +800,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   agg_class->start = GST_DEBUG_FUNCPTR(gst_view_fuse_start);
   agg_class->flush = GST_DEBUG_FUNCPTR(gst_view_fuse_flush);
   agg_class->get_next_time = GST_DEBUG_FUNCPTR(gst_view_fuse_get_next_time);
+  agg_class->create_new_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_create_new_pad);
   element_class->release_pad = GST_DEBUG_FUNCPTR(gst_view_fuse_release_pad);
   GST_DEBUG_CATEGORY_INIT(view_fuse_debug, "viewfuse", 0, "view fusion");
 }

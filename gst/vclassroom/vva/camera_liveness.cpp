@@ -12,7 +12,18 @@ bool CameraLiveness::seen(int id, int64_t now_ns) {
   const bool back = c.lost;
   c.last_seen_ns = std::max(c.last_seen_ns, now_ns);
   c.lost = false;
+  c.ever_seen = true;
   return back;
+}
+
+void CameraLiveness::expect(int id, int64_t now_ns) {
+  if (cameras_.count(id)) return;
+  cameras_[id].last_seen_ns = now_ns;
+}
+
+bool CameraLiveness::ever_seen(int id) const {
+  const auto it = cameras_.find(id);
+  return it != cameras_.end() && it->second.ever_seen;
 }
 
 std::vector<int> CameraLiveness::newly_lost(int64_t now_ns) {

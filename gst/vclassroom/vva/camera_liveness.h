@@ -23,6 +23,12 @@ class CameraLiveness {
   // A frame of camera `id` arrived at now_ns. True when the camera was lost
   // and is back (its return is to be reported).
   bool seen(int id, int64_t now_ns);
+  // Camera `id` is configured (the fuse has its pad) and is watched from
+  // now_ns if it is not yet: a camera silent from the start is then lost after
+  // the timeout like one that stopped, instead of never being missed.
+  void expect(int id, int64_t now_ns);
+  // True when camera `id` has sent a frame since it was first known.
+  bool ever_seen(int id) const;
   // Cameras that became lost by now_ns (silent for more than the timeout
   // since their last frame); each is reported once, until it returns.
   std::vector<int> newly_lost(int64_t now_ns);
@@ -39,8 +45,9 @@ class CameraLiveness {
 
  private:
   struct Camera {
-    int64_t last_seen_ns = 0;
+    int64_t last_seen_ns = 0;  // or since when it is expected, until its first frame
     bool lost = false;
+    bool ever_seen = false;
   };
   int64_t timeout_ns_;
   std::map<int, Camera> cameras_;

@@ -15,13 +15,24 @@ void FuseInputs::set_params(const FuseInputsParams& params) {
 std::string FuseInputs::configure(InputKey key, int camera_id, int width, int height) {
   std::string left_out;
   for (const auto& [k, other] : inputs_)
-    if (k != key && other.left_out.empty() && (other.width != width || other.height != height)) {
+    if (k != key && other.has_caps && other.left_out.empty() && (other.width != width || other.height != height)) {
       left_out = "its view is " + std::to_string(width) + "x" + std::to_string(height) + ", the others' " +
                  std::to_string(other.width) + "x" + std::to_string(other.height) +
                  " (every viewwarp must render the same virtual size)";
       break;
     }
+  const bool existed = inputs_.count(key) > 0;
   Input& in = inputs_[key];
+  // An expected input was watched under a guessed id: if its caps name
+  // another camera, the guess is no camera at all and must not be missed.
+  if (existed && !in.has_caps && in.camera_id != camera_id && !liveness_.ever_seen(in.camera_id)) {
+    const int guess = in.camera_id;
+    const bool shared = std::any_of(inputs_.begin(), inputs_.end(), [&](const auto& kv) {
+      return kv.first != key && kv.second.camera_id == guess;
+    });
+    if (!shared) liveness_.forget(guess);
+  }
+  in.has_caps = true;
   in.camera_id = camera_id;
   in.width = width;
   in.height = height;
@@ -29,9 +40,13 @@ std::string FuseInputs::configure(InputKey key, int camera_id, int width, int he
   return left_out;
 }
 
+void FuseInputs::expect(InputKey key, int camera_id) {
+  if (!inputs_.count(key)) inputs_[key].camera_id = camera_id;
+}
+
 InputKey FuseInputs::first_accepted() const {
   for (const auto& [k, in] : inputs_)
-    if (in.left_out.empty()) return k;
+    if (in.has_caps && in.left_out.empty()) return k;
   return nullptr;
 }
 
@@ -59,6 +74,8 @@ FuseRound FuseInputs::decide(const std::vector<PendingFrame>& frames, const Roun
   // left-out frame still shows the camera is there).
   const bool clocked = ctx.live && ctx.now_ns >= 0;
   if (clocked) {
+    // Every input is watched from the first round that has a clock, frames or not.
+    for (const auto& [key, in] : inputs_) liveness_.expect(in.camera_id, ctx.now_ns);
     for (const PendingFrame& f : frames) {
       const Input* in = input(f.key);
       const int id = in ? in->camera_id : 0;
@@ -66,7 +83,7 @@ FuseRound FuseInputs::decide(const std::vector<PendingFrame>& frames, const Roun
       if (liveness_.seen(id, ctx.now_ns)) round.status_changes.push_back({id, false, silent});
     }
     for (int id : liveness_.newly_lost(ctx.now_ns))
-      round.status_changes.push_back({id, true, liveness_.silent_for(id, ctx.now_ns)});
+      round.status_changes.push_back({id, true, liveness_.silent_for(id, ctx.now_ns), !liveness_.ever_seen(id)});
   }
   round.missing = liveness_.missing();
   round.all_lost = liveness_.all_lost();
@@ -129,7 +146,9 @@ std::string camera_status_text(const CameraStatusChange& change, const std::vect
   std::snprintf(silent, sizeof silent, "%.1f", double(change.silent_ns) / 1e9);
   const std::string camera = "camera " + std::to_string(change.camera_id);
   if (!change.lost) return camera + " is back after " + silent + " s without frames";
-  const std::string lost = camera + " lost (no frame for " + silent + " s): ";
+  const std::string lost = change.never_seen
+                               ? camera + " has sent no frame in the " + silent + " s since the view started: "
+                               : camera + " lost (no frame for " + silent + " s): ";
   if (all_lost)
     return lost + "no camera left, the lecturer sees the last picture marked '" + missing_cameras_text(missing) + "'";
   return lost + "the view goes on without it";

@@ -38,6 +38,7 @@ struct CameraStatusChange {
   int camera_id = -1;
   bool lost = false;  // false: it returned
   int64_t silent_ns = 0;
+  bool never_seen = false;  // lost: it has sent nothing since the view started
 };
 
 // An input holding a frame this round.
@@ -94,6 +95,12 @@ class FuseInputs {
   // must have the same size. An input left out is accepted again once its
   // size matches.
   std::string configure(InputKey key, int camera_id, int width, int height);
+  // An input that exists (the element's pad), whether or not it has sent
+  // anything: named camera `camera_id` (e.g. from its pad's name) until its
+  // caps say which camera it is. Live, one silent from the start is lost
+  // after the camera timeout, reported and named on the banner, as one that
+  // stopped. Call it every round for every input; known ones are kept as they are.
+  void expect(InputKey key, int camera_id);
   // The first accepted input (by key), whose view the output takes; nullptr when none.
   InputKey first_accepted() const;
   // An input gone for good (its pad released): its camera is forgotten too.
@@ -109,6 +116,7 @@ class FuseInputs {
  private:
   struct Input {
     int camera_id = 0;
+    bool has_caps = false;  // else expected only: its camera_id is a guess and it has no size
     int width = 0, height = 0;
     std::string left_out;  // why; "" when accepted
     WarningLimiter warnings;
@@ -119,8 +127,10 @@ class FuseInputs {
 };
 
 // The bus text for a person about a camera lost or back: "camera 2 lost (no
-// frame for 1.0 s): the view goes on without it", or with every camera lost
-// what the lecturer sees, or "camera 2 is back after 3.0 s without frames".
+// frame for 1.0 s): the view goes on without it", "camera 0 has sent no frame
+// in the 1.0 s since the view started: ..." for one silent from the start, or
+// with every camera lost what the lecturer sees, or "camera 2 is back after
+// 3.0 s without frames".
 std::string camera_status_text(const CameraStatusChange& change, const std::vector<int>& missing, bool all_lost);
 // "0,2": the ids for the status message's `missing` field.
 std::string camera_id_list(const std::vector<int>& ids);
