@@ -150,6 +150,15 @@ inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~
 // with every unseen pixel of a view that looks out of the room.
 constexpr int kTextureReach = 16;
 
+// Filled pixels are smoothed only in the tiles holding some (holes are few).
+constexpr int kTileW = 64, kTileH = 16;
+
+// A hole pixel's texture source: the known background pixel its texture is taken from (the mirror image of
+// the pixel across the hole's edge on its nearest background side), both as y * W + x.
+struct TextureSource {
+  int hole, source;
+};
+
 // The hole filling of fill_holes_from_background. Holes are few (a few % of
 // a fused view), so the work is arranged to cost little elsewhere: rows are
 // scanned four depths at a time for holes, a hole's left/right candidates are
@@ -157,20 +166,13 @@ constexpr int kTextureReach = 16;
 // per-column state (the known row above and below the column's current run
 // of holes, found by walking down the run once). Candidates are always known
 // pixels, which the filling never writes, so `color` is filled in place.
-// The smoothing box-blurs only the tiles holding filled pixels.
-void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px, cv::Mat* new_depth,
-                cv::Mat& mask, float texture = 0.f) {
+// Marks the tiles holding filled pixels in `tile_used` and, with `texture`, each filled pixel's texture
+// source; false when there was no hole.
+bool fill_hole_pixels(cv::Mat& color, const cv::Mat& depth, double background_ratio, cv::Mat* new_depth,
+                      cv::Mat& mask, bool texture, std::vector<uint8_t>* tile_used,
+                      std::vector<TextureSource>* sources) {
   const int W = color.cols, H = color.rows;
-  // For the hole pixels that have one: the known background pixel their texture is taken from (the mirror
-  // image of the pixel across the hole's edge on its nearest background side), as y * W + x.
-  struct TextureSource {
-    int hole, source;
-  };
-  static thread_local std::vector<TextureSource> sources;
-  sources.clear();
-  constexpr int kTileW = 64, kTileH = 16;
-  const int tiles_x = (W + kTileW - 1) / kTileW, tiles_y = (H + kTileH - 1) / kTileH;
-  std::vector<uint8_t> tile_used(size_t(tiles_x) * tiles_y, 0);
+  const int tiles_x = (W + kTileW - 1) / kTileW;
   // Per column: the known row above the current run of holes (-1: none) and
   // the first known row below it (H: none); a run starts where below < y.
   std::vector<int> above(size_t(W), -1), below(size_t(W), -1);
@@ -243,21 +245,27 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
         c[3 * h + 2] = uint8_t(acc[2] * iw + 0.5f);
         if (nd) nd[h] = uint16_t(zsum * iw + 0.5f);
         m[h] = 255;
-        if (texture > 0.f && nearest >= 0 && k[nearest].dist <= kTextureReach) {
+        if (texture && nearest >= 0 && k[nearest].dist <= kTextureReach) {
           // The mirror image across the edge (as far beyond the edge as the hole pixel is before it), if it is
           // known and on the background side too.
           const int reach = 2 * k[nearest].dist - 1;
           const int sx = h + kStepX[nearest] * reach, sy = y + kStepY[nearest] * reach;
           if (sx >= 1 && sx + 1 < W && sy >= 1 && sy + 1 < H) {
             const uint16_t zs = depth.ptr<uint16_t>(sy)[sx];
-            if (zs && float(zs) >= zlo) sources.push_back({y * W + h, sy * W + sx});
+            if (zs && float(zs) >= zlo) sources->push_back({y * W + h, sy * W + sx});
           }
         }
-        tile_used[size_t(y / kTileH) * tiles_x + h / kTileW] = 1;
+        (*tile_used)[size_t(y / kTileH) * tiles_x + h / kTileW] = 1;
       }
     }
   }
-  if (!any_hole || smooth_px <= 0) return;
+  return any_hole;
+}
+
+// The smoothing box-blurs only the tiles holding filled pixels, and writes back only the filled pixels.
+void smooth_filled_tiles(cv::Mat& color, const cv::Mat& mask, int smooth_px, const std::vector<uint8_t>& tile_used) {
+  const int W = color.cols, H = color.rows;
+  const int tiles_x = (W + kTileW - 1) / kTileW, tiles_y = (H + kTileH - 1) / kTileH;
   // Blur rects: runs of used tiles per band of rows. cv::blur on a view of
   // the image reads the pixels around it from the whole image, so each rect
   // comes out as the same part of a blur of the whole image; all are blurred
@@ -279,8 +287,12 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
     cv::blur(color(r), dst, box);
   }
   for (const cv::Rect& r : rects) blurred(r).copyTo(color(r), mask(r));
-  if (texture <= 0.f) return;
-  // The texture: each filled pixel gets its source's deviation from the source's 3x3 neighbourhood mean.
+}
+
+// Each filled pixel gets its texture source's deviation from the source's 3x3 neighbourhood mean, times
+// `texture`.
+void add_texture(cv::Mat& color, const std::vector<TextureSource>& sources, float texture) {
+  const int W = color.cols;
   const size_t step = color.step;
   for (const TextureSource& t : sources) {
     const uint8_t* src = color.data + size_t(t.source / W) * step + 3 * size_t(t.source % W);
@@ -293,6 +305,19 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, i
       out[ch] = cv::saturate_cast<uint8_t>(float(out[ch]) + texture * detail);
     }
   }
+}
+
+void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px, cv::Mat* new_depth,
+                cv::Mat& mask, float texture = 0.f) {
+  const int W = color.cols, H = color.rows;
+  static thread_local std::vector<TextureSource> sources;
+  sources.clear();
+  std::vector<uint8_t> tile_used(size_t((W + kTileW - 1) / kTileW) * ((H + kTileH - 1) / kTileH), 0);
+  if (!fill_hole_pixels(color, depth, background_ratio, new_depth, mask, texture > 0.f, &tile_used, &sources) ||
+      smooth_px <= 0)
+    return;
+  smooth_filled_tiles(color, mask, smooth_px, tile_used);
+  if (texture > 0.f) add_texture(color, sources, texture);
 }
 
 // Blends the fill towards a neutral grey with the distance to the nearest
