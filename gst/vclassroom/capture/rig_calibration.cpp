@@ -1,6 +1,7 @@
 #include <gst/vclassroom/capture/rig_calibration.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 
@@ -285,8 +286,14 @@ std::vector<cv::Point3f> board_depth_samples(const CalibrationBoard& board, cons
   return out;
 }
 
-RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigCalibrationOptions& options) {
-  validate_board(capture.board);
+namespace {
+
+using SightingIndex = std::map<std::pair<int, int>, const Observation*>;  // (camera, view) -> its sighting
+
+// The capture's shape checked and each camera's views counted: a camera that shares no view, or too few,
+// with another is an error naming it.
+void check_views(const CalibrationCapture& capture, const RigCalibrationOptions& options,
+                 RigCalibrationReport* report) {
   const int ncam = int(capture.cameras.size());
   if (ncam < 1 || ncam > Rig::kMaxCameras)
     throw Error("calibration: " + std::to_string(ncam) + " cameras; expected 1.." + std::to_string(Rig::kMaxCameras));
@@ -294,12 +301,7 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
     throw Error("calibration: reference camera index " + std::to_string(options.reference) + " out of range");
   for (const auto& v : capture.views)
     if (int(v.size()) != ncam) throw Error("calibration: a view has " + std::to_string(v.size()) + " cameras, not " + std::to_string(ncam));
-  const std::vector<cv::Point3f> board = capture.board.corners();
-  RigCalibrationReport report;
-  report.views.assign(size_t(ncam), 0);
-  report.reprojection_px.assign(size_t(ncam), 0);
-  report.depth_plane_mm.assign(size_t(ncam), 0);
-  report.intrinsics_from_board.assign(size_t(ncam), false);
+  report->views.assign(size_t(ncam), 0);
 
   // Which views each camera shares with another.
   std::vector<int> shared(size_t(ncam), 0);
@@ -308,7 +310,7 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
     for (const auto& s : v) seen += s.has_value();
     for (int c = 0; c < ncam; ++c) {
       if (v[size_t(c)]) {
-        ++report.views[size_t(c)];
+        ++report->views[size_t(c)];
         if (seen >= 2) ++shared[size_t(c)];
       }
     }
@@ -323,8 +325,12 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
                   std::to_string(shared[size_t(c)]) + " views with another camera; at least " +
                   std::to_string(options.min_shared_views) + " are needed: show it the board in more places");
   }
+}
 
-  // Intrinsics: the device's, or the board's.
+// Each camera's intrinsics: the device's, or the board's (from at least 8 views).
+std::vector<CameraCalib> find_intrinsics(const CalibrationCapture& capture, const RigCalibrationOptions& options,
+                                         const std::vector<cv::Point3f>& board, RigCalibrationReport* report) {
+  const int ncam = int(capture.cameras.size());
   std::vector<CameraCalib> cams = capture.cameras;
   for (int c = 0; c < ncam; ++c) {
     CameraCalib& cam = cams[size_t(c)];
@@ -342,12 +348,15 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
     cv::calibrateCamera(object, image, cv::Size(cam.width, cam.height), k, dist, rvecs, tvecs, cv::CALIB_FIX_K3);
     cam.fx = k.at<double>(0, 0), cam.fy = k.at<double>(1, 1), cam.cx = k.at<double>(0, 2), cam.cy = k.at<double>(1, 2);
     for (int i = 0; i < 5 && i < int(dist.total()); ++i) cam.distortion[size_t(i)] = dist.at<double>(i);
-    report.intrinsics_from_board[size_t(c)] = true;
+    report->intrinsics_from_board[size_t(c)] = true;
   }
-  std::vector<Intrinsics> k;
-  for (const auto& cam : cams) k.push_back({cam.fx, cam.fy, cam.cx, cam.cy});
+  return cams;
+}
 
-  // Every sighting in the ideal pinhole camera, with its own board pose.
+// Every sighting in the ideal pinhole camera, with its own board pose.
+std::vector<Observation> observe_board(const CalibrationCapture& capture, const std::vector<CameraCalib>& cams,
+                                       const std::vector<cv::Point3f>& board) {
+  const int ncam = int(cams.size());
   std::vector<Observation> obs;
   for (int v = 0; v < int(capture.views.size()); ++v) {
     for (int c = 0; c < ncam; ++c) {
@@ -356,8 +365,8 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
       const CameraCalib& cam = cams[size_t(c)];
       const cv::Matx33d km(cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
       std::vector<cv::Point2f> ideal;
-      cv::undistortPoints(s->corners, ideal, km, cv::Mat(1, 5, CV_64F, cams[size_t(c)].distortion.data()),
-                          cv::noArray(), km);
+      std::array<double, 5> distortion = cam.distortion;  // cv::Mat wraps writable data
+      cv::undistortPoints(s->corners, ideal, km, cv::Mat(1, 5, CV_64F, distortion.data()), cv::noArray(), km);
       cv::Vec3d rvec, tvec;
       if (!cv::solvePnP(board, ideal, km, cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE)) continue;
       cv::solvePnPRefineLM(board, ideal, km, cv::noArray(), rvec, tvec);
@@ -371,13 +380,17 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
       obs.push_back(std::move(o));
     }
   }
+  return obs;
+}
 
-  // First camera poses: outward from the reference through shared views.
+// The cameras' first poses in the reference camera's frame, outward from it through shared views: each
+// shared view proposes a pose, and the one nearest the others wins.
+std::vector<Isometry3d> chain_cameras(const std::vector<Observation>& obs, const std::vector<CameraCalib>& cams,
+                                      int reference, const SightingIndex& by_cam_view) {
+  const int ncam = int(cams.size());
   std::vector<Isometry3d> cam_to_ref(size_t(ncam), Isometry3d::Identity());
   std::vector<bool> known(size_t(ncam), false);
-  known[size_t(options.reference)] = true;
-  std::map<std::pair<int, int>, const Observation*> by_cam_view;
-  for (const auto& o : obs) by_cam_view[{o.camera, o.view}] = &o;
+  known[size_t(reference)] = true;
   for (bool grew = true; grew;) {
     grew = false;
     for (int c = 0; c < ncam; ++c) {
@@ -411,22 +424,37 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
     if (!known[size_t(c)])
       throw Error("calibration: " + camera_label(cams[size_t(c)]) +
                   " is not linked to the reference camera by any chain of shared views");
+  return cam_to_ref;
+}
 
-  // Board poses for the views two cameras saw; only those join the adjustment.
+// The bundle adjustment over the views two cameras saw (only those join it), then with the depth too:
+// refines the camera poses and returns the board poses and the sightings it used.
+std::vector<Observation> adjust_rig(const std::vector<Observation>& obs, const std::vector<Intrinsics>& k,
+                                    const std::vector<cv::Point3f>& board, const RigCalibrationOptions& options,
+                                    int ncam, std::vector<Isometry3d>* cam_to_ref,
+                                    std::map<int, Isometry3d>* board_to_ref) {
   std::map<int, int> seen_by;
   for (const auto& o : obs) ++seen_by[o.view];
-  std::map<int, Isometry3d> board_to_ref;
-  std::vector<Observation> joint;
+    std::vector<Observation> joint;
   for (const auto& o : obs) {
     if (ncam > 1 && seen_by[o.view] < 2) continue;
-    if (!board_to_ref.count(o.view)) board_to_ref[o.view] = cam_to_ref[size_t(o.camera)] * o.board_to_camera;
+    if (!board_to_ref->count(o.view)) (*board_to_ref)[o.view] = (*cam_to_ref)[size_t(o.camera)] * o.board_to_camera;
     joint.push_back(o);
   }
   if (joint.empty()) throw Error("calibration: no view of the board to calibrate from");
-  Adjustment(joint, k, board, options.reference, false, &cam_to_ref, &board_to_ref).run(50);
-  if (options.depth_refine) Adjustment(joint, k, board, options.reference, true, &cam_to_ref, &board_to_ref).run(50);
+  Adjustment(joint, k, board, options.reference, false, cam_to_ref, board_to_ref).run(50);
+  if (options.depth_refine) Adjustment(joint, k, board, options.reference, true, cam_to_ref, board_to_ref).run(50);
 
-  // What the adjustment leaves, per camera.
+  return joint;
+}
+
+// What the adjustment leaves, per camera: the corners' reprojection and the depth's distance from the board.
+void report_residuals(const std::vector<Observation>& joint, const std::vector<Intrinsics>& k,
+                      const std::vector<cv::Point3f>& board, const std::vector<Isometry3d>& cam_to_ref,
+                      const std::map<int, Isometry3d>& board_to_ref, RigCalibrationReport* report) {
+  const int ncam = int(cam_to_ref.size());
+  report->reprojection_px.assign(size_t(ncam), 0);
+  report->depth_plane_mm.assign(size_t(ncam), 0);
   std::vector<double> corner_sq(size_t(ncam), 0), depth_sq(size_t(ncam), 0);
   std::vector<size_t> corner_n(size_t(ncam), 0), depth_n(size_t(ncam), 0);
   for (const auto& o : joint) {
@@ -447,12 +475,17 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
     }
   }
   for (int c = 0; c < ncam; ++c) {
-    if (corner_n[size_t(c)]) report.reprojection_px[size_t(c)] = std::sqrt(corner_sq[size_t(c)] / double(corner_n[size_t(c)]));
-    if (depth_n[size_t(c)]) report.depth_plane_mm[size_t(c)] = std::sqrt(depth_sq[size_t(c)] / double(depth_n[size_t(c)]));
+    if (corner_n[size_t(c)]) report->reprojection_px[size_t(c)] = std::sqrt(corner_sq[size_t(c)] / double(corner_n[size_t(c)]));
+    if (depth_n[size_t(c)]) report->depth_plane_mm[size_t(c)] = std::sqrt(depth_sq[size_t(c)] / double(depth_n[size_t(c)]));
   }
+}
 
-  // Up: the floor (or what lies parallel to it, desks) in each camera's depth.
-  const CameraCalib& ref_cam = cams[size_t(options.reference)];
+// Up: the floor (or what lies parallel to it, desks) in each camera's depth; the reference camera's height
+// above the floor and how far the cameras' floors disagree go to the report.
+Vector3d find_up(const CalibrationCapture& capture, const std::vector<CameraCalib>& cams,
+                 const std::vector<Isometry3d>& cam_to_ref, int reference, RigCalibrationReport* report) {
+  const int ncam = int(cams.size());
+  const CameraCalib& ref_cam = cams[size_t(reference)];
   Vector3d up_sum = Vector3d::Zero();
   std::vector<Vector3d> ups(size_t(ncam), Vector3d::Zero());
   std::vector<Vector3d> ref_floor;
@@ -466,13 +499,13 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
     const Vector3d n = level->normal;
     ups[size_t(c)] = cam_to_ref[size_t(c)].linear() * n;
     up_sum += double(level->inliers) * ups[size_t(c)];
-    if (c == options.reference) {
+    if (c == reference) {
       // The floor is the lowest level with a wide area: heights of all points along the normal.
       std::vector<double> below;
       for (const auto& p : room.points) below.push_back(-n.dot(p.cast<double>()));
       std::sort(below.begin(), below.end());
       const size_t floor_at = below.size() - std::max<size_t>(1, below.size() / 50);
-      report.camera_height_m = below[floor_at];
+      report->camera_height_m = below[floor_at];
     }
   }
   if (up_sum.norm() == 0)
@@ -480,17 +513,21 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
                 " and the others): the cameras must see some floor or desk tops");
   const Vector3d y_axis = up_sum.normalized();
   for (const auto& u : ups)
-    if (u.norm() > 0) report.floor_spread_deg = std::max(report.floor_spread_deg, std::acos(std::clamp(u.dot(y_axis), -1.0, 1.0)) * 180 / M_PI);
+    if (u.norm() > 0) report->floor_spread_deg = std::max(report->floor_spread_deg, std::acos(std::clamp(u.dot(y_axis), -1.0, 1.0)) * 180 / M_PI);
+  return y_axis;
+}
 
-  // X: along the front wall.
+// X: along the front wall (or as the options say), level, pointing the reference camera's way.
+Vector3d find_x_axis(const CalibrationCapture& capture, const CameraCalib& ref_cam, const Vector3d& y_axis,
+                     const RigCalibrationOptions& options, RigCalibrationReport* report) {
   Vector3d x_axis;
   const Vector3d camera_x = Vector3d::UnitX();  // the reference camera's own x, in its frame
   if (options.x_axis == XAxisFrom::Points) {
     x_axis = options.x_to - options.x_from;
-    report.x_axis_from = "the two points given";
+    report->x_axis_from = "the two points given";
   } else if (options.x_axis == XAxisFrom::Camera) {
     x_axis = camera_x;
-    report.x_axis_from = "the reference camera's x axis, levelled";
+    report->x_axis_from = "the reference camera's x axis, levelled";
   } else {
     const RoomView room = size_t(options.reference) < capture.room_depth.size()
                               ? room_view(ref_cam, capture.room_depth[size_t(options.reference)])
@@ -504,27 +541,20 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
                   " in its depth: give the X axis as two points along the front wall (--x-axis), or take the "
                   "camera's own (--x-axis camera)");
     x_axis = y_axis.cross(wall->normal);
-    report.x_axis_from = "the wall facing the reference camera (" + std::to_string(wall->inliers) + " depth points)";
+    report->x_axis_from = "the wall facing the reference camera (" + std::to_string(wall->inliers) + " depth points)";
   }
   x_axis -= x_axis.dot(y_axis) * y_axis;
   if (x_axis.norm() < 1e-6) throw Error("calibration: the X axis given runs straight up");
   x_axis.normalize();
   if (x_axis.dot(camera_x) < 0 && options.x_axis != XAxisFrom::Points) x_axis = -x_axis;
-  const Vector3d z_axis = x_axis.cross(y_axis);
-  Isometry3d rig_from_ref = Isometry3d::Identity();
-  rig_from_ref.linear().row(0) = x_axis.transpose();
-  rig_from_ref.linear().row(1) = y_axis.transpose();
-  rig_from_ref.linear().row(2) = z_axis.transpose();
+  return x_axis;
+}
 
-  report.rig.name = "calibrated";
-  for (int c = 0; c < ncam; ++c) {
-    CameraCalib cam = cams[size_t(c)];
-    cam.cam_to_rig = rig_from_ref * cam_to_ref[size_t(c)];
-    report.rig.cameras.push_back(cam);
-  }
-  validate_rig(report.rig, "calibrated rig");
-
-  // How well pairs agree: the corners each camera places alone, compared in the rig.
+// How well pairs agree: the corners each camera places alone, compared in the rig.
+void report_pair_agreement(const std::vector<Observation>& obs, const SightingIndex& by_cam_view,
+                           const std::vector<Isometry3d>& cam_to_ref, const std::vector<cv::Point3f>& board,
+                           RigCalibrationReport* report) {
+  const int ncam = int(cam_to_ref.size());
   for (int a = 0; a < ncam; ++a)
     for (int b = a + 1; b < ncam; ++b) {
       RigCalibrationReport::Pair pair;
@@ -544,8 +574,45 @@ RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigC
         }
       }
       if (n) pair.agreement_mm = sum / double(n);
-      report.pairs.push_back(pair);
+      report->pairs.push_back(pair);
     }
+}
+
+}  // namespace
+
+RigCalibrationReport calibrate_rig(const CalibrationCapture& capture, const RigCalibrationOptions& options) {
+  validate_board(capture.board);
+  RigCalibrationReport report;
+  check_views(capture, options, &report);
+  const int ncam = int(capture.cameras.size());
+  const std::vector<cv::Point3f> board = capture.board.corners();
+  report.intrinsics_from_board.assign(size_t(ncam), false);
+  const std::vector<CameraCalib> cams = find_intrinsics(capture, options, board, &report);
+  std::vector<Intrinsics> k;
+  for (const auto& cam : cams) k.push_back({cam.fx, cam.fy, cam.cx, cam.cy});
+  const std::vector<Observation> obs = observe_board(capture, cams, board);
+  SightingIndex by_cam_view;
+  for (const auto& o : obs) by_cam_view[{o.camera, o.view}] = &o;
+  std::vector<Isometry3d> cam_to_ref = chain_cameras(obs, cams, options.reference, by_cam_view);
+  std::map<int, Isometry3d> board_to_ref;
+  const std::vector<Observation> joint = adjust_rig(obs, k, board, options, ncam, &cam_to_ref, &board_to_ref);
+  report_residuals(joint, k, board, cam_to_ref, board_to_ref, &report);
+  const Vector3d y_axis = find_up(capture, cams, cam_to_ref, options.reference, &report);
+  const Vector3d x_axis = find_x_axis(capture, cams[size_t(options.reference)], y_axis, options, &report);
+  const Vector3d z_axis = x_axis.cross(y_axis);
+  Isometry3d rig_from_ref = Isometry3d::Identity();
+  rig_from_ref.linear().row(0) = x_axis.transpose();
+  rig_from_ref.linear().row(1) = y_axis.transpose();
+  rig_from_ref.linear().row(2) = z_axis.transpose();
+
+  report.rig.name = "calibrated";
+  for (int c = 0; c < ncam; ++c) {
+    CameraCalib cam = cams[size_t(c)];
+    cam.cam_to_rig = rig_from_ref * cam_to_ref[size_t(c)];
+    report.rig.cameras.push_back(cam);
+  }
+  validate_rig(report.rig, "calibrated rig");
+  report_pair_agreement(obs, by_cam_view, cam_to_ref, board, &report);
   return report;
 }
 
