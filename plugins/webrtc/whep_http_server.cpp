@@ -227,10 +227,12 @@ gboolean on_incoming(GSocket*, GIOCondition, gpointer data) {
 }
 
 struct Refusal {
-  Refusal(Impl* i, SoupServerMessage* m, int s) : impl(i), msg(m), status(s) {}
+  Refusal(Impl* i, SoupServerMessage* m, int s)
+      : impl(i), msg(m), status(s), http_1_0(soup_server_message_get_http_version(m) == SOUP_HTTP_1_0) {}
   Impl* impl;
   SoupServerMessage* msg;
   int status;
+  bool http_1_0;  // answered in the request's version, as libsoup answers the others
   GIOStream* stream = nullptr;
   std::string text;
 };
@@ -258,7 +260,7 @@ gboolean send_refusal(gpointer data) {
     delete r;
     return G_SOURCE_REMOVE;
   }
-  r->text = "HTTP/1.1 " + std::to_string(r->status) + " " + soup_status_get_phrase(r->status) +
+  r->text = std::string(r->http_1_0 ? "HTTP/1.0 " : "HTTP/1.1 ") + std::to_string(r->status) + " " + soup_status_get_phrase(r->status) +
             "\r\nContent-Length: 0\r\nConnection: close\r\n\r\n";
   g_output_stream_write_all_async(g_io_stream_get_output_stream(r->stream), r->text.data(), r->text.size(),
                                   G_PRIORITY_DEFAULT, r->impl->cancellable, refusal_written, r);
