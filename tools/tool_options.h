@@ -13,6 +13,8 @@
 #include <glib.h>
 #include <glib/gstdio.h>
 
+#include <gst/vclassroom/core/limits.h>
+
 namespace vclassroom_tools {
 
 [[noreturn]] inline void usage_error(const std::string& message);
@@ -53,12 +55,13 @@ inline void parse_command_line(int* argc, char*** argv, const char* parameters, 
   std::exit(2);
 }
 
-// A --size WxH value: each side 16 to 16384 (the project's image limit).
+// A --size WxH value: each side 16 to kMaxImageSide (the project's image limit).
 inline void parse_size_or_exit(const char* option, const char* text, int* width, int* height) {
   int w = 0, h = 0;
   char end = 0;
-  if (std::sscanf(text, "%dx%d%c", &w, &h, &end) != 2 || w < 16 || h < 16 || w > 16384 || h > 16384)
-    usage_error(std::string(option) + " must be WxH, 16 to 16384 each (got '" + text + "')");
+  const int most = vclassroom::kMaxImageSide;
+  if (std::sscanf(text, "%dx%d%c", &w, &h, &end) != 2 || w < 16 || h < 16 || w > most || h > most)
+    usage_error(std::string(option) + " must be WxH, 16 to " + std::to_string(most) + " each (got '" + text + "')");
   *width = w;
   *height = h;
 }

@@ -3,6 +3,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/core/jpeg.h>
+#include <gst/vclassroom/core/limits.h>
 
 // Depth words are read as host 16-bit values: right on little-endian hosts only.
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "Z16/Y16 are little-endian: byte-swap them on this host");
@@ -29,7 +30,7 @@ namespace {
 // Bytes a packed line holds, and whether a buffer of `bytesused` holds
 // `height` lines of `stride` (the last one only needs its pixels).
 bool holds_lines(size_t bytesused, int width, int height, size_t pixel_bytes, size_t* stride, std::string* error) {
-  if (width < 1 || height < 1 || width > 16384 || height > 16384) {
+  if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide) {
     *error = "frame size " + std::to_string(width) + "x" + std::to_string(height) + " out of range";
     return false;
   }

@@ -1,5 +1,7 @@
 #include <gst/vclassroom/capture/v4l2_device.h>
 
+#include <gst/vclassroom/core/limits.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
@@ -142,7 +144,7 @@ std::vector<CaptureMode> V4l2Device::modes() {
 }
 
 void V4l2Device::set_mode(const CaptureMode& mode) {
-  if (mode.width < 1 || mode.height < 1 || mode.width > 16384 || mode.height > 16384)
+  if (mode.width < 1 || mode.height < 1 || mode.width > kMaxImageSide || mode.height > kMaxImageSide)
     throw CaptureError(CaptureError::Kind::kUnsupported, path_ + ": frame size out of range");
   v4l2_format fmt{};
   fmt.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;

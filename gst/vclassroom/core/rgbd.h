@@ -12,6 +12,7 @@
 #include <gst/video/video.h>
 #include <opencv2/core.hpp>
 
+#include <gst/vclassroom/core/limits.h>
 #include <gst/vclassroom/core/rig.h>
 
 namespace vclassroom {
@@ -19,7 +20,7 @@ namespace vclassroom {
 inline constexpr const char* kRgbdMediaType = "video/x-rgbd";
 // Pad-template caps: any size and rate, planes and calibration negotiated.
 inline constexpr const char* kRgbdTemplateCaps =
-    "video/x-rgbd, width = (int) [ 1, 16384 ], height = (int) [ 1, 16384 ], "
+    "video/x-rgbd, width = (int) [ 1, " G_STRINGIFY(VCLASSROOM_MAX_IMAGE_SIDE) " ], height = (int) [ 1, " G_STRINGIFY(VCLASSROOM_MAX_IMAGE_SIDE) " ], "
     "framerate = (fraction) [ 0/1, 2147483647/1 ]";
 
 // The planes a `video/x-rgbd` buffer can hold, in the order they are stored.
@@ -69,7 +70,8 @@ struct RgbdInfo {
 // fields (size, rate, planes, calibration) under another name.
 inline constexpr const char* kRgbdCodedMediaType = "video/x-rgbd-coded";
 inline constexpr const char* kRgbdCodedTemplateCaps =
-    "video/x-rgbd-coded, codec = (string) vcrd1, width = (int) [ 1, 16384 ], height = (int) [ 1, 16384 ], "
+    "video/x-rgbd-coded, codec = (string) vcrd1, width = (int) [ 1, " G_STRINGIFY(VCLASSROOM_MAX_IMAGE_SIDE) " ], "
+    "height = (int) [ 1, " G_STRINGIFY(VCLASSROOM_MAX_IMAGE_SIDE) " ], "
     "framerate = (fraction) [ 0/1, 2147483647/1 ]";
 
 // Renames every structure of `caps` to `name`, adding or removing the codec field.

@@ -1,5 +1,7 @@
 #include <gst/vclassroom/core/rig.h>
 
+#include <gst/vclassroom/core/limits.h>
+
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -450,8 +452,8 @@ template <typename LineOf>
 void check_camera(const CameraCalib& c, const Where& w, LineOf line_of, bool plausible = true) {
   auto fail = [&](const char* field, const std::string& what) { fail_at(w, line_of(field), field, what); };
   if (c.id < 0) fail("id", "expected an integer >= 0");
-  if (c.width <= 0 || c.width > 16384) fail("width", "expected 1..16384 pixels");
-  if (c.height <= 0 || c.height > 16384) fail("height", "expected 1..16384 pixels");
+  if (c.width <= 0 || c.width > kMaxImageSide) fail("width", "expected 1.." + std::to_string(kMaxImageSide) + " pixels");
+  if (c.height <= 0 || c.height > kMaxImageSide) fail("height", "expected 1.." + std::to_string(kMaxImageSide) + " pixels");
   if (!(std::isfinite(c.fx) && c.fx > 0)) fail("fx", "expected a focal length > 0 (pixels)");
   if (!(std::isfinite(c.fy) && c.fy > 0)) fail("fy", "expected a focal length > 0 (pixels)");
   if (!std::isfinite(c.cx)) fail("cx", "expected a finite principal point (pixels)");

@@ -13,6 +13,7 @@
 
 #include <opencv2/core.hpp>
 
+#include <gst/vclassroom/core/limits.h>
 #include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/datasets/coded_stream.h>
 
@@ -71,7 +72,6 @@ void dataset_write_frame(const std::string& folder, int camera_id, size_t index,
 void dataset_write_camera(const std::string& folder, const CameraCalib& camera, const std::string& rig_name);
 
 // Limits of what the readers accept from files (docs/dataset-format.md).
-inline constexpr int kMaxImageSide = 16384;
 inline constexpr size_t kMaxImageFileBytes = size_t(1) << 30;
 inline constexpr size_t kMaxFrames = 10000000;
 

@@ -2,6 +2,7 @@
 
 #include <gst/vclassroom/core/checksum.h>
 #include <gst/vclassroom/core/jpeg.h>
+#include <gst/vclassroom/core/limits.h>
 
 #include <algorithm>
 #include <array>
@@ -13,7 +14,6 @@ namespace vclassroom {
 
 namespace {
 
-constexpr int kMaxSide = 16384;  // image sides, as rig cameras (docs/rig-format.md)
 
 // ---- 4-bit variable-length integers: 3 value bits + 1 "more" bit per nibble.
 class NibbleWriter {
@@ -176,7 +176,7 @@ void encode_depth_lossless(const cv::Mat& depth, std::vector<uint8_t>* out) {
 }
 
 bool decode_depth_lossless(const uint8_t* data, size_t size, int width, int height, cv::Mat* depth) {
-  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide) return false;
+  if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide) return false;
   depth->create(height, width, CV_16UC1);  // freshly created: continuous
   uint16_t* base = depth->ptr<uint16_t>(0);
   NibbleReader r(data, size);
@@ -261,7 +261,7 @@ void encode_labels(const cv::Mat& labels, std::vector<uint8_t>* out) {
 }
 
 bool decode_labels(const uint8_t* data, size_t size, int width, int height, cv::Mat* labels) {
-  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide) return false;
+  if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide) return false;
   labels->create(height, width, CV_8UC1);
   NibbleReader r(data, size);
   const size_t total = static_cast<size_t>(width) * height;
@@ -318,9 +318,9 @@ bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, 
     if (error) *error = why;
     return false;
   };
-  if (width < 1 || height < 1 || width > kMaxSide || height > kMaxSide)
+  if (width < 1 || height < 1 || width > kMaxImageSide || height > kMaxImageSide)
     return fail("stream size " + std::to_string(width) + "x" + std::to_string(height) + " out of range (1.." +
-                std::to_string(kMaxSide) + " per side)");
+                std::to_string(kMaxImageSide) + " per side)");
   if (!data || size < kHeaderSize || std::memcmp(data, "VCRD", 4) != 0) return fail("not an rgbdenc frame (bad magic)");
   if (data[4] != kVersion) return fail("unsupported frame version " + std::to_string(data[4]));
   const int n = data[5];
