@@ -58,6 +58,7 @@ struct _GstRgbdDec {
 };
 
 G_DEFINE_TYPE(GstRgbdDec, gst_rgbd_dec, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(rgbddec, "rgbddec", GST_RANK_NONE, GST_TYPE_RGBD_DEC);
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdCodedTemplateCaps));

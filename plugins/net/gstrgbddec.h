@@ -7,4 +7,6 @@ G_BEGIN_DECLS
 #define GST_TYPE_RGBD_DEC (gst_rgbd_dec_get_type())
 G_DECLARE_FINAL_TYPE(GstRgbdDec, gst_rgbd_dec, GST, RGBD_DEC, GstBaseTransform)
 
+GST_ELEMENT_REGISTER_DECLARE(rgbddec);
+
 G_END_DECLS

@@ -56,6 +56,7 @@ struct _GstDepthComplete {
 };
 
 G_DEFINE_TYPE(GstDepthComplete, gst_depth_complete, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(depthcomplete, "depthcomplete", GST_RANK_NONE, GST_TYPE_DEPTH_COMPLETE);
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));

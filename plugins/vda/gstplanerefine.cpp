@@ -45,6 +45,7 @@ struct _GstPlaneRefine {
 };
 
 G_DEFINE_TYPE(GstPlaneRefine, gst_plane_refine, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(planerefine, "planerefine", GST_RANK_NONE, GST_TYPE_PLANE_REFINE);
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));

@@ -11,8 +11,8 @@
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
-  ok &= gst_element_register(plugin, "depthcomplete", GST_RANK_NONE, GST_TYPE_DEPTH_COMPLETE);
-  ok &= gst_element_register(plugin, "planerefine", GST_RANK_NONE, GST_TYPE_PLANE_REFINE);
+  ok &= GST_ELEMENT_REGISTER(depthcomplete, plugin);
+  ok &= GST_ELEMENT_REGISTER(planerefine, plugin);
   return ok;
 }
 

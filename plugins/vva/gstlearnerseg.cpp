@@ -52,6 +52,7 @@ struct _GstLearnerSeg {
 };
 
 G_DEFINE_TYPE(GstLearnerSeg, gst_learner_seg, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(learnerseg, "learnerseg", GST_RANK_NONE, GST_TYPE_LEARNER_SEG);
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));

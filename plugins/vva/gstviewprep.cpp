@@ -45,6 +45,7 @@ struct _GstViewPrep {
 };
 
 G_DEFINE_TYPE(GstViewPrep, gst_view_prep, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(viewprep, "viewprep", GST_RANK_NONE, GST_TYPE_VIEW_PREP);
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
