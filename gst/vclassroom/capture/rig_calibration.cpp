@@ -9,7 +9,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include <gst/vclassroom/core/error.h>
-#include <gst/vclassroom/vda/static_model.h>
+#include <gst/vclassroom/core/planes.h>
 
 namespace vclassroom {
 
@@ -256,7 +256,7 @@ RoomView room_view(const CameraCalib& cam, const cv::Mat& depth_mm) {
     for (int u = 0; u < depth_mm.cols; u += 3)
       if (row[u]) view.points.push_back(cam.unproject(u, v, row[u] * 0.001).cast<float>());
   }
-  view.planes = find_planes(view.points, Vector3d::Zero(), StaticModelOptions());
+  view.planes = find_planes(view.points, Vector3d::Zero(), PlaneFinding());
   return view;
 }
 

@@ -12,18 +12,10 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include <gst/vclassroom/core/planes.h>
 #include <gst/vclassroom/core/rig.h>
 
 namespace vclassroom {
-
-// A plane of the static room in the rig frame: normal . p + offset = 0 (p in
-// metres, |normal| = 1, normal towards the room's inside / the cameras).
-struct RoomPlane {
-  Eigen::Vector3d normal = Eigen::Vector3d::UnitY();
-  double offset = 0;
-  std::string name;  // "floor", "ceiling", "wall", "desk", "plane"
-  int inliers = 0;   // fused-model points it explains
-};
 
 // The plane in a camera's frame (a X + b Y + c Z + d = 0, metres), as the
 // paper carries it through [R|T].

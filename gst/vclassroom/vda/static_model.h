@@ -97,10 +97,6 @@ cv::Mat median_depth(const std::vector<cv::Mat>& frames, double min_share = 0.5)
 std::vector<ExtrinsicsChange> refine_extrinsics(Rig& rig, const std::map<int, cv::Mat>& depth,
                                                 const StaticModelOptions& o);
 
-// Sequential RANSAC plane finding with a least-squares refit of each plane.
-std::vector<RoomPlane> find_planes(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector3d& viewpoint,
-                                   const StaticModelOptions& o);
-
 // Projects a cloud into a camera with a z-buffer (each point a small square
 // sized by the voxel size); 0 where nothing lands.
 cv::Mat splat_depth(const std::vector<Eigen::Vector3f>& points, const CameraCalib& cam, double voxel_m);

@@ -4,7 +4,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/core/error.h>
-#include <gst/vclassroom/datasets/dataset.h>
+#include <gst/vclassroom/core/image_io.h>
 
 namespace vclassroom {
 
