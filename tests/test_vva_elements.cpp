@@ -1,0 +1,710 @@
+// V-VA through GStreamer: the learnerseg, viewprep, viewwarp and viewfuse elements.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include <gst/app/gstappsink.h>
+#include <gst/app/gstappsrc.h>
+#include <gst/check/gstharness.h>
+#include <gst/gst.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/core/image_metrics.h>
+#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/core/pose_trace.h>
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/view_offset.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/vva/background_memory.h>
+#include <gst/vclassroom/vva/fuse_inputs.h>
+#include <gst/vclassroom/vva/learner_seg.h>
+#include <gst/vclassroom/vva/prepared_frame.h>
+#include <gst/vclassroom/vva/view_fuse.h>
+#include <gst/vclassroom/vva/view_turns.h>
+#include <gst/vclassroom/vva/view_warp.h>
+#include <gst/vclassroom/vva/virtual_view.h>
+#include <gst/vclassroom/vva/warp_start.h>
+
+#include "test_util.h"
+
+using namespace vclassroom;
+
+namespace {
+
+// A rig of the default classroom at a small size, written to `dir`.
+std::string small_classroom_rig(const vctest::TempDir& dir, int w = 160, int h = 90) {
+  Rig rig = default_classroom_rig();
+  for (auto& c : rig.cameras) c = scale_camera(c, w, h);
+  const std::string path = dir / "rig.yaml";
+  save_rig(rig, path);
+  return path;
+}
+
+// Frame `index` (30 fps) of `info`'s planes from the render `r`, its colour with a camera's noise (sigma 4)
+// from `rng`; the label plane, where `info` has one, from the render's.
+GstBuffer* noisy_frame(const RgbdInfo& info, const RenderOutput& r, cv::RNG* rng, int index) {
+  GstBuffer* buf = rgbd_buffer_new(info);
+  RgbdFrame f;
+  std::string err;
+  EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+  cv::Mat noise(r.color.size(), CV_16SC3), noisy;
+  rng->fill(noise, cv::RNG::NORMAL, 0, 4);
+  r.color.convertTo(noisy, CV_16SC3);
+  noisy += noise;
+  noisy.convertTo(f.color(), CV_8UC3);
+  r.depth.copyTo(f.depth());
+  if (info.has(Plane::Label)) r.label.copyTo(f.label());
+  f.unmap();
+  GST_BUFFER_PTS(buf) = index * GST_SECOND / 30;
+  return buf;
+}
+
+// Pushes `in` through viewwarp's harness and returns the output frame's planes (copies).
+WarpedView pull_warped(GstHarness* h, GstBuffer* in) {
+  EXPECT_EQ(gst_harness_push(h, in), GST_FLOW_OK);
+  GstBuffer* out = gst_harness_pull(h);
+  GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+  RgbdInfo oi;
+  EXPECT_TRUE(rgbd_info_from_caps(oc, &oi, nullptr));
+  gst_caps_unref(oc);
+  RgbdFrame f;
+  EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, nullptr));
+  WarpedView v{f.color().clone(), f.depth().clone(), f.label().clone(), f.plane(Plane::Weight).clone()};
+  f.unmap();
+  gst_buffer_unref(out);
+  return v;
+}
+
+}  // namespace
+
+// Through viewwarp (background-memory=8): the same static scene with fresh camera noise in every frame gives
+// a steadier view than without the memory.
+TEST(ViewWarpElement, BackgroundMemorySteadiesTheViewOfANoisyStaticRoom) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(1), 160, 90);
+  info.planes = {Plane::Color, Plane::Depth};
+  const Classroom room(ClassroomConfig{1, 0, 2.0});
+  const RenderOutput r = render(room, 0.0, info.camera);
+  auto frame_changes = [&](int memory) {
+    GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + rig + " background-memory=" + std::to_string(memory)).c_str());
+    gst_harness_set_src_caps(h, rgbd_caps_new(info));
+    cv::RNG rng(9);
+    cv::Mat prev;
+    double change = 0;
+    for (int i = 0; i < 12; ++i) {
+      const cv::Mat color = pull_warped(h, noisy_frame(info, r, &rng, i)).color;
+      if (i >= 4) change += cv::norm(color, prev, cv::NORM_L1);
+      prev = color;
+    }
+    gst_harness_teardown(h);
+    return change;
+  };
+  const double without = frame_changes(0), with = frame_changes(8);
+  EXPECT_LT(with, without * 0.6) << with << " vs " << without;
+}
+
+// viewprep before a tee: each camera frame's memory and the warp's first half are done once, and every
+// view's viewwarp warps the prepared frame exactly as a viewwarp with the same settings warps the frame
+// alone; a viewwarp set otherwise (edge-to-near=false) prepares the frame again itself.
+TEST(ViewPrepElement, AFramePreparedOnceWarpsInEveryViewAsViewwarpAloneWarpsIt) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(1), 160, 90);
+  info.planes = {Plane::Color, Plane::Depth, Plane::Label};
+  const Classroom room(ClassroomConfig{2, 3, 2.0});
+  const RenderOutput r = render(room, 0.5, info.camera);
+  GstHarness* prep = gst_harness_new_parse("viewprep background-memory=4");
+  GstHarness* alone = gst_harness_new_parse(("viewwarp rig=" + rig + " background-memory=4").c_str());
+  // Prepared again by a viewwarp without a memory of its own: as one that never saw a prepared frame.
+  GstHarness* alone_other = gst_harness_new_parse(("viewwarp rig=" + rig + " edge-to-near=false").c_str());
+  GstHarness* view1 = gst_harness_new_parse(("viewwarp rig=" + rig).c_str());
+  GstHarness* view2 = gst_harness_new_parse(("viewwarp rig=" + rig).c_str());
+  GstHarness* view_other = gst_harness_new_parse(("viewwarp rig=" + rig + " edge-to-near=false").c_str());
+  for (GstHarness* h : {prep, alone, alone_other, view1, view2, view_other}) gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  cv::RNG rng(5);
+  bool settings_matter = false;
+  for (int i = 0; i < 6; ++i) {
+    GstBuffer* buf = noisy_frame(info, r, &rng, i);
+    const WarpedView expected = pull_warped(alone, gst_buffer_copy(buf));
+    const WarpedView expected_other = pull_warped(alone_other, gst_buffer_copy(buf));
+    settings_matter |= cv::norm(expected.color, expected_other.color, cv::NORM_INF) > 0;
+    ASSERT_EQ(gst_harness_push(prep, buf), GST_FLOW_OK);
+    GstBuffer* prepared = gst_harness_pull(prep);
+    ASSERT_NE(buffer_get_prepared_frame(prepared), nullptr) << "frame " << i;
+    for (auto [view, want] : {std::pair{view1, &expected}, std::pair{view2, &expected}, std::pair{view_other, &expected_other}}) {
+      const WarpedView got = pull_warped(view, gst_buffer_ref(prepared));
+      EXPECT_EQ(cv::norm(got.color, want->color, cv::NORM_INF), 0) << "frame " << i;
+      EXPECT_EQ(cv::norm(got.depth, want->depth, cv::NORM_INF), 0) << "frame " << i;
+      EXPECT_EQ(cv::norm(got.label, want->label, cv::NORM_INF), 0) << "frame " << i;
+    }
+    gst_buffer_unref(prepared);
+  }
+  EXPECT_TRUE(settings_matter) << "edge-to-near should change the view";
+  for (GstHarness* h : {prep, alone, alone_other, view1, view2, view_other}) gst_harness_teardown(h);
+}
+
+// Through viewwarp (background-memory=4, empty-room, prior-depth): camera 1
+// of the classroom with its learners, warped to camera 0's view, shows the
+// empty room where the learners uncover it, not a hole; a wrong empty-room
+// file is a clear error.
+TEST(ViewWarpElement, TheEmptyRoomFillsWhatTheLearnersUncover) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const Rig small = load_rig(rig);
+  RgbdInfo info;
+  info.camera = small.camera(1);
+  info.planes = {Plane::Color, Plane::Depth, Plane::Label};
+  const RenderOutput empty = render(Classroom(ClassroomConfig{1, 0, 2.0}), 0.0, info.camera);
+  const RenderOutput busy = render(Classroom(ClassroomConfig{1, 6, 2.0}), 1.0, info.camera);
+  const RenderOutput truth = render(Classroom(ClassroomConfig{1, 0, 2.0}), 0.0, small.camera(0));
+  const std::string prior = dir / "prior.png", room = dir / "room.png";
+  ASSERT_TRUE(cv::imwrite(prior, empty.depth));
+  cv::Mat bgr;
+  cv::cvtColor(empty.color, bgr, cv::COLOR_RGB2BGR);
+  ASSERT_TRUE(cv::imwrite(room, bgr));
+  auto warped = [&](const std::string& props) {
+    GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + rig + " prior-depth=" + prior + " " + props).c_str());
+    gst_harness_set_src_caps(h, rgbd_caps_new(info));
+    GstBuffer* buf = rgbd_buffer_new(info);
+    {
+      RgbdFrame f;
+      EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, nullptr));
+      busy.color.copyTo(f.color());
+      busy.depth.copyTo(f.depth());
+      busy.label.copyTo(f.label());
+    }
+    const WarpedView v = pull_warped(h, buf);
+    gst_harness_teardown(h);
+    return v;
+  };
+  const WarpedView alone = warped("background-memory=0"), layered = warped("background-memory=4 empty-room=" + room);
+  int uncovered = 0;
+  double err = 0;
+  for (int y = 0; y < alone.weight.rows; ++y)
+    for (int x = 0; x < alone.weight.cols; ++x) {
+      if (alone.weight.at<uint8_t>(y, x) != 0 || layered.weight.at<uint8_t>(y, x) == 0) continue;
+      ++uncovered;
+      for (int ch = 0; ch < 3; ++ch)
+        err += std::abs(double(layered.color.at<cv::Vec3b>(y, x)[ch]) - truth.color.at<cv::Vec3b>(y, x)[ch]);
+    }
+  ASSERT_GT(uncovered, 30) << "the learners should uncover some of the room in camera 0's view";
+  EXPECT_LT(err / (3 * uncovered), 20.0) << "the uncovered room is not the empty room";
+
+  const vctest::RunResult bad = vctest::run_launch(
+      "rgbdtestsrc num-buffers=2 ! viewwarp background-memory=4 empty-room=" + dir / "missing.png" + " ! fakesink");
+  EXPECT_NE(bad.error.find("missing.png"), std::string::npos) << bad.error;
+  // An empty room of another size than the camera's (160x90 against rgbdtestsrc's 960x540): said, and the
+  // memory learns the room as it sees it.
+  const vctest::RunResult other =
+      vctest::run_launch("rgbdtestsrc num-buffers=2 ! viewwarp background-memory=4 empty-room=" + room + " ! fakesink");
+  EXPECT_EQ(other.error, "");
+  ASSERT_EQ(other.warnings.size(), 1u);
+  EXPECT_NE(other.warnings[0].find("empty-room is 160x90 but camera 0 streams 960x540"), std::string::npos)
+      << other.warnings[0];
+}
+
+TEST(ViewWarpElement, APoseTraceSetsEachFramesViewByItsTime) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const CameraCalib ref = default_classroom_rig().camera(0);
+  std::vector<PoseSample> trace;
+  for (int i = 0; i < 3; ++i) {
+    PoseSample p;
+    p.t = i * 0.1;  // three poses, 100 ms apart
+    p.pose = sliders_to_pose(Sliders{40.0 + 10 * i, 50, 50, 50, 50, 50}, ref);
+    trace.push_back(p);
+  }
+  save_pose_trace(trace, dir / "walk.csv");
+  GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + rig + " pose-trace=" + (dir / "walk.csv")).c_str());
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(1), 160, 90);
+  info.planes = {Plane::Color, Plane::Depth};
+  gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  const Classroom room(ClassroomConfig{1, 3, 2.0});
+  const RenderOutput r = render(room, 0.0, info.camera);
+  // A pose event must not override the trace.
+  Pose other = sliders_to_pose(Sliders{90, 50, 50, 50, 50, 50}, ref);
+  other.seq = 1000;
+  ASSERT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(other)));
+  std::vector<uint64_t> seqs;
+  std::vector<int64_t> viewer_times;
+  std::vector<cv::Mat> colors;
+  // Frames at 0, 50, 150 and 400 ms show trace poses 1, 1, 2 and 3 (the last is held).
+  for (GstClockTime ms : {0, 50, 150, 400}) {
+    GstBuffer* buf = rgbd_buffer_new(info);
+    {
+      RgbdFrame f;
+      std::string err;
+      ASSERT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+      r.color.copyTo(f.color());
+      r.depth.copyTo(f.depth());
+    }
+    GST_BUFFER_PTS(buf) = ms * GST_MSECOND;
+    ASSERT_EQ(gst_harness_push(h, buf), GST_FLOW_OK);
+    GstBuffer* out = gst_harness_pull(h);
+    ASSERT_NE(out, nullptr);
+    const PoseMeta* m = buffer_get_pose_meta(out);
+    ASSERT_NE(m, nullptr);
+    seqs.push_back(m->seq);
+    viewer_times.push_back(m->viewer_time_ns);
+    GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+    RgbdInfo oi;
+    std::string err;
+    ASSERT_TRUE(rgbd_info_from_caps(oc, &oi, &err)) << err;
+    gst_caps_unref(oc);
+    RgbdFrame f;
+    ASSERT_TRUE(f.map(out, oi, GST_MAP_READ, &err)) << err;
+    colors.push_back(f.color().clone());
+    f.unmap();
+    gst_buffer_unref(out);
+  }
+  EXPECT_EQ(seqs, (std::vector<uint64_t>{1, 1, 2, 3}));
+  // The trace's time stands for the viewer's, so viewfuse's pose window can compare cameras.
+  EXPECT_EQ(viewer_times, (std::vector<int64_t>{0, 0, 100000000, 200000000}));
+  EXPECT_EQ(cv::norm(colors[0], colors[1], cv::NORM_INF), 0) << "same trace pose, same view";
+  EXPECT_GT(cv::norm(colors[1], colors[2], cv::NORM_L1), 0) << "the next trace pose must change the view";
+  gst_harness_teardown(h);
+}
+
+TEST(ViewWarpElement, APoseEventChangesTheNextFrame) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  GstHarness* h = gst_harness_new_parse(("viewwarp rig=" + rig).c_str());
+  RgbdInfo info;
+  info.camera = scale_camera(default_classroom_rig().camera(1), 160, 90);
+  info.planes = {Plane::Color, Plane::Depth};
+  GstCaps* caps = rgbd_caps_new(info);
+  gst_harness_set_src_caps(h, caps);
+  const Classroom room(ClassroomConfig{1, 3, 2.0});
+  const RenderOutput r = render(room, 0.0, info.camera);
+  auto make_input = [&] {
+    GstBuffer* buf = rgbd_buffer_new(info);
+    RgbdFrame f;
+    std::string err;
+    EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+    r.color.copyTo(f.color());
+    r.depth.copyTo(f.depth());
+    f.unmap();
+    return buf;
+  };
+  auto output_color = [&](GstBuffer* out, uint64_t* seq) {
+    GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+    RgbdInfo oi;
+    std::string err;
+    EXPECT_TRUE(rgbd_info_from_caps(oc, &oi, &err)) << err;
+    gst_caps_unref(oc);
+    EXPECT_EQ(oi.planes.size(), 4u);
+    RgbdFrame f;
+    EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, &err)) << err;
+    PoseMeta* m = buffer_get_pose_meta(out);
+    EXPECT_NE(m, nullptr);
+    *seq = m ? m->seq : 999;
+    return f.color().clone();
+  };
+  ASSERT_EQ(gst_harness_push(h, make_input()), GST_FLOW_OK);
+  GstBuffer* out1 = gst_harness_pull(h);
+  uint64_t seq1 = 0;
+  const cv::Mat c1 = output_color(out1, &seq1);
+  // The reference camera (0) seen from camera 1 until a pose arrives.
+  Pose pose = sliders_to_pose(Sliders{30, 50, 50, 60, 50, 50}, default_classroom_rig().camera(0));
+  pose.seq = 7;
+  ASSERT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(pose)));
+  // An older pose arriving late does not win.
+  Pose old = pose;
+  old.seq = 3;
+  old.position.x() += 0.5;
+  ASSERT_TRUE(gst_harness_push_upstream_event(h, pose_event_new(old)));
+  ASSERT_EQ(gst_harness_push(h, make_input()), GST_FLOW_OK);
+  GstBuffer* out2 = gst_harness_pull(h);
+  uint64_t seq2 = 0;
+  const cv::Mat c2 = output_color(out2, &seq2);
+  EXPECT_EQ(seq2, 7u);
+  EXPECT_LT(psnr_rgb(c1, c2), 30.0) << "the view did not move";
+  // The same frame warped by the library to that pose is what came out.
+  const CameraCalib virt = virtual_camera(scale_camera(info.camera, 160, 90), pose.cam_to_rig(), NAN);
+  const WarpedView expect = warp_view(info.camera, WarpSource{r.color, r.depth, {}, {}}, virt);  // viewwarp's defaults
+  EXPECT_TRUE(vctest::same_image(expect.color, c2)) << "PSNR " << psnr_rgb(expect.color, c2);
+  gst_buffer_unref(out1);
+  gst_buffer_unref(out2);
+  gst_harness_teardown(h);
+}
+
+TEST(ViewFuseElement, PoseEventAtTheSinkReachesEveryViewWarp) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const std::string branch = " ! viewwarp name=w%d rig=" + rig + " ! queue max-size-buffers=1 ! f.cam_%d";
+  std::string desc = "viewfuse name=f ! appsink name=out sync=false max-buffers=1";
+  for (int i = 1; i <= 2; ++i) {
+    char b[512];
+    std::snprintf(b, sizeof b, branch.c_str(), i, i);
+    desc += " rgbdtestsrc rig=" + rig + " camera-id=" + std::to_string(i) + " learners=2" + b;
+  }
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  GstSample* first = gst_app_sink_pull_sample(GST_APP_SINK(sink));
+  ASSERT_NE(first, nullptr);
+  Pose pose = sliders_to_pose(Sliders{60, 50, 55, 45, 50, 50}, default_classroom_rig().camera(0));
+  pose.seq = 42;
+  GstPad* sinkpad = gst_element_get_static_pad(sink, "sink");
+  ASSERT_TRUE(gst_pad_push_event(sinkpad, pose_event_new(pose)));
+  gst_object_unref(sinkpad);
+  // Upstream custom events travel synchronously: both warps have it now.
+  for (const char* name : {"w1", "w2"}) {
+    GstElement* w = gst_bin_get_by_name(GST_BIN(pipe), name);
+    guint64 n = 0;
+    g_object_get(w, "poses-received", &n, nullptr);
+    EXPECT_EQ(n, 1u) << name;
+    gst_object_unref(w);
+  }
+  // Frames already in the queues show the old pose; then every frame shows the new one.
+  bool seen = false;
+  for (int i = 0; i < 8; ++i) {
+    GstSample* s = gst_app_sink_pull_sample(GST_APP_SINK(sink));
+    ASSERT_NE(s, nullptr);
+    PoseMeta* m = buffer_get_pose_meta(gst_sample_get_buffer(s));
+    ASSERT_NE(m, nullptr);
+    if (seen) {
+      EXPECT_EQ(m->seq, 42u) << "frame " << i << " went back to an old pose";
+    }
+    seen = seen || m->seq == 42;
+    gst_sample_unref(s);
+  }
+  EXPECT_TRUE(seen);
+  gst_sample_unref(first);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}
+
+TEST(ViewFuseElement, ACameraThatStopsDoesNotStallTheOutput) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const std::string desc = "viewfuse name=f ! appsink name=out sync=false "
+                           "rgbdtestsrc rig=" + rig + " camera-id=1 num-buffers=12 ! viewwarp rig=" + rig +
+                           " ! queue ! f.cam_0 "
+                           "rgbdtestsrc rig=" + rig + " camera-id=2 num-buffers=3 ! viewwarp rig=" + rig +
+                           " ! queue ! f.cam_1";
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  vctest::SampleCollector samples(sink);
+  const vctest::RunResult r = vctest::run_pipeline(pipe);
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(samples.size(), 12u);
+  GstElement* f = gst_bin_get_by_name(GST_BIN(pipe), "f");
+  guint64 n = 0;
+  g_object_get(f, "frames-fused", &n, nullptr);
+  EXPECT_EQ(n, 12u);
+  gst_object_unref(f);
+  gst_object_unref(sink);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(pipe);
+}
+
+TEST(ViewFuseElement, ALiveCameraThatGoesSilentDoesNotStallTheOutput) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 96, 54);
+  const std::string desc = "viewfuse name=f latency=50000000 ! appsink name=out sync=false max-buffers=4 drop=false "
+                           "rgbdtestsrc is-live=true rig=" + rig + " camera-id=1 ! viewwarp rig=" + rig +
+                           " ! queue ! f.cam_0 "
+                           "rgbdtestsrc is-live=true rig=" + rig + " camera-id=2 ! valve name=v ! viewwarp rig=" +
+                           rig + " ! queue ! f.cam_1";
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  GstElement* valve = gst_bin_get_by_name(GST_BIN(pipe), "v");
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  for (int i = 0; i < 3; ++i) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "no output at the start";
+    gst_sample_unref(s);
+  }
+  // Camera 2 goes silent without EOS (its buffers are dropped from now on).
+  g_object_set(valve, "drop", TRUE, nullptr);
+  for (int i = 0; i < 10; ++i) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "viewfuse stalled after camera 2 went silent (frame " << i << ")";
+    gst_sample_unref(s);
+  }
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(valve);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}
+
+namespace {
+// Counts the warp-start queries a viewwarp sends (a GstPad probe), so a test knows a camera reached the barrier.
+struct QuerySeen {
+  std::mutex lock;
+  std::condition_variable seen;
+  int count = 0;
+  static GstPadProbeReturn probe(GstPad*, GstPadProbeInfo* info, gpointer data) {
+    GstQuery* q = GST_PAD_PROBE_INFO_QUERY(info);
+    const GstStructure* s = GST_QUERY_TYPE(q) == GST_QUERY_CUSTOM ? gst_query_get_structure(q) : nullptr;
+    if (s && gst_structure_has_name(s, kWarpStartQueryName)) {
+      auto* self = static_cast<QuerySeen*>(data);
+      std::lock_guard<std::mutex> g(self->lock);
+      ++self->count;
+      self->seen.notify_all();
+    }
+    return GST_PAD_PROBE_OK;
+  }
+  bool until(int n) {
+    std::unique_lock<std::mutex> l(lock);
+    return seen.wait_for(l, std::chrono::seconds(60), [&] { return count >= n; });
+  }
+};
+}  // namespace
+
+TEST(ViewFuseElement, LiveACameraWaitsForTheOthersSoEveryCameraWarpsForTheNewestPose) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 96, 54);
+  // A latency that never runs out here: each output has both cameras' frames.
+  std::string desc = "viewfuse name=f warp-sync=0 latency=600000000000 ! appsink name=out sync=false";
+  for (int k : {1, 2})
+    desc += " appsrc name=src" + std::to_string(k) + " is-live=true format=time ! viewwarp name=w" +
+            std::to_string(k) + " rig=" + rig + " ! f.cam_" + std::to_string(k);
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  GstElement* fuse = gst_bin_get_by_name(GST_BIN(pipe), "f");
+  GstElement* src[3] = {nullptr, gst_bin_get_by_name(GST_BIN(pipe), "src1"), gst_bin_get_by_name(GST_BIN(pipe), "src2")};
+  RgbdInfo info[3];
+  cv::Mat color[3], depth[3];
+  const Classroom room(ClassroomConfig{1, 3, 2.0});
+  for (int k : {1, 2}) {
+    info[k].camera = scale_camera(default_classroom_rig().camera(k), 96, 54);
+    info[k].planes = {Plane::Color, Plane::Depth};
+    GstCaps* caps = rgbd_caps_new(info[k]);
+    g_object_set(src[k], "caps", caps, nullptr);
+    gst_caps_unref(caps);
+    const RenderOutput r = render(room, 0.0, info[k].camera);
+    color[k] = r.color;
+    depth[k] = r.depth;
+  }
+  // Frames 60 s apart: the barrier waits two thirds of the frame interval at most, more than this test takes.
+  auto push = [&](int k, int frame) {
+    GstBuffer* buf = rgbd_buffer_new(info[k]);
+    GST_BUFFER_PTS(buf) = frame * 60 * GST_SECOND;
+    RgbdFrame f;
+    std::string e;
+    EXPECT_TRUE(f.map(buf, info[k], GST_MAP_WRITE, &e)) << e;
+    color[k].copyTo(f.color());
+    depth[k].copyTo(f.depth());
+    f.unmap();
+    EXPECT_EQ(gst_app_src_push_buffer(GST_APP_SRC(src[k]), buf), GST_FLOW_OK);
+  };
+  auto pull_seq = [&]() -> int64_t {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 60 * GST_SECOND);
+    EXPECT_NE(s, nullptr) << "no fused frame";
+    if (!s) return -1;
+    const PoseMeta* m = buffer_get_pose_meta(gst_sample_get_buffer(s));
+    const int64_t seq = m ? int64_t(m->seq) : -1;
+    gst_sample_unref(s);
+    return seq;
+  };
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  // Two frames from each camera without waiting: viewfuse learns that it is live and which cameras it has.
+  for (int frame = 0; frame < 2; ++frame) {
+    push(1, frame);
+    push(2, frame);
+    EXPECT_GE(pull_seq(), 0);
+  }
+  QuerySeen camera1;
+  GstPad* w1_src = gst_element_get_static_pad(gst_bin_get_by_name(GST_BIN(pipe), "w1"), "src");
+  gst_object_unref(GST_PAD_PARENT(w1_src));
+  gst_pad_add_probe(w1_src, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, &QuerySeen::probe, &camera1, nullptr);
+  g_object_set(fuse, "warp-sync", guint64(60 * GST_SECOND), nullptr);  // a wait that never runs out here
+  // Camera 1's frame reaches the barrier; the lecturer moves; only then does camera 2's frame come.
+  push(1, 2);
+  ASSERT_TRUE(camera1.until(1)) << "viewwarp sent no warp-start query";
+  Pose pose = sliders_to_pose(Sliders{60, 50, 55, 45, 50, 50}, default_classroom_rig().camera(0));
+  pose.seq = 42;
+  GstPad* sinkpad = gst_element_get_static_pad(sink, "sink");
+  ASSERT_TRUE(gst_pad_push_event(sinkpad, pose_event_new(pose)));
+  gst_object_unref(sinkpad);
+  push(2, 2);
+  // Camera 1 waited for camera 2 before reading the pose: both warped for pose 42, and the fused frame
+  // (which carries the oldest pose of its cameras) shows it.
+  EXPECT_EQ(pull_seq(), 42);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(w1_src);
+  for (int k : {1, 2}) gst_object_unref(src[k]);
+  gst_object_unref(fuse);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}
+
+TEST(LearnerSegElement, AddsTheLabelPlane) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(
+      ("rgbdtestsrc rig=" + rig + " num-buffers=3 learners=4 ground-truth=false ! learnerseg ! appsink name=out "
+       "sync=false").c_str(),
+      &err);
+  ASSERT_EQ(err, nullptr);
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  vctest::SampleCollector samples(sink);
+  EXPECT_EQ(vctest::run_pipeline(pipe).error, "");
+  ASSERT_EQ(samples.size(), 3u);
+  RgbdInfo info;
+  std::string e;
+  ASSERT_TRUE(rgbd_info_from_caps(samples.caps(2), &info, &e)) << e;
+  EXPECT_EQ(info.planes_string(), "color,depth,label");
+  gst_object_unref(sink);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(pipe);
+}
+
+// The label plane is new; colour and depth are passed on untouched (shared,
+// not copied), and the labels are the library's.
+TEST(LearnerSegElement, PassesColourAndDepthOnAndLabelsAsTheLibrary) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(
+      ("rgbdtestsrc rig=" + rig + " num-buffers=4 learners=4 ground-truth=false ! tee name=t "
+       "t. ! queue ! appsink name=raw sync=false  t. ! queue ! learnerseg ! appsink name=out sync=false").c_str(),
+      &err);
+  ASSERT_EQ(err, nullptr);
+  GstElement* raw_sink = gst_bin_get_by_name(GST_BIN(pipe), "raw");
+  GstElement* out_sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  {
+    vctest::SampleCollector raw(raw_sink), out(out_sink);
+    EXPECT_EQ(vctest::run_pipeline(pipe).error, "");
+    ASSERT_EQ(raw.size(), 4u);
+    ASSERT_EQ(out.size(), 4u);
+    LearnerSegmenter reference;
+    for (size_t i = 0; i < 4; ++i) {
+      RgbdInfo ri, oi;
+      std::string e;
+      ASSERT_TRUE(rgbd_info_from_caps(raw.caps(i), &ri, &e)) << e;
+      ASSERT_TRUE(rgbd_info_from_caps(out.caps(i), &oi, &e)) << e;
+      RgbdFrame rf, of;
+      ASSERT_TRUE(rf.map(raw.buffer(i), ri, GST_MAP_READ, &e)) << e;
+      ASSERT_TRUE(of.map(out.buffer(i), oi, GST_MAP_READ, &e)) << e;
+      EXPECT_TRUE(vctest::same_image(rf.color(), of.color())) << "colour of frame " << i;
+      EXPECT_TRUE(vctest::same_image(rf.depth(), of.depth())) << "depth of frame " << i;
+      cv::Mat expect;
+      reference.segment(rf.color(), rf.depth(), &expect);
+      EXPECT_TRUE(vctest::same_image(expect, of.label())) << "labels of frame " << i;
+      EXPECT_EQ(GST_BUFFER_PTS(raw.buffer(i)), GST_BUFFER_PTS(out.buffer(i)));
+    }
+  }
+  gst_object_unref(raw_sink);
+  gst_object_unref(out_sink);
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(pipe);
+}
+
+// A flushing seek back to the start: output goes on at once, stamped from the
+// new position, not after the old one.
+TEST(ViewFuseElement, ASeekBackRestartsTheOutputTimeline) {
+  vctest::TempDir dir;
+  Rig rig = default_classroom_rig();
+  for (auto& c : rig.cameras) c = scale_camera(c, 128, 72);
+  save_rig(rig, dir / "rig.yaml");
+  const std::string r = dir / "rig.yaml";
+  GstElement* p = gst_parse_launch(("viewfuse name=f ! appsink name=out sync=false max-buffers=2  "
+                                    "rgbdtestsrc camera-id=0 rig=" + r + " learners=0 ground-truth=false ! "
+                                    "learnerseg ! viewwarp rig=" + r + " ! f.cam_0")
+                                       .c_str(),
+                                   nullptr);
+  ASSERT_NE(p, nullptr);
+  GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  auto next_pts = [&]() {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(out), 30 * GST_SECOND);
+    EXPECT_NE(s, nullptr) << "no output frame";
+    if (!s) return GST_CLOCK_TIME_NONE;
+    const GstClockTime t = GST_BUFFER_PTS(gst_sample_get_buffer(s));
+    gst_sample_unref(s);
+    return t;
+  };
+  GstClockTime before = 0;
+  for (int i = 0; i < 20; ++i) before = next_pts();
+  ASSERT_GE(before, 15 * GST_SECOND / 30);
+  ASSERT_TRUE(gst_element_seek_simple(p, GST_FORMAT_TIME, GstSeekFlags(GST_SEEK_FLAG_FLUSH), 0));
+  const GstClockTime after = next_pts();
+  EXPECT_LT(after, 5 * GST_SECOND / 30) << "after a seek to 0 the output is still stamped from the old position";
+  EXPECT_GT(next_pts(), after);
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(out);
+  gst_object_unref(p);
+}
+
+// Issue 29: with CAMERAS="0 1" and only camera 1 sending, server.sh's view
+// produced nothing, silently. Camera 0's branch was not connected to a source
+// (rtpssrcdemux makes its pad at the camera's first packet), so it could not
+// answer the latency query, GstAggregator took the fuse for not live and
+// waited for a frame on every pad. Here camera 0's branch has no source at
+// all: the view must go on with camera 1, and camera 0 be named as missing on
+// the bus and on the picture.
+TEST(ViewFuseElement, ACameraSilentFromTheStartIsNamedAndTheOthersAreFused) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 96, 54);
+  const std::string desc = "viewfuse name=f camera-timeout=200000000 ! appsink name=out sync=false max-buffers=1 "
+                           "drop=true viewwarp rig=" + rig + " ! queue ! f.cam_0 "
+                           "rgbdtestsrc is-live=true rig=" + rig + " camera-id=1 ! viewwarp rig=" + rig +
+                           " ! queue ! f.cam_1";
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+  GstBus* bus = gst_element_get_bus(pipe);
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  for (int i = 0; i < 3; ++i) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "no fused frame while camera 0 never sends (frame " << i << ")";
+    gst_sample_unref(s);
+  }
+  // The camera is named once it has been silent for the camera timeout since the view started.
+  std::string warning;
+  while (warning.find("camera 0") == std::string::npos) {
+    GstMessage* m = gst_bus_timed_pop_filtered(bus, 20 * GST_SECOND, GstMessageType(GST_MESSAGE_WARNING | GST_MESSAGE_ERROR));
+    ASSERT_NE(m, nullptr) << "no warning names camera 0";
+    ASSERT_NE(GST_MESSAGE_TYPE(m), GST_MESSAGE_ERROR);
+    GError* e = nullptr;
+    gst_message_parse_warning(m, &e, nullptr);
+    warning = e ? e->message : "";
+    g_clear_error(&e);
+    gst_message_unref(m);
+  }
+  EXPECT_NE(warning.find("since the view started"), std::string::npos) << warning;
+  EXPECT_EQ(warning.find("camera 1"), std::string::npos) << warning;
+  // And the picture says so: the banner's red in its top-left corner, within a few frames.
+  bool banner = false;
+  for (int i = 0; i < 10 && !banner; ++i) {
+    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 20 * GST_SECOND);
+    ASSERT_NE(s, nullptr) << "the view stopped after camera 0 was named";
+    GstMapInfo map;
+    GstBuffer* b = gst_sample_get_buffer(s);
+    ASSERT_TRUE(gst_buffer_map(b, &map, GST_MAP_READ));
+    banner = map.data[0] == kMissingBannerColor[0] && map.data[1] == kMissingBannerColor[1] &&
+             map.data[2] == kMissingBannerColor[2];
+    gst_buffer_unmap(b, &map);
+    gst_sample_unref(s);
+  }
+  EXPECT_TRUE(banner) << "no 'camera 0 missing' banner on the picture";
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(bus);
+  gst_object_unref(sink);
+  gst_object_unref(pipe);
+}
