@@ -394,3 +394,61 @@ TEST(HonestEdge, WhatNoCameraSawFadesToGreyAndIsCounted) {
   fuse_views({&v}, smear, &out);
   EXPECT_GT(out.color.at<cv::Vec3b>(50, 199)[0], 150);
 }
+
+// viewwarp without a rig shows, until the first pose event, the camera its caps describe. A real classroom's
+// camera (here placed, turned and sized unlike any of the synthetic rig's) so sees its own frame; viewwarp
+// used to fall back to the synthetic classroom's rig and showed its camera 0's view instead.
+TEST(ViewWarpReference, WithoutARigTheFirstViewIsTheCapsCameraItself) {
+  CameraCalib cam;
+  cam.id = 0;
+  cam.name = "real";
+  cam.width = 80;
+  cam.height = 60;
+  cam.fx = cam.fy = 70;
+  cam.cx = 40;
+  cam.cy = 30;
+  cam.cam_to_rig = Eigen::Translation3d(1.5, -0.4, 0.8) * Eigen::AngleAxisd(0.6, Eigen::Vector3d::UnitY());
+  RgbdInfo info;
+  info.camera = cam;
+  info.planes = {Plane::Color, Plane::Depth};
+  GstHarness* h = gst_harness_new_parse("viewwarp");
+  gst_harness_set_src_caps(h, rgbd_caps_new(info));
+  // A textured wall 2 m in front of the camera: its identity view is the frame itself.
+  cv::Mat color(cam.height, cam.width, CV_8UC3), depth(cam.height, cam.width, CV_16UC1, cv::Scalar(2000));
+  for (int y = 0; y < cam.height; ++y)
+    for (int x = 0; x < cam.width; ++x) color.at<cv::Vec3b>(y, x) = cv::Vec3b(3 * x, 4 * y, 2 * (x + y));
+  GstBuffer* buf = rgbd_buffer_new(info);
+  {
+    RgbdFrame f;
+    std::string err;
+    ASSERT_TRUE(f.map(buf, info, GST_MAP_WRITE, &err)) << err;
+    color.copyTo(f.color());
+    depth.copyTo(f.depth());
+  }
+  GST_BUFFER_PTS(buf) = 0;
+  ASSERT_EQ(gst_harness_push(h, buf), GST_FLOW_OK);
+  GstBuffer* out = gst_harness_pull(h);
+  ASSERT_NE(out, nullptr);
+  GstCaps* oc = gst_pad_get_current_caps(h->sinkpad);
+  RgbdInfo oi;
+  ASSERT_TRUE(rgbd_info_from_caps(oc, &oi, nullptr));
+  gst_caps_unref(oc);
+  EXPECT_TRUE(oi.camera.cam_to_rig.isApprox(cam.cam_to_rig, 1e-9)) << "the caps name another view than the camera's";
+  const PoseMeta* m = buffer_get_pose_meta(out);
+  ASSERT_NE(m, nullptr);
+  ASSERT_TRUE(m->rendered.known);
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(m->rendered.position[i], cam.cam_to_rig.translation()[i], 1e-5);
+  RgbdFrame f;
+  ASSERT_TRUE(f.map(out, oi, GST_MAP_READ, nullptr));
+  int differ = 0;
+  const cv::Rect inner(2, 2, cam.width - 4, cam.height - 4);
+  for (int y = inner.y; y < inner.br().y; ++y)
+    for (int x = inner.x; x < inner.br().x; ++x) {
+      const cv::Vec3b a = f.color().at<cv::Vec3b>(y, x), b = color.at<cv::Vec3b>(y, x);
+      if (std::abs(a[0] - b[0]) > 2 || std::abs(a[1] - b[1]) > 2 || std::abs(a[2] - b[2]) > 2) ++differ;
+    }
+  EXPECT_EQ(differ, 0) << "pixels of the first view unlike the camera's own frame";
+  f.unmap();
+  gst_buffer_unref(out);
+  gst_harness_teardown(h);
+}

@@ -1,5 +1,31 @@
-// viewwarp: one camera's video/x-rgbd stream warped to the lecturer's current
-// virtual view (V-VA step 2, docs/vva.md). Consumes `vclassroom/pose` events.
+/**
+ * SECTION:element-viewwarp
+ * @title: viewwarp
+ *
+ * One camera's video/x-rgbd stream warped to the lecturer's virtual view (V-VA step 2, docs/vva.md): the
+ * static layer with the prior depth, the learners with their live depth, as a triangle mesh with depth-edge
+ * rejection and bilinear colour. The output is video/x-rgbd of the virtual camera with the planes
+ * color,depth,label,weight; camera-id stays the source camera's, virtual-view is true, and each buffer
+ * carries the pose meta (seq, viewer time) of the pose it shows.
+ *
+ * The view follows the latest `vclassroom/pose` event from downstream (within a session the highest seq
+ * wins; a new session steers from its first pose); pose events are consumed, not forwarded. Until the
+ * first one arrives it shows the rig's `reference-camera` when `rig` is set, and otherwise the camera the
+ * caps describe, so the first frames are the source camera's own view (with several cameras in one view,
+ * give them one rig so that they all start from the same camera). `pose-trace` sets every frame's view
+ * from a trace instead: the pose at the frame's running time against the trace's t column (without either,
+ * by frame number), so every camera's frame of one instant is warped for the same pose.
+ *
+ * `prior-depth` (V-DA's prior, or vclassroom-eval-views --write-priors) gives the static layer its depth;
+ * `background-memory` shows the static room through the mean of its last frames, restarted where the colour
+ * changes by more than the camera's noise, and with `prior-depth` draws the room behind the learners as last
+ * seen; `empty-room` (V-DA's model: prior-color/cam<ID>.png) is where that memory starts (docs/vva.md).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=30 ! learnerseg ! viewwarp width=320 height=180 ! rgbddemux name=d d.color ! videoconvert ! fakesink
+ * ]|
+ */
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -10,85 +36,34 @@
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/synthetic/classroom.h>
-#include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/core/limits.h>
 #include <gst/vclassroom/core/pose_event.h>
-#include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/pose_meta.h>
-#include <gst/vclassroom/core/rgbd.h>
-#include <gst/vclassroom/vva/prepared_frame.h>
-#include <gst/vclassroom/vva/view_warp.h>
 #include <gst/vclassroom/vva/warp_start.h>
 #include <gst/vclassroom/vva/virtual_view.h>
+
+#include "gstviewwarp_state.h"
 
 GST_DEBUG_CATEGORY_STATIC(view_warp_debug);
 #define GST_CAT_DEFAULT view_warp_debug
 
 using namespace vclassroom;
 
-enum {
-  PROP_0,
-  PROP_WIDTH,
-  PROP_HEIGHT,
-  PROP_FOV,
-  PROP_PRIOR_DEPTH,
-  PROP_BOUNDARY,
-  PROP_EDGE_TO_NEAR,
-  PROP_RIG,
-  PROP_REFERENCE,
-  PROP_POSES_RECEIVED,
-  PROP_POSE_TRACE,
-  PROP_BACKGROUND_MEMORY,
-  PROP_EMPTY_ROOM
-};
-
-namespace {
-
-struct WarpState {
-  std::mutex lock;  // guards the properties and the pose
-  int width = 0, height = 0;
-  double fov = 0;
-  std::string prior_path;
-  int boundary_px = 0;
-  bool edge_to_near = true;
-  int memory_frames = 0;  // background-memory; 0: off
-  std::string empty_room_path;
-  std::string rig_path;
-  int reference_id = 0;
-  std::string trace_path;
-  // Latest pose (a new session's first, then the highest seq within it); the rig's reference camera until one
-  // arrives.
-  Pose pose;
-  bool have_pose = false;
-  guint64 poses_received = 0;
-
-  // Streaming thread only.
-  RgbdInfo in_info, out_info;
-  cv::Mat prior;
-  bool use_prior = false;  // the prior fits the negotiated camera size
-  std::vector<PoseSample> trace;  // pose-trace, loaded at start
-  uint64_t frames = 0;
-  ViewWarper warper;
-  WarpedView warped;
-  FramePreparer preparer;   // the memory and the warp's first half, for frames viewprep did not prepare
-  cv::Mat empty_room;       // empty-room, RGB: the memory's seed
-  bool told_unprepared = false;  // the warning that a prepared frame's settings differ from ours
-};
-
-}  // namespace
 
 struct _GstViewWarp {
   GstBaseTransform parent;
-  WarpState* st;
+  ViewWarpState* st;
 };
 
 G_DEFINE_TYPE(GstViewWarp, gst_view_warp, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(viewwarp, "viewwarp", GST_RANK_NONE, GST_TYPE_VIEW_WARP)
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
 static GstStaticPadTemplate src_template = GST_STATIC_PAD_TEMPLATE(
     "src", GST_PAD_SRC, GST_PAD_ALWAYS,
-    GST_STATIC_CAPS("video/x-rgbd, width = (int) [ 1, 16384 ], height = (int) [ 1, 16384 ], "
+    GST_STATIC_CAPS("video/x-rgbd, width = (int) [ 1, " G_STRINGIFY(VCLASSROOM_MAX_IMAGE_SIDE) " ], height = (int) [ 1, " G_STRINGIFY(
+                        VCLASSROOM_MAX_IMAGE_SIDE) " ], "
                     "framerate = (fraction) [ 0/1, 2147483647/1 ], planes = (string) \"color,depth,label,weight\""));
 
 static bool output_info(GstViewWarp* self, const RgbdInfo& in, RgbdInfo* out) {
@@ -100,7 +75,9 @@ static bool output_info(GstViewWarp* self, const RgbdInfo& in, RgbdInfo* out) {
     w = self->st->width;
     h = self->st->height;
     fov = self->st->fov;
-    initial = self->st->pose.cam_to_rig();
+    // Without a rig the view before the first pose is the source camera's own.
+    initial = self->st->reference_from_caps && !self->st->have_pose ? in.camera.cam_to_rig
+                                                                    : self->st->pose.cam_to_rig();
   }
   *out = in;
   out->camera = virtual_view_base(in.camera, w, h, fov);
@@ -136,7 +113,7 @@ static GstCaps* gst_view_warp_transform_caps(GstBaseTransform* trans, GstPadDire
 
 static gboolean gst_view_warp_set_caps(GstBaseTransform* trans, GstCaps* incaps, GstCaps* outcaps) {
   GstViewWarp* self = GST_VIEW_WARP(trans);
-  WarpState* st = self->st;
+  ViewWarpState* st = self->st;
   std::string err;
   if (!rgbd_info_from_caps(incaps, &st->in_info, &err) || !rgbd_info_from_caps(outcaps, &st->out_info, &err)) {
     GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("%s", err.c_str()), (nullptr));
@@ -159,6 +136,7 @@ static gboolean gst_view_warp_set_caps(GstBaseTransform* trans, GstCaps* incaps,
     std::lock_guard<std::mutex> g(st->lock);
     memory_frames = st->memory_frames;
   }
+  view_warp_reference_from_caps(st);
   if (memory_frames > 0 && !st->empty_room.empty() &&
       (st->empty_room.cols != st->in_info.width() || st->empty_room.rows != st->in_info.height()))
     GST_ELEMENT_WARNING(self, STREAM, FORMAT,
@@ -190,66 +168,20 @@ static GstFlowReturn gst_view_warp_prepare_output_buffer(GstBaseTransform* trans
 
 static gboolean gst_view_warp_start(GstBaseTransform* trans) {
   GstViewWarp* self = GST_VIEW_WARP(trans);
-  WarpState* st = self->st;
-  std::string path, rig_path, trace_path, empty_room_path;
-  int ref;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    path = st->prior_path;
-    empty_room_path = st->empty_room_path;
-    rig_path = st->rig_path;
-    trace_path = st->trace_path;
-    ref = st->reference_id;
-  }
-  // Until the first pose event: the reference camera's view.
-  try {
-    const Rig rig = rig_path.empty() ? default_classroom_rig() : load_rig(rig_path);
-    std::lock_guard<std::mutex> g(st->lock);
-    if (const CameraCalib* c = rig.find(ref)) {
-      st->pose = Pose::from_cam_to_rig(c->cam_to_rig);
-      st->have_pose = false;
-    } else {
-      GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS,
-                        ("reference-camera %d is not in the rig %s", ref,
-                         rig_path.empty() ? "(default classroom rig)" : rig_path.c_str()),
-                        (nullptr));
-      return FALSE;
-    }
-  } catch (const Error& e) {
-    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("property rig of %s", GST_OBJECT_NAME(self)));
-    return FALSE;
-  }
-  st->trace.clear();
-  st->frames = 0;
-  if (!trace_path.empty()) {
-    try {
-      st->trace = load_pose_trace(trace_path);
-    } catch (const Error& e) {
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()),
-                        ("property pose-trace of %s", GST_OBJECT_NAME(self)));
-      return FALSE;
-    }
-    if (st->trace.empty()) {
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("pose trace %s has no poses", trace_path.c_str()), (nullptr));
-      return FALSE;
-    }
-  }
-  st->prior.release();
-  st->empty_room.release();
-  try {
-    if (!path.empty()) st->prior = load_static_depth(path);
-    if (!empty_room_path.empty()) st->empty_room = load_empty_room(empty_room_path);
-  } catch (const Error& e) {
-    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("properties prior-depth and empty-room of %s",
-                                                                     GST_OBJECT_NAME(self)));
-    return FALSE;
-  }
-  return TRUE;
+  ViewWarpLoadError e;
+  if (view_warp_load(self->st, &e)) return TRUE;
+  if (e.code == GST_RESOURCE_ERROR_SETTINGS)
+    GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("%s", e.message.c_str()),
+                      ("property %s of %s", e.property.c_str(), GST_OBJECT_NAME(self)));
+  else
+    GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.message.c_str()),
+                      ("property %s of %s", e.property.c_str(), GST_OBJECT_NAME(self)));
+  return FALSE;
 }
 
 static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer* inbuf, GstBuffer* outbuf) {
   GstViewWarp* self = GST_VIEW_WARP(trans);
-  WarpState* st = self->st;
+  ViewWarpState* st = self->st;
   Pose pose;
   WarpParams params;
   int memory_frames;
@@ -301,16 +233,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
       GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
   gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start);
   gst_query_unref(warp_start);
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    pose = st->pose;
-  }
-  if (!st->trace.empty()) {
-    // The frame's own moment of the trace (trace_pose_for_frame()).
-    pose = trace_pose_for_frame(
-        st->trace, GST_CLOCK_TIME_IS_VALID(running_time) ? double(running_time) / GST_SECOND : NAN, st->frames);
-  }
-  ++st->frames;
+  pose = view_warp_frame_pose(st, running_time);
   const CameraCalib virt = virtual_camera(st->out_info.camera, pose.cam_to_rig(), pose.fov_deg);
   GST_LOG_OBJECT(self, "pose seq %" G_GUINT64_FORMAT " at (%.3f, %.3f, %.3f); source camera %d at (%.3f, %.3f, %.3f)",
                  pose.seq, pose.position.x(), pose.position.y(), pose.position.z(), st->in_info.camera.id,
@@ -340,15 +263,7 @@ static gboolean gst_view_warp_src_event(GstBaseTransform* trans, GstEvent* event
     if (!pose_event_parse(event, &pose, &err)) {
       GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("ignoring a bad pose event: %s", err.c_str()), (nullptr));
     } else {
-      std::lock_guard<std::mutex> g(self->st->lock);
-      ++self->st->poses_received;
-      // The receiver upstream of the fuse chose the session; a pose of another session than the one shown is
-      // the new steering one (docs/network.md, "Sessions"), and within a session the latest seq wins.
-      const Pose& shown = self->st->pose;
-      if (!self->st->have_pose || pose.session != shown.session || pose.seq >= shown.seq) {
-        self->st->pose = pose;
-        self->st->have_pose = true;
-      }
+      view_warp_take_pose(self->st, pose);
     }
     gst_event_unref(event);
     return TRUE;
@@ -357,90 +272,11 @@ static gboolean gst_view_warp_src_event(GstBaseTransform* trans, GstEvent* event
 }
 
 static void gst_view_warp_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
-  WarpState* st = GST_VIEW_WARP(object)->st;
-  std::lock_guard<std::mutex> g(st->lock);
-  switch (prop_id) {
-    case PROP_WIDTH:
-      st->width = g_value_get_int(value);
-      break;
-    case PROP_HEIGHT:
-      st->height = g_value_get_int(value);
-      break;
-    case PROP_FOV:
-      st->fov = g_value_get_double(value);
-      break;
-    case PROP_PRIOR_DEPTH:
-      st->prior_path = g_value_get_string(value) ? g_value_get_string(value) : "";
-      break;
-    case PROP_BOUNDARY:
-      st->boundary_px = g_value_get_int(value);
-      break;
-    case PROP_EDGE_TO_NEAR:
-      st->edge_to_near = g_value_get_boolean(value);
-      break;
-    case PROP_BACKGROUND_MEMORY:
-      st->memory_frames = g_value_get_int(value);
-      break;
-    case PROP_EMPTY_ROOM:
-      st->empty_room_path = g_value_get_string(value) ? g_value_get_string(value) : "";
-      break;
-    case PROP_RIG:
-      st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
-      break;
-    case PROP_REFERENCE:
-      st->reference_id = g_value_get_int(value);
-      break;
-    case PROP_POSE_TRACE:
-      st->trace_path = g_value_get_string(value) ? g_value_get_string(value) : "";
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
-  }
+  view_warp_set_property(GST_VIEW_WARP(object)->st, object, prop_id, value, pspec);
 }
 
 static void gst_view_warp_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
-  WarpState* st = GST_VIEW_WARP(object)->st;
-  std::lock_guard<std::mutex> g(st->lock);
-  switch (prop_id) {
-    case PROP_WIDTH:
-      g_value_set_int(value, st->width);
-      break;
-    case PROP_HEIGHT:
-      g_value_set_int(value, st->height);
-      break;
-    case PROP_FOV:
-      g_value_set_double(value, st->fov);
-      break;
-    case PROP_PRIOR_DEPTH:
-      g_value_set_string(value, st->prior_path.c_str());
-      break;
-    case PROP_BOUNDARY:
-      g_value_set_int(value, st->boundary_px);
-      break;
-    case PROP_EDGE_TO_NEAR:
-      g_value_set_boolean(value, st->edge_to_near);
-      break;
-    case PROP_BACKGROUND_MEMORY:
-      g_value_set_int(value, st->memory_frames);
-      break;
-    case PROP_EMPTY_ROOM:
-      g_value_set_string(value, st->empty_room_path.c_str());
-      break;
-    case PROP_RIG:
-      g_value_set_string(value, st->rig_path.c_str());
-      break;
-    case PROP_REFERENCE:
-      g_value_set_int(value, st->reference_id);
-      break;
-    case PROP_POSE_TRACE:
-      g_value_set_string(value, st->trace_path.c_str());
-      break;
-    case PROP_POSES_RECEIVED:
-      g_value_set_uint64(value, st->poses_received);
-      break;
-    default:
-      G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
-  }
+  view_warp_get_property(GST_VIEW_WARP(object)->st, object, prop_id, value, pspec);
 }
 
 static void gst_view_warp_finalize(GObject* object) {
@@ -455,91 +291,12 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
   gobject_class->set_property = gst_view_warp_set_property;
   gobject_class->get_property = gst_view_warp_get_property;
   gobject_class->finalize = gst_view_warp_finalize;
-  const auto ready = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
-  const auto playing = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING);
-  g_object_class_install_property(
-      gobject_class, PROP_WIDTH,
-      g_param_spec_int("width", "Virtual width", "Width of the virtual view (0: the camera's); intrinsics scale with it",
-                       0, 16384, 0, ready));
-  g_object_class_install_property(
-      gobject_class, PROP_HEIGHT,
-      g_param_spec_int("height", "Virtual height", "Height of the virtual view (0: the camera's)", 0, 16384, 0, ready));
-  g_object_class_install_property(
-      gobject_class, PROP_FOV,
-      g_param_spec_double("fov", "Field of view",
-                          "Horizontal field of view of the virtual view in degrees (0: the camera's); a pose "
-                          "event's fov overrides it",
-                          0, 179, 0, ready));
-  g_object_class_install_property(
-      gobject_class, PROP_PRIOR_DEPTH,
-      g_param_spec_string("prior-depth", "Prior depth",
-                          "16-bit PNG (mm) of the empty classroom seen by this camera: the static layer's depth for "
-                          "pixels labelled 0 (V-DA's prior depth, or vclassroom-eval-views --write-priors). Empty: "
-                          "the stream's depth everywhere",
-                          "", ready));
-  g_object_class_install_property(
-      gobject_class, PROP_BOUNDARY,
-      g_param_spec_int("boundary", "Edge boundary",
-                       "Source pixels dropped on the far side of a depth edge (their colour mixes both surfaces), "
-                       "beyond the one edge-to-near gives the near side",
-                       0, 8, 0, playing));
-  g_object_class_install_property(
-      gobject_class, PROP_EDGE_TO_NEAR,
-      g_param_spec_boolean("edge-to-near", "Edge pixels to the near side",
-                           "The far-side pixel next to a depth edge (the object's rim, its colour mixed with the "
-                           "background) moves with the nearer surface instead of staying on the background",
-                           TRUE, playing));
-  g_object_class_install_property(
-      gobject_class, PROP_BACKGROUND_MEMORY,
-      g_param_spec_int("background-memory", "Background memory",
-                       "Show the static room (label 0) through a memory of its colour: the mean of up to this many "
-                       "frames, started again where the colour changes by more than the camera's noise (docs/vva.md); "
-                       "the camera's noise then no longer flickers in the view. With prior-depth, the room behind "
-                       "the learners, as last seen, is drawn behind them: where the view looks past a learner it "
-                       "shows that room, not a smear. 0: off",
-                       0, 64, 0, playing));
-  g_object_class_install_property(
-      gobject_class, PROP_EMPTY_ROOM,
-      g_param_spec_string("empty-room", "Empty room",
-                          "RGB image of the empty classroom seen by this camera (V-DA's model: "
-                          "prior-color/cam<ID>.png) that background-memory starts from, so the room behind a "
-                          "learner who has not moved yet is known. Empty: the memory learns the room as it sees it",
-                          "", ready));
-  g_object_class_install_property(
-      gobject_class, PROP_RIG,
-      g_param_spec_string("rig", "Rig file",
-                          "Rig YAML file; only used for the view shown before the first pose event (the reference "
-                          "camera's). Empty: the default classroom rig",
-                          "", ready));
-  g_object_class_install_property(
-      gobject_class, PROP_REFERENCE,
-      g_param_spec_int("reference-camera", "Reference camera",
-                       "Id of the rig camera whose view is rendered until the first pose event arrives", 0, G_MAXINT,
-                       0, ready));
-  g_object_class_install_property(
-      gobject_class, PROP_POSE_TRACE,
-      g_param_spec_string("pose-trace", "Pose trace",
-                          "CSV pose trace (docs/pose.md) that sets the view of each frame by its running time against "
-                          "the trace's t column (without either, by frame number), overriding pose events: for rendering a "
-                          "scripted path, every camera's frame of one instant warped for the same pose. Empty: "
-                          "pose events steer the view",
-                          "", ready));
-  g_object_class_install_property(
-      gobject_class, PROP_POSES_RECEIVED,
-      g_param_spec_uint64("poses-received", "Poses received", "Pose events this element has received", 0,
-                          G_MAXUINT64, 0, GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
+  view_warp_install_properties(gobject_class);
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "View warp", "Filter/Effect/Video",
-      "Warps one camera's video/x-rgbd stream (static layer with the prior depth, learners with live depth) to the "
-      "virtual view of the latest vclassroom/pose event (within a session the highest seq wins, a new session "
-      "steers from its first pose; the rig's reference camera until one arrives) as a triangle mesh with depth-edge rejection and bilinear colour. Output: video/x-rgbd of the "
-      "virtual camera with planes color,depth,label,weight; camera-id stays the source camera's, virtual-view = "
-      "true; each buffer carries the pose meta (seq, viewer time). Pose events are consumed, not forwarded. Example: "
-      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! learnerseg ! "
-      "viewwarp reference-camera=0 ! rgbddemux name=d d.color ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "View warp", "Filter/Effect/Video",
+                                        "Warps one camera's RGB-D stream to the lecturer's virtual view",
+                                        "gst-vclassroom developers");
   bt->transform_caps = GST_DEBUG_FUNCPTR(gst_view_warp_transform_caps);
   bt->set_caps = GST_DEBUG_FUNCPTR(gst_view_warp_set_caps);
   bt->get_unit_size = GST_DEBUG_FUNCPTR(gst_view_warp_get_unit_size);
@@ -550,4 +307,4 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
   GST_DEBUG_CATEGORY_INIT(view_warp_debug, "viewwarp", 0, "view warp");
 }
 
-static void gst_view_warp_init(GstViewWarp* self) { self->st = new WarpState(); }
+static void gst_view_warp_init(GstViewWarp* self) { self->st = new ViewWarpState(); }

@@ -7,4 +7,6 @@ G_BEGIN_DECLS
 #define GST_TYPE_VIEW_WARP (gst_view_warp_get_type())
 G_DECLARE_FINAL_TYPE(GstViewWarp, gst_view_warp, GST, VIEW_WARP, GstBaseTransform)
 
+GST_ELEMENT_REGISTER_DECLARE(viewwarp);
+
 G_END_DECLS

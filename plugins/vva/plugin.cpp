@@ -12,10 +12,10 @@
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
-  ok &= gst_element_register(plugin, "learnerseg", GST_RANK_NONE, GST_TYPE_LEARNER_SEG);
-  ok &= gst_element_register(plugin, "viewprep", GST_RANK_NONE, GST_TYPE_VIEW_PREP);
-  ok &= gst_element_register(plugin, "viewwarp", GST_RANK_NONE, GST_TYPE_VIEW_WARP);
-  ok &= gst_element_register(plugin, "viewfuse", GST_RANK_NONE, GST_TYPE_VIEW_FUSE);
+  ok &= GST_ELEMENT_REGISTER(learnerseg, plugin);
+  ok &= GST_ELEMENT_REGISTER(viewprep, plugin);
+  ok &= GST_ELEMENT_REGISTER(viewwarp, plugin);
+  ok &= GST_ELEMENT_REGISTER(viewfuse, plugin);
   return ok;
 }
 

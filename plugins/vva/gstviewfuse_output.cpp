@@ -1,0 +1,173 @@
+// viewfuse's output: the fused picture sent with its pose meta and the banner of missing cameras, the
+// messages that report it (camera status, view stats), and the latency its unconnected camera branches answer.
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include <memory>
+
+#include <gst/vclassroom/core/pose_meta.h>
+
+#include "gstviewfuse_state.h"
+
+namespace vclassroom {
+
+// Running time on the element's clock now; GST_CLOCK_TIME_NONE without a clock.
+GstClockTime running_time_now(GstElement* element) {
+  GstClock* clock = gst_element_get_clock(element);
+  if (!clock) return GST_CLOCK_TIME_NONE;
+  const GstClockTime now = gst_clock_get_time(clock);
+  gst_object_unref(clock);
+  const GstClockTime base = gst_element_get_base_time(element);
+  return now > base ? now - base : 0;
+}
+
+// Drops the queued frame of every pad whose verdict is `which`.
+void drop_buffers(const std::vector<GstAggregatorPad*>& pads, const std::vector<FrameVerdict>& verdicts,
+                         FrameVerdict which) {
+  for (size_t i = 0; i < pads.size(); ++i)
+    if (verdicts[i] == which) gst_aggregator_pad_drop_buffer(pads[i]);
+}
+
+// A camera lost or back: a bus warning (lost) or info (back) for a person and
+// a vclassroom-camera-status element message for programs.
+void post_camera_status(GstViewFuse* self, const CameraStatusChange& change, const std::vector<int>& missing,
+                               bool all_lost) {
+  GstStructure* s = gst_structure_new(
+      "vclassroom-camera-status", "camera-id", G_TYPE_INT, change.camera_id, "status", G_TYPE_STRING,
+      change.lost ? "lost" : "returned", "silent-ns", G_TYPE_UINT64, guint64(change.silent_ns), "missing",
+      G_TYPE_STRING, camera_id_list(missing).c_str(), "cameras-missing", G_TYPE_UINT, guint(missing.size()),
+      "since-start", G_TYPE_BOOLEAN, gboolean(change.never_seen), nullptr);
+  const std::string text = camera_status_text(change, missing, all_lost);
+  if (change.lost)
+    GST_ELEMENT_WARNING(self, STREAM, FAILED, ("%s", text.c_str()), (nullptr));
+  else  // gst-launch-1.0 prints only an info's debug text: the same words there.
+    GST_ELEMENT_INFO(self, RESOURCE, READ, ("%s", text.c_str()), ("%s", text.c_str()));
+  // After the text for people, so that a program seeing the status has the text too.
+  gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), s));
+}
+
+// Sends st->fused.color, with the banner naming the missing cameras when
+// `banner` is not empty, at running time `rt` (or just after the last output).
+GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, GstClockTime rt,
+                                  GstClockTime duration, const WarpedPose* pose) {
+  GstAggregator* agg = GST_AGGREGATOR(self);
+  ViewFuseState* st = self->st;
+  const int w = GST_VIDEO_INFO_WIDTH(&st->out_info), h = GST_VIDEO_INFO_HEIGHT(&st->out_info);
+  if (st->fused.color.cols != w || st->fused.color.rows != h || st->fused.color.type() != CV_8UC3)
+    return GST_FLOW_OK;  // the output size changed since that picture
+  GstBuffer* out = gst_buffer_new_allocate(nullptr, GST_VIDEO_INFO_SIZE(&st->out_info), nullptr);
+  GstMapInfo map;
+  if (!gst_buffer_map(out, &map, GST_MAP_WRITE)) {
+    gst_buffer_unref(out);
+    GST_ELEMENT_ERROR(self, RESOURCE, FAILED, ("cannot map an output buffer"), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+  cv::Mat dst(h, w, CV_8UC3, map.data, GST_VIDEO_INFO_PLANE_STRIDE(&st->out_info, 0));
+  st->fused.color.copyTo(dst);
+  draw_missing_banner(dst, banner);
+  gst_buffer_unmap(out, &map);
+  rt = clock_time(next_output_time(time_ns(st->last_out), time_ns(rt)));
+  st->last_out = rt;
+  // Running time back into the output segment (it starts at a seek's position).
+  GstClockTime pts = rt;
+  GST_OBJECT_LOCK(agg);
+  const GstClockTime in_segment =
+      gst_segment_position_from_running_time(&GST_AGGREGATOR_PAD(agg->srcpad)->segment, GST_FORMAT_TIME, rt);
+  GST_OBJECT_UNLOCK(agg);
+  if (GST_CLOCK_TIME_IS_VALID(in_segment)) pts = in_segment;
+  GST_BUFFER_PTS(out) = pts;
+  GST_BUFFER_DURATION(out) = duration;
+  if (pose) buffer_add_pose_meta(out, pose->seq, pose->viewer_time_ns, pose->rendered, pose->session);
+  {
+    GstSegment* seg = &GST_AGGREGATOR_PAD(agg->srcpad)->segment;
+    GST_OBJECT_LOCK(agg);
+    if (GST_CLOCK_TIME_IS_VALID(pts)) seg->position = pts + (GST_CLOCK_TIME_IS_VALID(duration) ? duration : 0);
+    GST_OBJECT_UNLOCK(agg);
+  }
+  return gst_aggregator_finish_buffer(agg, out);
+}
+
+// Maps the frames to fuse, fuses them and sends the picture (stamped as output_stamp() says).
+GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPad*>& pads,
+                                   const std::vector<GstBuffer*>& bufs, const std::vector<RgbdInfo>& infos,
+                                   const std::vector<PendingFrame>& pending, const FuseRound& round,
+                                   const FuseParams& params) {
+  ViewFuseState* st = self->st;
+  std::vector<WarpedView> views(pads.size());
+  std::vector<const WarpedView*> ptrs;
+  std::vector<std::unique_ptr<RgbdFrame>> frames;
+  std::vector<FrameStamp> stamps;
+  std::vector<size_t> fused;  // the index of each of them among the pads
+  for (size_t i = 0; i < pads.size(); ++i) {
+    if (round.verdicts[i] != FrameVerdict::kFuse) continue;
+    auto f = std::make_unique<RgbdFrame>();
+    std::string err;
+    // A gap (a camera that said it has nothing for this time) is normal: skip it quietly.
+    if (GST_BUFFER_FLAG_IS_SET(bufs[i], GST_BUFFER_FLAG_GAP) || gst_buffer_get_size(bufs[i]) == 0) continue;
+    if (!f->map(bufs[i], infos[i], GST_MAP_READ, &err)) {
+      GST_ELEMENT_WARNING(self, STREAM, FAILED, ("pad %s: %s (frame skipped)", GST_PAD_NAME(pads[i]), err.c_str()),
+                          (nullptr));
+      continue;
+    }
+    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
+    ptrs.push_back(&views[i]);
+    frames.push_back(std::move(f));
+    stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
+    fused.push_back(i);
+  }
+  if (ptrs.empty() || !st->have_out) {
+    drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
+    return GST_FLOW_OK;
+  }
+  try {
+    fuse_views(ptrs, params, &st->fused);
+  } catch (const cv::Exception& e) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
+    st->have_fused = false;
+    return GST_FLOW_ERROR;
+  }
+  st->have_fused = true;
+  GstStructure* stats = nullptr;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    ++st->frames;
+    st->unseen_share = st->fused.unseen_share;
+    if (st->stats_interval && st->frames % st->stats_interval == 0)
+      stats = gst_structure_new("vclassroom-view-stats", "frames", G_TYPE_UINT64, st->frames, "unseen-share",
+                                G_TYPE_DOUBLE, st->unseen_share, "poses-clamped", G_TYPE_UINT64, st->bounds.clamped(),
+                                nullptr);
+  }
+  if (stats) gst_element_post_message(GST_ELEMENT(self), gst_message_new_element(GST_OBJECT(self), stats));
+  frames.clear();
+  drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
+  send_trace_pose(self);
+  const OutputStamp stamp = output_stamp(stamps);
+  const GstClockTime rt = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : clock_time(stamps[stamp.time_from].running_time_ns);
+  const GstClockTime duration = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : GST_BUFFER_DURATION(bufs[fused[stamp.time_from]]);
+  GST_LOG_OBJECT(self, "fused %zu inputs", ptrs.size());
+  return push_picture(self, round.banner, rt, duration, stamp.pose_from < 0 ? nullptr : &stamps[stamp.pose_from].pose);
+}
+
+// GstAggregator asks every sink pad's upstream for its latency and, when one
+// cannot answer, takes the whole element for not live: it then waits for a
+// frame on every pad, forever for a camera that never sends. A camera branch
+// cannot answer while it is not connected to its source yet (server.sh's
+// rtpssrcdemux makes the camera's pad at its first packet). Such a branch is
+// answered here as an unlinked pad would be (GStreamer leaves those out): no
+// latency of its own, so the view is live with the cameras that send.
+GstPadProbeReturn answer_latency_of_unconnected_branch(GstPad* pad, GstPadProbeInfo* info, gpointer) {
+  GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
+  if (GST_QUERY_TYPE(query) != GST_QUERY_LATENCY) return GST_PAD_PROBE_OK;
+  GstPad* peer = gst_pad_get_peer(pad);
+  if (!peer) return GST_PAD_PROBE_OK;
+  const gboolean answered = gst_pad_query(peer, query);
+  gst_object_unref(peer);
+  if (!answered) {
+    GST_DEBUG_OBJECT(pad, "camera branch not connected to its source: no latency of its own");
+    gst_query_set_latency(query, FALSE, 0, GST_CLOCK_TIME_NONE);
+  }
+  return GST_PAD_PROBE_HANDLED;
+}
+
+}  // namespace vclassroom
