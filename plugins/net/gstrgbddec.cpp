@@ -1,17 +1,28 @@
-// rgbddec: the inverse of rgbdenc. Caps arrive from the network (in-band
-// through rtpgstdepay), so they are checked before anything is allocated: a
-// size beyond max-width / max-height / max-pixels, caps that do not parse, or
-// a camera the rig (when given) has at another size are refused with a
-// warning and the camera's frames dropped until acceptable caps come. A
-// damaged, truncated or wrongly sized frame is dropped with a warning; the
-// stream goes on with the next good one. Warnings are rate-limited per kind.
+/**
+ * SECTION:element-rgbddec
+ * @title: rgbddec
+ *
+ * The inverse of rgbdenc (docs/network.md): video/x-rgbd-coded back to video/x-rgbd, depth and labels
+ * bit-exact.
+ *
+ * Caps arrive from the network (in-band through rtpgstdepay), so they are checked before anything is
+ * allocated: caps beyond max-width, max-height or max-pixels, caps that do not parse, or a camera the rig
+ * (when given) lacks or has at another size are refused with a warning, and that camera's frames are dropped
+ * until acceptable caps come. A damaged, truncated or wrongly sized frame is dropped with a warning and the
+ * stream goes on with the next good one. Warnings are rate-limited per kind (the first at once, then one per
+ * 5 s with the count), and the drops are counted by kind in the "vclassroom-codec-stats" messages.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc ! rgbddec ! rgbddemux name=d d.depth ! depthcolorize ! videoconvert ! autovideosink
+ * ]|
+ */
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
 
 #include "gstrgbddec.h"
 
-#include <mutex>
 #include <optional>
 #include <string>
 
@@ -34,8 +45,7 @@ constexpr guint64 kDefaultMaxPixels = 4096ull * 2160;  // 4K
 
 namespace {
 
-struct DecState {
-  std::mutex lock;  // guards everything here
+struct DecState {  // under the base's lock
   int max_width = kDefaultMaxSide, max_height = kDefaultMaxSide;
   guint64 max_pixels = kDefaultMaxPixels;
   std::string rig_path;
@@ -50,14 +60,12 @@ struct DecState {
 }  // namespace
 
 struct _GstRgbdDec {
-  GstBaseTransform parent;
-  RgbdInfo* info;  // of the output
-  gboolean have_info;
+  GstRgbdFilter parent;
   CodecStats stats;  // object lock
   DecState* st;
 };
 
-G_DEFINE_TYPE(GstRgbdDec, gst_rgbd_dec, GST_TYPE_BASE_TRANSFORM)
+G_DEFINE_TYPE(GstRgbdDec, gst_rgbd_dec, GST_TYPE_RGBD_FILTER)
 GST_ELEMENT_REGISTER_DEFINE(rgbddec, "rgbddec", GST_RANK_NONE, GST_TYPE_RGBD_DEC);
 
 static GstStaticPadTemplate sink_template =
@@ -73,7 +81,7 @@ static void drop_frame(GstRgbdDec* self, DropKind kind, int camera_id, const std
   int64_t span = 0;
   bool due;
   {
-    std::lock_guard<std::mutex> g(self->st->lock);
+    const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
     due = self->st->warnings[int(kind)].note(g_get_monotonic_time() * 1000, &count, &span);
   }
   if (!due) return;
@@ -102,7 +110,7 @@ static std::string caps_problem(GstRgbdDec* self, GstCaps* caps, int* camera_id)
   if (!ok) return "unusable caps (" + (err.empty() ? std::string("not fixed") : err) + ")";
   const int w = info.width(), h = info.height();
   const std::string size = std::to_string(w) + "x" + std::to_string(h);
-  std::lock_guard<std::mutex> g(self->st->lock);
+  const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
   DecState* st = self->st;
   if (w > st->max_width || h > st->max_height || guint64(w) * guint64(h) > st->max_pixels)
     return "caps declare " + size + ", beyond max-width " + std::to_string(st->max_width) + ", max-height " +
@@ -121,7 +129,7 @@ static std::string caps_problem(GstRgbdDec* self, GstCaps* caps, int* camera_id)
 static bool refuse_caps(GstRgbdDec* self, GstCaps* caps) {
   int camera_id;
   const std::string why = caps_problem(self, caps, &camera_id);
-  std::lock_guard<std::mutex> g(self->st->lock);
+  const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
   self->st->caps_refused = why;
   self->st->refused_camera = camera_id;
   return !why.empty();
@@ -135,17 +143,10 @@ static GstCaps* gst_rgbd_dec_transform_caps(GstBaseTransform*, GstPadDirection d
 }
 
 static gboolean gst_rgbd_dec_set_caps(GstBaseTransform* trans, GstCaps* incaps, GstCaps* outcaps) {
-  GstRgbdDec* self = GST_RGBD_DEC(trans);
   // Refused caps never get here through the caps event; they may through a
   // renegotiation (they stay the sink pad's current caps): keep what we had.
-  if (refuse_caps(self, incaps)) return TRUE;
-  std::string err;
-  if (!rgbd_info_from_caps(outcaps, self->info, &err)) {
-    GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("%s", err.c_str()), (nullptr));
-    return FALSE;
-  }
-  self->have_info = TRUE;
-  return TRUE;
+  if (refuse_caps(GST_RGBD_DEC(trans), incaps)) return TRUE;
+  return GST_BASE_TRANSFORM_CLASS(gst_rgbd_dec_parent_class)->set_caps(trans, incaps, outcaps);
 }
 
 static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBuffer** outbuf) {
@@ -154,7 +155,7 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
   std::string refused;
   int refused_camera;
   {
-    std::lock_guard<std::mutex> g(self->st->lock);
+    const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
     refused = self->st->caps_refused;
     refused_camera = self->st->refused_camera;
   }
@@ -168,8 +169,9 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
   }
   GstBuffer* in;
   GstFlowReturn ret;
-  if (!take_queued_input(trans, self->have_info, &in, &ret)) return ret;
-  const RgbdInfo& info = *self->info;
+  GstRgbdFilter* filter = GST_RGBD_FILTER(trans);
+  if (!take_queued_input(trans, rgbd_filter_negotiated(filter), &in, &ret)) return ret;
+  const RgbdInfo& info = rgbd_filter_out_info(filter);
   RgbdCodedFrame f;
   std::string err;
   RgbdFrameFault fault = RgbdFrameFault::kDamaged;
@@ -194,18 +196,12 @@ static GstFlowReturn gst_rgbd_dec_generate_output(GstBaseTransform* trans, GstBu
     gst_buffer_unref(in);
     return GST_FLOW_OK;
   }
-  GstBuffer* out = rgbd_buffer_new(info);
-  {
-    RgbdFrame frame;
-    if (!frame.map(out, info, GST_MAP_WRITE, &err)) {
-      gst_buffer_unref(out);
-      gst_buffer_unref(in);
-      GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
-      return GST_FLOW_ERROR;
-    }
-    f.color.copyTo(frame.color());
-    f.depth.copyTo(frame.depth());
-    if (info.has(Plane::Label)) f.label.copyTo(frame.label());
+  GstBuffer* out = rgbd_buffer_with_planes(info, {{Plane::Color, f.color}, {Plane::Depth, f.depth}, {Plane::Label, f.label}},
+                                           &err);
+  if (!out) {
+    gst_buffer_unref(in);
+    GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s: %s", GST_OBJECT_NAME(self), err.c_str()), (nullptr));
+    return GST_FLOW_ERROR;
   }
   gst_buffer_copy_into(out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
   gst_buffer_unref(in);
@@ -228,7 +224,7 @@ static gboolean gst_rgbd_dec_sink_event(GstBaseTransform* trans, GstEvent* event
       int64_t span = 0;
       bool due;
       {
-        std::lock_guard<std::mutex> g(self->st->lock);
+        const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
         why = self->st->caps_refused;
         camera = self->st->refused_camera;
         due = self->st->caps_warnings.note(g_get_monotonic_time() * 1000, &count, &span);
@@ -262,27 +258,22 @@ static gboolean gst_rgbd_dec_start(GstBaseTransform* trans) {
   GST_OBJECT_LOCK(self);
   self->stats = CodecStats{0, 0, 0, self->stats.interval};
   GST_OBJECT_UNLOCK(self);
-  std::lock_guard<std::mutex> g(self->st->lock);
+  const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
   DecState* st = self->st;
   st->caps_refused.clear();
   for (auto& w : st->warnings) w.reset();
   st->caps_warnings.reset();
   st->rig.reset();
-  if (!st->rig_path.empty()) {
-    try {
-      st->rig = load_rig(st->rig_path);
-    } catch (const Error& e) {
-      GST_ELEMENT_ERROR(self, RESOURCE, OPEN_READ, ("%s", e.what()), ("property rig of %s", GST_OBJECT_NAME(self)));
-      return FALSE;
-    }
-  }
-  return TRUE;
+  return rgbd_filter_guard_setup(GST_RGBD_FILTER(self), "property rig", [st] {
+    if (!st->rig_path.empty()) st->rig = load_rig(st->rig_path);
+    return true;
+  });
 }
 
 static void gst_rgbd_dec_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
   GstRgbdDec* self = GST_RGBD_DEC(object);
   if (codec_stats_set_property(GST_OBJECT(self), &self->stats, prop_id, value)) return;
-  std::lock_guard<std::mutex> g(self->st->lock);
+  const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
   switch (prop_id) {
     case PROP_MAX_WIDTH: self->st->max_width = g_value_get_int(value); break;
     case PROP_MAX_HEIGHT: self->st->max_height = g_value_get_int(value); break;
@@ -295,7 +286,7 @@ static void gst_rgbd_dec_set_property(GObject* object, guint prop_id, const GVal
 static void gst_rgbd_dec_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
   GstRgbdDec* self = GST_RGBD_DEC(object);
   if (codec_stats_get_property(GST_OBJECT(self), self->stats, prop_id, value)) return;
-  std::lock_guard<std::mutex> g(self->st->lock);
+  const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
   switch (prop_id) {
     case PROP_MAX_WIDTH: g_value_set_int(value, self->st->max_width); break;
     case PROP_MAX_HEIGHT: g_value_set_int(value, self->st->max_height); break;
@@ -306,7 +297,6 @@ static void gst_rgbd_dec_get_property(GObject* object, guint prop_id, GValue* va
 }
 
 static void gst_rgbd_dec_finalize(GObject* object) {
-  delete GST_RGBD_DEC(object)->info;
   delete GST_RGBD_DEC(object)->st;
   G_OBJECT_CLASS(gst_rgbd_dec_parent_class)->finalize(object);
 }
@@ -334,21 +324,18 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
                           1, guint64(16384) * 16384, kDefaultMaxPixels, ready));
   g_object_class_install_property(
       gobject_class, PROP_RIG,
-      g_param_spec_string("rig", "Rig file",
-                          "Rig YAML file: a camera's caps must name a camera of the rig at the rig's size, else they "
-                          "are refused. Empty: any camera, within the size limits",
-                          "", ready));
+      g_param_spec_string("rig", "Rig file", "Rig YAML file whose cameras and sizes caps must match (empty: any)", "",
+                          ready));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "RGB-D decoder", "Codec/Decoder/Video",
-      "Decodes rgbdenc's frames back to video/x-rgbd (depth and labels bit-exact). Caps beyond max-width, "
-      "max-height or max-pixels, unusable or not the rig's are refused before anything is allocated; refused, "
-      "damaged, truncated or wrongly sized frames are dropped with rate-limited warnings (the first at once, then "
-      "one per 5 s with the count) and counted by kind, and the stream goes on. Example: "
-      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc ! rgbddec ! rgbddemux name=d d.depth ! "
-      "depthcolorize ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "RGB-D decoder", "Codec/Decoder/Video",
+                                        "Decodes rgbdenc's frames back to video/x-rgbd, dropping refused or damaged "
+                                        "frames with rate-limited warnings.",
+                                        "gst-vclassroom developers");
+  // All the work is in generate_output, which allocates the decoded frames itself: without transform
+  // functions GstBaseTransform makes no buffer pool for them and passes allocation queries through.
+  trans_class->transform = nullptr;
+  trans_class->transform_ip = nullptr;
   trans_class->transform_caps = GST_DEBUG_FUNCPTR(gst_rgbd_dec_transform_caps);
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_dec_set_caps);
   trans_class->generate_output = GST_DEBUG_FUNCPTR(gst_rgbd_dec_generate_output);
@@ -359,8 +346,6 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
 }
 
 static void gst_rgbd_dec_init(GstRgbdDec* self) {
-  self->info = new RgbdInfo();
-  self->have_info = FALSE;
   self->stats = CodecStats();
   self->st = new DecState();
 }
