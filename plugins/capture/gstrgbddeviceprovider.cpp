@@ -50,6 +50,8 @@ struct _GstRgbdDeviceProvider {
 };
 
 G_DEFINE_TYPE(GstRgbdDeviceProvider, gst_rgbd_device_provider, GST_TYPE_DEVICE_PROVIDER)
+GST_DEVICE_PROVIDER_REGISTER_DEFINE(rgbddeviceprovider, "rgbddeviceprovider", GST_RANK_PRIMARY,
+                                    GST_TYPE_RGBD_DEVICE_PROVIDER)
 
 // The V4L2 nodes looked at: /dev/video0 to /dev/video63 (a node that does not
 // exist is skipped at once).

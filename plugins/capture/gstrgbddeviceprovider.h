@@ -10,4 +10,6 @@ G_DECLARE_FINAL_TYPE(GstRgbdDeviceProvider, gst_rgbd_device_provider, GST, RGBD_
 #define GST_TYPE_RGBD_DEVICE (gst_rgbd_device_get_type())
 G_DECLARE_FINAL_TYPE(GstRgbdDevice, gst_rgbd_device, GST, RGBD_DEVICE, GstDevice)
 
+GST_DEVICE_PROVIDER_REGISTER_DECLARE(rgbddeviceprovider);
+
 G_END_DECLS

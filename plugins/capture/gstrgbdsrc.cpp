@@ -1,3 +1,16 @@
+/**
+ * SECTION:element-rgbdsrc
+ * @title: rgbdsrc
+ *
+ * A consumer RGB-D camera through V4L2: its colour node (YUYV, RGB3, MJPG) and depth node (Z16, Y16) paired
+ * by the kernel's capture time, as video/x-rgbd with the rig camera's calibration in the caps
+ * (docs/capture.md).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdsrc color-device=/dev/video0 depth-device=/dev/video2 rig=rig.yaml ! rgbddemux name=d d.color ! videoconvert ! fakesink
+ * ]|
+ */
 // rgbdsrc: one consumer RGB-D camera through V4L2 (its colour node and its
 // depth node), as video/x-rgbd with the rig camera's calibration in the caps.
 // The camera itself (V4L2 nodes, pixel formats, registration, pairing by
@@ -53,6 +66,7 @@ struct _GstRgbdSrc {
 };
 
 G_DEFINE_TYPE(GstRgbdSrc, gst_rgbd_src, GST_TYPE_PUSH_SRC)
+GST_ELEMENT_REGISTER_DEFINE(rgbdsrc, "rgbdsrc", GST_RANK_NONE, GST_TYPE_RGBD_SRC)
 
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
@@ -364,13 +378,8 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
                                                       "Frames dropped as short, flagged by the driver or undecodable",
                                                       0, G_MAXUINT64, 0, ro));
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "RGB-D camera source", "Source/Video",
-      "A consumer RGB-D camera through V4L2: its colour node (YUYV, RGB3, MJPG) and depth node (Z16, Y16) paired "
-      "by the kernel's capture time, as video/x-rgbd with the rig camera's calibration in the caps "
-      "(docs/capture.md). Example: gst-launch-1.0 rgbdsrc color-device=/dev/video0 depth-device=/dev/video2 "
-      "rig=rig.yaml ! rgbddemux name=d d.color ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "RGB-D camera source", "Source/Video",
+      "A consumer RGB-D camera through V4L2 as video/x-rgbd", "gst-vclassroom developers");
   basesrc_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_src_start);
   basesrc_class->stop = GST_DEBUG_FUNCPTR(gst_rgbd_src_stop);
   basesrc_class->unlock = GST_DEBUG_FUNCPTR(gst_rgbd_src_unlock);

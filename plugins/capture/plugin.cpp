@@ -9,8 +9,10 @@
 #include "gstrgbdsrc.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
-  return gst_element_register(plugin, "rgbdsrc", GST_RANK_NONE, GST_TYPE_RGBD_SRC) &&
-         gst_device_provider_register(plugin, "rgbddeviceprovider", GST_RANK_PRIMARY, GST_TYPE_RGBD_DEVICE_PROVIDER);
+  gboolean ok = TRUE;
+  ok &= GST_ELEMENT_REGISTER(rgbdsrc, plugin);
+  ok &= GST_DEVICE_PROVIDER_REGISTER(rgbddeviceprovider, plugin);
+  return ok;
 }
 
 GST_PLUGIN_DEFINE(GST_VERSION_MAJOR, GST_VERSION_MINOR, vclassroomcapture,

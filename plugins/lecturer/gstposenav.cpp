@@ -1,3 +1,17 @@
+/**
+ * SECTION:element-posenav
+ * @title: posenav
+ *
+ * The lecturer's mouse interface: put it before the video sink. Dragging with the left button looks around,
+ * the wheel and the arrow/WASD keys move (Q/E or PageUp/PageDown up and down), Home or R returns to the
+ * start pose; each change goes upstream as a vclassroom/pose event. The navigation events it uses stop here.
+ * Also drives the view from the six-slider notation or a pose trace.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! posenav ! videoconvert ! fakesink
+ * ]|
+ */
 // posenav: the paper's mouse interface on the lecturer's side. It sits in
 // front of the video sink, turns the sink's navigation events (drag, wheel,
 // keys) into vclassroom/pose events sent upstream towards the server, and can
@@ -64,6 +78,7 @@ struct _GstPoseNav {
 };
 
 G_DEFINE_TYPE(GstPoseNav, gst_pose_nav, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(posenav, "posenav", GST_RANK_NONE, GST_TYPE_POSE_NAV)
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
@@ -395,15 +410,8 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
                           0, G_MAXUINT64, 0, GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "Lecturer pose navigation", "Filter/Video",
-      "The lecturer's mouse interface: put it before the video sink. Dragging with the left button looks around, "
-      "the wheel and the arrow/WASD keys move (Q/E or PageUp/PageDown up and down), Home or R returns to the start "
-      "pose; each change goes upstream as a vclassroom/pose event. The navigation events it uses stop here. Also "
-      "drives the view from the six-slider notation or a pose trace. Example: "
-      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! posenav ! "
-      "videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "Lecturer pose navigation", "Filter/Video",
+      "Turns the lecturer's mouse and keys into pose events sent upstream", "gst-vclassroom developers");
   trans_class->src_event = GST_DEBUG_FUNCPTR(gst_pose_nav_src_event);
   trans_class->transform_ip = GST_DEBUG_FUNCPTR(gst_pose_nav_transform_ip);
   trans_class->start = GST_DEBUG_FUNCPTR(gst_pose_nav_start);

@@ -8,7 +8,7 @@
 #include "gstposenav.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
-  return gst_element_register(plugin, "posenav", GST_RANK_NONE, GST_TYPE_POSE_NAV);
+  return GST_ELEMENT_REGISTER(posenav, plugin);
 }
 
 GST_PLUGIN_DEFINE(GST_VERSION_MAJOR, GST_VERSION_MINOR, vclassroomlecturer,

@@ -1,3 +1,17 @@
+/**
+ * SECTION:element-poserecv
+ * @title: poserecv
+ *
+ * Server side of the pose back channel: put it after viewfuse; video passes through, and pose packets
+ * arriving on the 'rtp' pad (from udpsrc) go upstream as vclassroom/pose events. One lecturer's session at a
+ * time, latest seq wins; damaged, unauthenticated (key-file), implausible (max-distance) and out-of-window
+ * packets are dropped, counted and warned about (rate-limited).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 udpsrc port=5006 caps=application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE ! r.rtp rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! poserecv name=r ! videoconvert ! fakesink
+ * ]|
+ */
 // poserecv: on the server, pose packets arriving on its `rtp` pad (from
 // udpsrc) become vclassroom/pose events again, sent upstream from its video
 // sink pad towards viewfuse and every viewwarp. Which packets are obeyed is
@@ -56,6 +70,7 @@ struct _GstPoseRecv {
 };
 
 G_DEFINE_TYPE(GstPoseRecv, gst_pose_recv, GST_TYPE_ELEMENT)
+GST_ELEMENT_REGISTER_DEFINE(poserecv, "poserecv", GST_RANK_NONE, GST_TYPE_POSE_RECV)
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
@@ -269,17 +284,8 @@ static void gst_pose_recv_class_init(GstPoseRecvClass* klass) {
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_add_static_pad_template(element_class, &rtp_template);
-  gst_element_class_set_static_metadata(
-      element_class, "Pose back-channel receiver", "Network/Filter",
-      "Server side of the pose back channel: put it after viewfuse; video passes through, and pose packets "
-      "arriving on the 'rtp' pad (from udpsrc) go upstream as vclassroom/pose events. One lecturer's session at a "
-      "time, latest seq wins; damaged, unauthenticated (key-file), implausible (max-distance) and out-of-window "
-      "packets are dropped, counted and warned about (rate-limited). Example: "
-      "gst-launch-1.0 udpsrc port=5006 "
-      "caps=application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE ! "
-      "r.rtp rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! poserecv name=r ! "
-      "videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "Pose back-channel receiver", "Network/Filter",
+      "Turns pose packets from the lecturer into pose events sent upstream", "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(pose_recv_debug, "poserecv", 0, "pose back-channel receiver");
 }
 

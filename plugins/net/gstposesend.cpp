@@ -1,3 +1,16 @@
+/**
+ * SECTION:element-posesend
+ * @title: posesend
+ *
+ * Lecturer side of the pose back channel: video passes through; the vclassroom/pose events that reach it
+ * from downstream (posenav) leave as RTP packets on the 'rtp' pad (link it to udpsink); the latest pose is
+ * repeated with each frame so loss heals.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! posesend name=s ! posenav ! videoconvert ! fakesink s.rtp ! udpsink host=127.0.0.1 port=5006
+ * ]|
+ */
 // posesend: on the lecturer's side, the pose events that reach it from
 // downstream (posenav) leave as RTP packets on its `rtp` pad (to udpsink);
 // video passes through untouched. The latest pose is repeated with every
@@ -87,6 +100,7 @@ struct _GstPoseSend {
 };
 
 G_DEFINE_TYPE(GstPoseSend, gst_pose_send, GST_TYPE_ELEMENT)
+GST_ELEMENT_REGISTER_DEFINE(posesend, "posesend", GST_RANK_NONE, GST_TYPE_POSE_SEND)
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
@@ -373,15 +387,8 @@ static void gst_pose_send_class_init(GstPoseSendClass* klass) {
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_add_static_pad_template(element_class, &rtp_template);
-  gst_element_class_set_static_metadata(
-      element_class, "Pose back-channel sender", "Network/Filter",
-      "Lecturer side of the pose back channel: video passes through; the vclassroom/pose events that reach it "
-      "from downstream (posenav) leave as RTP packets on the 'rtp' pad (link it to udpsink); the latest pose is "
-      "repeated with each frame so loss heals. Example: "
-      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! "
-      "posesend name=s ! posenav ! videoconvert ! autovideosink s.rtp ! "
-      "udpsink host=127.0.0.1 port=5006",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "Pose back-channel sender", "Network/Filter",
+      "Sends the lecturer's pose events to the server as RTP packets", "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(pose_send_debug, "posesend", 0, "pose back-channel sender");
 }
 

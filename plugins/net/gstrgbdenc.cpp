@@ -1,3 +1,16 @@
+/**
+ * SECTION:element-rgbdenc
+ * @title: rgbdenc
+ *
+ * Compresses each video/x-rgbd frame into one buffer: colour as JPEG (libjpeg-turbo), depth and labels
+ * lossless, every part checksummed; the calibration stays in the caps (video/x-rgbd-coded) so it crosses
+ * rtpgstpay.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc quality=80 ! rtpgstpay mtu=1400 ! rtpgstdepay ! rgbddec ! rgbddemux name=d d.color ! videoconvert ! fakesink
+ * ]|
+ */
 // rgbdenc: one video/x-rgbd frame -> one compressed buffer (JPEG colour,
 // lossless depth and labels, checksummed; docs/rgbd-codec.md), calibration
 // kept in the caps so it rides rtpgstpay.
@@ -31,6 +44,7 @@ struct _GstRgbdEnc {
 };
 
 G_DEFINE_TYPE(GstRgbdEnc, gst_rgbd_enc, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(rgbdenc, "rgbdenc", GST_RANK_NONE, GST_TYPE_RGBD_ENC)
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
@@ -153,14 +167,8 @@ static void gst_rgbd_enc_class_init(GstRgbdEncClass* klass) {
   codec_stats_install_properties(gobject_class, "Frames encoded since the element started");
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "RGB-D encoder", "Codec/Encoder/Video",
-      "Compresses each video/x-rgbd frame into one buffer: colour as JPEG (libjpeg-turbo), depth and labels "
-      "lossless, every part checksummed; the calibration stays in the caps (video/x-rgbd-coded) so it crosses "
-      "rtpgstpay. Example: "
-      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc quality=80 ! rtpgstpay mtu=1400 ! "
-      "rtpgstdepay ! rgbddec ! rgbddemux name=d d.color ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "RGB-D encoder", "Codec/Encoder/Video",
+      "Compresses each RGB-D frame into one checksummed buffer", "gst-vclassroom developers");
   trans_class->transform_caps = GST_DEBUG_FUNCPTR(gst_rgbd_enc_transform_caps);
   trans_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_enc_set_caps);
   trans_class->generate_output = GST_DEBUG_FUNCPTR(gst_rgbd_enc_generate_output);

@@ -1,3 +1,16 @@
+/**
+ * SECTION:element-rtphdrextvcpose
+ * @title: rtphdrextvcpose
+ *
+ * Carries the seq and viewer time of the lecturer pose a frame was rendered for
+ * (urn:gst-vclassroom:rtp-hdrext:pose), for motion-to-photon latency, and that pose as rendered, after the
+ * server's navigation bounds; payloaders and depayloaders enable it from an extmap-N caps field.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 videotestsrc num-buffers=300 ! jpegenc ! rtpgstpay ! "application/x-rtp,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose" ! rtpgstdepay ! jpegdec ! videoconvert ! fakesink
+ * ]|
+ */
 // rtphdrextvcpose: an RTP header extension carrying the seq and viewer time of
 // the pose a video frame was rendered for (the frame's PoseMeta), so the
 // lecturer's side can measure motion-to-photon latency, and the pose as the
@@ -19,6 +32,7 @@ struct _GstRTPHeaderExtensionVcPose {
 };
 
 G_DEFINE_TYPE(GstRTPHeaderExtensionVcPose, gst_rtp_header_extension_vc_pose, GST_TYPE_RTP_HEADER_EXTENSION)
+GST_ELEMENT_REGISTER_DEFINE(rtphdrextvcpose, "rtphdrextvcpose", GST_RANK_MARGINAL, GST_TYPE_RTP_HEADER_EXTENSION_VC_POSE)
 
 static GstRTPHeaderExtensionFlags get_supported_flags(GstRTPHeaderExtension*) {
   return GstRTPHeaderExtensionFlags(GST_RTP_HEADER_EXTENSION_ONE_BYTE | GST_RTP_HEADER_EXTENSION_TWO_BYTE);
@@ -50,14 +64,8 @@ static void gst_rtp_header_extension_vc_pose_class_init(GstRTPHeaderExtensionVcP
   ext_class->get_max_size = get_max_size;
   ext_class->write = write_ext;
   ext_class->read = read_ext;
-  gst_element_class_set_static_metadata(
-      element_class, "vclassroom pose RTP header extension", GST_RTP_HDREXT_ELEMENT_CLASS,
-      "Carries the seq and viewer time of the lecturer pose a frame was rendered for (" VCLASSROOM_RTP_HDREXT_POSE_URI
-      "), for motion-to-photon latency, and that pose as rendered, after the server's navigation bounds; payloaders and depayloaders enable it from an extmap-N caps field. Example: "
-      "gst-launch-1.0 videotestsrc num-buffers=300 ! jpegenc ! rtpgstpay ! "
-      "\"application/x-rtp,extmap-3=(string)" VCLASSROOM_RTP_HDREXT_POSE_URI "\" ! rtpgstdepay ! jpegdec ! "
-      "videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "vclassroom pose RTP header extension", GST_RTP_HDREXT_ELEMENT_CLASS,
+      "Carries the pose a video frame was rendered for in an RTP header extension", "gst-vclassroom developers");
   gst_rtp_header_extension_class_set_uri(ext_class, VCLASSROOM_RTP_HDREXT_POSE_URI);
 }
 

@@ -11,4 +11,6 @@ G_DECLARE_FINAL_TYPE(GstRTPHeaderExtensionVcPose, gst_rtp_header_extension_vc_po
 // Negotiated by this URI in the caps (extmap-N) or an SDP.
 #define VCLASSROOM_RTP_HDREXT_POSE_URI "urn:gst-vclassroom:rtp-hdrext:pose"
 
+GST_ELEMENT_REGISTER_DECLARE(rtphdrextvcpose);
+
 G_END_DECLS

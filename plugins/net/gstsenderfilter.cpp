@@ -1,3 +1,16 @@
+/**
+ * SECTION:element-senderfilter
+ * @title: senderfilter
+ *
+ * Put it right after udpsrc: passes RTP (or RTCP, with lock-ssrc=false) only from the allowed source
+ * addresses, of the configured payload types and, with lock-ssrc, one SSRC per payload type; counts and
+ * drops the rest (vclassroom-sender-stats messages, rate-limited warnings).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 udpsrc port=5000 caps=application/x-rtp ! senderfilter allow=127.0.0.1,10.0.0.7 payload-types=96,97 ! fakesink
+ * ]|
+ */
 // senderfilter: right after a udpsrc, passes only RTP packets from the
 // configured source addresses (udpsrc's GstNetAddressMeta) and, with
 // lock-ssrc, one SSRC per payload type; drops and counts the rest, warns
@@ -45,6 +58,7 @@ struct _GstSenderFilter {
 };
 
 G_DEFINE_TYPE(GstSenderFilter, gst_sender_filter, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(senderfilter, "senderfilter", GST_RANK_NONE, GST_TYPE_SENDER_FILTER)
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-rtp; application/x-rtcp; application/x-srtp; application/x-srtcp"));
@@ -316,13 +330,8 @@ static void gst_sender_filter_class_init(GstSenderFilterClass* klass) {
                                                       G_MAXUINT64, 0, ro));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "RTP sender filter", "Network/Filter",
-      "Put it right after udpsrc: passes RTP (or RTCP, with lock-ssrc=false) only from the allowed source "
-      "addresses, of the configured payload types and, with lock-ssrc, one SSRC per payload type; counts and "
-      "drops the rest (vclassroom-sender-stats messages, rate-limited warnings). Example: gst-launch-1.0 udpsrc "
-      "port=5000 caps=application/x-rtp ! senderfilter allow=127.0.0.1,10.0.0.7 payload-types=96,97 ! fakesink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "RTP sender filter", "Network/Filter",
+      "Passes RTP only from the configured senders", "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(sender_filter_debug, "senderfilter", 0, "RTP sender filter");
 }
 

@@ -1,3 +1,15 @@
+/**
+ * SECTION:element-srtpfiledec
+ * @title: srtpfiledec
+ *
+ * srtpdec whose every stream (SSRC) gets the key from key-file; packets failing authentication are dropped.
+ * The key: 30 bytes, made with head -c 30 /dev/urandom > srtp.key and given to both ends.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 udpsrc port=5000 caps="application/x-srtp,media=application,clock-rate=90000,encoding-name=X-GST,payload=96" ! srtpfiledec key-file=srtp.key ! rtpgstdepay ! fakesink
+ * ]|
+ */
 // srtpfiledec: srtpdec (gst-plugins-bad) with the key of every stream from a file. srtpdec asks for each
 // new SSRC's key through its request-key signal, which a gst-launch-1.0 line cannot answer, and a camera
 // link has two SSRCs (the camera's and its retransmissions'), so this bin answers it: the same 30-byte key
@@ -35,6 +47,7 @@ struct _GstSrtpFileDec {
 };
 
 G_DEFINE_TYPE(GstSrtpFileDec, gst_srtp_file_dec, GST_TYPE_BIN)
+GST_ELEMENT_REGISTER_DEFINE(srtpfiledec, "srtpfiledec", GST_RANK_NONE, GST_TYPE_SRTP_FILE_DEC)
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
     "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("application/x-srtp; application/x-rtp"));
@@ -114,13 +127,8 @@ static void gst_srtp_file_dec_class_init(GstSrtpFileDecClass* klass) {
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "SRTP decoder with a key file", "Filter/Network/SRTP",
-      "srtpdec whose every stream (SSRC) gets the key from key-file; packets failing authentication are "
-      "dropped. The key: 30 bytes, made with head -c 30 /dev/urandom > srtp.key and given to both ends. "
-      "Example: gst-launch-1.0 udpsrc port=5000 caps=\"application/x-srtp,media=application,"
-      "clock-rate=90000,encoding-name=X-GST,payload=96\" ! srtpfiledec key-file=srtp.key ! rtpgstdepay ! fakesink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "SRTP decoder with a key file", "Filter/Network/SRTP",
+      "Decrypts SRTP with the key of every stream from a key file", "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(srtp_file_dec_debug, "srtpfiledec", 0, "SRTP decoder with a key file");
 }
 

@@ -15,13 +15,13 @@
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
-  ok &= gst_element_register(plugin, "rgbdenc", GST_RANK_NONE, GST_TYPE_RGBD_ENC);
-  ok &= gst_element_register(plugin, "rgbddec", GST_RANK_NONE, GST_TYPE_RGBD_DEC);
-  ok &= gst_element_register(plugin, "posesend", GST_RANK_NONE, GST_TYPE_POSE_SEND);
-  ok &= gst_element_register(plugin, "poserecv", GST_RANK_NONE, GST_TYPE_POSE_RECV);
-  ok &= gst_element_register(plugin, "rtphdrextvcpose", GST_RANK_MARGINAL, GST_TYPE_RTP_HEADER_EXTENSION_VC_POSE);
-  ok &= gst_element_register(plugin, "senderfilter", GST_RANK_NONE, GST_TYPE_SENDER_FILTER);
-  ok &= gst_element_register(plugin, "srtpfiledec", GST_RANK_NONE, GST_TYPE_SRTP_FILE_DEC);
+  ok &= GST_ELEMENT_REGISTER(rgbdenc, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbddec, plugin);
+  ok &= GST_ELEMENT_REGISTER(posesend, plugin);
+  ok &= GST_ELEMENT_REGISTER(poserecv, plugin);
+  ok &= GST_ELEMENT_REGISTER(rtphdrextvcpose, plugin);
+  ok &= GST_ELEMENT_REGISTER(senderfilter, plugin);
+  ok &= GST_ELEMENT_REGISTER(srtpfiledec, plugin);
   return ok;
 }
 

@@ -1,3 +1,15 @@
+/**
+ * SECTION:element-depthcolorize
+ * @title: depthcolorize
+ *
+ * Draws a depth map (GRAY16_LE, mm) as RGB with the turbo colour map: near warm, far cool, no measurement
+ * (0) black.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.depth ! depthcolorize ! videoconvert ! fakesink
+ * ]|
+ */
 // depthcolorize: a depth map (GRAY16_LE, mm) as an RGB picture people can read.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
@@ -20,6 +32,7 @@ struct _GstDepthColorize {
 };
 
 G_DEFINE_TYPE(GstDepthColorize, gst_depth_colorize, GST_TYPE_VIDEO_FILTER)
+GST_ELEMENT_REGISTER_DEFINE(depthcolorize, "depthcolorize", GST_RANK_NONE, GST_TYPE_DEPTH_COLORIZE)
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
     "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(GST_VIDEO_CAPS_MAKE("GRAY16_LE")));
@@ -104,13 +117,8 @@ static void gst_depth_colorize_class_init(GstDepthColorizeClass* klass) {
                                                     65535, kDefaultMax, flags));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "Depth colouriser", "Filter/Converter/Video",
-      "Draws a depth map (GRAY16_LE, mm) as RGB with the turbo colour map: near warm, far cool, no measurement "
-      "(0) black. Example: "
-      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.depth ! depthcolorize ! "
-      "videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "Depth colouriser", "Filter/Converter/Video",
+      "Draws a depth map as a colour picture", "gst-vclassroom developers");
   GST_BASE_TRANSFORM_CLASS(klass)->transform_caps = GST_DEBUG_FUNCPTR(gst_depth_colorize_transform_caps);
   GST_VIDEO_FILTER_CLASS(klass)->transform_frame = GST_DEBUG_FUNCPTR(gst_depth_colorize_transform_frame);
   GST_DEBUG_CATEGORY_INIT(depth_colorize_debug, "depthcolorize", 0, "depth colouriser");

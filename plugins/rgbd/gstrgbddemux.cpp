@@ -1,3 +1,15 @@
+/**
+ * SECTION:element-rgbddemux
+ * @title: rgbddemux
+ *
+ * Splits video/x-rgbd into plain video/x-raw: color (RGB), depth (GRAY16_LE, mm), and, when the stream has
+ * them, label (GRAY8 learner ids), weight (GRAY8) and depth-gt (GRAY16_LE ground truth). Zero copy.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! videoconvert ! fakesink d.depth ! queue ! depthcolorize ! videoconvert ! fakesink
+ * ]|
+ */
 // rgbddemux: splits a video/x-rgbd stream into one video/x-raw stream per
 // plane, sharing the buffer memory. Upstream events (pose, QoS, navigation)
 // from any output go back to the single input.
@@ -42,6 +54,7 @@ struct _GstRgbdDemux {
 };
 
 G_DEFINE_TYPE(GstRgbdDemux, gst_rgbd_demux, GST_TYPE_ELEMENT)
+GST_ELEMENT_REGISTER_DEFINE(rgbddemux, "rgbddemux", GST_RANK_NONE, GST_TYPE_RGBD_DEMUX)
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
@@ -215,13 +228,8 @@ static void gst_rgbd_demux_class_init(GstRgbdDemuxClass* klass) {
   gst_element_class_add_static_pad_template(element_class, &label_template);
   gst_element_class_add_static_pad_template(element_class, &weight_template);
   gst_element_class_add_static_pad_template(element_class, &depth_gt_template);
-  gst_element_class_set_static_metadata(
-      element_class, "RGB-D demuxer", "Demuxer/Video",
-      "Splits video/x-rgbd into plain video/x-raw: color (RGB), depth (GRAY16_LE, mm), and, when the stream has "
-      "them, label (GRAY8 learner ids), weight (GRAY8) and depth-gt (GRAY16_LE ground truth). Zero copy. Example: "
-      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! videoconvert ! "
-      "autovideosink d.depth ! queue ! depthcolorize ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "RGB-D demuxer", "Demuxer/Video",
+      "Splits an RGB-D stream into one raw video stream per plane", "gst-vclassroom developers");
   GST_DEBUG_CATEGORY_INIT(rgbd_demux_debug, "rgbddemux", 0, "RGB-D demuxer");
 }
 

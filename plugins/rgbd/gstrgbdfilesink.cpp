@@ -1,3 +1,17 @@
+/**
+ * SECTION:element-rgbdfilesink
+ * @title: rgbdfilesink
+ *
+ * Records a camera into a dataset folder that rgbdfilesrc plays; the calibration from the caps goes into
+ * rig.yaml. video/x-rgbd becomes PNG colour, 16-bit PNG depth in mm and the label/depth-gt planes when
+ * present (a few frames a second); video/x-rgbd-coded from rgbdenc is recorded as it is, with each frame's
+ * running time, at the camera's full rate (a live recording, played back at its original timing).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=90 ! rgbdenc ! rgbdfilesink location=rec
+ * ]|
+ */
 // rgbdfilesink: records a camera into the dataset format that rgbdfilesrc
 // plays (one instance per camera may share a folder): video/x-rgbd as PNG
 // images, or the coded stream of rgbdenc as a live recording with each
@@ -40,6 +54,7 @@ struct _GstRgbdFileSink {
 };
 
 G_DEFINE_TYPE(GstRgbdFileSink, gst_rgbd_file_sink, GST_TYPE_BASE_SINK)
+GST_ELEMENT_REGISTER_DEFINE(rgbdfilesink, "rgbdfilesink", GST_RANK_NONE, GST_TYPE_RGBD_FILE_SINK)
 
 
 static std::string location_of(GstRgbdFileSink* self) {
@@ -211,14 +226,8 @@ static void gst_rgbd_file_sink_class_init(GstRgbdFileSinkClass* klass) {
   gst_element_class_add_pad_template(element_class,
                                      gst_pad_template_new("sink", GST_PAD_SINK, GST_PAD_ALWAYS, sink_caps));
   gst_caps_unref(sink_caps);
-  gst_element_class_set_static_metadata(
-      element_class, "RGB-D dataset sink", "Sink/File/Video",
-      "Records a camera into a dataset folder that rgbdfilesrc plays; the calibration from the caps goes into "
-      "rig.yaml. video/x-rgbd becomes PNG colour, 16-bit PNG depth in mm and the label/depth-gt planes when "
-      "present (a few frames a second); video/x-rgbd-coded from rgbdenc is recorded as it is, with each frame's "
-      "running time, at the camera's full rate (a live recording, played back at its original timing). Example: "
-      "gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=90 ! rgbdenc ! rgbdfilesink location=rec",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "RGB-D dataset sink", "Sink/File/Video",
+      "Records a camera into a dataset folder", "gst-vclassroom developers");
   basesink_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_start);
   basesink_class->stop = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_stop);
   basesink_class->set_caps = GST_DEBUG_FUNCPTR(gst_rgbd_file_sink_set_caps);

@@ -1,3 +1,17 @@
+/**
+ * SECTION:element-rgbdfilesrc
+ * @title: rgbdfilesrc
+ *
+ * Plays one camera of a recorded RGB-D dataset (rig.yaml + colour and 16-bit depth images, or a live
+ * recording of coded frames) as video/x-rgbd with the camera's calibration in the caps; a live recording
+ * plays at the timing it was recorded with. Datasets come from rgbdfilesink or vclassroom-import
+ * (docs/datasets.md).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdfilesrc location=out/art camera-id=1 loop=true framerate=15/1 ! rgbddemux name=d d.color ! videoconvert ! fakesink
+ * ]|
+ */
 // rgbdfilesrc: plays one camera of a recorded dataset folder as video/x-rgbd:
 // image folders at the `framerate` property, live recordings at the timing
 // they were recorded with.
@@ -53,6 +67,7 @@ struct _GstRgbdFileSrc {
 };
 
 G_DEFINE_TYPE(GstRgbdFileSrc, gst_rgbd_file_src, GST_TYPE_PUSH_SRC)
+GST_ELEMENT_REGISTER_DEFINE(rgbdfilesrc, "rgbdfilesrc", GST_RANK_NONE, GST_TYPE_RGBD_FILE_SRC)
 
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
@@ -273,15 +288,8 @@ static void gst_rgbd_file_src_class_init(GstRgbdFileSrcClass* klass) {
                               1, flags));
 
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "RGB-D dataset source", "Source/File/Video",
-      "Plays one camera of a recorded RGB-D dataset (rig.yaml + colour and 16-bit depth images, or a live "
-      "recording of coded frames) as video/x-rgbd with the camera's calibration in the caps; a live recording "
-      "plays at the timing it was recorded with. Datasets come from rgbdfilesink or vclassroom-import "
-      "(docs/datasets.md). Example: "
-      "gst-launch-1.0 rgbdfilesrc location=out/art camera-id=1 loop=true framerate=15/1 ! "
-      "rgbddemux name=d d.color ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "RGB-D dataset source", "Source/File/Video",
+      "Plays one camera of a recorded RGB-D dataset", "gst-vclassroom developers");
 
   basesrc_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_start);
   basesrc_class->stop = GST_DEBUG_FUNCPTR(gst_rgbd_file_src_stop);

@@ -1,3 +1,15 @@
+/**
+ * SECTION:element-rgbdmux
+ * @title: rgbdmux
+ *
+ * Pairs a colour (RGB) and a registered depth (GRAY16_LE, mm) stream of one camera by running time into
+ * video/x-rgbd, with the camera's calibration from a rig file in the caps. Zero copy.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! m.color d.depth ! queue ! m.depth rgbdmux name=m ! rgbddemux name=e e.color ! videoconvert ! fakesink
+ * ]|
+ */
 // rgbdmux: pairs a colour and a depth video/x-raw stream by running time into
 // one video/x-rgbd stream, sharing their memory (no copy).
 #ifdef HAVE_CONFIG_H
@@ -49,6 +61,7 @@ struct _GstRgbdMux {
 };
 
 G_DEFINE_TYPE(GstRgbdMux, gst_rgbd_mux, GST_TYPE_AGGREGATOR)
+GST_ELEMENT_REGISTER_DEFINE(rgbdmux, "rgbdmux", GST_RANK_NONE, GST_TYPE_RGBD_MUX)
 
 static GstStaticPadTemplate color_template = GST_STATIC_PAD_TEMPLATE(
     "color", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(GST_VIDEO_CAPS_MAKE("RGB")));
@@ -319,13 +332,8 @@ static void gst_rgbd_mux_class_init(GstRgbdMuxClass* klass) {
   gst_element_class_add_static_pad_template_with_gtype(element_class, &color_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_add_static_pad_template_with_gtype(element_class, &depth_template, GST_TYPE_AGGREGATOR_PAD);
   gst_element_class_add_static_pad_template_with_gtype(element_class, &src_template, GST_TYPE_AGGREGATOR_PAD);
-  gst_element_class_set_static_metadata(
-      element_class, "RGB-D muxer", "Muxer/Video",
-      "Pairs a colour (RGB) and a registered depth (GRAY16_LE, mm) stream of one camera by running time into "
-      "video/x-rgbd, with the camera's calibration from a rig file in the caps. Zero copy. Example: "
-      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! m.color d.depth ! "
-      "queue ! m.depth rgbdmux name=m ! rgbddemux name=e e.color ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "RGB-D muxer", "Muxer/Video",
+      "Pairs a camera's colour and depth streams into one RGB-D stream", "gst-vclassroom developers");
 
   agg_class->aggregate = GST_DEBUG_FUNCPTR(gst_rgbd_mux_aggregate);
   agg_class->sink_event = GST_DEBUG_FUNCPTR(gst_rgbd_mux_sink_event);

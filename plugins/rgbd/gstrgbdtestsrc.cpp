@@ -1,3 +1,15 @@
+/**
+ * SECTION:element-rgbdtestsrc
+ * @title: rgbdtestsrc
+ *
+ * A synthetic classroom with moving learners seen from one camera of a rig, as video/x-rgbd with the
+ * camera's calibration in the caps, an optional consumer depth-sensor model and exact ground truth.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! rgbddemux name=d d.color ! queue ! videoconvert ! fakesink d.depth ! queue ! depthcolorize ! videoconvert ! fakesink
+ * ]|
+ */
 // rgbdtestsrc: the synthetic classroom (docs/synthetic-classroom.md) seen from
 // one camera of a rig, as video/x-rgbd with exact ground truth.
 #ifdef HAVE_CONFIG_H
@@ -69,6 +81,7 @@ struct _GstRgbdTestSrc {
 };
 
 G_DEFINE_TYPE(GstRgbdTestSrc, gst_rgbd_test_src, GST_TYPE_PUSH_SRC)
+GST_ELEMENT_REGISTER_DEFINE(rgbdtestsrc, "rgbdtestsrc", GST_RANK_NONE, GST_TYPE_RGBD_TEST_SRC)
 
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
@@ -370,13 +383,8 @@ static void gst_rgbd_test_src_class_init(GstRgbdTestSrcClass* klass) {
                            FALSE, flags));
 
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "Synthetic RGB-D classroom source", "Source/Video",
-      "A synthetic classroom with moving learners seen from one camera of a rig, as video/x-rgbd with the camera's "
-      "calibration in the caps, an optional consumer depth-sensor model and exact ground truth. Example: "
-      "gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! rgbddemux name=d d.color ! queue ! "
-      "videoconvert ! autovideosink d.depth ! queue ! depthcolorize ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "Synthetic RGB-D classroom source", "Source/Video",
+      "A synthetic classroom seen from one camera of a rig", "gst-vclassroom developers");
 
   basesrc_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_start);
   basesrc_class->stop = GST_DEBUG_FUNCPTR(gst_rgbd_test_src_stop);

@@ -14,12 +14,12 @@
 
 static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
-  ok &= gst_element_register(plugin, "rgbdmux", GST_RANK_NONE, GST_TYPE_RGBD_MUX);
-  ok &= gst_element_register(plugin, "rgbddemux", GST_RANK_NONE, GST_TYPE_RGBD_DEMUX);
-  ok &= gst_element_register(plugin, "rgbdfilesrc", GST_RANK_NONE, GST_TYPE_RGBD_FILE_SRC);
-  ok &= gst_element_register(plugin, "rgbdfilesink", GST_RANK_NONE, GST_TYPE_RGBD_FILE_SINK);
-  ok &= gst_element_register(plugin, "rgbdtestsrc", GST_RANK_NONE, GST_TYPE_RGBD_TEST_SRC);
-  ok &= gst_element_register(plugin, "depthcolorize", GST_RANK_NONE, GST_TYPE_DEPTH_COLORIZE);
+  ok &= GST_ELEMENT_REGISTER(rgbdmux, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbddemux, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbdfilesrc, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbdfilesink, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbdtestsrc, plugin);
+  ok &= GST_ELEMENT_REGISTER(depthcolorize, plugin);
   return ok;
 }
 

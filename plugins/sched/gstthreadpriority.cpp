@@ -1,3 +1,15 @@
+/**
+ * SECTION:element-threadpriority
+ * @title: threadpriority
+ *
+ * Passes everything through and lowers the scheduling priority of the thread that pushes it (Linux nice
+ * value), so that work nobody waits for yields the CPU to work somebody does.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! queue ! threadpriority nice=10 ! rgbddemux name=d d.color ! videoconvert ! fakesink
+ * ]|
+ */
 // threadpriority: lowers the scheduling priority (raises the nice value) of
 // the streaming thread that pushes buffers through it. On a server with more
 // work than cores, the work a pose waits for (warp, fuse, encode) should not
@@ -48,6 +60,7 @@ struct _GstThreadPriority {
 };
 
 G_DEFINE_TYPE(GstThreadPriority, gst_thread_priority, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(threadpriority, "threadpriority", GST_RANK_NONE, GST_TYPE_THREAD_PRIORITY)
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS_ANY);
@@ -146,13 +159,8 @@ static void gst_thread_priority_class_init(GstThreadPriorityClass* klass) {
                        GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
-  gst_element_class_set_static_metadata(
-      element_class, "Streaming thread priority", "Generic",
-      "Passes everything through and lowers the scheduling priority of the thread that pushes it (Linux nice "
-      "value), so that work nobody waits for yields the CPU to work somebody does. Example: "
-      "gst-launch-1.0 rgbdtestsrc num-buffers=300 ! queue ! threadpriority nice=10 ! "
-      "rgbddemux name=d d.color ! videoconvert ! autovideosink",
-      "gst-vclassroom developers");
+  gst_element_class_set_static_metadata(element_class, "Streaming thread priority", "Generic",
+      "Lowers the priority of the streaming thread that passes it", "gst-vclassroom developers");
   trans_class->transform_ip = GST_DEBUG_FUNCPTR(gst_thread_priority_transform_ip);
   trans_class->transform_ip_on_passthrough = TRUE;
   GST_DEBUG_CATEGORY_INIT(thread_priority_debug, "threadpriority", 0, "streaming thread priority");

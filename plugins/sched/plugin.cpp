@@ -8,7 +8,7 @@
 #include "gstthreadpriority.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
-  return gst_element_register(plugin, "threadpriority", GST_RANK_NONE, GST_TYPE_THREAD_PRIORITY);
+  return GST_ELEMENT_REGISTER(threadpriority, plugin);
 }
 
 GST_PLUGIN_DEFINE(GST_VERSION_MAJOR, GST_VERSION_MINOR, vclassroomsched,

@@ -1,3 +1,15 @@
+/**
+ * SECTION:element-rtphdrextplayoutdelay
+ * @title: rtphdrextplayoutdelay
+ *
+ * Tells a WebRTC receiver how long it may buffer each frame (webrtc.org playout-delay); a payloader adds it
+ * where downstream caps name its URI.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 videotestsrc num-buffers=30 ! x264enc ! rtph264pay ! 'application/x-rtp,extmap-5=(string)http://www.webrtc.org/experiments/rtp-hdrext/playout-delay' ! fakesink
+ * ]|
+ */
 // rtphdrextplayoutdelay: the playout-delay RTP header extension as a GStreamer
 // RTP header extension element. A payloader writes it on every packet, so a
 // browser joining at any frame learns the delay at once. The bytes are the
@@ -27,6 +39,7 @@ struct GstRtpHdrExtPlayoutDelayClass {
 };
 
 G_DEFINE_TYPE(GstRtpHdrExtPlayoutDelay, gst_rtp_hdrext_playout_delay, GST_TYPE_RTP_HEADER_EXTENSION)
+GST_ELEMENT_REGISTER_DEFINE(rtphdrextplayoutdelay, "rtphdrextplayoutdelay", GST_RANK_MARGINAL, GST_TYPE_RTP_HDREXT_PLAYOUT_DELAY)
 #define GST_RTP_HDREXT_PLAYOUT_DELAY(o) ((GstRtpHdrExtPlayoutDelay*)(o))
 
 enum { PROP_0, PROP_MIN_DELAY, PROP_MAX_DELAY };
@@ -100,11 +113,6 @@ static void gst_rtp_hdrext_playout_delay_class_init(GstRtpHdrExtPlayoutDelayClas
   ext_class->write = write;
   ext_class->read = read;
   gst_rtp_header_extension_class_set_uri(ext_class, kPlayoutDelayUri);
-  gst_element_class_set_static_metadata(element_class, "Playout-delay RTP header extension",
-      GST_RTP_HDREXT_ELEMENT_CLASS,
-      "Tells a WebRTC receiver how long it may buffer each frame (webrtc.org playout-delay); a payloader adds it "
-      "where downstream caps name its URI. Example: gst-launch-1.0 videotestsrc num-buffers=30 ! x264enc ! "
-      "rtph264pay ! 'application/x-rtp,extmap-5=(string)http://www.webrtc.org/experiments/rtp-hdrext/playout-delay' "
-      "! fakesink",
-      "gst-vclassroom");
+  gst_element_class_set_static_metadata(element_class, "Playout-delay RTP header extension", GST_RTP_HDREXT_ELEMENT_CLASS,
+      "Tells a WebRTC receiver how long it may buffer each frame", "gst-vclassroom");
 }

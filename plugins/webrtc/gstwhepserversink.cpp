@@ -1,3 +1,16 @@
+/**
+ * SECTION:element-whepserversink
+ * @title: whepserversink
+ *
+ * The rendered view to browsers over WebRTC (H.264 constrained baseline, DTLS-SRTP) with WHEP signalling
+ * (POST /whep?token=..., DELETE the Location to leave); the pose comes back over a data channel as the
+ * vclassroom/pose event upstream. Every lecturer sees the same view (whepviewsink: a view each).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 videotestsrc num-buffers=30 ! video/x-raw,width=960,height=540 ! whepserversink port=0 token=secret
+ * ]|
+ */
 // whepserversink: the server's rendered view to browsers, one view for every
 // lecturer. H.264 (constrained baseline, x264enc zerolatency) encoded once and
 // teed to a webrtcbin per WHEP session (plugins/webrtc/whep_endpoint.h: the
@@ -21,6 +34,7 @@
 #include <gst/vclassroom/core/pose_event.h>
 #include <gst/vclassroom/net/pose_session.h>
 
+#include "gstwhepserversink.h"
 #include "whep_endpoint.h"
 
 using namespace vclassroom;
@@ -47,6 +61,7 @@ struct GstWhepServerSinkClass {
 };
 
 G_DEFINE_TYPE(GstWhepServerSink, gst_whep_server_sink, GST_TYPE_BIN)
+GST_ELEMENT_REGISTER_DEFINE(whepserversink, "whepserversink", GST_RANK_NONE, GST_TYPE_WHEP_SERVER_SINK)
 #define GST_WHEP_SERVER_SINK(o) ((GstWhepServerSink*)(o))
 
 enum { PROP_0, PROP_ENDPOINT_FIRST };
@@ -182,10 +197,5 @@ static void gst_whep_server_sink_class_init(GstWhepServerSinkClass* klass) {
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_set_static_metadata(element_class, "WHEP server sink", "Sink/Network",
-      "The rendered view to browsers over WebRTC (H.264 constrained baseline, DTLS-SRTP) with WHEP signalling "
-      "(POST /whep?token=..., DELETE the Location to leave); the pose comes back over a data channel as the "
-      "vclassroom/pose event upstream. Every lecturer sees the same view (whepviewsink: a view each). Example: "
-      "gst-launch-1.0 videotestsrc num-buffers=30 ! video/x-raw,width=960,height=540 ! whepserversink port=0 "
-      "token=secret",
-      "gst-vclassroom");
+      "Sends one view to every lecturer over WebRTC with WHEP", "gst-vclassroom");
 }

@@ -1,3 +1,17 @@
+/**
+ * SECTION:element-whepviewsink
+ * @title: whepviewsink
+ *
+ * Each lecturer joining over WHEP gets a view of their own: the prepared camera streams (cam_%u, after
+ * learnerseg), each with its memory and warp preparation done once (viewprep), feed, per session, a viewwarp
+ * per camera, a viewfuse steered by that lecturer's pose data channel only, and an H.264 encoder to their
+ * webrtcbin; the views take turns to warp, and sessions come and go without disturbing the others.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 whepviewsink name=w port=0 token=secret max-sessions=2 rgbdtestsrc camera-id=0 num-buffers=30 ! learnerseg ! w.cam_0
+ * ]|
+ */
 // whepviewsink: a view per lecturer. Each camera's prepared stream (after
 // decoding, V-DA and learnerseg, which run once per camera) comes in on a cam_%u
 // pad, gets its memory and the warp's first half once (viewprep) and is teed;
@@ -25,6 +39,9 @@
 #include <gst/vclassroom/vva/view_turns.h>
 #include <gst/vclassroom/vva/warp_start.h>
 
+#include <gst/vclassroom/core/limits.h>
+
+#include "gstwhepviewsink.h"
 #include "whep_endpoint.h"
 
 using namespace vclassroom;
@@ -85,6 +102,7 @@ struct GstWhepViewSinkClass {
 };
 
 G_DEFINE_TYPE(GstWhepViewSink, gst_whep_view_sink, GST_TYPE_BIN)
+GST_ELEMENT_REGISTER_DEFINE(whepviewsink, "whepviewsink", GST_RANK_NONE, GST_TYPE_WHEP_VIEW_SINK)
 #define GST_WHEP_VIEW_SINK(o) ((GstWhepViewSink*)(o))
 
 enum {
@@ -420,9 +438,9 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
       g_param_spec_string("model", "Model", "Static model folder (vclassroom-build-model): camera K's viewprep reads "
                           "MODEL/prior-depth/camK.png (empty: none)", "", rw));
   g_object_class_install_property(gobject_class, PROP_WIDTH,
-      g_param_spec_int("width", "Width", "Width of every view (0: the cameras')", 0, 16384, 0, rw));
+      g_param_spec_int("width", "Width", "Width of every view (0: the cameras')", 0, kMaxImageSide, 0, rw));
   g_object_class_install_property(gobject_class, PROP_HEIGHT,
-      g_param_spec_int("height", "Height", "Height of every view (0: the cameras')", 0, 16384, 0, rw));
+      g_param_spec_int("height", "Height", "Height of every view (0: the cameras')", 0, kMaxImageSide, 0, rw));
   g_object_class_install_property(gobject_class, PROP_FUSE_LATENCY,
       g_param_spec_uint64("fuse-latency", "Fuse latency", "Each view's viewfuse waits this long (ns) for a late camera",
                           0, G_MAXUINT64, 100 * GST_MSECOND, rw));
@@ -446,11 +464,5 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &cam_template);
   gst_element_class_set_static_metadata(element_class, "WHEP view-per-lecturer sink", "Sink/Network",
-      "Each lecturer joining over WHEP gets a view of their own: the prepared camera streams (cam_%u, after "
-      "learnerseg), each with its memory and warp preparation done once (viewprep), feed, per session, a "
-      "viewwarp per camera, a viewfuse steered by that lecturer's pose data channel only, and an H.264 "
-      "encoder to their webrtcbin; the views take turns to warp, and sessions come and go without disturbing "
-      "the others. Example: gst-launch-1.0 whepviewsink name=w port=0 token=secret max-sessions=2 "
-      "rgbdtestsrc camera-id=0 num-buffers=30 ! learnerseg ! w.cam_0",
-      "gst-vclassroom");
+      "Renders and sends each lecturer a view of their own over WebRTC with WHEP", "gst-vclassroom");
 }

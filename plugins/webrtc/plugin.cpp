@@ -6,14 +6,15 @@
 #include <gst/gst.h>
 
 #include "gstrtphdrextplayoutdelay.h"
-
-GType gst_whep_server_sink_get_type();
-GType gst_whep_view_sink_get_type();
+#include "gstwhepserversink.h"
+#include "gstwhepviewsink.h"
 
 static gboolean plugin_init(GstPlugin* plugin) {
-  return gst_element_register(plugin, "whepserversink", GST_RANK_NONE, gst_whep_server_sink_get_type()) &&
-         gst_element_register(plugin, "whepviewsink", GST_RANK_NONE, gst_whep_view_sink_get_type()) &&
-         gst_element_register(plugin, "rtphdrextplayoutdelay", GST_RANK_MARGINAL, GST_TYPE_RTP_HDREXT_PLAYOUT_DELAY);
+  gboolean ok = TRUE;
+  ok &= GST_ELEMENT_REGISTER(whepserversink, plugin);
+  ok &= GST_ELEMENT_REGISTER(whepviewsink, plugin);
+  ok &= GST_ELEMENT_REGISTER(rtphdrextplayoutdelay, plugin);
+  return ok;
 }
 
 GST_PLUGIN_DEFINE(GST_VERSION_MAJOR, GST_VERSION_MINOR, vclassroomwebrtc,
