@@ -1149,6 +1149,8 @@ void ViewWarper::splat_mesh(const Frame& f, const Layer& layer, const WarpParams
   const double er = prm.edge_ratio, emin = prm.edge_min_mm * 0.001;
   const float max_area2 = f.max_area2, max_u = f.max_u, max_v = f.max_v;
   const float gap = float(prm.max_gap_px);
+  Sample* const zbuf = f.zbuf;
+  const ColorSampler color = layer.color;
   auto consistent = [&](size_t a, size_t b, size_t c) {
     const float za = PZ[a], zb = PZ[b], zc = PZ[c];
     if (za <= 0 || zb <= 0 || zc <= 0) return false;
@@ -1190,11 +1192,11 @@ void ViewWarper::splat_mesh(const Frame& f, const Layer& layer, const WarpParams
         const float l0 = 1.0f - l1 - l2;
         if (l0 < eps || l1 < eps || l2 < eps) continue;
         const float z = l0 * PZ[a] + l1 * PZ[b] + l2 * PZ[c];
-        Sample& s = f.zbuf[size_t(y) * VW + x];
+        Sample& s = zbuf[size_t(y) * VW + x];
         const uint16_t zmm = depth_mm(z);
         if (zmm >= s.z) continue;
         store(s, zmm, to_fixed(l0 * ua + l1 * ub + l2 * uc, max_u), to_fixed(l0 * va + l1 * vb + l2 * vc, max_v),
-              layer.color, wq, lab);
+              color, wq, lab);
       }
     }
   };
@@ -1397,8 +1399,13 @@ void ViewWarper::splat_block_pair(const Frame& f, const Layer& layer, const Cell
                 *const bz = block_z_.data();
   const int32_t* const fixed_u = block_fixed_.data();
   const int32_t* const fixed_v = fixed_u + size_t(kBlockCandidates) * nb;
+  // Everything the writes need in locals: a byte store may alias anything reached through a pointer.
+  Sample* const zbuf = f.zbuf;
   const ptrdiff_t vw = f.VW;
+  const float mu = f.max_u, mv = f.max_v;
   const ColorSampler col = layer.color;
+  ptrdiff_t block_offset[kBlockCandidates];
+  std::copy(pass.block_offset, pass.block_offset + kBlockCandidates, block_offset);
   for (int j = 0; j < nb; ++j) {
     const int32_t m = mask[j];
     if (!m) continue;
@@ -1406,15 +1413,15 @@ void ViewWarper::splat_block_pair(const Frame& f, const Layer& layer, const Cell
     const int u = 2 * j;
     const uint8_t label = lab[u];
     if (m == kBigCell) {
-      splat_big_cell(SplatTarget{f.zbuf, vw, f.max_u, f.max_v}, col, blocks, j, float(u) + 0.5f, float(v) + 0.5f,
-                     -kBlock, kBlock, -kBlock, kBlock, zmm, label);
+      splat_big_cell(SplatTarget{zbuf, vw, mu, mv}, col, blocks, j, float(u) + 0.5f, float(v) + 0.5f, -kBlock,
+                     kBlock, -kBlock, kBlock, zmm, label);
       continue;
     }
-    Sample* const first = f.zbuf + y0[j] * vw + x0[j];
+    Sample* const first = zbuf + y0[j] * vw + x0[j];
     const uint8_t weight = uint8_t(wt[j]);
     for (unsigned bits = m; bits; bits &= bits - 1) {
       const int k = __builtin_ctz(bits);
-      Sample& s = first[pass.block_offset[k]];
+      Sample& s = first[block_offset[k]];
       if (zmm >= s.z) continue;
       const size_t at = size_t(k) * nb + j;
       store(s, zmm, fixed_u[at], fixed_v[at], col, weight, label);
