@@ -593,8 +593,8 @@ TEST(Docs, EveryLaunchLineOfReadmeAndDocsRuns) {
 }
 
 // Every element is documented the GStreamer way: a gtk-doc block at the top of its source whose example
-// launch line uses it and runs. (The examples used to sit in the gst-inspect-1.0 description; an element
-// whose block is not written yet is still held to the example in its description.)
+// launch line uses it and runs. (The examples used to sit in the gst-inspect-1.0 description, which is now
+// one sentence.)
 TEST(Docs, EveryElementsDocBlockCarriesAnExampleThatRuns) {
   const std::map<std::string, GstElementFactory*> elements = project_elements();
   ASSERT_FALSE(elements.empty()) << "no vclassroom plugin on GST_PLUGIN_PATH";
@@ -605,25 +605,18 @@ TEST(Docs, EveryElementsDocBlockCarriesAnExampleThatRuns) {
   for (const auto& [name, factory] : elements) {
     const std::string description =
         gst_element_factory_get_metadata(factory, GST_ELEMENT_METADATA_DESCRIPTION);
-    DocCommand c;
-    if (const auto b = blocks.find(name); b != blocks.end()) {
-      c = b->second;
-      if (!starts_with(c.text, "gst-launch-1.0 ")) {
-        ADD_FAILURE() << c.where << ": the documentation block has no example launch line";
-        continue;
-      }
-      EXPECT_EQ(description.find("gst-launch-1.0"), std::string::npos)
-          << name << ": the gst-inspect-1.0 description still holds an example (it belongs in the block)";
-    } else {
-      const size_t at = description.find("gst-launch-1.0 ");
-      if (at == std::string::npos) {
-        ADD_FAILURE() << name << ": no documentation block (SECTION:element-" << name
-                      << ") and no example in the description";
-        continue;
-      }
-      std::printf("[ docs     ] %s has no documentation block yet: its description's example runs\n", name.c_str());
-      c = DocCommand{"gst-inspect-1.0 " + name, description.substr(at), description};
+    const auto b = blocks.find(name);
+    if (b == blocks.end()) {
+      ADD_FAILURE() << name << ": no documentation block (SECTION:element-" << name << ") in plugins/";
+      continue;
     }
+    const DocCommand& c = b->second;
+    if (!starts_with(c.text, "gst-launch-1.0 ")) {
+      ADD_FAILURE() << c.where << ": the documentation block has no example launch line";
+      continue;
+    }
+    EXPECT_EQ(description.find("gst-launch-1.0"), std::string::npos)
+        << name << ": the gst-inspect-1.0 description still holds an example (it belongs in the block)";
     std::string error;
     const std::vector<std::string> words = pipeline_words(split_argv(c.text, &error));
     // A header extension is used through a payloader's extmap caps field, not by name.
