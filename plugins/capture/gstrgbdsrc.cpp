@@ -6,6 +6,16 @@
  * by the kernel's capture time, as video/x-rgbd with the rig camera's calibration in the caps
  * (docs/capture.md).
  *
+ * ## Properties
+ *
+ * color-device: YUYV, RGB3 or MJPG at the rig camera's size. depth-device: Z16 or Y16, aligned to the
+ * colour at the rig camera's size or, when the rig gives depth_to_color, at the depth lens's size,
+ * registered into the colour image; depth units are the rig's depth_scale. rig: see docs/rig-format.md;
+ * empty, rgbdsrc takes the first size both nodes offer and a nominal calibration, with a warning.
+ * max-skew: colour and depth frames further apart are dropped and counted, never mismatched; keep it under
+ * half the frame interval. reconnect: a camera that goes away while streaming is a warning, and rgbdsrc
+ * waits for it to return.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdsrc color-device=/dev/video0 depth-device=/dev/video2 rig=rig.yaml ! rgbddemux name=d d.color ! videoconvert ! fakesink
@@ -334,21 +344,15 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
   const auto ro = GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
   g_object_class_install_property(gobject_class, PROP_COLOR_DEVICE,
                                   g_param_spec_string("color-device", "Colour device",
-                                                      "The camera's colour node (/dev/videoN or a /dev/v4l/by-id "
-                                                      "name): YUYV, RGB3 or MJPG at the rig camera's size",
+                                                      "The camera's colour V4L2 node (/dev/videoN or a /dev/v4l/by-id name)",
                                                       "", rw));
   g_object_class_install_property(gobject_class, PROP_DEPTH_DEVICE,
                                   g_param_spec_string("depth-device", "Depth device",
-                                                      "The camera's depth node: Z16 or Y16, aligned to the colour at the rig camera's size, or, "
-                                                      "when the rig gives depth_to_color, at the depth lens's size, "
-                                                      "registered into the colour image (depth units: the rig's "
-                                                      "depth_scale)",
+                                                      "The camera's depth V4L2 node (/dev/videoN or a /dev/v4l/by-id name)",
                                                       "", rw));
   g_object_class_install_property(gobject_class, PROP_RIG,
                                   g_param_spec_string("rig", "Rig file",
-                                                      "Rig YAML file (docs/rig-format.md) giving the camera's size, "
-                                                      "calibration and depth scale; empty: the first size both nodes "
-                                                      "offer and a nominal calibration, with a warning",
+                                                      "Rig YAML file of the camera's size, calibration and depth scale (empty = nominal)",
                                                       "", rw));
   g_object_class_install_property(gobject_class, PROP_CAMERA_ID,
                                   g_param_spec_int("camera-id", "Camera id", "Which camera of the rig this is", 0,
@@ -356,9 +360,7 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_MAX_SKEW,
       g_param_spec_uint64("max-skew", "Maximum skew",
-                          "Colour and depth frames whose capture times differ by at most this many ns are one "
-                          "frame; others are dropped and counted, never mismatched (keep it under half the frame "
-                          "interval)",
+                          "Largest colour-depth capture time difference that still pairs, in ns",
                           0, GST_SECOND, kDefaultMaxSkew, rw));
   g_object_class_install_property(gobject_class, PROP_FRAMERATE,
                                   gst_param_spec_fraction("framerate", "Frame rate", "Frame rate asked of the camera",
@@ -366,8 +368,7 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_RECONNECT,
       g_param_spec_boolean("reconnect", "Reconnect",
-                           "A camera that goes away while streaming (unplugged) is a warning, and rgbdsrc waits for "
-                           "it to return; off: an error that stops the pipeline",
+                           "Wait for an unplugged camera to return (off = an error that stops the pipeline)",
                            FALSE, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS)));
   g_object_class_install_property(gobject_class, PROP_FRAMES_UNPAIRED,
                                   g_param_spec_uint64("frames-unpaired", "Unpaired frames",

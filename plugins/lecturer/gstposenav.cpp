@@ -7,6 +7,16 @@
  * start pose; each change goes upstream as a vclassroom/pose event. The navigation events it uses stop here.
  * Also drives the view from the six-slider notation or a pose trace.
  *
+ * ## Properties
+ *
+ * rig: the sliders and navigation are relative to the rig's reference camera; empty, to the rig origin
+ * looking level along -Z. With a navigation section (vclassroom-build-model writes one,
+ * docs/navigation.md) the view and trace poses stay inside its bounds. sliders: the paper's six-slider
+ * notation (docs/pose.md) gives the start pose; setting it while playing jumps there, and reading it gives
+ * the current view. pose-trace: when set, each frame that passes sends the next pose of the trace (the
+ * last one holds) and navigation is ignored (docs/pose.md). server-clamped: counted from the frame's pose
+ * meta (the RTP pose header extension); the view moves to the edge the server clamped it to.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! posenav ! videoconvert ! fakesink
@@ -364,9 +374,7 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_RIG,
       g_param_spec_string("rig", "Rig file",
-                          "Rig YAML file whose reference camera the sliders and navigation are relative to (empty: "
-                          "the rig origin, looking level along -Z); with a navigation section (vclassroom-build-model "
-                          "writes one, docs/navigation.md) the view and trace poses stay inside its bounds",
+                          "Rig YAML file the sliders and navigation are relative to (empty = the rig origin)",
                           "", ready));
   g_object_class_install_property(gobject_class, PROP_REFERENCE_CAMERA,
                                   g_param_spec_int("reference-camera", "Reference camera",
@@ -375,15 +383,12 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_SLIDERS,
       g_param_spec_string("sliders", "Sliders",
-                          "The paper's six-slider view [right,up,forward,yaw,pitch,roll], 0..100, 50 = the "
-                          "reference camera (docs/pose.md): the start pose; setting it while playing jumps there. "
-                          "Reading it gives the current view",
+                          "Six-slider view [right,up,forward,yaw,pitch,roll], each 0..100 (50 = the reference camera)",
                           "[50,50,50,50,50,50]", playing));
   g_object_class_install_property(
       gobject_class, PROP_POSE_TRACE,
       g_param_spec_string("pose-trace", "Pose trace",
-                          "CSV pose trace (docs/pose.md): when set, each frame that passes sends the next pose of "
-                          "the trace (the last one holds) and navigation is ignored",
+                          "CSV pose trace file to play, one pose per frame (empty = navigate with the mouse and keys)",
                           "", ready));
   g_object_class_install_property(gobject_class, PROP_MOVE_STEP,
                                   g_param_spec_double("move-step", "Move step",
@@ -405,8 +410,7 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_SERVER_CLAMPED,
       g_param_spec_uint64("server-clamped", "Frames clamped by the server",
-                          "Frames showing the latest pose as the server moved it into its navigation bounds (the "
-                          "frame's pose meta, from the RTP pose header extension): the view moves to that edge",
+                          "Frames showing the latest pose clamped by the server into its navigation bounds",
                           0, G_MAXUINT64, 0, GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);

@@ -7,6 +7,15 @@
  * time, latest seq wins; damaged, unauthenticated (key-file), implausible (max-distance) and out-of-window
  * packets are dropped, counted and warned about (rate-limited).
  *
+ * ## Properties
+ *
+ * key-file: the key is 16 to 1024 raw bytes (e.g. head -c 32 /dev/urandom > pose.key); only poses tagged
+ * with it are obeyed, and unset any sender can steer the view. session-timeout: a lecturer's session that
+ * sent nothing new nor a repeat for this long gives way to the next sender (a restarted lecturer).
+ * rejected counts poses with a seq far ahead of the session's, or from another session while the obeyed
+ * one is alive; replayed counts authenticated packets whose packet number was seen before, is below the
+ * window, or was held back.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 udpsrc port=5006 caps=application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE ! r.rtp rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! poserecv name=r ! videoconvert ! fakesink
@@ -248,19 +257,16 @@ static void gst_pose_recv_class_init(GstPoseRecvClass* klass) {
   install_count(gobject_class, PROP_IMPLAUSIBLE, "implausible", "Implausible poses",
                 "Poses dropped as invalid (NaN, not a unit quaternion) or farther than max-distance");
   install_count(gobject_class, PROP_REJECTED, "rejected", "Rejected poses",
-                "Poses dropped for a seq far ahead of the session's, or from another session while the obeyed "
-                "one is alive");
+                "Poses dropped for a far-ahead seq or from a session other than the obeyed one");
   install_count(gobject_class, PROP_REPLAYED, "replayed", "Replayed packets",
-                "Authenticated packets dropped as replays: a packet number seen before or below the window, or "
-                "held back (with key-file set)");
+                "Authenticated packets dropped as replays (with key-file set)");
   install_count(gobject_class, PROP_SESSION_SWITCHES, "session-switches", "Session switches",
                 "Times a new or restarted lecturer's session took over");
   const auto rw_ready = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
   g_object_class_install_property(
       gobject_class, PROP_KEY_FILE,
       g_param_spec_string("key-file", "Key file",
-                          "File holding the shared pose key (16 to 1024 raw bytes, e.g. head -c 32 /dev/urandom > "
-                          "pose.key): only poses tagged with it are obeyed. Unset: any sender can steer the view",
+                          "File of the shared pose key, 16 to 1024 raw bytes (unset = poses are not authenticated)",
                           nullptr, rw_ready));
   g_object_class_install_property(
       gobject_class, PROP_MAX_DISTANCE,
@@ -271,14 +277,12 @@ static void gst_pose_recv_class_init(GstPoseRecvClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_SESSION_TIMEOUT,
       g_param_spec_uint("session-timeout", "Session timeout",
-                        "A lecturer's session that sent nothing new nor a repeat for this long (ms) gives way to the "
-                        "next sender (a restarted lecturer)",
+                        "Silence in ms after which a lecturer's session gives way to the next sender",
                         1, 60000, 500, rw_ready));
   g_object_class_install_property(
       gobject_class, PROP_STATS_INTERVAL,
       g_param_spec_uint("stats-interval", "Statistics interval",
-                        "Post a vclassroom-pose-stats element message every N packets received and at the pose "
-                        "stream's end (0: never)",
+                        "Post a vclassroom-pose-stats message every N packets and at the end (0 = never)",
                         0, G_MAXUINT, 0,
                         GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);

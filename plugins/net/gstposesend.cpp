@@ -6,6 +6,13 @@
  * from downstream (posenav) leave as RTP packets on the 'rtp' pad (link it to udpsink); the latest pose is
  * repeated with each frame so loss heals.
  *
+ * ## Properties
+ *
+ * repeat: the latest pose goes again with every video frame, so a lost packet is made good at the next
+ * frame. key-file: the key is 16 to 1024 raw bytes (e.g. head -c 32 /dev/urandom > pose.key); every pose
+ * packet carries an HMAC-SHA256 tag made with it. trace-location: the trace (CSV: running time t in s,
+ * position, orientation, seq; docs/pose.md) lets a recorded session be rendered again.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! posesend name=s ! posenav ! videoconvert ! fakesink s.rtp ! udpsink host=127.0.0.1 port=5006
@@ -365,8 +372,7 @@ static void gst_pose_send_class_init(GstPoseSendClass* klass) {
                         GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
   g_object_class_install_property(
       gobject_class, PROP_REPEAT,
-      g_param_spec_boolean("repeat", "Repeat", "Send the latest pose again with every video frame, so a lost packet "
-                                               "is made good at the next frame",
+      g_param_spec_boolean("repeat", "Repeat", "Send the latest pose again with every video frame",
                            TRUE, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(gobject_class, PROP_SENT,
                                   g_param_spec_uint64("sent", "Packets sent", "Pose packets sent so far", 0,
@@ -375,14 +381,12 @@ static void gst_pose_send_class_init(GstPoseSendClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_KEY_FILE,
       g_param_spec_string("key-file", "Key file",
-                          "File holding the shared pose key (16 to 1024 raw bytes, e.g. head -c 32 /dev/urandom > "
-                          "pose.key): every pose packet carries an HMAC-SHA256 tag made with it. Unset: untagged",
+                          "File of the shared pose key, 16 to 1024 raw bytes, to tag packets with (unset = untagged)",
                           nullptr, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
   g_object_class_install_property(
       gobject_class, PROP_TRACE_LOCATION,
       g_param_spec_string("trace-location", "Trace file",
-                          "Also write every pose sent to this pose trace (CSV: running time t in s, position, "
-                          "orientation, seq; docs/pose.md), so a recorded session can be rendered again. Unset: none",
+                          "CSV pose trace file to write every pose sent to (unset = none)",
                           nullptr, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);

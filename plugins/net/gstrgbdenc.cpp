@@ -6,6 +6,11 @@
  * lossless, every part checksummed; the calibration stays in the caps (video/x-rgbd-coded) so it crosses
  * rtpgstpay.
  *
+ * ## Properties
+ *
+ * stats-interval: the vclassroom-codec-stats message carries frames, bytes, frames-dropped and the drops by
+ * kind (dropped-damaged, dropped-wrong-size, dropped-rejected-caps); docs/network.md lists its fields.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc quality=80 ! rtpgstpay mtu=1400 ! rtpgstdepay ! rgbddec ! rgbddemux name=d d.color ! videoconvert ! fakesink

@@ -6,6 +6,13 @@
  * addresses, of the configured payload types and, with lock-ssrc, one SSRC per payload type; counts and
  * drops the rest (vclassroom-sender-stats messages, rate-limited warnings).
  *
+ * ## Properties
+ *
+ * allow: IPv4 or IPv6 addresses, or host names resolved at start. payload-types: e.g. 96,97 for video and
+ * its retransmissions; packets of other types are dropped and counted, never locked onto; leave it empty
+ * for RTCP ports. ssrcs: e.g. 96=0x56430001, a camera's fixed SSRC (pipelines/classroom.sh SSRC); from the
+ * first packet on, no other stream of that payload type passes, whatever lock-ssrc says.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 udpsrc port=5000 caps=application/x-rtp ! senderfilter allow=127.0.0.1,10.0.0.7 payload-types=96,97 ! fakesink
@@ -293,8 +300,7 @@ static void gst_sender_filter_class_init(GstSenderFilterClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_ALLOW,
       g_param_spec_string("allow", "Allowed senders",
-                          "Source addresses accepted, comma-separated (IPv4, IPv6 or host names resolved at start); "
-                          "empty: any",
+                          "Comma-separated source addresses or host names accepted (empty = any)",
                           "", rw));
   g_object_class_install_property(
       gobject_class, PROP_LOCK_SSRC,
@@ -308,16 +314,12 @@ static void gst_sender_filter_class_init(GstSenderFilterClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_PAYLOAD_TYPES,
       g_param_spec_string("payload-types", "Payload types",
-                          "RTP payload types the port carries, comma-separated (e.g. 96,97 for video and its "
-                          "retransmissions); packets of others are dropped and counted, never locked onto. Empty: "
-                          "any (for RTCP ports leave it empty)",
+                          "Comma-separated RTP payload types the port carries (empty = any)",
                           "", rw));
   g_object_class_install_property(
       gobject_class, PROP_SSRCS,
       g_param_spec_string("ssrcs", "Fixed SSRCs",
-                          "The one SSRC a payload type may carry, PT=SSRC comma-separated (e.g. 96=0x56430001: a "
-                          "camera's fixed SSRC, pipelines/classroom.sh SSRC); from the first packet on, no other "
-                          "stream of that type passes, whatever lock-ssrc says. Empty: none fixed",
+                          "Comma-separated PT=SSRC pairs, the only SSRC each payload type may carry (empty = none fixed)",
                           "", rw));
   g_object_class_install_property(gobject_class, PROP_ACCEPTED,
                                   g_param_spec_uint64("accepted", "Accepted", "Packets passed on since the element started", 0, G_MAXUINT64,

@@ -37,10 +37,7 @@ void codec_stats_install_properties(GObjectClass* klass, const char* frames_blur
   g_object_class_install_property(
       klass, kPropStatsInterval,
       g_param_spec_uint("stats-interval", "Statistics interval",
-                        "Post a vclassroom-codec-stats element message (frames, bytes, frames-dropped, "
-                        "dropped-damaged, dropped-wrong-size, dropped-rejected-caps; behind an rtpjitterbuffer also "
-                        "packets-received, -lost, -repaired and retransmissions-requested) every this many frames "
-                        "and at the end of the stream; 0: never",
+                        "Post a vclassroom-codec-stats message every N frames and at the end (0 = never)",
                         0, G_MAXUINT, 0,
                         GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
 }

@@ -7,6 +7,12 @@
  * present (a few frames a second); video/x-rgbd-coded from rgbdenc is recorded as it is, with each frame's
  * running time, at the camera's full rate (a live recording, played back at its original timing).
  *
+ * ## Properties
+ *
+ * location: the camera is added to LOCATION/rig.yaml and its frames go to LOCATION/camID/PLANE/FRAME.png
+ * (video/x-rgbd) or LOCATION/camID/stream.vcrs (video/x-rgbd-coded); docs/dataset-format.md describes the
+ * layout.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=90 ! rgbdenc ! rgbdfilesink location=rec
@@ -213,9 +219,7 @@ static void gst_rgbd_file_sink_class_init(GstRgbdFileSinkClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_LOCATION,
       g_param_spec_string("location", "Dataset folder",
-                          "Folder to record into: the camera is added to <location>/rig.yaml and its frames go to "
-                          "<location>/cam<ID>/<plane>/<frame>.png (video/x-rgbd) or <location>/cam<ID>/stream.vcrs "
-                          "(video/x-rgbd-coded)",
+                          "Dataset folder to record into",
                           "", flags));
   g_object_class_install_property(gobject_class, PROP_RIG_NAME,
                                   g_param_spec_string("rig-name", "Rig name",

@@ -7,6 +7,12 @@
  * plays at the timing it was recorded with. Datasets come from rgbdfilesink or vclassroom-import
  * (docs/datasets.md).
  *
+ * ## Properties
+ *
+ * location: a folder holding rig.yaml and camID/{color,depth,label,depth-gt}/ images, or
+ * camID/stream.vcrs, a live recording of rgbdfilesink (docs/dataset-format.md). framerate: a live
+ * recording plays at its recorded timing; framerate is then only the rate its caps announce.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdfilesrc location=out/art camera-id=1 loop=true framerate=15/1 ! rgbddemux name=d d.color ! videoconvert ! fakesink
@@ -268,8 +274,7 @@ static void gst_rgbd_file_src_class_init(GstRgbdFileSrcClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_LOCATION,
       g_param_spec_string("location", "Dataset folder",
-                          "Recorded dataset folder: rig.yaml + cam<ID>/{color,depth,label,depth-gt}/ images, or "
-                          "cam<ID>/stream.vcrs, a live recording of rgbdfilesink (docs/dataset-format.md)",
+                          "Recorded dataset folder to play (docs/dataset-format.md)",
                           "", flags));
   g_object_class_install_property(gobject_class, PROP_CAMERA_ID,
                                   g_param_spec_int("camera-id", "Camera id", "Which camera of the rig to play", 0,
@@ -282,8 +287,7 @@ static void gst_rgbd_file_src_class_init(GstRgbdFileSrcClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_FRAMERATE,
       gst_param_spec_fraction("framerate", "Frame rate",
-                              "Frame rate images are played at (a live recording plays at its recorded timing; "
-                              "this is then only the rate its caps announce)",
+                              "Frame rate images are played at",
                               1, 1, 1000, 1, 30,
                               1, flags));
 

@@ -5,6 +5,10 @@
  * Pairs a colour (RGB) and a registered depth (GRAY16_LE, mm) stream of one camera by running time into
  * video/x-rgbd, with the camera's calibration from a rig file in the caps. Zero copy.
  *
+ * ## Properties
+ *
+ * max-skew: older unpaired frames are dropped.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! m.color d.depth ! queue ! m.depth rgbdmux name=m ! rgbddemux name=e e.color ! videoconvert ! fakesink
@@ -324,8 +328,7 @@ static void gst_rgbd_mux_class_init(GstRgbdMuxClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_MAX_SKEW,
       g_param_spec_uint64("max-skew", "Maximum skew",
-                          "Largest running-time difference (ns) between a colour and a depth frame that still "
-                          "pair; older unpaired frames are dropped (-1: half a colour frame)",
+                          "Largest colour-depth running-time difference that still pairs, in ns (-1 = half a frame)",
                           0, G_MAXUINT64, GST_CLOCK_TIME_NONE,
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
 

@@ -5,6 +5,19 @@
  * A synthetic classroom with moving learners seen from one camera of a rig, as video/x-rgbd with the
  * camera's calibration in the caps, an optional consumer depth-sensor model and exact ground truth.
  *
+ * ## Properties
+ *
+ * camera-id: in the default rig 0 is the centre camera, 1 the left and 2 the right, as seen from the
+ * cameras. rig: the cameras' poses and intrinsics in the classroom's rig frame (docs/rig-format.md); the
+ * default rig is 3 cameras 0.8 m apart at the front, 960x540 (docs/synthetic-classroom.md). seed: it picks
+ * the textures, writing, learners' looks, seats and behaviour, and the sensor noise; instances with the
+ * same seed show the same scene at the same frame. sensor-noise: depth holes on dark, glossy and grazing
+ * surfaces and outside the depth field of view, noise growing with depth squared, flying pixels at depth
+ * edges, 1 mm quantisation, colour noise. ground-truth: the label plane holds 0 for static pixels and k
+ * for learner k; the caps planes are then "color,depth,label,depth-gt" (else "color,depth").
+ * calibration-board: someone carries a 9x6 checkerboard of 80 mm squares through the room, holding it
+ * still 1 s at each of 24 stops in front of the default rig (docs/real-classroom.md).
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! rgbddemux name=d d.color ! queue ! videoconvert ! fakesink d.depth ! queue ! depthcolorize ! videoconvert ! fakesink
@@ -332,21 +345,17 @@ static void gst_rgbd_test_src_class_init(GstRgbdTestSrcClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_CAMERA_ID,
       g_param_spec_int("camera-id", "Camera id",
-                       "Which camera of the rig to render (default rig: 0 centre, 1 left, 2 right, as seen from "
-                       "the cameras)",
+                       "Which camera of the rig to render (default rig: 0 centre, 1 left, 2 right)",
                        0, G_MAXINT, 0, flags));
   g_object_class_install_property(
       gobject_class, PROP_RIG,
       g_param_spec_string("rig", "Rig file",
-                          "Rig YAML file (docs/rig-format.md) giving the cameras' poses and intrinsics in the "
-                          "classroom's rig frame; empty = the default rig (3 cameras 0.8 m apart at the front, "
-                          "960x540, docs/synthetic-classroom.md)",
+                          "Rig YAML file of the cameras' poses and intrinsics (empty = the default rig)",
                           "", flags));
   g_object_class_install_property(
       gobject_class, PROP_SEED,
       g_param_spec_uint64("seed", "Seed",
-                          "Seed of the classroom (textures, writing, learners' looks, seats and behaviour) and of the "
-                          "sensor noise; instances with the same seed show the same scene at the same frame",
+                          "Seed of the classroom and of the sensor noise",
                           0, G_MAXUINT64, kDefaultSeed, flags));
   g_object_class_install_property(
       gobject_class, PROP_LEARNERS,
@@ -355,15 +364,12 @@ static void gst_rgbd_test_src_class_init(GstRgbdTestSrcClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_SENSOR_NOISE,
       g_param_spec_boolean("sensor-noise", "Sensor noise",
-                           "Simulate a consumer RGB-D camera: depth holes on dark, glossy and grazing surfaces and "
-                           "outside the depth field of view, noise growing with depth squared, flying pixels at "
-                           "depth edges, 1 mm quantisation, colour noise. Off: the clean render",
+                           "Simulate a consumer RGB-D camera's noise and holes (off = the clean render)",
                            TRUE, flags));
   g_object_class_install_property(
       gobject_class, PROP_GROUND_TRUTH,
       g_param_spec_boolean("ground-truth", "Ground truth",
-                           "Add the learner label plane (0 static, k learner k) and the clean depth (depth-gt) to "
-                           "every buffer: caps planes = \"color,depth,label,depth-gt\" (else \"color,depth\")",
+                           "Add the learner label plane and the clean depth (depth-gt) to every buffer",
                            TRUE, flags));
   g_object_class_install_property(
       gobject_class, PROP_IS_LIVE,
@@ -377,9 +383,7 @@ static void gst_rgbd_test_src_class_init(GstRgbdTestSrcClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_CALIBRATION_BOARD,
       g_param_spec_boolean("calibration-board", "Calibration board",
-                           "Someone carries a 9x6 checkerboard of 80 mm squares through the room, holding it still "
-                           "1 s at each of 24 stops in front of the default rig (for vclassroom-calibrate "
-                           "--synthetic, docs/real-classroom.md)",
+                           "Show a 9x6 checkerboard carried through the room (for vclassroom-calibrate --synthetic)",
                            FALSE, flags));
 
   gst_element_class_add_static_pad_template(element_class, &src_template);

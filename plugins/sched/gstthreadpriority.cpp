@@ -5,6 +5,12 @@
  * Passes everything through and lowers the scheduling priority of the thread that pushes it (Linux nice
  * value), so that work nobody waits for yields the CPU to work somebody does.
  *
+ * ## Properties
+ *
+ * nice: a thread already nicer is left as it is. Put the element after a queue so the value applies to
+ * that queue's thread only. The thread keeps the value until it ends (raising a priority back needs
+ * privileges), also when its pool gives it to another task after a stop.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! queue ! threadpriority nice=10 ! rgbddemux name=d d.color ! videoconvert ! fakesink
@@ -151,10 +157,7 @@ static void gst_thread_priority_class_init(GstThreadPriorityClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_NICE,
       g_param_spec_int("nice", "Nice value",
-                       "Nice value given to the streaming thread that pushes through this element (0 = normal, 19 = "
-                       "lowest priority); a thread already nicer is left as it is. Put it after a queue so it applies "
-                       "to that queue's thread only. The thread keeps the value until it ends (raising a priority "
-                       "back needs privileges), also when its pool gives it to another task after a stop",
+                       "Nice value of the streaming thread pushing through it (0 = normal, 19 = lowest priority)",
                        0, 19, kDefaultNice,
                        GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);

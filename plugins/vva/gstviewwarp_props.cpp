@@ -50,7 +50,7 @@ void view_warp_install_properties(GObjectClass* klass) {
   g_object_class_install_property(
       klass, PROP_PRIOR_DEPTH,
       g_param_spec_string("prior-depth", "Prior depth",
-                          "16-bit PNG (mm) of the empty room seen by this camera: the static layer's depth (empty: "
+                          "16-bit PNG (mm) of this camera's empty room: the static layer's depth (empty: "
                           "the stream's)",
                           "", ready));
   g_object_class_install_property(

@@ -5,6 +5,11 @@
  * Tells a WebRTC receiver how long it may buffer each frame (webrtc.org playout-delay); a payloader adds it
  * where downstream caps name its URI.
  *
+ * ## Properties
+ *
+ * Both delays go in 10 ms steps. max-delay 0 with min-delay 0 asks the receiver to show each frame as soon
+ * as it is decoded.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 videotestsrc num-buffers=30 ! x264enc ! rtph264pay ! 'application/x-rtp,extmap-5=(string)http://www.webrtc.org/experiments/rtp-hdrext/playout-delay' ! fakesink
@@ -106,8 +111,7 @@ static void gst_rtp_hdrext_playout_delay_class_init(GstRtpHdrExtPlayoutDelayClas
                        0, kPlayoutDelayMaxMs, 0, rw));
   g_object_class_install_property(gobject_class, PROP_MAX_DELAY,
       g_param_spec_int("max-delay", "Maximum delay",
-                       "The most the receiver may buffer a frame, in ms (10 ms steps; 0 with min-delay 0: show each "
-                       "frame as soon as it is decoded)", 0, kPlayoutDelayMaxMs, 0, rw));
+                       "The most the receiver may buffer a frame, in ms (10 ms steps)", 0, kPlayoutDelayMaxMs, 0, rw));
   ext_class->get_supported_flags = get_supported_flags;
   ext_class->get_max_size = get_max_size;
   ext_class->write = write;

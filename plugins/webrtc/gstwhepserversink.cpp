@@ -6,6 +6,22 @@
  * (POST /whep?token=..., DELETE the Location to leave); the pose comes back over a data channel as the
  * vclassroom/pose event upstream. Every lecturer sees the same view (whepviewsink: a view each).
  *
+ * ## Properties
+ *
+ * bitrate is the most a lecturer gets: each session's rate follows the losses its browser reports, posting
+ * a vclassroom-lecturer-bitrate element message (session, kbit, fraction-lost) on each change; the shared
+ * encoder takes the lowest. playout-delay is sent, with a minimum of 0, as the playout-delay RTP header
+ * extension where the offer lists it, so the browser shows frames as soon as they are decoded instead of
+ * growing a jitter buffer. A lecturer whose browser sends no receiver report for lecturer-timeout seconds
+ * while their view is sent (a closed laptop, a lost network, a handshake never finished) is taken as gone:
+ * the session ends with a warning and its place is freed. listen-addresses: 0.0.0.0 is every IPv4
+ * interface, :: every IPv6 one (skipped where the system has no IPv6), or one interface's address such as
+ * 192.168.1.10. http-timeout: the seconds from a connection's accept to the end of its request (headers
+ * and body), and the longest a read or write on it may wait; slower or idle connections are closed.
+ * stun-server: each session's ICE also gathers the address a NAT shows and the page is told to use it
+ * (WHEP OPTIONS Link header). turn-server: a relay for lecturers behind NATs that let no direct path
+ * through; the page gets it with its credentials. See docs/lecturer.md.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 videotestsrc num-buffers=30 ! video/x-raw,width=960,height=540 ! whepserversink port=0 token=secret

@@ -7,6 +7,17 @@
  * per camera, a viewfuse steered by that lecturer's pose data channel only, and an H.264 encoder to their
  * webrtcbin; the views take turns to warp, and sessions come and go without disturbing the others.
  *
+ * ## Properties
+ *
+ * model: camera K's viewprep reads MODEL/prior-depth/camK.png and, with background-memory, starts its
+ * memory of the room from MODEL/prior-color/camK.png (docs/vva.md); the memory is kept once for every view.
+ * warp-sync: each view's cameras wait for each other two thirds of their frame interval, never longer
+ * than this (viewfuse's warp-sync). longest-turn: the views take turns to warp, each view's cameras on all
+ * cores while the others wait before reading their poses, so a frame's pose is as old as one view's warps,
+ * not all views'; a view holding the turn longer than this loses it to the next (docs/lecturer.md).
+ * The WHEP server's properties are whepserversink's; docs/lecturer.md describes them (bitrate,
+ * playout-delay, lecturer-timeout, listen-addresses, http-timeout, stun-server, turn-server).
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 whepviewsink name=w port=0 token=secret max-sessions=2 rgbdtestsrc camera-id=0 num-buffers=30 ! learnerseg ! w.cam_0
@@ -435,8 +446,8 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
       g_param_spec_string("navigation-rig", "Navigation rig",
                           "Rig YAML with navigation bounds, for every view's viewfuse (docs/navigation.md; empty: unbounded)", "", rw));
   g_object_class_install_property(gobject_class, PROP_MODEL,
-      g_param_spec_string("model", "Model", "Static model folder (vclassroom-build-model): camera K's viewprep reads "
-                          "MODEL/prior-depth/camK.png (empty: none)", "", rw));
+      g_param_spec_string("model", "Model", "Static model folder of vclassroom-build-model for the viewpreps (empty = none)", "",
+                          rw));
   g_object_class_install_property(gobject_class, PROP_WIDTH,
       g_param_spec_int("width", "Width", "Width of every view (0: the cameras')", 0, kMaxImageSide, 0, rw));
   g_object_class_install_property(gobject_class, PROP_HEIGHT,
@@ -446,20 +457,14 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
                           0, G_MAXUINT64, 100 * GST_MSECOND, rw));
   g_object_class_install_property(gobject_class, PROP_WARP_SYNC,
       g_param_spec_uint64("warp-sync", "Warp sync",
-                          "Each view's cameras wait for each other before reading the pose, two thirds of their "
-                          "frame interval and never longer than this (ns) (viewfuse's warp-sync; 0: no wait)",
+                          "Longest wait of a view's cameras for each other before reading the pose, in ns (0 = no wait)",
                           0, 60 * GST_SECOND, 100 * GST_MSECOND, rw));
   g_object_class_install_property(gobject_class, PROP_BACKGROUND_MEMORY,
       g_param_spec_int("background-memory", "Background memory",
-                       "Each camera's viewprep keeps a memory of the room of this many frames, started from the "
-                       "model's empty room (MODEL/prior-color/camK.png) when model is set (docs/vva.md), once for "
-                       "every view. 0: off", 0, 64, 0, rw));
+                       "Frames in each camera's background memory of the room (0 = off)", 0, 64, 0, rw));
   g_object_class_install_property(gobject_class, PROP_LONGEST_TURN,
       g_param_spec_uint64("longest-turn", "Longest turn",
-                          "The views take turns to warp, each view's cameras on all cores while the others wait "
-                          "before reading their poses, so a frame's pose is as old as one view's warps, not all "
-                          "views' (docs/lecturer.md); a view holding the turn longer than this (ns) loses it to "
-                          "the next. 0: every view warps at once", 0, ViewTurnsParams::kLongestTurnNs, 100 * GST_MSECOND,
+                          "Longest a view may hold its turn to warp, in ns (0 = every view warps at once)", 0, ViewTurnsParams::kLongestTurnNs, 100 * GST_MSECOND,
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &cam_template);

@@ -463,9 +463,7 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
       g_param_spec_string("tls-key", "TLS key", "PEM private key file of tls-certificate", "", rw()));
   g_object_class_install_property(klass, p + kBitrate,
       g_param_spec_uint("bitrate", "Bitrate",
-                        "H.264 bitrate in kbit/s, the most a lecturer gets: each session's rate follows the losses "
-                        "its browser reports (posting a vclassroom-lecturer-bitrate element message: session, "
-                        "kbit, fraction-lost on each change; whepserversink's shared encoder takes the lowest)",
+                        "Highest H.264 bitrate a lecturer gets, in kbit/s (lowered on reported losses)",
                         100, 50000, 4000, rw()));
   g_object_class_install_property(klass, p + kMaxSessions,
       g_param_spec_uint("max-sessions", "Max sessions", "Lecturers at once; more get 503", 1, 64, 4, rw()));
@@ -479,33 +477,26 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
       g_param_spec_uint("sessions", "Sessions", "Lecturers joined now", 0, 64, 0, ro()));
   g_object_class_install_property(klass, p + kPlayoutDelay,
       g_param_spec_int("playout-delay", "Playout delay",
-                       "The most a browser may buffer each frame, in ms, sent with a minimum of 0 as the "
-                       "playout-delay RTP header extension where the offer lists it: the browser shows frames as "
-                       "soon as they are decoded instead of growing a jitter buffer (-1: not sent)",
+                       "Maximum playout delay sent to browsers, in ms (-1 = not sent)",
                        -1, kPlayoutDelayMaxMs, 100, rw()));
   g_object_class_install_property(klass, p + kStunServer,
       g_param_spec_string("stun-server", "STUN server",
-                          "stun://host:port: each session's ICE also gathers the address a NAT shows, and the page "
-                          "is told to use it (WHEP OPTIONS Link header); empty: host candidates only", "", rw()));
+                          "STUN server as stun://host:port for the sessions and the page (empty = host candidates only)",
+                          "", rw()));
   g_object_class_install_property(klass, p + kTurnServer,
       g_param_spec_string("turn-server", "TURN server",
-                          "turn://user:password@host:port (or turns:// over TLS): a relay for lecturers behind NATs "
-                          "that let no direct path through; the page gets it with its credentials", "", rw()));
+                          "TURN relay as turn://user:password@host:port or turns:// (empty = none)", "", rw()));
   g_object_class_install_property(klass, p + kLecturerTimeout,
       g_param_spec_uint("lecturer-timeout", "Lecturer timeout",
-                        "Seconds without a receiver report from a lecturer's browser, while their view was sent, "
-                        "after which the lecturer is taken as gone (a closed laptop, a lost network, a handshake "
-                        "never finished): their session is ended with a warning and its place freed. 0: never",
+                        "Seconds without a receiver report before a lecturer's session is ended (0 = never)",
                         0, 3600, 15, rw()));
   g_object_class_install_property(klass, p + kListenAddresses,
       g_param_spec_string("listen-addresses", "Listen addresses",
-                          "Comma-separated IP addresses the WHEP/HTTP server listens on: 0.0.0.0 every IPv4 "
-                          "interface, :: every IPv6 one (skipped where the system has no IPv6), or one "
-                          "interface's address such as 192.168.1.10", "0.0.0.0,::", rw()));
+                          "Comma-separated IP addresses the WHEP/HTTP server listens on (0.0.0.0 = all IPv4, :: = all IPv6)",
+                          "0.0.0.0,::", rw()));
   g_object_class_install_property(klass, p + kHttpTimeout,
       g_param_spec_uint("http-timeout", "HTTP timeout",
-                        "Seconds a connection has from its accept to the end of its request (headers and body), "
-                        "and the longest a read or write on it may wait; slower or idle connections are closed",
+                        "Seconds an HTTP connection has to send its whole request; also the longest read or write wait",
                         1, 300, 5, rw()));
   g_object_class_install_property(klass, p + kMaxConnections,
       g_param_spec_uint("max-connections", "Max connections",
