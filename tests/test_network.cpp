@@ -506,6 +506,23 @@ struct Server {
 };
 }  // namespace
 
+namespace {
+// A lecturer's posesend signing with `key_file`, in a harness; its packets land in `packets`.
+struct SignedLecturer {
+  GstHarness* h = nullptr;
+  Capture packets;
+  explicit SignedLecturer(const std::string& key_file) {
+    GstElement* e = gst_element_factory_make("posesend", nullptr);
+    g_object_set(e, "key-file", key_file.c_str(), nullptr);
+    h = gst_harness_new_with_element(e, "sink", "src");
+    gst_object_unref(e);
+    gst_harness_set_src_caps_str(h, kVideoCaps);
+    packets.attach(h->element, "rtp");
+  }
+  ~SignedLecturer() { gst_harness_teardown(h); }
+};
+}  // namespace
+
 TEST(PoseSessions, ASeqOf2To64Minus1DoesNotLockOutTheLecturer) {
   Server srv;
   GstClockTime t = 0;
@@ -599,17 +616,10 @@ TEST(PoseAuthentication, WithAKeyOnlyTaggedPosesAreObeyed) {
   EXPECT_EQ(srv.count("unauthenticated"), 2u);
   EXPECT_EQ(srv.count("injected"), 0u);
   // The lecturer's posesend, given the same key file, is obeyed.
-  GstElement* e = gst_element_factory_make("posesend", nullptr);
-  g_object_set(e, "key-file", key_file.c_str(), nullptr);
-  GstHarness* lect = gst_harness_new_with_element(e, "sink", "src");
-  gst_object_unref(e);
-  gst_harness_set_src_caps_str(lect, kVideoCaps);
-  Capture packets;
-  packets.attach(lect->element, "rtp");
-  EXPECT_TRUE(gst_harness_push_upstream_event(lect, pose_event_new(pose_with_seq(3))));
-  ASSERT_TRUE(packets.wait_for(1));
-  EXPECT_EQ(srv.push(gst_buffer_ref(packets.buffers[0])), std::vector<uint64_t>{3});
-  gst_harness_teardown(lect);
+  SignedLecturer lect(key_file);
+  EXPECT_TRUE(gst_harness_push_upstream_event(lect.h, pose_event_new(pose_with_seq(3))));
+  ASSERT_TRUE(lect.packets.wait_for(1));
+  EXPECT_EQ(srv.push(gst_buffer_ref(lect.packets.buffers[0])), std::vector<uint64_t>{3});
 }
 
 TEST(PoseAuthentication, AMissingOrShortKeyFileIsAnErrorAtStart) {
@@ -850,16 +860,12 @@ TEST(PoseAuthentication, TheLecturersRepeatsAreFreshPacketsNotReplays) {
   const std::string key_file = dir / "pose.key";
   vctest::write_text(key_file, "the classroom's 32-byte pose key");
   Server srv(Server::Props{{"key-file", key_file}});
-  GstElement* e = gst_element_factory_make("posesend", nullptr);
-  g_object_set(e, "key-file", key_file.c_str(), nullptr);
-  GstHarness* lect = gst_harness_new_with_element(e, "sink", "src");
-  gst_object_unref(e);
-  gst_harness_set_src_caps_str(lect, kVideoCaps);
-  Capture packets;
-  packets.attach(lect->element, "rtp");
-  EXPECT_TRUE(gst_harness_push_upstream_event(lect, pose_event_new(pose_with_seq(3))));
-  for (int i = 0; i < 20; ++i) ASSERT_EQ(gst_harness_push(lect, gst_harness_create_buffer(lect, 48)), GST_FLOW_OK);
-  ASSERT_TRUE(packets.wait_for(21));
+  SignedLecturer lect(key_file);
+  const Capture& packets = lect.packets;
+  EXPECT_TRUE(gst_harness_push_upstream_event(lect.h, pose_event_new(pose_with_seq(3))));
+  for (int i = 0; i < 20; ++i)
+    ASSERT_EQ(gst_harness_push(lect.h, gst_harness_create_buffer(lect.h, 48)), GST_FLOW_OK);
+  ASSERT_TRUE(lect.packets.wait_for(21));
   // Received at the times they were sent (the receiver's clock set to the sender's).
   std::set<uint64_t> numbers;
   for (size_t i = 0; i < 21; ++i) {
@@ -882,7 +888,6 @@ TEST(PoseAuthentication, TheLecturersRepeatsAreFreshPacketsNotReplays) {
   // Replayed as they were captured, every one is refused.
   for (size_t i = 0; i < 21; ++i) EXPECT_TRUE(srv.push(gst_buffer_ref(packets.buffers[i])).empty());
   EXPECT_EQ(srv.count("replayed"), 21u);
-  gst_harness_teardown(lect);
 }
 
 // viewfuse with two cameras' viewwarps: a new session's first pose reaches every camera and the fused view
