@@ -452,6 +452,28 @@ TEST(FuseInputs, ALiveSilentCameraIsReportedLostOnceThenBackAndNamedOnTheBanner)
   EXPECT_TRUE(offline.decide({}, later).status_changes.empty());
 }
 
+// A fuse told to wait for late frames (its latency) longer than the camera timeout does not give a slow
+// camera up before that wait is over: its frames still count.
+TEST(FuseInputs, ACameraIsNotLostBeforeTheFusesLatencyHasPassed) {
+  FuseInputs inputs(FuseInputsParams{50'000'000, 1000, true});
+  inputs.configure(kPadA, 0, 64, 36);
+  inputs.configure(kPadB, 1, 64, 36);
+  RoundContext ctx = live_round(0);
+  ctx.latency_ns = 5000;
+  inputs.decide({pending(kPadA), pending(kPadB)}, ctx);
+  ctx = live_round(4000);
+  ctx.latency_ns = 5000;
+  FuseRound round = inputs.decide({pending(kPadA)}, ctx);
+  EXPECT_TRUE(round.status_changes.empty()) << "camera 1 given up before the fuse's latency";
+  EXPECT_TRUE(round.missing.empty());
+  ctx = live_round(5500);
+  ctx.latency_ns = 5000;
+  round = inputs.decide({pending(kPadA)}, ctx);
+  ASSERT_EQ(round.status_changes.size(), 1u);
+  EXPECT_EQ(round.status_changes[0].camera_id, 1);
+  EXPECT_TRUE(round.status_changes[0].lost);
+}
+
 // Issue 29: a camera configured (the fuse has its pad) that never sent was
 // never missed: no warning, no banner. Expected inputs are watched from the
 // first live round and lost after the timeout, named by their pad's camera

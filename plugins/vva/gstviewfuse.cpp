@@ -180,7 +180,9 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
   GST_OBJECT_UNLOCK(agg);
   if (pads.empty() && all_eos) return GST_FLOW_EOS;
   RoundContext ctx;
-  ctx.live = GST_CLOCK_TIME_IS_VALID(gst_aggregator_get_latency(agg));
+  const GstClockTime latency = gst_aggregator_get_latency(agg);
+  ctx.live = GST_CLOCK_TIME_IS_VALID(latency);
+  ctx.latency_ns = time_ns(latency);
   st->live = ctx.live;
   const GstClockTime now = ctx.live ? running_time_now(GST_ELEMENT(agg)) : GST_CLOCK_TIME_NONE;
   ctx.now_ns = time_ns(now);

@@ -76,6 +76,7 @@ FuseRound FuseInputs::decide(const std::vector<PendingFrame>& frames, const Roun
   if (clocked) {
     // Every input is watched from the first round that has a clock, frames or not.
     for (const auto& [key, in] : inputs_) liveness_.expect(in.camera_id, ctx.now_ns);
+    if (params_.camera_timeout_ns > 0) liveness_.set_timeout(std::max(params_.camera_timeout_ns, ctx.latency_ns));
     for (const PendingFrame& f : frames) {
       const Input* in = input(f.key);
       const int id = in ? in->camera_id : 0;

@@ -56,6 +56,9 @@ struct RoundContext {
   int64_t last_out_ns = -1;  // running time of the last output frame
   bool have_picture = false;  // a fused picture was sent and can be sent again
   int64_t monotonic_ns = 0;  // for rate-limiting the warnings
+  // Live: how long the fuse waits for a late camera's frame (its latency). A camera is never lost sooner:
+  // a fuse told to wait 5 s for a slow camera must not give it up after the 1 s camera timeout.
+  int64_t latency_ns = 0;
   // The session of the latest pose passed upstream to the warps, when one was: frames warped for another
   // session's pose are stale (stale_poses()).
   std::optional<uint64_t> steering_session;
