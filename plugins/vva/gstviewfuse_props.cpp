@@ -82,7 +82,7 @@ void view_fuse_install_properties(GObjectClass* klass) {
   g_object_class_install_property(
       klass, PROP_CAMERA_TIMEOUT,
       g_param_spec_uint64("camera-timeout", "Camera timeout",
-                          "Live: ns without a frame before a camera is reported lost (0: never)",
+                          "Live: ns without a frame before a camera is lost, at least the latency (0: never)",
                           0, G_MAXINT64, guint64(di.camera_timeout_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
