@@ -764,12 +764,8 @@ struct Renderer {
   GstHarness* h = nullptr;
   RgbdInfo info;
   Renderer() {
-    Rig rig = default_classroom_rig();
-    for (auto& c : rig.cameras) c = scale_camera(c, 32, 18);
-    const std::string path = dir / "rig.yaml";
-    save_rig(rig, path);
-    h = gst_harness_new_parse(("viewwarp rig=" + path).c_str());
-    info.camera = rig.camera(1);
+    h = gst_harness_new_parse(("viewwarp rig=" + vctest::small_classroom_rig(dir, 32, 18)).c_str());
+    info.camera = scale_camera(default_classroom_rig().camera(1), 32, 18);
     info.planes = {Plane::Color, Plane::Depth};
     gst_harness_set_src_caps(h, rgbd_caps_new(info));
   }
@@ -792,6 +788,17 @@ struct Renderer {
 };
 }  // namespace
 
+namespace {
+// Pose `seq` of the lecturer (ssrc, session) reaches poserecv at time t; what poserecv obeys steers `view`, as
+// the fuse forwards it. Returns how many poses were obeyed (0 or 1).
+size_t deliver(Server& srv, Renderer& view, GstClockTime t, uint64_t seq, guint32 ssrc, uint64_t session) {
+  srv.at(t);
+  const std::vector<GstEvent*> obeyed = srv.push_for_events(pose_packet(pose_with_seq(seq), ssrc, session));
+  view.steer(obeyed);
+  return obeyed.size();
+}
+}  // namespace
+
 // issue 29: viewwarp kept the highest seq it had ever seen, across sessions: a restarted lecturer (seq from
 // 1 again) was ignored by the renderer although poserecv obeyed it.
 TEST(PoseSessions, ARestartedLecturerSteersTheViewFromItsFirstPose) {
@@ -799,18 +806,14 @@ TEST(PoseSessions, ARestartedLecturerSteersTheViewFromItsFirstPose) {
   Renderer view;
   GstClockTime t = 0;
   for (uint64_t seq = 1; seq <= 41; ++seq, t += kFrameTime) {
-    srv.at(t);
-    view.steer(srv.push_for_events(pose_packet(pose_with_seq(seq), 0xAAAA, 1)));
+    deliver(srv, view, t, seq, 0xAAAA, 1);
   }
   const std::pair<uint64_t, uint64_t> before = view.next_frame();
   EXPECT_EQ(before.second, 41u);
   // The lecturer restarts: a new SSRC and session, seq from 1, after the session timeout.
   t += 600 * GST_MSECOND;
   for (uint64_t seq = 1; seq <= 5; ++seq, t += kFrameTime) {
-    srv.at(t);
-    const std::vector<GstEvent*> obeyed = srv.push_for_events(pose_packet(pose_with_seq(seq), 0xBBBB, 2));
-    ASSERT_EQ(obeyed.size(), 1u) << "poserecv did not obey seq " << seq;
-    view.steer(obeyed);
+    ASSERT_EQ(deliver(srv, view, t, seq, 0xBBBB, 2), 1u) << "poserecv did not obey seq " << seq;
     const std::pair<uint64_t, uint64_t> shown = view.next_frame();
     EXPECT_EQ(shown.second, seq) << "the renderer did not follow the restarted lecturer";
     EXPECT_NE(shown.first, before.first);
@@ -823,19 +826,16 @@ TEST(PoseSessions, ASeqOf2To64Minus1FromAnotherSessionDoesNotFreezeTheView) {
   Renderer view;
   GstClockTime t = 0;
   for (uint64_t seq = 1; seq <= 10; ++seq, t += kFrameTime) {
-    srv.at(t);
-    view.steer(srv.push_for_events(pose_packet(pose_with_seq(seq), 0x1111, 7)));
+    deliver(srv, view, t, seq, 0x1111, 7);
   }
   // The lecturer pauses; a stranger's single pose takes over (the session rule allows it) ...
   t += 600 * GST_MSECOND;
-  srv.at(t);
-  view.steer(srv.push_for_events(pose_packet(pose_with_seq(UINT64_MAX), 0x6666, 66)));
+  deliver(srv, view, t, UINT64_MAX, 0x6666, 66);
   EXPECT_EQ(view.next_frame().second, UINT64_MAX);
   // ... and once it is silent, the lecturer steers again, from where its seq stands.
   t += 600 * GST_MSECOND;
   for (uint64_t seq = 11; seq <= 15; ++seq, t += kFrameTime) {
-    srv.at(t);
-    view.steer(srv.push_for_events(pose_packet(pose_with_seq(seq), 0x1111, 7)));
+    deliver(srv, view, t, seq, 0x1111, 7);
     EXPECT_EQ(view.next_frame().second, seq);
   }
 }
@@ -846,9 +846,8 @@ TEST(PoseSessions, APoseOfASessionThatIsNotSteeringNeverMovesTheView) {
   Renderer view;
   GstClockTime t = 0;
   for (uint64_t seq = 1; seq <= 30; ++seq, t += kFrameTime) {
-    srv.at(t);
-    view.steer(srv.push_for_events(pose_packet(pose_with_seq(seq), 0xAAAA, 1)));
-    view.steer(srv.push_for_events(pose_packet(pose_with_seq(1000 + seq), 0xBBBB, 2)));
+    deliver(srv, view, t, seq, 0xAAAA, 1);
+    deliver(srv, view, t, 1000 + seq, 0xBBBB, 2);
     EXPECT_EQ(view.next_frame().second, seq);
   }
 }
@@ -894,10 +893,8 @@ TEST(PoseAuthentication, TheLecturersRepeatsAreFreshPacketsNotReplays) {
 // shows it at once, whatever seq the session before had reached.
 TEST(PoseSessions, TheFusedViewFollowsANewSessionAtOnce) {
   vctest::TempDir dir;
-  Rig rig = default_classroom_rig();
-  for (auto& c : rig.cameras) c = scale_camera(c, 64, 36);
-  const std::string r = dir / "rig.yaml";
-  save_rig(rig, r);
+  const std::string r = vctest::small_classroom_rig(dir, 64, 36);
+  const CameraCalib reference = default_classroom_rig().camera(0);  // its pose: the scaled rig's camera 0
   std::string desc = "viewfuse name=f ! appsink name=out sync=false max-buffers=1";
   for (int i = 1; i <= 2; ++i)
     desc += " rgbdtestsrc rig=" + r + " camera-id=" + std::to_string(i) + " learners=1 ! viewwarp rig=" + r +
@@ -922,12 +919,12 @@ TEST(PoseSessions, TheFusedViewFollowsANewSessionAtOnce) {
     }
     return seen;
   };
-  Pose a = sliders_to_pose(Sliders{60, 50, 55, 45, 50, 50}, rig.camera(0));
+  Pose a = sliders_to_pose(Sliders{60, 50, 55, 45, 50, 50}, reference);
   a.session = 0xA;
   a.seq = 41;
   ASSERT_TRUE(gst_pad_push_event(sinkpad, pose_event_new(a)));
   EXPECT_TRUE(shows_from_now_on(0xA, 41));
-  Pose b = sliders_to_pose(Sliders{40, 50, 50, 55, 50, 50}, rig.camera(0));
+  Pose b = sliders_to_pose(Sliders{40, 50, 50, 55, 50, 50}, reference);
   b.session = 0xB;
   b.seq = 1;
   ASSERT_TRUE(gst_pad_push_event(sinkpad, pose_event_new(b)));

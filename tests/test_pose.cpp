@@ -550,7 +550,9 @@ TEST(PoseChannel, ACapturedSignedPoseReplayedUnderAnotherSsrcNeverSteers) {
   for (int i = 0; i < 120; ++i, t += kFrame) {
     const std::vector<uint8_t> w = signed_packet(c.key, session, ++packet, t, ++seq);
     obeyed += ch.receive(w.data(), w.size(), "ssrc 0000aaaa", t).obey;
-    if (i % 3 == 0) EXPECT_FALSE(ch.receive(captured.data(), captured.size(), "ssrc 0000eeee", t).obey);
+    if (i % 3 == 0) {
+      EXPECT_FALSE(ch.receive(captured.data(), captured.size(), "ssrc 0000eeee", t).obey);
+    }
   }
   EXPECT_EQ(obeyed, 120);
   EXPECT_EQ(ch.counts().replayed, 50u);

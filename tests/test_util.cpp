@@ -12,6 +12,8 @@
 #include <gst/app/gstappsink.h>
 #include <gtest/gtest.h>
 
+#include <gst/vclassroom/synthetic/classroom.h>
+
 #include "../tools/free_port.h"
 
 namespace fs = std::filesystem;
@@ -218,6 +220,14 @@ void expect_rig_error_within_targets(const std::string& out) {
   EXPECT_LE(std::stod(m[1]), 1.0) << out;
   EXPECT_LE(std::stod(m[2]), 0.3) << out;
   EXPECT_LE(std::stod(m[3]), 0.5) << out;
+}
+
+std::string small_classroom_rig(const TempDir& dir, int width, int height) {
+  vclassroom::Rig rig = vclassroom::default_classroom_rig();
+  for (auto& c : rig.cameras) c = vclassroom::scale_camera(c, width, height);
+  const std::string path = dir / "rig.yaml";
+  vclassroom::save_rig(rig, path);
+  return path;
 }
 
 }  // namespace vctest

@@ -25,6 +25,10 @@ class TempDir {
 };
 
 // ../shared/data (from VCLASSROOM_SHARED_DATA), or "" when absent.
+// The default synthetic classroom's rig with every camera at width x height, written to `dir`/rig.yaml;
+// returns its path.
+std::string small_classroom_rig(const TempDir& dir, int width = 160, int height = 90);
+
 std::string shared_data();
 // Path of a file or folder inside the shared data, or "" when absent.
 std::string shared_path(const std::string& relative);

@@ -38,14 +38,7 @@ using namespace vclassroom;
 
 namespace {
 
-// A rig of the default classroom at a small size, written to `dir`.
-std::string small_classroom_rig(const vctest::TempDir& dir, int w = 160, int h = 90) {
-  Rig rig = default_classroom_rig();
-  for (auto& c : rig.cameras) c = scale_camera(c, w, h);
-  const std::string path = dir / "rig.yaml";
-  save_rig(rig, path);
-  return path;
-}
+using vctest::small_classroom_rig;
 
 // Frame `index` (30 fps) of `info`'s planes from the render `r`, its colour with a camera's noise (sigma 4)
 // from `rng`; the label plane, where `info` has one, from the render's.
