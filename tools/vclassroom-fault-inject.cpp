@@ -108,16 +108,19 @@ GstPadProbeReturn on_pose_packet(GstPad*, GstPadProbeInfo* info, gpointer data) 
   auto* s = static_cast<LecturerStream*>(data);
   GstRTPBuffer rtp = GST_RTP_BUFFER_INIT;
   if (!gst_rtp_buffer_map(GST_PAD_PROBE_INFO_BUFFER(info), GST_MAP_READ, &rtp)) return GST_PAD_PROBE_OK;
-  if (gst_rtp_buffer_get_payload_len(&rtp) >= kPoseWireSize) {
-    const auto* p = static_cast<const uint8_t*>(gst_rtp_buffer_get_payload(&rtp));
+  const auto* p = static_cast<const uint8_t*>(gst_rtp_buffer_get_payload(&rtp));
+  const size_t size = gst_rtp_buffer_get_payload_len(&rtp);
+  Pose pose;
+  PoseWireInfo wire;
+  // Read as the server reads it, without the key (the lecturer's own packets: the tag is not the question).
+  if (pose_from_wire(p, size, &pose, nullptr, nullptr, &wire)) {
     std::lock_guard<std::mutex> g(s->lock);
     s->seen = true;
     s->ssrc = gst_rtp_buffer_get_ssrc(&rtp);
-    // The fields' offsets in version 3 (docs/network.md, "Wire payload").
-    s->session = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 8));
-    s->packet = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 16));
-    s->seq = GUINT64_FROM_LE(*reinterpret_cast<const guint64*>(p + 32));
-    if (s->first_payload.empty()) s->first_payload.assign(p, p + gst_rtp_buffer_get_payload_len(&rtp));
+    s->session = wire.stamp.session;
+    s->packet = wire.stamp.packet;
+    s->seq = pose.seq;
+    if (s->first_payload.empty()) s->first_payload.assign(p, p + size);
   }
   gst_rtp_buffer_unmap(&rtp);
   return GST_PAD_PROBE_OK;
