@@ -898,6 +898,40 @@ std::set<GstElement*> elements_made_by(GstElement* bin, const char* factory) {
 }
 
 // A death-test child's failure: says why on stderr and exits 1.
+// Counts the buffers leaving an element's src pad (a probe, from the streaming thread); wait_for() waits,
+// bounded, for a number of them. Lives as long as the child process that uses it.
+struct FrameCounter {
+  GMutex lock;
+  GCond cond;
+  int frames = 0;
+  FrameCounter() {
+    g_mutex_init(&lock);
+    g_cond_init(&cond);
+  }
+  void attach(GstElement* element) {
+    GstPad* pad = gst_element_get_static_pad(element, "src");
+    gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, [](GstPad*, GstPadProbeInfo*, gpointer data) {
+      FrameCounter* c = static_cast<FrameCounter*>(data);
+      g_mutex_lock(&c->lock);
+      ++c->frames;
+      g_cond_signal(&c->cond);
+      g_mutex_unlock(&c->lock);
+      return GST_PAD_PROBE_OK;
+    }, this, nullptr);
+    gst_object_unref(pad);
+  }
+  // How many had come when `n` had, or `seconds` passed.
+  int wait_for(int n, int seconds) {
+    const gint64 deadline = g_get_monotonic_time() + seconds * G_TIME_SPAN_SECOND;
+    g_mutex_lock(&lock);
+    while (frames < n && g_cond_wait_until(&cond, &lock, deadline)) {
+    }
+    const int seen = frames;
+    g_mutex_unlock(&lock);
+    return seen;
+  }
+};
+
 [[noreturn]] void fail(const std::string& why) {
   std::fprintf(stderr, "%s\n", why.c_str());
   _exit(1);
@@ -987,29 +1021,10 @@ struct ViewsChild {
   gint memory = 0;
   g_object_get(prep, "background-memory", &memory, nullptr);
   if (memory != 4) fail("camera 1's viewprep has a background memory of " + std::to_string(memory) + ", not 4");
-  struct Seen {
-    GMutex lock;
-    GCond cond;
-    int frames = 0;
-  } seen;
-  g_mutex_init(&seen.lock);
-  g_cond_init(&seen.cond);
-  GstPad* warped = gst_element_get_static_pad(added, "src");
-  gst_pad_add_probe(warped, GST_PAD_PROBE_TYPE_BUFFER, [](GstPad*, GstPadProbeInfo*, gpointer data) {
-    Seen* s = static_cast<Seen*>(data);
-    g_mutex_lock(&s->lock);
-    ++s->frames;
-    g_cond_signal(&s->cond);
-    g_mutex_unlock(&s->lock);
-    return GST_PAD_PROBE_OK;
-  }, &seen, nullptr);
+  FrameCounter seen;
+  seen.attach(added);
   gst_element_sync_state_with_parent(camera);
-  const gint64 deadline = g_get_monotonic_time() + 60 * G_TIME_SPAN_SECOND;
-  g_mutex_lock(&seen.lock);
-  while (seen.frames < 3 && g_cond_wait_until(&seen.cond, &seen.lock, deadline)) {
-  }
-  const int frames = seen.frames;
-  g_mutex_unlock(&seen.lock);
+  const int frames = seen.wait_for(3, 60);
   if (frames < 3) fail("camera 1's viewwarp warped " + std::to_string(frames) + " frames in 60 s");
   std::fprintf(stderr, "camera 1 reached the view: %d frames warped\n", frames);
   _exit(0);  // webrtcbin 1.22 outlives gst_deinit(): no teardown for the leaks tracer to count
@@ -1034,28 +1049,9 @@ struct ViewsChild {
   std::set<GstElement*> warps = elements_made_by(child.sink, "viewwarp");
   if (warps.size() != 1) fail("the view has " + std::to_string(warps.size()) + " warps");
   GstElement* warp = *warps.begin();
-  struct Seen {
-    GMutex lock;
-    GCond cond;
-    int frames = 0;
-  } seen;
-  g_mutex_init(&seen.lock);
-  g_cond_init(&seen.cond);
-  GstPad* warped = gst_element_get_static_pad(warp, "src");
-  gst_pad_add_probe(warped, GST_PAD_PROBE_TYPE_BUFFER, [](GstPad*, GstPadProbeInfo*, gpointer data) {
-    Seen* s = static_cast<Seen*>(data);
-    g_mutex_lock(&s->lock);
-    ++s->frames;
-    g_cond_signal(&s->cond);
-    g_mutex_unlock(&s->lock);
-    return GST_PAD_PROBE_OK;
-  }, &seen, nullptr);
-  const gint64 deadline = g_get_monotonic_time() + 60 * G_TIME_SPAN_SECOND;
-  g_mutex_lock(&seen.lock);
-  while (seen.frames < 3 && g_cond_wait_until(&seen.cond, &seen.lock, deadline)) {
-  }
-  const int frames = seen.frames;
-  g_mutex_unlock(&seen.lock);
+  FrameCounter seen;
+  seen.attach(warp);
+  const int frames = seen.wait_for(3, 60);
   if (frames < 3) fail("the view warped " + std::to_string(frames) + " frames after the bad offers");
   GstMessage* error = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
   if (error) {
