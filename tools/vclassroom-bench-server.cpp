@@ -18,6 +18,7 @@
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
+#include <gst/vclassroom/vva/prepared_frame.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/vva/view_fuse.h>
@@ -120,10 +121,65 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
   return r;
 }
 
+// Several lecturers, each with a view of their own, as whepviewsink renders them: every camera frame is
+// segmented and prepared once (viewprep: the background memory, the warp's half that does not depend on the
+// pose), then warped and fused once per view for that view's pose. Prints the camera side per frame and what
+// one view frame costs: everything that depends on the lecturer's pose (warps, fuse with its fill and fade).
+void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame, int frames,
+               int views, int memory, const std::vector<cv::Mat>& empty_rooms) {
+  std::vector<FramePreparer> preparers(cams.size());
+  for (size_t i = 0; i < cams.size(); ++i) {
+    preparers[i].set_static_depth(cams[i].prior);
+    preparers[i].set_memory(memory, empty_rooms[i]);
+  }
+  const WarpParams wp;  // viewwarp's defaults
+  const FuseParams fp;  // viewfuse's
+  std::vector<std::vector<ViewWarper>> warpers(size_t(views), std::vector<ViewWarper>(cams.size()));
+  std::vector<WarpedView> warped(cams.size());
+  FusedView fused;
+  double camera_ms = 0, warp_ms = 0, fuse_ms = 0;
+  const int warm_up = 3;
+  for (int f = 0; f < warm_up + frames; ++f) {
+    const bool timed = f >= warm_up;
+    double t0 = thread_cpu_ms();
+    std::vector<std::shared_ptr<PreparedFrame>> prepared(cams.size());
+    std::vector<WarpSource> sources;
+    for (size_t i = 0; i < cams.size(); ++i) {
+      Camera& c = cams[i];
+      const size_t k = size_t(f) % c.color.size();
+      c.seg.segment(c.color[k], c.depth[k], &c.label);
+      prepared[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, wp);
+      sources.push_back(FramePreparer::source_of(*prepared[i], c.color[k], c.depth[k], c.label));
+    }
+    if (timed) camera_ms += thread_cpu_ms() - t0;
+    for (int v = 0; v < views; ++v) {
+      const CameraCalib virt = virt_at_frame(f, v);
+      t0 = thread_cpu_ms();
+      for (size_t i = 0; i < cams.size(); ++i)
+        warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, wp, &warped[i]);
+      const double t1 = thread_cpu_ms();
+      std::vector<const WarpedView*> inputs;
+      for (auto& w : warped) inputs.push_back(&w);
+      fuse_views(inputs, fp, &fused);
+      if (timed) {
+        warp_ms += t1 - t0;
+        fuse_ms += thread_cpu_ms() - t1;
+      }
+    }
+  }
+  const double per_view = (warp_ms + fuse_ms) / (double(frames) * views);
+  std::printf("%d views, background-memory=%d: per camera frame, once for all views (learnerseg + viewprep): %.2f ms "
+              "CPU for %zu cameras; per view frame: warp %.2f + fuse %.2f ms\n",
+              views, memory, camera_ms / frames, cams.size(), warp_ms / (double(frames) * views),
+              fuse_ms / (double(frames) * views));
+  std::printf("per view frame: %.1f ms CPU (%d views, %zu cameras %dx%d -> %dx%d)\n", per_view, views, cams.size(),
+              cams[0].calib.width, cams[0].calib.height, fused.color.cols, fused.color.rows);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  int frames = 60, threads = 2, memory = 0;
+  int frames = 60, threads = 2, memory = -1, views = 0;  // memory -1: not given
   gboolean no_edge_to_near = FALSE, no_model = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
@@ -134,6 +190,11 @@ int main(int argc, char** argv) {
        "no empty room's depth for learnerseg and viewwarp (what server.sh runs without MODEL: learnerseg learns "
        "the room's depth as it goes)",
        nullptr},
+      {"views", 0, 0, G_OPTION_ARG_INT, &views,
+       "only time N lecturers' views with different poses rendered from the same camera frames (the camera side "
+       "once per frame, as whepviewsink does), ending with the CPU time per view frame; the background memory "
+       "as --memory, 8 when --memory is not given (default 0: the stages as above)",
+       "N"},
       {"memory", 0, 0, G_OPTION_ARG_INT, &memory,
        "also time viewwarp's background memory of N frames, seeded with the empty room, and the room behind the "
        "learners it draws (default 0: off)",
@@ -145,22 +206,27 @@ int main(int argc, char** argv) {
       "on, 6 learners); the virtual view starts at camera 0's pose moved 0.2 m left and walks on sideways with a\n"
       "head turn, a new pose every frame.",
       entries);
-  if (frames < 1 || threads < 1 || memory < 0)
-    vclassroom_tools::usage_error("--frames and --threads must be at least 1, --memory at least 0");
+  const bool memory_given = memory >= 0;
+  if (!memory_given) memory = 0;
+  if (frames < 1 || threads < 1 || memory < 0 || views < 0)
+    vclassroom_tools::usage_error("--frames and --threads must be at least 1, --memory and --views at least 0");
   cv::setNumThreads(1);  // our threads are the cameras
   WarpParams warp;  // viewwarp's defaults
   warp.edge_to_near = !no_edge_to_near;
   const Rig rig = default_classroom_rig();
   const Classroom room(ClassroomConfig{1, 6, 2.0}), empty(ClassroomConfig{1, 0, 2.0});
   const int recorded = 8;
+  std::vector<cv::Mat> empty_rooms;  // each camera's view of the empty room, as make_cams made them
   auto make_cams = [&](const std::vector<int>& ids) {
     std::vector<Camera> cams(ids.size());
+    empty_rooms.clear();
     ClassroomRenderer renderer;
     for (size_t i = 0; i < ids.size(); ++i) {
       Camera& c = cams[i];
       c.calib = rig.camera(ids[i]);
       RenderOutput e;
       renderer.render(empty, 0.0, c.calib, &e);
+      empty_rooms.push_back(e.color);
       if (!no_model) {
         c.prior = e.depth.clone();
         c.seg.set_static_depth(c.prior);
@@ -192,6 +258,19 @@ int main(int argc, char** argv) {
       return virtual_camera(scale_camera(ref, w, h), p.cam_to_rig(), NAN);
     });
   };
+  if (views > 0) {
+    std::vector<Camera> cams = make_cams({0, 1, 2});
+    // View v: the walk above, its start moved v slider steps right and up, so no two views share a pose.
+    const std::function<CameraCalib(int, int)> view_at = [&ref](int f, int v) {
+      const double s = (f % 300) / 30.0;
+      const Pose p = sliders_to_pose(Sliders{40 + s + 4 * v, 50 + 3 * v, 50, 50 + s, 50, 50}, ref);
+      return virtual_camera(ref, p.cam_to_rig(), NAN);
+    };
+    std::printf("V-VA views, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, 1 thread\n",
+                frames);
+    run_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms);
+    return 0;
+  }
   std::printf("V-VA server stages, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, %d thread(s)\n",
               frames, threads);
   std::printf("(run under whatever load the machine has; see docs/vva.md)\n\n");

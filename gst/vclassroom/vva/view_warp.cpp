@@ -467,6 +467,9 @@ constexpr float kBlockKy[kBlockCandidates] = {0, 0, 0, 1, 1, 1, 2, 2, 2};
 // ends in its scalar remainder loop; runs in the same or adjacent chunks are
 // set up as one. The block pixels this adds are skipped in the splat.
 constexpr int kRunChunk = 16;
+// A layer drawn over column spans projects and links this many columns either side of each: a cell reads
+// its neighbours' projections and links, and a 2x2 block the pixels after it.
+constexpr int kSpanMargin = 2;
 // How much the step to the next pixel may differ from the step within the
 // block (px in the view) for the block to be one cell.
 constexpr float kBlockBend = 0.5f;
@@ -477,9 +480,11 @@ constexpr float kBlockBend = 0.5f;
 // one cell of twice the size, mapped by the mean of the block's differences
 // around the mean of its four points; out.sides[j] says which blocks are
 // (their four pixels then get no cell of their own). The rest as
-// prepare_cells, with out.z the block's depth in mm.
+// prepare_cells, with out.z the block's depth in mm. Blocks j_begin..j_end - 1
+// of the row's `blocks` are set up.
 VCLASSROOM_SIMD_CLONES
-void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __restrict px, const float* __restrict py,
+void prepare_blocks(const CellGeometry& g, int v, int j_begin, int j_end, int blocks, const float* __restrict px,
+                    const float* __restrict py,
                     const float* __restrict pz, const float* __restrict pw, const uint32_t* __restrict links,
                     const uint32_t* __restrict links_down, const uint32_t* __restrict links_up,
                     const CellRow& out, int32_t* __restrict oz, float max_u, float max_v,
@@ -495,7 +500,7 @@ void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __res
   float *__restrict osu = out.su, *__restrict osv = out.sv, *__restrict oa00 = out.dsu_dx,
         *__restrict oa10 = out.dsv_dx, *__restrict oa01 = out.dsu_dy, *__restrict oa11 = out.dsv_dy;
 #pragma GCC ivdep
-  for (int j = 0; j < blocks; ++j) {
+  for (int j = j_begin; j < j_end; ++j) {
     const int u = 2 * j;
     const uint32_t inside_links = links[u] & links[u + 1] & links_down[u] & links_down[u + 1];
     const uint32_t from_left = links[u - 1] & links_down[u - 1], from_up = links_up[u] & links_up[u + 1];
@@ -553,7 +558,7 @@ void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __res
   // Which candidates each cell covers, in a second pass (one pass needs more
   // vector registers than there are).
 #pragma GCC ivdep
-  for (int j = 0; j < blocks; ++j) {
+  for (int j = j_begin; j < j_end; ++j) {
     const float du0 = osu[j] - (float(2 * j) + 0.5f), dv0 = osv[j] - fv;
     const float a00 = oa00[j], a10 = oa10[j], a01 = oa01[j], a11 = oa11[j];
     const int nx = ox1[j] - ox0[j], ny = oy1[j] - oy0[j];
@@ -580,7 +585,7 @@ void prepare_blocks(const CellGeometry& g, int v, int blocks, const float* __res
     int32_t* __restrict ofu = ofixed + size_t(k) * blocks;
     int32_t* __restrict ofv = ofu + size_t(kBlockCandidates) * blocks;
 #pragma GCC ivdep
-    for (int j = 0; j < blocks; ++j) {
+    for (int j = j_begin; j < j_end; ++j) {
       ofu[j] = to_fixed(osu[j] + oa00[j] * kx + oa01[j] * ky, max_u);
       ofv[j] = to_fixed(osv[j] + oa10[j] * kx + oa11[j] * ky, max_v);
     }
@@ -1126,17 +1131,27 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
 }
 
 void ViewWarper::splat_layer(const Frame& f, const Layer& layer, const WarpParams& prm) {
-  const int W = f.W, H = f.H;
-  // The cells read the rows next to the ones they draw (the mesh reads every row).
-  const int first_projected = prm.mesh ? 0 : std::max(0, (std::max(0, layer.row_begin - 1) & ~1) - 1);
-  const int end_projected = prm.mesh ? H : std::min(H, layer.row_end + 3);
-  const size_t first = size_t(first_projected) * W, count = size_t(end_projected - first_projected) * W;
-  project_points(count, layer.depth + first, ray_x_.data() + first, ray_y_.data() + first, f.proj, f.PX + first,
-                 f.PY + first, f.PZ + first, f.PL + first, f.PW + first);
-  if (layer.weight_scale != 1.0f)
-    for (size_t i = first; i < first + count; ++i) f.PW[i] *= layer.weight_scale;
-  if (prm.mesh) splat_mesh(f, layer, prm);
-  else splat_cells(f, layer, prm);
+  const int H = f.H;
+  if (prm.mesh) {
+    project_rows(f, layer, 0, H, 0, f.W);
+    splat_mesh(f, layer, prm);
+  } else {
+    splat_cells(f, layer, prm);  // projects what it draws
+  }
+}
+
+void ViewWarper::project_rows(const Frame& f, const Layer& layer, int r0, int r1, int c0, int c1) {
+  const int W = f.W;
+  const size_t first = size_t(r0) * W + size_t(c0);
+  // Whole rows in one call: the loop's remainder once, not once per row.
+  const bool whole = c0 == 0 && c1 == W;
+  const size_t count = whole ? size_t(r1 - r0) * W : size_t(c1 - c0);
+  for (size_t at = first; at < size_t(r1) * W; at += whole ? count : size_t(W)) {
+    project_points(count, layer.depth + at, ray_x_.data() + at, ray_y_.data() + at, f.proj, f.PX + at, f.PY + at,
+                   f.PZ + at, f.PL + at, f.PW + at);
+    if (layer.weight_scale != 1.0f)
+      for (size_t i = at; i < at + count; ++i) f.PW[i] *= layer.weight_scale;
+  }
 }
 
 // The reference: the two triangles of every 2x2 block, rasterised.
@@ -1263,34 +1278,86 @@ void ViewWarper::splat_cells(const Frame& f, const Layer& layer, const WarpParam
   for (int k = 0; k < kBlockCandidates; ++k) pass.block_offset[k] = ptrdiff_t(k / 3) * f.VW + k % 3;
   // Pairs of rows from an even one; the row above the first has no links.
   const int first_pair = std::max(0, layer.row_begin - 1) & ~1;
+  const int end_pair = std::min(H, layer.row_end + 1);
+  if (layer.sparse) {
+    for (int v = first_pair; v < end_pair; v += 2) {
+      drawn_spans(f, layer, v, &spans_);
+      if (!spans_.empty()) splat_pair_spans(f, layer, pass, v, spans_);
+    }
+    return;
+  }
+  // Whole rows: each row projected and linked once, the rows above kept from the pair before.
+  project_rows(f, layer, std::max(0, first_pair - 1), std::min(H, layer.row_end + 3), 0, W);
   if (first_pair > 0) std::fill_n(links_row(W, first_pair - 1), W, 0u);
-  for (int v = first_pair; v < std::min(H, layer.row_end + 1); v += 2) {
-    link_row(f, layer, v);
-    if (v + 1 < H) link_row(f, layer, v + 1);
+  for (int v = first_pair; v < end_pair; v += 2) {
+    link_row(f, layer, v, 0, W);
+    if (v + 1 < H) link_row(f, layer, v + 1, 0, W);
     if (!pass.coarse || v + 1 >= H) {
-      splat_row_cells(f, layer, pass, v);
-      if (v + 1 < H) splat_row_cells(f, layer, pass, v + 1);
+      splat_fine_cells(f, layer, pass, v, 0, W, pass.no_blocks);
+      if (v + 1 < H) splat_fine_cells(f, layer, pass, v + 1, 0, W, pass.no_blocks);
       continue;
     }
-    splat_block_pair(f, layer, pass, v);
+    splat_block_pair(f, layer, pass, v, 0, W / 2);
   }
 }
 
 uint32_t* ViewWarper::links_row(int W, int v) { return links_.data() + size_t(v % 3) * (W + 2) + 1; }
 
-void ViewWarper::link_row(const Frame& f, const Layer& layer, int v) {
+// Links of row v's pixels c0..c1 - 1 (rows v and v + 1 projected there): to the right within the columns,
+// downwards. The last column has no right neighbour: the image's, or one not projected.
+void ViewWarper::link_row(const Frame& f, const Layer& layer, int v, int c0, int c1) {
   const int W = f.W;
-  const size_t row = size_t(v) * W;
-  uint32_t* out = links_row(W, v);
-  std::fill_n(out, W, 0u);
+  const size_t row = size_t(v) * W + size_t(c0);
+  const size_t n = size_t(c1 - c0);
+  uint32_t* out = links_row(W, v) + c0;
+  std::fill_n(out, n, 0u);
   // The last pixel too (its "right neighbour" is the next row's first, or padding), then unlinked: a whole
   // number of vectors.
-  link_neighbours(size_t(W), 1, f.PX + row, f.PY + row, f.PZ + row, f.PL + row, &layer.label[row], f.er, f.emin,
-                  kRight, out);
-  out[W - 1] &= ~kRight;
+  link_neighbours(n, 1, f.PX + row, f.PY + row, f.PZ + row, f.PL + row, &layer.label[row], f.er, f.emin, kRight,
+                  out);
+  out[n - 1] &= ~kRight;
   if (v + 1 < f.H)
-    link_neighbours(size_t(W), W, f.PX + row, f.PY + row, f.PZ + row, f.PL + row, &layer.label[row], f.er, f.emin,
-                    kDown, out);
+    link_neighbours(n, W, f.PX + row, f.PY + row, f.PZ + row, f.PL + row, &layer.label[row], f.er, f.emin, kDown,
+                    out);
+}
+
+// The column spans [first, second) of the row pair (v, v + 1) where a sparse layer has pixels, joined where
+// the columns either side that the cells read would overlap.
+void ViewWarper::drawn_spans(const Frame& f, const Layer& layer, int v, std::vector<std::pair<int, int>>* spans) {
+  spans->clear();
+  const int W = f.W;
+  const uint16_t* d0 = &layer.depth[size_t(v) * W];
+  const uint16_t* d1 = v + 1 < f.H ? d0 + W : d0;
+  for (int u = 0; u < W;) {
+    if (!(d0[u] | d1[u])) {
+      ++u;
+      continue;
+    }
+    const int u0 = u;
+    while (u < W && (d0[u] | d1[u])) ++u;
+    if (!spans->empty() && u0 - spans->back().second <= 2 * kSpanMargin) spans->back().second = u;
+    else spans->emplace_back(u0, u);
+  }
+}
+
+// A row pair's cells drawn over column spans only: the rows above and below the pair and the columns
+// either side of each span projected and linked first (what the cells read), so that a layer drawn in
+// parts costs what its parts hold.
+void ViewWarper::splat_pair_spans(const Frame& f, const Layer& layer, const CellPass& pass, int v,
+                                  const std::vector<std::pair<int, int>>& spans) {
+  const int W = f.W, H = f.H;
+  const int r0 = std::max(0, v - 1), r1 = std::min(H, v + 3);
+  for (const auto& [a, b] : spans)
+    project_rows(f, layer, r0, r1, std::max(0, a - kSpanMargin), std::min(W, b + kSpanMargin));
+  for (const auto& [a, b] : spans)
+    for (int r = r0; r < std::min(H, v + 2); ++r)
+      link_row(f, layer, r, std::max(0, a - kSpanMargin), std::min(W, b + kSpanMargin));
+  if (pass.coarse && v + 1 < H) {
+    for (const auto& [a, b] : spans) splat_block_pair(f, layer, pass, v, a / 2, std::min(W / 2, (b + 1) / 2));
+    return;
+  }
+  for (int r = v; r < std::min(H, v + 2); ++r)
+    for (const auto& [a, b] : spans) splat_fine_cells(f, layer, pass, r, a, b, pass.no_blocks);
 }
 
 // The cells of pixels u_begin..u_end - 1 of row v, set up and splatted; pixels of blocks drawn as one cell
@@ -1341,57 +1408,41 @@ void ViewWarper::splat_fine_cells(const Frame& f, const Layer& layer, const Cell
   }
 }
 
-// The cells of row v's drawn pixels: all of them, or the runs of drawn pixels of a sparse layer.
-void ViewWarper::splat_row_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v) {
-  const int W = f.W;
-  if (!layer.sparse) {
-    splat_fine_cells(f, layer, pass, v, 0, W, pass.no_blocks);
-    return;
-  }
-  const uint16_t* d = &layer.depth[size_t(v) * W];
-  for (int u = 0; u < W;) {
-    if (!d[u]) {
-      ++u;
-      continue;
-    }
-    const int u0 = u;
-    while (u < W && d[u]) ++u;
-    splat_fine_cells(f, layer, pass, v, u0, u, pass.no_blocks);
-  }
-}
-
 // Rows v and v + 1 with their 2x2 blocks inside one surface drawn as one cell each, the other pixels as
-// cells of their own.
-void ViewWarper::splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v) {
+// cells of their own; blocks j_begin..j_end - 1 (pixels 2 j_begin .. 2 j_end - 1, and the last column when
+// W is odd and j_end is the last block).
+void ViewWarper::splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v, int j_begin,
+                                  int j_end) {
   const int W = f.W;
   const size_t row = size_t(v) * W;
   const int nb = W / 2;
+  const int u_begin = 2 * j_begin, u_end = j_end == nb ? W : 2 * j_end;
   const CellRow& blocks = pass.blocks;
-  prepare_blocks(pass.geom, v, nb, f.PX + row, f.PY + row, f.PZ + row, f.PW + row, links_row(W, v),
+  prepare_blocks(pass.geom, v, j_begin, j_end, nb, f.PX + row, f.PY + row, f.PZ + row, f.PW + row, links_row(W, v),
                  links_row(W, v + 1), v > 0 ? links_row(W, v - 1) : pass.no_links, blocks, block_z_.data(), f.max_u,
                  f.max_v, block_fixed_.data());
   // The pixels of the blocks that are not one cell, in runs.
   const int32_t* is_block = block_coarse_.data();
-  // Each run widened to whole kRunChunk chunks, runs that then touch joined; the pixels of block cells
-  // inside them are skipped.
+  // Each run widened to whole kRunChunk chunks (within the blocks drawn), runs that then touch joined; the
+  // pixels of block cells inside them are skipped.
   block_coarse_[nb] = 0;  // the last column when W is odd
   fine_runs_.clear();
   auto add_fine_run = [&](int u0, int u1) {
-    u0 -= u0 % kRunChunk;
-    u1 = std::min(W, u1 + (kRunChunk - u1 % kRunChunk) % kRunChunk);
+    u0 = std::max(u_begin, u0 - u0 % kRunChunk);
+    u1 = std::min(u_end, u1 + (kRunChunk - u1 % kRunChunk) % kRunChunk);
     if (!fine_runs_.empty() && u0 <= fine_runs_.back().second) fine_runs_.back().second = u1;
     else fine_runs_.emplace_back(u0, u1);
   };
-  for (int j = 0; j < nb;) {
+  for (int j = j_begin; j < j_end;) {
     if (is_block[j]) {
       ++j;
       continue;
     }
     const int j0 = j;
-    while (j < nb && !is_block[j]) ++j;
+    while (j < j_end && !is_block[j]) ++j;
     add_fine_run(2 * j0, j == nb ? W : 2 * j);
   }
-  if ((W & 1) && is_block[nb - 1]) add_fine_run(W - 1, W);
+  if ((W & 1) && j_end == nb && is_block[nb - 1]) add_fine_run(W - 1, W);
   for (int r = v; r <= v + 1; ++r)
     for (const auto& run : fine_runs_) splat_fine_cells(f, layer, pass, r, run.first, run.second, is_block);
   const uint8_t* const lab = &layer.label[row];
@@ -1406,7 +1457,7 @@ void ViewWarper::splat_block_pair(const Frame& f, const Layer& layer, const Cell
   const ColorSampler col = layer.color;
   ptrdiff_t block_offset[kBlockCandidates];
   std::copy(pass.block_offset, pass.block_offset + kBlockCandidates, block_offset);
-  for (int j = 0; j < nb; ++j) {
+  for (int j = j_begin; j < j_end; ++j) {
     const int32_t m = mask[j];
     if (!m) continue;
     const uint16_t zmm = uint16_t(bz[j]);

@@ -135,12 +135,15 @@ class ViewWarper {
   void splat_layer(const Frame& f, const Layer& layer, const WarpParams& params);
   void splat_mesh(const Frame& f, const Layer& layer, const WarpParams& params);
   void splat_cells(const Frame& f, const Layer& layer, const WarpParams& params);
+  void project_rows(const Frame& f, const Layer& layer, int r0, int r1, int c0, int c1);
   uint32_t* links_row(int width, int v);
-  void link_row(const Frame& f, const Layer& layer, int v);
-  void splat_row_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v);
+  void link_row(const Frame& f, const Layer& layer, int v, int c0, int c1);
+  static void drawn_spans(const Frame& f, const Layer& layer, int v, std::vector<std::pair<int, int>>* spans);
+  void splat_pair_spans(const Frame& f, const Layer& layer, const CellPass& pass, int v,
+                        const std::vector<std::pair<int, int>>& spans);
   void splat_fine_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v, int u_begin, int u_end,
                         const int32_t* skip);
-  void splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v);
+  void splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v, int j_begin, int j_end);
   void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
   void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
   void prepare_rays(const CameraCalib& source);
@@ -182,6 +185,7 @@ class ViewWarper {
   std::vector<int32_t> block_fixed_;  // each candidate's source position, fixed point
   std::vector<int32_t> no_blocks_;              // all zero: a row pair without block cells
   std::vector<std::pair<int, int>> fine_runs_;  // pixels [first, second) of a row pair without block cells
+  std::vector<std::pair<int, int>> spans_;      // columns [first, second) of a row pair a sparse layer draws
 };
 
 // Convenience: one-shot warp.
