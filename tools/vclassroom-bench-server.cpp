@@ -263,7 +263,7 @@ int main(int argc, char** argv) {
     // View v: the walk above, its start moved v slider steps right and up, so no two views share a pose.
     const std::function<CameraCalib(int, int)> view_at = [&ref](int f, int v) {
       const double s = (f % 300) / 30.0;
-      const Pose p = sliders_to_pose(Sliders{40 + s + 4 * v, 50 + 3 * v, 50, 50 + s, 50, 50}, ref);
+      const Pose p = sliders_to_pose(Sliders{40 + s + 4 * v, 50.0 + 3 * v, 50, 50 + s, 50, 50}, ref);
       return virtual_camera(ref, p.cam_to_rig(), NAN);
     };
     std::printf("V-VA views, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, 1 thread\n",
