@@ -33,7 +33,6 @@
 #include "gstviewwarp.h"
 
 #include <cmath>
-#include <mutex>
 #include <string>
 
 #include <gst/vclassroom/core/limits.h>
@@ -51,11 +50,11 @@ using namespace vclassroom;
 
 
 struct _GstViewWarp {
-  GstBaseTransform parent;
+  GstRgbdFilter parent;
   ViewWarpState* st;
 };
 
-G_DEFINE_TYPE(GstViewWarp, gst_view_warp, GST_TYPE_BASE_TRANSFORM)
+G_DEFINE_TYPE(GstViewWarp, gst_view_warp, GST_TYPE_RGBD_FILTER)
 GST_ELEMENT_REGISTER_DEFINE(viewwarp, "viewwarp", GST_RANK_NONE, GST_TYPE_VIEW_WARP)
 
 static GstStaticPadTemplate sink_template =
@@ -71,7 +70,7 @@ static bool output_info(GstViewWarp* self, const RgbdInfo& in, RgbdInfo* out) {
   double fov;
   Eigen::Isometry3d initial;
   {
-    std::lock_guard<std::mutex> g(self->st->lock);
+    const auto g = self->st->lock();
     w = self->st->width;
     h = self->st->height;
     fov = self->st->fov;
@@ -87,6 +86,8 @@ static bool output_info(GstViewWarp* self, const RgbdInfo& in, RgbdInfo* out) {
   return true;
 }
 
+// The output is the virtual camera's, not the input's: GstRgbdFilter's caps pass planes through, these
+// describe another camera.
 static GstCaps* gst_view_warp_transform_caps(GstBaseTransform* trans, GstPadDirection direction, GstCaps* caps,
                                              GstCaps* filter) {
   GstViewWarp* self = GST_VIEW_WARP(trans);
@@ -103,65 +104,44 @@ static GstCaps* gst_view_warp_transform_caps(GstBaseTransform* trans, GstPadDire
     GstPad* other = direction == GST_PAD_SINK ? GST_BASE_TRANSFORM_SRC_PAD(trans) : GST_BASE_TRANSFORM_SINK_PAD(trans);
     out = gst_pad_get_pad_template_caps(other);
   }
-  if (filter) {
-    GstCaps* tmp = gst_caps_intersect_full(filter, out, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(out);
-    out = tmp;
-  }
-  return out;
+  return caps_narrowed(out, filter);
 }
 
-static gboolean gst_view_warp_set_caps(GstBaseTransform* trans, GstCaps* incaps, GstCaps* outcaps) {
-  GstViewWarp* self = GST_VIEW_WARP(trans);
+static gboolean gst_view_warp_set_info(GstRgbdFilter* filter, const RgbdInfo& in, const RgbdInfo& out) {
+  GstViewWarp* self = GST_VIEW_WARP(filter);
   ViewWarpState* st = self->st;
-  std::string err;
-  if (!rgbd_info_from_caps(incaps, &st->in_info, &err) || !rgbd_info_from_caps(outcaps, &st->out_info, &err)) {
-    GST_ELEMENT_ERROR(self, CORE, NEGOTIATION, ("%s", err.c_str()), (nullptr));
-    return FALSE;
-  }
   // A camera may change its size mid-stream (another mode, another sender):
   // it is renegotiated, and warped from its live depth alone while the prior
   // made for the other size does not fit, rather than stopping the server.
   st->use_prior = !st->prior.empty();
-  if (st->use_prior && (st->prior.cols != st->in_info.width() || st->prior.rows != st->in_info.height())) {
+  if (st->use_prior && (st->prior.cols != in.width() || st->prior.rows != in.height())) {
     st->use_prior = false;
     GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS,
                         ("prior-depth is %dx%d but camera %d now streams %dx%d: warping it without the prior",
-                         st->prior.cols, st->prior.rows, st->in_info.camera.id, st->in_info.width(),
-                         st->in_info.height()),
+                         st->prior.cols, st->prior.rows, in.camera.id, in.width(), in.height()),
                         (nullptr));
   }
   int memory_frames;
   {
-    std::lock_guard<std::mutex> g(st->lock);
+    const auto g = st->lock();
     memory_frames = st->memory_frames;
   }
-  view_warp_reference_from_caps(st);
+  view_warp_reference_from_caps(st, in.camera);
   if (memory_frames > 0 && !st->empty_room.empty() &&
-      (st->empty_room.cols != st->in_info.width() || st->empty_room.rows != st->in_info.height()))
+      (st->empty_room.cols != in.width() || st->empty_room.rows != in.height()))
     GST_ELEMENT_WARNING(self, STREAM, FORMAT,
                         ("empty-room is %dx%d but camera %d streams %dx%d: the background memory learns the room as "
                          "it sees it",
-                         st->empty_room.cols, st->empty_room.rows, st->in_info.camera.id, st->in_info.width(),
-                         st->in_info.height()),
+                         st->empty_room.cols, st->empty_room.rows, in.camera.id, in.width(), in.height()),
                         (nullptr));
   st->preparer.set_static_depth(st->use_prior ? st->prior : cv::Mat());
-  GST_INFO_OBJECT(self, "camera %d %dx%d -> virtual view %dx%d (fx %.1f)", st->in_info.camera.id,
-                  st->in_info.width(), st->in_info.height(), st->out_info.width(), st->out_info.height(),
-                  st->out_info.camera.fx);
-  return TRUE;
-}
-
-static gboolean gst_view_warp_get_unit_size(GstBaseTransform*, GstCaps* caps, gsize* size) {
-  RgbdInfo info;
-  std::string err;
-  if (!rgbd_info_from_caps(caps, &info, &err)) return FALSE;
-  *size = info.default_total_size();
+  GST_INFO_OBJECT(self, "camera %d %dx%d -> virtual view %dx%d (fx %.1f)", in.camera.id, in.width(), in.height(),
+                  out.width(), out.height(), out.camera.fx);
   return TRUE;
 }
 
 static GstFlowReturn gst_view_warp_prepare_output_buffer(GstBaseTransform* trans, GstBuffer* in, GstBuffer** out) {
-  *out = rgbd_buffer_new(GST_VIEW_WARP(trans)->st->out_info);
+  *out = rgbd_buffer_new(rgbd_filter_out_info(GST_RGBD_FILTER(trans)));
   gst_buffer_copy_into(*out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
   return GST_FLOW_OK;
 }
@@ -179,51 +159,33 @@ static gboolean gst_view_warp_start(GstBaseTransform* trans) {
   return FALSE;
 }
 
-static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer* inbuf, GstBuffer* outbuf) {
-  GstViewWarp* self = GST_VIEW_WARP(trans);
+// The frame's warp half that does not depend on the pose: a viewprep's upstream when it was made with this
+// element's settings, else made here (with the background memory).
+static std::shared_ptr<const PreparedFrame> prepared_frame(GstViewWarp* self, GstBuffer* inbuf, const RgbdFrame& in,
+                                                           const WarpParams& params, int memory_frames) {
   ViewWarpState* st = self->st;
-  Pose pose;
-  WarpParams params;
-  int memory_frames;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    params.boundary_px = st->boundary_px;
-    params.edge_to_near = st->edge_to_near;
-    memory_frames = st->memory_frames;
-  }
-  RgbdFrame in, out;
-  std::string err;
-  if (!in.map(inbuf, st->in_info, GST_MAP_READ, &err) || !out.map(outbuf, st->out_info, GST_MAP_WRITE, &err)) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", err.c_str()), (nullptr));
-    return GST_FLOW_ERROR;
-  }
-  // What does not depend on the pose (the memory, the warp's first half) is done before the pose is read: it
-  // is not part of the pose's latency. A viewprep upstream may have done it once for every view.
+  const RgbdInfo& info = rgbd_filter_in_info(GST_RGBD_FILTER(self));
   std::shared_ptr<const PreparedFrame> prepared = buffer_get_prepared_frame(inbuf);
   if (prepared && (prepared->edge_to_near != params.edge_to_near || prepared->boundary_px != params.boundary_px ||
-                   prepared->source.width != st->in_info.width() || prepared->source.height != st->in_info.height())) {
+                   prepared->source.width != info.width() || prepared->source.height != info.height())) {
     if (!st->told_unprepared)
       GST_ELEMENT_WARNING(self, STREAM, FORMAT,
                           ("camera %d's frames were prepared (viewprep) with other edge-to-near, boundary or size "
-                           "than this viewwarp's: it prepares them again itself", st->in_info.camera.id),
+                           "than this viewwarp's: it prepares them again itself", info.camera.id),
                           (nullptr));
     st->told_unprepared = true;
     prepared = nullptr;
   }
-  try {
-    if (!prepared) {
-      // A new seed (start) or length starts the memory again.
-      st->preparer.set_memory(memory_frames, st->empty_room);
-      prepared = st->preparer.prepare(st->in_info.camera, in.color(), in.depth(), in.label(), params);
-    }
-  } catch (const Error& e) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s", e.what()), (nullptr));
-    return GST_FLOW_ERROR;
-  } catch (const cv::Exception& e) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("view warp failed: %s", e.what()), (nullptr));
-    return GST_FLOW_ERROR;
-  }
-  const WarpSource src = FramePreparer::source_of(*prepared, in.color(), in.depth(), in.label());
+  if (prepared) return prepared;
+  // A new seed (start) or length starts the memory again.
+  st->preparer.set_memory(memory_frames, st->empty_room);
+  return st->preparer.prepare(info.camera, in.color(), in.depth(), in.label(), params);
+}
+
+// The pose the frame shows: asked for at the last moment, after the pose-independent work, so that this work
+// is not part of the pose's latency.
+static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf) {
+  GstBaseTransform* trans = GST_BASE_TRANSFORM(self);
   const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
                                        ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
                                        : GST_CLOCK_TIME_NONE;
@@ -233,25 +195,49 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
       GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
   gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start);
   gst_query_unref(warp_start);
-  pose = view_warp_frame_pose(st, running_time);
-  const CameraCalib virt = virtual_camera(st->out_info.camera, pose.cam_to_rig(), pose.fov_deg);
-  GST_LOG_OBJECT(self, "pose seq %" G_GUINT64_FORMAT " at (%.3f, %.3f, %.3f); source camera %d at (%.3f, %.3f, %.3f)",
-                 pose.seq, pose.position.x(), pose.position.y(), pose.position.z(), st->in_info.camera.id,
-                 st->in_info.camera.cam_to_rig.translation().x(), st->in_info.camera.cam_to_rig.translation().y(),
-                 st->in_info.camera.cam_to_rig.translation().z());
-  // Warp straight into the output planes.
-  st->warped.color = out.color();
-  st->warped.depth = out.depth();
-  st->warped.label = out.label();
-  st->warped.weight = out.plane(Plane::Weight);
-  try {
-    st->warper.warp_prepared(st->in_info.camera, src, prepared->source, virt, params, &st->warped);
-  } catch (const cv::Exception& e) {
-    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("view warp failed: %s", e.what()), (nullptr));
+  return view_warp_frame_pose(self->st, running_time);
+}
+
+static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer* inbuf, GstBuffer* outbuf) {
+  GstViewWarp* self = GST_VIEW_WARP(trans);
+  GstRgbdFilter* filter = GST_RGBD_FILTER(trans);
+  ViewWarpState* st = self->st;
+  const RgbdInfo& in_info = rgbd_filter_in_info(filter);
+  const RgbdInfo& out_info = rgbd_filter_out_info(filter);
+  WarpParams params;
+  int memory_frames;
+  {
+    const auto g = st->lock();
+    params.boundary_px = st->boundary_px;
+    params.edge_to_near = st->edge_to_near;
+    memory_frames = st->memory_frames;
+  }
+  RgbdFrame in, out;
+  std::string err;
+  if (!in.map(inbuf, in_info, GST_MAP_READ, &err)) return rgbd_filter_drop_frame(filter, err);
+  if (!out.map(outbuf, out_info, GST_MAP_WRITE, &err)) {
+    GST_ELEMENT_ERROR(self, STREAM, FAILED, ("%s: %s", GST_OBJECT_NAME(self), err.c_str()), (nullptr));
     return GST_FLOW_ERROR;
   }
-  buffer_add_pose_meta(outbuf, pose.seq, pose.viewer_time_ns, rendered_pose_of(pose), pose.session);
-  return GST_FLOW_OK;
+  return rgbd_filter_guard(filter, [&] {
+    const std::shared_ptr<const PreparedFrame> prepared = prepared_frame(self, inbuf, in, params, memory_frames);
+    const WarpSource src = FramePreparer::source_of(*prepared, in.color(), in.depth(), in.label());
+    const Pose pose = frame_pose(self, inbuf);
+    const CameraCalib virt = virtual_camera(out_info.camera, pose.cam_to_rig(), pose.fov_deg);
+    GST_LOG_OBJECT(self,
+                   "pose seq %" G_GUINT64_FORMAT " at (%.3f, %.3f, %.3f); source camera %d at (%.3f, %.3f, %.3f)",
+                   pose.seq, pose.position.x(), pose.position.y(), pose.position.z(), in_info.camera.id,
+                   in_info.camera.cam_to_rig.translation().x(), in_info.camera.cam_to_rig.translation().y(),
+                   in_info.camera.cam_to_rig.translation().z());
+    // Warp straight into the output planes.
+    st->warped.color = out.color();
+    st->warped.depth = out.depth();
+    st->warped.label = out.label();
+    st->warped.weight = out.plane(Plane::Weight);
+    st->warper.warp_prepared(in_info.camera, src, prepared->source, virt, params, &st->warped);
+    buffer_add_pose_meta(outbuf, pose.seq, pose.viewer_time_ns, rendered_pose_of(pose), pose.session);
+    return GST_FLOW_OK;
+  });
 }
 
 // Pose events end here: they steer this element and nothing upstream of it.
@@ -298,13 +284,12 @@ static void gst_view_warp_class_init(GstViewWarpClass* klass) {
                                         "Warps one camera's RGB-D stream to the lecturer's virtual view",
                                         "gst-vclassroom developers");
   bt->transform_caps = GST_DEBUG_FUNCPTR(gst_view_warp_transform_caps);
-  bt->set_caps = GST_DEBUG_FUNCPTR(gst_view_warp_set_caps);
-  bt->get_unit_size = GST_DEBUG_FUNCPTR(gst_view_warp_get_unit_size);
   bt->prepare_output_buffer = GST_DEBUG_FUNCPTR(gst_view_warp_prepare_output_buffer);
   bt->transform = GST_DEBUG_FUNCPTR(gst_view_warp_transform);
   bt->start = GST_DEBUG_FUNCPTR(gst_view_warp_start);
   bt->src_event = GST_DEBUG_FUNCPTR(gst_view_warp_src_event);
+  GST_RGBD_FILTER_CLASS(klass)->set_info = GST_DEBUG_FUNCPTR(gst_view_warp_set_info);
   GST_DEBUG_CATEGORY_INIT(view_warp_debug, "viewwarp", 0, "view warp");
 }
 
-static void gst_view_warp_init(GstViewWarp* self) { self->st = new ViewWarpState(); }
+static void gst_view_warp_init(GstViewWarp* self) { self->st = new ViewWarpState(GST_RGBD_FILTER(self)); }

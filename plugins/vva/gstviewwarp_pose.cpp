@@ -18,7 +18,7 @@ bool view_warp_load(ViewWarpState* st, ViewWarpLoadError* error) {
   std::string prior_path, rig_path, trace_path, empty_room_path;
   int ref;
   {
-    std::lock_guard<std::mutex> g(st->lock);
+    const auto g = st->lock();
     prior_path = st->prior_path;
     empty_room_path = st->empty_room_path;
     rig_path = st->rig_path;
@@ -33,7 +33,7 @@ bool view_warp_load(ViewWarpState* st, ViewWarpLoadError* error) {
   // stream's own, so the caps' camera is the view (view_warp_reference_from_caps()); a built-in rig would
   // show a real classroom the synthetic one's camera.
   if (rig_path.empty()) {
-    std::lock_guard<std::mutex> g(st->lock);
+    const auto g = st->lock();
     st->pose = Pose();
     st->have_pose = false;
     st->reference_from_caps = true;
@@ -44,7 +44,7 @@ bool view_warp_load(ViewWarpState* st, ViewWarpLoadError* error) {
       if (!c)
         return fail(GST_RESOURCE_ERROR_SETTINGS,
                     "reference-camera " + std::to_string(ref) + " is not in the rig " + rig_path, "reference-camera");
-      std::lock_guard<std::mutex> g(st->lock);
+      const auto g = st->lock();
       st->pose = Pose::from_cam_to_rig(c->cam_to_rig);
       st->have_pose = false;
       st->reference_from_caps = false;
@@ -74,14 +74,14 @@ bool view_warp_load(ViewWarpState* st, ViewWarpLoadError* error) {
   return true;
 }
 
-void view_warp_reference_from_caps(ViewWarpState* st) {
-  std::lock_guard<std::mutex> g(st->lock);
+void view_warp_reference_from_caps(ViewWarpState* st, const CameraCalib& camera) {
+  const auto g = st->lock();
   // A renegotiation that brings another calibration before any pose moves the view with it.
-  if (st->reference_from_caps && !st->have_pose) st->pose = Pose::from_cam_to_rig(st->in_info.camera.cam_to_rig);
+  if (st->reference_from_caps && !st->have_pose) st->pose = Pose::from_cam_to_rig(camera.cam_to_rig);
 }
 
 void view_warp_take_pose(ViewWarpState* st, const Pose& pose) {
-  std::lock_guard<std::mutex> g(st->lock);
+  const auto g = st->lock();
   ++st->poses_received;
   // The receiver upstream of the fuse chose the session; a pose of another session than the one shown is
   // the new steering one (docs/network.md, "Sessions"), and within a session the latest seq wins.
@@ -95,7 +95,7 @@ void view_warp_take_pose(ViewWarpState* st, const Pose& pose) {
 Pose view_warp_frame_pose(ViewWarpState* st, GstClockTime running_time) {
   Pose pose;
   {
-    std::lock_guard<std::mutex> g(st->lock);
+    const auto g = st->lock();
     pose = st->pose;
   }
   if (!st->trace.empty()) {

@@ -94,7 +94,7 @@ void view_warp_install_properties(GObjectClass* klass) {
 
 void view_warp_set_property(ViewWarpState* st, GObject* object, guint prop_id, const GValue* value,
                             GParamSpec* pspec) {
-  std::lock_guard<std::mutex> g(st->lock);
+  const auto g = st->lock();
   switch (prop_id) {
     case PROP_WIDTH:
       st->width = g_value_get_int(value);
@@ -135,7 +135,7 @@ void view_warp_set_property(ViewWarpState* st, GObject* object, guint prop_id, c
 }
 
 void view_warp_get_property(ViewWarpState* st, GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
-  std::lock_guard<std::mutex> g(st->lock);
+  const auto g = st->lock();
   switch (prop_id) {
     case PROP_WIDTH:
       g_value_set_int(value, st->width);

@@ -11,13 +11,18 @@
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/rgbd_filter.h>
 #include <gst/vclassroom/vva/prepared_frame.h>
 #include <gst/vclassroom/vva/view_warp.h>
 
 namespace vclassroom {
 
 struct ViewWarpState {
-  std::mutex lock;  // guards the properties and the pose
+  explicit ViewWarpState(GstRgbdFilter* element) : element(element) {}
+  // The base class's lock guards the properties and the pose (the pose comes from the src pad's events).
+  std::unique_lock<std::mutex> lock() const { return rgbd_filter_lock(element); }
+  GstRgbdFilter* const element;
+
   int width = 0, height = 0;
   double fov = 0;
   std::string prior_path;
@@ -35,8 +40,7 @@ struct ViewWarpState {
   bool reference_from_caps = false;  // no rig at start: each negotiation's camera is the view until a pose
   guint64 poses_received = 0;
 
-  // Streaming thread only.
-  RgbdInfo in_info, out_info;
+  // Streaming thread only (the negotiated caps are the base class's: rgbd_filter_in_info, _out_info).
   cv::Mat prior;
   bool use_prior = false;  // the prior fits the negotiated camera size
   std::vector<PoseSample> trace;  // pose-trace, loaded at start
@@ -48,7 +52,7 @@ struct ViewWarpState {
   bool told_unprepared = false;  // the warning that a prepared frame's settings differ from ours
 };
 
-// The element's properties: installed on its class, read and written under ViewWarpState::lock.
+// The element's properties: installed on its class, read and written under ViewWarpState::lock().
 void view_warp_install_properties(GObjectClass* klass);
 void view_warp_set_property(ViewWarpState* st, GObject* object, guint prop_id, const GValue* value,
                             GParamSpec* pspec);
@@ -70,7 +74,7 @@ struct ViewWarpLoadError {
 // negotiation), its pose trace, prior depth and empty room; false with *error when one cannot be loaded.
 bool view_warp_load(ViewWarpState* st, ViewWarpLoadError* error);
 // At negotiation: without a rig and before any pose, the camera the caps describe is the view.
-void view_warp_reference_from_caps(ViewWarpState* st);
+void view_warp_reference_from_caps(ViewWarpState* st, const CameraCalib& camera);
 // A pose event's pose, kept when it steers (a new session's first, then the highest seq within one).
 void view_warp_take_pose(ViewWarpState* st, const Pose& pose);
 // The pose the next frame shows: the trace's for its running time (or frame number), else the latest.

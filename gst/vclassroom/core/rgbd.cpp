@@ -448,13 +448,14 @@ GstCaps* rgbd_caps_renamed(GstCaps* caps, const char* name, bool coded) {
 }
 
 GstCaps* rgbd_source_caps(GstPad* pad, const RgbdInfo* info, GstCaps* filter) {
-  GstCaps* caps = info ? rgbd_caps_new(*info) : gst_pad_get_pad_template_caps(pad);
-  if (filter) {
-    GstCaps* narrowed = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(caps);
-    caps = narrowed;
-  }
-  return caps;
+  return caps_narrowed(info ? rgbd_caps_new(*info) : gst_pad_get_pad_template_caps(pad), filter);
+}
+
+GstCaps* caps_narrowed(GstCaps* caps, GstCaps* filter) {
+  if (!filter) return caps;
+  GstCaps* narrowed = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
+  gst_caps_unref(caps);
+  return narrowed;
 }
 
 }  // namespace vclassroom

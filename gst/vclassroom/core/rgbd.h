@@ -82,6 +82,10 @@ GstCaps* rgbd_caps_renamed(GstCaps* caps, const char* name, bool coded);
 // pad template's; narrowed to `filter` when given. Caller owns the result.
 GstCaps* rgbd_source_caps(GstPad* pad, const RgbdInfo* info, GstCaps* filter);
 
+// A transform_caps or caps query's answer: `caps` narrowed to `filter` (when given), filter's order first.
+// Takes ownership of `caps`; caller owns the result.
+GstCaps* caps_narrowed(GstCaps* caps, GstCaps* filter);
+
 // Caps for a stream (fixed). Caller owns the result.
 GstCaps* rgbd_caps_new(const RgbdInfo& info);
 // Parses fixed `video/x-rgbd` caps. On failure returns false and says which field is wrong.

@@ -198,12 +198,7 @@ static GstCaps* gst_rgbd_filter_transform_caps(GstBaseTransform* trans, GstPadDi
     else if (planes)
       gst_structure_set(s, "planes", G_TYPE_STRING, planes_with(planes, klass->new_plane).c_str(), nullptr);
   }
-  if (filter) {
-    GstCaps* tmp = gst_caps_intersect_full(filter, out, GST_CAPS_INTERSECT_FIRST);
-    gst_caps_unref(out);
-    out = tmp;
-  }
-  return out;
+  return caps_narrowed(out, filter);
 }
 
 static gboolean gst_rgbd_filter_get_unit_size(GstBaseTransform*, GstCaps* caps, gsize* size) {

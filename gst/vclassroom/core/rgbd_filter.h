@@ -1,5 +1,5 @@
 // GstRgbdFilter: the base class of the elements that take one camera's stream and give it back changed
-// (depthcomplete, planerefine, learnerseg, viewprep, rgbddec), as GstVideoFilter is for video/x-raw.
+// (depthcomplete, planerefine, learnerseg, viewprep, rgbddec, viewwarp), as GstVideoFilter is for video/x-raw.
 // It owns what each of them wrote by hand: the caps parsed into RgbdInfo and the planes the subclass needs
 // checked at negotiation, the buffers mapped as RgbdFrame, the library's errors (vclassroom::Error,
 // cv::Exception) turned into bus errors in one place, frames that cannot be used dropped with a rate-limited
@@ -9,8 +9,8 @@
 // - transform_plane: the output is the input with one plane new (`new_plane`), written by the subclass;
 //   every other plane shares the input's memory (no copy).
 // - transform_frame_ip: the frame passes in place, its planes only read (the subclass may add metas).
-// - neither: the subclass does its own buffer work (rgbddec decodes video/x-rgbd-coded) and still gets the
-//   parsed caps, the error guard and the drop warnings.
+// - neither: the subclass does its own buffer work (rgbddec decodes video/x-rgbd-coded, viewwarp makes
+//   another camera's frame) and still gets the parsed caps, the error guard and the drop warnings.
 #pragma once
 
 #include <functional>
