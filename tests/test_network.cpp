@@ -16,7 +16,6 @@
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/core/rig.h>
-#include <gst/vclassroom/core/warning_limiter.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 
 #include <algorithm>
@@ -359,44 +358,6 @@ TEST(PoseHeaderExtension, SeqViewerTimeAndTheRenderedPoseCrossRtp) {
   gst_object_unref(src);
   gst_object_unref(out);
   gst_object_unref(p);
-}
-
-// ---- Rate-limited warnings (gst/vclassroom/core/warning_limiter.h)
-
-TEST(WarningLimiter, FirstAtOnceThenOnePerIntervalWithTheCount) {
-  vclassroom::WarningLimiter lim(5'000'000'000);
-  uint64_t count = 0;
-  int64_t span = -1;
-  ASSERT_TRUE(lim.note(1'000, &count, &span));
-  EXPECT_EQ(count, 1u);
-  EXPECT_EQ(span, 0);
-  // 36 more inside the interval: none posted, all counted.
-  for (int i = 0; i < 36; ++i) EXPECT_FALSE(lim.note(1'000 + i * 100'000'000LL, &count, &span));
-  EXPECT_EQ(lim.pending(), 36u);
-  ASSERT_TRUE(lim.note(5'000'001'000, &count, &span));
-  EXPECT_EQ(count, 37u);
-  EXPECT_EQ(span, 5'000'000'000);
-  EXPECT_EQ(lim.total(), 38u);
-  EXPECT_EQ(lim.pending(), 0u);
-  EXPECT_EQ(vclassroom::describe_occurrences(count, "a damaged frame", "damaged frames", "camera 2", span),
-            "37 damaged frames from camera 2 in the last 5 s");
-  EXPECT_EQ(vclassroom::describe_occurrences(1, "a damaged frame", "damaged frames", "camera 2", 0),
-            "a damaged frame from camera 2");
-}
-
-TEST(WarningLimiter, PendingAfterABurstCanBeTakenForAFinalMessage) {
-  vclassroom::WarningLimiter lim(1'000);
-  uint64_t count;
-  int64_t span;
-  ASSERT_TRUE(lim.note(0, &count, &span));
-  EXPECT_FALSE(lim.note(10, &count, &span));
-  EXPECT_FALSE(lim.note(20, &count, &span));
-  EXPECT_EQ(lim.take_pending(), 2u);
-  EXPECT_EQ(lim.pending(), 0u);
-  lim.reset();
-  EXPECT_EQ(lim.total(), 0u);
-  ASSERT_TRUE(lim.note(30, &count, &span));  // after a reset the first is posted again
-  EXPECT_EQ(count, 1u);
 }
 
 // ---- Pose sessions, authentication, plausibility and messages through poserecv

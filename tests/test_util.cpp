@@ -188,6 +188,27 @@ std::string first_response_line(int port, bool tls, const std::string& request) 
   return line;
 }
 
+vclassroom::Pose sample_pose() {
+  vclassroom::Pose p;
+  p.position = Eigen::Vector3d(0.25, -0.1, 1.5);
+  p.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.3, 1, 0).normalized()));
+  p.fov_deg = 90;
+  p.seq = 12345678901234ull;
+  p.viewer_time_ns = 987654321;
+  return p;
+}
+
+void expect_same_pose(const vclassroom::Pose& a, const vclassroom::Pose& b) {
+  EXPECT_LT((a.position - b.position).norm(), 1e-12);
+  EXPECT_LT(a.orientation.angularDistance(b.orientation), 1e-9);
+  EXPECT_EQ(a.seq, b.seq);
+  EXPECT_EQ(a.viewer_time_ns, b.viewer_time_ns);
+  EXPECT_EQ(a.has_fov(), b.has_fov());
+  if (a.has_fov()) {
+    EXPECT_DOUBLE_EQ(a.fov_deg, b.fov_deg);
+  }
+}
+
 bool same_image(const cv::Mat& a, const cv::Mat& b) {
   if (a.type() != b.type() || a.size() != b.size()) return false;
   for (int y = 0; y < a.rows; ++y)

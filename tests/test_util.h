@@ -8,6 +8,7 @@
 #include <gst/gst.h>
 #include <opencv2/core.hpp>
 
+#include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/rig.h>
 
 namespace vctest {
@@ -84,6 +85,11 @@ Exit run_tool(const std::vector<std::string>& argv);
 // vclassroom-calibrate's output `out` ends with "rig error: max C cm, max D deg, floor F deg" within issue 12's
 // targets (1 cm, 0.3 deg, floor 0.5 deg); a failure of the calling test otherwise.
 void expect_rig_error_within_targets(const std::string& out);
+
+// A pose with every field set (fov included), for round trips through an event, a trace or the wire.
+vclassroom::Pose sample_pose();
+// `a` and `b` are the same pose to the precision a round trip keeps; a failure of the calling test otherwise.
+void expect_same_pose(const vclassroom::Pose& a, const vclassroom::Pose& b);
 
 // Structural-equality of two images (type, size, bytes).
 bool same_image(const cv::Mat& a, const cv::Mat& b);
