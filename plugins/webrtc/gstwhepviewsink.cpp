@@ -5,7 +5,8 @@
  * Each lecturer joining over WHEP gets a view of their own: the prepared camera streams (cam_%u, after
  * learnerseg), each with its memory and warp preparation done once (viewprep), feed, per session, a viewwarp
  * per camera, a viewfuse steered by that lecturer's pose data channel only, and an H.264 encoder to their
- * webrtcbin; the views take turns to warp, and sessions come and go without disturbing the others.
+ * webrtcbin; the views take turns to warp, and sessions come and go without disturbing the others. A camera
+ * linked while lecturers watch joins every view.
  *
  * ## Properties
  *
@@ -23,14 +24,8 @@
  * gst-launch-1.0 whepviewsink name=w port=0 token=secret max-sessions=2 rgbdtestsrc camera-id=0 num-buffers=30 ! learnerseg ! w.cam_0
  * ]|
  */
-// whepviewsink: a view per lecturer. Each camera's prepared stream (after
-// decoding, V-DA and learnerseg, which run once per camera) comes in on a cam_%u
-// pad, gets its memory and the warp's first half once (viewprep) and is teed;
-// each WHEP session gets its own branch, a viewwarp per camera and a viewfuse
-// steered by that session's poses only, encoded by its own x264enc. The views
-// take turns to warp (ViewTurns). Sessions join and leave without touching the
-// others' branches, and a camera linked while lecturers watch joins every view;
-// the WHEP server, signalling, data channel and echo are WhepEndpoint's.
+// The views' elements are built in whep_view_branch.cpp; the WHEP server, signalling, data channel and echo
+// are WhepEndpoint's (whep_endpoint.h).
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -48,62 +43,25 @@
 #include <gst/vclassroom/core/pose_event.h>
 #include <gst/vclassroom/net/pose_session.h>
 #include <gst/vclassroom/vva/view_turns.h>
-#include <gst/vclassroom/vva/warp_start.h>
 
 #include <gst/vclassroom/core/limits.h>
 
 #include "gstwhepviewsink.h"
 #include "whep_endpoint.h"
+#include "whep_view_branch.h"
 
 using namespace vclassroom;
 
 GST_DEBUG_CATEGORY_STATIC(whepview_debug);
 #define GST_CAT_DEFAULT whepview_debug
 
-namespace {
-
-struct Camera {
-  int index;             // K of the cam_K pad: the viewfuse pad, and cam<K>.png among the model's priors
-  GstElement* tee;
-};
-
-// A camera's tee and a pad on one side of it: a view's branch input not linked yet, or the tee's request pad.
-struct TeeLink {
-  GstElement* tee;
-  GstPad* pad;  // a reference
-};
-
-// One lecturer's view: per camera tee pad -> queue -> viewwarp -> fuse; fuse -> convert -> x264enc -> caps.
-// The camera's viewprep before its tee has done the memory and the warp's first half once for all views.
-struct View {
-  uint64_t id = 0;                   // its number among the views taking turns
-  bool started = false;              // its webrtcbin is linked: camera branches are fed at once
-  std::vector<TeeLink> unlinked;     // branch inputs until start_view links them to their tees
-  std::vector<TeeLink> tee_pads;
-  std::vector<GstElement*> elements;
-  GstElement* fuse = nullptr;
-  GstElement* encoder = nullptr;  // its bitrate follows this lecturer's losses
-  PoseSession poses;  // this lecturer's: latest wins
-};
-
-struct ViewSettings {
-  std::string rig, navigation_rig, model;
-  int width = 0, height = 0;
-  guint64 fuse_latency = 100 * GST_MSECOND;
-  guint64 warp_sync = 100 * GST_MSECOND;
-  guint64 longest_turn = 100 * GST_MSECOND;
-  int background_memory = 0;  // frames; 0: off
-};
-
-}  // namespace
-
 struct _GstWhepViewSink {
   GstBin parent;
   WhepEndpoint* endpoint;
   std::mutex* lock;  // everything below
-  ViewSettings* settings;
-  std::vector<Camera>* cameras;
-  std::map<std::string, View>* views;
+  WhepViewSettings* settings;
+  std::vector<WhepCamera>* cameras;
+  std::map<std::string, WhepView>* views;
   uint64_t last_view_id;
   ViewTurns* turns;  // thread-safe itself
 };
@@ -125,123 +83,32 @@ enum {
 static GstStaticPadTemplate cam_template =
     GST_STATIC_PAD_TEMPLATE("cam_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("video/x-rgbd"));
 
-static GstElement* add_element(GstWhepViewSink* self, View* view, const char* factory) {
-  GstElement* e = gst_element_factory_make(factory, nullptr);
-  if (!e) return nullptr;
-  gst_bin_add(GST_BIN(self), e);
-  view->elements.push_back(e);
-  return e;
-}
-
-// A view's viewwarp takes its turn once viewfuse has let it start (the warp-start query's answer, which
-// names the round of the view's cameras), and ends it when its frame is out.
-struct TurnTaker {
-  ViewTurns* turns;
-  uint64_t view;
-};
-
-static GstPadProbeReturn take_turn(GstPad*, GstPadProbeInfo* info, gpointer data) {
-  const TurnTaker* taker = static_cast<const TurnTaker*>(data);
-  if (GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_BUFFER) {
-    taker->turns->end(taker->view);
-    return GST_PAD_PROBE_OK;
-  }
-  if (!(GST_PAD_PROBE_INFO_TYPE(info) & GST_PAD_PROBE_TYPE_PULL)) return GST_PAD_PROBE_OK;  // not answered yet
-  GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
-  const GstStructure* s = GST_QUERY_TYPE(query) == GST_QUERY_CUSTOM ? gst_query_get_structure(query) : nullptr;
-  guint64 group;
-  if (s && gst_structure_has_name(s, kWarpStartQueryName) && gst_structure_get_uint64(s, "group", &group))
-    taker->turns->begin(taker->view, group);
-  return GST_PAD_PROBE_OK;
-}
-
-// Camera `cam`'s branch of a view (lock held): queue -> viewwarp -> the fuse's cam_K pad, fed from the
-// camera's tee at once when the view has started (a camera linked while lecturers watch), else when it does.
-static void add_camera_branch_locked(GstWhepViewSink* self, View* view, const Camera& cam) {
-  const ViewSettings& s = *self->settings;
-  GstElement* queue = add_element(self, view, "queue");
-  GstElement* warp = add_element(self, view, "viewwarp");
-  g_object_set(queue, "max-size-buffers", 1, "max-size-time", guint64(0), "max-size-bytes", 0, nullptr);
-  gst_util_set_object_arg(G_OBJECT(queue), "leaky", "downstream");
-  g_object_set(warp, "width", s.width, "height", s.height, nullptr);
-  if (!s.rig.empty()) g_object_set(warp, "rig", s.rig.c_str(), nullptr);
-  gst_element_link(queue, warp);
-  GstPad* warp_src = gst_element_get_static_pad(warp, "src");
-  gst_pad_add_probe(warp_src, GstPadProbeType(GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM | GST_PAD_PROBE_TYPE_BUFFER), take_turn,
-                    new TurnTaker{self->turns, view->id}, [](gpointer p) { delete static_cast<TurnTaker*>(p); });
-  gst_object_unref(warp_src);
-  const std::string fuse_pad = "cam_" + std::to_string(cam.index);
-  gst_element_link_pads(warp, "src", view->fuse, fuse_pad.c_str());
-  gst_element_sync_state_with_parent(warp);
-  gst_element_sync_state_with_parent(queue);
-  TeeLink input{cam.tee, gst_element_get_static_pad(queue, "sink")};
-  if (!view->started) {
-    view->unlinked.push_back(input);
-    return;
-  }
-  GstPad* tee_pad = gst_element_request_pad_simple(cam.tee, "src_%u");
-  gst_pad_link(tee_pad, input.pad);
-  gst_object_unref(input.pad);
-  view->tee_pads.push_back(TeeLink{cam.tee, tee_pad});
-}
-
-// Builds a session's view branch (lock held); its encoded source pad (a reference), or nullptr.
+// Builds a session's view (lock held); its encoded source pad (a reference), or nullptr.
 static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& session) {
-  const ViewSettings& s = *self->settings;
   if (self->cameras->empty()) {
     GST_WARNING_OBJECT(self, "a lecturer joined before any camera was linked: refused");
     return nullptr;
   }
-  for (const char* factory : {"queue", "viewwarp", "viewfuse", "videoconvert", "x264enc", "capsfilter"})
-    if (GstElementFactory* f = gst_element_factory_find(factory)) {
-      gst_object_unref(f);
-    } else {
-      GST_ELEMENT_WARNING(self, CORE, MISSING_PLUGIN, ("no %s element: a lecturer's view cannot be made", factory),
-                          ("x264enc is in gstreamer1.0-plugins-ugly"));
-      return nullptr;
-    }
-  View& view = (*self->views)[session];
+  if (!whep_view_elements_present(GST_ELEMENT(self))) return nullptr;
+  WhepView& view = (*self->views)[session];
   view.id = ++self->last_view_id;
-  view.fuse = add_element(self, &view, "viewfuse");
-  GstElement* convert = add_element(self, &view, "videoconvert");
-  GstElement* encoder = view.encoder = add_element(self, &view, "x264enc");
-  GstElement* caps = add_element(self, &view, "capsfilter");
-  // Started late in a live pipeline: the fused output starts at the first frame, not at running time 0.
-  gst_util_set_object_arg(G_OBJECT(view.fuse), "start-time-selection", "first");
-  g_object_set(view.fuse, "latency", s.fuse_latency, "warp-sync", s.warp_sync, nullptr);
-  if (!s.navigation_rig.empty()) g_object_set(view.fuse, "rig", s.navigation_rig.c_str(), nullptr);
-  gst_util_set_object_arg(G_OBJECT(encoder), "tune", "zerolatency");
-  gst_util_set_object_arg(G_OBJECT(encoder), "speed-preset", "ultrafast");
-  g_object_set(encoder, "key-int-max", 60, "bitrate", self->endpoint->bitrate_kbit(), nullptr);
-  GstCaps* c = gst_caps_from_string("video/x-h264,profile=constrained-baseline,stream-format=byte-stream");
-  g_object_set(caps, "caps", c, nullptr);
-  gst_caps_unref(c);
-  gst_element_link_many(view.fuse, convert, encoder, caps, nullptr);
-  for (auto it = view.elements.rbegin(); it != view.elements.rend(); ++it) gst_element_sync_state_with_parent(*it);
-  for (const Camera& cam : *self->cameras) add_camera_branch_locked(self, &view, cam);
+  GstPad* encoded = whep_view_build(GST_BIN(self), &view, *self->settings, self->endpoint->bitrate_kbit());
+  for (const WhepCamera& cam : *self->cameras)
+    whep_view_add_camera(GST_BIN(self), &view, *self->settings, cam, self->turns);
   GST_INFO_OBJECT(self, "session %s: a view of %zu cameras", session.c_str(), self->cameras->size());
-  return gst_element_get_static_pad(caps, "src");
+  return encoded;
 }
 
 // The session's webrtcbin is linked: the cameras' frames may flow into its view.
 static void start_view(GstWhepViewSink* self, const std::string& session) {
   std::lock_guard<std::mutex> g(*self->lock);
   auto it = self->views->find(session);
-  if (it == self->views->end()) return;
-  View& view = it->second;
-  for (const TeeLink& input : view.unlinked) {
-    GstPad* tee_pad = gst_element_request_pad_simple(input.tee, "src_%u");
-    gst_pad_link(tee_pad, input.pad);
-    gst_object_unref(input.pad);
-    view.tee_pads.push_back(TeeLink{input.tee, tee_pad});
-  }
-  view.unlinked.clear();
-  view.started = true;
+  if (it != self->views->end()) whep_view_start(&it->second);
 }
 
 // Takes a session's view out (the endpoint has unlinked its encoded pad).
 static void detach_view(GstWhepViewSink* self, const std::string& session) {
-  View view;
+  WhepView view;
   {
     std::lock_guard<std::mutex> g(*self->lock);
     auto it = self->views->find(session);
@@ -250,20 +117,7 @@ static void detach_view(GstWhepViewSink* self, const std::string& session) {
     self->views->erase(it);
   }
   self->turns->forget(view.id);  // its cameras waiting for their turn go, and their threads can stop
-  for (const TeeLink& input : view.unlinked) gst_object_unref(input.pad);  // never started
-  for (const TeeLink& link : view.tee_pads) {
-    GstPad* peer = gst_pad_get_peer(link.pad);
-    if (peer) {
-      gst_pad_unlink(link.pad, peer);
-      gst_object_unref(peer);
-    }
-    gst_element_release_request_pad(link.tee, link.pad);
-    gst_object_unref(link.pad);
-  }
-  for (GstElement* e : view.elements) {
-    gst_element_set_state(e, GST_STATE_NULL);
-    gst_bin_remove(GST_BIN(self), e);
-  }
+  whep_view_remove(GST_BIN(self), &view);
   GST_INFO_OBJECT(self, "session %s: its view is gone", session.c_str());
 }
 
@@ -291,45 +145,23 @@ static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTem
   int index = 0;
   if (name && sscanf(name, "cam_%d", &index) != 1) return nullptr;
   if (!name)
-    while (std::any_of(self->cameras->begin(), self->cameras->end(), [&](const Camera& c) { return c.index == index; }))
+    while (std::any_of(self->cameras->begin(), self->cameras->end(), [&](const WhepCamera& c) { return c.index == index; }))
       ++index;
-  for (const Camera& c : *self->cameras)
+  for (const WhepCamera& c : *self->cameras)
     if (c.index == index) return nullptr;  // that camera is linked already
-  GstElement* prep = gst_element_factory_make("viewprep", nullptr);
-  GstElement* tee = gst_element_factory_make("tee", nullptr);
-  if (!prep || !tee) {
-    if (prep) gst_object_unref(prep);
-    if (tee) gst_object_unref(tee);
-    return nullptr;
-  }
-  // The memory and the warp's first half, once for every view of this camera.
-  const ViewSettings& s = *self->settings;
-  const std::string camera = "cam" + std::to_string(index) + ".png";
-  if (!s.model.empty()) g_object_set(prep, "prior-depth", (s.model + "/prior-depth/" + camera).c_str(), nullptr);
-  if (s.background_memory > 0) {
-    g_object_set(prep, "background-memory", s.background_memory, nullptr);
-    if (!s.model.empty()) g_object_set(prep, "empty-room", (s.model + "/prior-color/" + camera).c_str(), nullptr);
-  }
-  g_object_set(tee, "allow-not-linked", TRUE, nullptr);
-  // The camera's one permanent branch: a sink, so the bin posts EOS whether or not anyone watches.
-  GstElement* drain = gst_element_factory_make("fakesink", nullptr);
-  g_object_set(drain, "sync", FALSE, "async", FALSE, nullptr);
-  gst_bin_add_many(GST_BIN(self), prep, tee, drain, nullptr);
-  gst_element_link_many(prep, tee, drain, nullptr);
-  gst_element_sync_state_with_parent(drain);
-  gst_element_sync_state_with_parent(tee);
-  gst_element_sync_state_with_parent(prep);
-  GstPad* target = gst_element_get_static_pad(prep, "sink");
+  WhepCamera camera;
+  GstPad* target = whep_camera_add(GST_BIN(self), index, *self->settings, &camera);
+  if (!target) return nullptr;
   const std::string pad_name = "cam_" + std::to_string(index);
   GstPad* pad = gst_ghost_pad_new_from_template(pad_name.c_str(), target, templ);
   gst_object_unref(target);
   gst_pad_set_active(pad, TRUE);
   gst_element_add_pad(element, pad);
-  self->cameras->push_back(Camera{index, tee});
+  self->cameras->push_back(camera);
   // Lecturers already watching see the new camera too.
   for (auto& [session, view] : *self->views) {
     GST_INFO_OBJECT(self, "camera %d joins the view of session %s", index, session.c_str());
-    add_camera_branch_locked(self, &view, self->cameras->back());
+    whep_view_add_camera(GST_BIN(self), &view, *self->settings, camera, self->turns);
   }
   return pad;
 }
@@ -351,7 +183,7 @@ static void gst_whep_view_sink_set_property(GObject* object, guint id, const GVa
     return;
   }
   std::lock_guard<std::mutex> g(*self->lock);
-  ViewSettings& s = *self->settings;
+  WhepViewSettings& s = *self->settings;
   auto str = [&] { const char* v = g_value_get_string(value); return std::string(v ? v : ""); };
   switch (id) {
     case PROP_RIG: s.rig = str(); break;
@@ -380,7 +212,7 @@ static void gst_whep_view_sink_get_property(GObject* object, guint id, GValue* v
     return;
   }
   std::lock_guard<std::mutex> g(*self->lock);
-  const ViewSettings& s = *self->settings;
+  const WhepViewSettings& s = *self->settings;
   switch (id) {
     case PROP_RIG: g_value_set_string(value, s.rig.c_str()); break;
     case PROP_NAVIGATION_RIG: g_value_set_string(value, s.navigation_rig.c_str()); break;
@@ -397,9 +229,9 @@ static void gst_whep_view_sink_get_property(GObject* object, guint id, GValue* v
 
 static void gst_whep_view_sink_init(GstWhepViewSink* self) {
   self->lock = new std::mutex;
-  self->settings = new ViewSettings;
-  self->cameras = new std::vector<Camera>;
-  self->views = new std::map<std::string, View>;
+  self->settings = new WhepViewSettings;
+  self->cameras = new std::vector<WhepCamera>;
+  self->views = new std::map<std::string, WhepView>;
   self->last_view_id = 0;
   self->turns = new ViewTurns;
   WhepEndpointHooks hooks;
