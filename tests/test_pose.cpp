@@ -9,6 +9,7 @@
 #include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_navigator.h>
 #include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/core/pose_trace.h>
 
@@ -144,6 +145,43 @@ TEST(Sliders, BadNotationIsRejected) {
   EXPECT_THROW(parse_sliders("[50,50,x,50,50,50]"), Error);
   EXPECT_THROW(parse_sliders("[50,50,150,50,50,50]"), Error);
   EXPECT_EQ(parse_sliders("50 50 50 50 50 50")[0], 50);
+}
+
+// ---- The lecturer's mouse and keys (core/view_navigator.h); posenav's events: test_lecturer.
+
+TEST(ViewNavigator, KeysAndWheelWalkLevelAlongTheHeadingAndHomeReturns) {
+  ViewNavigator nav;
+  nav.start.up = 0.5;
+  nav.view = nav.start;
+  EXPECT_EQ(nav.key_press("Up"), Navigated::kMoved);
+  EXPECT_NEAR(nav.view.forward, 0.1, 1e-12);
+  EXPECT_EQ(nav.key_release("Up"), Navigated::kTaken);  // the press moved; the release changes nothing
+  EXPECT_EQ(nav.key_press("x"), Navigated::kNotOurs);
+  EXPECT_EQ(nav.scroll(2), Navigated::kMoved);
+  EXPECT_NEAR(nav.view.forward, 0.3, 1e-12);
+  nav.view.yaw = 90;  // facing right: forward is the reference's right
+  EXPECT_EQ(nav.press(4, 0, 0), Navigated::kMoved);  // an X11 wheel notch away from you
+  EXPECT_NEAR(nav.view.right, 0.1, 1e-12);
+  EXPECT_NEAR(nav.view.forward, 0.3, 1e-12);
+  EXPECT_EQ(nav.release(4), Navigated::kTaken);
+  EXPECT_EQ(nav.key_press("q"), Navigated::kMoved);
+  EXPECT_NEAR(nav.view.up, 0.6, 1e-12);
+  EXPECT_EQ(nav.key_press("Home"), Navigated::kMoved);
+  EXPECT_EQ(nav.view.up, 0.5);
+  EXPECT_EQ(nav.view.forward, 0.0);
+}
+
+TEST(ViewNavigator, DraggingWithTheLeftButtonTurnsAndPitchStopsShortOfStraightUp) {
+  ViewNavigator nav;
+  EXPECT_EQ(nav.pointer_move(10, 10), Navigated::kNotOurs);  // no drag: the pointer is not ours
+  EXPECT_EQ(nav.press(3, 0, 0), Navigated::kNotOurs);
+  EXPECT_EQ(nav.press(1, 100, 100), Navigated::kTaken);
+  EXPECT_EQ(nav.pointer_move(150, 100), Navigated::kMoved);
+  EXPECT_NEAR(nav.view.yaw, 50 * ViewNavigator::kDefaultTurnSpeed, 1e-12);
+  EXPECT_EQ(nav.pointer_move(150, -10000), Navigated::kMoved);  // dragged far up
+  EXPECT_EQ(nav.view.pitch, 89.0);
+  EXPECT_EQ(nav.release(1), Navigated::kTaken);
+  EXPECT_EQ(nav.pointer_move(0, 0), Navigated::kNotOurs);
 }
 
 TEST(PoseTrace, LoadsWhatWasSaved) {

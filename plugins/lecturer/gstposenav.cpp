@@ -22,10 +22,8 @@
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! posenav ! videoconvert ! fakesink
  * ]|
  */
-// posenav: the paper's mouse interface on the lecturer's side. It sits in
-// front of the video sink, turns the sink's navigation events (drag, wheel,
-// keys) into vclassroom/pose events sent upstream towards the server, and can
-// instead drive the view from the six-slider notation or a pose trace.
+// How mouse and keys move the view is ViewNavigator's (core/view_navigator.h); this element parses the
+// sink's navigation events, keeps the view inside the rig's bounds and sends it upstream.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -41,6 +39,7 @@
 
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/pose_event.h>
+#include <gst/vclassroom/core/view_navigator.h>
 #include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/core/pose_trace.h>
 #include <gst/vclassroom/core/pose_meta.h>
@@ -54,8 +53,6 @@ using namespace vclassroom;
 enum { PROP_0, PROP_RIG, PROP_REFERENCE_CAMERA, PROP_SLIDERS, PROP_POSE_TRACE, PROP_MOVE_STEP, PROP_TURN_SPEED, PROP_FOV, PROP_SEQ, PROP_SERVER_CLAMPED };
 
 namespace {
-constexpr double kDefaultMoveStep = 0.1;   // m per key press or wheel notch
-constexpr double kDefaultTurnSpeed = 0.2;  // degrees per dragged pixel
 
 struct NavState {
   std::mutex lock;  // everything below: navigation, properties and streaming meet here
@@ -63,17 +60,13 @@ struct NavState {
   int reference_id = 0;
   std::string sliders_text = "[50,50,50,50,50,50]";
   std::string trace_path;
-  double move_step = kDefaultMoveStep;
-  double turn_speed = kDefaultTurnSpeed;
   double fov = 0;
 
   CameraCalib reference;        // from the rig, or the rig origin looking level along -Z
   NavigationClamp bounds;       // the rig's navigation bounds, when it has them
-  ViewOffset start, view;       // start pose and current pose, relative to the reference
+  ViewNavigator nav;            // start and current view relative to the reference; move-step, turn-speed
   std::vector<PoseSample> trace;
   size_t trace_index = 0;
-  bool dragging = false;
-  double drag_x = 0, drag_y = 0;
   bool started = false;         // the start pose has been sent
   uint64_t seq = 0;
   uint64_t session = new_pose_session_id();  // this element's poses are one session: seq counts on within it
@@ -129,9 +122,9 @@ static void send_upstream(GstPoseNav* self, GstEvent* event) {
 // view kept is the clamped one, so moving back responds at once.
 static GstEvent* view_event_locked(GstPoseNav* self) {
   NavState* st = self->st;
-  Pose pose = offset_to_pose(st->view, st->reference);
+  Pose pose = offset_to_pose(st->nav.view, st->reference);
   if (clamp_to_navigation_locked(self, &pose, "the lecturer's navigation"))
-    st->view = pose_to_offset(pose, st->reference);
+    st->nav.view = pose_to_offset(pose, st->reference);
   return make_pose_event_locked(self, pose);
 }
 
@@ -139,71 +132,35 @@ static GstEvent* view_event_locked(GstPoseNav* self) {
 static bool navigate_locked(GstPoseNav* self, GstEvent* event, GstEvent** pose_out) {
   NavState* st = self->st;
   if (!st->trace.empty()) return false;  // a trace drives the view
-  ViewOffset& v = st->view;
-  const double yaw_fwd = v.yaw * M_PI / 180.0;
-  // Moving follows the heading (yaw) but stays level, as walking does.
-  auto walk = [&](double forward, double right) {
-    v.forward += forward * std::cos(yaw_fwd) - right * std::sin(yaw_fwd);
-    v.right += forward * std::sin(yaw_fwd) + right * std::cos(yaw_fwd);
-  };
-  bool used = true;
+  ViewNavigator& nav = st->nav;
+  Navigated result = Navigated::kNotOurs;
   double x, y, dx, dy;
   gint button;
   const char* key = nullptr;
   switch (gst_navigation_event_get_type(event)) {
     case GST_NAVIGATION_EVENT_MOUSE_BUTTON_PRESS:
-      if (!gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y)) return false;
-      // X11 sinks (xvimagesink, ximagesink) report a wheel notch as a press of
-      // button 4 (away from you) or 5 (towards you), never as a scroll event.
-      if (button == 4 || button == 5) {
-        walk(button == 4 ? st->move_step : -st->move_step, 0);
-        break;
-      }
-      if (button != 1) return false;
-      st->dragging = true;
-      st->drag_x = x;
-      st->drag_y = y;
-      return true;
+      if (gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y)) result = nav.press(button, x, y);
+      break;
     case GST_NAVIGATION_EVENT_MOUSE_BUTTON_RELEASE:
-      if (!gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y)) return false;
-      if (button == 4 || button == 5) return true;  // the wheel's press moved already
-      if (button != 1) return false;
-      st->dragging = false;
-      return true;
+      if (gst_navigation_event_parse_mouse_button_event(event, &button, &x, &y)) result = nav.release(button);
+      break;
     case GST_NAVIGATION_EVENT_MOUSE_MOVE:
-      if (!st->dragging || !gst_navigation_event_parse_mouse_move_event(event, &x, &y)) return false;
-      // Drag right to turn right, drag up to look up.
-      v.yaw += (x - st->drag_x) * st->turn_speed;
-      v.pitch = std::clamp(v.pitch - (y - st->drag_y) * st->turn_speed, -89.0, 89.0);
-      st->drag_x = x;
-      st->drag_y = y;
+      if (gst_navigation_event_parse_mouse_move_event(event, &x, &y)) result = nav.pointer_move(x, y);
       break;
     case GST_NAVIGATION_EVENT_MOUSE_SCROLL:
-      if (!gst_navigation_event_parse_mouse_scroll_event(event, &x, &y, &dx, &dy)) return false;
-      walk(dy * st->move_step, 0);  // wheel away from you: forward
+      if (gst_navigation_event_parse_mouse_scroll_event(event, &x, &y, &dx, &dy)) result = nav.scroll(dy);
       break;
-    case GST_NAVIGATION_EVENT_KEY_PRESS: {
-      if (!gst_navigation_event_parse_key_event(event, &key) || !key) return false;
-      const std::string k = key;
-      if (k == "Up" || k == "w") walk(st->move_step, 0);
-      else if (k == "Down" || k == "s") walk(-st->move_step, 0);
-      else if (k == "Left" || k == "a") walk(0, -st->move_step);
-      else if (k == "Right" || k == "d") walk(0, st->move_step);
-      else if (k == "Page_Up" || k == "q") v.up += st->move_step;
-      else if (k == "Page_Down" || k == "e") v.up -= st->move_step;
-      else if (k == "Home" || k == "r") v = st->start;
-      else used = false;
+    case GST_NAVIGATION_EVENT_KEY_PRESS:
+      if (gst_navigation_event_parse_key_event(event, &key) && key) result = nav.key_press(key);
       break;
-    }
     case GST_NAVIGATION_EVENT_KEY_RELEASE:
-      if (!gst_navigation_event_parse_key_event(event, &key) || !key) return false;
-      used = std::string("Up Down Left Right w s a d Page_Up Page_Down q e Home r").find(key) != std::string::npos;
-      return used;  // the press moved; the release is ours too, but changes nothing
+      if (gst_navigation_event_parse_key_event(event, &key) && key) result = nav.key_release(key);
+      break;
     default:
-      return false;
+      break;
   }
-  if (used) *pose_out = view_event_locked(self);
-  return used;
+  if (result == Navigated::kMoved) *pose_out = view_event_locked(self);
+  return result != Navigated::kNotOurs;
 }
 
 static gboolean gst_pose_nav_src_event(GstBaseTransform* trans, GstEvent* event) {
@@ -241,7 +198,7 @@ static GstFlowReturn gst_pose_nav_transform_ip(GstBaseTransform* trans, GstBuffe
     } else if (const PoseMeta* m = buffer_get_pose_meta(buf); m && m->rendered.clamped && m->seq == st->seq) {
       // The server moved the latest pose into its navigation bounds (bounds this posenav may not know): the
       // view moves to that edge too, so steering back responds at once.
-      st->view = pose_to_offset(pose_of(m->rendered), st->reference);
+      st->nav.view = pose_to_offset(pose_of(m->rendered), st->reference);
       st->server_clamped++;
     }
     st->started = true;
@@ -258,16 +215,16 @@ static gboolean gst_pose_nav_start(GstBaseTransform* trans) {
     const Rig rig = st->rig_path.empty() ? Rig() : load_rig(st->rig_path);
     st->reference = st->rig_path.empty() ? rig_origin_reference() : rig.camera(st->reference_id);
     st->bounds = NavigationClamp(rig);
-    st->start = sliders_to_offset(parse_sliders(st->sliders_text));
+    st->nav.start = sliders_to_offset(parse_sliders(st->sliders_text));
     st->trace = st->trace_path.empty() ? std::vector<PoseSample>() : load_pose_trace(st->trace_path);
   } catch (const Error& e) {
     GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("%s", e.what()), ("posenav properties"));
     return FALSE;
   }
-  st->view = st->start;
+  st->nav.view = st->nav.start;
+  st->nav.end_drag();
   st->trace_index = 0;
   st->started = false;
-  st->dragging = false;
   return TRUE;
 }
 
@@ -278,12 +235,8 @@ static void gst_pose_nav_set_property(GObject* object, guint prop_id, const GVal
   {
     std::lock_guard<std::mutex> g(st->lock);
     switch (prop_id) {
-      case PROP_RIG:
-        st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
-        break;
-      case PROP_REFERENCE_CAMERA:
-        st->reference_id = g_value_get_int(value);
-        break;
+      case PROP_RIG: st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : ""; break;
+      case PROP_REFERENCE_CAMERA: st->reference_id = g_value_get_int(value); break;
       case PROP_SLIDERS: {
         const std::string text = g_value_get_string(value) ? g_value_get_string(value) : "";
         try {
@@ -291,7 +244,7 @@ static void gst_pose_nav_set_property(GObject* object, guint prop_id, const GVal
           st->sliders_text = text;
           // While running, a new slider setting moves the view there at once.
           if (GST_STATE(self) >= GST_STATE_PAUSED && st->trace.empty()) {
-            st->start = st->view = start;
+            st->nav.start = st->nav.view = start;
             pose = view_event_locked(self);
           }
         } catch (const Error& e) {
@@ -299,18 +252,10 @@ static void gst_pose_nav_set_property(GObject* object, guint prop_id, const GVal
         }
         break;
       }
-      case PROP_POSE_TRACE:
-        st->trace_path = g_value_get_string(value) ? g_value_get_string(value) : "";
-        break;
-      case PROP_MOVE_STEP:
-        st->move_step = g_value_get_double(value);
-        break;
-      case PROP_TURN_SPEED:
-        st->turn_speed = g_value_get_double(value);
-        break;
-      case PROP_FOV:
-        st->fov = g_value_get_double(value);
-        break;
+      case PROP_POSE_TRACE: st->trace_path = g_value_get_string(value) ? g_value_get_string(value) : ""; break;
+      case PROP_MOVE_STEP: st->nav.move_step = g_value_get_double(value); break;
+      case PROP_TURN_SPEED: st->nav.turn_speed = g_value_get_double(value); break;
+      case PROP_FOV: st->fov = g_value_get_double(value); break;
       default:
         G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
     }
@@ -322,36 +267,20 @@ static void gst_pose_nav_get_property(GObject* object, guint prop_id, GValue* va
   NavState* st = GST_POSE_NAV(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
   switch (prop_id) {
-    case PROP_RIG:
-      g_value_set_string(value, st->rig_path.c_str());
-      break;
-    case PROP_REFERENCE_CAMERA:
-      g_value_set_int(value, st->reference_id);
-      break;
+    case PROP_RIG: g_value_set_string(value, st->rig_path.c_str()); break;
+    case PROP_REFERENCE_CAMERA: g_value_set_int(value, st->reference_id); break;
     case PROP_SLIDERS:
       // The current view in the slider notation (it may lie outside 0..100 after free navigation).
       g_value_set_string(value, GST_STATE(object) >= GST_STATE_PAUSED
-                                    ? format_sliders(offset_to_sliders(st->view)).c_str()
+                                    ? format_sliders(offset_to_sliders(st->nav.view)).c_str()
                                     : st->sliders_text.c_str());
       break;
-    case PROP_POSE_TRACE:
-      g_value_set_string(value, st->trace_path.c_str());
-      break;
-    case PROP_MOVE_STEP:
-      g_value_set_double(value, st->move_step);
-      break;
-    case PROP_TURN_SPEED:
-      g_value_set_double(value, st->turn_speed);
-      break;
-    case PROP_FOV:
-      g_value_set_double(value, st->fov);
-      break;
-    case PROP_SEQ:
-      g_value_set_uint64(value, st->seq);
-      break;
-    case PROP_SERVER_CLAMPED:
-      g_value_set_uint64(value, st->server_clamped);
-      break;
+    case PROP_POSE_TRACE: g_value_set_string(value, st->trace_path.c_str()); break;
+    case PROP_MOVE_STEP: g_value_set_double(value, st->nav.move_step); break;
+    case PROP_TURN_SPEED: g_value_set_double(value, st->nav.turn_speed); break;
+    case PROP_FOV: g_value_set_double(value, st->fov); break;
+    case PROP_SEQ: g_value_set_uint64(value, st->seq); break;
+    case PROP_SERVER_CLAMPED: g_value_set_uint64(value, st->server_clamped); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -393,11 +322,11 @@ static void gst_pose_nav_class_init(GstPoseNavClass* klass) {
   g_object_class_install_property(gobject_class, PROP_MOVE_STEP,
                                   g_param_spec_double("move-step", "Move step",
                                                       "Metres moved per key press or wheel notch", 0.001, 10,
-                                                      kDefaultMoveStep, playing));
+                                                      ViewNavigator::kDefaultMoveStep, playing));
   g_object_class_install_property(gobject_class, PROP_TURN_SPEED,
                                   g_param_spec_double("turn-speed", "Turn speed",
                                                       "Degrees turned per pixel dragged with the left button", 0.001,
-                                                      10, kDefaultTurnSpeed, playing));
+                                                      10, ViewNavigator::kDefaultTurnSpeed, playing));
   g_object_class_install_property(
       gobject_class, PROP_FOV,
       g_param_spec_double("fov", "Field of view",
