@@ -18,27 +18,7 @@
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! posesend name=s ! posenav ! videoconvert ! fakesink s.rtp ! udpsink host=127.0.0.1 port=5006
  * ]|
  */
-// posesend: on the lecturer's side, the pose events that reach it from
-// downstream (posenav) leave as RTP packets on its `rtp` pad (to udpsink);
-// video passes through untouched. The latest pose is repeated with every
-// video frame, so a lost packet costs at most one frame of staleness.
-//
-// Pose packets leave from the rtp pad's own thread (a pad task), never from
-// the thread that made them. Pose events arrive from downstream in the video
-// streaming thread (posenav sends them while it handles a frame), and the
-// video frames themselves push repeats in that thread too. Pushed there, a
-// packet went synchronously into the rtp branch's sink; in a non-live
-// pipeline that sink blocks every buffer in its preroll wait until the
-// pipeline is PLAYING, and the pipeline reaches PLAYING only when the video
-// sink has prerolled too, which it never does, since its only streaming
-// thread is the one held in the other sink: a deadlock (a queue after the rtp
-// pad used to hide it by giving the branch a thread of its own). The task
-// is that thread. It also starts the rtp stream at once (stream-start, caps,
-// segment and a GAP event, which prerolls a sink without any packet), so
-// end-of-stream can always follow, whether or not a pose was ever sent.
-//
-// With trace-location set, every pose sent is also written to a pose trace
-// (running time, pose, seq), so a recorded session can be rendered again.
+// The rtp pad's thread, and why it has one: pose_rtp_task.h.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -48,8 +28,6 @@
 #include <gst/rtp/gstrtpbuffer.h>
 
 #include <algorithm>
-#include <condition_variable>
-#include <deque>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -60,9 +38,10 @@
 #include <gst/vclassroom/net/pose_wire.h>
 #include <gst/vclassroom/core/pose_trace.h>
 
+#include "pose_rtp_task.h"
 #include "poseback.h"
 
-GST_DEBUG_CATEGORY_STATIC(pose_send_debug);
+GST_DEBUG_CATEGORY(pose_send_debug);  // pose_rtp_task.cpp logs in it too
 #define GST_CAT_DEFAULT pose_send_debug
 
 using namespace vclassroom;
@@ -70,13 +49,11 @@ using namespace vclassroom;
 enum { PROP_0, PROP_PT, PROP_REPEAT, PROP_SENT, PROP_KEY_FILE, PROP_TRACE_LOCATION };
 
 namespace {
-// Packets made but not yet pushed: a handful is plenty (a newer pose makes the
-// older ones moot), so beyond this the oldest is dropped.
-constexpr size_t kOutboxLimit = 32;
 
 struct SendState {
-  std::mutex lock;  // guards all below; never held while pushing
-  std::condition_variable wake;  // the rtp task waits on it for packets, EOS or flushing
+  explicit SendState(GstPad* rtppad) : rtp(rtppad) {}
+  PoseRtpTask rtp;  // thread-safe itself; taken with the lock below held, never the other way round
+  std::mutex lock;  // guards all below
   guint pt = 96;
   bool repeat = true;
   std::string key_file;
@@ -89,12 +66,6 @@ struct SendState {
   guint64 session = 0;  // this run's number in every packet: a restarted lecturer is a new session
   guint64 packets = 0;  // packets of this session so far: each carries the next number (the replay window's)
   std::optional<Pose> latest;
-  std::deque<GstBuffer*> outbox;
-  bool started = false;      // the task has sent stream-start, caps, segment and GAP
-  bool eos_pending = false;  // EOS is to follow the packets in the outbox
-  bool eos_sent = false;
-  bool flushing = true;      // the rtp pad is inactive: the task stops
-  guint64 sent = 0;
 };
 }  // namespace
 
@@ -119,7 +90,7 @@ static GstStaticPadTemplate rtp_template =
 // Makes `pose` into one RTP packet for the rtp task; called with the lock held.
 static void send_locked(GstPoseSend* self, const Pose& pose) {
   SendState* st = self->st;
-  if (st->flushing || st->eos_pending || st->eos_sent) return;
+  if (!st->rtp.accepting()) return;
   const PoseKey* key = st->key.empty() ? nullptr : &st->key;
   const guint size = key ? kPoseWireMaxSize : kPoseWireSize;
   GstBuffer* buf = gst_rtp_buffer_new_allocate(size, 0, 0);
@@ -136,76 +107,11 @@ static void send_locked(GstPoseSend* self, const Pose& pose) {
   const PoseWireStamp stamp(st->session, ++st->packets, static_cast<int64_t>(gst_util_get_timestamp()));
   pose_to_wire(pose, static_cast<uint8_t*>(gst_rtp_buffer_get_payload(&rtp)), stamp, key);
   gst_rtp_buffer_unmap(&rtp);
-  if (st->outbox.size() >= kOutboxLimit) {
-    gst_buffer_unref(st->outbox.front());
-    st->outbox.pop_front();
-  }
-  st->outbox.push_back(buf);
-  st->wake.notify_one();
+  st->rtp.push(buf);
 }
 
-// The rtp pad's task: starts the stream, then pushes what the outbox holds,
-// then EOS; the lock is released while pushing.
-static void gst_pose_send_rtp_loop(gpointer data) {
-  GstPoseSend* self = GST_POSE_SEND(data);
-  SendState* st = self->st;
-  std::unique_lock<std::mutex> lk(st->lock);
-  if (!st->started) {
-    st->started = true;
-    GstCaps* caps = gst_caps_from_string(kPoseRtpCaps);
-    gst_caps_set_simple(caps, "payload", G_TYPE_INT, static_cast<int>(st->pt), "ssrc", G_TYPE_UINT, st->ssrc, nullptr);
-    lk.unlock();
-    gchar* id = gst_pad_create_stream_id(self->rtppad, GST_ELEMENT(self), "pose");
-    gst_pad_push_event(self->rtppad, gst_event_new_stream_start(id));
-    g_free(id);
-    gst_pad_push_event(self->rtppad, gst_event_new_caps(caps));
-    gst_caps_unref(caps);
-    GstSegment seg;
-    gst_segment_init(&seg, GST_FORMAT_TIME);
-    gst_pad_push_event(self->rtppad, gst_event_new_segment(&seg));
-    // A sparse stream: the GAP lets a sink preroll before the first pose.
-    gst_pad_push_event(self->rtppad, gst_event_new_gap(0, GST_CLOCK_TIME_NONE));
-    return;
-  }
-  st->wake.wait(lk, [st] { return st->flushing || !st->outbox.empty() || st->eos_pending; });
-  if (st->flushing) {
-    lk.unlock();
-    gst_pad_pause_task(self->rtppad);
-    return;
-  }
-  if (!st->outbox.empty()) {
-    GstBuffer* buf = st->outbox.front();
-    st->outbox.pop_front();
-    lk.unlock();
-    const GstFlowReturn r = gst_pad_push(self->rtppad, buf);
-    if (r == GST_FLOW_OK) {
-      std::lock_guard<std::mutex> g(st->lock);
-      st->sent++;
-    } else if (r != GST_FLOW_NOT_LINKED) {
-      GST_DEBUG_OBJECT(self, "pose push: %s", gst_flow_get_name(r));
-    }
-    return;
-  }
-  st->eos_pending = false;
-  st->eos_sent = true;
-  lk.unlock();
-  gst_pad_push_event(self->rtppad, gst_event_new_eos());
-  gst_pad_pause_task(self->rtppad);
-}
-
-static gboolean gst_pose_send_rtp_activate_mode(GstPad* pad, GstObject* parent, GstPadMode mode, gboolean active) {
-  GstPoseSend* self = GST_POSE_SEND(parent);
-  SendState* st = self->st;
-  if (mode != GST_PAD_MODE_PUSH) return FALSE;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    st->flushing = !active;
-    st->started = st->eos_pending = st->eos_sent = false;
-    for (GstBuffer* b : st->outbox) gst_buffer_unref(b);
-    st->outbox.clear();
-    st->wake.notify_all();
-  }
-  return active ? gst_pad_start_task(pad, gst_pose_send_rtp_loop, self, nullptr) : gst_pad_stop_task(pad);
+static gboolean gst_pose_send_rtp_activate_mode(GstPad*, GstObject* parent, GstPadMode mode, gboolean active) {
+  return GST_POSE_SEND(parent)->st->rtp.activate(mode, active);
 }
 
 // Adds the pose to the trace at the pipeline's running time; a trace that
@@ -266,9 +172,7 @@ static gboolean gst_pose_send_sink_event(GstPad* pad, GstObject* parent, GstEven
   if (GST_EVENT_TYPE(event) == GST_EVENT_EOS) {
     // The pose stream ends with the video, whether or not a pose was sent
     // (a sink waiting for it would keep the pipeline from ending).
-    std::lock_guard<std::mutex> g(self->st->lock);
-    if (!self->st->eos_sent) self->st->eos_pending = true;
-    self->st->wake.notify_one();
+    self->st->rtp.end();
   }
   return gst_pad_event_default(pad, parent, event);
 }
@@ -300,6 +204,7 @@ static GstStateChangeReturn gst_pose_send_change_state(GstElement* element, GstS
     st->session = new_pose_session_id();
     st->packets = 0;
     st->rtp_seq = static_cast<guint16>(g_random_int());
+    st->rtp.set_stream(st->pt, st->ssrc);
   }
   return GST_ELEMENT_CLASS(gst_pose_send_parent_class)->change_state(element, transition);
 }
@@ -308,12 +213,8 @@ static void gst_pose_send_set_property(GObject* object, guint prop_id, const GVa
   SendState* st = GST_POSE_SEND(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
   switch (prop_id) {
-    case PROP_PT:
-      st->pt = g_value_get_uint(value);
-      break;
-    case PROP_REPEAT:
-      st->repeat = g_value_get_boolean(value);
-      break;
+    case PROP_PT: st->pt = g_value_get_uint(value); break;
+    case PROP_REPEAT: st->repeat = g_value_get_boolean(value); break;
     case PROP_KEY_FILE: {
       const gchar* f = g_value_get_string(value);
       st->key_file = f ? f : "";
@@ -333,28 +234,17 @@ static void gst_pose_send_get_property(GObject* object, guint prop_id, GValue* v
   SendState* st = GST_POSE_SEND(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
   switch (prop_id) {
-    case PROP_PT:
-      g_value_set_uint(value, st->pt);
-      break;
-    case PROP_REPEAT:
-      g_value_set_boolean(value, st->repeat);
-      break;
-    case PROP_SENT:
-      g_value_set_uint64(value, st->sent);
-      break;
-    case PROP_KEY_FILE:
-      g_value_set_string(value, st->key_file.c_str());
-      break;
-    case PROP_TRACE_LOCATION:
-      g_value_set_string(value, st->trace_location.c_str());
-      break;
+    case PROP_PT: g_value_set_uint(value, st->pt); break;
+    case PROP_REPEAT: g_value_set_boolean(value, st->repeat); break;
+    case PROP_SENT: g_value_set_uint64(value, st->rtp.sent()); break;
+    case PROP_KEY_FILE: g_value_set_string(value, st->key_file.c_str()); break;
+    case PROP_TRACE_LOCATION: g_value_set_string(value, st->trace_location.c_str()); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
 }
 
 static void gst_pose_send_finalize(GObject* object) {
-  for (GstBuffer* b : GST_POSE_SEND(object)->st->outbox) gst_buffer_unref(b);
   delete GST_POSE_SEND(object)->st;
   G_OBJECT_CLASS(gst_pose_send_parent_class)->finalize(object);
 }
@@ -397,7 +287,8 @@ static void gst_pose_send_class_init(GstPoseSendClass* klass) {
 }
 
 static void gst_pose_send_init(GstPoseSend* self) {
-  self->st = new SendState();
+  self->rtppad = gst_pad_new_from_static_template(&rtp_template, "rtp");
+  self->st = new SendState(self->rtppad);
   self->sinkpad = gst_pad_new_from_static_template(&sink_template, "sink");
   gst_pad_set_chain_function(self->sinkpad, GST_DEBUG_FUNCPTR(gst_pose_send_chain));
   gst_pad_set_event_function(self->sinkpad, GST_DEBUG_FUNCPTR(gst_pose_send_sink_event));
@@ -410,7 +301,6 @@ static void gst_pose_send_init(GstPoseSend* self) {
   gst_pad_set_iterate_internal_links_function(self->srcpad, GST_DEBUG_FUNCPTR(gst_pose_send_iterate_links));
   GST_PAD_SET_PROXY_CAPS(self->srcpad);
   gst_element_add_pad(GST_ELEMENT(self), self->srcpad);
-  self->rtppad = gst_pad_new_from_static_template(&rtp_template, "rtp");
   gst_pad_use_fixed_caps(self->rtppad);
   gst_pad_set_activatemode_function(self->rtppad, GST_DEBUG_FUNCPTR(gst_pose_send_rtp_activate_mode));
   gst_element_add_pad(GST_ELEMENT(self), self->rtppad);
