@@ -21,12 +21,9 @@
  * gst-launch-1.0 rgbdsrc color-device=/dev/video0 depth-device=/dev/video2 rig=rig.yaml ! rgbddemux name=d d.color ! videoconvert ! fakesink
  * ]|
  */
-// rgbdsrc: one consumer RGB-D camera through V4L2 (its colour node and its
-// depth node), as video/x-rgbd with the rig camera's calibration in the caps.
-// The camera itself (V4L2 nodes, pixel formats, registration, pairing by
-// capture time) is the library's RgbdCamera (gst/vclassroom/capture/); this
-// is the glue: properties, caps, timestamps on the pipeline clock, bus
-// messages, reconnecting.
+// The camera itself (V4L2 nodes, pixel formats, registration, pairing by capture time) is the library's
+// RgbdCamera (capture/rgbd_camera.h); this is the glue: properties, caps, timestamps on the pipeline clock,
+// bus messages, reconnecting.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

@@ -21,13 +21,8 @@
  * gst-launch-1.0 udpsrc port=5006 caps=application/x-rtp,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE ! r.rtp rgbdtestsrc num-buffers=300 ! viewwarp ! rgbddemux name=d d.color ! poserecv name=r ! videoconvert ! fakesink
  * ]|
  */
-// poserecv: on the server, pose packets arriving on its `rtp` pad (from
-// udpsrc) become vclassroom/pose events again, sent upstream from its video
-// sink pad towards viewfuse and every viewwarp. Which packets are obeyed is
-// library logic: the wire format and its authentication tag
-// (gst/vclassroom/core/pose.h), sessions and the seq window
-// (gst/vclassroom/net/pose_session.h); this element counts, warns (rate-limited)
-// and posts statistics.
+// Which packets are obeyed is library logic: the wire format and its tag (net/pose_wire.h), sessions, the
+// seq window and the replay guard (net/pose_session.h); this element counts, warns and posts statistics.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -197,12 +192,8 @@ static void gst_pose_recv_set_property(GObject* object, guint prop_id, const GVa
       st->max_distance = g_value_get_double(value);
       st->channel.set_max_distance(st->max_distance);
       break;
-    case PROP_SESSION_TIMEOUT:
-      st->session_timeout_ms = g_value_get_uint(value);
-      break;
-    case PROP_STATS_INTERVAL:
-      st->stats_interval = g_value_get_uint(value);
-      break;
+    case PROP_SESSION_TIMEOUT: st->session_timeout_ms = g_value_get_uint(value); break;
+    case PROP_STATS_INTERVAL: st->stats_interval = g_value_get_uint(value); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }

@@ -3,8 +3,8 @@
  * @title: rgbdenc
  *
  * Compresses each video/x-rgbd frame into one buffer: colour as JPEG (libjpeg-turbo), depth and labels
- * lossless, every part checksummed; the calibration stays in the caps (video/x-rgbd-coded) so it crosses
- * rtpgstpay.
+ * lossless, every part checksummed (docs/rgbd-codec.md); the calibration stays in the caps
+ * (video/x-rgbd-coded) so it crosses rtpgstpay.
  *
  * ## Properties
  *
@@ -16,9 +16,6 @@
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbdenc quality=80 ! rtpgstpay mtu=1400 ! rtpgstdepay ! rgbddec ! rgbddemux name=d d.color ! videoconvert ! fakesink
  * ]|
  */
-// rgbdenc: one video/x-rgbd frame -> one compressed buffer (JPEG colour,
-// lossless depth and labels, checksummed; docs/rgbd-codec.md), calibration
-// kept in the caps so it rides rtpgstpay.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

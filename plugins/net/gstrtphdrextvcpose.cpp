@@ -11,11 +11,7 @@
  * gst-launch-1.0 videotestsrc num-buffers=300 ! jpegenc ! rtpgstpay ! "application/x-rtp,extmap-3=(string)urn:gst-vclassroom:rtp-hdrext:pose" ! rtpgstdepay ! jpegdec ! videoconvert ! fakesink
  * ]|
  */
-// rtphdrextvcpose: an RTP header extension carrying the seq and viewer time of
-// the pose a video frame was rendered for (the frame's PoseMeta), so the
-// lecturer's side can measure motion-to-photon latency, and the pose as the
-// server rendered it (after its navigation bounds). The wire form is the
-// library's (pose_stamp.h): 48 bytes with the pose, 16 without.
+// The wire form is the library's (net/pose_stamp.h): 48 bytes with the pose, 16 without.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

@@ -18,11 +18,7 @@
  * gst-launch-1.0 udpsrc port=5000 caps=application/x-rtp ! senderfilter allow=127.0.0.1,10.0.0.7 payload-types=96,97 ! fakesink
  * ]|
  */
-// senderfilter: right after a udpsrc, passes only RTP packets from the
-// configured source addresses (udpsrc's GstNetAddressMeta) and, with
-// lock-ssrc, one SSRC per payload type; drops and counts the rest, warns
-// through WarningLimiter and posts the counts as a vclassroom-sender-stats
-// element message. The decisions live in gst/vclassroom/net/sender_filter.h.
+// The decisions live in net/sender_filter.h; a packet's source address is udpsrc's GstNetAddressMeta.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -225,12 +221,8 @@ static void gst_sender_filter_set_property(GObject* object, guint prop_id, const
       st->allow = s ? s : "";
       break;
     }
-    case PROP_LOCK_SSRC:
-      st->lock_ssrc = g_value_get_boolean(value);
-      break;
-    case PROP_TAKEOVER_MS:
-      st->takeover_ms = g_value_get_uint(value);
-      break;
+    case PROP_LOCK_SSRC: st->lock_ssrc = g_value_get_boolean(value); break;
+    case PROP_TAKEOVER_MS: st->takeover_ms = g_value_get_uint(value); break;
     case PROP_PAYLOAD_TYPES: {
       const gchar* s = g_value_get_string(value);
       st->payload_types = s ? s : "";
@@ -250,24 +242,12 @@ static void gst_sender_filter_get_property(GObject* object, guint prop_id, GValu
   FilterState* st = GST_SENDER_FILTER(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
   switch (prop_id) {
-    case PROP_ALLOW:
-      g_value_set_string(value, st->allow.c_str());
-      break;
-    case PROP_LOCK_SSRC:
-      g_value_set_boolean(value, st->lock_ssrc);
-      break;
-    case PROP_TAKEOVER_MS:
-      g_value_set_uint(value, st->takeover_ms);
-      break;
-    case PROP_PAYLOAD_TYPES:
-      g_value_set_string(value, st->payload_types.c_str());
-      break;
-    case PROP_SSRCS:
-      g_value_set_string(value, st->ssrcs.c_str());
-      break;
-    case PROP_ACCEPTED:
-      g_value_set_uint64(value, st->filter ? st->filter->accepted() : 0);
-      break;
+    case PROP_ALLOW: g_value_set_string(value, st->allow.c_str()); break;
+    case PROP_LOCK_SSRC: g_value_set_boolean(value, st->lock_ssrc); break;
+    case PROP_TAKEOVER_MS: g_value_set_uint(value, st->takeover_ms); break;
+    case PROP_PAYLOAD_TYPES: g_value_set_string(value, st->payload_types.c_str()); break;
+    case PROP_SSRCS: g_value_set_string(value, st->ssrcs.c_str()); break;
+    case PROP_ACCEPTED: g_value_set_uint64(value, st->filter ? st->filter->accepted() : 0); break;
     case PROP_DROPPED:
       g_value_set_uint64(value, st->filter ? st->filter->dropped_address() + st->filter->dropped_ssrc() +
                                                  st->filter->dropped_not_rtp() + st->filter->dropped_payload_type()

@@ -2,19 +2,18 @@
  * SECTION:element-srtpfiledec
  * @title: srtpfiledec
  *
- * srtpdec whose every stream (SSRC) gets the key from key-file; packets failing authentication are dropped.
- * The key: 30 bytes, made with head -c 30 /dev/urandom > srtp.key and given to both ends.
+ * srtpdec whose every stream (SSRC) gets the key from key-file; packets failing authentication (another
+ * key, tampering) are dropped. srtpdec asks for each new SSRC's key through its request-key signal, which a
+ * gst-launch-1.0 line cannot answer, and a camera link has two SSRCs (the camera's and its
+ * retransmissions'): this bin answers every one with the same key, AES_CM_128_HMAC_SHA1_80. The key: 30
+ * bytes, made with head -c 30 /dev/urandom > srtp.key and given to both ends.
  *
  * ## Example launch line
  * |[
  * gst-launch-1.0 udpsrc port=5000 caps="application/x-srtp,media=application,clock-rate=90000,encoding-name=X-GST,payload=96" ! srtpfiledec key-file=srtp.key ! rtpgstdepay ! fakesink
  * ]|
  */
-// srtpfiledec: srtpdec (gst-plugins-bad) with the key of every stream from a file. srtpdec asks for each
-// new SSRC's key through its request-key signal, which a gst-launch-1.0 line cannot answer, and a camera
-// link has two SSRCs (the camera's and its retransmissions'), so this bin answers it: the same 30-byte key
-// (gst/vclassroom/net/srtp_key.h), AES_CM_128_HMAC_SHA1_80, for every SSRC. Packets that fail authentication
-// (another key, tampering) are dropped by srtpdec.
+// The key file: net/srtp_key.h.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

@@ -10,7 +10,6 @@
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.depth ! depthcolorize ! videoconvert ! fakesink
  * ]|
  */
-// depthcolorize: a depth map (GRAY16_LE, mm) as an RGB picture people can read.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

@@ -4,15 +4,13 @@
  *
  * Splits video/x-rgbd into plain video/x-raw: color (RGB), depth (GRAY16_LE, mm), and, when the stream has
  * them, label (GRAY8 learner ids), weight (GRAY8) and depth-gt (GRAY16_LE ground truth). Zero copy.
+ * Upstream events (pose, QoS, navigation) from any output go back to the single input.
  *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! videoconvert ! fakesink d.depth ! queue ! depthcolorize ! videoconvert ! fakesink
  * ]|
  */
-// rgbddemux: splits a video/x-rgbd stream into one video/x-raw stream per
-// plane, sharing the buffer memory. Upstream events (pose, QoS, navigation)
-// from any output go back to the single input.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

@@ -2,10 +2,11 @@
  * SECTION:element-rgbdfilesink
  * @title: rgbdfilesink
  *
- * Records a camera into a dataset folder that rgbdfilesrc plays; the calibration from the caps goes into
- * rig.yaml. video/x-rgbd becomes PNG colour, 16-bit PNG depth in mm and the label/depth-gt planes when
- * present (a few frames a second); video/x-rgbd-coded from rgbdenc is recorded as it is, with each frame's
- * running time, at the camera's full rate (a live recording, played back at its original timing).
+ * Records a camera into a dataset folder that rgbdfilesrc plays (one instance per camera may share a
+ * folder); the calibration from the caps goes into rig.yaml. video/x-rgbd becomes PNG colour, 16-bit PNG
+ * depth in mm and the label/depth-gt planes when present (a few frames a second); video/x-rgbd-coded from
+ * rgbdenc is recorded as it is, with each frame's running time, at the camera's full rate (a live
+ * recording, played back at its original timing).
  *
  * ## Properties
  *
@@ -18,10 +19,7 @@
  * gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=90 ! rgbdenc ! rgbdfilesink location=rec
  * ]|
  */
-// rgbdfilesink: records a camera into the dataset format that rgbdfilesrc
-// plays (one instance per camera may share a folder): video/x-rgbd as PNG
-// images, or the coded stream of rgbdenc as a live recording with each
-// frame's running time (gst/vclassroom/datasets/coded_stream.h).
+// The coded recording's format: datasets/coded_stream.h.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

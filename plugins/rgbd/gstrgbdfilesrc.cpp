@@ -18,9 +18,6 @@
  * gst-launch-1.0 rgbdfilesrc location=out/art camera-id=1 loop=true framerate=15/1 ! rgbddemux name=d d.color ! videoconvert ! fakesink
  * ]|
  */
-// rgbdfilesrc: plays one camera of a recorded dataset folder as video/x-rgbd:
-// image folders at the `framerate` property, live recordings at the timing
-// they were recorded with.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

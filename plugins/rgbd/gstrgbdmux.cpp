@@ -14,8 +14,6 @@
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! rgbddemux name=d d.color ! queue ! m.color d.depth ! queue ! m.depth rgbdmux name=m ! rgbddemux name=e e.color ! videoconvert ! fakesink
  * ]|
  */
-// rgbdmux: pairs a colour and a depth video/x-raw stream by running time into
-// one video/x-rgbd stream, sharing their memory (no copy).
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -270,15 +268,9 @@ static void gst_rgbd_mux_set_property(GObject* object, guint prop_id, const GVal
   GstRgbdMux* self = GST_RGBD_MUX(object);
   std::lock_guard<std::mutex> g(self->st->lock);
   switch (prop_id) {
-    case PROP_RIG:
-      self->st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
-      break;
-    case PROP_CAMERA_ID:
-      self->st->camera_id = g_value_get_int(value);
-      break;
-    case PROP_MAX_SKEW:
-      self->st->max_skew = g_value_get_uint64(value);
-      break;
+    case PROP_RIG: self->st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : ""; break;
+    case PROP_CAMERA_ID: self->st->camera_id = g_value_get_int(value); break;
+    case PROP_MAX_SKEW: self->st->max_skew = g_value_get_uint64(value); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -288,15 +280,9 @@ static void gst_rgbd_mux_get_property(GObject* object, guint prop_id, GValue* va
   GstRgbdMux* self = GST_RGBD_MUX(object);
   std::lock_guard<std::mutex> g(self->st->lock);
   switch (prop_id) {
-    case PROP_RIG:
-      g_value_set_string(value, self->st->rig_path.c_str());
-      break;
-    case PROP_CAMERA_ID:
-      g_value_set_int(value, self->st->camera_id);
-      break;
-    case PROP_MAX_SKEW:
-      g_value_set_uint64(value, self->st->max_skew);
-      break;
+    case PROP_RIG: g_value_set_string(value, self->st->rig_path.c_str()); break;
+    case PROP_CAMERA_ID: g_value_set_int(value, self->st->camera_id); break;
+    case PROP_MAX_SKEW: g_value_set_uint64(value, self->st->max_skew); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }

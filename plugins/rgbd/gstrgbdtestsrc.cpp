@@ -23,8 +23,6 @@
  * gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=300 ! rgbddemux name=d d.color ! queue ! videoconvert ! fakesink d.depth ! queue ! depthcolorize ! videoconvert ! fakesink
  * ]|
  */
-// rgbdtestsrc: the synthetic classroom (docs/synthetic-classroom.md) seen from
-// one camera of a rig, as video/x-rgbd with exact ground truth.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
@@ -260,31 +258,17 @@ static void gst_rgbd_test_src_set_property(GObject* object, guint prop_id, const
   }
   std::lock_guard<std::mutex> g(st->lock);
   switch (prop_id) {
-    case PROP_CAMERA_ID:
-      st->camera_id = g_value_get_int(value);
-      break;
-    case PROP_RIG:
-      st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
-      break;
-    case PROP_SEED:
-      st->seed = g_value_get_uint64(value);
-      break;
-    case PROP_LEARNERS:
-      st->learners = g_value_get_int(value);
-      break;
-    case PROP_SENSOR_NOISE:
-      st->sensor_noise = g_value_get_boolean(value);
-      break;
-    case PROP_GROUND_TRUTH:
-      st->ground_truth = g_value_get_boolean(value);
-      break;
+    case PROP_CAMERA_ID: st->camera_id = g_value_get_int(value); break;
+    case PROP_RIG: st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : ""; break;
+    case PROP_SEED: st->seed = g_value_get_uint64(value); break;
+    case PROP_LEARNERS: st->learners = g_value_get_int(value); break;
+    case PROP_SENSOR_NOISE: st->sensor_noise = g_value_get_boolean(value); break;
+    case PROP_GROUND_TRUTH: st->ground_truth = g_value_get_boolean(value); break;
     case PROP_FRAMERATE:
       st->fps_n = gst_value_get_fraction_numerator(value);
       st->fps_d = gst_value_get_fraction_denominator(value);
       break;
-    case PROP_CALIBRATION_BOARD:
-      st->calibration_board = g_value_get_boolean(value);
-      break;
+    case PROP_CALIBRATION_BOARD: st->calibration_board = g_value_get_boolean(value); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -298,30 +282,14 @@ static void gst_rgbd_test_src_get_property(GObject* object, guint prop_id, GValu
   }
   std::lock_guard<std::mutex> g(st->lock);
   switch (prop_id) {
-    case PROP_CAMERA_ID:
-      g_value_set_int(value, st->camera_id);
-      break;
-    case PROP_RIG:
-      g_value_set_string(value, st->rig_path.c_str());
-      break;
-    case PROP_SEED:
-      g_value_set_uint64(value, st->seed);
-      break;
-    case PROP_LEARNERS:
-      g_value_set_int(value, st->learners);
-      break;
-    case PROP_SENSOR_NOISE:
-      g_value_set_boolean(value, st->sensor_noise);
-      break;
-    case PROP_GROUND_TRUTH:
-      g_value_set_boolean(value, st->ground_truth);
-      break;
-    case PROP_FRAMERATE:
-      gst_value_set_fraction(value, st->fps_n, st->fps_d);
-      break;
-    case PROP_CALIBRATION_BOARD:
-      g_value_set_boolean(value, st->calibration_board);
-      break;
+    case PROP_CAMERA_ID: g_value_set_int(value, st->camera_id); break;
+    case PROP_RIG: g_value_set_string(value, st->rig_path.c_str()); break;
+    case PROP_SEED: g_value_set_uint64(value, st->seed); break;
+    case PROP_LEARNERS: g_value_set_int(value, st->learners); break;
+    case PROP_SENSOR_NOISE: g_value_set_boolean(value, st->sensor_noise); break;
+    case PROP_GROUND_TRUTH: g_value_set_boolean(value, st->ground_truth); break;
+    case PROP_FRAMERATE: gst_value_set_fraction(value, st->fps_n, st->fps_d); break;
+    case PROP_CALIBRATION_BOARD: g_value_set_boolean(value, st->calibration_board); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }

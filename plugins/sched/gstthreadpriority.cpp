@@ -3,7 +3,10 @@
  * @title: threadpriority
  *
  * Passes everything through and lowers the scheduling priority of the thread that pushes it (Linux nice
- * value), so that work nobody waits for yields the CPU to work somebody does.
+ * value), so that work nobody waits for yields the CPU to work somebody does: on a server with more work
+ * than cores, the work a pose waits for (warp, fuse, encode) should not share the CPU evenly with the work
+ * it does not wait for (decoding and cleaning the next camera frame), so put a queue, then threadpriority,
+ * in front of the latter (docs/network.md). Buffers, events and queries pass untouched.
  *
  * ## Properties
  *
@@ -16,14 +19,8 @@
  * gst-launch-1.0 rgbdtestsrc num-buffers=300 ! queue ! threadpriority nice=10 ! rgbddemux name=d d.color ! videoconvert ! fakesink
  * ]|
  */
-// threadpriority: lowers the scheduling priority (raises the nice value) of
-// the streaming thread that pushes buffers through it. On a server with more
-// work than cores, the work a pose waits for (warp, fuse, encode) should not
-// share the CPU evenly with the work it does not wait for (decoding and
-// cleaning the next camera frame): put a queue, then threadpriority, in front
-// of the latter (docs/network.md). gst-launch-1.0 descriptions cannot set
-// thread priorities from the application's stream-status messages, hence an
-// element. Buffers, events and queries pass untouched.
+// Why an element: gst-launch-1.0 descriptions cannot set thread priorities from the application's
+// stream-status messages.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

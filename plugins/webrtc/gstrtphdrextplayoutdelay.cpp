@@ -3,7 +3,8 @@
  * @title: rtphdrextplayoutdelay
  *
  * Tells a WebRTC receiver how long it may buffer each frame (webrtc.org playout-delay); a payloader adds it
- * where downstream caps name its URI.
+ * where downstream caps name its URI, on every packet, so a browser joining at any frame learns the delay
+ * at once.
  *
  * ## Properties
  *
@@ -15,10 +16,7 @@
  * gst-launch-1.0 videotestsrc num-buffers=30 ! x264enc ! rtph264pay ! 'application/x-rtp,extmap-5=(string)http://www.webrtc.org/experiments/rtp-hdrext/playout-delay' ! fakesink
  * ]|
  */
-// rtphdrextplayoutdelay: the playout-delay RTP header extension as a GStreamer
-// RTP header extension element. A payloader writes it on every packet, so a
-// browser joining at any frame learns the delay at once. The bytes are the
-// library's (gst/vclassroom/webrtc/playout_delay.h).
+// The bytes are the library's (webrtc/playout_delay.h).
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif

@@ -27,12 +27,9 @@
  * gst-launch-1.0 videotestsrc num-buffers=30 ! video/x-raw,width=960,height=540 ! whepserversink port=0 token=secret
  * ]|
  */
-// whepserversink: the server's rendered view to browsers, one view for every
-// lecturer. H.264 (constrained baseline, x264enc zerolatency) encoded once and
-// teed to a webrtcbin per WHEP session (plugins/webrtc/whep_endpoint.h: the
-// HTTP server, signalling, the pose data channel and the per-frame echo). Poses
-// from all sessions steer the one view: latest wins (PoseSession). For a view per
-// lecturer, whepviewsink.
+// H.264 is encoded once (x264enc zerolatency) and teed to a webrtcbin per WHEP session; the HTTP server,
+// signalling, the pose data channel and the per-frame echo are WhepEndpoint's (whep_endpoint.h); poses
+// from all sessions steer the one view, latest wins (PoseSession).
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
