@@ -10,7 +10,9 @@
 
 #include <opencv2/core.hpp>
 
+#include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/synthetic/synthetic_camera.h>
 #include <gst/vclassroom/core/rgbd.h>
 
 #include "test_util.h"
@@ -326,6 +328,29 @@ TEST(SensorModel, NoiseGrowsWithDepthSquared) {
     // A matte wall facing the camera is measured nearly everywhere.
     EXPECT_LT(double(holes) / valid, 0.1) << "at " << d << " m";
   }
+}
+
+// rgbdtestsrc's frames without GStreamer: the library's render, sensor model and ground truth composed.
+TEST(SyntheticCamera, NoiseAsAskedForAndTheCleanPlanesAsGroundTruth) {
+  SyntheticCamera camera;
+  const CameraCalib cam = default_classroom_rig().camera(2);
+  EXPECT_THROW(camera.frame(cam, 0, 0), Error);  // before configure
+  SyntheticCameraConfig cfg;
+  cfg.room.seed = 11;
+  camera.configure(cfg);
+  const SyntheticCamera::Planes noisy = camera.frame(cam, 2.0 / 30.0, 2);
+  const RenderOutput clean = render(Classroom(cfg.room), 2.0 / 30.0, cam);
+  EXPECT_TRUE(same(noisy.depth_gt, clean.depth));
+  EXPECT_TRUE(same(noisy.label, clean.label));
+  cv::Mat depth, color;
+  apply_sensor_model(clean, cam, SensorParams{}, 11, 2, &depth, &color);
+  EXPECT_TRUE(same(noisy.depth, depth));
+  EXPECT_TRUE(same(noisy.color, color));
+  cfg.sensor_noise = false;
+  camera.configure(cfg);
+  const SyntheticCamera::Planes plain = camera.frame(cam, 2.0 / 30.0, 2);
+  EXPECT_TRUE(same(plain.color, clean.color));
+  EXPECT_TRUE(same(plain.depth, clean.depth));
 }
 
 // ------------------------------------------------------------ the element

@@ -29,12 +29,11 @@
 
 #include "gstrgbdtestsrc.h"
 
-#include <memory>
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/synthetic/board_trace.h>
 #include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/synthetic/synthetic_camera.h>
 #include <gst/vclassroom/core/rgbd.h>
 
 GST_DEBUG_CATEGORY_STATIC(rgbd_test_src_debug);
@@ -72,13 +71,7 @@ struct TestSrcState {
 
   // Streaming thread (and start/stop).
   bool started = false;
-  bool noise = true;
-  bool board = false;
-  std::unique_ptr<Classroom> room;
-  ClassroomRenderer renderer;
-  RenderOutput clean;
-  cv::Mat noisy_depth, noisy_color;
-  SensorParams sensor;
+  SyntheticCamera camera;
   RgbdInfo info;
   guint64 frame = 0;  // next frame to produce
   // Live mode: running time of frame 0.
@@ -102,16 +95,16 @@ static gboolean gst_rgbd_test_src_start(GstBaseSrc* src) {
   TestSrcState* st = self->st;
   std::string rig_path;
   int id;
-  ClassroomConfig cfg;
+  SyntheticCameraConfig cfg;
   bool ground_truth;
   {
     std::lock_guard<std::mutex> g(st->lock);
     rig_path = st->rig_path;
     id = st->camera_id;
-    cfg.seed = st->seed;
-    cfg.learners = st->learners;
-    st->noise = st->sensor_noise;
-    st->board = st->calibration_board;
+    cfg.room.seed = st->seed;
+    cfg.room.learners = st->learners;
+    cfg.sensor_noise = st->sensor_noise;
+    cfg.calibration_board = st->calibration_board;
     ground_truth = st->ground_truth;
     st->info.fps_n = st->fps_n;
     st->info.fps_d = st->fps_d;
@@ -125,10 +118,8 @@ static gboolean gst_rgbd_test_src_start(GstBaseSrc* src) {
                        id));
     return FALSE;
   }
-  // The scene takes a few hundred ms to build: keep it across restarts.
   try {
-    if (!st->room || st->room->config().seed != cfg.seed || st->room->config().learners != cfg.learners)
-      st->room = std::make_unique<Classroom>(cfg);
+    st->camera.configure(cfg);  // keeps the classroom across restarts of the same seed
   } catch (const Error& e) {
     GST_ELEMENT_ERROR(self, LIBRARY, INIT, ("%s", e.what()), (nullptr));
     return FALSE;
@@ -142,7 +133,7 @@ static gboolean gst_rgbd_test_src_start(GstBaseSrc* src) {
   st->live_base = GST_CLOCK_TIME_NONE;
   st->started = true;
   GST_INFO_OBJECT(self, "camera %d (%dx%d), seed %" G_GUINT64_FORMAT ", %d learners, planes %s", id,
-                  st->info.width(), st->info.height(), cfg.seed, cfg.learners, st->info.planes_string().c_str());
+                  st->info.width(), st->info.height(), cfg.room.seed, cfg.room.learners, st->info.planes_string().c_str());
   return TRUE;
 }
 
@@ -201,22 +192,19 @@ static GstFlowReturn gst_rgbd_test_src_create(GstPushSrc* psrc, GstBuffer** outb
   const guint64 n = st->frame;
   // Scene time n / fps, so instances with the same seed show the same instant.
   const double t = double(n) * st->info.fps_d / st->info.fps_n;
-  const CameraCalib& cam = st->info.camera;
+  SyntheticCamera::Planes planes;
   try {
-    st->renderer.render(*st->room, t, cam, &st->clean);
-    if (st->board) draw_board(trace_board(), board_pose_on_trace(*st->room, t), cam, &st->clean);
-    if (st->noise)
-      apply_sensor_model(st->clean, cam, st->sensor, st->room->config().seed, n, &st->noisy_depth, &st->noisy_color);
+    planes = st->camera.frame(st->info.camera, t, n);
   } catch (const Error& e) {
     GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("%s", e.what()), ("rgbdtestsrc frame %" G_GUINT64_FORMAT, n));
     return GST_FLOW_ERROR;
   }
   std::string err;
   GstBuffer* buf = rgbd_buffer_with_planes(st->info,
-                                           {{Plane::Color, st->noise ? st->noisy_color : st->clean.color},
-                                            {Plane::Depth, st->noise ? st->noisy_depth : st->clean.depth},
-                                            {Plane::Label, st->clean.label},
-                                            {Plane::DepthGT, st->clean.depth}},
+                                           {{Plane::Color, planes.color},
+                                            {Plane::Depth, planes.depth},
+                                            {Plane::Label, planes.label},
+                                            {Plane::DepthGT, planes.depth_gt}},
                                            &err);
   if (!buf) {
     GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
