@@ -391,6 +391,23 @@ void expect_same_stream(const Played& a, const Played& b) {
 
 }  // namespace
 
+TEST(RgbdStreamRefusal, BeyondTheLimitsOrNotTheRigsCameraAtItsSizeIsRefusedAndSaysWhy) {
+  RgbdStreamLimits limits;
+  limits.max_width = 1920;
+  limits.max_height = 1080;
+  limits.max_pixels = 1920ull * 1080;
+  EXPECT_EQ(rgbd_stream_refusal(0, 1920, 1080, limits, nullptr, ""), "");
+  EXPECT_NE(rgbd_stream_refusal(0, 1921, 10, limits, nullptr, "").find("beyond max-width 1920"), std::string::npos);
+  limits.max_pixels = 1000;
+  EXPECT_NE(rgbd_stream_refusal(0, 40, 30, limits, nullptr, "").find("caps declare 40x30"), std::string::npos);
+  limits = RgbdStreamLimits();
+  const Rig rig = vctest::make_rig(2, 64, 48);
+  EXPECT_EQ(rgbd_stream_refusal(1, 64, 48, limits, &rig, "rig.yaml"), "");
+  EXPECT_EQ(rgbd_stream_refusal(5, 64, 48, limits, &rig, "rig.yaml"), "camera 5 is not in the rig rig.yaml");
+  EXPECT_EQ(rgbd_stream_refusal(1, 32, 24, limits, &rig, "rig.yaml"),
+            "caps declare 32x24 but the rig rig.yaml has camera 1 at 64x48");
+}
+
 TEST(RgbdEncDec, DepthAndLabelsBitExactThroughTheElements) {
   // The coded stream carries colour, depth and labels: the reference drops depth-gt the same way.
   const Played direct = play("");

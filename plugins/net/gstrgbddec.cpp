@@ -27,6 +27,7 @@
 #include <string>
 
 #include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/core/limits.h>
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/net/rgbd_codec.h>
 #include <gst/vclassroom/core/rig.h>
@@ -40,14 +41,11 @@ GST_DEBUG_CATEGORY_STATIC(rgbd_dec_debug);
 using namespace vclassroom;
 
 enum { PROP_0, PROP_MAX_WIDTH, PROP_MAX_HEIGHT, PROP_MAX_PIXELS, PROP_RIG };
-constexpr int kDefaultMaxSide = 4096;
-constexpr guint64 kDefaultMaxPixels = 4096ull * 2160;  // 4K
 
 namespace {
 
 struct DecState {  // under the base's lock
-  int max_width = kDefaultMaxSide, max_height = kDefaultMaxSide;
-  guint64 max_pixels = kDefaultMaxPixels;
+  RgbdStreamLimits limits;
   std::string rig_path;
   std::optional<Rig> rig;  // loaded at start
   // Why the current caps were refused ("" when accepted), and their camera.
@@ -108,21 +106,10 @@ static std::string caps_problem(GstRgbdDec* self, GstCaps* caps, int* camera_id)
   const bool ok = gst_caps_is_fixed(raw) && rgbd_info_from_caps(raw, &info, &err);
   gst_caps_unref(raw);
   if (!ok) return "unusable caps (" + (err.empty() ? std::string("not fixed") : err) + ")";
-  const int w = info.width(), h = info.height();
-  const std::string size = std::to_string(w) + "x" + std::to_string(h);
   const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
-  DecState* st = self->st;
-  if (w > st->max_width || h > st->max_height || guint64(w) * guint64(h) > st->max_pixels)
-    return "caps declare " + size + ", beyond max-width " + std::to_string(st->max_width) + ", max-height " +
-           std::to_string(st->max_height) + " or max-pixels " + std::to_string(st->max_pixels);
-  if (st->rig) {
-    const CameraCalib* cam = st->rig->find(info.camera.id);
-    if (!cam) return "camera " + std::to_string(info.camera.id) + " is not in the rig " + st->rig_path;
-    if (cam->width != w || cam->height != h)
-      return "caps declare " + size + " but the rig " + st->rig_path + " has camera " + std::to_string(cam->id) +
-             " at " + std::to_string(cam->width) + "x" + std::to_string(cam->height);
-  }
-  return "";
+  const DecState* st = self->st;
+  return rgbd_stream_refusal(info.camera.id, info.width(), info.height(), st->limits,
+                             st->rig ? &*st->rig : nullptr, st->rig_path);
 }
 
 // Records whether `caps` are refused; true when they are.
@@ -275,9 +262,9 @@ static void gst_rgbd_dec_set_property(GObject* object, guint prop_id, const GVal
   if (codec_stats_set_property(GST_OBJECT(self), &self->stats, prop_id, value)) return;
   const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
   switch (prop_id) {
-    case PROP_MAX_WIDTH: self->st->max_width = g_value_get_int(value); break;
-    case PROP_MAX_HEIGHT: self->st->max_height = g_value_get_int(value); break;
-    case PROP_MAX_PIXELS: self->st->max_pixels = g_value_get_uint64(value); break;
+    case PROP_MAX_WIDTH: self->st->limits.max_width = g_value_get_int(value); break;
+    case PROP_MAX_HEIGHT: self->st->limits.max_height = g_value_get_int(value); break;
+    case PROP_MAX_PIXELS: self->st->limits.max_pixels = g_value_get_uint64(value); break;
     case PROP_RIG: self->st->rig_path = g_value_get_string(value) ? g_value_get_string(value) : ""; break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -288,9 +275,9 @@ static void gst_rgbd_dec_get_property(GObject* object, guint prop_id, GValue* va
   if (codec_stats_get_property(GST_OBJECT(self), self->stats, prop_id, value)) return;
   const auto lock = rgbd_filter_lock(GST_RGBD_FILTER(self));
   switch (prop_id) {
-    case PROP_MAX_WIDTH: g_value_set_int(value, self->st->max_width); break;
-    case PROP_MAX_HEIGHT: g_value_set_int(value, self->st->max_height); break;
-    case PROP_MAX_PIXELS: g_value_set_uint64(value, self->st->max_pixels); break;
+    case PROP_MAX_WIDTH: g_value_set_int(value, self->st->limits.max_width); break;
+    case PROP_MAX_HEIGHT: g_value_set_int(value, self->st->limits.max_height); break;
+    case PROP_MAX_PIXELS: g_value_set_uint64(value, self->st->limits.max_pixels); break;
     case PROP_RIG: g_value_set_string(value, self->st->rig_path.c_str()); break;
     default: G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -313,15 +300,15 @@ static void gst_rgbd_dec_class_init(GstRgbdDecClass* klass) {
   g_object_class_install_property(
       gobject_class, PROP_MAX_WIDTH,
       g_param_spec_int("max-width", "Largest width", "Caps wider than this are refused (frames dropped, warning)", 1,
-                       16384, kDefaultMaxSide, ready));
+                       kMaxImageSide, RgbdStreamLimits().max_width, ready));
   g_object_class_install_property(
       gobject_class, PROP_MAX_HEIGHT,
       g_param_spec_int("max-height", "Largest height", "Caps higher than this are refused (frames dropped, warning)",
-                       1, 16384, kDefaultMaxSide, ready));
+                       1, kMaxImageSide, RgbdStreamLimits().max_height, ready));
   g_object_class_install_property(
       gobject_class, PROP_MAX_PIXELS,
       g_param_spec_uint64("max-pixels", "Largest frame", "Caps of more pixels (width x height) than this are refused",
-                          1, guint64(16384) * 16384, kDefaultMaxPixels, ready));
+                          1, guint64(kMaxImageSide) * kMaxImageSide, RgbdStreamLimits().max_pixels, ready));
   g_object_class_install_property(
       gobject_class, PROP_RIG,
       g_param_spec_string("rig", "Rig file", "Rig YAML file whose cameras and sizes caps must match (empty: any)", "",

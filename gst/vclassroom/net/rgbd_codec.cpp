@@ -363,4 +363,20 @@ bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, 
   return true;
 }
 
+std::string rgbd_stream_refusal(int camera_id, int w, int h, const RgbdStreamLimits& limits, const Rig* rig,
+                                const std::string& rig_path) {
+  const std::string size = std::to_string(w) + "x" + std::to_string(h);
+  if (w > limits.max_width || h > limits.max_height || uint64_t(w) * uint64_t(h) > limits.max_pixels)
+    return "caps declare " + size + ", beyond max-width " + std::to_string(limits.max_width) + ", max-height " +
+           std::to_string(limits.max_height) + " or max-pixels " + std::to_string(limits.max_pixels);
+  if (rig) {
+    const CameraCalib* cam = rig->find(camera_id);
+    if (!cam) return "camera " + std::to_string(camera_id) + " is not in the rig " + rig_path;
+    if (cam->width != w || cam->height != h)
+      return "caps declare " + size + " but the rig " + rig_path + " has camera " + std::to_string(cam->id) +
+             " at " + std::to_string(cam->width) + "x" + std::to_string(cam->height);
+  }
+  return "";
+}
+
 }  // namespace vclassroom

@@ -9,6 +9,8 @@
 
 #include <opencv2/core.hpp>
 
+#include <gst/vclassroom/core/rig.h>
+
 namespace vclassroom {
 
 // Lossless 16-bit depth (CV_16UC1). Zeros (no measurement) are coded as runs;
@@ -37,5 +39,17 @@ void encode_rgbd_frame(const RgbdCodedFrame& frame, int jpeg_quality, std::vecto
 enum class RgbdFrameFault { kNone, kDamaged, kWrongSize };
 bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, RgbdCodedFrame* frame,
                        std::string* error, RgbdFrameFault* fault = nullptr);
+
+// What a decoder accepts of the stream a sender declares (its caps come from the network), checked before
+// anything is allocated for its size.
+struct RgbdStreamLimits {
+  int max_width = 4096, max_height = 4096;
+  uint64_t max_pixels = 4096ull * 2160;  // 4K
+};
+// Why camera `camera_id`'s stream of width x height is refused, "" when it is not: beyond `limits`, or,
+// with a `rig` (read from `rig_path`, which the reason names), a camera the rig lacks or has at another
+// size.
+std::string rgbd_stream_refusal(int camera_id, int width, int height, const RgbdStreamLimits& limits,
+                                const Rig* rig, const std::string& rig_path);
 
 }  // namespace vclassroom
