@@ -22,22 +22,19 @@
  * ]|
  */
 // The camera itself (V4L2 nodes, pixel formats, registration, pairing by capture time) is the library's
-// RgbdCamera (capture/rgbd_camera.h); this is the glue: properties, caps, timestamps on the pipeline clock,
-// bus messages, reconnecting.
+// RgbdCamera (capture/rgbd_camera.h); this is the glue: properties, caps, start and stop here, the streaming
+// thread's timestamps on the pipeline clock, loss warnings and reconnecting in gstrgbdsrc_capture.cpp.
 #ifdef HAVE_CONFIG_H
 #include "config.h"
 #endif
 
 #include "gstrgbdsrc.h"
 
-#include <atomic>
 #include <memory>
 #include <mutex>
 #include <string>
 
-#include <gst/vclassroom/capture/rgbd_camera.h>
-#include <gst/vclassroom/core/rgbd.h>
-#include <gst/vclassroom/core/warning_limiter.h>
+#include "gstrgbdsrc_state.h"
 
 GST_DEBUG_CATEGORY_STATIC(rgbd_src_debug);
 #define GST_CAT_DEFAULT rgbd_src_debug
@@ -47,29 +44,9 @@ using namespace vclassroom;
 enum { PROP_0, PROP_COLOR_DEVICE, PROP_DEPTH_DEVICE, PROP_RIG, PROP_CAMERA_ID, PROP_MAX_SKEW, PROP_FRAMERATE,
        PROP_FRAMES_UNPAIRED, PROP_FRAMES_DAMAGED, PROP_RECONNECT };
 
-namespace {
-constexpr guint64 kDefaultMaxSkew = 10 * GST_MSECOND;
-
-struct SrcState {
-  std::mutex lock;  // the properties and the counters
-  std::string color_device, depth_device, rig_path;
-  int camera_id = 0;
-  guint64 max_skew = kDefaultMaxSkew;
-  int fps_n = 30, fps_d = 1;
-  bool reconnect = false;
-  guint64 unpaired = 0, damaged = 0;
-
-  // Streaming thread (and start/stop).
-  RgbdInfo info;
-  std::unique_ptr<RgbdCamera> camera;
-  WarningLimiter damaged_warnings;
-  std::atomic<bool> flushing{false};
-};
-}  // namespace
-
 struct _GstRgbdSrc {
   GstPushSrc parent;
-  SrcState* st;
+  RgbdSrcState* st;
 };
 
 G_DEFINE_TYPE(GstRgbdSrc, gst_rgbd_src, GST_TYPE_PUSH_SRC)
@@ -78,29 +55,9 @@ GST_ELEMENT_REGISTER_DEFINE(rgbdsrc, "rgbdsrc", GST_RANK_NONE, GST_TYPE_RGBD_SRC
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
 
-// Posts a CaptureError as the bus error a person can act on.
-static void post_capture_error(GstRgbdSrc* self, const CaptureError& e) {
-  switch (e.kind()) {
-    case CaptureError::Kind::kNoDevice:
-      GST_ELEMENT_ERROR(self, RESOURCE, NOT_FOUND, ("%s", e.what()), (nullptr));
-      break;
-    case CaptureError::Kind::kBusy:
-      GST_ELEMENT_ERROR(self, RESOURCE, BUSY, ("%s", e.what()), (nullptr));
-      break;
-    case CaptureError::Kind::kNotCapture:
-    case CaptureError::Kind::kUnsupported:
-      GST_ELEMENT_ERROR(self, RESOURCE, SETTINGS, ("%s", e.what()), (nullptr));
-      break;
-    case CaptureError::Kind::kVanished:
-    case CaptureError::Kind::kIo:
-      GST_ELEMENT_ERROR(self, RESOURCE, READ, ("%s", e.what()), (nullptr));
-      break;
-  }
-}
-
 static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
   GstRgbdSrc* self = GST_RGBD_SRC(src);
-  SrcState* st = self->st;
+  RgbdSrcState* st = self->st;
   std::string color_path, depth_path, rig_path;
   int id;
   guint64 skew;
@@ -126,7 +83,7 @@ static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
     try {
       st->info.camera = nominal_camera(color_path, depth_path, id);
     } catch (const CaptureError& e) {
-      post_capture_error(self, e);
+      rgbd_src_post_capture_error(GST_ELEMENT(self), e);
       return FALSE;
     }
     GST_ELEMENT_WARNING(self, RESOURCE, SETTINGS,
@@ -148,7 +105,7 @@ static gboolean gst_rgbd_src_start(GstBaseSrc* src) {
     st->camera = std::make_unique<RgbdCamera>(color_path, depth_path, st->info.camera, st->info.fps_n, st->info.fps_d,
                                               int64_t(skew));
   } catch (const CaptureError& e) {
-    post_capture_error(self, e);
+    rgbd_src_post_capture_error(GST_ELEMENT(self), e);
     return FALSE;
   }
   st->damaged_warnings.reset();
@@ -189,108 +146,12 @@ static gboolean gst_rgbd_src_query(GstBaseSrc* src, GstQuery* query) {
   return GST_BASE_SRC_CLASS(gst_rgbd_src_parent_class)->query(src, query);
 }
 
-// CLOCK_MONOTONIC, the kernel's capture clock (GLib reads the same one).
-static int64_t monotonic_ns() { return g_get_monotonic_time() * 1000; }
-
-// Counts what a round lost; damaged frames get a rate-limited warning.
-static void note_losses(GstRgbdSrc* self, const RgbdCamera::Losses& losses) {
-  SrcState* st = self->st;
-  if (losses.unpaired == 0 && losses.damaged.empty()) return;
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    st->unpaired += losses.unpaired;
-    st->damaged += losses.damaged.size();
-  }
-  for (const std::string& why : losses.damaged) {
-    uint64_t count = 0;
-    int64_t span = 0;
-    if (st->damaged_warnings.note(monotonic_ns(), &count, &span))
-      GST_ELEMENT_WARNING(self, STREAM, DECODE,
-                          ("%s", describe_occurrences(count, "a damaged frame dropped", "damaged frames dropped",
-                                                      st->camera->color_path() + " / " + st->camera->depth_path(), span)
-                                     .c_str()),
-                          ("the last: %s", why.c_str()));
-  }
-}
-
-// The kernel's capture time (CLOCK_MONOTONIC) as this pipeline's running time.
-static GstClockTime running_time_of(GstRgbdSrc* self, int64_t capture_ns) {
-  GstClock* clock = gst_element_get_clock(GST_ELEMENT(self));
-  if (!clock) return GST_CLOCK_TIME_NONE;
-  const int64_t offset = int64_t(gst_clock_get_time(clock)) - monotonic_ns();
-  gst_object_unref(clock);
-  const int64_t t = capture_ns + offset - int64_t(gst_element_get_base_time(GST_ELEMENT(self)));
-  return t < 0 ? 0 : GstClockTime(t);
-}
-
-// reconnect=true: the camera went away (unplugged); says so, then tries to
-// open it again twice a second until it is back or the pipeline stops. Only
-// this camera's branch waits: every camera has its own rgbdsrc and thread.
-static bool wait_for_return(GstRgbdSrc* self, const CaptureError& why) {
-  SrcState* st = self->st;
-  GST_ELEMENT_WARNING(self, RESOURCE, READ, ("%s; waiting for it to return", why.what()), ("reconnect=true"));
-  while (!st->flushing) {
-    try {
-      st->camera->reopen();
-      GST_ELEMENT_WARNING(self, RESOURCE, READ,
-                          ("camera %s / %s returned", st->camera->color_path().c_str(), st->camera->depth_path().c_str()),
-                          (nullptr));
-      return true;
-    } catch (const CaptureError&) {
-      g_usleep(G_USEC_PER_SEC / 2);  // a device coming back is not announced here: look again
-    }
-  }
-  return false;
-}
-
 static GstFlowReturn gst_rgbd_src_create(GstPushSrc* psrc, GstBuffer** outbuf) {
-  GstRgbdSrc* self = GST_RGBD_SRC(psrc);
-  SrcState* st = self->st;
-  for (;;) {
-    if (st->flushing) return GST_FLOW_FLUSHING;
-    RgbdCamera::Frame frame;
-    RgbdCamera::Losses losses;
-    bool got = false;
-    try {
-      // Wakes now and then to notice a flush (unlock) even when no frame comes.
-      got = st->camera->next(100, &frame, &losses);
-    } catch (const CaptureError& e) {
-      note_losses(self, losses);
-      if (e.kind() == CaptureError::Kind::kIo) {
-        // One frame the driver could not deliver: the stream goes on.
-        GST_ELEMENT_WARNING(self, RESOURCE, READ, ("%s", e.what()), ("the frame is dropped"));
-        continue;
-      }
-      bool reconnect;
-      {
-        std::lock_guard<std::mutex> g(st->lock);
-        reconnect = st->reconnect;
-      }
-      if (e.kind() != CaptureError::Kind::kVanished || !reconnect) {
-        post_capture_error(self, e);
-        return GST_FLOW_ERROR;
-      }
-      if (!wait_for_return(self, e)) return GST_FLOW_FLUSHING;
-      continue;
-    }
-    note_losses(self, losses);
-    if (!got) continue;
-    std::string err;
-    GstBuffer* buf =
-        rgbd_buffer_with_planes(st->info, {{Plane::Color, frame.color}, {Plane::Depth, frame.depth}}, &err);
-    if (!buf) {
-      GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
-      return GST_FLOW_ERROR;
-    }
-    GST_BUFFER_PTS(buf) = running_time_of(self, frame.capture_ns);
-    GST_BUFFER_DURATION(buf) = st->info.frame_duration();
-    *outbuf = buf;
-    return GST_FLOW_OK;
-  }
+  return rgbd_src_next_buffer(GST_ELEMENT(psrc), GST_RGBD_SRC(psrc)->st, outbuf);
 }
 
 static void gst_rgbd_src_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
-  SrcState* st = GST_RGBD_SRC(object)->st;
+  RgbdSrcState* st = GST_RGBD_SRC(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
   auto text = [&] { return std::string(g_value_get_string(value) ? g_value_get_string(value) : ""); };
   switch (prop_id) {
@@ -309,7 +170,7 @@ static void gst_rgbd_src_set_property(GObject* object, guint prop_id, const GVal
 }
 
 static void gst_rgbd_src_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
-  SrcState* st = GST_RGBD_SRC(object)->st;
+  RgbdSrcState* st = GST_RGBD_SRC(object)->st;
   std::lock_guard<std::mutex> g(st->lock);
   switch (prop_id) {
     case PROP_COLOR_DEVICE: g_value_set_string(value, st->color_device.c_str()); break;
@@ -358,7 +219,7 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
       gobject_class, PROP_MAX_SKEW,
       g_param_spec_uint64("max-skew", "Maximum skew",
                           "Largest colour-depth capture time difference that still pairs, in ns",
-                          0, GST_SECOND, kDefaultMaxSkew, rw));
+                          0, GST_SECOND, kRgbdSrcDefaultMaxSkew, rw));
   g_object_class_install_property(gobject_class, PROP_FRAMERATE,
                                   gst_param_spec_fraction("framerate", "Frame rate", "Frame rate asked of the camera",
                                                           1, 1, 1000, 1, 30, 1, rw));
@@ -389,7 +250,7 @@ static void gst_rgbd_src_class_init(GstRgbdSrcClass* klass) {
 }
 
 static void gst_rgbd_src_init(GstRgbdSrc* self) {
-  self->st = new SrcState();
+  self->st = new RgbdSrcState();
   gst_base_src_set_live(GST_BASE_SRC(self), TRUE);
   gst_base_src_set_format(GST_BASE_SRC(self), GST_FORMAT_TIME);
 }
