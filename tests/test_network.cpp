@@ -27,18 +27,9 @@
 #include "test_util.h"
 
 using namespace vclassroom;
+using vctest::pose_with_seq;
 
 namespace {
-
-Pose pose_with_seq(uint64_t seq) {
-  Pose p;
-  const double k = static_cast<double>(seq % 100);
-  p.position = Eigen::Vector3d(0.01 * k, -0.2, 0.5);
-  p.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.01 * k, Eigen::Vector3d::UnitY()));
-  p.seq = seq;
-  p.viewer_time_ns = 1000 + static_cast<int64_t>(seq);
-  return p;
-}
 
 // Collects what a pad receives (posesend pushes from its rtp pad's own
 // thread: wait_for() waits, bounded, for a number of buffers).
@@ -144,32 +135,6 @@ std::vector<uint64_t> injected_seqs(GstHarness* h) {
 const char* kVideoCaps = "video/x-raw,format=RGB,width=4,height=4,framerate=30/1";
 
 }  // namespace
-
-TEST(PoseWire, RoundTripAndRejects) {
-  Pose p = pose_with_seq(123456789012345ull);
-  p.fov_deg = 70;
-  uint8_t wire[kPoseWireSize];
-  pose_to_wire(p, wire);
-  Pose back;
-  std::string err;
-  ASSERT_TRUE(pose_from_wire(wire, sizeof wire, &back, &err)) << err;
-  EXPECT_EQ(back.seq, p.seq);
-  EXPECT_EQ(back.viewer_time_ns, p.viewer_time_ns);
-  EXPECT_EQ(back.position, p.position);
-  EXPECT_LT(back.orientation.angularDistance(p.orientation), 1e-15);
-  EXPECT_EQ(back.fov_deg, 70);
-  EXPECT_FALSE(pose_from_wire(wire, sizeof wire - 1, &back, &err));
-  wire[0] = 'X';
-  EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
-  wire[0] = 'V';
-  wire[48] ^= 0x01;  // one bit of y
-  EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
-  EXPECT_NE(err.find("checksum"), std::string::npos) << err;
-  // Version 1 is refused with a message that says so.
-  std::memcpy(wire, "VCP1", 4);
-  EXPECT_FALSE(pose_from_wire(wire, 88, &back, &err));
-  EXPECT_NE(err.find("version 1"), std::string::npos) << err;
-}
 
 TEST(PoseBackChannel, LatestWinsThroughLossReorderingAndDamage) {
   // Lecturer side: posesend with its rtp pad captured.

@@ -16,6 +16,7 @@
 
 using namespace vclassroom;
 using vctest::expect_same_pose;
+using vctest::pose_with_seq;
 using vctest::sample_pose;
 
 // ---- Pose sessions (gst/vclassroom/net/pose_session.h): times are given, no sleeps.
@@ -121,6 +122,32 @@ TEST(PoseKey, LoadsRawBytesAndRejectsBadFiles) {
       EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
     }
   }
+}
+
+TEST(PoseWire, RoundTripAndRejects) {
+  Pose p = pose_with_seq(123456789012345ull);
+  p.fov_deg = 70;
+  uint8_t wire[kPoseWireSize];
+  pose_to_wire(p, wire);
+  Pose back;
+  std::string err;
+  ASSERT_TRUE(pose_from_wire(wire, sizeof wire, &back, &err)) << err;
+  EXPECT_EQ(back.seq, p.seq);
+  EXPECT_EQ(back.viewer_time_ns, p.viewer_time_ns);
+  EXPECT_EQ(back.position, p.position);
+  EXPECT_LT(back.orientation.angularDistance(p.orientation), 1e-15);
+  EXPECT_EQ(back.fov_deg, 70);
+  EXPECT_FALSE(pose_from_wire(wire, sizeof wire - 1, &back, &err));
+  wire[0] = 'X';
+  EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
+  wire[0] = 'V';
+  wire[48] ^= 0x01;  // one bit of y
+  EXPECT_FALSE(pose_from_wire(wire, sizeof wire, &back, &err));
+  EXPECT_NE(err.find("checksum"), std::string::npos) << err;
+  // Version 1 is refused with a message that says so.
+  std::memcpy(wire, "VCP1", 4);
+  EXPECT_FALSE(pose_from_wire(wire, 88, &back, &err));
+  EXPECT_NE(err.find("version 1"), std::string::npos) << err;
 }
 
 TEST(PoseWire, TaggedPacketsNeedTheRightKey) {

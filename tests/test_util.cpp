@@ -198,6 +198,16 @@ vclassroom::Pose sample_pose() {
   return p;
 }
 
+vclassroom::Pose pose_with_seq(uint64_t seq) {
+  vclassroom::Pose p;
+  const double k = static_cast<double>(seq % 100);
+  p.position = Eigen::Vector3d(0.01 * k, -0.2, 0.5);
+  p.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.01 * k, Eigen::Vector3d::UnitY()));
+  p.seq = seq;
+  p.viewer_time_ns = 1000 + static_cast<int64_t>(seq);
+  return p;
+}
+
 void expect_same_pose(const vclassroom::Pose& a, const vclassroom::Pose& b) {
   EXPECT_LT((a.position - b.position).norm(), 1e-12);
   EXPECT_LT(a.orientation.angularDistance(b.orientation), 1e-9);

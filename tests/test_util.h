@@ -88,6 +88,8 @@ void expect_rig_error_within_targets(const std::string& out);
 
 // A pose with every field set (fov included), for round trips through an event, a trace or the wire.
 vclassroom::Pose sample_pose();
+// A valid pose numbered `seq`, its position, heading and viewer time following from it.
+vclassroom::Pose pose_with_seq(uint64_t seq);
 // `a` and `b` are the same pose to the precision a round trip keeps; a failure of the calling test otherwise.
 void expect_same_pose(const vclassroom::Pose& a, const vclassroom::Pose& b);
 
