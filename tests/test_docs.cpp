@@ -186,7 +186,8 @@ std::vector<std::string> pipeline_words(const std::vector<std::string>& argv) {
   return words;
 }
 
-// Bounds every source that counts buffers to kBuffersPerSource.
+// Bounds every source that counts buffers to kBuffersPerSource, and lets every element that listens
+// (udpsrc, the WHEP sinks) bind a port of the system's choosing.
 void bound_sources(GstElement* pipeline) {
   GstIterator* it = gst_bin_iterate_recurse(GST_BIN(pipeline));
   GValue v = G_VALUE_INIT;
@@ -197,6 +198,13 @@ void bound_sources(GstElement* pipeline) {
       g_object_get(e, "num-buffers", &n, nullptr);
       if (n < 0 || n > kBuffersPerSource) g_object_set(e, "num-buffers", kBuffersPerSource, nullptr);
     }
+    // What listens binds a port of the system's choosing: a documented port (udpsrc port=5000, whepviewsink
+    // port=8080) may be taken on the machine running the tests.
+    GstElementFactory* f = gst_element_get_factory(e);
+    const std::string kind = f ? GST_OBJECT_NAME(f) : "";
+    if ((kind == "udpsrc" || kind == "whepviewsink" || kind == "whepserversink") &&
+        g_object_class_find_property(G_OBJECT_GET_CLASS(e), "port"))
+      g_object_set(e, "port", 0, nullptr);
     g_value_reset(&v);
   }
   g_value_unset(&v);
