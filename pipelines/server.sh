@@ -170,7 +170,9 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+r
 # WHEP_BITRATE (kbit/s, default 4000), WHEP_STUN (stun://host:port) and WHEP_TURN (turn://user:password@host:port
 # or turns://...) for lecturers behind NAT, WHEP_LECTURER_TIMEOUT (seconds without a receiver report after which
 # a lecturer is gone and their session ended, default 15, 0: never), WHEP_LISTEN (comma-separated IP addresses
-# the HTTP(S) server listens on, default 0.0.0.0,:: = every interface, IPv4 and IPv6) (docs/lecturer.md).
+# the HTTP(S) server listens on, default 0.0.0.0,:: = every interface, IPv4 and IPv6), WHEP_ALLOW_ORIGIN
+# (comma-separated origins, https://host[:port], whose pages may call the endpoint: another WHEP player;
+# * = any; default none) (docs/lecturer.md).
 if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ]; then
   WHEP_PORT=${WHEP_PORT:-8080}
   if ! [[ ${TOKEN:-} =~ ^[A-Za-z0-9._~-]{8,}$ ]] || ! [[ $WHEP_PORT =~ ^[0-9]+$ ]]; then
@@ -182,12 +184,17 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
     echo "server.sh: WHEP_LISTEN is a comma-separated list of IP addresses, e.g. 192.168.1.10 or 0.0.0.0,::" >&2
     exit 2
   fi
+  if [ -n "${WHEP_ALLOW_ORIGIN:-}" ] && ! [[ $WHEP_ALLOW_ORIGIN =~ ^[][A-Za-z0-9.:/,*-]+$ ]]; then
+    echo "server.sh: WHEP_ALLOW_ORIGIN is a comma-separated list of origins, e.g. https://player.example:8443 or *" >&2
+    exit 2
+  fi
   whep_tls=""
   # The page lies beside the pipelines: ../web/lecturer both in a checkout and installed (datadir).
   [ -n "${WHEP_TLS_CERT:-}" ] && whep_tls="tls-certificate=$WHEP_TLS_CERT tls-key=${WHEP_TLS_KEY:?WHEP_TLS_KEY}"
   whep="port=$WHEP_PORT token=$TOKEN bitrate=${WHEP_BITRATE:-4000} max-sessions=${WHEP_SESSIONS:-4} $whep_tls \
     ${WHEP_STUN:+stun-server=$WHEP_STUN} ${WHEP_TURN:+turn-server=$WHEP_TURN} \
     ${WHEP_LECTURER_TIMEOUT:+lecturer-timeout=$WHEP_LECTURER_TIMEOUT} ${WHEP_LISTEN:+listen-addresses=$WHEP_LISTEN} \
+    ${WHEP_ALLOW_ORIGIN:+allow-origin=\"$WHEP_ALLOW_ORIGIN\"} \
     web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\""
   if [ "$LECTURER_OUT" = whep ]; then
     desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"

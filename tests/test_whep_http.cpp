@@ -187,6 +187,68 @@ TEST(WhepHead, TheTokenComesFirstThenTheAnnouncedLengthThenABodyWhereNoneBelongs
   EXPECT_EQ(judge_request_head(head, "", limits).status, 401);  // an empty secret lets no one in
 }
 
+// A browser's preflight and its icon need no token (it sends none with them); nothing else does, and they
+// still may carry no body.
+TEST(WhepHead, APreflightAndTheIconPassWithoutTheTokenAndWithoutABody) {
+  WhepLimits limits;
+  WhepRequestHead head;
+  head.method = "OPTIONS";
+  head.path = "/whep";
+  EXPECT_EQ(judge_request_head(head, "secret", limits).status, 401);  // the ICE servers need the token
+  head.cors_preflight = true;
+  EXPECT_EQ(judge_request_head(head, "secret", limits).status, 0);
+  head.content_length = 10;
+  EXPECT_EQ(judge_request_head(head, "secret", limits).status, 400);
+  head = WhepRequestHead{};
+  head.method = "GET";
+  head.path = "/favicon.ico";
+  EXPECT_EQ(judge_request_head(head, "secret", limits).status, 0);
+  head.path = "/index.html";
+  EXPECT_EQ(judge_request_head(head, "secret", limits).status, 401);
+  head.method = "POST";
+  head.path = "/whep";
+  head.cors_preflight = true;  // only OPTIONS is a preflight
+  EXPECT_EQ(judge_request_head(head, "secret", limits).status, 401);
+  EXPECT_EQ(open_request("OPTIONS", "/whep", true), OpenRequest::kCorsPreflight);
+  EXPECT_EQ(open_request("OPTIONS", "/whep", false), OpenRequest::kNone);
+  EXPECT_EQ(open_request("GET", "/favicon.ico", false), OpenRequest::kFavicon);
+}
+
+TEST(WhepCors, AllowedOriginsAreHttpOrHttpsHostsWithAnOptionalPort) {
+  std::vector<std::string> o;
+  std::string why;
+  EXPECT_TRUE(parse_allowed_origins("", &o, &why));
+  EXPECT_TRUE(o.empty());
+  EXPECT_TRUE(parse_allowed_origins("*", &o, &why));
+  EXPECT_EQ(o, std::vector<std::string>{"*"});
+  ASSERT_TRUE(parse_allowed_origins("https://School.Example, http://10.0.0.7:8443,https://[::1]:9000", &o, &why)) << why;
+  EXPECT_EQ(o, (std::vector<std::string>{"https://school.example", "http://10.0.0.7:8443", "https://[::1]:9000"}));
+  for (const char* bad : {"ftp://a.example", "https://a.example/", "https://a.example/page", "https://a.example?x",
+                          "https://a.example:0", "https://a.example:65536", "https://", "a.example", ",",
+                          "https://a.example,", "https://a b", "https://[::1"}) {
+    EXPECT_FALSE(parse_allowed_origins(bad, &o, &why)) << bad;
+    EXPECT_FALSE(why.empty()) << bad;
+  }
+  std::string many;
+  for (int i = 0; i < 17; ++i) many += (i ? "," : "") + std::string("https://h") + std::to_string(i) + ".example";
+  EXPECT_FALSE(parse_allowed_origins(many, &o, &why));
+}
+
+TEST(WhepCors, AnOriginIsAllowedWhereListedOrWhereAnyIs) {
+  std::vector<std::string> o;
+  std::string why;
+  ASSERT_TRUE(parse_allowed_origins("https://school.example,http://10.0.0.7:8443", &o, &why));
+  EXPECT_EQ(cors_allow_origin(o, "https://school.example"), "https://school.example");
+  EXPECT_EQ(cors_allow_origin(o, "HTTPS://SCHOOL.example"), "HTTPS://SCHOOL.example");  // echoed as sent
+  EXPECT_EQ(cors_allow_origin(o, "http://10.0.0.7:8443"), "http://10.0.0.7:8443");
+  EXPECT_EQ(cors_allow_origin(o, "http://10.0.0.7"), "");  // another port is another origin
+  EXPECT_EQ(cors_allow_origin(o, "https://evil.example"), "");
+  EXPECT_EQ(cors_allow_origin(o, "null"), "");
+  EXPECT_EQ(cors_allow_origin(o, ""), "");
+  EXPECT_EQ(cors_allow_origin({}, "https://school.example"), "");
+  EXPECT_EQ(cors_allow_origin({"*"}, "https://anyone.example"), "*");
+}
+
 TEST(WhepConnections, EachAddressAndTheWholeAreCappedAndPlacesComeBack) {
   ConnectionCounter c(ConnectionLimits{3, 2});
   EXPECT_TRUE(c.admit("10.0.0.1"));
@@ -283,6 +345,107 @@ TEST(WhepOffer, EveryValueOutOfRangeIsRefusedWithAReason) {
 }
 
 // ---- The server ---------------------------------------------------------------------------------------
+
+// The value of header `name` in an HTTP response ("" when absent).
+std::string header_of(const std::string& response, const std::string& name) {
+  std::string lower = response;
+  for (char& c : lower) c = char(g_ascii_tolower(c));
+  std::string key = "\r\n" + name + ":";
+  for (char& c : key) c = char(g_ascii_tolower(c));
+  const size_t at = lower.find(key);
+  if (at == std::string::npos) return "";
+  size_t start = at + key.size();
+  while (start < response.size() && response[start] == ' ') ++start;
+  return response.substr(start, response.find("\r\n", start) - start);
+}
+
+// A page of an allowed origin (another host's WHEP player) gets its preflight answered without the token,
+// and the endpoint's answers carry the CORS headers it needs (the session's Location, the ICE servers' Link);
+// a page of any other origin gets 403 and no CORS header, so its browser keeps every answer from it.
+TEST(WhepHttp, PagesOfAnAllowedOriginMayCallTheEndpoint) {
+  SKIP_WITHOUT_WHEP();
+  Server s("allow-origin=https://player.example");
+  ASSERT_GT(s.port, 0u);
+  bool closed = false;
+  const std::string preflight = ask("127.0.0.1", s.port,
+                                    "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://player.example\r\n"
+                                    "Access-Control-Request-Method: POST\r\n"
+                                    "Access-Control-Request-Headers: authorization, content-type\r\n\r\n", &closed);
+  EXPECT_EQ(status_line(preflight), "HTTP/1.1 204 No Content") << preflight;
+  EXPECT_EQ(header_of(preflight, "Access-Control-Allow-Origin"), "https://player.example");
+  EXPECT_NE(header_of(preflight, "Access-Control-Allow-Methods").find("POST"), std::string::npos);
+  EXPECT_NE(header_of(preflight, "Access-Control-Allow-Headers").find("Authorization"), std::string::npos);
+  EXPECT_EQ(header_of(preflight, "Link"), "") << "a preflight without the token learnt the ICE servers";
+
+  const std::string stranger = ask("127.0.0.1", s.port,
+                                   "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://evil.example\r\n"
+                                   "Access-Control-Request-Method: POST\r\n\r\n", &closed);
+  EXPECT_EQ(status_line(stranger).substr(0, 12), "HTTP/1.1 403") << stranger;
+  EXPECT_EQ(header_of(stranger, "Access-Control-Allow-Origin"), "");
+
+  const std::string ice = ask("127.0.0.1", s.port,
+                              "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://player.example\r\n"
+                              "Authorization: Bearer http-test-token\r\n\r\n", &closed);
+  EXPECT_EQ(status_line(ice), "HTTP/1.1 204 No Content") << ice;
+  EXPECT_EQ(header_of(ice, "Access-Control-Allow-Origin"), "https://player.example");
+  EXPECT_NE(header_of(ice, "Access-Control-Expose-Headers").find("Location"), std::string::npos);
+  const std::string no_token = ask("127.0.0.1", s.port,
+                                   "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://player.example\r\n\r\n",
+                                   &closed);
+  EXPECT_EQ(status_line(no_token).substr(0, 12), "HTTP/1.1 401") << "not a preflight: the token is needed";
+}
+
+// Without allow-origin no other page may call the endpoint: even its preflight is refused.
+TEST(WhepHttp, WithoutAllowOriginNoOtherPageMayCallTheEndpoint) {
+  SKIP_WITHOUT_WHEP();
+  Server s("");
+  ASSERT_GT(s.port, 0u);
+  bool closed = false;
+  const std::string got = ask("127.0.0.1", s.port,
+                              "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://player.example\r\n"
+                              "Access-Control-Request-Method: POST\r\n\r\n", &closed);
+  EXPECT_EQ(status_line(got).substr(0, 12), "HTTP/1.1 403") << got;
+  EXPECT_EQ(header_of(got, "Access-Control-Allow-Origin"), "");
+}
+
+// A browser asks for /favicon.ico without the token on every page load: no content, not a 401 in its log.
+TEST(WhepHttp, TheIconIsAnsweredWithoutTheToken) {
+  SKIP_WITHOUT_WHEP();
+  Server s("");
+  ASSERT_GT(s.port, 0u);
+  bool closed = false;
+  const std::string got = ask("127.0.0.1", s.port, "GET /favicon.ico HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n", &closed);
+  EXPECT_EQ(status_line(got), "HTTP/1.1 204 No Content") << got;
+}
+
+// The page is found without web-root, installed or not: from the build tree the source tree's is served.
+TEST(WhepHttp, ThePageIsServedWithoutWebRootSet) {
+  SKIP_WITHOUT_WHEP();
+  Server s("");
+  ASSERT_GT(s.port, 0u);
+  bool closed = false;
+  const std::string got =
+      ask("127.0.0.1", s.port, "GET /?token=http-test-token HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n", &closed);
+  EXPECT_EQ(status_line(got), "HTTP/1.1 200 OK") << got.substr(0, 200);
+  EXPECT_NE(got.find("<html"), std::string::npos);
+}
+
+// A malformed allow-origin stops the element at start, naming the property.
+TEST(WhepHttp, AMalformedAllowOriginIsAnErrorAtStart) {
+  SKIP_WITHOUT_WHEP();
+  Server s("allow-origin=ftp://player.example");
+  ASSERT_NE(s.pipeline, nullptr);
+  EXPECT_EQ(s.port, 0u) << "it listened";
+  GstBus* bus = gst_element_get_bus(s.pipeline);
+  GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
+  ASSERT_NE(m, nullptr);
+  GError* e = nullptr;
+  gst_message_parse_error(m, &e, nullptr);
+  EXPECT_NE(std::string(e->message).find("allow-origin"), std::string::npos) << e->message;
+  g_error_free(e);
+  gst_message_unref(m);
+  gst_object_unref(bus);
+}
 
 // A POST without the token announcing 400 MiB is answered 401 from its headers alone and the connection
 // closed: the body is never waited for (before, the whole body was read into memory first).

@@ -31,7 +31,7 @@ namespace {
 enum Prop {
   kPort, kToken, kTlsCertificate, kTlsKey, kBitrate, kMaxSessions, kWebRoot, kBoundPort, kSessions, kPlayoutDelay,
   kStunServer, kTurnServer, kLecturerTimeout, kListenAddresses, kHttpTimeout, kMaxConnections,
-  kMaxConnectionsPerAddress, kCount
+  kMaxConnectionsPerAddress, kAllowOrigin, kCount
 };
 
 struct Session {
@@ -56,6 +56,9 @@ struct WhepEndpoint::State {
   std::mutex lock;
   guint port = 8080;
   std::string token, tls_certificate, tls_key, web_root = VCLASSROOM_WEB_DIR;
+  bool web_root_set = false;  // by the application: no other folder is tried
+  std::string allow_origin;   // as set; checked at start() into allowed_origins
+  std::vector<std::string> allowed_origins;
   std::string stun_server, turn_server;  // as set; checked at start() into ice_servers
   std::vector<IceServer> ice_servers;
   guint bitrate_kbit = 4000;
@@ -324,8 +327,44 @@ void join(State* st, SoupServerMessage* msg, const std::string& body) {
   if (st->hooks.start) st->hooks.start(id);
 }
 
+// The CORS headers of an answer to a page of an allowed origin (none for another: the browser keeps the
+// answer from it); true when the request's origin is allowed (or it names none).
+bool allow_cross_origin(State* st, SoupServerMessage* msg) {
+  const char* origin = soup_message_headers_get_one(soup_server_message_get_request_headers(msg), "Origin");
+  if (!origin) return true;
+  std::string allow;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    allow = cors_allow_origin(st->allowed_origins, origin);
+  }
+  if (allow.empty()) return false;
+  SoupMessageHeaders* out = soup_server_message_get_response_headers(msg);
+  soup_message_headers_replace(out, "Access-Control-Allow-Origin", allow.c_str());
+  soup_message_headers_replace(out, "Access-Control-Expose-Headers", "Location, Link");
+  soup_message_headers_append(out, "Vary", "Origin");
+  return true;
+}
+
+// The requests that need no token (open_request): a preflight learns the methods and headers a page of an
+// allowed origin may use (403 for another), the icon is no content.
+void answer_open_request(State* st, SoupServerMessage* msg, OpenRequest kind) {
+  const bool allowed = allow_cross_origin(st, msg);
+  if (kind == OpenRequest::kFavicon) return respond(msg, 204);
+  if (!allowed) return respond(msg, 403);
+  SoupMessageHeaders* out = soup_server_message_get_response_headers(msg);
+  soup_message_headers_replace(out, "Access-Control-Allow-Methods", "POST, DELETE, OPTIONS");
+  soup_message_headers_replace(out, "Access-Control-Allow-Headers", "Authorization, Content-Type");
+  soup_message_headers_replace(out, "Access-Control-Max-Age", "600");
+  respond(msg, 204);
+}
+
 // A request whose head WhepHttpServer accepted and whose body (bounded) it read.
 void on_request(State* st, SoupServerMessage* msg, const char* path, GHashTable* query, const std::string& body) {
+  SoupMessageHeaders* in = soup_server_message_get_request_headers(msg);
+  const OpenRequest open = open_request(soup_server_message_get_method(msg), path,
+                                        soup_message_headers_get_one(in, "Access-Control-Request-Method") != nullptr);
+  if (open != OpenRequest::kNone) return answer_open_request(st, msg, open);
+  allow_cross_origin(st, msg);
   WhepRequest r;
   r.method = soup_server_message_get_method(msg);
   r.path = path;
@@ -382,6 +421,21 @@ gpointer server_thread(gpointer data) {
 
 // The HTTP server on the listen-addresses, its caps and timeout from the properties, in a new context that
 // the server thread will run; false after posting an error on the owner.
+// The page's folder: web-root when the application set it; else the installed page, or the source tree's
+// when the plugins run from the build tree (the installed one is not there). A warning names web-root
+// when neither holds index.html: browsers opening the server's URL would get 404.
+void find_web_root(State* st) {
+  auto has_page = [](const std::string& dir) { return g_file_test((dir + "/index.html").c_str(), G_FILE_TEST_IS_REGULAR); };
+  if (!st->web_root_set && !has_page(st->web_root) && has_page(VCLASSROOM_SOURCE_WEB_DIR))
+    st->web_root = VCLASSROOM_SOURCE_WEB_DIR;
+  if (!has_page(st->web_root))
+    GST_ELEMENT_WARNING(st->owner, RESOURCE, NOT_FOUND,
+                        ("%s: no lecturer page at %s/index.html: browsers get 404 (set web-root to the folder "
+                         "holding index.html, web/lecturer in the source tree)",
+                         st->name.c_str(), st->web_root.c_str()),
+                        (nullptr));
+}
+
 bool start_http(State* st) {
   WhepHttpSettings settings;
   std::string why;
@@ -469,7 +523,7 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
       g_param_spec_uint("max-sessions", "Max sessions", "Lecturers at once; more get 503", 1, 64, 4, rw()));
   g_object_class_install_property(klass, p + kWebRoot,
       g_param_spec_string("web-root", "Web root",
-                          "Folder of the lecturer page (index.html, lecturer.js); default: the installed one",
+                          "Folder of the lecturer page (index.html, lecturer.js); default: the installed one, else the source tree's",
                           VCLASSROOM_WEB_DIR, rw()));
   g_object_class_install_property(klass, p + kBoundPort,
       g_param_spec_uint("bound-port", "Bound port", "The port actually listened on", 0, 65535, 0, ro()));
@@ -506,6 +560,10 @@ guint WhepEndpoint::install_properties(GObjectClass* klass, guint first_id) {
       g_param_spec_uint("max-connections-per-address", "Max connections per address",
                         "HTTP connections open at once from one IP address; one more is closed at once",
                         1, 4096, 16, rw()));
+  g_object_class_install_property(klass, p + kAllowOrigin,
+      g_param_spec_string("allow-origin", "Allow origin",
+                          "Origins whose pages may call the endpoint (CORS): comma-separated https://host[:port], * = any",
+                          "", rw()));
   return p + kCount;
 }
 
@@ -519,7 +577,10 @@ bool WhepEndpoint::set_property(guint id, const GValue* value) {
     case kTlsKey: st_->tls_key = str(); return true;
     case kBitrate: st_->bitrate_kbit = g_value_get_uint(value); return true;
     case kMaxSessions: st_->max_sessions = g_value_get_uint(value); return true;
-    case kWebRoot: st_->web_root = str(); return true;
+    case kWebRoot:
+      st_->web_root = str();
+      st_->web_root_set = true;
+      return true;
     case kPlayoutDelay: st_->playout_delay_ms = g_value_get_int(value); return true;
     case kStunServer: st_->stun_server = str(); return true;
     case kTurnServer: st_->turn_server = str(); return true;
@@ -528,6 +589,7 @@ bool WhepEndpoint::set_property(guint id, const GValue* value) {
     case kHttpTimeout: st_->http_timeout_s = g_value_get_uint(value); return true;
     case kMaxConnections: st_->max_connections = g_value_get_uint(value); return true;
     case kMaxConnectionsPerAddress: st_->max_connections_per_address = g_value_get_uint(value); return true;
+    case kAllowOrigin: st_->allow_origin = str(); return true;
     default: return false;
   }
 }
@@ -552,6 +614,7 @@ bool WhepEndpoint::get_property(guint id, GValue* value) {
     case kHttpTimeout: g_value_set_uint(value, st_->http_timeout_s); return true;
     case kMaxConnections: g_value_set_uint(value, st_->max_connections); return true;
     case kMaxConnectionsPerAddress: g_value_set_uint(value, st_->max_connections_per_address); return true;
+    case kAllowOrigin: g_value_set_string(value, st_->allow_origin.c_str()); return true;
     default: return false;
   }
 }
@@ -582,6 +645,13 @@ bool WhepEndpoint::start() {
   };
   if (!add_ice_server("stun-server", st->stun_server, true) || !add_ice_server("turn-server", st->turn_server, false))
     return false;
+  std::string why;
+  if (!parse_allowed_origins(st->allow_origin, &st->allowed_origins, &why)) {
+    GST_ELEMENT_ERROR(st->owner, RESOURCE, SETTINGS, ("allow-origin %s: %s", st->allow_origin.c_str(), why.c_str()),
+                      (nullptr));
+    return false;
+  }
+  find_web_root(st);
   st->table = WhepSessionTable(st->max_sessions);
   if (!start_http(st)) return false;
   GST_INFO_OBJECT(st->owner, "WHEP on port %u", st->bound_port);

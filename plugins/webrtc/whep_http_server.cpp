@@ -304,6 +304,7 @@ void on_request_head(SoupServer*, SoupServerMessage* msg, const char* path, GHas
   head.method = soup_server_message_get_method(msg);
   head.path = path;
   head.token = token;
+  head.cors_preflight = soup_message_headers_get_one(headers, "Access-Control-Request-Method") != nullptr;
   const SoupEncoding encoding = soup_message_headers_get_encoding(headers);
   if (encoding == SOUP_ENCODING_CHUNKED) head.chunked = true;
   else if (encoding == SOUP_ENCODING_CONTENT_LENGTH) head.content_length = soup_message_headers_get_content_length(headers);

@@ -320,7 +320,9 @@ WhepHeadVerdict judge_request_head(const WhepRequestHead& head, std::string_view
     return v;
   };
   // The token first, as check_whep_request: a stranger learns nothing else, and sends nothing more.
-  if (!token_equal(expected_token, head.token)) return refuse_head(401, head.token.empty() ? "no token" : "wrong token");
+  const bool open = open_request(head.method, head.path, head.cors_preflight) != OpenRequest::kNone;
+  if (!open && !token_equal(expected_token, head.token))
+    return refuse_head(401, head.token.empty() ? "no token" : "wrong token");
   if (head.path.size() > kMaxWhepPathBytes)
     return refuse_head(414, "path of " + std::to_string(head.path.size()) + " bytes");
   if (head.content_length > 0 && static_cast<uint64_t>(head.content_length) > limits.max_offer_bytes)
@@ -560,6 +562,94 @@ bool inspect_whep_offer(std::string_view sdp, WhepOffer* offer, std::string* why
   if (in_media) take_media(media, &result);
   *offer = result;
   return true;
+}
+
+OpenRequest open_request(std::string_view method, std::string_view path, bool cors_preflight) {
+  if (method == "OPTIONS" && cors_preflight) return OpenRequest::kCorsPreflight;
+  if (method == "GET" && path == "/favicon.ico") return OpenRequest::kFavicon;
+  return OpenRequest::kNone;
+}
+
+namespace {
+
+std::string lower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = char(g_ascii_tolower(c));
+  return out;
+}
+
+// "http[s]://host[:port]" with nothing after, lower-cased; "" when it is not one.
+std::string normal_origin(std::string_view text) {
+  const std::string s = lower(text);
+  size_t at = 0;
+  if (s.rfind("http://", 0) == 0) at = 7;
+  else if (s.rfind("https://", 0) == 0) at = 8;
+  else return "";
+  const std::string rest = s.substr(at);
+  if (rest.empty() || rest.size() > 253 + 6) return "";
+  // A bracketed IPv6 literal, or a name or IPv4 address; then an optional port.
+  size_t host_end = 0;
+  if (rest[0] == '[') {
+    host_end = rest.find(']');
+    if (host_end == std::string::npos || host_end < 2) return "";
+    for (size_t i = 1; i < host_end; ++i)
+      if (!g_ascii_isxdigit(rest[i]) && rest[i] != ':' && rest[i] != '.') return "";
+    ++host_end;
+  } else {
+    while (host_end < rest.size() && (g_ascii_isalnum(rest[host_end]) || rest[host_end] == '-' || rest[host_end] == '.'))
+      ++host_end;
+    if (host_end == 0) return "";
+  }
+  if (host_end == rest.size()) return s;
+  if (rest[host_end] != ':' || host_end + 1 == rest.size() || rest.size() - host_end - 1 > 5) return "";
+  int port = 0;
+  for (size_t i = host_end + 1; i < rest.size(); ++i) {
+    if (!g_ascii_isdigit(rest[i])) return "";
+    port = port * 10 + (rest[i] - '0');
+  }
+  return port >= 1 && port <= 65535 ? s : "";
+}
+
+}  // namespace
+
+bool parse_allowed_origins(std::string_view text, std::vector<std::string>* origins, std::string* why) {
+  constexpr size_t kMaxOrigins = 16;
+  origins->clear();
+  size_t start = 0;
+  while (start <= text.size()) {
+    size_t end = text.find(',', start);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view item = text.substr(start, end - start);
+    while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
+    while (!item.empty() && item.back() == ' ') item.remove_suffix(1);
+    if (item.empty()) {
+      if (text.find_first_not_of(' ') == std::string_view::npos) return true;  // "": none
+      *why = "an empty origin in the list";
+      return false;
+    }
+    const std::string origin = item == "*" ? "*" : normal_origin(item);
+    if (origin.empty()) {
+      *why = "\"" + std::string(item.substr(0, 64)) + "\" is not an origin (http://host[:port] or https://host[:port])";
+      return false;
+    }
+    if (origins->size() == kMaxOrigins) {
+      *why = "more than " + std::to_string(kMaxOrigins) + " origins";
+      return false;
+    }
+    origins->push_back(origin);
+    start = end + 1;
+  }
+  return true;
+}
+
+std::string cors_allow_origin(const std::vector<std::string>& allowed, std::string_view origin) {
+  if (origin.empty()) return "";
+  const std::string normal = normal_origin(origin);
+  for (const std::string& a : allowed) {
+    if (a == "*") return "*";
+    if (!normal.empty() && a == normal) return std::string(origin);
+  }
+  return "";
 }
 
 }  // namespace vclassroom

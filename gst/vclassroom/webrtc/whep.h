@@ -67,14 +67,33 @@ struct WhepRequestHead {
   std::string_view token;         // as in WhepRequest
   int64_t content_length = -1;    // the Content-Length header; -1 when absent
   bool chunked = false;           // Transfer-Encoding: chunked (no length known in advance)
+  bool cors_preflight = false;    // an Access-Control-Request-Method header came (a browser's preflight)
 };
+
+// The requests answered without the token: a browser sends no credentials with a CORS preflight (OPTIONS
+// with Access-Control-Request-Method, before a page of another origin may POST; Fetch standard) and asks
+// for /favicon.ico by itself. Neither tells anything: the preflight is answered with the allowed methods
+// and headers only (the ICE servers, which may carry TURN credentials, need the token), the icon with 204.
+enum class OpenRequest { kNone, kCorsPreflight, kFavicon };
+OpenRequest open_request(std::string_view method, std::string_view path, bool cors_preflight);
+
+// The origins whose pages may call the endpoint (allow-origin, WHEP_ALLOW_ORIGIN): "" none but the
+// server's own page, "*" any, or a comma-separated list of origins "http[s]://host[:port]" (spaces around
+// the commas allowed; scheme and host compared without case). False, with a reason, for anything else:
+// a path, a query, another scheme, a port outside 1..65535, more than 16 origins.
+bool parse_allowed_origins(std::string_view text, std::vector<std::string>* origins, std::string* why);
+// The Access-Control-Allow-Origin value for a request whose Origin header is `origin` ("" when it has
+// none): "*" where any origin is allowed, the origin itself where it is listed, "" otherwise (no CORS
+// header: the browser keeps the answer from the other page).
+std::string cors_allow_origin(const std::vector<std::string>& allowed, std::string_view origin);
 
 // Longer paths are refused (414): the server's own are a few characters, and a path is logged.
 inline constexpr size_t kMaxWhepPathBytes = 1024;
 
 // What to do with a request before its body is read: `status` 0 means read the body (at most
 // limits.max_offer_bytes, counted as it comes), anything else is the answer to send at once before the
-// connection is closed, unread: 401 (wrong or missing token, checked first as in check_whep_request),
+// connection is closed, unread: 401 (wrong or missing token, checked first as in check_whep_request, but
+// for an open_request),
 // 414 (path too long), 413 (a Content-Length over the limit), 400 (a body on a method that takes none).
 struct WhepHeadVerdict {
   int status = 0;
