@@ -760,3 +760,90 @@ TEST(Tools, EvalDepthTakesAnyDatasetWithGroundTruthDepth) {
   EXPECT_NE(plain.err.find("has no ground-truth depth"), std::string::npos) << plain.err;
   EXPECT_EQ(run_tool({tool, "--camera", "0"}).status, 2);  // --camera without --dataset
 }
+
+namespace {
+
+// `meson introspect <build> <what>`'s output ("" when meson is not on PATH).
+std::string introspect(const std::string& build, const std::string& what) {
+  gchar* meson = g_find_program_in_path("meson");
+  if (!meson) return "";
+  const std::string out = run_tool({meson, "introspect", build, what}).out;
+  g_free(meson);
+  return out;
+}
+
+// The build folder the tests run from (the tools' folder's parent).
+std::string build_dir() {
+  const std::string tools = env_or_empty("VCLASSROOM_TOOLS_DIR");
+  return tools.empty() ? "" : fs::path(tools).parent_path().string();
+}
+
+// The value of `key=` on a line of a unit or configuration file ("" when absent).
+std::string setting(const std::string& text, const std::string& key) {
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);)
+    if (starts_with(line, key + "=")) return line.substr(key.size() + 1);
+  return "";
+}
+
+}  // namespace
+
+// The service runs the installed server.sh with the installed configuration file, and systemd finds
+// nothing wrong with the unit but that server.sh is not installed yet.
+TEST(Deploy, TheServiceUnitRunsTheInstalledServerWithTheConfigurationFile) {
+  const std::string build = build_dir();
+  if (build.empty()) GTEST_SKIP() << "VCLASSROOM_TOOLS_DIR not set (run through meson test)";
+  const std::string unit = read_text(fs::path(build) / "vclassroom-server.service");
+  ASSERT_FALSE(unit.empty());
+  const std::string exec = setting(unit, "ExecStart"), config = setting(unit, "EnvironmentFile");
+  EXPECT_TRUE(exec.size() > 10 && exec.substr(exec.size() - 10) == "/server.sh") << exec;
+  EXPECT_TRUE(config.size() > 12 && config.substr(config.size() - 12) == "/server.conf") << config;
+  const std::string installed = introspect(build, "--installed");
+  EXPECT_NE(installed.find("\"" + exec + "\""), std::string::npos) << "ExecStart is not what meson installs";
+  EXPECT_NE(installed.find("\"" + config + "\""), std::string::npos) << "EnvironmentFile is not what meson installs";
+  if (access("/usr/bin/systemd-analyze", X_OK) != 0) GTEST_SKIP() << "no systemd-analyze to check the unit";
+  const Exit verify = run_tool({"systemd-analyze", "verify", fs::path(build) / "vclassroom-server.service"});
+  std::istringstream complaints(verify.out + verify.err);
+  for (std::string line; std::getline(complaints, line);)
+    if (!line.empty() && line.find(exec + " is not executable") == std::string::npos)
+      ADD_FAILURE() << "systemd-analyze verify: " << line;
+}
+
+// Every setting of the configuration file is one server.sh (or a part it sources) reads.
+TEST(Deploy, TheConfigurationFileSetsWhatServerShReads) {
+  const std::string source = env_or_empty("VCLASSROOM_SOURCE_DIR");
+  if (source.empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  const std::string conf = read_text(fs::path(source) / "deploy/server.conf");
+  const std::string server = read_text(fs::path(source) / "pipelines/server.sh") +
+                             read_text(fs::path(source) / "pipelines/srtp.sh");
+  ASSERT_FALSE(conf.empty());
+  std::istringstream lines(conf);
+  int settings = 0;
+  static const std::regex assignment(R"(^#?([A-Z_]+)=(.*)$)");
+  for (std::string line; std::getline(lines, line);) {
+    std::smatch m;
+    if (!std::regex_match(line, m, assignment)) continue;
+    ++settings;
+    EXPECT_NE(server.find("${" + m[1].str()), std::string::npos) << m[1] << " is not a setting of server.sh";
+    EXPECT_EQ(m[2].str().find('"'), std::string::npos) << line << ": systemd keeps quotes as part of the value";
+  }
+  EXPECT_GE(settings, 8);
+}
+
+// `meson install` puts the user tools, the service and its configuration in place, and the bench, measure
+// and fault-injection tools only when asked (-Dinstall_dev_tools=true).
+TEST(Deploy, OnlyTheUserToolsAreInstalledByDefault) {
+  const std::string build = build_dir();
+  if (build.empty()) GTEST_SKIP() << "VCLASSROOM_TOOLS_DIR not set (run through meson test)";
+  const std::string installed = introspect(build, "--installed");
+  const std::string options = introspect(build, "--buildoptions");
+  ASSERT_FALSE(installed.empty());
+  for (const char* tool : {"vclassroom-import", "vclassroom-build-model", "vclassroom-calibrate", "vclassroom-eval-views"})
+    EXPECT_NE(installed.find(std::string("/bin/") + tool + "\""), std::string::npos) << tool;
+  EXPECT_NE(installed.find("/systemd/system/vclassroom-server.service\""), std::string::npos);
+  EXPECT_NE(installed.find("/gst-vclassroom/server.conf\""), std::string::npos);
+  if (options.find("\"name\": \"install_dev_tools\", \"value\": true") != std::string::npos)
+    GTEST_SKIP() << "this build installs the developer tools (-Dinstall_dev_tools=true)";
+  for (const char* tool : {"vclassroom-bench-server", "vclassroom-measure-flow", "vclassroom-fault-inject"})
+    EXPECT_EQ(installed.find(std::string("/bin/") + tool + "\""), std::string::npos) << tool << " is installed";
+}
