@@ -194,7 +194,7 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
   whep="port=$WHEP_PORT token=$TOKEN bitrate=${WHEP_BITRATE:-4000} max-sessions=${WHEP_SESSIONS:-4} $whep_tls \
     ${WHEP_STUN:+stun-server=$WHEP_STUN} ${WHEP_TURN:+turn-server=$WHEP_TURN} \
     ${WHEP_LECTURER_TIMEOUT:+lecturer-timeout=$WHEP_LECTURER_TIMEOUT} ${WHEP_LISTEN:+listen-addresses=$WHEP_LISTEN} \
-    ${WHEP_ALLOW_ORIGIN:+allow-origin=\"$WHEP_ALLOW_ORIGIN\"} \
+    ${WHEP_ALLOW_ORIGIN:+allow-origin=$WHEP_ALLOW_ORIGIN} \
     web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\""
   if [ "$LECTURER_OUT" = whep ]; then
     desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"

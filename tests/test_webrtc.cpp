@@ -564,6 +564,32 @@ std::string browser_skip_reason() {
   return "";
 }
 
+// `node tests/browser/<script> <base> <args...>` against a server running at `base`: what it printed, and
+// whether it exited 0.
+BrowserRun run_node_script(const std::string& script, const std::string& base, const std::vector<std::string>& args) {
+  BrowserRun run;
+  const std::string dir = browser_dir(), script_path = dir + "/" + script;
+  gchar* node = g_find_program_in_path("node");
+  std::vector<const gchar*> argv = {node, script_path.c_str(), base.c_str()};
+  for (const std::string& a : args) argv.push_back(a.c_str());
+  argv.push_back(nullptr);
+  gchar* output = nullptr;
+  gint status = 0;
+  GError* err = nullptr;
+  // Node and Chromium are not ours: no sanitizer runtime preloaded into them (the sanitizer build's env).
+  gchar** browser_env = g_environ_unsetenv(g_get_environ(), "LD_PRELOAD");
+  const gboolean spawned = g_spawn_sync(dir.c_str(), const_cast<gchar**>(argv.data()), browser_env, G_SPAWN_DEFAULT,
+                                        nullptr, nullptr, &output, nullptr, &status, &err);
+  g_strfreev(browser_env);
+  g_free(node);
+  EXPECT_TRUE(spawned) << (err ? err->message : "");
+  g_clear_error(&err);
+  run.output = output ? output : "";
+  g_free(output);
+  run.ok = spawned && g_spawn_check_wait_status(status, nullptr);
+  return run;
+}
+
 // Runs `gst-launch-1.0 <server>` (with {PORT} replaced by a free TCP port) as a process of its own (webrtcbin
 // 1.22 keeps its ICE and DTLS agents alive past gst_deinit(), which this program's leaks tracer would count
 // as ours), then `node tests/browser/<script> http://127.0.0.1:PORT <args...>`, then stops the server. The
@@ -575,8 +601,6 @@ BrowserRun run_browser_script(const std::string& server, const std::string& scri
   BrowserRun run;
   run.skip = browser_skip_reason();
   if (!run.skip.empty()) return run;
-  const std::string dir = browser_dir();
-  gchar* node = g_find_program_in_path("node");
   GError* err = nullptr;
   const int port = vctest::free_tcp_port();
   std::string launch = "gst-launch-1.0 " + server;
@@ -597,29 +621,14 @@ BrowserRun run_browser_script(const std::string& server, const std::string& scri
   g_strfreev(server_argv);
   g_strfreev(env);
   EXPECT_TRUE(started) << (err ? err->message : "");
-  if (!started) {
-    g_free(node);
-    return run;
-  }
-  const std::string script_path = dir + "/" + script, base = "http://127.0.0.1:" + std::to_string(port);
-  std::vector<const gchar*> argv = {node, script_path.c_str(), base.c_str()};
-  for (const std::string& a : args) argv.push_back(a.c_str());
-  argv.push_back(nullptr);
-  gchar* output = nullptr;
-  gint status = 0;
-  // Node and Chromium are not ours: no sanitizer runtime preloaded into them (the sanitizer build's env).
-  gchar** browser_env = g_environ_unsetenv(g_get_environ(), "LD_PRELOAD");
-  const gboolean spawned = g_spawn_sync(dir.c_str(), const_cast<gchar**>(argv.data()), browser_env, G_SPAWN_DEFAULT,
-                                        nullptr, nullptr, &output, nullptr, &status, &err);
-  g_strfreev(browser_env);
+  g_clear_error(&err);
+  if (!started) return run;
+  const BrowserRun browser = run_node_script(script, "http://127.0.0.1:" + std::to_string(port), args);
   kill(server_pid, SIGTERM);
   waitpid(server_pid, nullptr, 0);
   g_spawn_close_pid(server_pid);
-  g_free(node);
-  EXPECT_TRUE(spawned) << (err ? err->message : "");
-  run.output = output ? output : "";
-  g_free(output);
-  run.ok = spawned && g_spawn_check_wait_status(status, nullptr);
+  run.output = browser.output;
+  run.ok = browser.ok;
   return run;
 }
 
@@ -684,6 +693,43 @@ TEST(WebrtcBrowser, TwoLecturersGetTheirOwnViewsAndALeaverFreesItsPlace) {
   for (const char* check : {"ok two joined", "ok own views:", "ok third refused: 503", "ok one left, the other goes on",
                             "ok a new page joined in the freed place"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
+  std::printf("%s", run.output.c_str());
+}
+
+// README's one command to a lesson: pipelines/lesson.sh starts the synthetic classroom's three cameras and
+// the server as processes of their own and prints the URL; a browser opening it sees the classroom, with
+// every camera's learners moving in it (tests/browser/lesson-test.mjs); Ctrl-C (SIGINT) ends every part.
+TEST(Lesson, OneCommandGivesTheLecturerAMovingClassroomInTheBrowser) {
+  const std::string skip = browser_skip_reason();
+  if (!skip.empty()) GTEST_SKIP() << skip;
+  const std::string source = g_getenv("VCLASSROOM_SOURCE_DIR");
+  const int port = vctest::free_tcp_port();
+  const std::string camera_ports = std::to_string(vctest::free_udp_port()) + " " +
+                                   std::to_string(vctest::free_udp_port()) + " " + std::to_string(vctest::free_udp_port());
+  gchar** env = g_get_environ();
+  for (const auto& [key, value] : std::vector<std::pair<std::string, std::string>>{
+           {"TOKEN", "lesson-token"}, {"WHEP_PORT", std::to_string(port)}, {"CAMERA_PORTS", camera_ports},
+           {"WIDTH", "480"}, {"HEIGHT", "270"}})
+    env = g_environ_setenv(env, key.c_str(), value.c_str(), TRUE);
+  const std::string script = source + "/pipelines/lesson.sh";
+  const gchar* argv[] = {script.c_str(), nullptr};
+  GPid pid = 0;
+  GError* err = nullptr;
+  ASSERT_TRUE(g_spawn_async(nullptr, const_cast<gchar**>(argv), env,
+                            GSpawnFlags(G_SPAWN_DO_NOT_REAP_CHILD | G_SPAWN_STDOUT_TO_DEV_NULL), nullptr, nullptr, &pid,
+                            &err))
+      << (err ? err->message : "");
+  g_strfreev(env);
+  const BrowserRun run = run_node_script("lesson-test.mjs", "http://127.0.0.1:" + std::to_string(port),
+                                         {"lesson-token", "480", "270"});
+  kill(pid, SIGINT);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  g_spawn_close_pid(pid);
+  EXPECT_TRUE(run.ok) << run.output;
+  for (const char* check : {"ok joined, frames 480x270", "ok the classroom moves:"})
+    EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
+  EXPECT_TRUE(WIFEXITED(status) || WIFSIGNALED(status));
   std::printf("%s", run.output.c_str());
 }
 

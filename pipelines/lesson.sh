@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# One command to a lesson on this machine: the synthetic classroom's three cameras (classroom.sh, each a
+# process of its own, as on their own machines) and the server (server.sh with a view of their own for each
+# lecturer in a browser, LECTURER_OUT=whep-views), joined over loopback. Prints the URL the lecturer opens;
+# Ctrl-C ends them all. With real cameras the same two scripts run on their own machines
+# (docs/real-classroom.md, step 5).
+# Variables: TOKEN (the join secret; default a new random one, printed in the URL), WHEP_PORT (default 8080),
+#   CAMERAS (ids, default "0 1 2"), CAMERA_PORTS (the cameras' UDP ports in CAMERAS order, default 5000 + id),
+#   and whatever else server.sh takes (MODEL, WHEP_SESSIONS, WHEP_TLS_CERT, ...; its header lists them).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+CAMERAS=${CAMERAS:-"0 1 2"}
+read -r -a camera_ids <<< "$CAMERAS"
+CAMERA_PORTS=${CAMERA_PORTS:-$(for k in "${camera_ids[@]}"; do printf '%s ' $((5000 + k)); done)}
+read -r -a camera_ports <<< "$CAMERA_PORTS"
+if [ "${#camera_ports[@]}" -ne "${#camera_ids[@]}" ]; then
+  echo "lesson.sh: CAMERA_PORTS needs one port per camera of CAMERAS (${#camera_ids[@]})" >&2
+  exit 2
+fi
+TOKEN=${TOKEN:-$(head -c 18 /dev/urandom | base64 | tr '+/' '-_')}
+export TOKEN
+
+pids=()
+# shellcheck disable=SC2317  # run by the trap
+stop_all() {
+  trap - INT TERM EXIT
+  # Each script ends its pipeline cleanly on SIGTERM (its STOP_GRACE, then it is killed); SIGINT would not
+  # reach them: a shell's background jobs ignore it.
+  for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+}
+trap stop_all INT TERM EXIT
+
+for i in "${!camera_ids[@]}"; do
+  CAMERA=${camera_ids[$i]} PORT=${camera_ports[$i]} "$here/classroom.sh" &
+  pids+=($!)
+done
+LECTURER_OUT=${LECTURER_OUT:-whep-views} CAMERAS="$CAMERAS" CAMERA_PORTS="$CAMERA_PORTS" "$here/server.sh" &
+pids+=($!)
+echo "lesson.sh: cameras ${CAMERAS} and the server started; on this machine the lecturer opens" \
+     "http://localhost:${WHEP_PORT:-8080}/?token=$TOKEN (Ctrl-C ends the lesson)"
+# The lesson lasts as long as every part of it does: the first to end (an error) ends the others.
+wait -n "${pids[@]}"
+status=$?
+echo "lesson.sh: a part of the lesson ended (status $status): stopping the others" >&2
+exit "$status"
