@@ -34,3 +34,22 @@ run_launch() {
   trap - INT TERM
   return "$rc"
 }
+
+# Ends processes this script started in the background: each asked to finish (the pipeline scripts with
+# SIGTERM, since a script started in the background ignores SIGINT; gst-launch-1.0 itself with SIGINT, as
+# it handles that one and sends end-of-stream), given STOP_GRACE seconds, then killed, and reaped.
+#   end_processes "<pids of scripts>" "<pids of gst-launch-1.0>"
+end_processes() {
+  local scripts=$1 launches=$2 p waited=0 alive
+  for p in $scripts; do kill -TERM "$p" 2>/dev/null || true; done
+  for p in $launches; do kill -INT "$p" 2>/dev/null || true; done
+  while [ "$waited" -lt $((STOP_GRACE * 10)) ]; do
+    alive=0
+    for p in $scripts $launches; do kill -0 "$p" 2>/dev/null && alive=1; done
+    [ "$alive" = 0 ] && break
+    sleep 0.1  # polling the processes' end, bounded by STOP_GRACE
+    waited=$((waited + 1))
+  done
+  for p in $scripts $launches; do kill -KILL "$p" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+}

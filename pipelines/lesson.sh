@@ -20,27 +20,31 @@ fi
 TOKEN=${TOKEN:-$(head -c 18 /dev/urandom | base64 | tr '+/' '-_')}
 export TOKEN
 
-pids=()
+# shellcheck source=pipelines/launch.sh
+. "$here/launch.sh"
+
+camera_pids=()
+server_pid=""
 # shellcheck disable=SC2317  # run by the trap
 stop_all() {
   trap - INT TERM EXIT
-  # Each script ends its pipeline cleanly on SIGTERM (its STOP_GRACE, then it is killed); SIGINT would not
-  # reach them: a shell's background jobs ignore it.
-  for pid in "${pids[@]}"; do kill -TERM "$pid" 2>/dev/null || true; done
-  wait 2>/dev/null || true
+  # The server is a script (SIGTERM); each camera's script is gst-launch-1.0 itself (SIGINT: end-of-stream,
+  # so a RECORD= recording is closed properly).
+  end_processes "$server_pid" "${camera_pids[*]}"
 }
-trap stop_all INT TERM EXIT
+trap stop_all EXIT
+trap 'stop_all; exit 130' INT TERM
 
 for i in "${!camera_ids[@]}"; do
   CAMERA=${camera_ids[$i]} PORT=${camera_ports[$i]} "$here/classroom.sh" &
-  pids+=($!)
+  camera_pids+=($!)
 done
 LECTURER_OUT=${LECTURER_OUT:-whep-views} CAMERAS="$CAMERAS" CAMERA_PORTS="$CAMERA_PORTS" "$here/server.sh" &
-pids+=($!)
+server_pid=$!
 echo "lesson.sh: cameras ${CAMERAS} and the server started; on this machine the lecturer opens" \
-     "http://localhost:${WHEP_PORT:-8080}/?token=$TOKEN (Ctrl-C ends the lesson)"
+     "http${WHEP_TLS_CERT:+s}://localhost:${WHEP_PORT:-8080}/?token=$TOKEN (Ctrl-C ends the lesson)"
 # The lesson lasts as long as every part of it does: the first to end (an error) ends the others.
-wait -n "${pids[@]}"
-status=$?
+status=0
+wait -n "$server_pid" "${camera_pids[@]}" || status=$?
 echo "lesson.sh: a part of the lesson ended (status $status): stopping the others" >&2
 exit "$status"

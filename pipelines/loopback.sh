@@ -12,6 +12,8 @@
 # Run it inside `meson devenv -C build` (or after `meson install`) so GStreamer finds the plugins.
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
+# shellcheck source=pipelines/launch.sh
+. "$here/launch.sh"
 export CAMERAS=${CAMERAS:-"0 1 2"}
 export MTU=${MTU:-65000}
 PORT_BASE=${PORT_BASE:-5000}
@@ -23,25 +25,12 @@ fi
 export BASE_PORT=$PORT_BASE VIDEO_PORT=$((PORT_BASE + 10)) POSE_PORT=$((PORT_BASE + 11))
 pids=()
 stopping=0
-# Asks every process still running to end (SIGINT: gst-launch-1.0 -e sends end-of-stream), waits at most
-# STOP_GRACE seconds, then kills what is left.
+# Asks every process still running to end, waits at most STOP_GRACE seconds, then kills what is left: the
+# server (first) is a script, the others are gst-launch-1.0 itself (pipelines/launch.sh, end_processes).
 stop() {
   [ "$stopping" = 1 ] && return
   stopping=1
-  # The server (first) ends on SIGTERM as on Ctrl-C (pipelines/launch.sh: a background script ignores
-  # SIGINT); the others are gst-launch-1.0 itself, which takes SIGINT.
-  kill -TERM "${pids[0]}" 2>/dev/null || true
-  for p in "${pids[@]:1}"; do kill -INT "$p" 2>/dev/null || true; done
-  local waited=0
-  while [ "$waited" -lt $((STOP_GRACE * 10)) ]; do
-    local alive=0
-    for p in "${pids[@]}"; do kill -0 "$p" 2>/dev/null && alive=1; done
-    [ "$alive" = 0 ] && break
-    sleep 0.1
-    waited=$((waited + 1))
-  done
-  for p in "${pids[@]}"; do kill -KILL "$p" 2>/dev/null || true; done
-  wait 2>/dev/null || true
+  end_processes "${pids[0]}" "${pids[*]:1}"
 }
 trap stop EXIT
 trap 'stop; exit 130' INT TERM

@@ -156,6 +156,8 @@ TEST(ViewNavigator, KeysAndWheelWalkLevelAlongTheHeadingAndHomeReturns) {
   EXPECT_EQ(nav.key_press("Up"), Navigated::kMoved);
   EXPECT_NEAR(nav.view.forward, 0.1, 1e-12);
   EXPECT_EQ(nav.key_release("Up"), Navigated::kTaken);  // the press moved; the release changes nothing
+  EXPECT_EQ(nav.key_release("o"), Navigated::kNotOurs);  // a key of its own, not a piece of "Home"'s name
+  EXPECT_EQ(nav.key_release(""), Navigated::kNotOurs);
   EXPECT_EQ(nav.key_press("x"), Navigated::kNotOurs);
   EXPECT_EQ(nav.scroll(2), Navigated::kMoved);
   EXPECT_NEAR(nav.view.forward, 0.3, 1e-12);

@@ -247,6 +247,14 @@ TEST(WhepCors, AnOriginIsAllowedWhereListedOrWhereAnyIs) {
   EXPECT_EQ(cors_allow_origin(o, ""), "");
   EXPECT_EQ(cors_allow_origin({}, "https://school.example"), "");
   EXPECT_EQ(cors_allow_origin({"*"}, "https://anyone.example"), "*");
+  // Ports as a browser writes them: the scheme's default left out, no leading zeros.
+  ASSERT_TRUE(parse_allowed_origins("https://school.example:443,http://cams.example:0080,https://x.example:08443", &o,
+                                    &why));
+  EXPECT_EQ(o, (std::vector<std::string>{"https://school.example", "http://cams.example", "https://x.example:8443"}));
+  EXPECT_EQ(cors_allow_origin(o, "https://school.example"), "https://school.example");
+  EXPECT_EQ(cors_allow_origin(o, "http://cams.example"), "http://cams.example");
+  EXPECT_EQ(cors_allow_origin(o, "https://x.example:8443"), "https://x.example:8443");
+  EXPECT_EQ(cors_allow_origin(o, "http://school.example"), "");  // another scheme is another origin
 }
 
 TEST(WhepConnections, EachAddressAndTheWholeAreCappedAndPlacesComeBack) {
@@ -418,7 +426,8 @@ TEST(WhepHttp, TheIconIsAnsweredWithoutTheToken) {
   EXPECT_EQ(status_line(got), "HTTP/1.1 204 No Content") << got;
 }
 
-// The page is found without web-root, installed or not: from the build tree the source tree's is served.
+// The page is found without web-root, installed or not: from the build tree, VCLASSROOM_WEB_ROOT's (the
+// tests' environment sets it to the source tree's, as meson devenv does).
 TEST(WhepHttp, ThePageIsServedWithoutWebRootSet) {
   SKIP_WITHOUT_WHEP();
   Server s("");

@@ -419,15 +419,14 @@ gpointer server_thread(gpointer data) {
   return nullptr;
 }
 
-// The HTTP server on the listen-addresses, its caps and timeout from the properties, in a new context that
-// the server thread will run; false after posting an error on the owner.
-// The page's folder: web-root when the application set it; else the installed page, or the source tree's
-// when the plugins run from the build tree (the installed one is not there). A warning names web-root
-// when neither holds index.html: browsers opening the server's URL would get 404.
-void find_web_root(State* st) {
+// The page's folder: web-root when the application set it; else the installed page, or, where nothing is
+// installed, VCLASSROOM_WEB_ROOT's (meson devenv and the tests set it to the source tree's). A warning
+// names web-root when the folder holds no index.html: browsers opening the server's URL would get 404.
+// Called with the lock held.
+void find_web_root_locked(State* st) {
   auto has_page = [](const std::string& dir) { return g_file_test((dir + "/index.html").c_str(), G_FILE_TEST_IS_REGULAR); };
-  if (!st->web_root_set && !has_page(st->web_root) && has_page(VCLASSROOM_SOURCE_WEB_DIR))
-    st->web_root = VCLASSROOM_SOURCE_WEB_DIR;
+  const char* uninstalled = g_getenv("VCLASSROOM_WEB_ROOT");
+  if (!st->web_root_set && !has_page(st->web_root) && uninstalled && has_page(uninstalled)) st->web_root = uninstalled;
   if (!has_page(st->web_root))
     GST_ELEMENT_WARNING(st->owner, RESOURCE, NOT_FOUND,
                         ("%s: no lecturer page at %s/index.html: browsers get 404 (set web-root to the folder "
@@ -436,6 +435,8 @@ void find_web_root(State* st) {
                         (nullptr));
 }
 
+// The HTTP server on the listen-addresses, its caps and timeout from the properties, in a new context that
+// the server thread will run; false after posting an error on the owner.
 bool start_http(State* st) {
   WhepHttpSettings settings;
   std::string why;
@@ -645,13 +646,17 @@ bool WhepEndpoint::start() {
   };
   if (!add_ice_server("stun-server", st->stun_server, true) || !add_ice_server("turn-server", st->turn_server, false))
     return false;
-  std::string why;
-  if (!parse_allowed_origins(st->allow_origin, &st->allowed_origins, &why)) {
-    GST_ELEMENT_ERROR(st->owner, RESOURCE, SETTINGS, ("allow-origin %s: %s", st->allow_origin.c_str(), why.c_str()),
-                      (nullptr));
-    return false;
+  {
+    // The application may read or set the properties meanwhile.
+    std::lock_guard<std::mutex> g(st->lock);
+    std::string why;
+    if (!parse_allowed_origins(st->allow_origin, &st->allowed_origins, &why)) {
+      GST_ELEMENT_ERROR(st->owner, RESOURCE, SETTINGS, ("allow-origin %s: %s", st->allow_origin.c_str(), why.c_str()),
+                        (nullptr));
+      return false;
+    }
+    find_web_root_locked(st);
   }
-  find_web_root(st);
   st->table = WhepSessionTable(st->max_sessions);
   if (!start_http(st)) return false;
   GST_INFO_OBJECT(st->owner, "WHEP on port %u", st->bound_port);

@@ -57,9 +57,11 @@ Navigated ViewNavigator::key_press(const std::string& k) {
 }
 
 Navigated ViewNavigator::key_release(const std::string& key) {
-  return std::string("Up Down Left Right w s a d Page_Up Page_Down q e Home r").find(key) != std::string::npos
-             ? Navigated::kTaken
-             : Navigated::kNotOurs;
+  static const char* const ours[] = {"Up", "Down", "Left", "Right", "w", "s", "a", "d", "Page_Up", "Page_Down",
+                                     "q", "e", "Home", "r"};
+  for (const char* k : ours)
+    if (key == k) return Navigated::kTaken;
+  return Navigated::kNotOurs;
 }
 
 }  // namespace vclassroom

@@ -578,7 +578,8 @@ std::string lower(std::string_view s) {
   return out;
 }
 
-// "http[s]://host[:port]" with nothing after, lower-cased; "" when it is not one.
+// "http[s]://host[:port]" with nothing after, lower-cased, its port written as a browser writes an origin
+// (RFC 6454: in decimal, left out where it is the scheme's default); "" when it is not one.
 std::string normal_origin(std::string_view text) {
   const std::string s = lower(text);
   size_t at = 0;
@@ -607,7 +608,9 @@ std::string normal_origin(std::string_view text) {
     if (!g_ascii_isdigit(rest[i])) return "";
     port = port * 10 + (rest[i] - '0');
   }
-  return port >= 1 && port <= 65535 ? s : "";
+  if (port < 1 || port > 65535) return "";
+  const std::string origin = s.substr(0, at + host_end);
+  return port == (at == 7 ? 80 : 443) ? origin : origin + ":" + std::to_string(port);
 }
 
 }  // namespace
