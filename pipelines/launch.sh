@@ -30,14 +30,19 @@ run_launch() {
     wait "$launch_pid" || rc=$?  # (the scripts run with set -e)
     kill -0 "$launch_pid" 2>/dev/null || break  # a signal ended the wait, not gst-launch-1.0: wait again
   done
-  [ -z "$launch_killer" ] || kill "$launch_killer" 2>/dev/null || true
+  # The killer is no longer needed: it and its sleep end now.
+  if [ -n "$launch_killer" ]; then
+    pkill -P "$launch_killer" 2>/dev/null || true
+    kill "$launch_killer" 2>/dev/null || true
+  fi
   trap - INT TERM
   return "$rc"
 }
 
 # Ends processes this script started in the background: each asked to finish (the pipeline scripts with
 # SIGTERM, since a script started in the background ignores SIGINT; gst-launch-1.0 itself with SIGINT, as
-# it handles that one and sends end-of-stream), given STOP_GRACE seconds, then killed, and reaped.
+# it handles that one and sends end-of-stream), given STOP_GRACE seconds, then killed (a script with the
+# processes it started), and reaped.
 #   end_processes "<pids of scripts>" "<pids of gst-launch-1.0>"
 end_processes() {
   local scripts=$1 launches=$2 p waited=0 alive
@@ -50,6 +55,7 @@ end_processes() {
     sleep 0.1  # polling the processes' end, bounded by STOP_GRACE
     waited=$((waited + 1))
   done
+  for p in $scripts; do pkill -KILL -P "$p" 2>/dev/null || true; done
   for p in $scripts $launches; do kill -KILL "$p" 2>/dev/null || true; done
   wait 2>/dev/null || true
 }

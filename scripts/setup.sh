@@ -15,7 +15,7 @@ PACKAGES=(
   gstreamer1.0-x gstreamer1.0-gl
   ccache
   libsoup-3.0-dev libgstreamer-plugins-bad1.0-dev gstreamer1.0-nice chromium
-  iproute2 coturn
+  iproute2 coturn procps
 )
 
 missing=()

@@ -367,6 +367,16 @@ std::string header_of(const std::string& response, const std::string& name) {
   return response.substr(start, response.find("\r\n", start) - start);
 }
 
+// A browser's CORS preflight for a POST from a page of `origin`, without the token as a browser sends it.
+std::string preflight_from(guint port, const std::string& origin) {
+  bool closed = false;
+  return ask("127.0.0.1", port,
+             "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: " + origin +
+                 "\r\nAccess-Control-Request-Method: POST\r\nAccess-Control-Request-Headers: authorization, "
+                 "content-type\r\n\r\n",
+             &closed);
+}
+
 // A page of an allowed origin (another host's WHEP player) gets its preflight answered without the token,
 // and the endpoint's answers carry the CORS headers it needs (the session's Location, the ICE servers' Link);
 // a page of any other origin gets 403 and no CORS header, so its browser keeps every answer from it.
@@ -375,19 +385,14 @@ TEST(WhepHttp, PagesOfAnAllowedOriginMayCallTheEndpoint) {
   Server s("allow-origin=https://player.example");
   ASSERT_GT(s.port, 0u);
   bool closed = false;
-  const std::string preflight = ask("127.0.0.1", s.port,
-                                    "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://player.example\r\n"
-                                    "Access-Control-Request-Method: POST\r\n"
-                                    "Access-Control-Request-Headers: authorization, content-type\r\n\r\n", &closed);
+  const std::string preflight = preflight_from(s.port, "https://player.example");
   EXPECT_EQ(status_line(preflight), "HTTP/1.1 204 No Content") << preflight;
   EXPECT_EQ(header_of(preflight, "Access-Control-Allow-Origin"), "https://player.example");
   EXPECT_NE(header_of(preflight, "Access-Control-Allow-Methods").find("POST"), std::string::npos);
   EXPECT_NE(header_of(preflight, "Access-Control-Allow-Headers").find("Authorization"), std::string::npos);
   EXPECT_EQ(header_of(preflight, "Link"), "") << "a preflight without the token learnt the ICE servers";
 
-  const std::string stranger = ask("127.0.0.1", s.port,
-                                   "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://evil.example\r\n"
-                                   "Access-Control-Request-Method: POST\r\n\r\n", &closed);
+  const std::string stranger = preflight_from(s.port, "https://evil.example");
   EXPECT_EQ(status_line(stranger).substr(0, 12), "HTTP/1.1 403") << stranger;
   EXPECT_EQ(header_of(stranger, "Access-Control-Allow-Origin"), "");
 
@@ -408,10 +413,7 @@ TEST(WhepHttp, WithoutAllowOriginNoOtherPageMayCallTheEndpoint) {
   SKIP_WITHOUT_WHEP();
   Server s("");
   ASSERT_GT(s.port, 0u);
-  bool closed = false;
-  const std::string got = ask("127.0.0.1", s.port,
-                              "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://player.example\r\n"
-                              "Access-Control-Request-Method: POST\r\n\r\n", &closed);
+  const std::string got = preflight_from(s.port, "https://player.example");
   EXPECT_EQ(status_line(got).substr(0, 12), "HTTP/1.1 403") << got;
   EXPECT_EQ(header_of(got, "Access-Control-Allow-Origin"), "");
 }

@@ -225,6 +225,21 @@ bool fail(std::string* why, const std::string& text) {
   return false;
 }
 
+// The items of a comma-separated list, with the spaces around each trimmed (an empty text is one empty item).
+std::vector<std::string_view> comma_items(std::string_view text) {
+  std::vector<std::string_view> items;
+  for (size_t start = 0; start <= text.size();) {
+    size_t end = text.find(',', start);
+    if (end == std::string_view::npos) end = text.size();
+    std::string_view item = text.substr(start, end - start);
+    while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
+    while (!item.empty() && item.back() == ' ') item.remove_suffix(1);
+    items.push_back(item);
+    start = end + 1;
+  }
+  return items;
+}
+
 }  // namespace
 
 bool parse_pose_message(std::string_view message, Pose* pose, std::string* why) {
@@ -360,20 +375,13 @@ size_t ConnectionCounter::from(const std::string& address) const {
 
 bool parse_listen_addresses(std::string_view text, std::vector<std::string>* addresses, std::string* why) {
   std::vector<std::string> out;
-  size_t start = 0;
-  while (start <= text.size()) {
-    size_t end = text.find(',', start);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view item = text.substr(start, end - start);
-    while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
-    while (!item.empty() && item.back() == ' ') item.remove_suffix(1);
+  for (std::string_view item : comma_items(text)) {
     const std::string address(item);
     // Literal addresses only: a name would be resolved at start, and an interface's address may change.
     if (address.empty() || !g_hostname_is_ip_address(address.c_str()))
       return fail(why, "listen address \"" + address + "\" is not an IPv4 or IPv6 address");
     if (std::find(out.begin(), out.end(), address) == out.end()) out.push_back(address);
     if (out.size() > 16) return fail(why, "more than 16 listen addresses");
-    start = end + 1;
   }
   *addresses = std::move(out);
   return true;
@@ -618,13 +626,7 @@ std::string normal_origin(std::string_view text) {
 bool parse_allowed_origins(std::string_view text, std::vector<std::string>* origins, std::string* why) {
   constexpr size_t kMaxOrigins = 16;
   origins->clear();
-  size_t start = 0;
-  while (start <= text.size()) {
-    size_t end = text.find(',', start);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view item = text.substr(start, end - start);
-    while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
-    while (!item.empty() && item.back() == ' ') item.remove_suffix(1);
+  for (std::string_view item : comma_items(text)) {
     if (item.empty()) {
       if (text.find_first_not_of(' ') == std::string_view::npos) return true;  // "": none
       *why = "an empty origin in the list";
@@ -640,7 +642,6 @@ bool parse_allowed_origins(std::string_view text, std::vector<std::string>* orig
       return false;
     }
     origins->push_back(origin);
-    start = end + 1;
   }
   return true;
 }
