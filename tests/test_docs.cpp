@@ -198,8 +198,8 @@ void bound_sources(GstElement* pipeline) {
       g_object_get(e, "num-buffers", &n, nullptr);
       if (n < 0 || n > kBuffersPerSource) g_object_set(e, "num-buffers", kBuffersPerSource, nullptr);
     }
-    // What listens binds a port of the system's choosing: a documented port (udpsrc port=5000, whepviewsink
-    // port=8080) may be taken on the machine running the tests.
+    // What listens binds a port of the system's choosing: the port a documented pipeline names may be taken
+    // on the machine running the tests.
     GstElementFactory* f = gst_element_get_factory(e);
     const std::string kind = f ? GST_OBJECT_NAME(f) : "";
     if ((kind == "udpsrc" || kind == "whepviewsink" || kind == "whepserversink") &&

@@ -69,6 +69,19 @@ vclassroom::Rig make_rig(int n, int width, int height) {
   return rig;
 }
 
+std::optional<std::string> posted_error(GstElement* element) {
+  GstBus* bus = gst_element_get_bus(element);
+  GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
+  gst_object_unref(bus);
+  if (!m) return std::nullopt;
+  GError* err = nullptr;
+  gst_message_parse_error(m, &err, nullptr);
+  std::string text = err && err->message ? err->message : "";
+  g_clear_error(&err);
+  gst_message_unref(m);
+  return text;
+}
+
 RunResult run_pipeline(GstElement* pipeline, GstClockTime timeout) {
   RunResult r;
   GstBus* bus = gst_element_get_bus(pipeline);

@@ -1,6 +1,7 @@
 // Helpers shared by the tests: temporary folders, the shared data, pipelines.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,10 @@ struct RunResult {
 };
 RunResult run_pipeline(GstElement* pipeline, GstClockTime timeout = 60 * GST_SECOND);
 RunResult run_launch(const std::string& description, GstClockTime timeout = 60 * GST_SECOND);
+
+// The text of the first error `element` (a pipeline, or an element on its own) has posted on its bus, taken
+// off the bus; nullopt when none is there.
+std::optional<std::string> posted_error(GstElement* element);
 
 // Keeps every sample an appsink receives while the pipeline runs.
 class SampleCollector {

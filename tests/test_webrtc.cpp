@@ -304,15 +304,9 @@ TEST(WebrtcIceServers, AMalformedServerIsAnErrorAtStart) {
     g_object_set(sink, "port", 0u, "token", "ice-test-token", property, uri, nullptr);
     gst_bin_add(GST_BIN(pipeline), sink);
     EXPECT_EQ(gst_element_set_state(pipeline, GST_STATE_READY), GST_STATE_CHANGE_FAILURE) << property << " " << uri;
-    GstBus* bus = gst_element_get_bus(pipeline);
-    GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
-    ASSERT_TRUE(m) << property << " " << uri;
-    GError* err = nullptr;
-    gst_message_parse_error(m, &err, nullptr);
-    EXPECT_NE(std::string(err->message).find(property), std::string::npos) << err->message;
-    g_error_free(err);
-    gst_message_unref(m);
-    gst_object_unref(bus);
+    const std::optional<std::string> error = vctest::posted_error(pipeline);
+    ASSERT_TRUE(error.has_value()) << property << " " << uri;
+    EXPECT_NE(error->find(property), std::string::npos) << *error;
     gst_element_set_state(pipeline, GST_STATE_NULL);
     gst_object_unref(pipeline);
   }
@@ -1243,15 +1237,9 @@ TEST(WebrtcTls, CertificateFilesServeHttpsAndABadOneIsAnError) {
                                      nullptr);
   ASSERT_NE(bad, nullptr);
   EXPECT_EQ(gst_element_set_state(bad, GST_STATE_PLAYING), GST_STATE_CHANGE_FAILURE);
-  GstBus* bus = gst_element_get_bus(bad);
-  GstMessage* error = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
-  ASSERT_NE(error, nullptr);
-  GError* err = nullptr;
-  gst_message_parse_error(error, &err, nullptr);
-  EXPECT_NE(std::string(err->message).find("Cannot serve WHEP on port"), std::string::npos) << err->message;
-  g_error_free(err);
-  gst_message_unref(error);
-  gst_object_unref(bus);
+  const std::optional<std::string> error = vctest::posted_error(bad);
+  ASSERT_TRUE(error.has_value());
+  EXPECT_NE(error->find("Cannot serve WHEP on port"), std::string::npos) << *error;
   gst_element_set_state(bad, GST_STATE_NULL);
   gst_object_unref(bad);
 }

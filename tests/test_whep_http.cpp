@@ -22,6 +22,8 @@
 
 #include <gst/vclassroom/webrtc/whep.h>
 
+#include "test_util.h"
+
 using namespace vclassroom;
 
 namespace {
@@ -354,6 +356,8 @@ TEST(WhepOffer, EveryValueOutOfRangeIsRefusedWithAReason) {
 
 // ---- The server ---------------------------------------------------------------------------------------
 
+namespace {
+
 // The value of header `name` in an HTTP response ("" when absent).
 std::string header_of(const std::string& response, const std::string& name) {
   std::string lower = response;
@@ -376,6 +380,8 @@ std::string preflight_from(guint port, const std::string& origin) {
                  "content-type\r\n\r\n",
              &closed);
 }
+
+}  // namespace
 
 // A page of an allowed origin (another host's WHEP player) gets its preflight answered without the token,
 // and the endpoint's answers carry the CORS headers it needs (the session's Location, the ICE servers' Link);
@@ -447,15 +453,9 @@ TEST(WhepHttp, AMalformedAllowOriginIsAnErrorAtStart) {
   Server s("allow-origin=ftp://player.example");
   ASSERT_NE(s.pipeline, nullptr);
   EXPECT_EQ(s.port, 0u) << "it listened";
-  GstBus* bus = gst_element_get_bus(s.pipeline);
-  GstMessage* m = gst_bus_pop_filtered(bus, GST_MESSAGE_ERROR);
-  ASSERT_NE(m, nullptr);
-  GError* e = nullptr;
-  gst_message_parse_error(m, &e, nullptr);
-  EXPECT_NE(std::string(e->message).find("allow-origin"), std::string::npos) << e->message;
-  g_error_free(e);
-  gst_message_unref(m);
-  gst_object_unref(bus);
+  const std::optional<std::string> error = vctest::posted_error(s.pipeline);
+  ASSERT_TRUE(error.has_value());
+  EXPECT_NE(error->find("allow-origin"), std::string::npos) << *error;
 }
 
 // A POST without the token announcing 400 MiB is answered 401 from its headers alone and the connection

@@ -610,13 +610,10 @@ std::string normal_origin(std::string_view text) {
     if (host_end == 0) return "";
   }
   if (host_end == rest.size()) return s;
-  if (rest[host_end] != ':' || host_end + 1 == rest.size() || rest.size() - host_end - 1 > 5) return "";
-  int port = 0;
-  for (size_t i = host_end + 1; i < rest.size(); ++i) {
-    if (!g_ascii_isdigit(rest[i])) return "";
-    port = port * 10 + (rest[i] - '0');
-  }
-  if (port < 1 || port > 65535) return "";
+  uint64_t port = 0;
+  if (rest[host_end] != ':' || rest.size() - host_end - 1 > 5 ||
+      !parse_number(std::string_view(rest).substr(host_end + 1), &port) || port < 1 || port > 65535)
+    return "";
   const std::string origin = s.substr(0, at + host_end);
   return port == (at == 7 ? 80 : 443) ? origin : origin + ":" + std::to_string(port);
 }
