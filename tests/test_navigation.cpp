@@ -113,6 +113,36 @@ TEST(NavigationBounds, APoseBeyondIsClampedToItsNearestAllowedPoseAndOneInsideIs
   EXPECT_TRUE(same_pose_bits(beyond, once));
 }
 
+// The classroom's cameras look 20° down. A lecturer turning level (about the vertical) past the yaw range
+// is stopped at its edge with the horizon still level, though the range's yaw turns about the camera's
+// tilted axis: the roll gives the tilt back.
+TEST(NavigationBounds, AViewTurnedLevelPastTheEdgeKeepsItsHorizonLevel) {
+  Rig rig = default_classroom_rig();
+  NavigationBounds b;
+  b.min = {-0.2, -0.1, -0.1, -10, -5, -15};
+  b.max = {0.2, 0.1, 0.5, 10, 5, 15};
+  const CameraCalib& ref = rig.camera(0);
+  const auto level_turn = [&](double yaw_deg) {
+    const Eigen::Matrix3d R = ref.cam_to_rig.linear();  // camera -> rig; turn it about the rig's vertical
+    Pose p = Pose::from_cam_to_rig(Eigen::Isometry3d(Eigen::Translation3d(ref.cam_to_rig.translation()) *
+                                                     Eigen::AngleAxisd(-yaw_deg * M_PI / 180, Eigen::Vector3d::UnitY()) * R));
+    return p;
+  };
+  const auto horizon_deg = [](const Pose& p) {
+    const Eigen::Matrix3d R = p.orientation.toRotationMatrix();
+    return std::atan2(-R(1, 0), -R(1, 1)) * 180 / M_PI;
+  };
+  for (double yaw : {40.0, -40.0}) {
+    Pose p = level_turn(yaw);
+    ASSERT_NEAR(horizon_deg(p), 0, 1e-9);
+    ASSERT_TRUE(clamp_to_navigation(b, ref, &p)) << yaw;
+    const std::array<double, 6> got = offsets_of(p, ref);
+    EXPECT_NEAR(std::abs(got[3]), 10, 1e-9) << "at the yaw edge, " << yaw;
+    EXPECT_NEAR(horizon_deg(p), 0, 1e-6) << "the horizon tilted, " << yaw;
+    EXPECT_GT(std::abs(got[5]), 1) << "the roll offset gives the tilt back, " << yaw;
+  }
+}
+
 TEST(Coverage, TheReferenceViewIsSeenAndLookingAtTheCeilingIsNot) {
   const Rig rig = default_classroom_rig();
   const Classroom empty(ClassroomConfig{1, 0, 2.0});

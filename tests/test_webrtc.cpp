@@ -664,8 +664,9 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheVi
   if (!run.skip.empty()) GTEST_SKIP() << run.skip;
   EXPECT_TRUE(run.ok) << run.output;
   for (const char* check : {"ok wrong token: 401", "ok joined after a join lost on the way, frames 960x540",
-                            "ok playout delay answered", "ok drag:", "ok soft stop:", "ok XR pose:",
-                            "ok XR eyes:", "ok left:"})
+                            "ok playout delay answered", "ok first view:", "ok panel:", "ok drag:", "ok level:",
+                            "ok idle:", "ok soft stop:", "ok XR pose:", "ok XR eyes:", "latency samples, none negative",
+                            "ok left:"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());
 }

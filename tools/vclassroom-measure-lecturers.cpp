@@ -282,8 +282,8 @@ int main(int argc, char** argv) {
                                 list([](const LecturerResult& r) { return r.p99; }, "%.0f");
     std::printf("| %d | %s | %s | %s | %.1f | %.0f %% |\n", n, fps.c_str(), kbps.c_str(), latency.c_str(),
                 frames > 0 ? cpu * 1000.0 / frames : 0.0, 100.0 * cpu / wall);
-    std::printf("lecturers %d: medians: pose to echo (server) %s ms, to the frame's last packet %s ms, to display %s "
-                "ms, of which jitter buffer %s ms and decode %s ms\n",
+    std::printf("lecturers %d: medians: pose to echo (server) %s ms, pose to the frame's last packet %s ms, that "
+                "packet to display %s ms, of which jitter buffer %s ms and decode %s ms\n",
                 n, list([](const LecturerResult& r) { return r.server_p50; }, "%.0f").c_str(),
                 list([](const LecturerResult& r) { return r.receive_p50; }, "%.0f").c_str(),
                 list([](const LecturerResult& r) { return r.display_p50; }, "%.0f").c_str(),

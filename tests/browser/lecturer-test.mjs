@@ -53,6 +53,26 @@ try {
   try { await page.waitForFunction(() => window.vclassroom.stats.lastSeqShown >= 1, { timeout: 15000 }); } catch (e) {
     fail('no echo: ' + JSON.stringify(await page.evaluate(() => ({ seq: window.vclassroom.seq, echoed: window.vclassroom.stats.lastSeqEchoed, shown: window.vclassroom.stats.lastSeqShown, rtp: window.vclassroom.stats.lastRtp }))));
   }
+  // The first view is the server's own (its reference camera, 20° down, inside the bounds), level.
+  const first = await page.evaluate(() => ({ view: { ...window.vclassroom.view }, clamped: window.vclassroom.stats.lastShownClamped }));
+  if (Math.abs(first.view.pitch + 20) > 0.01 || first.view.roll !== 0 || Math.abs(first.view.yaw) > 0.01 || first.clamped)
+    fail(`the first view is not the server's reference camera, level and inside the bounds: ${JSON.stringify(first)}`);
+  console.log(`ok first view: pitch ${first.view.pitch.toFixed(2)}°, roll 0, inside the bounds`);
+  // The panel: collapsed at the start, in the picture's lower half (the banner is at its top left); the
+  // button opens and closes the controls.
+  const panel = await page.evaluate(() => {
+    const rect = document.getElementById('panel').getBoundingClientRect();
+    const shown = () => document.getElementById('sliders').offsetParent !== null;
+    const at = { top: rect.top, height: rect.height, controls: shown() };
+    document.getElementById('toggle').click();
+    at.opened = shown();
+    document.getElementById('toggle').click();
+    at.closed = !shown();
+    return at;
+  });
+  if (panel.controls || !(panel.top > 270) || !(panel.height < 540 / 4) || !panel.opened || !panel.closed)
+    fail(`the control panel: ${JSON.stringify(panel)}`);
+  console.log(`ok panel: collapsed ${panel.height.toFixed(0)} px high at y ${panel.top.toFixed(0)}, opens and closes`);
   const seqBefore = await page.evaluate(() => window.vclassroom.seq);
   const before = await picture(page);
   // 3. A scripted drag turns the view; the echoed seq advances and the picture changes.
@@ -67,6 +87,23 @@ try {
   const d = difference(before, after);
   if (!(d > 2)) fail(`picture unchanged by the drag (mean difference ${d})`);
   console.log(`ok drag: seq ${seqBefore} -> ${seqAfter} echoed, picture changed by ${d.toFixed(1)}`);
+  // A left/right drag turns about the vertical: the view sent and the one rendered keep a level horizon.
+  const level = await page.evaluate(() => {
+    const s = window.vclassroom.stats;
+    return { page: window.vclassroom.view.roll,
+             rendered: window.vclassroom.poseToView(s.lastShownPose.position, s.lastShownPose.orientation).roll };
+  });
+  if (level.page !== 0 || !(Math.abs(level.rendered) < 0.01)) fail(`the drag tilted the horizon: ${JSON.stringify(level)}`);
+  console.log(`ok level: roll ${level.rendered.toFixed(3)}° after the drag`);
+  // Holding still: frames keep coming for the same pose; the readout says idle and measures nothing more.
+  const still = await page.evaluate(() => ({ shown: window.vclassroom.stats.framesShown,
+                                            samples: window.vclassroom.stats.latencyMs.length }));
+  await page.waitForFunction(n => window.vclassroom.stats.framesShown > n + 10, { timeout }, still.shown);
+  const idle = await page.evaluate(() => ({ text: document.getElementById('readout').textContent,
+                                           samples: window.vclassroom.stats.latencyMs.length }));
+  if (!idle.text.startsWith('pose→photon: idle') || idle.samples !== still.samples)
+    fail(`holding still: readout '${idle.text}', ${idle.samples - still.samples} more samples`);
+  console.log(`ok idle: '${idle.text}'`);
 
   // 4. The soft stop: a drag far past the server's navigation bounds (yaw ±60° from its reference camera)
   // shows the view at the edge, the echo says it was clamped, and the page's view moves to that edge, so
@@ -87,7 +124,16 @@ try {
   if (!stop.clamped) fail('the view past the bounds was not echoed as clamped');
   // The edge is 60° from the reference camera (which looks 20° down; the page's yaw is about the vertical).
   if (!(stop.yaw > 40 && stop.yaw < 80)) fail(`the page's view is not at the edge: yaw ${stop.yaw}`);
-  console.log(`ok soft stop: dragged to yaw ${(yawBefore + 100).toFixed(0)}°, held at ${stop.yaw.toFixed(1)}°`);
+  // At the edge the horizon stays level: the page keeps its roll, and the server's clamp (whose yaw turns
+  // about its camera's tilted axis) gives the tilt back.
+  const edge = await page.evaluate(() => {
+    const s = window.vclassroom.stats;
+    return { page: window.vclassroom.view.roll,
+             rendered: window.vclassroom.poseToView(s.lastShownPose.position, s.lastShownPose.orientation).roll };
+  });
+  if (edge.page !== 0 || !(Math.abs(edge.rendered) < 0.01)) fail(`the horizon at the edge: ${JSON.stringify(edge)}`);
+  console.log(`ok soft stop: dragged to yaw ${(yawBefore + 100).toFixed(0)}°, held at ${stop.yaw.toFixed(1)}°, ` +
+              `level (rendered roll ${edge.rendered.toFixed(3)}°)`);
 
   // 5. The XR frame loop's pose path with a scripted headset pose (0.3 m to the right, turned 20°).
   const xrSeq = await page.evaluate(() => {
@@ -139,7 +185,8 @@ try {
     fail(`the XR drawer did not put the frame in both eyes: ${JSON.stringify(eyes)}`);
   console.log(`ok XR eyes: the frame drawn in both viewports (mean difference ${eyes.left.toFixed(1)}, ${eyes.right.toFixed(1)})`);
   const latency = await page.evaluate(() => window.vclassroom.stats.latencyMs.slice());
-  console.log(`ok ${latency.length} latency samples`);
+  if (!latency.length || latency.some(ms => !(ms >= 0))) fail(`pose-to-photon samples: ${JSON.stringify(latency)}`);
+  console.log(`ok ${latency.length} latency samples, none negative`);
   // 6. Leaving: DELETE of the session's Location is 200, a second one 404 (the session is gone).
   const left = await page.evaluate(async () => [await window.vclassroom.leave(), await window.vclassroom.leave()]);
   if (left[0] !== 200 || left[1] !== 404) fail(`DELETE gave ${left}, expected 200 then 404`);

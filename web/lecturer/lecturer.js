@@ -19,6 +19,13 @@ const view = { right: 0, up: 0, forward: 0, yaw: 0, pitch: 0, roll: 0 };
 let seq = 0;
 let channel = null;
 let xrPose = null;  // set while an XR session drives the pose
+// The view Reset returns to: the one the server shows before this lecturer steers (its reference camera,
+// inside the navigation bounds, horizon level), adopted from the first echo; the rig origin looking level
+// when the server names no pose.
+let home = null;
+// This page's own poses, seq -> the viewer time it sent (the latest 300): an echo counts for the latency
+// readout only when it names one of them (another lecturer's pose on a shared view has another clock).
+const sentTimes = new Map();
 
 function quatMul(a, b) {
   return [a[3]*b[0] + a[0]*b[3] + a[1]*b[2] - a[2]*b[1], a[3]*b[1] - a[0]*b[2] + a[1]*b[3] + a[2]*b[0],
@@ -34,12 +41,13 @@ function rotate(q, v) {
 }
 
 // offset_to_pose with the level reference: camera-to-rig rotation is
-// R_ref (diag(1,-1,-1), i.e. 180° about X) then yaw (about camera -Y: turn
-// right), pitch (about camera -X... look up), roll (about camera Z).
+// R_ref (diag(1,-1,-1), i.e. 180° about X) then yaw (about camera Y: turn
+// right), pitch (about camera X: look up, the camera's Y pointing down),
+// roll (about camera Z), as gst/vclassroom/core/view_offset.cpp.
 function viewToPose(v) {
   const ref = [1, 0, 0, 0];  // 180° about X
   let q = quatMul(ref, axisAngle([0, 1, 0], v.yaw));
-  q = quatMul(q, axisAngle([1, 0, 0], -v.pitch));
+  q = quatMul(q, axisAngle([1, 0, 0], v.pitch));
   q = quatMul(q, axisAngle([0, 0, 1], v.roll));
   // Offsets in the reference camera's axes: right +X, up -Y, forward +Z.
   const p = rotate(ref, [v.right, -v.up, v.forward]);
@@ -47,8 +55,8 @@ function viewToPose(v) {
 }
 
 // The inverse of viewToPose: a camera pose (rig frame) as the page's offsets. The rotation after the level
-// reference is yaw (about Y), then -pitch (about X), then roll (about Z): R = Ry Rx Rz, so R[0][2] = sin(yaw)
-// cos(pitch), R[2][2] = cos(yaw) cos(pitch), R[1][2] = sin(pitch), R[1][0] / R[1][1] = tan(roll).
+// reference is yaw (about Y), then pitch (about X), then roll (about Z): R = Ry Rx Rz, so R[0][2] = sin(yaw)
+// cos(pitch), R[2][2] = cos(yaw) cos(pitch), R[1][2] = -sin(pitch), R[1][0] / R[1][1] = tan(roll).
 function poseToView(position, orientation) {
   const refInverse = [-1, 0, 0, 0];
   const q = quatMul(refInverse, orientation);
@@ -56,14 +64,16 @@ function poseToView(position, orientation) {
   const deg = 180 / Math.PI;
   const p = rotate(refInverse, position);
   return { right: p[0], up: -p[1], forward: p[2], yaw: Math.atan2(col2[0], col2[2]) * deg,
-           pitch: Math.asin(Math.max(-1, Math.min(1, col2[1]))) * deg, roll: Math.atan2(col0[1], col1[1]) * deg };
+           pitch: -Math.asin(Math.max(-1, Math.min(1, col2[1]))) * deg, roll: Math.atan2(col0[1], col1[1]) * deg };
 }
 
 function sendPose(pose) {
   if (!channel || channel.readyState !== 'open') return false;
   seq += 1;
-  const q = pose.orientation, p = pose.position;
-  channel.send(`pose ${seq} ${performance.now().toFixed(3)} ${p[0]} ${p[1]} ${p[2]} ${q[0]} ${q[1]} ${q[2]} ${q[3]}`);
+  const q = pose.orientation, p = pose.position, time = performance.now().toFixed(3);
+  sentTimes.set(seq, Number(time));
+  if (sentTimes.size > 300) sentTimes.delete(sentTimes.keys().next().value);
+  channel.send(`pose ${seq} ${time} ${p[0]} ${p[1]} ${p[2]} ${q[0]} ${q[1]} ${q[2]} ${q[3]}`);
   return true;
 }
 function viewChanged() { updateSliders(); sendPose(viewToPose(view)); }
@@ -82,7 +92,14 @@ function walk(forward, right) {
   view.forward += forward * Math.cos(y) - right * Math.sin(y);
   view.right += forward * Math.sin(y) + right * Math.cos(y);
 }
-function reset() { Object.assign(view, { right: 0, up: 0, forward: 0, yaw: 0, pitch: 0, roll: 0 }); viewChanged(); }
+const LEVEL_ORIGIN = { right: 0, up: 0, forward: 0, yaw: 0, pitch: 0, roll: 0 };
+function reset() { Object.assign(view, home || LEVEL_ORIGIN); viewChanged(); }
+// The server's first echoed pose becomes home, its roll taken as level (a rig's cameras have level horizons;
+// the page turns about the vertical from there).
+function adoptHome(pose) {
+  home = Object.assign(poseToView(pose.position, pose.orientation), { roll: 0 });
+  reset();
+}
 
 const KEYS = { ArrowUp: [1, 0], w: [1, 0], ArrowDown: [-1, 0], s: [-1, 0], ArrowLeft: [0, -1], a: [0, -1],
                ArrowRight: [0, 1], d: [0, 1] };
@@ -92,6 +109,8 @@ function installControls(video) {
   video.addEventListener('pointerup', () => { drag = null; });
   video.addEventListener('pointermove', e => {
     if (!drag) return;
+    // Yaw about the vertical, pitch about the horizontal: the roll (0 unless a slider set it) stays, so the
+    // horizon stays level.
     view.yaw += (e.clientX - drag[0]) * NAV.turnSpeed;
     view.pitch = Math.max(-NAV.maxPitch, Math.min(NAV.maxPitch, view.pitch - (e.clientY - drag[1]) * NAV.turnSpeed));
     drag = [e.clientX, e.clientY];
@@ -135,18 +154,20 @@ function installSliders() {
 // Echoes from the server: RTP timestamp -> the pose seq and viewer time it was rendered for and, from a
 // server with navigation bounds, the pose it really rendered and whether it had to move it inside them.
 const echoes = new Map();
-// Per shown frame, the latest 300: latencyMs (pose to photon) in parts: serverMs (the pose to its frame's
-// echo: the data channel, waiting for the next camera frame, rendering, encoding), receiveMs (to the frame's
-// last packet) and displayMs (to its display). Per second, the latest 60: jitterMs and decodeMs, the
-// receiver's own averages per frame (getStats).
+// Per pose of this page's, at the first frame shown for it (latencyReadout), the latest 300: latencyMs (pose
+// to photon), serverMs (the pose to its frame's echo: the data channel, waiting for the next camera frame,
+// rendering, encoding), receiveMs (the pose to the frame's last packet) and displayMs (that packet to the
+// display). Per second, the latest 60: jitterMs and decodeMs, the receiver's own averages per frame
+// (getStats).
 const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], serverMs: [], receiveMs: [], displayMs: [],
                 jitterMs: [], decodeMs: [], lastSeqEchoed: 0, width: 0, height: 0, clampedShown: 0,
-                lastShownClamped: false, lastShownPose: null, adopted: 0 };
+                lastShownClamped: false, lastShownPose: null, adopted: 0, lastLatencyMs: 0 };
 const record = (list, value, keep) => { list.push(value); if (list.length > keep) list.shift(); };
 function onEcho(text) {
   const f = text.split(' ');
   if ((f.length !== 4 && f.length !== 12) || f[0] !== 'frame') return;
   const e = { seq: Number(f[2]), time: Number(f[3]), arrived: performance.now(), pose: null, clamped: false };
+  e.own = sentTimes.has(e.seq) && Math.abs(sentTimes.get(e.seq) - e.time) < 0.01;
   if (f.length === 12) {
     const v = f.slice(4, 11).map(Number);
     if (v.some(x => !Number.isFinite(x))) return;
@@ -158,33 +179,48 @@ function onEcho(text) {
   if (echoes.size > 300) echoes.delete(echoes.keys().next().value);
   // A soft stop for the mouse, keys and sliders: the server moved the latest pose to the edge of what the
   // cameras see, so the page's view moves there too (a drag back moves at once instead of first unwinding
-  // what went past the edge). A headset's pose is the head's own and is not adopted.
-  if (e.clamped && e.seq === seq && !xrPose) {
-    Object.assign(view, poseToView(e.pose.position, e.pose.orientation));
+  // what went past the edge). A headset's pose is the head's own and is not adopted. The page keeps its own
+  // roll: the bounds are the reference camera's, and a clamp about its tilted axes must not tilt the horizon.
+  if (e.clamped && e.own && e.seq === seq && !xrPose) {
+    Object.assign(view, poseToView(e.pose.position, e.pose.orientation), { roll: view.roll });
     updateSliders();
     stats.adopted += 1;
   }
+  if (!home && e.pose && !xrPose && seq === 0) adoptHome(e.pose);
 }
+// Pose to photon, once per pose of this page's: from the time the page sent it to the expected display of
+// the first frame rendered for it. Later frames of the same pose (the lecturer holds still) and frames of
+// another lecturer's pose measure nothing. The parts: to the frame's last packet (the data channel, the
+// server, the network) and in this browser (decode, display), both on this page's clock. Returns the
+// readout's text, or null to leave it as it is.
+function latencyReadout(e, meta) {
+  if (!e) return null;
+  if (!e.own) return e.seq > 0 ? 'pose→photon: another lecturer steers this view' : null;
+  if (e.seq === stats.lastSeqShown) return `pose→photon: idle (last ${stats.lastLatencyMs.toFixed(0)} ms)`;
+  const latency = meta.expectedDisplayTime - e.time;
+  if (!(e.seq > stats.lastSeqShown) || !(latency >= 0)) return null;  // an older pose's frame, or no time
+  stats.lastSeqShown = e.seq;
+  stats.lastLatencyMs = latency;
+  record(stats.latencyMs, latency, 300);
+  record(stats.serverMs, Math.max(0, e.arrived - e.time), 300);
+  let parts = '';
+  if (meta.receiveTime !== undefined && meta.receiveTime >= e.time && meta.expectedDisplayTime >= meta.receiveTime) {
+    record(stats.receiveMs, meta.receiveTime - e.time, 300);
+    record(stats.displayMs, meta.expectedDisplayTime - meta.receiveTime, 300);
+    parts = ` (to its arrival ${(meta.receiveTime - e.time).toFixed(0)}, ` +
+            `in this browser ${(meta.expectedDisplayTime - meta.receiveTime).toFixed(0)})`;
+  }
+  return `pose→photon ${latency.toFixed(0)} ms${parts}` + (e.clamped ? ' · at the edge of what the cameras see' : '');
+}
+
 function watchFrames(video) {
   const readout = document.getElementById('readout');
   const onFrame = (now, meta) => {
     stats.framesShown += 1;
     stats.width = meta.width; stats.height = meta.height; stats.lastRtp = meta.rtpTimestamp;
     const e = meta.rtpTimestamp !== undefined ? echoes.get(meta.rtpTimestamp) : undefined;
-    if (e && e.time >= 0) {
-      stats.lastSeqShown = e.seq;
-      record(stats.latencyMs, meta.expectedDisplayTime - e.time, 300);
-      record(stats.serverMs, e.arrived - e.time, 300);
-      if (meta.receiveTime !== undefined) {
-        record(stats.receiveMs, meta.receiveTime - e.arrived, 300);
-        record(stats.displayMs, meta.expectedDisplayTime - meta.receiveTime, 300);
-      }
-      // Where it went: the server (pose to the frame's echo), then the network and this browser.
-      readout.textContent = `pose→photon ${(meta.expectedDisplayTime - e.time).toFixed(0)} ms ` +
-                            `(server ${(e.arrived - e.time).toFixed(0)}, network and browser ` +
-                            `${(meta.expectedDisplayTime - e.arrived).toFixed(0)}; seq ${e.seq})` +
-                            (e.clamped ? ' · at the edge of what the cameras see' : '');
-    }
+    const readoutText = latencyReadout(e, meta);
+    if (readoutText !== null) readout.textContent = readoutText;
     if (e && e.pose) {
       stats.lastShownClamped = e.clamped;
       stats.lastShownPose = e.pose;
@@ -213,6 +249,7 @@ function iceServersFromLinks(header) {
 }
 
 const kJoinAttempts = 5;
+const kHomeWaitMs = 2000;
 
 async function join() {
   const params = new URLSearchParams(location.search);
@@ -224,7 +261,9 @@ async function join() {
   pc.addTransceiver('video', { direction: 'recvonly' });
   channel = pc.createDataChannel('pose');
   channel.onmessage = e => onEcho(e.data);
-  channel.onopen = () => viewChanged();
+  // The first pose goes out once the server's first echo names its view (adoptHome); a server that names
+  // none gets the page's view after a while.
+  channel.onopen = () => setTimeout(() => { if (seq === 0 && !xrPose) viewChanged(); }, kHomeWaitMs);
   pc.ontrack = e => {
     if ('jitterBufferTarget' in e.receiver) e.receiver.jitterBufferTarget = 0;
     if ('playoutDelayHint' in e.receiver) e.receiver.playoutDelayHint = 0;
@@ -328,6 +367,10 @@ async function installVR() {
   if (!supported) { button.disabled = true; label.textContent = 'no VR headset found'; return; }
   button.onclick = async () => {
     const session = await navigator.xr.requestSession('immersive-vr');
+    // In the headset the panel is not seen; back on the page it is.
+    const panel = document.getElementById('panel');
+    panel.hidden = true;
+    session.addEventListener('end', () => { panel.hidden = false; xrPose = null; });
     const space = await session.requestReferenceSpace('local');
     const gl = document.createElement('canvas').getContext('webgl', { xrCompatible: true });
     const layer = new XRWebGLLayer(session, gl);
@@ -354,5 +397,10 @@ window.vclassroom = { NAV, view, stats, join, onXRPose, viewToPose, poseToView, 
 installSliders();
 installControls(document.getElementById('view'));
 document.getElementById('reset').onclick = reset;
+document.getElementById('toggle').onclick = () => {
+  const panel = document.getElementById('panel');
+  const collapsed = panel.classList.toggle('collapsed');
+  document.getElementById('toggle').setAttribute('aria-expanded', String(!collapsed));
+};
 installVR();
 window.vclassroom.joined = join();

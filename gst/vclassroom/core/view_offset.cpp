@@ -100,6 +100,15 @@ std::string format_sliders(const Sliders& s) {
   return os.str();
 }
 
+// How far the view's horizon is rolled in the rig (Y up), radians: 0 when the view's X axis is level; the
+// angle a turn about the view's own axis adds. NaN looking (nearly) straight up or down, where the horizon
+// is not in the view.
+static double horizon_roll(const Eigen::Quaterniond& orientation) {
+  const Eigen::Matrix3d R = orientation.normalized().toRotationMatrix();
+  if (std::abs(R(1, 2)) > 0.99) return std::nan("");
+  return std::atan2(-R(1, 0), -R(1, 1));
+}
+
 bool clamp_to_navigation(const NavigationBounds& bounds, const CameraCalib& reference, Pose* pose) {
   const ViewOffset o = pose_to_offset(*pose, reference);
   std::array<double, 6> v{{o.right, o.up, o.forward, o.yaw, o.pitch, o.roll}};
@@ -113,7 +122,15 @@ bool clamp_to_navigation(const NavigationBounds& bounds, const CameraCalib& refe
   }
   if (!outside) return false;
   // Only where it looks moves: seq, session, times and field of view stay the lecturer's.
-  const Pose clamped = offset_to_pose(ViewOffset{v[0], v[1], v[2], v[3], v[4], v[5]}, reference);
+  Pose clamped = offset_to_pose(ViewOffset{v[0], v[1], v[2], v[3], v[4], v[5]}, reference);
+  // The offsets' yaw turns about the reference camera's own axis, tilted when it looks down: a yaw clamped
+  // alone would roll the horizon the lecturer kept level. A turn about the view's own axis (the roll offset,
+  // applied last) gives back the asked horizon, as far as the roll range allows.
+  const double roll_change = (horizon_roll(pose->orientation) - horizon_roll(clamped.orientation)) / kDeg;
+  if (std::isfinite(roll_change) && std::abs(roll_change) > 1e-9) {
+    v[5] = std::clamp(v[5] + std::remainder(roll_change, 360.0), bounds.min[5], bounds.max[5]);
+    clamped = offset_to_pose(ViewOffset{v[0], v[1], v[2], v[3], v[4], v[5]}, reference);
+  }
   pose->position = clamped.position;
   pose->orientation = clamped.orientation;
   pose->clamped = true;
