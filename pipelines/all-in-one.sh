@@ -10,9 +10,10 @@
 # (depthcomplete, planerefine) cleans each camera's depth and its prior depth is the static layer),
 # MEMORY (frames of viewwarp's background memory, default 8, 0: off; with MODEL it starts from the
 # model's empty-room colour and draws the room behind the learners, as server.sh),
-# BUILD (build folder for the tools when they are not on PATH, default build).
-# Needs the plugins on GST_PLUGIN_PATH (run it through scripts/demo.sh or `meson devenv -C build`).
+# BUILD (build folder for the tools when they are not on PATH, default the one trees.sh found, else the source
+# tree's build/).
 set -euo pipefail
+. "$(dirname "$0")/trees.sh"
 HERE=$(cd "$(dirname "$0")" && pwd)
 OUT=${OUT:-out/all-in-one.mp4}
 FRAMES=${FRAMES:-300}
@@ -20,7 +21,7 @@ TRACE=${TRACE:-$HERE/lecturer-walk.csv}
 SEED=${SEED:-1}
 LEARNERS=${LEARNERS:-6}
 MEMORY=${MEMORY:-8}
-BUILD=${BUILD:-build}
+BUILD=${BUILD:-${VCLASSROOM_BUILD_DIR:-$VCLASSROOM_SOURCE_DIR/build}}
 if ! [[ $MEMORY =~ ^[0-9]+$ ]] || [ "$MEMORY" -gt 64 ]; then
   echo "all-in-one.sh: MEMORY must be a number of frames, 0 (off) to 64 (got '$MEMORY')" >&2
   exit 2

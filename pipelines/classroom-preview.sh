@@ -3,8 +3,9 @@
 # (turbo colours, black = no measurement) below, encoded to an MP4 file.
 # Variables: OUT (file, default out/classroom-preview.mp4), FRAMES (default 150 = 5 s),
 # RIG (rig file, default: the built-in 3-camera rig), SEED (default 1), LEARNERS (default 3).
-# Needs the plugins on GST_PLUGIN_PATH (run it through scripts/demo.sh or `meson devenv -C build`).
+# Runs from the source root, the build folder or installed (pipelines/trees.sh finds the plugins).
 set -euo pipefail
+. "$(dirname "$0")/trees.sh"
 OUT=${OUT:-out/classroom-preview.mp4}
 FRAMES=${FRAMES:-150}
 SEED=${SEED:-1}

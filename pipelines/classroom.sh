@@ -18,6 +18,7 @@
 #   RECORD (a folder: the frames sent are also recorded there, coded as sent, with their times: a live
 #   recording rgbdfilesrc plays back; docs/dataset-format.md).
 set -euo pipefail
+. "$(dirname "$0")/trees.sh"
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
 CAMERA=${CAMERA:-0}

@@ -11,6 +11,7 @@
 #   SRTP_KEY (a 30-byte key file: video in and poses out are SRTP; the server needs the same file),
 #   POSES_OUT (a file: every pose sent is also written there as a pose trace, docs/pose.md).
 set -euo pipefail
+. "$(dirname "$0")/trees.sh"
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
 SERVER=${SERVER:-127.0.0.1}

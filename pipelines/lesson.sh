@@ -8,6 +8,7 @@
 #   CAMERAS (ids, default "0 1 2"), CAMERA_PORTS (the cameras' UDP ports in CAMERAS order, default 5000 + id),
 #   and whatever else server.sh takes (MODEL, WHEP_SESSIONS, WHEP_TLS_CERT, ...; its header lists them).
 set -euo pipefail
+. "$(dirname "$0")/trees.sh"
 here=$(cd "$(dirname "$0")" && pwd)
 CAMERAS=${CAMERAS:-"0 1 2"}
 read -r -a camera_ids <<< "$CAMERAS"

@@ -9,8 +9,9 @@
 #   retransmission requests), PORT_BASE + 10 (video) and + 11 (poses): a second flow on the same host runs
 #   without crosstalk with e.g. PORT_BASE=6000.
 #   STOP_GRACE (seconds each process gets to end after Ctrl-C or end-of-stream before it is killed, default 5).
-# Run it inside `meson devenv -C build` (or after `meson install`) so GStreamer finds the plugins.
+# Runs from the source root, the build folder or installed (pipelines/trees.sh finds the plugins).
 set -euo pipefail
+. "$(dirname "$0")/trees.sh"
 here="$(cd "$(dirname "$0")" && pwd)"
 # shellcheck source=pipelines/launch.sh
 . "$here/launch.sh"

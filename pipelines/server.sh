@@ -40,6 +40,7 @@
 #   empty-room colour and draws the room behind the learners, docs/vva.md; with whep-views every lecturer's
 #   view keeps its own).
 set -euo pipefail
+. "$(dirname "$0")/trees.sh"
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
 # shellcheck source=pipelines/launch.sh

@@ -614,15 +614,23 @@ struct ScriptRun {
 
 // Runs bash SCRIPT from pipelines/ with extra environment, waiting at most `limit` for it to end (a
 // bounded wait on the child, not a sleep); a script still running then is killed and reported as not ended.
-ScriptRun run_script(const std::string& script, const std::vector<std::string>& env, guint limit_s) {
+// An entry "NAME" without "=" removes NAME from the environment; `path` (optional) is the script's path
+// instead of the source tree's, run from the folder `cwd` (optional).
+ScriptRun run_script(const std::string& script, const std::vector<std::string>& env, guint limit_s,
+                     const std::string& path_instead = "", const std::string& cwd = "") {
   ScriptRun r;
   const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
-  const std::string path = std::string(source_dir ? source_dir : ".") + "/pipelines/" + script;
+  const std::string path =
+      path_instead.empty() ? std::string(source_dir ? source_dir : ".") + "/pipelines/" + script : path_instead;
   GSubprocessLauncher* launcher =
       g_subprocess_launcher_new(GSubprocessFlags(G_SUBPROCESS_FLAGS_STDOUT_PIPE | G_SUBPROCESS_FLAGS_STDERR_MERGE));
+  if (!cwd.empty()) g_subprocess_launcher_set_cwd(launcher, cwd.c_str());
   for (const std::string& e : env) {
     const size_t eq = e.find('=');
-    g_subprocess_launcher_setenv(launcher, e.substr(0, eq).c_str(), e.substr(eq + 1).c_str(), TRUE);
+    if (eq == std::string::npos)
+      g_subprocess_launcher_unsetenv(launcher, e.c_str());
+    else
+      g_subprocess_launcher_setenv(launcher, e.substr(0, eq).c_str(), e.substr(eq + 1).c_str(), TRUE);
   }
   GError* err = nullptr;
   GSubprocess* child = g_subprocess_launcher_spawn(launcher, &err, "bash", path.c_str(), nullptr);
@@ -692,6 +700,43 @@ TEST(Scripts, ClassroomEndsAtEndOfStream) {
                            120);
   EXPECT_TRUE(r.ended) << r.output;
   EXPECT_EQ(r.status, 0) << r.output;
+}
+
+// Without meson devenv and without the plugins on GStreamer's path, the scripts take them from the build
+// folder themselves, also started from there (build/pipelines/ runs the source tree's scripts, which is
+// where `meson devenv -C build` puts the shell); with no build folder at all they stop and say what to do.
+TEST(Scripts, FindThePluginsThemselvesFromTheSourceRootOrTheBuildFolder) {
+  const char* tools = g_getenv("VCLASSROOM_TOOLS_DIR");
+  const char* source = g_getenv("VCLASSROOM_SOURCE_DIR");
+  if (!tools || !source) GTEST_SKIP() << "VCLASSROOM_TOOLS_DIR or VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  const std::string build = std::filesystem::path(tools).parent_path();
+  const std::vector<std::string> bare = {"GST_PLUGIN_PATH", "GST_REGISTRY", "VCLASSROOM_WEB_ROOT",
+                                         "SOURCE=rgbdtestsrc num-buffers=3 ground-truth=false",
+                                         "PORT=" + std::to_string(vctest::free_udp_port()),
+                                         "NACK_PORT=" + std::to_string(vctest::free_udp_port())};
+  std::vector<std::string> env = bare;
+  env.push_back("VCLASSROOM_BUILD_DIR=" + build);  // as meson devenv sets it
+  ScriptRun r = run_script("classroom.sh", env, 120, "pipelines/classroom.sh", build);
+  EXPECT_TRUE(r.ended && r.status == 0) << "from the build folder: " << r.output;
+  if (std::filesystem::path(build).parent_path() == std::filesystem::path(source)) {
+    env = bare;  // the source tree's build/, found without any variable
+    env.push_back("VCLASSROOM_BUILD_DIR");
+    r = run_script("classroom.sh", env, 120, "", source);
+    EXPECT_TRUE(r.ended && r.status == 0) << "from the source root: " << r.output;
+  }
+  // The scripts without any build beside them, and no plugins installed (none on GStreamer's system path).
+  vctest::TempDir dir;
+  std::filesystem::create_directories(dir / "pipelines");
+  for (const char* part : {"classroom.sh", "trees.sh", "srtp.sh", "launch.sh"})
+    std::filesystem::copy_file(std::filesystem::path(source) / "pipelines" / part, dir / ("pipelines/" + std::string(part)));
+  std::filesystem::create_directories(dir / "no-plugins");
+  env = bare;
+  env.insert(env.end(), {"VCLASSROOM_BUILD_DIR", "GST_PLUGIN_SYSTEM_PATH=" + (dir / "no-plugins")});
+  r = run_script("classroom.sh", env, 60, dir / "pipelines/classroom.sh");
+  EXPECT_TRUE(r.ended) << r.output;
+  EXPECT_EQ(r.status, 1) << r.output;
+  EXPECT_NE(r.output.find("no element viewfuse"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("scripts/setup.sh"), std::string::npos) << r.output;
 }
 
 // RECORD=folder: a camera records what it sends, as a live recording of its coded frames.
