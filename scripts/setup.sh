@@ -35,9 +35,11 @@ if [ ${#missing[@]} -gt 0 ]; then
   fi
 fi
 
-# The browser test's driver (puppeteer-core, pinned by the lockfile) drives the system Chromium;
-# skipped where npm is absent (test_webrtc then skips its browser test, saying why).
-if command -v npm > /dev/null && [ ! -d tests/browser/node_modules ]; then
+# The browser tests' driver (puppeteer-core) drives the system Chromium, and the XR test installs the WebXR
+# emulation runtime iwer into the page; both pinned by the lockfile, installed again when it changed;
+# skipped where npm is absent (test_webrtc then skips its browser tests, saying why).
+if command -v npm > /dev/null && { [ ! -d tests/browser/node_modules ] ||
+    [ tests/browser/package-lock.json -nt tests/browser/node_modules/.package-lock.json ]; }; then
   (cd tests/browser && PUPPETEER_SKIP_DOWNLOAD=1 npm ci --no-audit --no-fund)
 fi
 

@@ -691,6 +691,30 @@ TEST(WebrtcBrowser, TwoLecturersGetTheirOwnViewsAndALeaverFreesItsPlace) {
   std::printf("%s", run.output.c_str());
 }
 
+// The headset path on an emulated headset (tests/browser/xr-test.mjs: the WebXR emulation runtime iwer, a
+// Meta Quest 3 with both eyes, installed into the page by the test): the page enters immersive-vr by its
+// button and hides its panel, a scripted head path reaches the server and comes back rendered for the head,
+// both eyes' viewports of the XR layer show the received frame, pose to photon is measured on that path, and
+// leaving VR brings the page back to the mouse. Nothing of this was tried on a real headset.
+TEST(XrBrowser, AnEmulatedHeadsetSteersTheViewAndSeesItInBothEyes) {
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 320, 180);
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  if (access((browser_dir() + "/node_modules/iwer/build/iwer.min.js").c_str(), R_OK) != 0)
+    GTEST_SKIP() << "no iwer in tests/browser/node_modules (scripts/setup.sh installs it with npm)";
+  const BrowserRun run = run_browser_script(
+      "rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! viewwarp rig=" + rig +
+          " ! queue ! f.cam_0 viewfuse name=f rig=" + rig +
+          " ! whepserversink port={PORT} token=secret-token web-root=" + web,
+      "xr-test.mjs", {"secret-token"});
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
+  for (const char* check : {"ok entered immersive-vr", "ok head path:", "ok both eyes show the view",
+                            "ok pose to photon in VR:", "ok left VR:"})
+    EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
+  std::printf("%s", run.output.c_str());
+}
+
 // The processes of process group `group` still running (not those ended and waiting to be reaped), from /proc.
 std::vector<std::string> running_in_group(pid_t group) {
   std::vector<std::string> found;
