@@ -412,6 +412,20 @@ TEST(WhepHttp, PagesOfAnAllowedOriginMayCallTheEndpoint) {
                                    "OPTIONS /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: https://player.example\r\n\r\n",
                                    &closed);
   EXPECT_EQ(status_line(no_token).substr(0, 12), "HTTP/1.1 401") << "not a preflight: the token is needed";
+  // Refused from its head alone (a wrong token, before the body): the page of an allowed origin still
+  // reads the status, a page of another origin gets no CORS header.
+  const std::string offer = "v=0\r\n";
+  for (const std::string origin : {"https://player.example", "https://evil.example"}) {
+    const std::string refused =
+        ask("127.0.0.1", s.port,
+            "POST /whep HTTP/1.1\r\nHost: 127.0.0.1\r\nOrigin: " + origin +
+                "\r\nAuthorization: Bearer wrong\r\nContent-Type: application/sdp\r\nContent-Length: " +
+                std::to_string(offer.size()) + "\r\n\r\n" + offer,
+            &closed);
+    EXPECT_EQ(status_line(refused).substr(0, 12), "HTTP/1.1 401") << refused;
+    EXPECT_EQ(header_of(refused, "Access-Control-Allow-Origin"),
+              origin == "https://player.example" ? origin : "") << refused;
+  }
 }
 
 // Without allow-origin no other page may call the endpoint: even its preflight is refused.

@@ -468,6 +468,10 @@ bool start_http(State* st) {
         std::lock_guard<std::mutex> g(st->lock);
         return st->token;
       },
+      [st](const std::string& origin) {
+        std::lock_guard<std::mutex> g(st->lock);
+        return cors_allow_origin(st->allowed_origins, origin);
+      },
       [st](SoupServerMessage* msg, const char* path, GHashTable* query, const std::string& body) {
         on_request(st, msg, path, query, body);
       });

@@ -61,6 +61,7 @@ struct WhepHttpServer::Impl {
   GMainContext* context = nullptr;
   WhepHttpSettings settings;
   std::function<std::string()> token;
+  std::function<std::string(const std::string&)> cors_origin;
   WhepHttpHandler handler;
   SoupServer* server = nullptr;
   std::vector<Listener*> listeners;
@@ -228,10 +229,16 @@ gboolean on_incoming(GSocket*, GIOCondition, gpointer data) {
 
 struct Refusal {
   Refusal(Impl* i, SoupServerMessage* m, int s)
-      : impl(i), msg(m), status(s), http_1_0(soup_server_message_get_http_version(m) == SOUP_HTTP_1_0) {}
+      : impl(i), msg(m), status(s), http_1_0(soup_server_message_get_http_version(m) == SOUP_HTTP_1_0) {
+    const char* origin = soup_message_headers_get_one(soup_server_message_get_request_headers(m), "Origin");
+    const std::string allow = origin && i->cors_origin ? i->cors_origin(origin) : "";
+    // (The value is one of the origins the element was given, checked at start, or "*".)
+    if (!allow.empty()) cors = "Access-Control-Allow-Origin: " + allow + "\r\nVary: Origin\r\n";
+  }
   Impl* impl;
   SoupServerMessage* msg;
   int status;
+  std::string cors;  // the CORS header lines for a page of an allowed origin, else empty
   bool http_1_0;  // answered in the request's version, as libsoup answers the others
   GIOStream* stream = nullptr;
   std::string text;
@@ -261,7 +268,7 @@ gboolean send_refusal(gpointer data) {
     return G_SOURCE_REMOVE;
   }
   r->text = std::string(r->http_1_0 ? "HTTP/1.0 " : "HTTP/1.1 ") + std::to_string(r->status) + " " + soup_status_get_phrase(r->status) +
-            "\r\nContent-Length: 0\r\nConnection: close\r\n\r\n";
+            "\r\n" + r->cors + "Content-Length: 0\r\nConnection: close\r\n\r\n";
   g_output_stream_write_all_async(g_io_stream_get_output_stream(r->stream), r->text.data(), r->text.size(),
                                   G_PRIORITY_DEFAULT, r->impl->cancellable, refusal_written, r);
   return G_SOURCE_REMOVE;
@@ -365,7 +372,8 @@ std::string whep_request_token(SoupServerMessage* msg, GHashTable* query) {
 }
 
 WhepHttpServer::WhepHttpServer(GstElement* owner, GMainContext* context, WhepHttpSettings settings,
-                               std::function<std::string()> token, WhepHttpHandler handler)
+                               std::function<std::string()> token,
+                               std::function<std::string(const std::string&)> cors_origin, WhepHttpHandler handler)
     : impl_(new Impl) {
   static gsize debug_once = 0;
   if (g_once_init_enter(&debug_once)) {
@@ -377,6 +385,7 @@ WhepHttpServer::WhepHttpServer(GstElement* owner, GMainContext* context, WhepHtt
   impl_->settings = std::move(settings);
   if (impl_->settings.tls) g_object_ref(impl_->settings.tls);
   impl_->token = std::move(token);
+  impl_->cors_origin = std::move(cors_origin);
   impl_->handler = std::move(handler);
   impl_->counter = ConnectionCounter(impl_->settings.connections);
   impl_->cancellable = g_cancellable_new();

@@ -45,9 +45,12 @@ std::string whep_request_token(SoupServerMessage* msg, GHashTable* query);
 class WhepHttpServer {
  public:
   // `owner` gets the rate-limited warnings; `context` is the server thread's (sources are attached there;
-  // every callback, the handler's included, runs in that thread). `token` is asked for each request.
+  // every callback, the handler's included, runs in that thread). `token` is asked for each request;
+  // `cors_origin` for the Access-Control-Allow-Origin value of a request's Origin (empty: not allowed), so
+  // that a refusal from the head alone tells a page of an allowed origin why, as the endpoint's answers do.
   WhepHttpServer(GstElement* owner, GMainContext* context, WhepHttpSettings settings,
-                 std::function<std::string()> token, WhepHttpHandler handler);
+                 std::function<std::string()> token, std::function<std::string(const std::string&)> cors_origin,
+                 WhepHttpHandler handler);
   ~WhepHttpServer();
   WhepHttpServer(const WhepHttpServer&) = delete;
   WhepHttpServer& operator=(const WhepHttpServer&) = delete;
