@@ -6,6 +6,8 @@
 # (docs/real-classroom.md, step 5).
 # Variables: TOKEN (the join secret; default a new random one, printed in the URL), WHEP_PORT (default 8080),
 #   CAMERAS (ids, default "0 1 2"), CAMERA_PORTS (the cameras' UDP ports in CAMERAS order, default 5000 + id),
+#   CLASSROOM_SOUND (the sound the lecturers hear: a GStreamer audio source, e.g. autoaudiosrc; default a tick a
+#   second, the synthetic classroom's; empty: none),
 #   and whatever else server.sh takes (MODEL, WHEP_SESSIONS, WHEP_TLS_CERT, ...; its header lists them).
 set -euo pipefail
 . "$(dirname "$0")/trees.sh"
@@ -40,6 +42,8 @@ for i in "${!camera_ids[@]}"; do
   CAMERA=${camera_ids[$i]} PORT=${camera_ports[$i]} "$here/classroom.sh" &
   camera_pids+=($!)
 done
+# The synthetic classroom's sound, a tick a second, unless CLASSROOM_SOUND names a microphone.
+CLASSROOM_SOUND=${CLASSROOM_SOUND-audiotestsrc is-live=true wave=ticks volume=0.3} \
 LECTURER_OUT=${LECTURER_OUT:-whep-views} CAMERAS="$CAMERAS" CAMERA_PORTS="$CAMERA_PORTS" "$here/server.sh" &
 server_pid=$!
 echo "lesson.sh: cameras ${CAMERAS} and the server started; on this machine the lecturer opens" \

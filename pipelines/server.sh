@@ -173,7 +173,9 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+r
 # a lecturer is gone and their session ended, default 15, 0: never), WHEP_LISTEN (comma-separated IP addresses
 # the HTTP(S) server listens on, default 0.0.0.0,:: = every interface, IPv4 and IPv6), WHEP_ALLOW_ORIGIN
 # (comma-separated origins, https://host[:port], whose pages may call the endpoint: another WHEP player;
-# * = any; default none) (docs/lecturer.md).
+# * = any; default none), CLASSROOM_SOUND (a GStreamer audio source, e.g. autoaudiosrc, pulsesrc, alsasrc
+# device=hw:1 or "audiotestsrc is-live=true wave=ticks": coded as Opus and sent to every lecturer's browser;
+# default none) (docs/lecturer.md).
 if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ]; then
   WHEP_PORT=${WHEP_PORT:-8080}
   if ! [[ ${TOKEN:-} =~ ^[A-Za-z0-9._~-]{8,}$ ]] || ! [[ $WHEP_PORT =~ ^[0-9]+$ ]]; then
@@ -197,12 +199,15 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
     ${WHEP_LECTURER_TIMEOUT:+lecturer-timeout=$WHEP_LECTURER_TIMEOUT} ${WHEP_LISTEN:+listen-addresses=$WHEP_LISTEN} \
     ${WHEP_ALLOW_ORIGIN:+allow-origin=$WHEP_ALLOW_ORIGIN} \
     web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\""
+  sound=""
+  [ -n "${CLASSROOM_SOUND:-}" ] &&
+    sound="$CLASSROOM_SOUND ! audioconvert ! audioresample ! opusenc ! queue ! views.audio"
   if [ "$LECTURER_OUT" = whep ]; then
-    desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink $whep $branches"
+    desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink name=views $whep $branches $sound"
   else
     desc="whepviewsink name=views $whep ${RIG:+rig=$RIG} ${NAV_RIG:+navigation-rig=$NAV_RIG} ${MODEL:+model=$MODEL} \
       width=$WIDTH height=$HEIGHT fuse-latency=$FUSE_LATENCY warp-sync=$WARP_SYNC longest-turn=$LONGEST_TURN background-memory=$MEMORY \
-      $branches"
+      $branches $sound"
   fi
   echo "server.sh: lecturer joins at http${whep_tls:+s}://$(hostname -f 2>/dev/null || hostname):$WHEP_PORT/?token=$TOKEN"
 fi

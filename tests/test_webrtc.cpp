@@ -715,6 +715,25 @@ TEST(XrBrowser, AnEmulatedHeadsetSteersTheViewAndSeesItInBothEyes) {
   std::printf("%s", run.output.c_str());
 }
 
+// The classroom's sound reaches the lecturer: whepviewsink's audio pad (a test tone coded as Opus) goes on
+// every session whose offer takes Opus; the page's answer sends it, and Chromium receives, decodes and plays
+// it (tests/browser/audio-test.mjs).
+TEST(AudioBrowser, TheClassroomIsHeardInTheLecturersPage) {
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 320, 180);
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const BrowserRun run = run_browser_script(
+      "whepviewsink name=w port={PORT} token=secret-token rig=" + rig + " web-root=" + web +
+          " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0" +
+          " audiotestsrc is-live=true wave=sine freq=440 ! audioconvert ! opusenc ! w.audio",
+      "audio-test.mjs", {"secret-token"});
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
+  for (const char* check : {"ok the answer sends Opus", "ok sound played:"})
+    EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
+  std::printf("%s", run.output.c_str());
+}
+
 // The processes of process group `group` still running (not those ended and waiting to be reaped), from /proc.
 std::vector<std::string> running_in_group(pid_t group) {
   std::vector<std::string> found;

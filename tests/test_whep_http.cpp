@@ -319,6 +319,23 @@ TEST(WhepOffer, PicksTheFirstConstrainedBaselineH264InMode1AndThePlayoutDelayId)
   EXPECT_EQ(o.h264_payload, -1);
 }
 
+// The audio section's Opus in stereo at 48 kHz (as every browser offers it) carries the classroom's sound;
+// an offer without one still gets the view.
+TEST(WhepOffer, PicksTheAudioSectionsOpusForTheClassroomsSound) {
+  WhepOffer o;
+  std::string why;
+  const std::string audio = "m=audio 9 UDP/TLS/RTP/SAVPF 0 109 111\r\nc=IN IP4 0.0.0.0\r\na=mid:2\r\n"
+                            "a=rtpmap:0 PCMU/8000\r\na=rtpmap:109 opus/16000/1\r\na=rtpmap:111 opus/48000/2\r\n";
+  ASSERT_TRUE(inspect_whep_offer(offer_with("102", kH264) + audio, &o, &why)) << why;
+  EXPECT_EQ(o.h264_payload, 102);
+  EXPECT_EQ(o.opus_payload, 111);
+  ASSERT_TRUE(inspect_whep_offer(offer_with("102", kH264), &o, &why)) << why;
+  EXPECT_EQ(o.opus_payload, -1);
+  // Opus named in the video section is not sound.
+  ASSERT_TRUE(inspect_whep_offer(offer_with("102 111", kH264 + "a=rtpmap:111 opus/48000/2\r\n"), &o, &why)) << why;
+  EXPECT_EQ(o.opus_payload, -1);
+}
+
 TEST(WhepOffer, EveryValueOutOfRangeIsRefusedWithAReason) {
   WhepOffer o;
   std::string why;

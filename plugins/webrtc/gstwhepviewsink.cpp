@@ -82,6 +82,9 @@ enum {
 
 static GstStaticPadTemplate cam_template =
     GST_STATIC_PAD_TEMPLATE("cam_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("video/x-rgbd"));
+// The classroom's sound, sent to every lecturer whose browser takes Opus (WhepEndpoint::request_audio_pad).
+static GstStaticPadTemplate audio_template =
+    GST_STATIC_PAD_TEMPLATE("audio", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-opus"));
 
 // Builds a session's view (lock held); its encoded source pad (a reference), or nullptr.
 static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& session) {
@@ -138,9 +141,15 @@ static void on_session_pose(GstWhepViewSink* self, const std::string& session, c
   gst_object_unref(fuse_src);
 }
 
+static void gst_whep_view_sink_release_pad(GstElement* element, GstPad* pad) {
+  GST_WHEP_VIEW_SINK(element)->endpoint->release_audio_pad(pad);
+}
+
 static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTemplate* templ, const gchar* name,
                                                   const GstCaps*) {
   GstWhepViewSink* self = GST_WHEP_VIEW_SINK(element);
+  if (templ == gst_element_class_get_pad_template(GST_ELEMENT_GET_CLASS(element), "audio"))
+    return self->endpoint->request_audio_pad(templ);
   std::lock_guard<std::mutex> g(*self->lock);
   int index = 0;
   if (name && sscanf(name, "cam_%d", &index) != 1) return nullptr;
@@ -271,6 +280,7 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
   gobject_class->finalize = gst_whep_view_sink_finalize;
   element_class->change_state = gst_whep_view_sink_change_state;
   element_class->request_new_pad = gst_whep_view_sink_request_new_pad;
+  element_class->release_pad = gst_whep_view_sink_release_pad;
   const GParamFlags rw = GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY);
   g_object_class_install_property(gobject_class, PROP_RIG,
       g_param_spec_string("rig", "Rig", "Rig YAML of the cameras, for every view's viewwarp (empty: the caps' calibration)", "", rw));
@@ -300,6 +310,7 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &cam_template);
+  gst_element_class_add_static_pad_template(element_class, &audio_template);
   gst_element_class_set_static_metadata(element_class, "WHEP view-per-lecturer sink", "Sink/Network",
       "Renders and sends each lecturer a view of their own over WebRTC with WHEP", "gst-vclassroom");
 }

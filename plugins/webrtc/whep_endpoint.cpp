@@ -38,6 +38,7 @@ struct Session {
   std::string id;
   WhepEndpoint::State* owner = nullptr;
   GstPad* source = nullptr;  // the element's H.264 pad feeding this session (a reference)
+  GstPad* sound = nullptr;   // the audio tee's pad feeding this session, or null
   std::unique_ptr<WhepSendBranch> branch;
   SoupServerMessage* pending = nullptr;  // the POST waiting for the answer
 };
@@ -61,6 +62,8 @@ struct WhepEndpoint::State {
   std::vector<std::string> allowed_origins;
   std::string stun_server, turn_server;  // as set; checked at start() into ice_servers
   std::vector<IceServer> ice_servers;
+  GstElement* audio_tee = nullptr;  // the classroom's sound for the sessions (request_audio_pad), or null
+  GstPad* audio_pad = nullptr;      // the element's pad for it
   guint bitrate_kbit = 4000;
   guint max_sessions = 4;
   guint lecturer_timeout_s = 15;  // no receiver report for this long: the lecturer is gone; 0: never
@@ -184,6 +187,7 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   send.payload = offered.h264_payload;
   send.playout_extension_id = offered.playout_delay_extension_id;
   send.playout_delay_ms = st->playout_delay_ms;
+  send.opus_payload = st->audio_tee ? offered.opus_payload : -1;
   send.ice_servers = st->ice_servers;
   send.max_kbit = int(st->bitrate_kbit);
   send.lecturer_timeout_ns = int64_t(st->lecturer_timeout_s) * GST_SECOND;
@@ -202,6 +206,10 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   g_signal_connect(webrtc, "on-data-channel", G_CALLBACK(on_data_channel), s);
   g_signal_connect(webrtc, "notify::ice-gathering-state", G_CALLBACK(on_gathering_state), s);
   gst_pad_link(s->source, s->branch->sink());
+  if (s->branch->audio_sink()) {
+    s->sound = gst_element_request_pad_simple(st->audio_tee, "src_%u");
+    gst_pad_link(s->sound, s->branch->audio_sink());
+  }
 
   s->pending = msg;
   st->table.add(s->id);
@@ -216,6 +224,11 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
 // Lock not held.
 void end_session(State* st, Session* s) {
   gst_pad_unlink(s->source, s->branch->sink());
+  if (s->sound) {
+    gst_pad_unlink(s->sound, s->branch->audio_sink());
+    gst_element_release_request_pad(st->audio_tee, s->sound);
+    gst_object_unref(s->sound);
+  }
   s->branch.reset();
   st->hooks.detach(s->id, s->source);
   gst_object_unref(s->source);
@@ -627,6 +640,41 @@ bool WhepEndpoint::get_property(guint id, GValue* value) {
 guint WhepEndpoint::bitrate_kbit() const {
   std::lock_guard<std::mutex> g(st_->lock);
   return st_->bitrate_kbit;
+}
+
+GstPad* WhepEndpoint::request_audio_pad(GstPadTemplate* templ) {
+  GstElement* tee = nullptr;
+  {
+    std::lock_guard<std::mutex> g(st_->lock);
+    if (st_->audio_pad) return nullptr;
+    if (!st_->audio_tee) {
+      // A session not yet linked to it (or none at all) must not stop the sound: the tee drops it.
+      st_->audio_tee = gst_element_factory_make("tee", nullptr);
+      g_object_set(st_->audio_tee, "allow-not-linked", TRUE, nullptr);
+      gst_bin_add(st_->owner, st_->audio_tee);
+    }
+    tee = st_->audio_tee;
+  }
+  GstPad* target = gst_element_get_static_pad(tee, "sink");
+  GstPad* pad = gst_ghost_pad_new_from_template("audio", target, templ);
+  gst_object_unref(target);
+  gst_pad_set_active(pad, TRUE);
+  gst_element_add_pad(GST_ELEMENT(st_->owner), pad);
+  gst_element_sync_state_with_parent(tee);
+  std::lock_guard<std::mutex> g(st_->lock);
+  st_->audio_pad = pad;
+  return pad;
+}
+
+bool WhepEndpoint::release_audio_pad(GstPad* pad) {
+  {
+    std::lock_guard<std::mutex> g(st_->lock);
+    if (!pad || pad != st_->audio_pad) return false;
+    st_->audio_pad = nullptr;
+  }
+  // The tee stays, silent, with the sessions' branches of it (a pad requested again feeds them anew).
+  gst_element_remove_pad(GST_ELEMENT(st_->owner), pad);
+  return true;
 }
 
 bool WhepEndpoint::start() {

@@ -44,6 +44,9 @@ struct WhepSendBranch::State {
   GstElement* pay = nullptr;
   GstElement* webrtc = nullptr;
   GstPad* sink = nullptr;
+  GstElement* audio_queue = nullptr;  // the classroom's sound, where the offer takes it (else null)
+  GstElement* audio_pay = nullptr;
+  GstPad* audio_sink = nullptr;
   GopSendGate gate;                                   // the queue's upstream thread's only (on_frame_in)
   GstClockTime last_sent_pts = GST_CLOCK_TIME_NONE;   // the payloader's thread's only (on_frame_out)
   guint ssrc = 0;                                      // the video's; webrtcbin's resent packets have another
@@ -259,6 +262,42 @@ void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer use
 
 }  // namespace
 
+namespace {
+
+// The classroom's sound on its way to the lecturer: a leaky queue (sound that cannot leave in time is
+// dropped, never held: the view must not wait for it) ! rtpopuspay on the offer's payload ! webrtcbin, sent
+// only, on the offer's audio section.
+void add_audio(State* st, int payload) {
+  st->audio_queue = gst_element_factory_make("queue", nullptr);
+  g_object_set(st->audio_queue, "leaky", 2 /* downstream */, "max-size-buffers", 0, "max-size-bytes", 0,
+               "max-size-time", guint64(200 * GST_MSECOND), nullptr);
+  st->audio_pay = gst_element_factory_make("rtpopuspay", nullptr);
+  const guint ssrc = g_random_int();
+  g_object_set(st->audio_pay, "pt", payload, "ssrc", ssrc, nullptr);
+  gst_bin_add_many(st->owner, st->audio_queue, st->audio_pay, nullptr);
+  gst_element_link(st->audio_queue, st->audio_pay);
+  GstPad* pay_src = gst_element_get_static_pad(st->audio_pay, "src");
+  GstPad* rtc_sink = gst_element_request_pad_simple(st->webrtc, "sink_%u");
+  gst_pad_link(pay_src, rtc_sink);
+  GstWebRTCRTPTransceiver* transceiver = nullptr;
+  g_object_get(rtc_sink, "transceiver", &transceiver, nullptr);
+  if (transceiver) {
+    // As for the video: the answer names the offer's payload and the stream's SSRC before the first packet.
+    GstCaps* preferences = gst_caps_new_simple("application/x-rtp", "media", G_TYPE_STRING, "audio", "encoding-name",
+                                               G_TYPE_STRING, "OPUS", "clock-rate", G_TYPE_INT, 48000, "payload",
+                                               G_TYPE_INT, payload, "ssrc", G_TYPE_UINT, ssrc, nullptr);
+    g_object_set(transceiver, "direction", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDONLY, "codec-preferences",
+                 preferences, nullptr);
+    gst_caps_unref(preferences);
+    gst_object_unref(transceiver);
+  }
+  gst_object_unref(rtc_sink);
+  gst_object_unref(pay_src);
+  st->audio_sink = gst_element_get_static_pad(st->audio_queue, "sink");
+}
+
+}  // namespace
+
 WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const WhepSendSettings& settings)
     : st_(new State), reports_(new ReportWatch) {
   static gsize debug_once = 0;
@@ -335,9 +374,14 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   st->sink = gst_element_get_static_pad(st->queue, "sink");
   gst_pad_add_probe(st->sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_in, st, nullptr);
   gst_pad_add_probe(st->sink, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, on_serialized_query, nullptr, nullptr);
+  if (settings.opus_payload >= 0) add_audio(st, settings.opus_payload);
   gst_element_sync_state_with_parent(st->webrtc);
   gst_element_sync_state_with_parent(st->pay);
   gst_element_sync_state_with_parent(st->queue);
+  if (st->audio_queue) {
+    gst_element_sync_state_with_parent(st->audio_pay);
+    gst_element_sync_state_with_parent(st->audio_queue);
+  }
 }
 
 WhepSendBranch::~WhepSendBranch() {
@@ -346,11 +390,13 @@ WhepSendBranch::~WhepSendBranch() {
     reports_->alive = false;
   }
   State* st = st_.get();
-  for (GstElement* e : {st->webrtc, st->pay, st->queue}) {
+  for (GstElement* e : {st->webrtc, st->pay, st->queue, st->audio_pay, st->audio_queue}) {
+    if (!e) continue;
     gst_element_set_state(e, GST_STATE_NULL);
     gst_bin_remove(st->owner, e);
   }
   gst_object_unref(st->sink);
+  if (st->audio_sink) gst_object_unref(st->audio_sink);
   if (st->channel) gst_object_unref(st->channel);
 }
 
@@ -365,6 +411,8 @@ void WhepSendBranch::poll_receiver_reports() {
 }
 
 GstPad* WhepSendBranch::sink() const { return st_->sink; }
+
+GstPad* WhepSendBranch::audio_sink() const { return st_->audio_sink; }
 
 bool WhepSendBranch::lecturer_gone(int64_t* silent_ns) const {
   std::lock_guard<std::mutex> g(reports_->lock);

@@ -18,14 +18,14 @@ export async function waitForServer(base) {
   }
 }
 
-// Headless system Chromium with a throw-away profile; close() removes it.
-export async function launchChromium() {
+// Headless system Chromium with a throw-away profile, and `extraArgs`; close() removes the profile.
+export async function launchChromium(extraArgs = []) {
   const profile = fs.mkdtempSync(path.join(os.tmpdir(), 'vclassroom-chromium-'));
   const browser = await puppeteer.launch({
     executablePath: process.env.CHROMIUM || '/usr/bin/chromium',
     headless: true,
     args: ['--headless', '--no-sandbox', '--disable-gpu', '--disable-background-networking',
-           '--disable-component-update', '--disable-sync', '--no-first-run', `--user-data-dir=${profile}`],
+           '--disable-component-update', '--disable-sync', '--no-first-run', `--user-data-dir=${profile}`, ...extraArgs],
   });
   return { browser, close: async () => { await browser.close(); fs.rmSync(profile, { recursive: true, force: true }); } };
 }

@@ -248,6 +248,20 @@ function iceServersFromLinks(header) {
   return servers;
 }
 
+// The classroom's sound. A browser may refuse to play sound before the lecturer touched the page: the first
+// click or key press then starts it.
+function playSound(track) {
+  const sound = document.getElementById('sound');
+  sound.srcObject = new MediaStream([track]);
+  sound.play().then(() => { stats.soundPlaying = true; }).catch(() => {
+    const label = document.getElementById('soundstatus');
+    label.textContent = 'click for the classroom\'s sound';
+    const start = () => sound.play().then(() => { stats.soundPlaying = true; label.textContent = ''; }).catch(() => {});
+    window.addEventListener('pointerdown', start, { once: true });
+    window.addEventListener('keydown', start, { once: true });
+  });
+}
+
 const kJoinAttempts = 5;
 const kHomeWaitMs = 2000;
 
@@ -259,15 +273,17 @@ async function join() {
   const iceServers = iceServersFromLinks(options && options.status === 204 ? options.headers.get('Link') : '');
   const pc = new RTCPeerConnection({ iceServers });
   pc.addTransceiver('video', { direction: 'recvonly' });
+  pc.addTransceiver('audio', { direction: 'recvonly' });  // the classroom's sound, where the server has it
   channel = pc.createDataChannel('pose');
   channel.onmessage = e => onEcho(e.data);
   // The first pose goes out once the server's first echo names its view (adoptHome); a server that names
   // none gets the page's view after a while.
   channel.onopen = () => setTimeout(() => { if (seq === 0 && !xrPose) viewChanged(); }, kHomeWaitMs);
   pc.ontrack = e => {
+    if (e.track.kind === 'audio') return playSound(e.track);
     if ('jitterBufferTarget' in e.receiver) e.receiver.jitterBufferTarget = 0;
     if ('playoutDelayHint' in e.receiver) e.receiver.playoutDelayHint = 0;
-    video.srcObject = e.streams[0] || new MediaStream([e.track]);
+    video.srcObject = new MediaStream([e.track]);
   };
   const offer = await pc.createOffer();
   await pc.setLocalDescription(offer);
@@ -304,6 +320,7 @@ async function join() {
   setInterval(async () => {
     const report = await pc.getStats();
     report.forEach(r => {
+      if (r.type === 'inbound-rtp' && r.kind === 'audio') stats.soundIn = r;
       if (r.type === 'inbound-rtp' && r.kind === 'video') {
         const prev = stats.inbound;
         stats.inbound = r;

@@ -419,10 +419,12 @@ std::pair<std::string_view, std::string_view> first_word(std::string_view s) {
 // What one media section says of its formats, while it is read.
 struct MediaSection {
   bool video = false;
+  bool audio = false;
   bool rtp = false;               // an RTP profile: its formats are payload types
   std::vector<int> formats;       // in the m= line's order
   std::map<int, bool> h264;       // payload type -> rtpmap H264/90000
   std::map<int, bool> baseline;   // payload type -> fmtp packetization-mode=1 and constrained baseline
+  std::map<int, bool> opus;       // payload type -> rtpmap opus/48000/2
   int playout_id = 0;
 };
 
@@ -462,6 +464,7 @@ bool read_media_line(std::string_view value, MediaSection* m, std::string* why) 
                                            count > 16)))
     return fail(why, "m= port \"" + std::string(port_text) + "\" out of range");
   m->video = media == "video";
+  m->audio = media == "audio";
   m->rtp = proto.find("RTP/") != std::string_view::npos;
   size_t n = 0;
   while (!formats.empty()) {
@@ -500,6 +503,8 @@ bool read_media_attribute(std::string_view attr, MediaSection* m, std::string* w
       return fail(why, "a=rtpmap:" + std::to_string(pt) + " without an encoding and clock rate");
     // Chrome also puts codecs on 35..63 once 96..127 are taken (JSEP); H.264 there is never picked.
     if (encoding.size() == 4 && g_ascii_strncasecmp(encoding.data(), "H264", 4) == 0) m->h264[pt] = rate == 90000;
+    if (encoding.size() == 4 && g_ascii_strncasecmp(encoding.data(), "opus", 4) == 0)
+      m->opus[pt] = rate == 48000 && clock_rest == "48000/2";
   } else if (name == "fmtp") {
     m->baseline[pt] = fmtp_is_constrained_baseline_mode1(rest);
   } else if (name == "extmap") {
@@ -521,6 +526,15 @@ bool read_media_attribute(std::string_view attr, MediaSection* m, std::string* w
 
 // The offer's pick from a finished media section.
 void take_media(const MediaSection& m, WhepOffer* offer) {
+  if (m.audio && m.rtp && offer->opus_payload < 0) {
+    for (int pt : m.formats) {
+      auto o = m.opus.find(pt);
+      if (o != m.opus.end() && o->second && pt >= 35 && (pt <= 63 || pt >= 96)) {
+        offer->opus_payload = pt;
+        break;
+      }
+    }
+  }
   if (!m.video || !m.rtp || offer->h264_payload >= 0) return;
   for (int pt : m.formats) {
     auto h = m.h264.find(pt);
