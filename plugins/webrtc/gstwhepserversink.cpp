@@ -4,7 +4,8 @@
  *
  * The rendered view to browsers over WebRTC (H.264 constrained baseline, DTLS-SRTP) with WHEP signalling
  * (POST /whep?token=..., DELETE the Location to leave); the pose comes back over a data channel as the
- * vclassroom/pose event upstream. Every lecturer sees the same view (whepviewsink: a view each).
+ * vclassroom/pose event upstream. Every lecturer sees the same view (whepviewsink: a view each). The
+ * classroom's sound (audio/x-opus on the request pad `audio`) goes to every lecturer whose browser offers Opus.
  *
  * ## Properties
  *

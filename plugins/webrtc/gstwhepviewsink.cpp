@@ -6,7 +6,8 @@
  * learnerseg), each with its memory and warp preparation done once (viewprep), feed, per session, a viewwarp
  * per camera, a viewfuse steered by that lecturer's pose data channel only, and an H.264 encoder to their
  * webrtcbin; the views take turns to warp, and sessions come and go without disturbing the others. A camera
- * linked while lecturers watch joins every view.
+ * linked while lecturers watch joins every view. The classroom's sound (audio/x-opus on the request pad
+ * `audio`) goes to every lecturer whose browser offers Opus.
  *
  * ## Properties
  *
