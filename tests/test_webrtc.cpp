@@ -1,6 +1,8 @@
 // The browser lecturer's signalling and pose data channel (issue 13): WHEP
 // request decisions (token first, bounded offers, session cap), the session
 // table, and the pose / frame-echo messages the page exchanges.
+#include <fstream>
+
 #include <gtest/gtest.h>
 
 #include <gst/app/gstappsink.h>
@@ -715,23 +717,35 @@ TEST(XrBrowser, AnEmulatedHeadsetSteersTheViewAndSeesItInBothEyes) {
   std::printf("%s", run.output.c_str());
 }
 
-// The classroom's sound reaches the lecturer: whepviewsink's audio pad (a test tone coded as Opus) goes on
-// every session whose offer takes Opus; the page's answer sends it, and Chromium receives, decodes and plays
-// it (tests/browser/audio-test.mjs).
-TEST(AudioBrowser, TheClassroomIsHeardInTheLecturersPage) {
+// Sound both ways (tests/browser/audio-test.mjs): whepviewsink's audio pad (a test tone coded as Opus) goes
+// to every session whose offer takes Opus, and Chromium receives, decodes and plays it; the page's microphone
+// (Chromium's fake capture device, a beep) comes out of the voice pad, mixed, into a file the test reads back;
+// a lecturer who refuses the microphone keeps the view and the sound and is told the class does not hear them.
+TEST(AudioBrowser, TheClassroomAndTheLecturerHearEachOther) {
   vctest::TempDir dir;
   const std::string rig = bounded_classroom_rig(dir, 320, 180);
   const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const std::string voice = dir / "voice.raw";
   const BrowserRun run = run_browser_script(
       "whepviewsink name=w port={PORT} token=secret-token rig=" + rig + " web-root=" + web +
           " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0" +
-          " audiotestsrc is-live=true wave=sine freq=440 ! audioconvert ! opusenc ! w.audio",
+          " audiotestsrc is-live=true wave=sine freq=440 ! audioconvert ! opusenc ! w.audio" +
+          " w.voice ! queue ! filesink buffer-mode=unbuffered location=" + voice,
       "audio-test.mjs", {"secret-token"});
   if (!run.skip.empty()) GTEST_SKIP() << run.skip;
   EXPECT_TRUE(run.ok) << run.output;
-  for (const char* check : {"ok the answer sends Opus", "ok sound played:"})
+  for (const char* check : {"ok the answer sends Opus", "ok sound played:", "ok voice sent:", "ok microphone refused:"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());
+  // The voice pad runs on the clock (silence between words) and carries the lecturer's beeps.
+  std::ifstream in(voice, std::ios::binary);
+  std::vector<int16_t> samples;
+  for (int16_t s; in.read(reinterpret_cast<char*>(&s), sizeof s);) samples.push_back(s);
+  int loud = 0;
+  for (int16_t s : samples) loud += std::abs(int(s)) > 1000;
+  EXPECT_GT(samples.size(), 48000u) << "less than a second came out of the voice pad";
+  EXPECT_GT(loud, 480) << "the lecturer's microphone was not heard (" << samples.size() << " samples)";
+  std::printf("voice pad: %zu samples, %d above 1000\n", samples.size(), loud);
 }
 
 // The processes of process group `group` still running (not those ended and waiting to be reaped), from /proc.

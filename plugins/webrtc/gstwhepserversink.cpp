@@ -5,7 +5,8 @@
  * The rendered view to browsers over WebRTC (H.264 constrained baseline, DTLS-SRTP) with WHEP signalling
  * (POST /whep?token=..., DELETE the Location to leave); the pose comes back over a data channel as the
  * vclassroom/pose event upstream. Every lecturer sees the same view (whepviewsink: a view each). The
- * classroom's sound (audio/x-opus on the request pad `audio`) goes to every lecturer whose browser offers Opus.
+ * classroom's sound (audio/x-opus on the request pad `audio`) goes to every lecturer whose browser offers Opus;
+ * the request pad `voice` gives the lecturers' microphones mixed, for the classroom's loudspeaker.
  *
  * ## Properties
  *
@@ -85,14 +86,17 @@ static GstStaticPadTemplate sink_template =
 // The classroom's sound, sent to every lecturer whose browser takes Opus (WhepEndpoint::request_audio_pad).
 static GstStaticPadTemplate audio_template =
     GST_STATIC_PAD_TEMPLATE("audio", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-opus"));
+// The lecturers' voices mixed for the classroom's loudspeaker (WhepEndpoint::request_pad).
+static GstStaticPadTemplate voice_template = GST_STATIC_PAD_TEMPLATE(
+    "voice", GST_PAD_SRC, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-raw, format=S16LE, rate=48000, channels=1"));
 
 static GstPad* gst_whep_server_sink_request_new_pad(GstElement* element, GstPadTemplate* templ, const gchar*,
                                                     const GstCaps*) {
-  return GST_WHEP_SERVER_SINK(element)->endpoint->request_audio_pad(templ);
+  return GST_WHEP_SERVER_SINK(element)->endpoint->request_pad(templ);
 }
 
 static void gst_whep_server_sink_release_pad(GstElement* element, GstPad* pad) {
-  GST_WHEP_SERVER_SINK(element)->endpoint->release_audio_pad(pad);
+  GST_WHEP_SERVER_SINK(element)->endpoint->release_pad(pad);
 }
 
 // A session's video: a branch of the tee, and a key frame now (a joining
@@ -223,6 +227,7 @@ static void gst_whep_server_sink_class_init(GstWhepServerSinkClass* klass) {
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &audio_template);
+  gst_element_class_add_static_pad_template(element_class, &voice_template);
   element_class->request_new_pad = gst_whep_server_sink_request_new_pad;
   element_class->release_pad = gst_whep_server_sink_release_pad;
   gst_element_class_set_static_metadata(element_class, "WHEP server sink", "Sink/Network",

@@ -7,7 +7,8 @@
  * per camera, a viewfuse steered by that lecturer's pose data channel only, and an H.264 encoder to their
  * webrtcbin; the views take turns to warp, and sessions come and go without disturbing the others. A camera
  * linked while lecturers watch joins every view. The classroom's sound (audio/x-opus on the request pad
- * `audio`) goes to every lecturer whose browser offers Opus.
+ * `audio`) goes to every lecturer whose browser offers Opus; the request pad `voice` gives the lecturers'
+ * microphones mixed, for the classroom's loudspeaker.
  *
  * ## Properties
  *
@@ -86,6 +87,9 @@ static GstStaticPadTemplate cam_template =
 // The classroom's sound, sent to every lecturer whose browser takes Opus (WhepEndpoint::request_audio_pad).
 static GstStaticPadTemplate audio_template =
     GST_STATIC_PAD_TEMPLATE("audio", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-opus"));
+// The lecturers' voices mixed for the classroom's loudspeaker (WhepEndpoint::request_pad).
+static GstStaticPadTemplate voice_template = GST_STATIC_PAD_TEMPLATE(
+    "voice", GST_PAD_SRC, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-raw, format=S16LE, rate=48000, channels=1"));
 
 // Builds a session's view (lock held); its encoded source pad (a reference), or nullptr.
 static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& session) {
@@ -143,14 +147,14 @@ static void on_session_pose(GstWhepViewSink* self, const std::string& session, c
 }
 
 static void gst_whep_view_sink_release_pad(GstElement* element, GstPad* pad) {
-  GST_WHEP_VIEW_SINK(element)->endpoint->release_audio_pad(pad);
+  GST_WHEP_VIEW_SINK(element)->endpoint->release_pad(pad);
 }
 
 static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTemplate* templ, const gchar* name,
                                                   const GstCaps*) {
   GstWhepViewSink* self = GST_WHEP_VIEW_SINK(element);
-  if (templ == gst_element_class_get_pad_template(GST_ELEMENT_GET_CLASS(element), "audio"))
-    return self->endpoint->request_audio_pad(templ);
+  if (templ != gst_element_class_get_pad_template(GST_ELEMENT_GET_CLASS(element), "cam_%u"))
+    return self->endpoint->request_pad(templ);
   std::lock_guard<std::mutex> g(*self->lock);
   int index = 0;
   if (name && sscanf(name, "cam_%d", &index) != 1) return nullptr;
@@ -312,6 +316,7 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &cam_template);
   gst_element_class_add_static_pad_template(element_class, &audio_template);
+  gst_element_class_add_static_pad_template(element_class, &voice_template);
   gst_element_class_set_static_metadata(element_class, "WHEP view-per-lecturer sink", "Sink/Network",
       "Renders and sends each lecturer a view of their own over WebRTC with WHEP", "gst-vclassroom");
 }

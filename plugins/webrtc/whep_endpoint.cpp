@@ -20,6 +20,7 @@
 
 #include "whep_http_server.h"
 #include "whep_send_branch.h"
+#include "whep_voice.h"
 
 GST_DEBUG_CATEGORY_STATIC(whep_endpoint_debug);
 #define GST_CAT_DEFAULT whep_endpoint_debug
@@ -64,6 +65,7 @@ struct WhepEndpoint::State {
   std::vector<IceServer> ice_servers;
   GstElement* audio_tee = nullptr;  // the classroom's sound for the sessions (request_audio_pad), or null
   GstPad* audio_pad = nullptr;      // the element's pad for it
+  std::unique_ptr<WhepVoiceMixer> voice;  // the lecturers' voices for the classroom (request_pad), or null
   guint bitrate_kbit = 4000;
   guint max_sessions = 4;
   guint lecturer_timeout_s = 15;  // no receiver report for this long: the lecturer is gone; 0: never
@@ -177,6 +179,27 @@ void on_offer_set(GstPromise* promise, gpointer user_data) {
 
 // Feeds the element's `source` (taken) for session `id` through its send branch and starts answering
 // `offer` (taken). Called with the lock held.
+// webrtcbin's new src pad: the lecturer's microphone (the session's audio) joins the classroom's mix.
+void on_lecturer_voice(GstElement*, GstPad* pad, gpointer user_data) {
+  Session* s = static_cast<Session*>(user_data);
+  if (GST_PAD_DIRECTION(pad) != GST_PAD_SRC) return;
+  GstWebRTCRTPTransceiver* transceiver = nullptr;
+  g_object_get(pad, "transceiver", &transceiver, nullptr);
+  GstWebRTCKind kind = GST_WEBRTC_KIND_UNKNOWN;
+  if (transceiver) {
+    g_object_get(transceiver, "kind", &kind, nullptr);
+    gst_object_unref(transceiver);
+  }
+  State* st = s->owner;
+  if (kind != GST_WEBRTC_KIND_AUDIO) return;
+  std::lock_guard<std::mutex> g(st->lock);  // (the mix may be released meanwhile)
+  if (!st->voice) return;
+  if (st->voice->add(s->id, pad))
+    GST_INFO_OBJECT(st->owner, "session %s: the lecturer's voice joins the classroom's mix", s->id.c_str());
+  else
+    GST_WARNING_OBJECT(st->owner, "session %s: the lecturer's voice cannot be decoded", s->id.c_str());
+}
+
 void start_session_locked(State* st, const std::string& id, GstPad* source, GstSDPMessage* offer,
                           const WhepOffer& offered, SoupServerMessage* msg) {
   Session* s = new Session;
@@ -187,7 +210,9 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   send.payload = offered.h264_payload;
   send.playout_extension_id = offered.playout_delay_extension_id;
   send.playout_delay_ms = st->playout_delay_ms;
-  send.opus_payload = st->audio_tee ? offered.opus_payload : -1;
+  send.opus_payload = offered.opus_payload;
+  send.send_sound = st->audio_tee != nullptr;
+  send.take_voice = st->voice != nullptr;
   send.ice_servers = st->ice_servers;
   send.max_kbit = int(st->bitrate_kbit);
   send.lecturer_timeout_ns = int64_t(st->lecturer_timeout_s) * GST_SECOND;
@@ -205,6 +230,7 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   GstElement* webrtc = s->branch->webrtc();
   g_signal_connect(webrtc, "on-data-channel", G_CALLBACK(on_data_channel), s);
   g_signal_connect(webrtc, "notify::ice-gathering-state", G_CALLBACK(on_gathering_state), s);
+  if (send.take_voice) g_signal_connect(webrtc, "pad-added", G_CALLBACK(on_lecturer_voice), s);
   gst_pad_link(s->source, s->branch->sink());
   if (s->branch->audio_sink()) {
     s->sound = gst_element_request_pad_simple(st->audio_tee, "src_%u");
@@ -223,6 +249,10 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
 // Takes the session's branch out of the pipeline, lets the element take its source out, and frees it.
 // Lock not held.
 void end_session(State* st, Session* s) {
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    if (st->voice) st->voice->remove(s->id);
+  }
   gst_pad_unlink(s->source, s->branch->sink());
   if (s->sound) {
     gst_pad_unlink(s->sound, s->branch->audio_sink());
@@ -642,7 +672,15 @@ guint WhepEndpoint::bitrate_kbit() const {
   return st_->bitrate_kbit;
 }
 
-GstPad* WhepEndpoint::request_audio_pad(GstPadTemplate* templ) {
+GstPad* WhepEndpoint::request_pad(GstPadTemplate* templ) {
+  const std::string name = GST_PAD_TEMPLATE_NAME_TEMPLATE(templ);
+  if (name == "voice") {
+    std::lock_guard<std::mutex> g(st_->lock);
+    if (st_->voice) return nullptr;
+    st_->voice = std::make_unique<WhepVoiceMixer>(st_->owner, templ);
+    return st_->voice->pad();
+  }
+  if (name != "audio") return nullptr;
   GstElement* tee = nullptr;
   {
     std::lock_guard<std::mutex> g(st_->lock);
@@ -666,7 +704,16 @@ GstPad* WhepEndpoint::request_audio_pad(GstPadTemplate* templ) {
   return pad;
 }
 
-bool WhepEndpoint::release_audio_pad(GstPad* pad) {
+bool WhepEndpoint::release_pad(GstPad* pad) {
+  std::unique_ptr<WhepVoiceMixer> voice;
+  {
+    std::lock_guard<std::mutex> g(st_->lock);
+    if (pad && st_->voice && pad == st_->voice->pad()) voice = std::move(st_->voice);
+  }
+  if (voice) {
+    voice->take_out();  // with the sessions' decoders: the sessions go on without being heard
+    return true;
+  }
   {
     std::lock_guard<std::mutex> g(st_->lock);
     if (!pad || pad != st_->audio_pad) return false;

@@ -52,13 +52,14 @@ class WhepEndpoint {
   bool get_property(guint id, GValue* value);
 
   guint bitrate_kbit() const;
-  // The classroom's sound: the element's "audio" request pad (audio/x-opus, `templ`), a ghost pad of a
-  // tee in the element's bin that every session whose offer takes Opus gets a branch of (sessions started
-  // before it was linked go on without sound). Null when the element has it already. Call release_audio_pad
-  // from the element's release_pad.
-  GstPad* request_audio_pad(GstPadTemplate* templ);
-  // False when `pad` is not the audio pad.
-  bool release_audio_pad(GstPad* pad);
+  // The element's request pads for sound, by the template's name (null for another, or one it has already):
+  //  - "audio" (sink, audio/x-opus): the classroom's sound, a ghost pad of a tee in the element's bin that
+  //    every session whose offer takes Opus gets a branch of (sessions started before it go on without);
+  //  - "voice" (src, audio/x-raw): the lecturers' voices mixed for the classroom (WhepVoiceMixer), from
+  //    every session whose browser sends its microphone (sessions started before it are not heard).
+  // Call release_pad from the element's release_pad: false when `pad` is neither.
+  GstPad* request_pad(GstPadTemplate* templ);
+  bool release_pad(GstPad* pad);
   // NULL -> READY: checks the settings and listens; false after posting an error on the owner.
   bool start();
   // READY -> NULL: ends every session and stops listening.

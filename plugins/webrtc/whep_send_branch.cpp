@@ -264,10 +264,21 @@ void on_webrtc_element_added(GstBin*, GstBin*, GstElement* element, gpointer use
 
 namespace {
 
-// The classroom's sound on its way to the lecturer: a leaky queue (sound that cannot leave in time is
-// dropped, never held: the view must not wait for it) ! rtpopuspay on the offer's payload ! webrtcbin, sent
-// only, on the offer's audio section.
-void add_audio(State* st, int payload) {
+// The session's audio section: the classroom's sound on its way to the lecturer (`send`: a leaky queue, sound
+// that cannot leave in time is dropped, never held: the view must not wait for it ! rtpopuspay on the
+// offer's payload ! webrtcbin) and the lecturer's voice back (`receive`).
+void add_audio(State* st, int payload, bool send, bool receive) {
+  if (!send) {
+    GstCaps* caps = gst_caps_new_simple("application/x-rtp", "media", G_TYPE_STRING, "audio", "encoding-name",
+                                        G_TYPE_STRING, "OPUS", "clock-rate", G_TYPE_INT, 48000, "payload", G_TYPE_INT,
+                                        payload, nullptr);
+    GstWebRTCRTPTransceiver* transceiver = nullptr;
+    g_signal_emit_by_name(st->webrtc, "add-transceiver", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_RECVONLY, caps,
+                          &transceiver);
+    gst_caps_unref(caps);
+    if (transceiver) gst_object_unref(transceiver);
+    return;
+  }
   st->audio_queue = gst_element_factory_make("queue", nullptr);
   g_object_set(st->audio_queue, "leaky", 2 /* downstream */, "max-size-buffers", 0, "max-size-bytes", 0,
                "max-size-time", guint64(200 * GST_MSECOND), nullptr);
@@ -286,8 +297,9 @@ void add_audio(State* st, int payload) {
     GstCaps* preferences = gst_caps_new_simple("application/x-rtp", "media", G_TYPE_STRING, "audio", "encoding-name",
                                                G_TYPE_STRING, "OPUS", "clock-rate", G_TYPE_INT, 48000, "payload",
                                                G_TYPE_INT, payload, "ssrc", G_TYPE_UINT, ssrc, nullptr);
-    g_object_set(transceiver, "direction", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDONLY, "codec-preferences",
-                 preferences, nullptr);
+    g_object_set(transceiver, "direction",
+                 receive ? GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDRECV : GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_SENDONLY,
+                 "codec-preferences", preferences, nullptr);
     gst_caps_unref(preferences);
     gst_object_unref(transceiver);
   }
@@ -374,7 +386,8 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   st->sink = gst_element_get_static_pad(st->queue, "sink");
   gst_pad_add_probe(st->sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_in, st, nullptr);
   gst_pad_add_probe(st->sink, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, on_serialized_query, nullptr, nullptr);
-  if (settings.opus_payload >= 0) add_audio(st, settings.opus_payload);
+  if (settings.opus_payload >= 0 && (settings.send_sound || settings.take_voice))
+    add_audio(st, settings.opus_payload, settings.send_sound, settings.take_voice);
   gst_element_sync_state_with_parent(st->webrtc);
   gst_element_sync_state_with_parent(st->pay);
   gst_element_sync_state_with_parent(st->queue);

@@ -3,6 +3,7 @@
 //   stamps; the playout-delay extension) ! webrtcbin (nothing synced to the clock)
 // and, where the offer has Opus and the element has the classroom's sound,
 //   queue (leaky, 200 ms) ! rtpopuspay ! webrtcbin
+// (the lecturer's voice, where the element takes it, comes out of webrtcbin: WhepEndpoint takes it).
 // and, over the session's data channel, the echo of the pose each frame was
 // rendered for; from the browser's receiver reports, the session's bitrate
 // (LossBasedRate) and whether the lecturer is still there (LecturerSilence).
@@ -25,7 +26,9 @@ struct WhepSendSettings {
   int payload = 96;                // the offer's H.264 payload type
   int playout_extension_id = 0;    // the offer's id for the playout-delay extension; 0: not sent
   int playout_delay_ms = 100;      // its maximum (the minimum is 0)
-  int opus_payload = -1;           // the offer's Opus payload type: the classroom's sound goes there; -1: none
+  int opus_payload = -1;           // the offer's Opus payload type; -1: no audio
+  bool send_sound = false;         // the classroom's sound goes to the lecturer there (audio_sink())
+  bool take_voice = false;         // the lecturer's voice comes back there (webrtcbin's audio src pad)
   std::vector<IceServer> ice_servers;
   int max_kbit = 4000;  // the element's bitrate: the session's rate starts there and never exceeds it
   // The session's rate changed (LossBasedRate, on a new receiver report with this loss); called from
@@ -48,7 +51,7 @@ class WhepSendBranch {
   GstElement* webrtc() const;
   // Where the encoded view goes in (owned by the branch).
   GstPad* sink() const;
-  // Where the classroom's sound (audio/x-opus) goes in, or null (settings.opus_payload < 0).
+  // Where the classroom's sound (audio/x-opus) goes in, or null (no Opus offered, or settings.send_sound off).
   GstPad* audio_sink() const;
   // The page's data channel, once it opens one: the echo goes there. False (nothing taken) when the branch
   // has one already: a page opens one channel, others are ignored.

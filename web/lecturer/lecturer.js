@@ -262,6 +262,27 @@ function playSound(track) {
   });
 }
 
+// The lecturer's microphone, with the browser's own echo cancelling (the classroom's sound from the
+// lecturer's loudspeaker stays out of it). Refused or missing, the lesson goes on and the page says the class
+// does not hear the lecturer.
+async function openMicrophone(sender) {
+  const label = document.getElementById('soundstatus');
+  if (!navigator.mediaDevices || !navigator.mediaDevices.getUserMedia) {
+    stats.microphone = 'unavailable';
+    label.textContent = 'no microphone here (the page needs https): the class does not hear you';
+    return;
+  }
+  try {
+    const mic = await navigator.mediaDevices.getUserMedia({ audio: { echoCancellation: true, noiseSuppression: true } });
+    await sender.replaceTrack(mic.getAudioTracks()[0]);
+    stats.microphone = 'on';
+  } catch (e) {
+    stats.microphone = e.name;
+    label.textContent = e.name === 'NotAllowedError' ? 'microphone refused: the class does not hear you'
+                                                     : 'no microphone: the class does not hear you';
+  }
+}
+
 const kJoinAttempts = 5;
 const kHomeWaitMs = 2000;
 
@@ -273,7 +294,9 @@ async function join() {
   const iceServers = iceServersFromLinks(options && options.status === 204 ? options.headers.get('Link') : '');
   const pc = new RTCPeerConnection({ iceServers });
   pc.addTransceiver('video', { direction: 'recvonly' });
-  pc.addTransceiver('audio', { direction: 'recvonly' });  // the classroom's sound, where the server has it
+  // The classroom's sound, where the server has it, and the lecturer's voice, once the microphone is allowed
+  // (after joining: the view does not wait for the lecturer to answer the browser's question).
+  const audio = pc.addTransceiver('audio', { direction: 'sendrecv' });
   channel = pc.createDataChannel('pose');
   channel.onmessage = e => onEcho(e.data);
   // The first pose goes out once the server's first echo names its view (adoptHome); a server that names
@@ -317,10 +340,12 @@ async function join() {
   window.vclassroom.leave = () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE' }).then(r => r.status);
   window.addEventListener('pagehide', () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE', keepalive: true }));
   watchFrames(video);
+  openMicrophone(audio.sender);
   setInterval(async () => {
     const report = await pc.getStats();
     report.forEach(r => {
       if (r.type === 'inbound-rtp' && r.kind === 'audio') stats.soundIn = r;
+      if (r.type === 'outbound-rtp' && r.kind === 'audio') stats.voiceOut = r;
       if (r.type === 'inbound-rtp' && r.kind === 'video') {
         const prev = stats.inbound;
         stats.inbound = r;

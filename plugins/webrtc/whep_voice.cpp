@@ -1,0 +1,108 @@
+#include "whep_voice.h"
+
+namespace vclassroom {
+
+namespace {
+
+// What the classroom's loudspeaker gets: a voice needs no more, and one format keeps the mix cheap.
+constexpr const char* kVoiceCaps = "audio/x-raw,format=S16LE,rate=48000,channels=1,layout=interleaved";
+
+GstElement* make(const char* factory) {
+  GstElement* e = gst_element_factory_make(factory, nullptr);
+  if (!e) GST_WARNING("no element %s: the lecturers' voices need it (gstreamer1.0-plugins-base/good)", factory);
+  return e;
+}
+
+}  // namespace
+
+WhepVoiceMixer::WhepVoiceMixer(GstBin* owner, GstPadTemplate* templ) : owner_(owner) {
+  silence_ = make("audiotestsrc");
+  mixer_ = make("audiomixer");
+  caps_ = make("capsfilter");
+  if (!silence_ || !mixer_ || !caps_) return;
+  g_object_set(silence_, "wave", 4 /* silence */, "is-live", TRUE, "samplesperbuffer", 960, nullptr);
+  GstCaps* caps = gst_caps_from_string(kVoiceCaps);
+  g_object_set(caps_, "caps", caps, nullptr);
+  gst_caps_unref(caps);
+  gst_bin_add_many(owner_, silence_, mixer_, caps_, nullptr);
+  gst_element_link_many(silence_, mixer_, caps_, nullptr);
+  GstPad* target = gst_element_get_static_pad(caps_, "src");
+  pad_ = gst_ghost_pad_new_from_template("voice", target, templ);
+  gst_object_unref(target);
+  gst_pad_set_active(pad_, TRUE);
+  gst_element_add_pad(GST_ELEMENT(owner_), pad_);
+  for (GstElement* e : {caps_, mixer_, silence_}) gst_element_sync_state_with_parent(e);
+}
+
+void WhepVoiceMixer::take_out() {
+  std::map<std::string, Voice> voices;
+  {
+    std::lock_guard<std::mutex> g(lock_);
+    voices.swap(voices_);
+  }
+  for (auto& v : voices) remove_voice(v.second);
+  if (pad_) gst_element_remove_pad(GST_ELEMENT(owner_), pad_);
+  pad_ = nullptr;
+  for (GstElement*& e : {std::ref(silence_), std::ref(mixer_), std::ref(caps_)}) {
+    if (!e) continue;
+    gst_element_set_state(e, GST_STATE_NULL);
+    gst_bin_remove(owner_, e);
+    e = nullptr;
+  }
+}
+
+bool WhepVoiceMixer::add(const std::string& session, GstPad* rtp_src) {
+  if (!mixer_) return false;
+  Voice v{make("rtpopusdepay"), make("opusdec"), make("audioconvert"), make("audioresample"), nullptr};
+  if (!v.depay || !v.decoder || !v.convert || !v.resample) {
+    for (GstElement* e : {v.depay, v.decoder, v.convert, v.resample})
+      if (e) gst_object_unref(e);
+    return false;
+  }
+  // A lost packet is concealed (and, where the browser sent it, rebuilt from the next one's FEC).
+  g_object_set(v.decoder, "plc", TRUE, "use-inband-fec", TRUE, nullptr);
+  gst_bin_add_many(owner_, v.depay, v.decoder, v.convert, v.resample, nullptr);
+  gst_element_link_many(v.depay, v.decoder, v.convert, v.resample, nullptr);
+  v.mixer_pad = gst_element_request_pad_simple(mixer_, "sink_%u");
+  GstPad* out = gst_element_get_static_pad(v.resample, "src");
+  GstPad* in = gst_element_get_static_pad(v.depay, "sink");
+  const bool linked = gst_pad_link(out, v.mixer_pad) == GST_PAD_LINK_OK;
+  gst_object_unref(out);
+  for (GstElement* e : {v.resample, v.convert, v.decoder, v.depay}) gst_element_sync_state_with_parent(e);
+  const bool joined = linked && gst_pad_link(rtp_src, in) == GST_PAD_LINK_OK;
+  gst_object_unref(in);
+  Voice previous{};
+  bool replaced = false;
+  {
+    std::lock_guard<std::mutex> g(lock_);
+    auto old = voices_.find(session);
+    replaced = old != voices_.end();
+    if (replaced) previous = old->second;
+    voices_[session] = v;
+  }
+  if (replaced) remove_voice(previous);
+  return joined;
+}
+
+void WhepVoiceMixer::remove(const std::string& session) {
+  Voice v{};
+  {
+    std::lock_guard<std::mutex> g(lock_);
+    auto it = voices_.find(session);
+    if (it == voices_.end()) return;
+    v = it->second;
+    voices_.erase(it);
+  }
+  remove_voice(v);
+}
+
+void WhepVoiceMixer::remove_voice(const Voice& v) {
+  for (GstElement* e : {v.depay, v.decoder, v.convert, v.resample}) {
+    gst_element_set_state(e, GST_STATE_NULL);
+    gst_bin_remove(owner_, e);
+  }
+  gst_element_release_request_pad(mixer_, v.mixer_pad);
+  gst_object_unref(v.mixer_pad);
+}
+
+}  // namespace vclassroom

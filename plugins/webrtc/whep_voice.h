@@ -1,0 +1,52 @@
+// The lecturers' voices for the classroom, for WhepEndpoint: each session's Opus from its browser
+//   (webrtcbin's audio src pad) ! rtpopusdepay ! opusdec (loss concealment) ! audioconvert ! audioresample
+// into one audiomixer, beside a silent live source, so the element's `voice` pad (S16LE mono 48 kHz) runs on
+// the clock whether or not anyone speaks: the classroom's loudspeaker (and an echo canceller's probe) never
+// stall, and a lecturer who leaves is simply no longer in the mix.
+#pragma once
+
+#include <gst/gst.h>
+
+#include <map>
+#include <mutex>
+#include <string>
+
+namespace vclassroom {
+
+class WhepVoiceMixer {
+ public:
+  // Adds the mixer to `owner` and the ghost src pad `voice` (from `templ`) to it.
+  WhepVoiceMixer(GstBin* owner, GstPadTemplate* templ);
+  // Leaves the elements to the owner (which disposes of them with itself).
+  ~WhepVoiceMixer() = default;
+  // Takes the mixer, its pad and the sessions' decoders out of the owner (the pad was released).
+  void take_out();
+  WhepVoiceMixer(const WhepVoiceMixer&) = delete;
+  WhepVoiceMixer& operator=(const WhepVoiceMixer&) = delete;
+
+  GstPad* pad() const { return pad_; }
+  // A session's RTP audio (webrtcbin's src pad, Opus) joins the mix; false (nothing linked) when it does
+  // not link. Any thread.
+  bool add(const std::string& session, GstPad* rtp_src);
+  // The session's decoder leaves the mix (when it has one). Not from its own streaming thread.
+  void remove(const std::string& session);
+
+ private:
+  struct Voice {
+    GstElement* depay;
+    GstElement* decoder;
+    GstElement* convert;
+    GstElement* resample;
+    GstPad* mixer_pad;
+  };
+  void remove_voice(const Voice& v);
+  GstBin* owner_;
+  GstElement* silence_ = nullptr;
+  GstElement* mixer_ = nullptr;
+  GstElement* caps_ = nullptr;
+  GstPad* pad_ = nullptr;
+  std::mutex lock_;
+  std::map<std::string, Voice> voices_;
+};
+
+}  // namespace vclassroom
