@@ -46,5 +46,5 @@ fi
 if [ ! -f build/build.ninja ]; then
   meson setup build -Dtests=enabled
 fi
-# Two cores: one compile job per core.
-ninja -C build
+# One compile job per core (ninja alone runs cores + 1 on two cores, cores + 2 above).
+ninja -C build -j "$(nproc)"
