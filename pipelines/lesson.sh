@@ -7,7 +7,8 @@
 # Variables: TOKEN (the join secret; default a new random one, printed in the URL), WHEP_PORT (default 8080),
 #   CAMERAS (ids, default "0 1 2"), CAMERA_PORTS (the cameras' UDP ports in CAMERAS order, default 5000 + id),
 #   CLASSROOM_SOUND (the sound the lecturers hear: a GStreamer audio source, e.g. autoaudiosrc; default a tick a
-#   second, the synthetic classroom's; empty: none),
+#   second, the synthetic classroom's; empty: none), CLASSROOM_SPEAKER (where the lecturers' voices play:
+#   default autoaudiosink where this machine has sound, else none, said at the start; empty: none),
 #   and whatever else server.sh takes (MODEL, WHEP_SESSIONS, WHEP_TLS_CERT, ...; its header lists them).
 set -euo pipefail
 . "$(dirname "$0")/trees.sh"
@@ -42,7 +43,18 @@ for i in "${!camera_ids[@]}"; do
   CAMERA=${camera_ids[$i]} PORT=${camera_ports[$i]} "$here/classroom.sh" &
   camera_pids+=($!)
 done
-# The synthetic classroom's sound, a tick a second, unless CLASSROOM_SOUND names a microphone.
+# The synthetic classroom's sound, a tick a second, unless CLASSROOM_SOUND names a microphone; the lecturers'
+# voices on this machine's loudspeaker where it has one (a sound server's socket or an ALSA device).
+if [ -z "${CLASSROOM_SPEAKER+set}" ]; then
+  if [ -S "${XDG_RUNTIME_DIR:-/nonexistent}/pulse/native" ] || [ -n "${PULSE_SERVER:-}" ] ||
+     ls /dev/snd/pcmC*p > /dev/null 2>&1; then
+    CLASSROOM_SPEAKER=autoaudiosink
+  else
+    CLASSROOM_SPEAKER=""
+    echo "lesson.sh: no loudspeaker on this machine: the lecturers' voices are not played (CLASSROOM_SPEAKER)" >&2
+  fi
+fi
+CLASSROOM_SPEAKER=$CLASSROOM_SPEAKER \
 CLASSROOM_SOUND=${CLASSROOM_SOUND-audiotestsrc is-live=true wave=ticks volume=0.3} \
 LECTURER_OUT=${LECTURER_OUT:-whep-views} CAMERAS="$CAMERAS" CAMERA_PORTS="$CAMERA_PORTS" "$here/server.sh" &
 server_pid=$!

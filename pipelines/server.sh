@@ -175,7 +175,10 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+r
 # (comma-separated origins, https://host[:port], whose pages may call the endpoint: another WHEP player;
 # * = any; default none), CLASSROOM_SOUND (a GStreamer audio source, e.g. autoaudiosrc, pulsesrc, alsasrc
 # device=hw:1 or "audiotestsrc is-live=true wave=ticks": coded as Opus and sent to every lecturer's browser;
-# default none) (docs/lecturer.md).
+# default none), CLASSROOM_SPEAKER (a GStreamer audio sink, e.g. autoaudiosink or "alsasink device=hw:1": the
+# lecturers' voices, mixed, played in the classroom; default none), ECHO_CANCEL (with both: 1, the default,
+# cancels what the microphone hears of the loudspeaker, webrtcdsp with webrtcechoprobe; 0: off)
+# (docs/lecturer.md).
 if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ]; then
   WHEP_PORT=${WHEP_PORT:-8080}
   if ! [[ ${TOKEN:-} =~ ^[A-Za-z0-9._~-]{8,}$ ]] || ! [[ $WHEP_PORT =~ ^[0-9]+$ ]]; then
@@ -199,9 +202,18 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
     ${WHEP_LECTURER_TIMEOUT:+lecturer-timeout=$WHEP_LECTURER_TIMEOUT} ${WHEP_LISTEN:+listen-addresses=$WHEP_LISTEN} \
     ${WHEP_ALLOW_ORIGIN:+allow-origin=$WHEP_ALLOW_ORIGIN} \
     web-root=\"$(cd "$(dirname "$0")/../web/lecturer" && pwd)\""
+  # The classroom's sound to the lecturers and their voices back, through the echo canceller when both are
+  # on (the probe hears what the loudspeaker plays; webrtcdsp removes it from the microphone's signal).
   sound=""
+  dsp=""
+  if [ -n "${CLASSROOM_SOUND:-}" ] && [ -n "${CLASSROOM_SPEAKER:-}" ] && [ "${ECHO_CANCEL:-1}" != 0 ]; then
+    dsp="audio/x-raw,format=S16LE,rate=48000,channels=1 ! webrtcdsp probe=classroom_echo ! audioconvert !"
+  fi
   [ -n "${CLASSROOM_SOUND:-}" ] &&
-    sound="$CLASSROOM_SOUND ! audioconvert ! audioresample ! opusenc ! queue ! views.audio"
+    sound="$CLASSROOM_SOUND ! audioconvert ! audioresample ! $dsp opusenc inband-fec=true packet-loss-percentage=5 ! queue ! views.audio"
+  if [ -n "${CLASSROOM_SPEAKER:-}" ]; then
+    sound="$sound views.voice ! queue ! ${dsp:+webrtcechoprobe name=classroom_echo !} audioconvert ! audioresample ! $CLASSROOM_SPEAKER"
+  fi
   if [ "$LECTURER_OUT" = whep ]; then
     desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+rig=$NAV_RIG} ! whepserversink name=views $whep $branches $sound"
   else

@@ -1046,8 +1046,9 @@ TEST(Scripts, LecturerEndsAtTheFirstCtrlCWhenNoVideoEverCame) {
   EXPECT_NE(r.output.find("Got EOS from element"), std::string::npos) << r.output;
 }
 
-// server.sh with LECTURER_OUT=whep-views (a view per lecturer, whepviewsink) plays with its cameras linked,
-// serves the lecturer page to the token and 401 to anyone else, prints the URL to join, and ends at Ctrl-C.
+// server.sh with LECTURER_OUT=whep-views (a view per lecturer, whepviewsink) plays with its cameras linked
+// and the classroom's sound and loudspeaker (through the echo canceller), serves the lecturer page to the
+// token and 401 to anyone else, prints the URL to join, and ends at Ctrl-C.
 TEST(Scripts, ServerServesAViewPerLecturerOverWhep) {
   if (!gst_element_factory_find("whepviewsink")) GTEST_SKIP() << "the webrtc plugin is not built (no webrtcbin)";
   const guint16 http = static_cast<guint16>(vctest::free_tcp_port());
@@ -1056,7 +1057,9 @@ TEST(Scripts, ServerServesAViewPerLecturerOverWhep) {
       "server.sh",
       {{"LECTURER_OUT", "whep-views"}, {"TOKEN", "a-long-secret"}, {"WHEP_PORT", std::to_string(http)},
        {"CAMERAS", "0 1"}, {"BASE_PORT", std::to_string(vctest::free_udp_port())},
-       {"POSE_PORT", std::to_string(vctest::free_udp_port())}, {"STOP_GRACE", "2"}},
+       {"POSE_PORT", std::to_string(vctest::free_udp_port())}, {"STOP_GRACE", "2"},
+       // The classroom's sound and loudspeaker, through the echo canceller.
+       {"CLASSROOM_SOUND", "audiotestsrc is-live=true"}, {"CLASSROOM_SPEAKER", "fakesink"}},
       SIGINT, [&] {
         page = vctest::first_response_line(http, false, "GET /?token=a-long-secret HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
         refused = vctest::first_response_line(http, false, "GET /?token=wrong HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n");
