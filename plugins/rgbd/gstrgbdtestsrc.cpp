@@ -16,7 +16,10 @@
  * edges, 1 mm quantisation, colour noise. ground-truth: the label plane holds 0 for static pixels and k
  * for learner k; the caps planes are then "color,depth,label,depth-gt" (else "color,depth").
  * calibration-board: someone carries a 9x6 checkerboard of 80 mm squares through the room, holding it
- * still 1 s at each of 24 stops in front of the default rig (docs/real-classroom.md).
+ * still 1 s at each of 24 stops in front of the default rig (docs/real-classroom.md). flash-interval: the
+ * room's colour turns white for 200 ms from each multiple of this running time (ns; 0: never), the
+ * picture's half of a clap whose sound is audiotestsrc's tick: vclassroom-measure-sync times both at the
+ * lecturer's page.
  *
  * ## Example launch line
  * |[
@@ -28,6 +31,8 @@
 #endif
 
 #include "gstrgbdtestsrc.h"
+
+#include <algorithm>
 
 #include <mutex>
 #include <string>
@@ -52,11 +57,13 @@ enum {
   PROP_IS_LIVE,
   PROP_FRAMERATE,
   PROP_CALIBRATION_BOARD,
+  PROP_FLASH_INTERVAL,
 };
 
 namespace {
 constexpr guint64 kDefaultSeed = 1;
 constexpr int kDefaultLearners = 3;
+constexpr guint64 kFlashLength = 200 * GST_MSECOND;
 
 struct TestSrcState {
   std::mutex lock;  // guards the properties
@@ -68,6 +75,7 @@ struct TestSrcState {
   bool ground_truth = true;
   int fps_n = 30, fps_d = 1;
   bool calibration_board = false;
+  guint64 flash_interval = 0;  // ns of running time; 0: no flash
 
   // Streaming thread (and start/stop).
   bool started = false;
@@ -199,18 +207,6 @@ static GstFlowReturn gst_rgbd_test_src_create(GstPushSrc* psrc, GstBuffer** outb
     GST_ELEMENT_ERROR(self, LIBRARY, FAILED, ("%s", e.what()), ("rgbdtestsrc frame %" G_GUINT64_FORMAT, n));
     return GST_FLOW_ERROR;
   }
-  std::string err;
-  GstBuffer* buf = rgbd_buffer_with_planes(st->info,
-                                           {{Plane::Color, planes.color},
-                                            {Plane::Depth, planes.depth},
-                                            {Plane::Label, planes.label},
-                                            {Plane::DepthGT, planes.depth_gt}},
-                                           &err);
-  if (!buf) {
-    GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
-    return GST_FLOW_ERROR;
-  }
-
   GstClockTime base = 0;
   if (gst_base_src_is_live(GST_BASE_SRC(psrc))) {
     // Like videotestsrc: frames are stamped in running time, starting from
@@ -227,9 +223,32 @@ static GstFlowReturn gst_rgbd_test_src_create(GstPushSrc* psrc, GstBuffer** outb
     }
     base = st->live_base;
   }
-  GST_BUFFER_PTS(buf) = base + frame_time(st->info, n);
-  GST_BUFFER_DTS(buf) = GST_BUFFER_PTS(buf);
-  GST_BUFFER_DURATION(buf) = frame_time(st->info, n + 1) - frame_time(st->info, n);
+  const GstClockTime pts = base + frame_time(st->info, n);
+  const GstClockTime duration = frame_time(st->info, n + 1) - frame_time(st->info, n);
+  guint64 flash_interval = 0;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    flash_interval = st->flash_interval;
+  }
+  // The flash: the frames of the first kFlashLength of each interval (from the one whose time span holds
+  // its start) show the room white: long enough that a view dropping frames under load still shows one.
+  if (flash_interval > 0 && pts % flash_interval < std::max<guint64>(duration, std::min(kFlashLength, flash_interval / 2)))
+    planes.color = cv::Mat(planes.color.size(), planes.color.type(), cv::Scalar::all(255));
+  std::string err;
+  GstBuffer* buf = rgbd_buffer_with_planes(st->info,
+                                           {{Plane::Color, planes.color},
+                                            {Plane::Depth, planes.depth},
+                                            {Plane::Label, planes.label},
+                                            {Plane::DepthGT, planes.depth_gt}},
+                                           &err);
+  if (!buf) {
+    GST_ELEMENT_ERROR(self, CORE, FAILED, ("%s", err.c_str()), (nullptr));
+    return GST_FLOW_ERROR;
+  }
+
+  GST_BUFFER_PTS(buf) = pts;
+  GST_BUFFER_DTS(buf) = pts;
+  GST_BUFFER_DURATION(buf) = duration;
   GST_BUFFER_OFFSET(buf) = n;
   GST_BUFFER_OFFSET_END(buf) = n + 1;
   st->frame++;
@@ -257,6 +276,7 @@ static void gst_rgbd_test_src_set_property(GObject* object, guint prop_id, const
       st->fps_d = gst_value_get_fraction_denominator(value);
       break;
     case PROP_CALIBRATION_BOARD: st->calibration_board = g_value_get_boolean(value); break;
+    case PROP_FLASH_INTERVAL: st->flash_interval = g_value_get_uint64(value); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -278,6 +298,7 @@ static void gst_rgbd_test_src_get_property(GObject* object, guint prop_id, GValu
     case PROP_GROUND_TRUTH: g_value_set_boolean(value, st->ground_truth); break;
     case PROP_FRAMERATE: gst_value_set_fraction(value, st->fps_n, st->fps_d); break;
     case PROP_CALIBRATION_BOARD: g_value_set_boolean(value, st->calibration_board); break;
+    case PROP_FLASH_INTERVAL: g_value_set_uint64(value, st->flash_interval); break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -341,6 +362,12 @@ static void gst_rgbd_test_src_class_init(GstRgbdTestSrcClass* klass) {
       g_param_spec_boolean("calibration-board", "Calibration board",
                            "Show a 9x6 checkerboard carried through the room (for vclassroom-calibrate --synthetic)",
                            FALSE, flags));
+  g_object_class_install_property(
+      gobject_class, PROP_FLASH_INTERVAL,
+      g_param_spec_uint64("flash-interval", "Flash interval",
+                          "The room is white for 200 ms from each multiple of this running time (ns), a clap's "
+                          "picture (0: never)",
+                          0, G_MAXUINT64, 0, flags));
 
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(element_class, "Synthetic RGB-D classroom source", "Source/Video",
