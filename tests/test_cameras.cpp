@@ -768,6 +768,33 @@ TEST(CameraLivenessElement, WithEveryCameraGoneTheLastPictureKeepsComingMarked) 
   }
 }
 
+// A live view whose cameras never send (a server started before its cameras, ports that do not match)
+// says so on the bus after camera-timeout: nothing else could, as the fuse has no picture to make.
+TEST(CameraLivenessElement, AViewNoCameraEverSentToSaysSo) {
+  GError* err = nullptr;
+  GstElement* pipe = gst_parse_launch(
+      "appsrc is-live=true format=time ! viewfuse name=f camera-timeout=200000000 ! fakesink async=false", &err);
+  ASSERT_EQ(err, nullptr) << err->message;
+  GstBus* bus = gst_element_get_bus(pipe);
+  gst_element_set_state(pipe, GST_STATE_PLAYING);
+  std::string warning;
+  while (GstMessage* m = gst_bus_timed_pop_filtered(bus, 30 * GST_SECOND,
+                                                    GstMessageType(GST_MESSAGE_WARNING | GST_MESSAGE_ERROR))) {
+    GError* e = nullptr;
+    if (GST_MESSAGE_TYPE(m) == GST_MESSAGE_WARNING) gst_message_parse_warning(m, &e, nullptr);
+    else gst_message_parse_error(m, &e, nullptr);
+    warning = e ? e->message : "";
+    g_clear_error(&e);
+    gst_message_unref(m);
+    if (warning.find("no camera") != std::string::npos) break;
+  }
+  EXPECT_NE(warning.find("no camera has sent a frame in the 0.2 s since the view started"), std::string::npos)
+      << warning;
+  gst_element_set_state(pipe, GST_STATE_NULL);
+  gst_object_unref(bus);
+  gst_object_unref(pipe);
+}
+
 namespace {
 
 // A system clock that notes, at every wait an element makes on it, the

@@ -673,6 +673,20 @@ TEST(WebrtcBrowser, ChromiumJoinsDragsStopsAtTheBoundsAndTheXRPosePathMovesTheVi
   std::printf("%s", run.output.c_str());
 }
 
+// A server none of whose cameras sends: the page joins and says no camera is sending instead of showing a
+// black view that only says "joined" (tests/browser/no-camera-test.mjs); viewfuse says so on the bus
+// (CameraLivenessElement.AViewNoCameraEverSentToSaysSo).
+TEST(WebrtcBrowser, APageWithoutCamerasSaysNoCameraIsSending) {
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const BrowserRun run = run_browser_script(
+      "appsrc is-live=true format=time ! viewfuse ! whepserversink port={PORT} token=secret-token web-root=" + web,
+      "no-camera-test.mjs", {"secret-token"});
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
+  EXPECT_NE(run.output.find("ok no camera:"), std::string::npos) << run.output;
+  std::printf("%s", run.output.c_str());
+}
+
 // Several lecturers at once through whepviewsink: two pages each get their own view (poses 0.2 m apart show
 // different pictures, and each page's echo names its own pose); a third is refused with 503 while two
 // watch; when one leaves, the other goes on and a new page joins in the freed place.

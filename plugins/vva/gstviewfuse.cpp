@@ -334,6 +334,14 @@ static void gst_view_fuse_finalize(GObject* object) {
   G_OBJECT_CLASS(gst_view_fuse_parent_class)->finalize(object);
 }
 
+static GstStateChangeReturn gst_view_fuse_change_state(GstElement* element, GstStateChange transition) {
+  GstViewFuse* self = GST_VIEW_FUSE(element);
+  if (transition == GST_STATE_CHANGE_PLAYING_TO_PAUSED) watch_for_first_camera(self, false);
+  const GstStateChangeReturn ret = GST_ELEMENT_CLASS(gst_view_fuse_parent_class)->change_state(element, transition);
+  if (transition == GST_STATE_CHANGE_PAUSED_TO_PLAYING && ret != GST_STATE_CHANGE_FAILURE) watch_for_first_camera(self, true);
+  return ret;
+}
+
 static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
   GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
@@ -347,6 +355,7 @@ static void gst_view_fuse_class_init(GstViewFuseClass* klass) {
   gst_element_class_set_static_metadata(element_class, "View fusion", "Mixer/Video",
                                         "Fuses the cameras warped to the lecturer's view into one RGB picture",
                                         "gst-vclassroom developers");
+  element_class->change_state = GST_DEBUG_FUNCPTR(gst_view_fuse_change_state);
   agg_class->aggregate = GST_DEBUG_FUNCPTR(gst_view_fuse_aggregate);
   agg_class->sink_event = GST_DEBUG_FUNCPTR(gst_view_fuse_sink_event);
   agg_class->sink_query = GST_DEBUG_FUNCPTR(gst_view_fuse_sink_query);

@@ -156,6 +156,57 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
 // rtpssrcdemux makes the camera's pad at its first packet). Such a branch is
 // answered here as an unlinked pad would be (GStreamer leaves those out): no
 // latency of its own, so the view is live with the cameras that send.
+namespace {
+
+gboolean on_first_camera_due(GstClock*, GstClockTime, GstClockID, gpointer data) {
+  GstViewFuse* self = GST_VIEW_FUSE(data);
+  ViewFuseState* st = self->st;
+  bool seen = false;
+  int64_t timeout = 0;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    seen = bool(st->inputs.first_accepted());
+    timeout = st->inputs.params().camera_timeout_ns;
+  }
+  if (!seen)
+    GST_ELEMENT_WARNING(self, STREAM, FAILED,
+                        ("no camera has sent a frame in the %.1f s since the view started: the lecturer sees nothing "
+                         "until one does",
+                         double(timeout) / 1e9),
+                        ("%d camera input(s) linked", GST_ELEMENT(self)->numsinkpads));
+  return TRUE;
+}
+
+}  // namespace
+
+void watch_for_first_camera(GstViewFuse* self, bool on) {
+  ViewFuseState* st = self->st;
+  GstClockID previous = nullptr;
+  int64_t timeout = 0;
+  bool seen = false;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    std::swap(previous, st->first_camera_watch);
+    timeout = st->inputs.params().camera_timeout_ns;
+    seen = bool(st->inputs.first_accepted());
+  }
+  if (previous) {
+    gst_clock_id_unschedule(previous);
+    gst_clock_id_unref(previous);
+  }
+  if (!on || timeout <= 0 || seen) return;
+  GstClock* clock = gst_element_get_clock(GST_ELEMENT(self));
+  if (!clock) return;
+  GstClockID id = gst_clock_new_single_shot_id(clock, gst_element_get_base_time(GST_ELEMENT(self)) + GstClockTime(timeout));
+  gst_object_unref(clock);
+  if (gst_clock_id_wait_async(id, on_first_camera_due, gst_object_ref(self), gst_object_unref) != GST_CLOCK_OK) {
+    gst_clock_id_unref(id);
+    return;
+  }
+  std::lock_guard<std::mutex> g(st->lock);
+  st->first_camera_watch = id;
+}
+
 GstPadProbeReturn answer_latency_of_unconnected_branch(GstPad* pad, GstPadProbeInfo* info, gpointer) {
   GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
   if (GST_QUERY_TYPE(query) != GST_QUERY_LATENCY) return GST_PAD_PROBE_OK;

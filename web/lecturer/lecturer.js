@@ -217,6 +217,8 @@ function watchFrames(video) {
   const readout = document.getElementById('readout');
   const onFrame = (now, meta) => {
     stats.framesShown += 1;
+    const status = document.getElementById('status');
+    if (status.textContent === kNoPicture) status.textContent = 'joined';
     stats.width = meta.width; stats.height = meta.height; stats.lastRtp = meta.rtpTimestamp;
     const e = meta.rtpTimestamp !== undefined ? echoes.get(meta.rtpTimestamp) : undefined;
     const readoutText = latencyReadout(e, meta);
@@ -284,6 +286,8 @@ async function openMicrophone(sender) {
 }
 
 const kJoinAttempts = 5;
+const kNoPictureMs = 3000;
+const kNoPicture = 'joined, no picture yet: no camera is sending to the server';
 const kHomeWaitMs = 2000;
 
 async function join() {
@@ -341,6 +345,8 @@ async function join() {
   window.addEventListener('pagehide', () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE', keepalive: true }));
   watchFrames(video);
   openMicrophone(audio.sender);
+  // A server whose cameras have not sent yet has no picture to give: say so rather than a black page.
+  setTimeout(() => { if (stats.framesShown === 0) status.textContent = kNoPicture; }, kNoPictureMs);
   setInterval(async () => {
     const report = await pc.getStats();
     report.forEach(r => {
