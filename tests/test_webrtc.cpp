@@ -762,6 +762,23 @@ TEST(AudioBrowser, TheClassroomAndTheLecturerHearEachOther) {
   std::printf("voice pad: %zu samples, %d above 1000\n", samples.size(), loud);
 }
 
+// The classroom's sound does not wait for the view: with 90 % of the camera's frames lost before the view,
+// the page still gets its 50 sound packets a second (tests/browser/audio-drops-test.mjs).
+TEST(AudioBrowser, SoundKeepsFlowingWhileTheViewDropsFrames) {
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 320, 180);
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const BrowserRun run = run_browser_script(
+      "whepviewsink name=w port={PORT} token=secret-token rig=" + rig + " web-root=" + web +
+          " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! identity drop-probability=0.9 ! learnerseg ! w.cam_0" +
+          " audiotestsrc is-live=true ! audioconvert ! opusenc ! w.audio",
+      "audio-drops-test.mjs", {"secret-token"});
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
+  EXPECT_NE(run.output.find("ok sound flows while the view drops frames"), std::string::npos) << run.output;
+  std::printf("%s", run.output.c_str());
+}
+
 // The processes of process group `group` still running (not those ended and waiting to be reaped), from /proc.
 std::vector<std::string> running_in_group(pid_t group) {
   std::vector<std::string> found;
