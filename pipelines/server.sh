@@ -207,7 +207,10 @@ if [ "${LECTURER_OUT:-rtp}" = whep ] || [ "${LECTURER_OUT:-rtp}" = whep-views ];
   sound=""
   dsp=""
   if [ -n "${CLASSROOM_SOUND:-}" ] && [ -n "${CLASSROOM_SPEAKER:-}" ] && [ "${ECHO_CANCEL:-1}" != 0 ]; then
-    dsp="audio/x-raw,format=S16LE,rate=48000,channels=1 ! webrtcdsp probe=classroom_echo ! audioconvert !"
+    # (delay-agnostic, extended-filter: a room's loudspeaker-to-microphone delay is not known beforehand;
+    # vclassroom-measure-echo: 6.4 dB less echo with them, 2.6 dB without, docs/lecturer.md.)
+    dsp="audio/x-raw,format=S16LE,rate=48000,channels=1 ! webrtcdsp probe=classroom_echo delay-agnostic=true \
+      extended-filter=true ! audioconvert !"
   fi
   [ -n "${CLASSROOM_SOUND:-}" ] &&
     sound="$CLASSROOM_SOUND ! audioconvert ! audioresample ! $dsp opusenc inband-fec=true packet-loss-percentage=5 ! queue ! views.audio"
