@@ -395,6 +395,36 @@ TEST(WebrtcPlayoutDelay, APayloaderWritesItOnEveryPacketUnderTheNegotiatedId) {
 // A lecturer's send queue: frames pass while there is room; once one is dropped the rest of its GOP is
 // dropped too (the decoder never gets a frame whose reference is gone), a key frame is asked for once, and
 // sending resumes with the next key frame that finds room.
+// The sound pads of both WHEP sinks: one `audio` (the classroom's sound in) and one `voice` (the lecturers'
+// voices out) each, released and requested again, and left to the element's own disposal, which releases
+// them after its children are gone (that once crashed: the release touched the disposed mixer).
+TEST(WhepSound, TheSoundPadsAreRequestedOnceReleasedAndDisposedWithTheElement) {
+  for (const char* factory : {"whepserversink", "whepviewsink"}) {
+    GstElement* sink = gst_element_factory_make(factory, nullptr);
+    if (!sink) GTEST_SKIP() << "the webrtc plugin is not built (no webrtcbin)";
+    for (int round = 0; round < 2; ++round) {
+      GstPad* audio = gst_element_request_pad_simple(sink, "audio");
+      GstPad* voice = gst_element_request_pad_simple(sink, "voice");
+      ASSERT_NE(audio, nullptr) << factory;
+      ASSERT_NE(voice, nullptr) << factory;
+      EXPECT_EQ(GST_PAD_DIRECTION(audio), GST_PAD_SINK);
+      EXPECT_EQ(GST_PAD_DIRECTION(voice), GST_PAD_SRC);
+      EXPECT_EQ(gst_element_request_pad_simple(sink, "audio"), nullptr) << "a second audio pad";
+      EXPECT_EQ(gst_element_request_pad_simple(sink, "voice"), nullptr) << "a second voice pad";
+      GstCaps* caps = gst_pad_query_caps(voice, nullptr);
+      EXPECT_TRUE(gst_caps_is_fixed(caps)) << factory << ": " << GST_PTR_FORMAT << caps;
+      gst_caps_unref(caps);
+      if (round == 0) {
+        gst_element_release_request_pad(sink, audio);
+        gst_element_release_request_pad(sink, voice);
+      }
+      gst_object_unref(audio);
+      gst_object_unref(voice);
+    }
+    gst_object_unref(sink);  // the second round's pads go with it
+  }
+}
+
 TEST(WebrtcLossRate, HighLossCutsTheRateLowLossGrowsItBackWithinTheBounds) {
   LossBasedRate rate(LossRateParams{4000, 250});
   EXPECT_EQ(rate.kbit(), 4000);

@@ -1,5 +1,7 @@
 #include "whep_voice.h"
 
+#include <utility>
+
 namespace vclassroom {
 
 namespace {
@@ -7,10 +9,21 @@ namespace {
 // What the classroom's loudspeaker gets: a voice needs no more, and one format keeps the mix cheap.
 constexpr const char* kVoiceCaps = "audio/x-raw,format=S16LE,rate=48000,channels=1,layout=interleaved";
 
+// A reference of the mixer's own (beside the bin's): the pointer stays valid whatever the bin does.
 GstElement* make(const char* factory) {
   GstElement* e = gst_element_factory_make(factory, nullptr);
   if (!e) GST_WARNING("no element %s: the lecturers' voices need it (gstreamer1.0-plugins-base/good)", factory);
-  return e;
+  return e ? GST_ELEMENT(gst_object_ref_sink(e)) : nullptr;
+}
+
+// Takes `e` out of `owner` where it still is in it, and drops the mixer's reference.
+void take_out_of(GstBin* owner, GstElement* e) {
+  if (!e) return;
+  if (GST_OBJECT_PARENT(e) == GST_OBJECT_CAST(owner)) {
+    gst_element_set_state(e, GST_STATE_NULL);
+    gst_bin_remove(owner, e);
+  }
+  gst_object_unref(e);
 }
 
 }  // namespace
@@ -19,7 +32,11 @@ WhepVoiceMixer::WhepVoiceMixer(GstBin* owner, GstPadTemplate* templ) : owner_(ow
   silence_ = make("audiotestsrc");
   mixer_ = make("audiomixer");
   caps_ = make("capsfilter");
-  if (!silence_ || !mixer_ || !caps_) return;
+  if (!silence_ || !mixer_ || !caps_) {
+    for (GstElement** e : {&silence_, &mixer_, &caps_})
+      if (*e) gst_object_unref(std::exchange(*e, nullptr));
+    return;
+  }
   g_object_set(silence_, "wave", 4 /* silence */, "is-live", TRUE, "samplesperbuffer", 960, nullptr);
   GstCaps* caps = gst_caps_from_string(kVoiceCaps);
   g_object_set(caps_, "caps", caps, nullptr);
@@ -43,12 +60,15 @@ void WhepVoiceMixer::take_out() {
   for (auto& v : voices) remove_voice(v.second);
   if (pad_) gst_element_remove_pad(GST_ELEMENT(owner_), pad_);
   pad_ = nullptr;
-  for (GstElement*& e : {std::ref(silence_), std::ref(mixer_), std::ref(caps_)}) {
-    if (!e) continue;
-    gst_element_set_state(e, GST_STATE_NULL);
-    gst_bin_remove(owner_, e);
-    e = nullptr;
-  }
+  for (GstElement** e : {&silence_, &mixer_, &caps_}) take_out_of(owner_, std::exchange(*e, nullptr));
+}
+
+WhepVoiceMixer::~WhepVoiceMixer() {
+  for (auto& v : voices_)
+    for (GstElement* e : {v.second.depay, v.second.decoder, v.second.convert, v.second.resample}) gst_object_unref(e);
+  for (auto& v : voices_) gst_object_unref(v.second.mixer_pad);
+  for (GstElement* e : {silence_, mixer_, caps_})
+    if (e) gst_object_unref(e);
 }
 
 bool WhepVoiceMixer::add(const std::string& session, GstPad* rtp_src) {
@@ -97,11 +117,9 @@ void WhepVoiceMixer::remove(const std::string& session) {
 }
 
 void WhepVoiceMixer::remove_voice(const Voice& v) {
-  for (GstElement* e : {v.depay, v.decoder, v.convert, v.resample}) {
-    gst_element_set_state(e, GST_STATE_NULL);
-    gst_bin_remove(owner_, e);
-  }
-  gst_element_release_request_pad(mixer_, v.mixer_pad);
+  for (GstElement* e : {v.depay, v.decoder, v.convert, v.resample}) take_out_of(owner_, e);
+  if (mixer_ && GST_OBJECT_PARENT(v.mixer_pad) == GST_OBJECT_CAST(mixer_))
+    gst_element_release_request_pad(mixer_, v.mixer_pad);
   gst_object_unref(v.mixer_pad);
 }
 

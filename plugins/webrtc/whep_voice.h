@@ -17,9 +17,10 @@ class WhepVoiceMixer {
  public:
   // Adds the mixer to `owner` and the ghost src pad `voice` (from `templ`) to it.
   WhepVoiceMixer(GstBin* owner, GstPadTemplate* templ);
-  // Leaves the elements to the owner (which disposes of them with itself).
-  ~WhepVoiceMixer() = default;
-  // Takes the mixer, its pad and the sessions' decoders out of the owner (the pad was released).
+  // Drops the mixer's own references (the owner disposes of the elements with itself).
+  ~WhepVoiceMixer();
+  // Takes the mixer, its pad and the sessions' decoders out of the owner (the pad was released); those the
+  // owner already let go of (its own disposal releases the pad after its children) are left alone.
   void take_out();
   WhepVoiceMixer(const WhepVoiceMixer&) = delete;
   WhepVoiceMixer& operator=(const WhepVoiceMixer&) = delete;
