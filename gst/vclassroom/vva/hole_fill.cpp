@@ -245,6 +245,7 @@ struct PyramidState {
   std::vector<float> weight_x1, weight_y1;   // and the second one's bilinear weight
   cv::Mat source_mark;                       // the sources marked (zero between calls)
   cv::Mat ray_weight;                        // per hole pixel: the ray ends' summed weight
+  cv::Mat fill_depth;                        // per filled pixel: the depth of the background it was filled from
 };
 
 // The cells of level `l` (kBaseLevel <= l <= kTileLevels) inside tile (tx, ty).
@@ -378,7 +379,7 @@ void base_cells_along(int n_px, int n_cells, std::vector<int>& first, std::vecto
 // Every hole pixel: the pyramid's value there (the bilinear interpolation of the four nearest base cells
 // that hold a value), with the ray ends' mean that `color` holds there, the pyramid counting as one more ray
 // end kPyramidDistance px away.
-void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* filled_depth) {
+void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask) {
   const Level& base = st.levels[kBaseLevel];
   base_cells_along(color.cols, base.w, st.cell_x0, st.weight_x1);
   base_cells_along(color.rows, base.h, st.cell_y0, st.weight_y1);
@@ -386,7 +387,7 @@ void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* fi
     const int y = run.y;
     uint8_t* c = color.ptr<uint8_t>(y);
     uint8_t* m = mask.ptr<uint8_t>(y);
-    uint16_t* fd = filled_depth ? filled_depth->ptr<uint16_t>(y) : nullptr;
+    uint16_t* fd = st.fill_depth.ptr<uint16_t>(y);
     const float* ray_w = st.ray_weight.ptr<float>(y);
     const int cy = st.cell_y0[size_t(y)], cy1 = std::min(cy + 1, base.h - 1);
     const float wy1 = st.weight_y1[size_t(y)], wy0 = 1.0f - wy1;
@@ -408,9 +409,45 @@ void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* fi
       c[3 * x + 1] = uint8_t((ray_w[x] * c[3 * x + 1] + wp * g) * inv + 0.5f);
       c[3 * x + 2] = uint8_t((ray_w[x] * c[3 * x + 2] + wp * b) * inv + 0.5f);
       m[x] = 255;
-      if (fd) fd[x] = uint16_t(std::min(z / wsum + 0.5f, 65535.f));
+      fd[x] = uint16_t(std::min(z / wsum + 0.5f, 65535.f));
     }
   }
+}
+
+// The pyramid's smoothing: each filled pixel becomes the mean of the (2r+1)^2 box around it, over the pixels
+// there that are filled too or lie behind it (within `keep` of the depth it was filled from, or farther): the
+// object that caused the hole is never blurred into it. The new colours are kept aside until all are made.
+void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const cv::Mat& mask, float keep, int r) {
+  if (r <= 0) return;
+  const int W = color.cols, H = color.rows;
+  struct Smoothed {
+    int y, x;
+    uint8_t rgb[3];
+  };
+  static thread_local std::vector<Smoothed> out;
+  out.clear();
+  for (const HoleRun& run : st.runs) {
+    const int y = run.y, y0 = std::max(0, y - r), y1 = std::min(H - 1, y + r);
+    for (int x = run.a; x <= run.b; ++x) {
+      if (!mask.ptr<uint8_t>(y)[x]) continue;
+      const float zlo = keep * float(st.fill_depth.ptr<uint16_t>(y)[x]);
+      const int x0 = std::max(0, x - r), x1 = std::min(W - 1, x + r);
+      int sum[3] = {0, 0, 0}, n = 0;
+      for (int v = y0; v <= y1; ++v) {
+        const uint8_t* c = color.ptr<uint8_t>(v);
+        const uint16_t* d = depth.ptr<uint16_t>(v);
+        const uint8_t* m = mask.ptr<uint8_t>(v);
+        for (int u = x0; u <= x1; ++u) {
+          if (d[u] ? float(d[u]) < zlo : !m[u]) continue;  // in front, or a hole left unfilled
+          sum[0] += c[3 * u], sum[1] += c[3 * u + 1], sum[2] += c[3 * u + 2], ++n;
+        }
+      }
+      Smoothed s{y, x, {}};
+      for (int k = 0; k < 3; ++k) s.rgb[k] = uint8_t((2 * sum[k] + n) / (2 * n));  // n >= 1: the pixel itself
+      out.push_back(s);
+    }
+  }
+  for (const Smoothed& s : out) std::memcpy(color.ptr<uint8_t>(s.y) + 3 * s.x, s.rgb, 3);
 }
 
 }  // namespace
@@ -420,23 +457,27 @@ void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* fi
 // Nothing but a hole's background border is ever read, so the foreground beside a hole (nearer than the
 // hole's background by more than `background_ratio`) never reaches it, at whatever scale; and the result
 // depends on the image alone (no pose, no earlier frame), so a hole that stays put is filled alike.
-void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, cv::Mat& mask,
-                           cv::Mat* filled_depth) {
+void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
+                           cv::Mat& mask, cv::Mat* filled_depth) {
   const int W = color.cols, H = color.rows;
   static thread_local PyramidState st;
   st.tiles_x = (W + kTile - 1) / kTile, st.tiles_y = (H + kTile - 1) / kTile;
   st.hole_tile.assign(size_t(st.tiles_x) * size_t(st.tiles_y), 0);
   if (st.source_mark.size() != depth.size()) st.source_mark = cv::Mat::zeros(depth.size(), CV_8UC1);
   st.ray_weight.create(H, W, CV_32FC1);
+  st.fill_depth.create(H, W, CV_16UC1);
   st.sources.clear();
   st.runs.clear();
-  fill_along_rays_and_mark_sources(depth, float(1.0 - background_ratio), color, st.ray_weight, st.source_mark,
+  const float keep = float(1.0 - background_ratio);
+  fill_along_rays_and_mark_sources(depth, keep, color, st.ray_weight, st.source_mark,
                                    &st.sources, &st.hole_tile, &st.runs);
   for (int i : st.sources) st.source_mark.data[i] = 0;  // continuous: made by cv::Mat::zeros
   if (st.runs.empty()) return;
   mark_active_tiles(st);
   pull_down(st, push_up(st, color, depth));
-  fill_from_base(st, color, mask, filled_depth);
+  fill_from_base(st, color, mask);
+  smooth_behind(st, color, depth, mask, keep, smooth_px);
+  if (filled_depth) st.fill_depth.copyTo(*filled_depth, mask);
 }
 
 // The box is summed at each filled pixel alone (holes are a few % of a view), with the image's border
@@ -502,8 +543,8 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& para
     fill_holes_along_rays(color, depth, rays, mask, filled_depth);
     return;
   }
-  fill_holes_by_pyramid(color, depth, params.background_ratio, mask, filled_depth);
-  smooth_filled_pixels(color, mask, params.smooth_px < 0 ? kPyramidSmoothPx : params.smooth_px);
+  fill_holes_by_pyramid(color, depth, params.background_ratio, params.smooth_px < 0 ? kPyramidSmoothPx : params.smooth_px,
+                        mask, filled_depth);
 }
 
 }  // namespace vclassroom

@@ -38,10 +38,10 @@ struct HoleFillParams {
 void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
                 cv::Mat* filled_depth = nullptr);
 
-// The two methods, as fill_holes runs them by params.method: the pyramid before its smoothing; the rays
-// with their smoothing and texture.
-void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, cv::Mat& mask,
-                           cv::Mat* filled_depth);
+// The two methods, as fill_holes runs them by params.method (the pyramid's smoothing averages only what
+// lies behind each filled pixel; the rays' blurs all around it, as before issue 35).
+void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
+                           cv::Mat& mask, cv::Mat* filled_depth);
 void fill_holes_along_rays(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
                            cv::Mat* filled_depth);
 
