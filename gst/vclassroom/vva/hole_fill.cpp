@@ -73,14 +73,14 @@ struct HoleRun {
 // along its row and its column (its left, right, upper and lower neighbour across the hole) are compared:
 // those on its far side (within `keep` times the farthest of the four) are its background. Their mean,
 // weighted by 1 / distance, goes into `color` at the hole pixel and the sum of the weights into
-// `ray_weight`; and they are listed in `sources` (as y * W + x, each once: `source_mark`, CV_8UC1, zero on
+// `ray_weight` (one per hole pixel, in the order of the runs); and they are listed in `sources` (as y * W + x, each once: `source_mark`, CV_8UC1, zero on
 // entry, marks them) as the pixels the pyramid may fill from. The tiles holding holes are marked in
 // `hole_tile`, and the runs of holes in `runs`. The foreground that caused a hole ends its runs on the near side and never counts; nor does a surface
 // farther back that does not border the hole (a far wall seen beside the object behind which the hole
 // opened: a "farthest in the neighbourhood" rule took its colour, -0.5 dB on Art). Rows are scanned four
 // depths at a time; a hole's column ends come from a per-column state (the known row above and below the
 // column's current run of holes, found by walking down the run once), as in the rays method.
-void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat& color, cv::Mat& ray_weight,
+void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat& color, std::vector<float>* ray_weight,
                                       cv::Mat& source_mark, std::vector<int>* sources,
                                       std::vector<uint8_t>* hole_tile, std::vector<HoleRun>* runs) {
   const int W = depth.cols, H = depth.rows, tiles_x = (W + kTile - 1) / kTile;
@@ -146,7 +146,7 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
         if (z_right && float(z_right) >= zlo) mark(y, b + 1), take(b + 1 - h, color.ptr<uint8_t>(y) + 3 * (b + 1));
         if (z_up && float(z_up) >= zlo) mark(above[h], h), take(y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h);
         if (z_down && float(z_down) >= zlo) mark(below[h], h), take(below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h);
-        ray_weight.ptr<float>(y)[h] = wsum;
+        ray_weight->push_back(wsum);
         if (wsum > 0) {
           uint8_t* c = color.ptr<uint8_t>(y) + 3 * h;
           const float iw = 1.0f / wsum;
@@ -244,8 +244,10 @@ struct PyramidState {
   std::vector<int> cell_x0, cell_y0;         // per column / row: the first of the two base cells it lies between
   std::vector<float> weight_x1, weight_y1;   // and the second one's bilinear weight
   cv::Mat source_mark;                       // the sources marked (zero between calls)
-  cv::Mat ray_weight;                        // per hole pixel: the ray ends' summed weight
-  cv::Mat fill_depth;                        // per filled pixel: the depth of the background it was filled from
+  // Per hole pixel, in the order of the runs (the passes over the holes follow it, so these are read and
+  // written in order rather than scattered over image-sized buffers):
+  std::vector<float> ray_weight;             // the ray ends' summed weight
+  std::vector<uint16_t> fill_depth;          // the depth of the background it was filled from (0: not filled)
 };
 
 // The cells of level `l` (kBaseLevel <= l <= kTileLevels) inside tile (tx, ty).
@@ -379,21 +381,23 @@ void base_cells_along(int n_px, int n_cells, std::vector<int>& first, std::vecto
 // Every hole pixel: the pyramid's value there (the bilinear interpolation of the four nearest base cells
 // that hold a value), with the ray ends' mean that `color` holds there, the pyramid counting as one more ray
 // end kPyramidDistance px away.
-void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask) {
+void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* filled_depth) {
   const Level& base = st.levels[kBaseLevel];
   base_cells_along(color.cols, base.w, st.cell_x0, st.weight_x1);
   base_cells_along(color.rows, base.h, st.cell_y0, st.weight_y1);
+  st.fill_depth.resize(st.ray_weight.size());
+  const float* ray_w = st.ray_weight.data();
+  uint16_t* fd = st.fill_depth.data();
   for (const HoleRun& run : st.runs) {
     const int y = run.y;
     uint8_t* c = color.ptr<uint8_t>(y);
     uint8_t* m = mask.ptr<uint8_t>(y);
-    uint16_t* fd = st.fill_depth.ptr<uint16_t>(y);
-    const float* ray_w = st.ray_weight.ptr<float>(y);
+    uint16_t* out_depth = filled_depth ? filled_depth->ptr<uint16_t>(y) : nullptr;
     const int cy = st.cell_y0[size_t(y)], cy1 = std::min(cy + 1, base.h - 1);
     const float wy1 = st.weight_y1[size_t(y)], wy0 = 1.0f - wy1;
     const Cell* r0 = base.row(cy);
     const Cell* r1 = base.row(cy1);
-    for (int x = run.a; x <= run.b; ++x) {
+    for (int x = run.a; x <= run.b; ++x, ++ray_w, ++fd) {
       const int cx = st.cell_x0[size_t(x)], cx1 = std::min(cx + 1, base.w - 1);
       const float wx1 = st.weight_x1[size_t(x)], wx0 = 1.0f - wx1;
       const Cell* p[4] = {r0 + cx, r0 + cx1, r1 + cx, r1 + cx1};
@@ -403,13 +407,15 @@ void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask) {
         const float wi = p[i]->z > 0 ? w[i] : 0.0f;
         r += wi * p[i]->r, g += wi * p[i]->g, b += wi * p[i]->b, z += wi * p[i]->z, wsum += wi;
       }
+      *fd = 0;
       if (wsum <= 0) continue;  // nothing known anywhere near
-      const float wp = kPyramidWeight / wsum, inv = 1.0f / (ray_w[x] + kPyramidWeight);
-      c[3 * x] = uint8_t((ray_w[x] * c[3 * x] + wp * r) * inv + 0.5f);
-      c[3 * x + 1] = uint8_t((ray_w[x] * c[3 * x + 1] + wp * g) * inv + 0.5f);
-      c[3 * x + 2] = uint8_t((ray_w[x] * c[3 * x + 2] + wp * b) * inv + 0.5f);
+      const float wp = kPyramidWeight / wsum, inv = 1.0f / (*ray_w + kPyramidWeight);
+      c[3 * x] = uint8_t((*ray_w * c[3 * x] + wp * r) * inv + 0.5f);
+      c[3 * x + 1] = uint8_t((*ray_w * c[3 * x + 1] + wp * g) * inv + 0.5f);
+      c[3 * x + 2] = uint8_t((*ray_w * c[3 * x + 2] + wp * b) * inv + 0.5f);
       m[x] = 255;
-      fd[x] = uint16_t(std::min(z / wsum + 0.5f, 65535.f));
+      *fd = uint16_t(std::min(z / wsum + 0.5f, 65535.f));
+      if (out_depth) out_depth[x] = *fd;
     }
   }
 }
@@ -426,11 +432,12 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
   };
   static thread_local std::vector<Smoothed> out;
   out.clear();
+  const uint16_t* fd = st.fill_depth.data();
   for (const HoleRun& run : st.runs) {
     const int y = run.y, y0 = std::max(0, y - r), y1 = std::min(H - 1, y + r);
-    for (int x = run.a; x <= run.b; ++x) {
-      if (!mask.ptr<uint8_t>(y)[x]) continue;
-      const float zlo = keep * float(st.fill_depth.ptr<uint16_t>(y)[x]);
+    for (int x = run.a; x <= run.b; ++x, ++fd) {
+      if (!*fd) continue;  // not filled
+      const float zlo = keep * float(*fd);
       const int x0 = std::max(0, x - r), x1 = std::min(W - 1, x + r);
       int sum[3] = {0, 0, 0}, n = 0;
       for (int v = y0; v <= y1; ++v) {
@@ -464,20 +471,18 @@ void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double backgrou
   st.tiles_x = (W + kTile - 1) / kTile, st.tiles_y = (H + kTile - 1) / kTile;
   st.hole_tile.assign(size_t(st.tiles_x) * size_t(st.tiles_y), 0);
   if (st.source_mark.size() != depth.size()) st.source_mark = cv::Mat::zeros(depth.size(), CV_8UC1);
-  st.ray_weight.create(H, W, CV_32FC1);
-  st.fill_depth.create(H, W, CV_16UC1);
+  st.ray_weight.clear();
   st.sources.clear();
   st.runs.clear();
   const float keep = float(1.0 - background_ratio);
-  fill_along_rays_and_mark_sources(depth, keep, color, st.ray_weight, st.source_mark,
+  fill_along_rays_and_mark_sources(depth, keep, color, &st.ray_weight, st.source_mark,
                                    &st.sources, &st.hole_tile, &st.runs);
   for (int i : st.sources) st.source_mark.data[i] = 0;  // continuous: made by cv::Mat::zeros
   if (st.runs.empty()) return;
   mark_active_tiles(st);
   pull_down(st, push_up(st, color, depth));
-  fill_from_base(st, color, mask);
+  fill_from_base(st, color, mask, filled_depth);
   smooth_behind(st, color, depth, mask, keep, smooth_px);
-  if (filled_depth) st.fill_depth.copyTo(*filled_depth, mask);
 }
 
 // The box is summed at each filled pixel alone (holes are a few % of a view), with the image's border
