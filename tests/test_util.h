@@ -40,7 +40,9 @@ struct HoleBesideAnObject {
   }
   // Whether `c` could be the wall's (red 60..102, green 90..161, blue 140, give or take 4 levels of
   // rounding), and not the object's (250, 250, 40) or a mix with it.
-  static bool wall_like(const cv::Vec3b& c) { return c[0] >= 56 && c[0] <= 106 && c[1] >= 86 && c[1] <= 165 && c[2] >= 136 && c[2] <= 144; }
+  static bool wall_like(const cv::Vec3b& c) {
+    return c[0] >= 56 && c[0] <= 106 && c[1] >= 86 && c[1] <= 165 && c[2] >= 136 && c[2] <= 144;
+  }
 };
 
 // A fresh empty folder, removed when the object goes.

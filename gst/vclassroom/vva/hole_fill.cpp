@@ -73,16 +73,18 @@ struct HoleRun {
 // along its row and its column (its left, right, upper and lower neighbour across the hole) are compared:
 // those on its far side (within `keep` times the farthest of the four) are its background. Their mean,
 // weighted by 1 / distance, goes into `color` at the hole pixel and the sum of the weights into
-// `ray_weight` (one per hole pixel, in the order of the runs); and they are listed in `sources` (as y * W + x, each once: `source_mark`, CV_8UC1, zero on
-// entry, marks them) as the pixels the pyramid may fill from. The tiles holding holes are marked in
-// `hole_tile`, and the runs of holes in `runs`. The foreground that caused a hole ends its runs on the near side and never counts; nor does a surface
+// `ray_weight` (one per hole pixel, in the order of the runs); and they are listed in `sources` (as
+// y * W + x, each once: `source_mark`, CV_8UC1, zero on entry, marks them) as the pixels the pyramid may
+// fill from. The tiles holding holes are marked in `hole_tile`, and the runs of holes listed in `runs`.
+// The foreground that caused a hole ends its runs on the near side and never counts; nor does a surface
 // farther back that does not border the hole (a far wall seen beside the object behind which the hole
-// opened: a "farthest in the neighbourhood" rule took its colour, -0.5 dB on Art). Rows are scanned four
-// depths at a time; a hole's column ends come from a per-column state (the known row above and below the
+// opened: a "farthest in the neighbourhood" rule took its colour, -0.5 dB on Art). Rows are skipped 16 and
+// 4 depths at a time; a hole's column ends come from a per-column state (the known row above and below the
 // column's current run of holes, found by walking down the run once), as in the rays method.
-void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat& color, std::vector<float>* ray_weight,
-                                      cv::Mat& source_mark, std::vector<int>* sources,
-                                      std::vector<uint8_t>* hole_tile, std::vector<HoleRun>* runs) {
+void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat& color,
+                                      std::vector<float>* ray_weight, cv::Mat& source_mark,
+                                      std::vector<int>* sources, std::vector<uint8_t>* hole_tile,
+                                      std::vector<HoleRun>* runs) {
   const int W = depth.cols, H = depth.rows, tiles_x = (W + kTile - 1) / kTile;
   static thread_local std::vector<int> above, below;
   above.assign(size_t(W), -1), below.assign(size_t(W), -1);
@@ -286,7 +288,8 @@ bool push_whole_level(PyramidState& st, int l) {
   for (int Y = 0; Y < up.h; ++Y)
     for (int X = 0; X < up.w; ++X) {
       const int xb = std::min(2 * X + 1, down.w - 1), yb = std::min(2 * Y + 1, down.h - 1);
-      const bool any = child_known(2 * X, 2 * Y) || child_known(xb, 2 * Y) || child_known(2 * X, yb) || child_known(xb, yb);
+      const bool any =
+          child_known(2 * X, 2 * Y) || child_known(xb, 2 * Y) || child_known(2 * X, yb) || child_known(xb, yb);
       need[size_t(Y) * up.w + X] = any;
       empty |= any && up.row(Y)[X].z <= 0;
     }
@@ -548,8 +551,8 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& para
     fill_holes_along_rays(color, depth, rays, mask, filled_depth);
     return;
   }
-  fill_holes_by_pyramid(color, depth, params.background_ratio, params.smooth_px < 0 ? kPyramidSmoothPx : params.smooth_px,
-                        mask, filled_depth);
+  const int smooth_px = params.smooth_px < 0 ? kPyramidSmoothPx : params.smooth_px;
+  fill_holes_by_pyramid(color, depth, params.background_ratio, smooth_px, mask, filled_depth);
 }
 
 }  // namespace vclassroom
