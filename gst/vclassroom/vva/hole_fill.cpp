@@ -26,14 +26,15 @@ constexpr int kBaseLevel = 2;
 // method) and the pyramid's value, which counts as much as one ray end kPyramidDistance px away: next to the
 // background the nearest pixels decide (a structure that meets the hole goes on into it for a few pixels;
 // the 1-px smoothing after the fill keeps the edge soft), farther in the smooth 2-D surface does (no streak
-// drawn from one row or column across a wide hole). 4 px was chosen among 2, 4 and 10 on Middlebury Art and
-// Aloe; the three are within 0.1 dB at every offset (docs/vva.md).
+// drawn from one row or column across a wide hole). 4 px was chosen among 1, 2, 4 and 10 on Middlebury Art
+// and Aloe: within 0.15 dB of each other at every offset, 10 a little higher at the small offsets, but the
+// nearer the pyramid counts the less a wide hole looks like its border's rows.
 constexpr float kPyramidDistance = 4.0f;
 constexpr float kPyramidWeight = 1.0f / kPyramidDistance;
 
 // The smoothing after each method (HoleFillParams::smooth_px -1): the pyramid's fill is smooth already, so
-// 1 px (on Middlebury 1 px gave +0.1 to +0.2 dB over 2 at small offsets, the same at wide ones, and Teddy
-// +0.2); the rays' 2 px, as before issue 35.
+// 1 px (against 2: Art at offset 1 +0.03 dB, the wider offsets within 0.01, Teddy 2 -> 6 +0.12; 0 px lost
+// 0.02-0.04 everywhere); the rays' 2 px, as before issue 35.
 constexpr int kPyramidSmoothPx = 1, kRaysSmoothPx = 2;
 
 // A pyramid cell: the mean colour and depth of the sources under it (or pulled from above); z == 0: none.
