@@ -1,6 +1,7 @@
 // Helpers shared by the tests: temporary folders, the shared data, pipelines.
 #pragma once
 
+#include <algorithm>
 #include <optional>
 #include <string>
 #include <vector>
@@ -13,6 +14,36 @@
 #include <gst/vclassroom/core/rig.h>
 
 namespace vctest {
+
+// Issue 35's scene for the hole filling: a wall (depth 3000 mm, colours that vary with x and y, blue 140
+// everywhere) with a bright yellow object in front (1200 mm), and the hole a view opened beside it: 40 px wide
+// to the object's right and 6 rows under it, so that the object ends runs of holes both along rows and along
+// columns. `hole` is 255 there, where `depth` is 0 and `color` black. `width` >= 128 (beyond 128 px the wall
+// goes on in the colour of its column 127: viewfuse fades a fill that lies farther than 2 % of the width from
+// anything seen, and a wider view keeps this hole clear of that).
+struct HoleBesideAnObject {
+  static constexpr int kH = 72;
+  const int kW;
+  cv::Mat color = cv::Mat(kH, kW, CV_8UC3), depth = cv::Mat(kH, kW, CV_16UC1, cv::Scalar(3000)),
+          hole = cv::Mat(kH, kW, CV_8UC1, cv::Scalar(0));
+  explicit HoleBesideAnObject(int width = 128) : kW(width) {
+    for (int y = 0; y < kH; ++y)
+      for (int x = 0; x < kW; ++x)
+        color.at<cv::Vec3b>(y, x) = cv::Vec3b(uint8_t(60 + std::min(x, 127) / 3), uint8_t(90 + y), 140);
+    const cv::Rect object(30, 14, 24, 34);
+    color(object).setTo(cv::Scalar(250, 250, 40));
+    depth(object).setTo(cv::Scalar(1200));
+    hole(cv::Rect(54, 10, 40, 50)).setTo(255);
+    hole(cv::Rect(30, 48, 24, 6)).setTo(255);
+    depth.setTo(cv::Scalar(0), hole);
+    color.setTo(cv::Scalar(0, 0, 0), hole);
+  }
+  // Whether `c` could be the wall's (red 60..102, green 90..161, blue 140, give or take 4 levels of
+  // rounding), and not the object's (250, 250, 40) or a mix with it.
+  static bool wall_like(const cv::Vec3b& c) {
+    return c[0] >= 56 && c[0] <= 106 && c[1] >= 86 && c[1] <= 165 && c[2] >= 136 && c[2] <= 144;
+  }
+};
 
 // A fresh empty folder, removed when the object goes.
 class TempDir {

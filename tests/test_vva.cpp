@@ -25,6 +25,7 @@
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/fuse_inputs.h>
+#include <gst/vclassroom/vva/hole_fill.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/vva/prepared_frame.h>
 #include <gst/vclassroom/vva/view_fuse.h>
@@ -586,6 +587,53 @@ TEST(ViewFuse, ATexturedFillCarriesTheBackgroundsGrainIntoTheHole) {
   EXPECT_GT(grain, 0.4 * wall_sd[0]) << "the textured fill carries the stripes";
   EXPECT_LT(std::abs(smooth_red), 10);
   EXPECT_LT(std::abs(red), 10) << "the wall's grey, not the foreground's red";
+}
+
+// Issue 35: a hole takes the colour of the side that lies behind, never of the object that caused it, along
+// rows and columns, however wide it is, smoothing included. (The fill before issue 35, fill-method=rays, fails
+// this: its blur reaches over the object's edge into the hole's first two pixels.)
+TEST(HoleFill, AHoleBesideABrightObjectTakesTheWallsColourNotTheObjects) {
+  const vctest::HoleBesideAnObject scene;
+  cv::Mat color = scene.color.clone(), mask = cv::Mat::zeros(color.size(), CV_8UC1), filled_depth = scene.depth.clone();
+  fill_holes(color, scene.depth, HoleFillParams(), mask, &filled_depth);
+  {
+    int checked = 0;
+    for (int y = 0; y < color.rows; ++y)
+      for (int x = 0; x < color.cols; ++x) {
+        if (!scene.hole.at<uint8_t>(y, x)) {
+          EXPECT_EQ(mask.at<uint8_t>(y, x), 0);
+          continue;
+        }
+        ASSERT_EQ(mask.at<uint8_t>(y, x), 255) << "hole pixel " << x << "," << y << " not filled";
+        const cv::Vec3b c = color.at<cv::Vec3b>(y, x);
+        EXPECT_TRUE(scene.wall_like(c)) << "at " << x << "," << y << ": " << c << ", not the wall's colour";
+        EXPECT_GE(filled_depth.at<uint16_t>(y, x), 2900) << "at " << x << "," << y << ": not the wall's depth";
+        ++checked;
+      }
+    EXPECT_EQ(checked, cv::countNonZero(scene.hole));
+  }
+}
+
+// The fill depends on the image alone: what it keeps between calls (the pyramid's buffers) leaves no trace,
+// so a hole that stays put is filled alike frame after frame, whatever was filled in between.
+TEST(HoleFill, TheSameViewIsFilledAlikeWhateverCameBefore) {
+  const vctest::HoleBesideAnObject scene;
+  auto fill = [](const cv::Mat& color_in, const cv::Mat& depth) {
+    cv::Mat color = color_in.clone(), mask = cv::Mat::zeros(color.size(), CV_8UC1);
+    fill_holes(color, depth, HoleFillParams(), mask);
+    return color;
+  };
+  const cv::Mat first = fill(scene.color, scene.depth);
+  // Other views in between: other holes, another size.
+  cv::Mat other_depth = scene.depth.clone();
+  other_depth(cv::Rect(0, 0, 20, 72)).setTo(0);
+  fill(scene.color, other_depth);
+  const vctest::HoleBesideAnObject big_scene;
+  cv::Mat big_color, big_depth;
+  cv::resize(big_scene.color, big_color, cv::Size(), 2, 2, cv::INTER_NEAREST);
+  cv::resize(big_scene.depth, big_depth, cv::Size(), 2, 2, cv::INTER_NEAREST);
+  fill(big_color, big_depth);
+  EXPECT_TRUE(vctest::same_image(first, fill(scene.color, scene.depth)));
 }
 
 TEST(LearnerSeg, IdsStayStableThroughMotionOcclusionAndReturn) {

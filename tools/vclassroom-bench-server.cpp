@@ -176,11 +176,55 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
               cams[0].calib.width, cams[0].calib.height, fused.color.cols, fused.color.rows);
 }
 
+// The hole filling alone (issue 35), both methods on the same fused views, alternating frame by frame so
+// that the machine's drift hits both alike: each frame's cameras are segmented and warped (not timed), fused
+// without the fill, and then the fill of each method is timed on a copy of that view (thread CPU time; the
+// copy not counted). With `memory`, the room behind the learners is drawn first, as server.sh runs it.
+void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& virt_at_frame, int frames,
+               bool memory, const WarpParams& wp) {
+  FuseParams unfilled;
+  unfilled.fill_holes = false;
+  FusedView fused;
+  cv::Mat color, mask;
+  const HoleFillMethod methods[2] = {HoleFillMethod::Pyramid, HoleFillMethod::Rays};
+  double fill_ms[2] = {0, 0}, holes = 0;
+  const int warm_up = 3;
+  for (int f = 0; f < warm_up + frames; ++f) {
+    const CameraCalib virt = virt_at_frame(f);
+    std::vector<const WarpedView*> views;
+    for (Camera& c : cams) {
+      const size_t k = size_t(f) % c.color.size();
+      c.seg.segment(c.color[k], c.depth[k], &c.label);
+      WarpSource src{c.color[k], c.depth[k], c.label, c.prior};
+      if (memory) c.memory.apply(&src);
+      c.warper.warp(c.calib, src, virt, wp, &c.warped);
+      views.push_back(&c.warped);
+    }
+    fuse_views(views, unfilled, &fused);
+    if (f >= warm_up) holes += fused.unseen_share;
+    for (int i = 0; i < 2; ++i) {
+      const int m = (f % 2) ? 1 - i : i;  // ABBA: each method first every other frame
+      fused.color.copyTo(color);
+      mask.create(color.size(), CV_8UC1);
+      mask.setTo(0);
+      HoleFillParams p = hole_fill_params(FuseParams());
+      p.method = methods[m];
+      const double t0 = thread_cpu_ms();
+      fill_holes(color, fused.depth, p, mask);
+      if (f >= warm_up) fill_ms[m] += thread_cpu_ms() - t0;
+    }
+  }
+  std::printf("hole fill alone, 960x540 view, %d frames, holes %.2f %% of the view%s: pyramid (default) %.3f ms, "
+              "rays (before issue 35) %.3f ms CPU per view frame\n",
+              frames, 100 * holes / frames, memory ? " (room behind the learners drawn)" : "", fill_ms[0] / frames,
+              fill_ms[1] / frames);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int frames = 60, threads = 2, memory = -1, views = 0;  // memory -1: not given
-  gboolean no_edge_to_near = FALSE, no_model = FALSE;
+  gboolean no_edge_to_near = FALSE, no_model = FALSE, fill_only = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
       {"threads", 0, 0, G_OPTION_ARG_INT, &threads, "threads sharing the cameras (default 2: this machine's cores)", "T"},
@@ -195,6 +239,10 @@ int main(int argc, char** argv) {
        "once per frame, as whepviewsink does), ending with the CPU time per view frame; the background memory "
        "as --memory, 8 when --memory is not given (default 0: the stages as above)",
        "N"},
+      {"fill-only", 0, 0, G_OPTION_ARG_NONE, &fill_only,
+       "only time the hole filling of viewfuse, its two methods (fill-method pyramid and rays) alternating on the "
+       "same fused views, with --memory as given",
+       nullptr},
       {"memory", 0, 0, G_OPTION_ARG_INT, &memory,
        "also time viewwarp's background memory of N frames, seeded with the empty room, and the room behind the "
        "learners it draws (default 0: off)",
@@ -258,6 +306,11 @@ int main(int argc, char** argv) {
       return virtual_camera(scale_camera(ref, w, h), p.cam_to_rig(), NAN);
     });
   };
+  if (fill_only) {
+    std::vector<Camera> cams = make_cams({0, 1, 2});
+    time_fill(cams, virt_at(960, 540), frames, memory > 0, warp);
+    return 0;
+  }
   if (views > 0) {
     std::vector<Camera> cams = make_cams({0, 1, 2});
     // View v: the walk above, its start moved v slider steps right and up, so no two views share a pose.

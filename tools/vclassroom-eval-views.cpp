@@ -46,6 +46,8 @@ struct Options {
   // default as pipelines/server.sh runs it.
   int memory = 8;
   double fill_texture = 0;  // viewfuse fill-texture
+  HoleFillMethod fill_method = FuseParams().fill_method;  // viewfuse fill-method
+  int fill_smooth_px = FuseParams().fill_smooth_px;
   std::string write_priors;  // folder: write the empty room's depth per camera and exit
   std::string model;         // V-DA model folder: the full system runs V-DA on the sensor depth
   // --dataset: leave-one-out on any dataset folder of the project's format.
@@ -61,6 +63,8 @@ struct Options {
 FuseParams fuse_params(const Options& opt) {
   FuseParams p;
   p.fill_texture = opt.fill_texture;
+  p.fill_method = opt.fill_method;
+  p.fill_smooth_px = opt.fill_smooth_px;
   return p;
 }
 
@@ -74,6 +78,27 @@ struct Stats {
   }
   double max() const { return v.empty() ? NAN : *std::max_element(v.begin(), v.end()); }
   double min() const { return v.empty() ? NAN : *std::min_element(v.begin(), v.end()); }
+};
+
+// What the hole filling made, scored alone: PSNR over the filled pixels inside `roi` (pooled over the
+// frames: their squared errors summed) and their share of the pixels scored.
+struct HoleScore {
+  double se = 0, values = 0, pixels = 0;
+  void add(const cv::Mat& synth, const cv::Mat& real, const cv::Mat& filled, const cv::Rect& roi) {
+    const cv::Mat m = filled(roi);
+    const int n = cv::countNonZero(m);
+    pixels += double(roi.area());
+    if (n == 0) return;
+    se += cv::norm(synth(roi), real(roi), cv::NORM_L2SQR, m);
+    values += 3.0 * n;
+  }
+  double psnr() const { return values == 0 ? NAN : se == 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 * values / se); }
+  double share() const { return pixels == 0 ? 0 : values / 3.0 / pixels; }
+  std::string line() const {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "holes: PSNR %.2f dB over %.1f %% of pixels", psnr(), 100 * share());
+    return buf;
+  }
 };
 
 void write_side_by_side(const std::string& path, const cv::Mat& synth, const cv::Mat& real, const cv::Rect& roi,
@@ -103,6 +128,7 @@ std::string make_temp_dir() {
 // `out` is set.
 struct DatasetScore {
   Stats psnr, ssim;
+  HoleScore holes;
 };
 
 // A line chart of `values` (one per frame) as a PNG a reader can look at.
@@ -166,6 +192,7 @@ DatasetScore eval_dataset(const Dataset& ds, const Rig& rig, int target, const s
     const RgbdImages real = ds.load(target, f);
     score.psnr.add(psnr_rgb(fused.color, real.color, roi));
     score.ssim.add(ssim_luma(fused.color, real.color, roi));
+    score.holes.add(fused.color, real.color, fused.filled, roi);
     if (!out.empty() && (f == 0 || f + 1 == count))
       write_side_by_side(out + "/" + name + (count > 1 ? "-frame" + std::to_string(f) : std::string()) + ".png",
                          fused.color, real.color, roi);
@@ -201,6 +228,7 @@ void eval_any_dataset(const Options& opt) {
                    opt.out, name);
   if (s.psnr.v.empty()) throw Error(opt.dataset + ": no frames to evaluate");
   std::printf("frames %zu, PSNR min %.2f max %.2f dB\n", s.psnr.v.size(), s.psnr.min(), s.psnr.max());
+  std::printf("%s\n", s.holes.line().c_str());
   std::printf("PSNR %.2f dB SSIM %.2f\n", s.psnr.avg(), 100 * s.ssim.avg());
 }
 
@@ -227,8 +255,9 @@ void eval_middlebury(const Options& opt) {
                                           k == 2 || k == 6 ? opt.images : "", "vva-" + scene + "-view1-to-" +
                                                                                   std::to_string(k));
       const double b = best.at(scene)[k - 2];
-      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.2f\n",
-                  scene.c_str(), k - 1, s.psnr.avg(), 100 * s.ssim.avg(), b, s.psnr.avg() - b);
+      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.2f | %s\n",
+                  scene.c_str(), k - 1, s.psnr.avg(), 100 * s.ssim.avg(), b, s.psnr.avg() - b,
+                  s.holes.line().c_str());
     }
     std::string cmd = "rm -rf '" + tmp + "'";
     if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "could not remove %s\n", tmp.c_str());
@@ -253,8 +282,11 @@ void eval_teddy(const Options& opt) {
     const int crop = 64;
     const cv::Rect roi = to > from ? cv::Rect(0, 0, real.color.cols - crop, real.color.rows)
                                    : cv::Rect(crop, 0, real.color.cols - crop, real.color.rows);
-    std::printf("teddy %d -> %d: PSNR %.2f dB, SSIMx100 %.2f (%d border columns cropped)\n", from, to,
-                psnr_rgb(f.color, real.color, roi), 100 * ssim_luma(f.color, real.color, roi), crop);
+    HoleScore holes;
+    holes.add(f.color, real.color, f.filled, roi);
+    std::printf("teddy %d -> %d: PSNR %.2f dB, SSIMx100 %.2f (%d border columns cropped); %s\n", from, to,
+                psnr_rgb(f.color, real.color, roi), 100 * ssim_luma(f.color, real.color, roi), crop,
+                holes.line().c_str());
     if (!opt.images.empty() && from == 2)
       write_side_by_side(opt.images + "/vva-teddy-2-to-6.png", f.color, real.color, roi);
   }
@@ -378,6 +410,7 @@ void eval_classroom(const Options& opt) {
       memories[i].seed(seed);
     }
   }
+  HoleScore filled_holes;  // the full system: what the hole filling made
   Stats hole_psnr;     // the full system's leave-one-out on the pixels no source sees now
   double hole_share = 0;
   const double fps = 10.0;  // segmentation sees consecutive frames at 10 fps
@@ -437,6 +470,7 @@ void eval_classroom(const Options& opt) {
         if (unseen.empty()) unseen = fused.filled.clone();
         if (cv::countNonZero(unseen) > 0) hole_psnr.add(psnr_rgb_masked(fused.color, imgs[0].color, unseen));
         hole_share += double(cv::countNonZero(unseen)) / double(unseen.total()) / opt.frames;
+        filled_holes.add(fused.color, imgs[0].color, fused.filled, cv::Rect(0, 0, fused.color.cols, fused.color.rows));
       }
       psnr[c].add(psnr_rgb(fused.color, imgs[0].color));
       ssim[c].add(ssim_luma(fused.color, imgs[0].color));
@@ -478,6 +512,7 @@ void eval_classroom(const Options& opt) {
               "%.2f min\n",
               100 * hole_share, opt.memory > 0 ? " from the remembered room, then the hole filling" : " by the hole filling",
               hole_psnr.avg(), hole_psnr.min());
+  std::printf("full system, %s (what the hole filling made)\n", filled_holes.line().c_str());
   std::printf("Novel lecturer poses %s, %s, %s (sliders around camera 0) against the exact renderer\n",
               novel_sliders[0].c_str(), novel_sliders[1].c_str(), novel_sliders[2].c_str());
   std::printf("%-52s | PSNR avg   max   min | SSIMx100 avg   max   min\n", "method");
@@ -509,7 +544,7 @@ void write_priors(const Options& opt) {
 int main(int argc, char** argv) {
   Options opt;
   g_autofree gchar *shared = nullptr, *images = nullptr, *only = nullptr, *size = nullptr, *priors_dir = nullptr,
-        *model = nullptr, *dataset = nullptr, *sources = nullptr, *rig = nullptr, *out = nullptr;
+        *model = nullptr, *dataset = nullptr, *sources = nullptr, *rig = nullptr, *out = nullptr, *fill = nullptr;
   gboolean mesh = FALSE;
   opt.frames = 0;  // told apart from "not given" below
   const GOptionEntry entries[] = {
@@ -530,6 +565,12 @@ int main(int argc, char** argv) {
        "share of the background's texture the hole filling carries into a hole, as viewfuse's fill-texture "
        "(default 0: a smooth fill)",
        "T"},
+      {"fill", 0, 0, G_OPTION_ARG_STRING, &fill,
+       "the hole filling, as viewfuse's fill-method: pyramid (the default since issue 35) or rays (the fill "
+       "before it)",
+       "METHOD"},
+      {"fill-smooth", 0, 0, G_OPTION_ARG_INT, &opt.fill_smooth_px,
+       "the box blur over the filled pixels, radius in px (default: the method's own, 1 for pyramid, 2 for rays; 0: none)", "PX"},
       {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 0)",
        "PX"},
       {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,
@@ -602,6 +643,16 @@ int main(int argc, char** argv) {
   if (!opt.only.empty() && opt.only != "classroom" && opt.only != "middlebury" && opt.only != "teddy")
     vclassroom_tools::usage_error("--only must be classroom, middlebury or teddy (got '" + opt.only + "')");
   if (opt.frames < 1 || opt.boundary_px < 0) vclassroom_tools::usage_error("--frames must be at least 1, --boundary at least 0");
+  if (fill) {
+    const std::string method = fill;
+    if (method == "pyramid")
+      opt.fill_method = HoleFillMethod::Pyramid;
+    else if (method == "rays")
+      opt.fill_method = HoleFillMethod::Rays;
+    else
+      vclassroom_tools::usage_error("--fill must be pyramid or rays (got '" + method + "')");
+  }
+  if (opt.fill_smooth_px < -1 || opt.fill_smooth_px > 16) vclassroom_tools::usage_error("--fill-smooth must be 0 to 16");
   if (opt.fill_texture < 0 || opt.fill_texture > 1) vclassroom_tools::usage_error("--fill-texture must be 0 to 1");
   if (opt.memory < 0 || opt.memory > 64)
     vclassroom_tools::usage_error("--memory must be 0 (off) to 64 frames, as viewwarp's background-memory");

@@ -45,7 +45,10 @@ double mean_abs(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
 int main(int argc, char** argv) {
   gint frames = 300, memory = 0;
   gchar* out_dir = nullptr;
+  gchar* fill = nullptr;
   const GOptionEntry entries[] = {
+      {"fill", 0, 0, G_OPTION_ARG_STRING, &fill,
+       "viewfuse fill-method: pyramid (the default) or rays (the fill before issue 35)", "METHOD"},
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "Frames at 30 fps (default 300)", "N"},
       {"memory", 0, 0, G_OPTION_ARG_INT, &memory, "viewwarp background-memory (frames; default 0: off)", "N"},
       {"out", 0, 0, G_OPTION_ARG_FILENAME, &out_dir, "Also write the first and last rendered frame there", "DIR"},
@@ -56,6 +59,8 @@ int main(int argc, char** argv) {
                      entries, gst_init_get_option_group());
   if (frames < 10 || frames > 3000) usage_error("--frames must be 10 to 3000");
   if (memory < 0 || memory > 64) usage_error("--memory must be 0 to 64");
+  const std::string fill_method = fill ? fill : "pyramid";
+  if (fill_method != "pyramid" && fill_method != "rays") usage_error("--fill must be pyramid or rays");
   const Rig rig = default_classroom_rig();
   // A novel view between the centre and the right camera, a little forward and turned.
   Pose pose = offset_to_pose(ViewOffset{0.3, 0.05, 0.4, 8, 2, 0}, rig.camera(0));
@@ -70,7 +75,7 @@ int main(int argc, char** argv) {
   ClassroomConfig empty;
   empty.learners = 0;
   const Classroom empty_room(empty);
-  std::string desc = "viewfuse name=fuse ! videoconvert ! video/x-raw,format=RGB ! appsink name=out sync=false";
+  std::string desc = "viewfuse name=fuse fill-method=" + fill_method + " ! videoconvert ! video/x-raw,format=RGB ! appsink name=out sync=false";
   for (int k = 0; k < 3; ++k) {
     const std::string prior = tmp + "/prior" + std::to_string(k) + ".png";
     cv::imwrite(prior, render(empty_room, 0.0, rig.camera(k)).depth);

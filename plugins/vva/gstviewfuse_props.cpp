@@ -15,6 +15,7 @@ enum {
   PROP_DEPTH_TOLERANCE,
   PROP_FILL_HOLES,
   PROP_FILL_TEXTURE,
+  PROP_FILL_METHOD,
   PROP_FRAMES_FUSED,
   PROP_POSE_WINDOW,
   PROP_CAMERA_TIMEOUT,
@@ -25,6 +26,19 @@ enum {
   PROP_STATS_INTERVAL,
   PROP_WARP_SYNC
 };
+
+// viewfuse's fill-method values (hole_fill.h: HoleFillMethod).
+GType fill_method_get_type() {
+  static gsize type = 0;
+  static const GEnumValue values[] = {
+      {int(HoleFillMethod::Pyramid), "Push-pull pyramid over each hole's background border (since issue 35)",
+       "pyramid"},
+      {int(HoleFillMethod::Rays), "Nearest background pixels along the row and column, blurred (before issue 35)",
+       "rays"},
+      {0, nullptr, nullptr}};
+  if (g_once_init_enter(&type)) g_once_init_leave(&type, g_enum_register_static("GstViewFuseFillMethod", values));
+  return GType(type);
+}
 
 }  // namespace
 
@@ -70,9 +84,16 @@ void view_fuse_install_properties(GObjectClass* klass) {
   g_object_class_install_property(
       klass, PROP_FILL_TEXTURE,
       g_param_spec_double("fill-texture", "Fill texture",
-                          "Share of the background's texture carried into filled holes (0: smooth)",
+                          "Share of the background's texture carried into filled holes (0: smooth; fill-method=rays only)",
                           0, 1, d.fill_texture,
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
+      klass, PROP_FILL_METHOD,
+      g_param_spec_enum("fill-method", "Fill method",
+                        "How holes are filled from their background: pyramid (smooth, 2-D) or rays (the fill before "
+                        "issue 35, for comparison)",
+                        fill_method_get_type(), int(d.fill_method),
+                        GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       klass, PROP_POSE_WINDOW,
       g_param_spec_uint64("pose-window", "Pose window",
@@ -121,6 +142,9 @@ void view_fuse_set_property(GObject* object, guint prop_id, const GValue* value,
     case PROP_FILL_TEXTURE:
       st->params.fill_texture = g_value_get_double(value);
       break;
+    case PROP_FILL_METHOD:
+      st->params.fill_method = HoleFillMethod(g_value_get_enum(value));
+      break;
     case PROP_POSE_WINDOW:
       inputs.pose_window_ns = int64_t(g_value_get_uint64(value));
       break;
@@ -163,6 +187,9 @@ void view_fuse_get_property(GObject* object, guint prop_id, GValue* value, GPara
       break;
     case PROP_FILL_TEXTURE:
       g_value_set_double(value, st->params.fill_texture);
+      break;
+    case PROP_FILL_METHOD:
+      g_value_set_enum(value, int(st->params.fill_method));
       break;
     case PROP_POSE_WINDOW:
       g_value_set_uint64(value, guint64(st->inputs.params().pose_window_ns));

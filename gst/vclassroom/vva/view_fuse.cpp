@@ -142,184 +142,6 @@ void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_m
   store_row(W, s.r.data(), s.g.data(), s.b.data(), s.z.data(), s.lab.data(), oc, od, ol);
 }
 
-// Whether any of 4 depths packed in `v` is 0 (a hole).
-inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~v & 0x8000800080008000ull) != 0; }
-
-// The fill's texture reaches this far (px) into a hole: a disocclusion's width. Farther, a mirror image
-// has little to do with what is hidden, the fill fades out (fade_unseen) and the texture's work would grow
-// with every unseen pixel of a view that looks out of the room.
-constexpr int kTextureReach = 16;
-
-// Filled pixels are smoothed only in the tiles holding some (holes are few).
-constexpr int kTileW = 64, kTileH = 16;
-
-// A hole pixel's texture source: the known background pixel its texture is taken from (the mirror image of
-// the pixel across the hole's edge on its nearest background side), both as y * W + x.
-struct TextureSource {
-  int hole, source;
-};
-
-// The hole filling of fill_holes_from_background. Holes are few (a few % of
-// a fused view), so the work is arranged to cost little elsewhere: rows are
-// scanned four depths at a time for holes, a hole's left/right candidates are
-// the ends of its run in the row, and its up/down candidates come from a
-// per-column state (the known row above and below the column's current run
-// of holes, found by walking down the run once). Candidates are always known
-// pixels, which the filling never writes, so `color` is filled in place.
-// Marks the tiles holding filled pixels in `tile_used` and, with `texture`, each filled pixel's texture
-// source; false when there was no hole.
-bool fill_hole_pixels(cv::Mat& color, const cv::Mat& depth, double background_ratio, cv::Mat* new_depth,
-                      cv::Mat& mask, bool texture, std::vector<uint8_t>* tile_used,
-                      std::vector<TextureSource>* sources) {
-  const int W = color.cols, H = color.rows;
-  const int tiles_x = (W + kTileW - 1) / kTileW;
-  // Per column: the known row above the current run of holes (-1: none) and
-  // the first known row below it (H: none); a run starts where below < y.
-  std::vector<int> above(size_t(W), -1), below(size_t(W), -1);
-  const float keep = float(1.0 - background_ratio);
-  bool any_hole = false;
-  struct Cand {
-    int z = 0, dist = 0;
-    const uint8_t* c = nullptr;
-  };
-  // k[0..3] below: the candidate to the left, right, above and below; the step from the hole towards each.
-  constexpr int kStepX[4] = {-1, 1, 0, 0}, kStepY[4] = {0, 0, -1, 1};
-  for (int y = 0; y < H; ++y) {
-    const uint16_t* d = depth.ptr<uint16_t>(y);
-    uint8_t* c = color.ptr<uint8_t>(y);
-    uint16_t* nd = new_depth ? new_depth->ptr<uint16_t>(y) : nullptr;
-    uint8_t* m = mask.ptr<uint8_t>(y);
-    int x = 0;
-    while (x < W) {
-      if (x + 4 <= W) {
-        uint64_t v;
-        std::memcpy(&v, d + x, 8);
-        if (!any_zero_u16x4(v)) {
-          x += 4;
-          continue;
-        }
-      }
-      if (d[x]) {
-        ++x;
-        continue;
-      }
-      any_hole = true;
-      const int a = x;
-      while (x < W && !d[x]) ++x;
-      const int b = x - 1;  // holes a..b, known pixels (if any) at a - 1 and b + 1
-      for (int h = a; h <= b; ++h) {
-        if (below[h] < y) {
-          above[h] = y - 1;
-          int yb = y + 1;
-          while (yb < H && !depth.ptr<uint16_t>(yb)[h]) ++yb;
-          below[h] = yb;
-        }
-        Cand k[4];
-        if (a > 0) k[0] = Cand{d[a - 1], h - (a - 1), c + 3 * (a - 1)};
-        if (b + 1 < W) k[1] = Cand{d[b + 1], b + 1 - h, c + 3 * (b + 1)};
-        if (above[h] >= 0)
-          k[2] = Cand{depth.ptr<uint16_t>(above[h])[h], y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h};
-        if (below[h] < H)
-          k[3] = Cand{depth.ptr<uint16_t>(below[h])[h], below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h};
-        int zmax = 0;
-        for (const Cand& q : k) zmax = std::max(zmax, q.z);
-        if (!zmax) continue;
-        // Only the far (background) side counts, nearer candidates weighted more.
-        const float zlo = float(zmax) * keep;
-        float acc[3] = {0, 0, 0}, wsum = 0, zsum = 0;
-        int nearest = -1;  // the nearest background candidate, for the texture
-        for (int i = 0; i < 4; ++i) {
-          const Cand& q = k[i];
-          if (!q.z || q.z < zlo) continue;
-          if (nearest < 0 || q.dist < k[nearest].dist) nearest = i;
-          const float w = 1.0f / float(q.dist);
-          acc[0] += w * q.c[0];
-          acc[1] += w * q.c[1];
-          acc[2] += w * q.c[2];
-          zsum += w * q.z;
-          wsum += w;
-        }
-        const float iw = 1.0f / wsum;
-        c[3 * h] = uint8_t(acc[0] * iw + 0.5f);
-        c[3 * h + 1] = uint8_t(acc[1] * iw + 0.5f);
-        c[3 * h + 2] = uint8_t(acc[2] * iw + 0.5f);
-        if (nd) nd[h] = uint16_t(zsum * iw + 0.5f);
-        m[h] = 255;
-        if (texture && nearest >= 0 && k[nearest].dist <= kTextureReach) {
-          // The mirror image across the edge (as far beyond the edge as the hole pixel is before it), if it is
-          // known and on the background side too.
-          const int reach = 2 * k[nearest].dist - 1;
-          const int sx = h + kStepX[nearest] * reach, sy = y + kStepY[nearest] * reach;
-          if (sx >= 1 && sx + 1 < W && sy >= 1 && sy + 1 < H) {
-            const uint16_t zs = depth.ptr<uint16_t>(sy)[sx];
-            if (zs && float(zs) >= zlo) sources->push_back({y * W + h, sy * W + sx});
-          }
-        }
-        (*tile_used)[size_t(y / kTileH) * tiles_x + h / kTileW] = 1;
-      }
-    }
-  }
-  return any_hole;
-}
-
-// The smoothing box-blurs only the tiles holding filled pixels, and writes back only the filled pixels.
-void smooth_filled_tiles(cv::Mat& color, const cv::Mat& mask, int smooth_px, const std::vector<uint8_t>& tile_used) {
-  const int W = color.cols, H = color.rows;
-  const int tiles_x = (W + kTileW - 1) / kTileW, tiles_y = (H + kTileH - 1) / kTileH;
-  // Blur rects: runs of used tiles per band of rows. cv::blur on a view of
-  // the image reads the pixels around it from the whole image, so each rect
-  // comes out as the same part of a blur of the whole image; all are blurred
-  // before any is written back, as the blur reads the unblurred fill.
-  static thread_local cv::Mat blurred;
-  blurred.create(H, W, CV_8UC3);
-  std::vector<cv::Rect> rects;
-  for (int ty = 0; ty < tiles_y; ++ty)
-    for (int tx = 0; tx < tiles_x; ++tx) {
-      if (!tile_used[size_t(ty) * tiles_x + tx]) continue;
-      const int tx0 = tx;
-      while (tx + 1 < tiles_x && tile_used[size_t(ty) * tiles_x + tx + 1]) ++tx;
-      const int x0 = tx0 * kTileW, y0 = ty * kTileH;
-      rects.emplace_back(x0, y0, std::min(W, (tx + 1) * kTileW) - x0, std::min(H, y0 + kTileH) - y0);
-    }
-  const cv::Size box(2 * smooth_px + 1, 2 * smooth_px + 1);
-  for (const cv::Rect& r : rects) {
-    cv::Mat dst = blurred(r);
-    cv::blur(color(r), dst, box);
-  }
-  for (const cv::Rect& r : rects) blurred(r).copyTo(color(r), mask(r));
-}
-
-// Each filled pixel gets its texture source's deviation from the source's 3x3 neighbourhood mean, times
-// `texture`.
-void add_texture(cv::Mat& color, const std::vector<TextureSource>& sources, float texture) {
-  const int W = color.cols;
-  const size_t step = color.step;
-  for (const TextureSource& t : sources) {
-    const uint8_t* src = color.data + size_t(t.source / W) * step + 3 * size_t(t.source % W);
-    uint8_t* out = color.data + size_t(t.hole / W) * step + 3 * size_t(t.hole % W);
-    for (int ch = 0; ch < 3; ++ch) {
-      int sum = 0;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) sum += src[ptrdiff_t(dy) * ptrdiff_t(step) + 3 * dx + ch];
-      const float detail = float(src[ch]) - float(sum) / 9.f;
-      out[ch] = cv::saturate_cast<uint8_t>(float(out[ch]) + texture * detail);
-    }
-  }
-}
-
-void fill_holes(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px, cv::Mat* new_depth,
-                cv::Mat& mask, float texture = 0.f) {
-  const int W = color.cols, H = color.rows;
-  static thread_local std::vector<TextureSource> sources;
-  sources.clear();
-  std::vector<uint8_t> tile_used(size_t((W + kTileW - 1) / kTileW) * ((H + kTileH - 1) / kTileH), 0);
-  if (!fill_hole_pixels(color, depth, background_ratio, new_depth, mask, texture > 0.f, &tile_used, &sources) ||
-      smooth_px <= 0)
-    return;
-  smooth_filled_tiles(color, mask, smooth_px, tile_used);
-  if (texture > 0.f) add_texture(color, sources, texture);
-}
-
 // Blends the fill towards a neutral grey with the distance to the nearest
 // seen pixel: untouched up to `start` px, grey from `start + length` px on.
 //
@@ -424,8 +246,7 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   const int unseen = int(out->depth.total()) - cv::countNonZero(out->depth);
   out->unseen_share = double(unseen) / double(out->depth.total());
   if (prm.fill_holes) {
-    fill_holes(out->color, out->depth, prm.background_ratio, prm.fill_smooth_px, nullptr, out->filled,
-               float(prm.fill_texture));
+    fill_holes(out->color, out->depth, hole_fill_params(prm), out->filled);
     if (prm.fade_unseen && unseen > 0)
       fade_unseen(out->color, out->depth, prm.fade_start * size.width, prm.fade_length * size.width);
   }
@@ -439,8 +260,22 @@ void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double backgroun
   // The filled depth goes to a new buffer, as before: whoever shares the
   // caller's depth keeps the unfilled one.
   cv::Mat new_depth = depth.clone();
-  fill_holes(color, depth, background_ratio, smooth_px, &new_depth, mask, float(texture));
+  HoleFillParams p;
+  p.method = HoleFillMethod::Rays;
+  p.background_ratio = background_ratio;
+  p.smooth_px = smooth_px;
+  p.texture = texture;
+  fill_holes(color, depth, p, mask, &new_depth);
   depth = new_depth;
+}
+
+HoleFillParams hole_fill_params(const FuseParams& fuse) {
+  HoleFillParams p;
+  p.method = fuse.fill_method;
+  p.background_ratio = fuse.background_ratio;
+  p.smooth_px = fuse.fill_smooth_px;
+  p.texture = fuse.fill_texture;
+  return p;
 }
 
 std::vector<bool> stale_poses(const std::vector<WarpedPose>& inputs, int64_t window_ns,

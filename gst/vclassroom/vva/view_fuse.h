@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 
 #include <gst/vclassroom/core/pose.h>
+#include <gst/vclassroom/vva/hole_fill.h>
 #include <gst/vclassroom/vva/view_warp.h>
 
 namespace vclassroom {
@@ -20,8 +21,10 @@ struct FuseParams {
   double depth_tol_mm = 30;
   // Blending weight = (warp quality)^weight_power: > 1 favours the best camera.
   double weight_power = 2.0;
-  // Fill holes no camera covers from their background side.
+  // Fill holes no camera covers from their background side (hole_fill.h), by the depth-aware pyramid or,
+  // for comparison, along rows and columns (the fill before issue 35).
   bool fill_holes = true;
+  HoleFillMethod fill_method = HoleFillMethod::Pyramid;
   // A hole neighbour counts as background when its depth is within this share
   // of the farthest neighbour found around the hole (0.12 rather than 0.08
   // since the warp gives objects their rims, WarpParams::edge_to_near:
@@ -29,8 +32,9 @@ struct FuseParams {
   double background_ratio = 0.12;
   // The filled pixels are then box-blurred over (2r+1)² : a fill can only
   // guess, and a smooth guess errs least (on Middlebury Art/Aloe it is worth
-  // 0.5-1 dB, see docs/vva.md; 2 rather than 3 with the rims).
-  int fill_smooth_px = 2;
+  // 0.5-1 dB with the rays, see docs/vva.md; 2 rather than 3 with the rims).
+  // -1: the method's own (HoleFillParams::smooth_px: 1 px for the pyramid, 2 for the rays).
+  int fill_smooth_px = -1;
   // Texture on the smooth fill: each filled pixel within kTextureReach px of the hole's edge gets, times
   // this, the detail (deviation from its 3x3 mean) of its mirror image across the edge on its nearest
   // background side, where that pixel is known and on the background side too: a hole carries the grain of
@@ -59,7 +63,7 @@ struct FusedView {
 // `views` all have the same size; null or empty entries (a stopped camera) are skipped.
 void fuse_views(const std::vector<const WarpedView*>& views, const FuseParams& params, FusedView* out);
 
-// Fills every pixel of `color` where `depth` is 0 from the nearest known
+// Fills every pixel of `color` where `depth` is 0 along rays (HoleFillMethod::Rays): from the nearest known
 // pixels along the row and column (both directions), keeping only those on
 // the far (background) side and weighting them by inverse distance, then
 // smooths the filled pixels with a (2 smooth_px + 1)² box, then adds `texture`
@@ -67,6 +71,9 @@ void fuse_views(const std::vector<const WarpedView*>& views, const FuseParams& p
 // chosen background depth. `filled` (optional) marks what was filled.
 void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px = 2,
                                 cv::Mat* filled = nullptr, double texture = 0);
+
+// The fill fuse_views runs with `fuse`'s fill settings.
+HoleFillParams hole_fill_params(const FuseParams& fuse);
 
 // The pose a camera's warped frame was made for (its PoseMeta), for the live
 // pairing in viewfuse.

@@ -1,0 +1,559 @@
+// The hole filling of a fused view (hole_fill.h): the push-pull pyramid over the holes' background
+// borders, and the smoothing both methods share. The fill before issue 35 is in hole_fill_rays.cpp.
+#include <gst/vclassroom/vva/hole_fill.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+namespace vclassroom {
+
+namespace {
+
+// The pyramid is built only around the holes: the image is cut into square tiles of kTile px, and the tiles
+// holding a hole and their 8 neighbours are "active". One tile is one cell at level kTileLevels; the levels
+// below it are worked tile by tile, the levels above (a 960x540 view: 60x34 cells and fewer) whole.
+constexpr int kTileLevels = 3;
+constexpr int kTile = 1 << kTileLevels;
+// The pyramid starts at cells of 2^kBaseLevel px: the sources are added into them directly, and the hole
+// pixels are interpolated from them (bilinearly over 4x4 px). Near the border the ray ends give the detail.
+constexpr int kBaseLevel = 2;
+
+// A hole pixel's colour is the mean of its background ray ends (weighted by 1 / distance, as the rays
+// method) and the pyramid's value, which counts as much as one ray end kPyramidDistance px away: next to the
+// background the nearest pixels decide (a structure that meets the hole goes on into it for a few pixels;
+// the 1-px smoothing after the fill keeps the edge soft), farther in the smooth 2-D surface does (no streak
+// drawn from one row or column across a wide hole). 4 px was chosen among 1, 2, 4 and 10 on Middlebury Art
+// and Aloe: within 0.15 dB of each other at every offset, 10 a little higher at the small offsets, but the
+// nearer the pyramid counts the less a wide hole looks like its border's rows.
+constexpr float kPyramidDistance = 4.0f;
+constexpr float kPyramidWeight = 1.0f / kPyramidDistance;
+
+// The smoothing after each method (HoleFillParams::smooth_px -1): the pyramid's fill is smooth already, so
+// 1 px (against 2: Art at offset 1 +0.03 dB, the wider offsets within 0.01, Teddy 2 -> 6 +0.12; 0 px lost
+// 0.02-0.04 everywhere); the rays' 2 px, as before issue 35.
+constexpr int kPyramidSmoothPx = 1, kRaysSmoothPx = 2;
+
+// A pyramid cell: the mean colour and depth of the sources under it (or pulled from above); z == 0: none.
+struct Cell {
+  float r, g, b, z;
+};
+
+struct Level {
+  int w = 0, h = 0;
+  std::vector<Cell> cells;
+  Cell* row(int y) { return cells.data() + size_t(y) * size_t(w); }
+  const Cell* row(int y) const { return cells.data() + size_t(y) * size_t(w); }
+};
+
+// Whether any of 4 depths packed in `v` is 0 (a hole).
+inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~v & 0x8000800080008000ull) != 0; }
+
+// The mean of the samples among `n` that hold a value (z > 0); z stays 0 when none does. Every sample in the
+// pyramid is some hole's background already (fill_along_rays_and_mark_sources): no depth test between levels
+// (one that kept the far side of each block took a farther wall's colour into holes: -0.9 dB on Art).
+inline Cell mean_of(const Cell* s, int n) {
+  float r = 0, g = 0, b = 0, z = 0, count = 0;
+  for (int i = 0; i < n; ++i) {  // branch-free: whether a sample holds a value is a coin toss near a hole
+    const float v = s[i].z > 0 ? 1.0f : 0.0f;
+    r += v * s[i].r, g += v * s[i].g, b += v * s[i].b, z += v * s[i].z, count += v;
+  }
+  const float inv = count > 0 ? 1.0f / count : 0.0f;
+  return Cell{r * inv, g * inv, b * inv, z * inv};
+}
+
+// Holes a..b (inclusive) of row y.
+struct HoleRun {
+  int y, a, b;
+};
+
+// The first half of the fill, along rays. For each hole pixel the known pixels that end its run of holes
+// along its row and its column (its left, right, upper and lower neighbour across the hole) are compared:
+// those on its far side (within `keep` times the farthest of the four) are its background. Their mean,
+// weighted by 1 / distance, goes into `color` at the hole pixel and the sum of the weights into
+// `ray_weight` (one per hole pixel, in the order of the runs); and they are listed in `sources` (as
+// y * W + x, each once: `source_mark`, CV_8UC1, zero on entry, marks them) as the pixels the pyramid may
+// fill from. The tiles holding holes are marked in `hole_tile`, and the runs of holes listed in `runs`.
+// The foreground that caused a hole ends its runs on the near side and never counts; nor does a surface
+// farther back that does not border the hole (a far wall seen beside the object behind which the hole
+// opened: a "farthest in the neighbourhood" rule took its colour, -0.5 dB on Art). Rows are skipped 16 and
+// 4 depths at a time; a hole's column ends come from a per-column state (the known row above and below the
+// column's current run of holes, found by walking down the run once), as in the rays method.
+void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat& color,
+                                      std::vector<float>* ray_weight, cv::Mat& source_mark,
+                                      std::vector<int>* sources, std::vector<uint8_t>* hole_tile,
+                                      std::vector<HoleRun>* runs) {
+  const int W = depth.cols, H = depth.rows, tiles_x = (W + kTile - 1) / kTile;
+  static thread_local std::vector<int> above, below;
+  above.assign(size_t(W), -1), below.assign(size_t(W), -1);
+  static thread_local std::vector<float> inverse;  // 1 / distance, for every distance in the image
+  if (inverse.size() < size_t(std::max(W, H) + 1)) {
+    inverse.resize(size_t(std::max(W, H) + 1));
+    for (size_t i = 1; i < inverse.size(); ++i) inverse[i] = 1.0f / float(i);
+  }
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* d = depth.ptr<uint16_t>(y);
+    uint8_t* tiles = hole_tile->data() + size_t(y / kTile) * size_t(tiles_x);
+    auto mark = [&](int sy, int sx) {
+      uint8_t& m = source_mark.ptr<uint8_t>(sy)[sx];
+      if (!m) m = 1, sources->push_back(sy * W + sx);
+    };
+    int x = 0;
+    while (x < W) {
+      if (x + 16 <= W) {  // most of a row is seen: skip it 16 depths at a time
+        uint64_t v[4];
+        std::memcpy(v, d + x, 32);
+        if (!(any_zero_u16x4(v[0]) | any_zero_u16x4(v[1]) | any_zero_u16x4(v[2]) | any_zero_u16x4(v[3]))) {
+          x += 16;
+          continue;
+        }
+      }
+      if (x + 4 <= W) {
+        uint64_t v;
+        std::memcpy(&v, d + x, 8);
+        if (!any_zero_u16x4(v)) {
+          x += 4;
+          continue;
+        }
+      }
+      if (d[x]) {
+        ++x;
+        continue;
+      }
+      const int a = x;
+      while (x < W && !d[x]) ++x;
+      const int b = x - 1;  // holes a..b
+      for (int t = a / kTile; t <= b / kTile; ++t) tiles[t] = 1;
+      runs->push_back(HoleRun{y, a, b});
+      const int z_left = a > 0 ? d[a - 1] : 0, z_right = b + 1 < W ? d[b + 1] : 0;
+      for (int h = a; h <= b; ++h) {
+        if (below[h] < y) {
+          above[h] = y - 1;
+          int yb = y + 1;
+          while (yb < H && !depth.ptr<uint16_t>(yb)[h]) ++yb;
+          below[h] = yb;
+        }
+        const int z_up = above[h] >= 0 ? depth.ptr<uint16_t>(above[h])[h] : 0;
+        const int z_down = below[h] < H ? depth.ptr<uint16_t>(below[h])[h] : 0;
+        const int zmax = std::max(std::max(z_left, z_right), std::max(z_up, z_down));
+        const float zlo = float(zmax) * keep;
+        float acc[3] = {0, 0, 0}, wsum = 0;
+        auto take = [&](int dist, const uint8_t* c) {
+          const float w = inverse[size_t(dist)];
+          acc[0] += w * c[0], acc[1] += w * c[1], acc[2] += w * c[2], wsum += w;
+        };
+        if (z_left && float(z_left) >= zlo) mark(y, a - 1), take(h - a + 1, color.ptr<uint8_t>(y) + 3 * (a - 1));
+        if (z_right && float(z_right) >= zlo) mark(y, b + 1), take(b + 1 - h, color.ptr<uint8_t>(y) + 3 * (b + 1));
+        if (z_up && float(z_up) >= zlo) mark(above[h], h), take(y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h);
+        if (z_down && float(z_down) >= zlo) mark(below[h], h), take(below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h);
+        ray_weight->push_back(wsum);
+        if (wsum > 0) {
+          uint8_t* c = color.ptr<uint8_t>(y) + 3 * h;
+          const float iw = 1.0f / wsum;
+          for (int k = 0; k < 3; ++k) c[k] = uint8_t(acc[k] * iw + 0.5f);
+        }
+      }
+    }
+  }
+}
+
+// The base level from the image: each source pixel added to its cell, then every cell it reached made a
+// mean. `base` holds no value on entry (only the cells listed in `written` were ever given one, and they were
+// emptied); the cells given one are listed there.
+void push_sources(const cv::Mat& color, const cv::Mat& depth, const std::vector<int>& sources, Level& base,
+                  std::vector<float>& count, std::vector<int>& written) {
+  const int W = color.cols;
+  for (int i : sources) {
+    const int x = i % W, y = i / W;
+    const int c = (y >> kBaseLevel) * base.w + (x >> kBaseLevel);
+    if (count[size_t(c)] == 0) written.push_back(c);
+    const uint8_t* p = color.ptr<uint8_t>(y) + 3 * x;
+    Cell& cell = base.cells[size_t(c)];
+    cell.r += p[0], cell.g += p[1], cell.b += p[2], cell.z += depth.ptr<uint16_t>(y)[x];
+    count[size_t(c)] += 1;
+  }
+  for (int c : written) {
+    Cell& cell = base.cells[size_t(c)];
+    const float inv = 1.0f / count[size_t(c)];
+    cell = Cell{cell.r * inv, cell.g * inv, cell.b * inv, cell.z * inv};
+  }
+}
+
+// Level l + 1 from level l, over the cells [x0, x1) x [y0, y1). `child_known(x, y)` says whether a level-l
+// cell was computed this time (the cells of tiles that are not active keep an older frame's values).
+template <typename Known>
+void push_level(const Level& down, Level& up, int x0, int x1, int y0, int y1, Known child_known) {
+  for (int Y = y0; Y < y1; ++Y) {
+    Cell* out = up.row(Y);
+    const int ya = 2 * Y, yb = std::min(2 * Y + 1, down.h - 1);  // a last odd row: its row counted twice
+    const Cell* in0 = down.row(ya);
+    const Cell* in1 = down.row(yb);
+    for (int X = x0; X < x1; ++X) {
+      const int xa = 2 * X, xb = std::min(2 * X + 1, down.w - 1);
+      Cell s[4] = {in0[xa], in0[xb], in1[xa], in1[xb]};
+      if (!child_known(xa, ya)) s[0].z = 0;  // (a child over a tile not active this time is not looked at)
+      if (!child_known(xb, ya)) s[1].z = 0;
+      if (!child_known(xa, yb)) s[2].z = 0;
+      if (!child_known(xb, yb)) s[3].z = 0;
+      out[X] = mean_of(s, 4);
+    }
+  }
+}
+
+// The two parents (and their bilinear weights) along one axis of cell `c` of a level whose next coarser
+// level has `n` cells along that axis: cell centres at (c + 0.5) / 2 - 0.5 in the coarser level.
+inline void parents_of(int c, int n, int* p0, int* p1, float* w0, float* w1) {
+  if (c & 1) {
+    *p0 = c >> 1, *p1 = std::min((c >> 1) + 1, n - 1), *w0 = 0.75f, *w1 = 0.25f;
+  } else {
+    *p0 = std::max((c >> 1) - 1, 0), *p1 = c >> 1, *w0 = 0.25f, *w1 = 0.75f;
+  }
+}
+
+// The value of cell (x, y) from the next coarser level: the bilinear interpolation of those of its four
+// parents that hold a value.
+inline Cell pull_from(const Level& up, int x, int y) {
+  int px0, px1, py0, py1;
+  float wx0, wx1, wy0, wy1;
+  parents_of(x, up.w, &px0, &px1, &wx0, &wx1);
+  parents_of(y, up.h, &py0, &py1, &wy0, &wy1);
+  const Cell* r0 = up.row(py0);
+  const Cell* r1 = up.row(py1);
+  const Cell* p[4] = {r0 + px0, r0 + px1, r1 + px0, r1 + px1};
+  const float w[4] = {wx0 * wy0, wx1 * wy0, wx0 * wy1, wx1 * wy1};
+  float r = 0, g = 0, b = 0, z = 0, wsum = 0;
+  for (int i = 0; i < 4; ++i) {  // branch-free, as mean_of
+    const float wi = p[i]->z > 0 ? w[i] : 0.0f;
+    r += wi * p[i]->r, g += wi * p[i]->g, b += wi * p[i]->b, z += wi * p[i]->z, wsum += wi;
+  }
+  const float inv = wsum > 0 ? 1.0f / wsum : 0.0f;
+  return Cell{r * inv, g * inv, b * inv, z * inv};
+}
+
+// The pyramid's state, kept between calls (a view's holes change little from frame to frame, the buffers'
+// sizes not at all).
+struct PyramidState {
+  int tiles_x = 0, tiles_y = 0;
+  std::vector<Level> levels;                 // levels[0] stands for the image, levels below the base are unused
+  std::vector<uint8_t> hole_tile, active;    // per tile
+  std::vector<int> sources;                  // the pixels the fill takes colour from, as y * W + x
+  std::vector<HoleRun> runs;                 // the holes
+  std::vector<float> base_count;             // the base level: sources per cell while they are added
+  std::vector<int> base_written;             // the base level: the cells given a value (emptied at the next call)
+  std::vector<std::vector<uint8_t>> needed;  // above kTileLevels: per cell, whether it lies over an active tile
+  std::vector<int> cell_x0, cell_y0;         // per column / row: the first of the two base cells it lies between
+  std::vector<float> weight_x1, weight_y1;   // and the second one's bilinear weight
+  cv::Mat source_mark;                       // the sources marked (zero between calls)
+  // Per hole pixel, in the order of the runs (the passes over the holes follow it, so these are read and
+  // written in order rather than scattered over image-sized buffers):
+  std::vector<float> ray_weight;             // the ray ends' summed weight
+  std::vector<uint16_t> fill_depth;          // the depth of the background it was filled from (0: not filled)
+};
+
+// The cells of level `l` (kBaseLevel <= l <= kTileLevels) inside tile (tx, ty).
+inline void tile_cells(const Level& lv, int l, int tx, int ty, int* x0, int* x1, int* y0, int* y1) {
+  const int side = kTile >> l;
+  *x0 = tx * side, *x1 = std::min(lv.w, *x0 + side);
+  *y0 = ty * side, *y1 = std::min(lv.h, *y0 + side);
+}
+
+// The tiles holding holes and their 8 neighbours: the parents of a hole's cells lie within one tile of it.
+void mark_active_tiles(PyramidState& st) {
+  st.active.assign(st.hole_tile.size(), 0);
+  for (int ty = 0; ty < st.tiles_y; ++ty)
+    for (int tx = 0; tx < st.tiles_x; ++tx) {
+      if (!st.hole_tile[size_t(ty) * st.tiles_x + tx]) continue;
+      for (int y = std::max(0, ty - 1); y <= std::min(st.tiles_y - 1, ty + 1); ++y)
+        for (int x = std::max(0, tx - 1); x <= std::min(st.tiles_x - 1, tx + 1); ++x)
+          st.active[size_t(y) * st.tiles_x + x] = 1;
+    }
+}
+
+// Level `l` (above kTileLevels) from the one below, all of it; notes which cells lie over an active tile.
+// True when one of those holds no value yet.
+bool push_whole_level(PyramidState& st, int l) {
+  const Level& down = st.levels[size_t(l) - 1];
+  Level& up = st.levels[size_t(l)];
+  const size_t n = size_t(l - kTileLevels);
+  if (st.needed.size() < n) st.needed.resize(n);
+  std::vector<uint8_t>& need = st.needed[n - 1];
+  need.assign(up.cells.size(), 0);
+  // Level kTileLevels is the tile grid: its cells are the tiles (its width is tiles_x).
+  const uint8_t* below_need = n >= 2 ? st.needed[n - 2].data() : st.active.data();
+  auto child_known = [&](int x, int y) { return below_need[size_t(y) * down.w + x] != 0; };
+  push_level(down, up, 0, up.w, 0, up.h, child_known);
+  bool empty = false;
+  for (int Y = 0; Y < up.h; ++Y)
+    for (int X = 0; X < up.w; ++X) {
+      const int xb = std::min(2 * X + 1, down.w - 1), yb = std::min(2 * Y + 1, down.h - 1);
+      const bool any =
+          child_known(2 * X, 2 * Y) || child_known(xb, 2 * Y) || child_known(2 * X, yb) || child_known(xb, yb);
+      need[size_t(Y) * up.w + X] = any;
+      empty |= any && up.row(Y)[X].z <= 0;
+    }
+  return empty;
+}
+
+// The push: the base level from the sources, then each coarser level from the one below (over the active
+// tiles up to kTileLevels, whole above), until one has a value over every active tile or is a single cell.
+// Returns that level.
+int push_up(PyramidState& st, const cv::Mat& color, const cv::Mat& depth) {
+  std::vector<Level>& lv = st.levels;
+  if (lv.empty()) lv.resize(1);
+  lv[0].w = depth.cols, lv[0].h = depth.rows;
+  for (int l = 1;; ++l) {
+    if (int(lv.size()) <= l) lv.emplace_back();
+    Level& up = lv[size_t(l)];
+    const int w = (lv[size_t(l) - 1].w + 1) / 2, h = (lv[size_t(l) - 1].h + 1) / 2;
+    if (l == kBaseLevel && (w != up.w || h != up.h)) {  // a new size: the base level starts empty
+      up.cells.assign(size_t(w) * size_t(h), Cell{0, 0, 0, 0});
+      st.base_count.assign(up.cells.size(), 0);
+      st.base_written.clear();
+    }
+    up.w = w, up.h = h;
+    if (l < kBaseLevel) continue;  // not built: the sources go straight to the base level
+    up.cells.resize(size_t(w) * size_t(h));
+    bool empty = false;
+    if (l == kBaseLevel) {
+      for (int c : st.base_written) up.cells[size_t(c)] = Cell{0, 0, 0, 0}, st.base_count[size_t(c)] = 0;
+      st.base_written.clear();
+      push_sources(color, depth, st.sources, up, st.base_count, st.base_written);
+      empty = true;  // the sources alone: a hole's cells hold none
+    } else if (l <= kTileLevels) {
+      for (int ty = 0; ty < st.tiles_y; ++ty)
+        for (int tx = 0; tx < st.tiles_x; ++tx) {
+          if (!st.active[size_t(ty) * st.tiles_x + tx]) continue;
+          int x0, x1, y0, y1;
+          tile_cells(up, l, tx, ty, &x0, &x1, &y0, &y1);
+          push_level(lv[size_t(l) - 1], up, x0, x1, y0, y1, [](int, int) { return true; });
+          for (int y = y0; y < y1 && !empty; ++y)
+            for (int x = x0; x < x1; ++x) empty |= up.row(y)[x].z <= 0;
+        }
+    } else {
+      empty = push_whole_level(st, l);
+    }
+    if (!empty || (w == 1 && h == 1)) return l;
+  }
+}
+
+// The pull, from the level below `top` down to the base level: each cell without a value over a tile with
+// holes (above kTileLevels: over an active tile) from its parents.
+void pull_down(PyramidState& st, int top) {
+  for (int l = top - 1; l >= kBaseLevel; --l) {
+    Level& here = st.levels[size_t(l)];
+    const Level& up = st.levels[size_t(l) + 1];
+    auto fill_cells = [&](int x0, int x1, int y0, int y1, const uint8_t* need) {
+      for (int y = y0; y < y1; ++y) {
+        Cell* c = here.row(y);
+        for (int x = x0; x < x1; ++x)
+          if (c[x].z <= 0 && (!need || need[size_t(y) * here.w + x])) {
+            c[x] = pull_from(up, x, y);
+            if (l == kBaseLevel) st.base_written.push_back(y * here.w + x);
+          }
+      }
+    };
+    if (l <= kTileLevels) {
+      for (int ty = 0; ty < st.tiles_y; ++ty)
+        for (int tx = 0; tx < st.tiles_x; ++tx) {
+          // Elsewhere the empty cells stay empty: a hole's cells beyond its own tile count where they hold
+          // sources, and are left out of its interpolation where they do not.
+          if (!st.hole_tile[size_t(ty) * st.tiles_x + tx]) continue;
+          int x0, x1, y0, y1;
+          tile_cells(here, l, tx, ty, &x0, &x1, &y0, &y1);
+          fill_cells(x0, x1, y0, y1, nullptr);
+        }
+    } else {
+      fill_cells(0, here.w, 0, here.h, st.needed[size_t(l - kTileLevels) - 1].data());
+    }
+  }
+}
+
+// Each column's (or row's) two nearest base cells, centres at (x + 0.5) / 2^kBaseLevel - 0.5: the first
+// one and the second one's bilinear weight.
+void base_cells_along(int n_px, int n_cells, std::vector<int>& first, std::vector<float>& second_weight) {
+  first.resize(size_t(n_px)), second_weight.resize(size_t(n_px));
+  for (int x = 0; x < n_px; ++x) {
+    const float f = (float(x) + 0.5f) / float(1 << kBaseLevel) - 0.5f;
+    first[size_t(x)] = std::clamp(int(std::floor(f)), 0, std::max(0, n_cells - 2));
+    second_weight[size_t(x)] = n_cells < 2 ? 0.f : std::clamp(f - float(first[size_t(x)]), 0.0f, 1.0f);
+  }
+}
+
+// Every hole pixel: the pyramid's value there (the bilinear interpolation of the four nearest base cells
+// that hold a value), with the ray ends' mean that `color` holds there, the pyramid counting as one more ray
+// end kPyramidDistance px away.
+void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* filled_depth) {
+  const Level& base = st.levels[kBaseLevel];
+  base_cells_along(color.cols, base.w, st.cell_x0, st.weight_x1);
+  base_cells_along(color.rows, base.h, st.cell_y0, st.weight_y1);
+  st.fill_depth.resize(st.ray_weight.size());
+  const float* ray_w = st.ray_weight.data();
+  uint16_t* fd = st.fill_depth.data();
+  for (const HoleRun& run : st.runs) {
+    const int y = run.y;
+    uint8_t* c = color.ptr<uint8_t>(y);
+    uint8_t* m = mask.ptr<uint8_t>(y);
+    uint16_t* out_depth = filled_depth ? filled_depth->ptr<uint16_t>(y) : nullptr;
+    const int cy = st.cell_y0[size_t(y)], cy1 = std::min(cy + 1, base.h - 1);
+    const float wy1 = st.weight_y1[size_t(y)], wy0 = 1.0f - wy1;
+    const Cell* r0 = base.row(cy);
+    const Cell* r1 = base.row(cy1);
+    for (int x = run.a; x <= run.b; ++x, ++ray_w, ++fd) {
+      const int cx = st.cell_x0[size_t(x)], cx1 = std::min(cx + 1, base.w - 1);
+      const float wx1 = st.weight_x1[size_t(x)], wx0 = 1.0f - wx1;
+      const Cell* p[4] = {r0 + cx, r0 + cx1, r1 + cx, r1 + cx1};
+      const float w[4] = {wx0 * wy0, wx1 * wy0, wx0 * wy1, wx1 * wy1};
+      float r = 0, g = 0, b = 0, z = 0, wsum = 0;
+      for (int i = 0; i < 4; ++i) {  // the cells that hold a value, branch-free as mean_of
+        const float wi = p[i]->z > 0 ? w[i] : 0.0f;
+        r += wi * p[i]->r, g += wi * p[i]->g, b += wi * p[i]->b, z += wi * p[i]->z, wsum += wi;
+      }
+      *fd = 0;
+      if (wsum <= 0) continue;  // nothing known anywhere near
+      const float wp = kPyramidWeight / wsum, inv = 1.0f / (*ray_w + kPyramidWeight);
+      c[3 * x] = uint8_t((*ray_w * c[3 * x] + wp * r) * inv + 0.5f);
+      c[3 * x + 1] = uint8_t((*ray_w * c[3 * x + 1] + wp * g) * inv + 0.5f);
+      c[3 * x + 2] = uint8_t((*ray_w * c[3 * x + 2] + wp * b) * inv + 0.5f);
+      m[x] = 255;
+      *fd = uint16_t(std::min(z / wsum + 0.5f, 65535.f));
+      if (out_depth) out_depth[x] = *fd;
+    }
+  }
+}
+
+// The pyramid's smoothing: each filled pixel becomes the mean of the (2r+1)^2 box around it, over the pixels
+// there that are filled too or lie behind it (within `keep` of the depth it was filled from, or farther): the
+// object that caused the hole is never blurred into it. The new colours are kept aside until all are made.
+void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const cv::Mat& mask, float keep, int r) {
+  if (r <= 0) return;
+  const int W = color.cols, H = color.rows;
+  struct Smoothed {
+    int y, x;
+    uint8_t rgb[3];
+  };
+  static thread_local std::vector<Smoothed> out;
+  out.clear();
+  const uint16_t* fd = st.fill_depth.data();
+  for (const HoleRun& run : st.runs) {
+    const int y = run.y, y0 = std::max(0, y - r), y1 = std::min(H - 1, y + r);
+    for (int x = run.a; x <= run.b; ++x, ++fd) {
+      if (!*fd) continue;  // not filled
+      const float zlo = keep * float(*fd);
+      const int x0 = std::max(0, x - r), x1 = std::min(W - 1, x + r);
+      int sum[3] = {0, 0, 0}, n = 0;
+      for (int v = y0; v <= y1; ++v) {
+        const uint8_t* c = color.ptr<uint8_t>(v);
+        const uint16_t* d = depth.ptr<uint16_t>(v);
+        const uint8_t* m = mask.ptr<uint8_t>(v);
+        for (int u = x0; u <= x1; ++u) {
+          if (d[u] ? float(d[u]) < zlo : !m[u]) continue;  // in front, or a hole left unfilled
+          sum[0] += c[3 * u], sum[1] += c[3 * u + 1], sum[2] += c[3 * u + 2], ++n;
+        }
+      }
+      Smoothed s{y, x, {}};
+      for (int k = 0; k < 3; ++k) s.rgb[k] = uint8_t((2 * sum[k] + n) / (2 * n));  // n >= 1: the pixel itself
+      out.push_back(s);
+    }
+  }
+  for (const Smoothed& s : out) std::memcpy(color.ptr<uint8_t>(s.y) + 3 * s.x, s.rgb, 3);
+}
+
+}  // namespace
+
+// First along rays: every hole pixel's background ray ends, their mean, and the sources they make. Then the
+// push-pull over the sources alone, around the holes only, and every hole pixel from it and its rays.
+// Nothing but a hole's background border is ever read, so the foreground beside a hole (nearer than the
+// hole's background by more than `background_ratio`) never reaches it, at whatever scale; and the result
+// depends on the image alone (no pose, no earlier frame), so a hole that stays put is filled alike.
+void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
+                           cv::Mat& mask, cv::Mat* filled_depth) {
+  const int W = color.cols, H = color.rows;
+  static thread_local PyramidState st;
+  st.tiles_x = (W + kTile - 1) / kTile, st.tiles_y = (H + kTile - 1) / kTile;
+  st.hole_tile.assign(size_t(st.tiles_x) * size_t(st.tiles_y), 0);
+  if (st.source_mark.size() != depth.size()) st.source_mark = cv::Mat::zeros(depth.size(), CV_8UC1);
+  st.ray_weight.clear();
+  st.sources.clear();
+  st.runs.clear();
+  const float keep = float(1.0 - background_ratio);
+  fill_along_rays_and_mark_sources(depth, keep, color, &st.ray_weight, st.source_mark,
+                                   &st.sources, &st.hole_tile, &st.runs);
+  for (int i : st.sources) st.source_mark.data[i] = 0;  // continuous: made by cv::Mat::zeros
+  if (st.runs.empty()) return;
+  mark_active_tiles(st);
+  pull_down(st, push_up(st, color, depth));
+  fill_from_base(st, color, mask, filled_depth);
+  smooth_behind(st, color, depth, mask, keep, smooth_px);
+}
+
+// The box is summed at each filled pixel alone (holes are a few % of a view), with the image's border
+// mirrored as cv::blur mirrors it (BORDER_REFLECT_101) and its rounding: the same pixels a blur of the whole
+// image gives there. (A sum over (2r+1)^2 values divided by their count never ends in .5, so the integer
+// rounding below cannot differ from OpenCV's.) The new colours are kept aside until all are made: each reads
+// the unblurred fill around it.
+void smooth_filled_pixels(cv::Mat& color, const cv::Mat& filled, int smooth_px) {
+  if (smooth_px <= 0) return;
+  const int W = color.cols, H = color.rows, r = smooth_px, n = (2 * r + 1) * (2 * r + 1);
+  if (W <= r || H <= r) {  // too small to mirror: the plain way
+    cv::Mat blurred;
+    cv::blur(color, blurred, cv::Size(2 * r + 1, 2 * r + 1));
+    blurred.copyTo(color, filled);
+    return;
+  }
+  auto mirror = [](int i, int len) { return i < 0 ? -i : i >= len ? 2 * (len - 1) - i : i; };
+  struct Smoothed {
+    int y, x;
+    uint8_t rgb[3];
+  };
+  static thread_local std::vector<Smoothed> out;
+  static thread_local std::vector<const uint8_t*> rows;
+  out.clear();
+  rows.resize(size_t(2 * r + 1));
+  for (int y = 0; y < H; ++y) {
+    const uint8_t* m = filled.ptr<uint8_t>(y);
+    bool rows_set = false;
+    for (int x0 = 0; x0 < W; x0 += 8) {
+      if (x0 + 8 <= W) {  // eight mask bytes at a time: most are 0
+        uint64_t v;
+        std::memcpy(&v, m + x0, 8);
+        if (!v) continue;
+      }
+      if (!rows_set) {
+        for (int k = -r; k <= r; ++k) rows[size_t(k + r)] = color.ptr<uint8_t>(mirror(y + k, H));
+        rows_set = true;
+      }
+      for (int x = x0; x < std::min(W, x0 + 8); ++x) {
+        if (!m[x]) continue;
+        int sum[3] = {0, 0, 0};
+        for (const uint8_t* row : rows)
+          for (int k = -r; k <= r; ++k) {
+            const uint8_t* p = row + 3 * mirror(x + k, W);
+            sum[0] += p[0], sum[1] += p[1], sum[2] += p[2];
+          }
+        Smoothed s{y, x, {}};
+        for (int c = 0; c < 3; ++c) s.rgb[c] = uint8_t((2 * sum[c] + n) / (2 * n));  // rounded to nearest
+        out.push_back(s);
+      }
+    }
+  }
+  for (const Smoothed& s : out) std::memcpy(color.ptr<uint8_t>(s.y) + 3 * s.x, s.rgb, 3);
+}
+
+void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
+                cv::Mat* filled_depth) {
+  CV_Assert(color.type() == CV_8UC3 && depth.type() == CV_16UC1 && mask.type() == CV_8UC1 &&
+            color.size() == depth.size() && mask.size() == color.size());
+  if (params.method == HoleFillMethod::Rays) {
+    HoleFillParams rays = params;
+    if (rays.smooth_px < 0) rays.smooth_px = kRaysSmoothPx;
+    fill_holes_along_rays(color, depth, rays, mask, filled_depth);
+    return;
+  }
+  const int smooth_px = params.smooth_px < 0 ? kPyramidSmoothPx : params.smooth_px;
+  fill_holes_by_pyramid(color, depth, params.background_ratio, smooth_px, mask, filled_depth);
+}
+
+}  // namespace vclassroom

@@ -1,0 +1,53 @@
+// Filling what no camera sees in a fused view (docs/vva.md, "hole filling"). GStreamer-free: cv::Mat in and
+// out. A hole is a pixel whose depth is 0; it takes its colour from the side that lies behind (the
+// disocclusion's background), never from the foreground object that caused it.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+namespace vclassroom {
+
+enum class HoleFillMethod {
+  // Since issue 35: a push-pull pyramid over the hole's background border only (docs/references.md: Gortler
+  // et al. 1996, Solh and AlRegib 2012). The known pixels across a hole along its row and column that lie on
+  // its far side are the only samples; coarser levels average them, and a hole takes the bilinear
+  // interpolation of the next coarser level, so every hole gets a smooth surface over the background around
+  // it in 2-D, at whatever width. Near the border the nearest background pixels along the rays weigh more.
+  Pyramid,
+  // The fill before issue 35: the nearest known pixel along the row and the column in each direction,
+  // those on the far side weighted by 1/distance, then a box blur. Kept for comparison.
+  Rays,
+};
+
+struct HoleFillParams {
+  HoleFillMethod method = HoleFillMethod::Pyramid;
+  // A sample counts as background when its depth is within this share of the farthest one it is compared
+  // with (the ray ends of a hole pixel; a pyramid cell's children or a hole's coarser neighbours).
+  double background_ratio = 0.12;
+  // The filled pixels are then box-blurred over (2r+1)^2 (0: not at all; -1: the method's own, 1 px after
+  // the pyramid, 2 px after the rays).
+  int smooth_px = -1;
+  // Rays only: each filled pixel within 16 px of the hole's edge gets, times this, the detail of its mirror
+  // image across the edge on its nearest background side (FuseParams::fill_texture). 0: smooth.
+  double texture = 0;
+};
+
+// Fills every pixel of `color` (CV_8UC3) where `depth` (CV_16UC1) is 0. `mask` (CV_8UC1, the size of
+// `color`, zero on entry) gets 255 where a colour was made. `filled_depth` (optional, a copy of `depth`)
+// gets the background depth chosen for each filled pixel. A view without any known pixel stays as it is.
+void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
+                cv::Mat* filled_depth = nullptr);
+
+// The two methods, as fill_holes runs them by params.method (the pyramid's smoothing averages only what
+// lies behind each filled pixel; the rays' blurs all around it, as before issue 35).
+void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
+                           cv::Mat& mask, cv::Mat* filled_depth);
+void fill_holes_along_rays(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
+                           cv::Mat* filled_depth);
+
+// Box-blurs (2 smooth_px + 1)^2 the pixels where `filled` is set, from the colours around them as they are
+// (every filled pixel reads the unblurred image). Only the parts of the image holding filled pixels are
+// touched.
+void smooth_filled_pixels(cv::Mat& color, const cv::Mat& filled, int smooth_px);
+
+}  // namespace vclassroom
