@@ -1,0 +1,210 @@
+// The H.264 camera link (docs/network.md, "The H.264 camera link"): the depth coder with its error bound,
+// the SEI that carries it in the colour's access units, and the elements through GStreamer.
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include <opencv2/imgproc.hpp>
+
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/core/image_io.h>
+#include <gst/vclassroom/net/depth_link.h>
+#include <gst/vclassroom/net/h264_sei.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/synthetic/synthetic_camera.h>
+
+#include "test_util.h"
+
+using namespace vclassroom;
+using namespace vctest;
+
+namespace {
+
+// Frames `n` of the synthetic classroom's camera 0 at w x h, sensor model on.
+std::vector<SyntheticCamera::Planes> classroom_frames(int n, int w = 320, int h = 180) {
+  Rig rig = default_classroom_rig();
+  CameraCalib cam = rig.cameras[0];
+  const double s = double(w) / cam.width;
+  cam.fx *= s; cam.fy *= s; cam.cx = (cam.cx + 0.5) * s - 0.5; cam.cy = (cam.cy + 0.5) * s - 0.5;
+  cam.width = w; cam.height = h;
+  SyntheticCamera camera;
+  camera.configure(SyntheticCameraConfig());
+  std::vector<SyntheticCamera::Planes> out;
+  for (int i = 0; i < n; ++i) {
+    SyntheticCamera::Planes p = camera.frame(cam, i / 30.0, uint64_t(i));
+    out.push_back({p.color.clone(), p.depth.clone(), p.label.clone(), p.depth_gt.clone()});
+  }
+  return out;
+}
+
+// The number of pixels whose decoded depth breaks the bound (a measurement lost or invented counts too).
+int bound_violations(const cv::Mat& truth, const cv::Mat& coded, uint16_t tolerance) {
+  int bad = 0;
+  for (int y = 0; y < truth.rows; ++y)
+    for (int x = 0; x < truth.cols; ++x) {
+      const uint16_t z = truth.at<uint16_t>(y, x), c = coded.at<uint16_t>(y, x);
+      if ((z == 0) != (c == 0) || std::abs(int(z) - int(c)) > depth_error_bound(z, tolerance)) ++bad;
+    }
+  return bad;
+}
+
+// Codes and decodes a sequence, checks the bound at every pixel of every frame; returns the bytes sent.
+size_t round_trip_within_bound(const std::vector<cv::Mat>& depths, const std::vector<cv::Mat>& labels,
+                               uint16_t tolerance, int key_interval) {
+  DepthLinkEncoder enc;
+  DepthLinkDecoder dec;
+  size_t bytes = 0;
+  for (size_t i = 0; i < depths.size(); ++i) {
+    std::vector<uint8_t> wire;
+    const cv::Mat label = labels.empty() ? cv::Mat() : labels[i];
+    enc.encode(depths[i], label, "video/x-rgbd", i % size_t(key_interval) == 0, tolerance, &wire);
+    bytes += wire.size();
+    DepthLinkFrame f;
+    std::string err;
+    EXPECT_TRUE(dec.decode(wire.data(), wire.size(), &f, &err)) << err;
+    EXPECT_EQ(bound_violations(depths[i], f.depth, tolerance), 0) << "frame " << i;
+    EXPECT_TRUE(same_image(f.depth, enc.reconstructed()));
+    if (!label.empty()) {
+      EXPECT_TRUE(same_image(f.label, label));
+    }
+    EXPECT_EQ(f.caps, "video/x-rgbd");
+  }
+  return bytes;
+}
+
+}  // namespace
+
+TEST(DepthLink, TheBoundGrowsWithTheSquareOfDepth) {
+  EXPECT_EQ(depth_error_bound(1000, 280), 2);   // 2.8 mm at 1 m, floored
+  EXPECT_EQ(depth_error_bound(2000, 280), 11);  // 11.2 at 2 m
+  EXPECT_EQ(depth_error_bound(5000, 280), 70);
+  EXPECT_EQ(depth_error_bound(500, 280), 0);    // lossless under 0.6 m
+  EXPECT_EQ(depth_error_bound(65535, 0), 0);
+  EXPECT_EQ(depth_error_bound(65535, 65535), 65535);
+}
+
+TEST(DepthLink, SyntheticClassroomStaysWithinTheBoundAndCostsFarLessThanLossless) {
+  auto frames = classroom_frames(12);
+  std::vector<cv::Mat> depths, labels;
+  for (auto& f : frames) {
+    depths.push_back(f.depth);
+    labels.push_back(f.label);
+  }
+  const size_t near = round_trip_within_bound(depths, labels, kDefaultDepthTolerance, 6);
+  const size_t lossless = round_trip_within_bound(depths, labels, 0, 6);
+  EXPECT_LT(near * 3, lossless) << near << " vs " << lossless;
+}
+
+TEST(DepthLink, LosslessModeIsBitExact) {
+  auto frames = classroom_frames(4);
+  DepthLinkEncoder enc;
+  DepthLinkDecoder dec;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    std::vector<uint8_t> wire;
+    enc.encode(frames[i].depth, cv::Mat(), "c", i == 0, 0, &wire);
+    DepthLinkFrame f;
+    std::string err;
+    ASSERT_TRUE(dec.decode(wire.data(), wire.size(), &f, &err)) << err;
+    EXPECT_TRUE(same_image(f.depth, frames[i].depth));
+    EXPECT_TRUE(f.label.empty());
+  }
+}
+
+TEST(DepthLink, RedwoodSequenceStaysWithinTheBound) {
+  const std::string dir = shared_path("rgbd-sensor-samples/redwood_livingroom1_synthetic/depth");
+  if (dir.empty() || !g_file_test(dir.c_str(), G_FILE_TEST_IS_DIR)) GTEST_SKIP() << "no shared data (../shared/data)";
+  std::vector<cv::Mat> depths;
+  for (int i = 0; i < 5; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "/%05d.png", i);
+    depths.push_back(read_depth_mm(dir + name, 1.0));
+  }
+  const size_t near = round_trip_within_bound(depths, {}, kDefaultDepthTolerance, 3);
+  const size_t lossless = round_trip_within_bound(depths, {}, 0, 3);
+  EXPECT_LT(near, lossless);
+}
+
+TEST(DepthLink, ADeltaFrameWithoutItsPredecessorWaitsForTheNextKeyFrame) {
+  auto frames = classroom_frames(4, 64, 36);
+  DepthLinkEncoder enc;
+  DepthLinkDecoder dec;
+  std::vector<std::vector<uint8_t>> wire(4);
+  for (int i = 0; i < 4; ++i) enc.encode(frames[i].depth, frames[i].label, "c", i == 3, 280, &wire[i]);
+  DepthLinkFrame f;
+  std::string err;
+  ASSERT_TRUE(dec.decode(wire[0].data(), wire[0].size(), &f, &err)) << err;
+  EXPECT_TRUE(f.key);
+  EXPECT_FALSE(dec.decode(wire[2].data(), wire[2].size(), &f, &err));  // frame 1 lost
+  EXPECT_NE(err.find("without the frame before it"), std::string::npos) << err;
+  ASSERT_TRUE(dec.decode(wire[3].data(), wire[3].size(), &f, &err)) << err;
+  EXPECT_TRUE(f.key);
+  EXPECT_EQ(f.number, 3u);
+}
+
+TEST(DepthLink, EveryDamageIsRefusedWithAReason) {
+  auto frames = classroom_frames(1, 64, 36);
+  DepthLinkEncoder enc;
+  std::vector<uint8_t> wire;
+  enc.encode(frames[0].depth, frames[0].label, "video/x-rgbd", true, 280, &wire);
+  // Every truncation and every single flipped byte is refused (checksum or a field), never crashes.
+  for (size_t n = 0; n < wire.size(); n += 7) {
+    DepthLinkDecoder dec;
+    DepthLinkFrame f;
+    std::string err;
+    EXPECT_FALSE(dec.decode(wire.data(), n, &f, &err));
+    EXPECT_FALSE(err.empty());
+  }
+  for (size_t i = 0; i < wire.size(); ++i) {
+    std::vector<uint8_t> bad = wire;
+    bad[i] ^= 0x41;
+    DepthLinkDecoder dec;
+    DepthLinkFrame f;
+    std::string err;
+    EXPECT_FALSE(dec.decode(bad.data(), bad.size(), &f, &err)) << "byte " << i;
+  }
+  // An oversized declaration is refused before anything is allocated for it.
+  std::vector<uint8_t> big = wire;
+  big[8] = 0xff; big[9] = 0xff; big[10] = 0xff; big[11] = 0xff;
+  DepthLinkDecoder dec;
+  DepthLinkFrame f;
+  std::string err;
+  EXPECT_FALSE(dec.decode(big.data(), big.size(), &f, &err));
+  EXPECT_NE(err.find("beyond the limits"), std::string::npos) << err;
+}
+
+TEST(DepthLink, WrongInputIsTheProjectsError) {
+  DepthLinkEncoder enc;
+  std::vector<uint8_t> out;
+  EXPECT_THROW(enc.encode(cv::Mat(4, 4, CV_8UC1), cv::Mat(), "", true, 0, &out), Error);
+  EXPECT_THROW(enc.encode(cv::Mat(4, 4, CV_16UC1), cv::Mat(3, 4, CV_8UC1), "", true, 0, &out), Error);
+}
+
+TEST(H264Sei, UserDataRoundTripsThroughEmulationPrevention) {
+  // SPS, PPS, IDR slice (contents are placeholders: only the NAL structure matters here).
+  const std::vector<uint8_t> au = {0, 0, 0, 1, 0x67, 0x42, 0, 0x1e, 0, 0, 0, 1, 0x68, 0xce, 0x3c, 0x80,
+                                   0, 0, 1, 0x65, 0x88, 0x84, 0x21, 0xa0};
+  std::vector<uint8_t> data = {0, 0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0xff, 0, 0};
+  data.resize(700, 0);  // a payload size that needs 0xff extension bytes
+  std::vector<uint8_t> out;
+  h264_insert_user_data(au.data(), au.size(), kDepthLinkSeiUuid, data.data(), data.size(), &out);
+  EXPECT_TRUE(h264_is_idr(out.data(), out.size()));
+  // The original units are still there, after the SEI.
+  EXPECT_TRUE(std::equal(au.end() - 9, au.end(), out.end() - 9));
+  for (size_t i = 0; i + 2 < out.size() - 9; ++i)  // no start code emulated inside the SEI
+    if (i > 20 && out[i] == 0 && out[i + 1] == 0) {
+      EXPECT_GE(out[i + 2], 3) << i;
+    }
+  std::vector<uint8_t> back;
+  std::string err;
+  ASSERT_EQ(h264_find_user_data(out.data(), out.size(), kDepthLinkSeiUuid, 1 << 20, &back, &err), SeiFind::kFound);
+  EXPECT_EQ(back, data);
+  EXPECT_EQ(h264_find_user_data(au.data(), au.size(), kDepthLinkSeiUuid, 1 << 20, &back, &err), SeiFind::kAbsent);
+  EXPECT_EQ(h264_find_user_data(out.data(), out.size(), kDepthLinkSeiUuid, 100, &back, &err), SeiFind::kMalformed);
+  // Cut inside the SEI: malformed, never read past the end.
+  for (size_t n = 30; n < 200; n += 13) {
+    SeiFind r = h264_find_user_data(out.data(), n, kDepthLinkSeiUuid, 1 << 20, &back, &err);
+    EXPECT_NE(r, SeiFind::kFound) << n;
+  }
+  EXPECT_THROW(h264_insert_user_data(au.data(), 16, kDepthLinkSeiUuid, data.data(), 4, &out), Error);
+}
+
