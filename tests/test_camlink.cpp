@@ -8,6 +8,7 @@
 
 #include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/image_io.h>
+#include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/net/depth_link.h>
 #include <gst/vclassroom/net/h264_sei.h>
 #include <gst/vclassroom/synthetic/classroom.h>
@@ -208,3 +209,144 @@ TEST(H264Sei, UserDataRoundTripsThroughEmulationPrevention) {
   EXPECT_THROW(h264_insert_user_data(au.data(), 16, kDepthLinkSeiUuid, data.data(), 4, &out), Error);
 }
 
+
+// --- Through GStreamer -----------------------------------------------------------------------------------
+
+namespace {
+
+// The camera's side and the server's of the link, without the network.
+std::string link_chain(int key_int) {
+  return "rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast "
+         "key-int-max=" + std::to_string(key_int) + " ! video/x-h264,profile=constrained-baseline ! "
+         "rgbdlinkmux name=mux ! rtph264pay mtu=1400 ! rtph264depay ! rgbdlinkdemux name=demux ! openh264dec ! "
+         "videoconvert ! rgbdlinkjoin name=join";
+}
+
+GstElement* launch(const std::string& desc) {
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  EXPECT_EQ(err, nullptr) << (err ? err->message : "");
+  if (err) g_error_free(err);
+  return p;
+}
+
+guint64 uint64_property(GstElement* bin, const char* element, const char* property) {
+  GstElement* e = gst_bin_get_by_name(GST_BIN(bin), element);
+  guint64 v = 0;
+  g_object_get(e, property, &v, nullptr);
+  gst_object_unref(e);
+  return v;
+}
+
+}  // namespace
+
+TEST(CameraLink, EveryFrameArrivesWithItsOwnDepthWithinTheBoundAndItsLabels) {
+  TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 320, 180);
+  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=40 ground-truth=true ! tee name=t "
+                         "t. ! queue ! appsink name=truth sync=false "
+                         "t. ! queue ! " + link_chain(15) + " ! appsink name=out sync=false");
+  GstElement* truth_sink = gst_bin_get_by_name(GST_BIN(p), "truth");
+  GstElement* out_sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  {
+    SampleCollector truth(truth_sink), out(out_sink);
+    RunResult r = run_pipeline(p);
+    EXPECT_EQ(r.error, "");
+    EXPECT_TRUE(r.warnings.empty()) << r.warnings.front();
+    ASSERT_EQ(out.size(), 40u);
+    ASSERT_EQ(truth.size(), 40u);
+    for (size_t i = 0; i < out.size(); ++i) {
+      RgbdInfo oi, ti;
+      std::string err;
+      ASSERT_TRUE(rgbd_info_from_caps(out.caps(i), &oi, &err)) << err;
+      ASSERT_TRUE(rgbd_info_from_caps(truth.caps(i), &ti, &err)) << err;
+      EXPECT_EQ(oi.camera.fx, ti.camera.fx);  // the calibration crossed
+      // The same instant (x264enc moves every timestamp by the same offset).
+      ASSERT_EQ(GST_BUFFER_PTS(out.buffer(i)) - GST_BUFFER_PTS(out.buffer(0)),
+                GST_BUFFER_PTS(truth.buffer(i)) - GST_BUFFER_PTS(truth.buffer(0)));
+      RgbdFrame o, t;
+      ASSERT_TRUE(o.map(out.buffer(i), oi, GST_MAP_READ, &err)) << err;
+      ASSERT_TRUE(t.map(truth.buffer(i), ti, GST_MAP_READ, &err)) << err;
+      EXPECT_EQ(bound_violations(t.depth(), o.depth(), kDefaultDepthTolerance), 0) << "frame " << i;
+      EXPECT_TRUE(same_image(t.label(), o.label())) << "frame " << i;
+      EXPECT_GT(cv::PSNR(t.color(), o.color()), 30.0) << "frame " << i;
+    }
+  }
+  EXPECT_EQ(uint64_property(p, "join", "frames"), 40u);
+  gst_object_unref(truth_sink);
+  gst_object_unref(out_sink);
+  gst_object_unref(p);
+}
+
+TEST(CameraLink, LosslessDepthComesBackBitExact) {
+  TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 160, 90);
+  std::string chain = link_chain(30);
+  chain.replace(chain.find("rgbdlinkmux name=mux"), 20, "rgbdlinkmux name=mux depth-tolerance=0");
+  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=12 ! tee name=t t. ! queue ! appsink name=truth "
+                         "sync=false t. ! queue ! " + chain + " ! appsink name=out sync=false");
+  GstElement* truth_sink = gst_bin_get_by_name(GST_BIN(p), "truth");
+  GstElement* out_sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  {
+    SampleCollector truth(truth_sink), out(out_sink);
+    EXPECT_EQ(run_pipeline(p).error, "");
+    ASSERT_EQ(out.size(), 12u);
+    for (size_t i = 0; i < out.size(); ++i) {
+      RgbdInfo oi, ti;
+      std::string err;
+      ASSERT_TRUE(rgbd_info_from_caps(out.caps(i), &oi, &err));
+      ASSERT_TRUE(rgbd_info_from_caps(truth.caps(i), &ti, &err));
+      RgbdFrame o, t;
+      ASSERT_TRUE(o.map(out.buffer(i), oi, GST_MAP_READ, &err));
+      ASSERT_TRUE(t.map(truth.buffer(i), ti, GST_MAP_READ, &err));
+      EXPECT_TRUE(same_image(t.depth(), o.depth())) << "frame " << i;
+    }
+  }
+  gst_object_unref(truth_sink);
+  gst_object_unref(out_sink);
+  gst_object_unref(p);
+}
+
+namespace {
+
+// Flips a byte inside the depth SEI of access unit number `*(int*)data` (counted from 0).
+GstPadProbeReturn damage_depth(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* state = static_cast<std::pair<int, int>*>(data);  // (frames seen, frame to damage)
+  if (state->first++ != state->second) return GST_PAD_PROBE_OK;
+  GstBuffer* buf = gst_buffer_make_writable(GST_PAD_PROBE_INFO_BUFFER(info));
+  GstMapInfo map;
+  gst_buffer_map(buf, &map, GST_MAP_READWRITE);
+  for (size_t i = 0; i + 16 < map.size; ++i) {
+    if (std::memcmp(map.data + i, kDepthLinkSeiUuid, 16) == 0) {
+      map.data[i + 16 + 40] ^= 0x5a;  // inside the VCDL header's checksummed bytes
+      break;
+    }
+  }
+  gst_buffer_unmap(buf, &map);
+  GST_PAD_PROBE_INFO_DATA(info) = buf;
+  return GST_PAD_PROBE_OK;
+}
+
+}  // namespace
+
+TEST(CameraLink, ADamagedDepthIsDroppedWithOneWarningUntilTheNextKeyFrameAndColourNeverPairsWithOtherDepth) {
+  TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 160, 90);
+  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=30 ! " + link_chain(10) + " ! fakesink");
+  GstElement* demux = gst_bin_get_by_name(GST_BIN(p), "demux");
+  GstPad* pad = gst_element_get_static_pad(demux, "sink");
+  std::pair<int, int> state{0, 3};
+  gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, damage_depth, &state, nullptr);
+  RunResult r = run_pipeline(p);
+  EXPECT_EQ(r.error, "");
+  // Frame 3's depth is damaged; 4..9 build on it and wait for the key frame that comes with IDR 10.
+  EXPECT_EQ(uint64_property(p, "join", "frames"), 23u);
+  EXPECT_EQ(uint64_property(p, "join", "frames-dropped"), 7u);
+  EXPECT_EQ(uint64_property(p, "demux", "frames-dropped"), 7u);
+  ASSERT_GE(r.warnings.size(), 1u);
+  EXPECT_LE(r.warnings.size(), 2u) << "rate-limited: the demuxer's and the joiner's first warnings";
+  EXPECT_NE(r.warnings[0].find("checksum"), std::string::npos) << r.warnings[0];
+  gst_object_unref(pad);
+  gst_object_unref(demux);
+  gst_object_unref(p);
+}

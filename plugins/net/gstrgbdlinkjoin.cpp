@@ -10,7 +10,7 @@
  *
  * ## Example launch line
  * |[
- * gst-launch-1.0 rgbdtestsrc num-buffers=30 ! rgbdlinksplit ! videoconvert ! x264enc tune=zerolatency speed-preset=ultrafast ! rgbdlinkmux ! rgbdlinkdemux ! openh264dec ! videoconvert ! rgbdlinkjoin ! rgbddemux name=d d.depth ! fakesink
+ * gst-launch-1.0 rgbdtestsrc num-buffers=30 ! rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rgbdlinkdemux ! openh264dec ! videoconvert ! rgbdlinkjoin ! rgbddemux name=d d.depth ! fakesink
  * ]|
  */
 #ifdef HAVE_CONFIG_H
