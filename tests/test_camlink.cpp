@@ -4,6 +4,7 @@
 
 #include <cstring>
 
+#include <gst/rtp/gstrtcpbuffer.h>
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/core/error.h>
@@ -348,5 +349,86 @@ TEST(CameraLink, ADamagedDepthIsDroppedWithOneWarningUntilTheNextKeyFrameAndColo
   EXPECT_NE(r.warnings[0].find("checksum"), std::string::npos) << r.warnings[0];
   gst_object_unref(pad);
   gst_object_unref(demux);
+  gst_object_unref(p);
+}
+
+namespace {
+
+// Per access unit leaving rgbdlinkmux: whether it is an IDR picture and whether its depth is a key frame.
+struct KeyLog {
+  std::vector<std::pair<bool, bool>> units;
+  GstElement* rtcp_src = nullptr;
+  int pli_after = -1;  // push a PLI into the camera's session after this many units
+};
+
+GstBuffer* pli_packet(guint32 sender, guint32 media) {
+  GstBuffer* buf = gst_rtcp_buffer_new(1400);
+  GstRTCPBuffer rtcp = GST_RTCP_BUFFER_INIT;
+  gst_rtcp_buffer_map(buf, GST_MAP_READWRITE, &rtcp);
+  GstRTCPPacket packet;
+  gst_rtcp_buffer_add_packet(&rtcp, GST_RTCP_TYPE_RR, &packet);
+  gst_rtcp_packet_rr_set_ssrc(&packet, sender);
+  gst_rtcp_buffer_add_packet(&rtcp, GST_RTCP_TYPE_PSFB, &packet);
+  gst_rtcp_packet_fb_set_type(&packet, GST_RTCP_PSFB_TYPE_PLI);
+  gst_rtcp_packet_fb_set_sender_ssrc(&packet, sender);
+  gst_rtcp_packet_fb_set_media_ssrc(&packet, media);
+  gst_rtcp_buffer_unmap(&rtcp);
+  return buf;
+}
+
+GstPadProbeReturn log_keys(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* log = static_cast<KeyLog*>(data);
+  GstMapInfo map;
+  GstBuffer* buf = GST_PAD_PROBE_INFO_BUFFER(info);
+  gst_buffer_map(buf, &map, GST_MAP_READ);
+  std::vector<uint8_t> vcdl;
+  std::string err;
+  const bool found = h264_find_user_data(map.data, map.size, kDepthLinkSeiUuid, 1 << 24, &vcdl, &err) == SeiFind::kFound;
+  log->units.emplace_back(h264_is_idr(map.data, map.size), found && vcdl.size() > 5 && (vcdl[5] & 1));
+  gst_buffer_unmap(buf, &map);
+  if (int(log->units.size()) == log->pli_after) {
+    GstBuffer* pli = pli_packet(0x1234, 0x56430000);
+    GstFlowReturn ret;
+    g_signal_emit_by_name(log->rtcp_src, "push-buffer", pli, &ret);
+    gst_buffer_unref(pli);
+  }
+  return GST_PAD_PROBE_OK;
+}
+
+}  // namespace
+
+// A server's picture loss indication (RFC 4585 PLI) reaching the camera's RTCP session makes x264enc send an
+// IDR picture, and its access unit carries a depth key frame: a server can start or recover at once.
+TEST(CameraLink, APictureLossIndicationBringsAKeyFrameOfColourAndDepth) {
+  TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 160, 90);
+  // No periodic key frame in these 40 frames: only the first one and the one asked for.
+  GstElement* p = launch(
+      "rtpsession name=session rtp-profile=avpf appsrc name=rtcp is-live=true format=time caps=application/x-rtcp ! "
+      "session.recv_rtcp_sink "
+      "rgbdtestsrc rig=" + rig + " num-buffers=40 is-live=true ! rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! "
+      "x264enc tune=zerolatency speed-preset=ultrafast key-int-max=1000 ! video/x-h264,profile=constrained-baseline ! "
+      "rgbdlinkmux name=mux ! rtph264pay pt=96 ssrc=1447231488 ! session.send_rtp_sink session.send_rtp_src ! fakesink "
+      "sync=false async=false");
+  KeyLog log;
+  log.rtcp_src = gst_bin_get_by_name(GST_BIN(p), "rtcp");
+  log.pli_after = 10;
+  GstElement* mux = gst_bin_get_by_name(GST_BIN(p), "mux");
+  GstPad* pad = gst_element_get_static_pad(mux, "src");
+  gst_pad_add_probe(pad, GST_PAD_PROBE_TYPE_BUFFER, log_keys, &log, nullptr);
+  RunResult r = run_pipeline(p);
+  EXPECT_EQ(r.error, "");
+  ASSERT_EQ(log.units.size(), 40u);
+  EXPECT_TRUE(log.units[0].first && log.units[0].second);
+  int asked = -1;
+  for (size_t i = 1; i < log.units.size(); ++i) {
+    EXPECT_EQ(log.units[i].first, log.units[i].second) << "colour and depth key frames go together, unit " << i;
+    if (log.units[i].first && asked < 0) asked = int(i);
+  }
+  EXPECT_GE(asked, 10) << "a key frame only after the request";
+  EXPECT_GT(asked, 0) << "no key frame after the PLI";
+  gst_object_unref(pad);
+  gst_object_unref(mux);
+  gst_object_unref(log.rtcp_src);
   gst_object_unref(p);
 }
