@@ -1,6 +1,13 @@
 #!/usr/bin/env bash
-# Classroom side, one camera: source -> rgbdenc -> RTP -> UDP to the server, with retransmission of lost
-# packets (RFC 4588): the server's RTCP NACKs come back on NACK_PORT and rtprtxsend resends (docs/network.md).
+# Classroom side, one camera: source -> H.264 colour with the depth in each access unit (rgbdlinksplit,
+# x264enc, rgbdlinkmux) -> rtph264pay -> UDP to the server, with retransmission of lost packets (RFC 4588):
+# the server's RTCP NACKs and key frame requests (PLI/FIR, RFC 4585/5104) come back on NACK_PORT, rtprtxsend
+# resends and x264enc sends a key frame (docs/network.md, "The H.264 camera link").
+# LINK (h264, the default: the camera link above, about 25 Mbit/s at 960x540; vcrd1: the old link, rgbdenc's
+#   JPEG + lossless depth through rtpgstpay, about 140 Mbit/s; the server's LINK must match),
+# DEPTH_TOLERANCE (h264 link: the largest depth error in mm at 1 m, growing with z^2; default 2.8, just under
+#   the depth step a Kinect-class sensor resolves; 0: lossless), BITRATE (h264 link: x264enc kbit/s, default
+#   4000), KEY_INTERVAL (h264 link: frames between key frames at most, default 60: 2 s at 30 fps),
 # Variables: CAMERA (id, default 0), SERVER (host, default 127.0.0.1), PORT (default 5000 + CAMERA),
 #   NACK_PORT (port here for the server's RTCP, i.e. its retransmission requests, default PORT + 100;
 #   only packets from SERVER are taken there),
@@ -31,6 +38,19 @@ MTU=${MTU:-1400}
 RTX=${RTX:-1}
 RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 SSRC=${SSRC:-$((0x56430000 + CAMERA))}
+LINK=${LINK:-h264}
+DEPTH_TOLERANCE=${DEPTH_TOLERANCE:-2.8}
+BITRATE=${BITRATE:-4000}
+KEY_INTERVAL=${KEY_INTERVAL:-60}
+if [ "$LINK" != h264 ] && [ "$LINK" != vcrd1 ]; then
+  echo "classroom.sh: LINK must be h264 or vcrd1 (got '$LINK')" >&2
+  exit 2
+fi
+if ! [[ $DEPTH_TOLERANCE =~ ^[0-9]{1,3}(\.[0-9]{1,2})?$ ]] || ! [[ $BITRATE =~ ^[0-9]{3,6}$ ]] ||
+   ! [[ $KEY_INTERVAL =~ ^[0-9]{1,4}$ ]] || [ "$KEY_INTERVAL" -lt 1 ]; then
+  echo "classroom.sh: DEPTH_TOLERANCE is mm (e.g. 2.8), BITRATE kbit/s (100 to 999999), KEY_INTERVAL frames (1 to 9999)" >&2
+  exit 2
+fi
 if ! [[ $SSRC =~ ^[0-9]+$ ]] || [ "$SSRC" -gt 4294967294 ]; then
   echo "classroom.sh: SSRC must be a number, 0 to 4294967294 (got '$SSRC')" >&2
   exit 2
@@ -66,9 +86,31 @@ else
   to_session="identity drop-probability=$DROP ! $SRTP_ENC $to_session"
 fi
 set -f
+# The coder and payloader of the link. The H.264 link: colour in I420 (constrained baseline: no B-frames, what
+# every decoder plays, openh264dec included), an IDR picture at least every KEY_INTERVAL frames and on the
+# server's request, SPS/PPS with every IDR (a server that joins late starts at the next one); the depth,
+# labels and calibration ride in each access unit (rgbdlinkmux).
+if [ "$LINK" = h264 ]; then
+  coder="rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! \
+    x264enc tune=zerolatency speed-preset=ultrafast key-int-max=$KEY_INTERVAL bitrate=$BITRATE ! \
+    video/x-h264,profile=constrained-baseline ! \
+    rgbdlinkmux name=enc depth-tolerance=$DEPTH_TOLERANCE key-interval=$KEY_INTERVAL stats-interval=$STATS"
+  pay="rtph264pay config-interval=-1 mtu=$MTU pt=96 ssrc=$SSRC"
+  recorder="rgbdenc quality=$QUALITY ! rgbdfilesink location=${RECORD:-}"
+else
+  coder="rgbdenc name=enc quality=$QUALITY stats-interval=$STATS"
+  pay="rtpgstpay config-interval=1 mtu=$MTU pt=96 ssrc=$SSRC"
+  recorder="rgbdfilesink location=${RECORD:-}"
+fi
 record=""
-# The recording branch gets its own thread and may fall behind without holding the link back.
-[ -n "${RECORD:-}" ] && record="coded. ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=0 ! rgbdfilesink location=$RECORD"
+# The recording branch gets its own thread and may fall behind without holding the link back. It records
+# the lossless frames (rgbdenc) whatever the link sends.
+if [ -n "${RECORD:-}" ] && [ "$LINK" = h264 ]; then
+  record="raw. ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=0 ! $recorder"
+  coder="tee name=raw ! queue ! $coder"
+elif [ -n "${RECORD:-}" ]; then
+  record="coded. ! queue max-size-buffers=0 max-size-bytes=0 max-size-time=0 ! $recorder"
+fi
 # shellcheck disable=SC2086
-exec gst-launch-1.0 -e $verbose $send_session $SOURCE ! rgbdenc name=enc quality=$QUALITY stats-interval=$STATS ! \
-  tee name=coded ! queue ! rtpgstpay config-interval=1 mtu=$MTU pt=96 ssrc=$SSRC ! $to_session $record
+exec gst-launch-1.0 -e $verbose $send_session $SOURCE ! $coder ! \
+  tee name=coded ! queue ! $pay ! $to_session $record

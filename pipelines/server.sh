@@ -39,6 +39,9 @@
 #   MEMORY (frames of viewwarp's background memory, default 8; 0: off; with MODEL it starts from the model's
 #   empty-room colour and draws the room behind the learners, docs/vva.md; with whep-views every lecturer's
 #   view keeps its own).
+#   LINK (h264, the default: the cameras send H.264 colour with the depth in each access unit, rgbdlinkdemux
+#   and rgbdlinkjoin pair them again; vcrd1: the old link, rgbdenc frames through rtpgstpay; as the cameras'
+#   classroom.sh; docs/network.md, "The H.264 camera link").
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
@@ -63,6 +66,11 @@ if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   exit 2
 fi
 RTX=${RTX:-1}
+LINK=${LINK:-h264}
+if [ "$LINK" != h264 ] && [ "$LINK" != vcrd1 ]; then
+  echo "server.sh: LINK must be h264 or vcrd1 (got '$LINK')" >&2
+  exit 2
+fi
 RTX_LATENCY=${RTX_LATENCY:-300}
 PREP_NICE=${PREP_NICE:-19}
 MEMORY=${MEMORY:-8}
@@ -90,6 +98,7 @@ read -r -a nack_ports <<< "${CAMERA_NACK_PORTS:-}"
 read -r -a camera_ssrcs <<< "${CAMERA_SSRCS:-}"
 for p in "$VIDEO_PORT" "$POSE_PORT"; do check_port "$p"; done
 RTP_CAPS="$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,payload=96"
+[ "$LINK" = h264 ] && RTP_CAPS="$RTP_MEDIA,media=video,clock-rate=90000,encoding-name=H264,payload=96"
 branches=""
 i=0
 host=${camera_hosts[0]}
@@ -140,9 +149,19 @@ for k in $CAMERAS; do
   # whepviewsink's viewprep (the memory, the warp's first half) runs in this queue's thread, at PREP_NICE too.
   [ "${LECTURER_OUT:-rtp}" = whep-views ] &&
     to_view="queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! views.cam_$k"
-  branches="$branches $receive rtpgstdepay ! \
-    queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k $dec_rig stats-interval=$STATS ! \
-    $vda learnerseg $prior ! $to_view"
+  # The old link: the newest coded frame only is decoded, in the low-priority thread. The H.264 link: every
+  # access unit must be decoded (each builds on the one before), so decoding runs in the link's thread;
+  # the newest joined frame goes on to the low-priority one. A lost packet asks the camera for a key frame
+  # (rtph264depay request-keyframe: a PLI through the RTCP session, RFC 4585), and pictures wait for it.
+  if [ "$LINK" = h264 ]; then
+    decode="rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k stats-interval=$STATS ! \
+      openh264dec ! videoconvert ! video/x-raw,format=RGB ! rgbdlinkjoin name=join$k ! \
+      queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE !"
+  else
+    decode="rtpgstdepay ! queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! \
+      rgbddec name=dec$k $dec_rig stats-interval=$STATS !"
+  fi
+  branches="$branches $receive $decode $vda learnerseg $prior ! $to_view"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.

@@ -127,7 +127,10 @@ static GstBuffer* demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, std::string
   std::vector<uint8_t> data;
   const size_t max_len = 3 * size_t(4096) * 2160 + 65536;
   const SeiFind found = h264_find_user_data(map.data, map.size, kDepthLinkSeiUuid, max_len, &data, why);
+  const bool picture = h264_has_slice(map.data, map.size);
   gst_buffer_unmap(in, &map);
+  *kind = DropKind::Damaged;
+  if (found == SeiFind::kAbsent && !picture) return nullptr;  // parameter sets alone: nothing to join
   *kind = DropKind::Damaged;
   if (found == SeiFind::kAbsent) *why = "an access unit without depth";
   if (found != SeiFind::kFound) return nullptr;
@@ -155,7 +158,7 @@ static GstFlowReturn gst_rgbd_link_demux_generate_output(GstBaseTransform* trans
   if (planes) {
     gst_buffer_add_rgbd_link_meta(in, planes, self->out_caps);
     gst_buffer_unref(planes);
-  } else {
+  } else if (!why.empty()) {
     drop_depth(self, kind, why);
   }
   *outbuf = in;

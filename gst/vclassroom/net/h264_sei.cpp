@@ -149,6 +149,12 @@ SeiFind h264_find_user_data(const uint8_t* au, size_t size, const SeiUuid& uuid,
   return SeiFind::kAbsent;
 }
 
+bool h264_has_slice(const uint8_t* au, size_t size) {
+  for (const Nal& nal : split_nals(au, size))
+    if (nal.begin < nal.end && (au[nal.begin] & 0x1f) >= 1 && (au[nal.begin] & 0x1f) <= 5) return true;
+  return false;
+}
+
 bool h264_is_idr(const uint8_t* au, size_t size) {
   for (const Nal& nal : split_nals(au, size))
     if (nal.begin < nal.end && (au[nal.begin] & 0x1f) == 5) return true;

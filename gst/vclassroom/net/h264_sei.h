@@ -28,6 +28,8 @@ enum class SeiFind { kFound, kAbsent, kMalformed };
 SeiFind h264_find_user_data(const uint8_t* au, size_t size, const SeiUuid& uuid, size_t max_len,
                             std::vector<uint8_t>* data, std::string* error);
 
+// Whether the access unit holds a slice (NAL types 1-5): a picture, not parameter sets alone.
+bool h264_has_slice(const uint8_t* au, size_t size);
 // Whether the access unit holds an IDR slice (NAL type 5).
 bool h264_is_idr(const uint8_t* au, size_t size);
 
