@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Classroom side, one camera: source -> H.264 colour with the depth in each access unit (rgbdlinksplit,
-# x264enc, rgbdlinkmux) -> rtph264pay -> UDP to the server, with retransmission of lost packets (RFC 4588):
+# Classroom side, one camera: source -> rgbdenc -> rtpgstpay, or with LINK=h264 H.264 colour with the depth in
+# each access unit (rgbdlinksplit, x264enc, rgbdlinkmux) -> rtph264pay -> UDP to the server, with retransmission of lost packets (RFC 4588):
 # the server's RTCP NACKs and key frame requests (PLI/FIR, RFC 4585/5104) come back on NACK_PORT, rtprtxsend
 # resends and x264enc sends a key frame (docs/network.md, "The H.264 camera link").
-# LINK (h264, the default: the camera link above, about 25 Mbit/s at 960x540; vcrd1: the old link, rgbdenc's
-#   JPEG + lossless depth through rtpgstpay, about 140 Mbit/s; the server's LINK must match),
+# LINK (vcrd1, the default: rgbdenc's JPEG + lossless depth through rtpgstpay, about 140 Mbit/s; h264: the
+#   camera link above, about 25 Mbit/s at 960x540, its colour 4:2:0 (docs/network.md says what that costs);
+#   the server's LINK must match),
 # DEPTH_TOLERANCE (h264 link: the largest depth error in mm at 1 m, growing with z^2; default 2.8, just under
 #   the depth step a Kinect-class sensor resolves; 0: lossless), BITRATE (h264 link: x264enc kbit/s, default
 #   4000), KEY_INTERVAL (h264 link: frames between key frames at most, default 60: 2 s at 30 fps),
@@ -38,7 +39,7 @@ MTU=${MTU:-1400}
 RTX=${RTX:-1}
 RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 SSRC=${SSRC:-$((0x56430000 + CAMERA))}
-LINK=${LINK:-h264}
+LINK=${LINK:-vcrd1}
 DEPTH_TOLERANCE=${DEPTH_TOLERANCE:-2.8}
 BITRATE=${BITRATE:-4000}
 KEY_INTERVAL=${KEY_INTERVAL:-60}

@@ -39,9 +39,9 @@
 #   MEMORY (frames of viewwarp's background memory, default 8; 0: off; with MODEL it starts from the model's
 #   empty-room colour and draws the room behind the learners, docs/vva.md; with whep-views every lecturer's
 #   view keeps its own).
-#   LINK (h264, the default: the cameras send H.264 colour with the depth in each access unit, rgbdlinkdemux
-#   and rgbdlinkjoin pair them again; vcrd1: the old link, rgbdenc frames through rtpgstpay; as the cameras'
-#   classroom.sh; docs/network.md, "The H.264 camera link").
+#   LINK (vcrd1, the default: rgbdenc frames through rtpgstpay; h264: the cameras send H.264 colour with the
+#   depth in each access unit, rgbdlinkdemux and rgbdlinkjoin pair them again; as the cameras' classroom.sh;
+#   docs/network.md, "The H.264 camera link").
 set -euo pipefail
 # shellcheck source=pipelines/srtp.sh
 . "$(dirname "$0")/srtp.sh"
@@ -66,7 +66,7 @@ if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   exit 2
 fi
 RTX=${RTX:-1}
-LINK=${LINK:-h264}
+LINK=${LINK:-vcrd1}
 if [ "$LINK" != h264 ] && [ "$LINK" != vcrd1 ]; then
   echo "server.sh: LINK must be h264 or vcrd1 (got '$LINK')" >&2
   exit 2

@@ -877,7 +877,7 @@ TEST(SrtpLink, ClassroomScriptEncryptsItsFrames) {
   ScriptRun r = run_script("classroom.sh",
                            {"SOURCE=rgbdtestsrc num-buffers=" + std::to_string(frames) + " ground-truth=false",
                             "PORT=" + std::to_string(port), "NACK_PORT=" + std::to_string(vctest::free_udp_port()),
-                            "SRTP_KEY=" + key},
+                            "SRTP_KEY=" + key, "LINK=h264"},
                            600);  // a hang guard: 45 frames rendered at 960x540 take minutes under the sanitizers
   EXPECT_TRUE(r.ended && r.status == 0) << r.output;
   gst_element_send_event(rx, gst_event_new_eos());
