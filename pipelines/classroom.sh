@@ -89,14 +89,16 @@ fi
 set -f
 # The coder and payloader of the link. The H.264 link: colour in I420 (constrained baseline: no B-frames, what
 # every decoder plays, openh264dec included), an IDR picture at least every KEY_INTERVAL frames and on the
-# server's request, SPS/PPS with every IDR (a server that joins late starts at the next one); the depth,
+# server's request, SPS/PPS with every IDR (x264enc repeats them in a byte stream, so a server that joins late
+# starts at the next one; rtph264pay config-interval=-1 would put them between the depth SEI and the slices,
+# where rtph264depay cuts the access unit in two); the depth,
 # labels and calibration ride in each access unit (rgbdlinkmux).
 if [ "$LINK" = h264 ]; then
   coder="rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! \
     x264enc tune=zerolatency speed-preset=ultrafast key-int-max=$KEY_INTERVAL bitrate=$BITRATE ! \
     video/x-h264,profile=constrained-baseline ! \
     rgbdlinkmux name=enc depth-tolerance=$DEPTH_TOLERANCE key-interval=$KEY_INTERVAL stats-interval=$STATS"
-  pay="rtph264pay config-interval=-1 mtu=$MTU pt=96 ssrc=$SSRC"
+  pay="rtph264pay mtu=$MTU pt=96 ssrc=$SSRC"
   recorder="rgbdenc quality=$QUALITY ! rgbdfilesink location=${RECORD:-}"
 else
   coder="rgbdenc name=enc quality=$QUALITY stats-interval=$STATS"

@@ -224,7 +224,7 @@ int main(int argc, char** argv) {
   const std::string new_cam =
       "rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast "
       "key-int-max=60 bitrate=" + std::to_string(bitrate) + " ! video/x-h264,profile=constrained-baseline ! "
-      "rgbdlinkmux depth-tolerance=" + tol_text + " ! rtph264pay config-interval=-1 mtu=1400 pt=96";
+      "rgbdlinkmux depth-tolerance=" + tol_text + " ! rtph264pay mtu=1400 pt=96";
   const std::string new_srv = "rtph264depay ! rgbdlinkdemux ! openh264dec ! videoconvert ! rgbdlinkjoin";
   LinkResult sum_old, sum_new;
   for (int k = 0; k < cameras; ++k) {

@@ -46,6 +46,11 @@ struct _GstRgbdLinkDemux {
   std::string* caps_text;  // the caps string of out_caps
   GstCaps* out_caps;       // video/x-rgbd of the joined frames
   WarningLimiter* warnings;
+  // A depth SEI that came in a unit without a picture (a payloader that puts SPS and PPS between the SEI and
+  // the slice, as rtph264pay config-interval=-1 does, makes rtph264depay start a new access unit there): it
+  // belongs to the picture of the same timestamp that comes next.
+  std::vector<uint8_t>* pending;
+  GstClockTime pending_pts;
 };
 
 G_DEFINE_TYPE(GstRgbdLinkDemux, gst_rgbd_link_demux, GST_TYPE_BASE_TRANSFORM)
@@ -120,7 +125,23 @@ static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkFrame& f, std::st
   return true;
 }
 
-// The access unit's depth as a planes buffer for the meta; nullptr (with `why`) when there is none to use.
+// The planes buffer (depth, then labels) of a depth frame; nullptr (with `why`) when it is refused.
+static GstBuffer* decoded_planes(GstRgbdLinkDemux* self, const std::vector<uint8_t>& data, std::string* why,
+                                 DropKind* kind) {
+  DepthLinkFrame f;
+  *kind = DropKind::Damaged;
+  if (!self->decoder->decode(data.data(), data.size(), &f, why)) return nullptr;
+  if (!joined_caps(self, f, why, kind)) return nullptr;
+  const size_t depth_bytes = f.depth.total() * 2, label_bytes = f.label.total();
+  GstBuffer* planes = gst_buffer_new_allocate(nullptr, depth_bytes + label_bytes, nullptr);
+  gst_buffer_fill(planes, 0, f.depth.data, depth_bytes);
+  if (label_bytes) gst_buffer_fill(planes, depth_bytes, f.label.data, label_bytes);
+  codec_stats_count(GST_ELEMENT(self), &self->stats, data.size(), false);
+  return planes;
+}
+
+// The access unit's depth as a planes buffer for the meta; nullptr (with `why`) when there is none to use,
+// nullptr with `why` empty when the unit holds no picture.
 static GstBuffer* demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, std::string* why, DropKind* kind) {
   GstMapInfo map;
   if (!gst_buffer_map(in, &map, GST_MAP_READ)) return nullptr;
@@ -130,19 +151,18 @@ static GstBuffer* demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, std::string
   const bool picture = h264_has_slice(map.data, map.size);
   gst_buffer_unmap(in, &map);
   *kind = DropKind::Damaged;
-  if (found == SeiFind::kAbsent && !picture) return nullptr;  // parameter sets alone: nothing to join
-  *kind = DropKind::Damaged;
-  if (found == SeiFind::kAbsent) *why = "an access unit without depth";
-  if (found != SeiFind::kFound) return nullptr;
-  DepthLinkFrame f;
-  if (!self->decoder->decode(data.data(), data.size(), &f, why)) return nullptr;
-  if (!joined_caps(self, f, why, kind)) return nullptr;
-  const size_t depth_bytes = f.depth.total() * 2, label_bytes = f.label.total();
-  GstBuffer* planes = gst_buffer_new_allocate(nullptr, depth_bytes + label_bytes, nullptr);
-  gst_buffer_fill(planes, 0, f.depth.data, depth_bytes);
-  if (label_bytes) gst_buffer_fill(planes, depth_bytes, f.label.data, label_bytes);
-  codec_stats_count(GST_ELEMENT(self), &self->stats, data.size(), false);
-  return planes;
+  const GstClockTime pts = GST_BUFFER_PTS(in);
+  if (found == SeiFind::kFound && !picture) {  // its picture comes next, with the same timestamp
+    self->pending->swap(data);
+    self->pending_pts = pts;
+    return nullptr;
+  }
+  const bool pending = !self->pending->empty() && GST_CLOCK_TIME_IS_VALID(pts) && pts == self->pending_pts;
+  if (found == SeiFind::kAbsent && picture && pending) data.swap(*self->pending);
+  self->pending->clear();
+  if (!data.empty()) return decoded_planes(self, data, why, kind);
+  if (found == SeiFind::kAbsent && picture) *why = "an access unit without depth";
+  return nullptr;  // kMalformed says why; parameter sets alone say nothing
 }
 
 static GstFlowReturn gst_rgbd_link_demux_generate_output(GstBaseTransform* trans, GstBuffer** outbuf) {
@@ -167,7 +187,10 @@ static GstFlowReturn gst_rgbd_link_demux_generate_output(GstBaseTransform* trans
 
 static gboolean gst_rgbd_link_demux_sink_event(GstBaseTransform* trans, GstEvent* event) {
   GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(trans);
-  if (GST_EVENT_TYPE(event) == GST_EVENT_FLUSH_STOP) self->decoder->reset();
+  if (GST_EVENT_TYPE(event) == GST_EVENT_FLUSH_STOP) {
+    self->decoder->reset();
+    self->pending->clear();
+  }
   return codec_stats_sink_event(trans, event, &self->stats,
                                 GST_BASE_TRANSFORM_CLASS(gst_rgbd_link_demux_parent_class)->sink_event);
 }
@@ -175,6 +198,7 @@ static gboolean gst_rgbd_link_demux_sink_event(GstBaseTransform* trans, GstEvent
 static gboolean gst_rgbd_link_demux_start(GstBaseTransform* trans) {
   GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(trans);
   self->decoder->reset();
+  self->pending->clear();
   gst_caps_replace(&self->out_caps, nullptr);
   self->caps_text->clear();
   for (int k = 0; k < kDropKinds; ++k) self->warnings[k].reset();
@@ -200,6 +224,7 @@ static void gst_rgbd_link_demux_finalize(GObject* object) {
   delete self->decoder;
   delete self->caps_text;
   delete[] self->warnings;
+  delete self->pending;
   G_OBJECT_CLASS(gst_rgbd_link_demux_parent_class)->finalize(object);
 }
 
@@ -230,4 +255,6 @@ static void gst_rgbd_link_demux_init(GstRgbdLinkDemux* self) {
   self->caps_text = new std::string();
   self->out_caps = nullptr;
   self->warnings = new WarningLimiter[kDropKinds];
+  self->pending = new std::vector<uint8_t>();
+  self->pending_pts = GST_CLOCK_TIME_NONE;
 }
