@@ -16,6 +16,7 @@
 
 #include <gst/app/gstappsink.h>
 #include <gst/app/gstappsrc.h>
+#include <gst/video/video.h>
 #include <gst/gst.h>
 #include <opencv2/core.hpp>
 
@@ -162,6 +163,46 @@ LinkResult measure(const vclassroom_tools::Recording& rec, const std::string& ca
   return r;
 }
 
+// The lecturer's view along `trace` rendered from the 3 cameras coded by `coding` (non-live, so every run
+// renders the same frames at the same poses): learnerseg, viewwarp and viewfuse as server.sh runs them.
+std::vector<cv::Mat> views(const std::string& coding, const std::string& trace, int frames) {
+  std::string desc = "viewfuse name=fuse pose-trace=" + trace + " ! videoconvert ! video/x-raw,format=RGB ! "
+                     "appsink name=out sync=false ";
+  for (int k = 0; k < 3; ++k)
+    desc += "rgbdtestsrc camera-id=" + std::to_string(k) + " seed=1 ground-truth=false num-buffers=" +
+            std::to_string(frames) + " ! " + coding + " ! learnerseg ! viewwarp ! fuse.cam_" + std::to_string(k) + " ";
+  std::vector<cv::Mat> out;
+  GError* err = nullptr;
+  GstElement* p = gst_parse_launch(desc.c_str(), &err);
+  if (!p || err) {
+    std::fprintf(stderr, "cannot build the view pipeline: %s\n", err ? err->message : "?");
+    std::exit(1);
+  }
+  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  gst_element_set_state(p, GST_STATE_PLAYING);
+  while (GstSample* s = gst_app_sink_pull_sample(GST_APP_SINK(sink))) {
+    GstVideoInfo vi;
+    gst_video_info_from_caps(&vi, gst_sample_get_caps(s));
+    GstMapInfo map;
+    gst_buffer_map(gst_sample_get_buffer(s), &map, GST_MAP_READ);
+    out.push_back(cv::Mat(vi.height, vi.width, CV_8UC3, map.data, size_t(GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0))).clone());
+    gst_buffer_unmap(gst_sample_get_buffer(s), &map);
+    gst_sample_unref(s);
+  }
+  gst_element_set_state(p, GST_STATE_NULL);
+  gst_object_unref(sink);
+  gst_object_unref(p);
+  return out;
+}
+
+// Mean PSNR of `a` against `b`, frame by frame.
+double mean_psnr(const std::vector<cv::Mat>& a, const std::vector<cv::Mat>& b) {
+  double sum = 0;
+  const size_t n = std::min(a.size(), b.size()), skip = 5;
+  for (size_t i = skip; i < n; ++i) sum += cv::PSNR(a[i], b[i], 255.0);
+  return n > skip ? sum / double(n - skip) : 0;
+}
+
 void redwood(const std::string& dir, uint16_t tolerance) {
   std::vector<cv::Mat> depths;
   for (int i = 0; i < 5; ++i) {
@@ -202,12 +243,18 @@ int main(int argc, char** argv) {
   int frames = 60, cameras = 3, bitrate = 4000;
   double tolerance = kDefaultDepthTolerance / 100.0;
   gchar* redwood_dir = nullptr;
+  gchar* trace = nullptr;
+  gboolean view = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames per camera (default 60: 2 s at 30 fps)", "N"},
       {"cameras", 0, 0, G_OPTION_ARG_INT, &cameras, "synthetic cameras 0..N-1 (default 3)", "N"},
       {"bitrate", 0, 0, G_OPTION_ARG_INT, &bitrate, "x264enc bitrate in kbit/s (default 4000, classroom.sh's)", "K"},
       {"tolerance", 0, 0, G_OPTION_ARG_DOUBLE, &tolerance, "depth tolerance, mm at 1 m (default 2.8; 0: lossless)", "T"},
       {"redwood", 0, 0, G_OPTION_ARG_FILENAME, &redwood_dir, "also code the Redwood sequence's depth in DIR", "DIR"},
+      {"view", 0, 0, G_OPTION_ARG_NONE, &view, "also render the lecturer's view from the 3 cameras through each link "
+       "and compare it with the view from the uncoded frames (PSNR loss)", nullptr},
+      {"trace", 0, 0, G_OPTION_ARG_FILENAME, &trace, "the view's pose trace (default: one pose, the first of "
+       "pipelines/lecturer-walk.csv, held)", "CSV"},
       {}};
   vclassroom_tools::parse_command_line(
       &argc, &argv, "",
@@ -249,12 +296,38 @@ int main(int argc, char** argv) {
     }
   }
   if (redwood_dir) redwood(redwood_dir, tol);
+  double view_old = 0, view_new = 0;
+  if (view) {
+    // One pose held (a pose reaches the warps a frame or two after it is sent, on their own threads, so a
+    // moving pose would make runs differ by when it arrived, not by the link); the first frames, rendered
+    // before it arrived, are not compared.
+    std::string t = trace ? trace : "";
+    if (t.empty()) {
+      t = vclassroom_tools::make_temp_dir("camlink") + "/pose.csv";
+      FILE* f = std::fopen(t.c_str(), "w");
+      std::fprintf(f, "t,x,y,z,qw,qx,qy,qz,fov\n0.0000,-0.80000,-0.25,-0.3,0.173648178,0.984807753,0,0,90\n");
+      std::fclose(f);
+    }
+    const std::vector<cv::Mat> clean = views("identity", t, frames);
+    const std::vector<cv::Mat> old_v = views("rgbdenc quality=90 ! rgbddec", t, frames);
+    const std::vector<cv::Mat> new_v = views(
+        new_cam.substr(0, new_cam.find(" ! rtph264pay")) + " ! rgbdlinkdemux ! openh264dec ! videoconvert ! "
+        "video/x-raw,format=RGB ! rgbdlinkjoin", t, frames);
+    view_old = mean_psnr(old_v, clean);
+    view_new = mean_psnr(new_v, clean);
+    std::printf("view along %s, %zu / %zu / %zu frames: PSNR against the view from the uncoded frames: old link "
+                "%.2f dB, new link %.2f dB\n", t.c_str(), clean.size(), old_v.size(), new_v.size(), view_old, view_new);
+  }
   std::printf("old link: %.1f Mbit/s per camera, camera %.1f ms, server %.1f ms per frame, colour PSNR %.2f dB\n",
               sum_old.mbit, sum_old.enc_ms, sum_old.dec_ms, sum_old.psnr);
   std::printf("camera link: %.1f Mbit/s per camera, camera %.1f ms, server %.1f ms per frame, colour PSNR %.2f dB "
               "(%.2f dB below the old link's), depth error p99 %.0f mm, %zu pixels beyond the bound\n",
               sum_new.mbit, sum_new.enc_ms, sum_new.dec_ms, sum_new.psnr, sum_old.psnr - sum_new.psnr, sum_new.p99,
               sum_new.beyond_bound);
+  if (view)
+    std::printf("camera link: %.1f Mbit/s per camera, view PSNR against the uncoded frames' view %.2f dB (old link "
+                "%.2f dB), depth error p99 %.0f mm\n", sum_new.mbit, view_new, view_old, sum_new.p99);
   g_free(redwood_dir);
+  g_free(trace);
   return sum_new.beyond_bound == 0 ? 0 : 1;
 }
