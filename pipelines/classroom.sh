@@ -23,6 +23,12 @@
 #   SSRC (the camera's RTP stream id, default 0x56430000 + CAMERA: fixed, so that a camera that restarts
 #   is the same stream to the server, which then takes it back at once; docs/network.md),
 #   SRTP_KEY (a 30-byte key file: the frames leave encrypted with SRTP; the server needs the same file),
+#   SERVER may be an IPv4 multicast group (224.0.0.0 to 239.255.255.255): every server that joins it takes
+#   the camera (fan-out, docs/network.md); then SERVERS (the servers' addresses, comma-separated, whose
+#   retransmission and key frame requests are taken; default 127.0.0.1), MULTICAST_IFACE (the interface to
+#   send on, e.g. lo for servers on this machine; default the system's) and MULTICAST_TTL (default 1: the
+#   local network only). BIND (the address to send from: the servers' CAMERA_HOSTS must name it; on lo,
+#   127.0.0.1; default the system's choice).
 #   RECORD (a folder: the frames sent are also recorded there, coded as sent, with their times: a live
 #   recording rgbdfilesrc plays back; docs/dataset-format.md).
 set -euo pipefail
@@ -40,6 +46,25 @@ RTX=${RTX:-1}
 RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 SSRC=${SSRC:-$((0x56430000 + CAMERA))}
 LINK=${LINK:-vcrd1}
+# A multicast group as SERVER: the stream goes to the group, the requests come from SERVERS.
+multicast=""
+SERVERS=${SERVERS:-$SERVER}
+if [[ $SERVER =~ ^(22[4-9]|23[0-9])\.[0-9]{1,3}\.[0-9]{1,3}\.[0-9]{1,3}$ ]]; then
+  SERVERS=${SERVERS/#$SERVER/127.0.0.1}
+  MULTICAST_TTL=${MULTICAST_TTL:-1}
+  if ! [[ $MULTICAST_TTL =~ ^[0-9]{1,3}$ ]] || ! [[ ${MULTICAST_IFACE:-lo} =~ ^[A-Za-z0-9._-]+$ ]]; then
+    echo "classroom.sh: MULTICAST_TTL is 0 to 255, MULTICAST_IFACE an interface name" >&2
+    exit 2
+  fi
+  multicast="auto-multicast=true ttl-mc=$MULTICAST_TTL ${MULTICAST_IFACE:+multicast-iface=$MULTICAST_IFACE}"
+fi
+if [ -n "${BIND:-}" ]; then
+  if ! [[ $BIND =~ ^[0-9A-Fa-f.:]+$ ]]; then
+    echo "classroom.sh: BIND is an IP address (got '$BIND')" >&2
+    exit 2
+  fi
+  multicast="$multicast bind-address=$BIND"
+fi
 DEPTH_TOLERANCE=${DEPTH_TOLERANCE:-2.8}
 BITRATE=${BITRATE:-4000}
 KEY_INTERVAL=${KEY_INTERVAL:-60}
@@ -76,13 +101,13 @@ verbose=""
 # sends no reports of its own: the server does not need them, and rtpsession would hold end-of-stream on
 # its RTCP output (so the script would not end when the source does).
 send_session=""
-to_session="udpsink host=$SERVER port=$PORT sync=false"
+to_session="udpsink host=$SERVER port=$PORT sync=false $multicast"
 if [ "$RTX" = 1 ]; then
   send_session="rtpsession name=session rtp-profile=avpf \
-    udpsrc port=$NACK_PORT caps=application/x-rtcp ! senderfilter lock-ssrc=false allow=$SERVER ! session.recv_rtcp_sink"
+    udpsrc port=$NACK_PORT caps=application/x-rtcp ! senderfilter lock-ssrc=false allow=$SERVERS ! session.recv_rtcp_sink"
   to_session="rtprtxsend payload-type-map=application/x-rtp-pt-map,96=(uint)97 \
     ssrc-map=application/x-rtp-ssrc-map,$SSRC=(uint)$RTX_SSRC max-size-time=$RTX_KEEP_MS max-size-packets=0 ! \
-    session.send_rtp_sink session.send_rtp_src ! identity drop-probability=$DROP ! $SRTP_ENC udpsink host=$SERVER port=$PORT sync=false"
+    session.send_rtp_sink session.send_rtp_src ! identity drop-probability=$DROP ! $SRTP_ENC udpsink host=$SERVER port=$PORT sync=false $multicast"
 else
   to_session="identity drop-probability=$DROP ! $SRTP_ENC $to_session"
 fi

@@ -39,6 +39,9 @@
 #   MEMORY (frames of viewwarp's background memory, default 8; 0: off; with MODEL it starts from the model's
 #   empty-room colour and draws the room behind the learners, docs/vva.md; with whep-views every lecturer's
 #   view keeps its own).
+#   CAMERA_GROUPS (one IPv4 multicast group per camera in CAMERAS order, as its classroom.sh SERVER: this
+#   server joins the group on the camera's port, so several servers take the same cameras; empty: unicast),
+#   MULTICAST_IFACE (the interface to join on, e.g. lo for cameras on this machine; default the system's).
 #   LINK (vcrd1, the default: rgbdenc frames through rtpgstpay; h264: the cameras send H.264 colour with the
 #   depth in each access unit, rgbdlinkdemux and rgbdlinkjoin pair them again; as the cameras' classroom.sh;
 #   docs/network.md, "The H.264 camera link").
@@ -96,6 +99,11 @@ read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
 read -r -a camera_hosts <<< "${CAMERA_HOSTS:-127.0.0.1}"
 read -r -a nack_ports <<< "${CAMERA_NACK_PORTS:-}"
 read -r -a camera_ssrcs <<< "${CAMERA_SSRCS:-}"
+read -r -a camera_groups <<< "${CAMERA_GROUPS:-}"
+if ! [[ ${MULTICAST_IFACE:-lo} =~ ^[A-Za-z0-9._-]+$ ]]; then
+  echo "server.sh: MULTICAST_IFACE is an interface name (got '$MULTICAST_IFACE')" >&2
+  exit 2
+fi
 for p in "$VIDEO_PORT" "$POSE_PORT"; do check_port "$p"; done
 RTP_CAPS="$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,payload=96"
 [ "$LINK" = h264 ] && RTP_CAPS="$RTP_MEDIA,media=video,clock-rate=90000,encoding-name=H264,payload=96"
@@ -131,7 +139,16 @@ for k in $CAMERAS; do
   # fixed SSRC, so no stray packet can open a stream that nothing downstream takes.
   streams="payload-types=96 ssrcs=96=$ssrc"
   [ "$RTX" = 1 ] && streams="payload-types=96,97 ssrcs=96=$ssrc,97=$(( (ssrc + 0x8000) % 4294967296 ))"
-  receive="udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host $streams ! $(srtp_dec)"
+  group=${camera_groups[$i - 1]:-}
+  join=""
+  if [ -n "$group" ]; then
+    if ! [[ $group =~ ^(22[4-9]|23[0-9])\.[0-9]{1,3}\.[0-9]{1,3}\.[0-9]{1,3}$ ]]; then
+      echo "server.sh: CAMERA_GROUPS are IPv4 multicast groups, 224.0.0.0 to 239.255.255.255 (got '$group')" >&2
+      exit 2
+    fi
+    join="address=$group auto-multicast=true ${MULTICAST_IFACE:+multicast-iface=$MULTICAST_IFACE}"
+  fi
+  receive="udpsrc port=$port $join buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host $streams ! $(srtp_dec)"
   if [ "$RTX" = 1 ]; then
     branches="$branches rtpsession name=link$k probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 \
       link$k.send_rtcp_src ! udpsink host=$host port=$nack_port sync=false async=false"

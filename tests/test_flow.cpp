@@ -438,3 +438,32 @@ TEST(Flow, EveryLinkCarriesSrtpWithTheSharedKey) {
   EXPECT_FALSE(lecturer.frame_for(f.a).empty()) << "no frame rendered for the lecturer's encrypted pose ("
                                                  << lecturer.frames() << " encrypted frames shown)";
 }
+
+// Fan-out (docs/network.md): the cameras send their H.264 link to a multicast group (classroom.sh
+// SERVER=group, on lo), and two servers on this machine join it on the same ports (CAMERA_GROUPS): each
+// decodes every camera and renders its own lecturer's view. The group is drawn from the ports, so flows of
+// other tests on the machine use other groups (and their SSRC filters would drop a stray stream anyway).
+TEST(Flow, TwoServersRenderTheirOwnLecturersFromTheSameMulticastCameras) {
+  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  Flow a, b;
+  for (int k = 0; k < 3; ++k) b.ports.cam[k] = a.ports.cam[k];
+  const std::string group = "239.255." + std::to_string(a.ports.cam[0] % 250 + 1) + "." +
+                            std::to_string(a.ports.video % 250 + 1);
+  for (Flow* f : {&a, &b}) {
+    f->env["LINK"] = "h264";
+    f->env["CAMERA_GROUPS"] = group + " " + group + " " + group;
+    f->env["MULTICAST_IFACE"] = "lo";
+    f->start_server("5000000000");
+  }
+  a.env["SERVER"] = group;
+  a.env["SERVERS"] = "127.0.0.1";
+  a.env["BIND"] = "127.0.0.1";  // the source address the servers' senderfilter takes (CAMERA_HOSTS' default)
+  for (int k = 0; k < 3; ++k) a.start_camera(k);
+  Lecturer lecturer_a(a.ports), lecturer_b(b.ports);
+  ASSERT_TRUE(a.decoded.wait_every_camera(3)) << "server A did not decode frames from every camera";
+  ASSERT_TRUE(b.decoded.wait_every_camera(3)) << "server B did not decode frames from every camera";
+  const cv::Mat view_a = lecturer_a.frame_for(a.a), view_b = lecturer_b.frame_for(b.b);
+  ASSERT_FALSE(view_a.empty()) << "no frame for lecturer A's pose";
+  ASSERT_FALSE(view_b.empty()) << "no frame for lecturer B's pose";
+  EXPECT_LT(cv::PSNR(view_a, view_b), 25.0) << "each server renders its own lecturer's pose";
+}
