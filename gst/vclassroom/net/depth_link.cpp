@@ -208,30 +208,58 @@ cv::Mat DepthLinkEncoder::reconstructed() const {
   return z;
 }
 
+namespace {
+
+struct Header {
+  uint8_t flags = 0;
+  uint16_t tolerance = 0;
+  int w = 0, h = 0;
+  uint32_t number = 0;
+  uint64_t caps_len = 0, depth_len = 0, label_len = 0;
+};
+
+// The fixed header, every field checked against the frame's size, the limits and the checksum; "" or why not.
+std::string parse_header(const uint8_t* data, size_t size, const DepthLinkLimits& limits, Header* hd) {
+  if (size < kDepthLinkHeaderBytes) return "depth frame shorter than its header";
+  if (std::memcmp(data, "VCDL", 4) != 0) return "not a depth frame (magic)";
+  if (data[4] != kVersion) return "depth frame version " + std::to_string(data[4]) + " (this reads 1)";
+  hd->flags = data[5];
+  if (hd->flags & ~(kFlagKey | kFlagLabels)) return "depth frame with unknown flags";
+  hd->tolerance = uint16_t(get16(data + 6));
+  hd->w = int(get16(data + 8));
+  hd->h = int(get16(data + 10));
+  hd->number = get32(data + 12);
+  hd->caps_len = get32(data + 16);
+  hd->depth_len = get32(data + 20);
+  hd->label_len = get32(data + 24);
+  if (hd->w <= 0 || hd->h <= 0 || hd->w > limits.max_width || hd->h > limits.max_height ||
+      uint64_t(hd->w) * uint64_t(hd->h) > limits.max_pixels)
+    return "depth frame of " + std::to_string(hd->w) + "x" + std::to_string(hd->h) + " beyond the limits";
+  if (hd->caps_len > limits.max_caps_bytes) return "depth frame's caps longer than allowed";
+  if (hd->caps_len + hd->depth_len + hd->label_len != size - kDepthLinkHeaderBytes)
+    return "depth frame's section lengths do not add up to its size";
+  if (((hd->flags & kFlagLabels) != 0) != (hd->label_len > 0)) return "depth frame's label flag and section disagree";
+  uLong crc = ::crc32(0, data, 28);
+  crc = ::crc32_z(crc, data + kDepthLinkHeaderBytes, size - kDepthLinkHeaderBytes);
+  if (uint32_t(crc) != get32(data + 28)) return "depth frame checksum";
+  return "";
+}
+
+}  // namespace
+
 bool DepthLinkDecoder::decode(const uint8_t* data, size_t size, DepthLinkFrame* frame, std::string* error) {
   auto fail = [&](const std::string& why) {
     if (error) *error = why;
     return false;
   };
-  if (size < kDepthLinkHeaderBytes) return fail("depth frame shorter than its header");
-  if (std::memcmp(data, "VCDL", 4) != 0) return fail("not a depth frame (magic)");
-  if (data[4] != kVersion) return fail("depth frame version " + std::to_string(data[4]) + " (this reads 1)");
-  const uint8_t flags = data[5];
-  if (flags & ~(kFlagKey | kFlagLabels)) return fail("depth frame with unknown flags");
-  const uint16_t tolerance = uint16_t(get16(data + 6));
-  const int w = int(get16(data + 8)), h = int(get16(data + 10));
-  const uint32_t number = get32(data + 12);
-  const uint64_t caps_len = get32(data + 16), depth_len = get32(data + 20), label_len = get32(data + 24);
-  if (w <= 0 || h <= 0 || w > limits_.max_width || h > limits_.max_height ||
-      uint64_t(w) * uint64_t(h) > limits_.max_pixels)
-    return fail("depth frame of " + std::to_string(w) + "x" + std::to_string(h) + " beyond the limits");
-  if (caps_len > limits_.max_caps_bytes) return fail("depth frame's caps longer than allowed");
-  if (caps_len + depth_len + label_len != size - kDepthLinkHeaderBytes)
-    return fail("depth frame's section lengths do not add up to its size");
-  if (((flags & kFlagLabels) != 0) != (label_len > 0)) return fail("depth frame's label flag and section disagree");
-  uLong crc = ::crc32(0, data, 28);
-  crc = ::crc32_z(crc, data + kDepthLinkHeaderBytes, size - kDepthLinkHeaderBytes);
-  if (uint32_t(crc) != get32(data + 28)) return fail("depth frame checksum");
+  Header hd;
+  const std::string bad = parse_header(data, size, limits_, &hd);
+  if (!bad.empty()) return fail(bad);
+  const uint16_t tolerance = hd.tolerance;
+  const int w = hd.w, h = hd.h;
+  const uint32_t number = hd.number;
+  const uint64_t caps_len = hd.caps_len, depth_len = hd.depth_len, label_len = hd.label_len;
+  const uint8_t flags = hd.flags;
   const bool key = flags & kFlagKey;
   if (!key && !(have_ref_ && number == number_ + 1 && tolerance == tolerance_ && size_ == cv::Size(w, h)))
     return fail("delta depth frame " + std::to_string(number) + " without the frame before it (waiting for a key frame)");
