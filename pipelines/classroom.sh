@@ -47,23 +47,23 @@ RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 SSRC=${SSRC:-$((0x56430000 + CAMERA))}
 LINK=${LINK:-vcrd1}
 # A multicast group as SERVER: the stream goes to the group, the requests come from SERVERS.
-multicast=""
-SERVERS=${SERVERS:-$SERVER}
+send_opts=""
 if [[ $SERVER =~ ^(22[4-9]|23[0-9])\.[0-9]{1,3}\.[0-9]{1,3}\.[0-9]{1,3}$ ]]; then
-  SERVERS=${SERVERS/#$SERVER/127.0.0.1}
+  SERVERS=${SERVERS:-127.0.0.1}
   MULTICAST_TTL=${MULTICAST_TTL:-1}
   if ! [[ $MULTICAST_TTL =~ ^[0-9]{1,3}$ ]] || ! [[ ${MULTICAST_IFACE:-lo} =~ ^[A-Za-z0-9._-]+$ ]]; then
     echo "classroom.sh: MULTICAST_TTL is 0 to 255, MULTICAST_IFACE an interface name" >&2
     exit 2
   fi
-  multicast="auto-multicast=true ttl-mc=$MULTICAST_TTL ${MULTICAST_IFACE:+multicast-iface=$MULTICAST_IFACE}"
+  send_opts="auto-multicast=true ttl-mc=$MULTICAST_TTL ${MULTICAST_IFACE:+multicast-iface=$MULTICAST_IFACE}"
 fi
+SERVERS=${SERVERS:-$SERVER}
 if [ -n "${BIND:-}" ]; then
   if ! [[ $BIND =~ ^[0-9A-Fa-f.:]+$ ]]; then
     echo "classroom.sh: BIND is an IP address (got '$BIND')" >&2
     exit 2
   fi
-  multicast="$multicast bind-address=$BIND"
+  send_opts="$send_opts bind-address=$BIND"
 fi
 DEPTH_TOLERANCE=${DEPTH_TOLERANCE:-2.8}
 BITRATE=${BITRATE:-4000}
@@ -101,13 +101,13 @@ verbose=""
 # sends no reports of its own: the server does not need them, and rtpsession would hold end-of-stream on
 # its RTCP output (so the script would not end when the source does).
 send_session=""
-to_session="udpsink host=$SERVER port=$PORT sync=false $multicast"
+to_session="udpsink host=$SERVER port=$PORT sync=false $send_opts"
 if [ "$RTX" = 1 ]; then
   send_session="rtpsession name=session rtp-profile=avpf \
     udpsrc port=$NACK_PORT caps=application/x-rtcp ! senderfilter lock-ssrc=false allow=$SERVERS ! session.recv_rtcp_sink"
   to_session="rtprtxsend payload-type-map=application/x-rtp-pt-map,96=(uint)97 \
     ssrc-map=application/x-rtp-ssrc-map,$SSRC=(uint)$RTX_SSRC max-size-time=$RTX_KEEP_MS max-size-packets=0 ! \
-    session.send_rtp_sink session.send_rtp_src ! identity drop-probability=$DROP ! $SRTP_ENC udpsink host=$SERVER port=$PORT sync=false $multicast"
+    session.send_rtp_sink session.send_rtp_src ! identity drop-probability=$DROP ! $SRTP_ENC udpsink host=$SERVER port=$PORT sync=false $send_opts"
 else
   to_session="identity drop-probability=$DROP ! $SRTP_ENC $to_session"
 fi
