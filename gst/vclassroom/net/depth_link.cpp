@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include <gst/vclassroom/core/error.h>
@@ -61,16 +62,22 @@ void deflate_into(const uint8_t* data, size_t size, int level, std::vector<uint8
   out->resize(start + produced);
 }
 
-// Inflates into `out` of at most `capacity` bytes; false unless the stream ends there and uses all its input.
+// Inflates into `out`, at most `capacity` bytes; false unless the stream ends there and uses all its input.
+// The buffer grows with what actually inflates (from 64 KiB, doubling), not with what the header declares.
 bool inflate_bounded(const uint8_t* data, size_t size, size_t capacity, std::vector<uint8_t>* out) {
-  out->resize(capacity);
   z_stream zs{};
   if (inflateInit(&zs) != Z_OK) return false;
   zs.next_in = const_cast<Bytef*>(data);
   zs.avail_in = uInt(size);
-  zs.next_out = out->data();
-  zs.avail_out = uInt(capacity);
-  const int rc = inflate(&zs, Z_FINISH);
+  out->resize(std::min<size_t>(capacity, 65536));
+  int rc = Z_OK;
+  for (;;) {
+    zs.next_out = out->data() + zs.total_out;
+    zs.avail_out = uInt(out->size() - zs.total_out);
+    rc = inflate(&zs, Z_FINISH);
+    if (rc == Z_STREAM_END || (rc != Z_OK && rc != Z_BUF_ERROR) || zs.avail_out != 0 || out->size() == capacity) break;
+    out->resize(std::min(capacity, out->size() * 2));  // the output was full: room for more
+  }
   const size_t produced = zs.total_out;
   const bool all_in = zs.avail_in == 0;
   inflateEnd(&zs);
