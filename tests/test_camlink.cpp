@@ -94,7 +94,7 @@ TEST(DepthLink, SyntheticClassroomStaysWithinTheBoundAndCostsFarLessThanLossless
   }
   const size_t near = round_trip_within_bound(depths, labels, kDefaultDepthTolerance, 6);
   const size_t lossless = round_trip_within_bound(depths, labels, 0, 6);
-  EXPECT_LT(near * 3, lossless) << near << " vs " << lossless;
+  EXPECT_LT(near * 5, lossless * 2) << near << " vs " << lossless;  // under 40 %
 }
 
 TEST(DepthLink, LosslessModeIsBitExact) {

@@ -46,9 +46,13 @@ void put32(uint8_t* p, uint32_t v) { put16(p, v & 0xffff); put16(p + 2, v >> 16)
 uint32_t get16(const uint8_t* p) { return uint32_t(p[0]) | uint32_t(p[1]) << 8; }
 uint32_t get32(const uint8_t* p) { return get16(p) | get16(p + 2) << 16; }
 
-void deflate_into(const uint8_t* data, size_t size, int level, std::vector<uint8_t>* out) {
+// `rle`: run-length matches only (Z_RLE). Within a tolerance the bit planes' redundancy is runs of zero bytes:
+// on the synthetic classroom at 960x540 10 % smaller and a third faster than the default strategy; lossless,
+// the values repeat in longer strings, which the default finds (docs/network.md).
+void deflate_into(const uint8_t* data, size_t size, int level, bool rle, std::vector<uint8_t>* out) {
   z_stream zs{};
-  if (deflateInit2(&zs, level, Z_DEFLATED, 15, 8, Z_DEFAULT_STRATEGY) != Z_OK) throw Error("zlib: deflateInit failed");
+  if (deflateInit2(&zs, level, Z_DEFLATED, 15, 8, rle ? Z_RLE : Z_DEFAULT_STRATEGY) != Z_OK)
+    throw Error("zlib: deflateInit failed");
   const size_t start = out->size();
   out->resize(start + deflateBound(&zs, uLong(size)));
   zs.next_in = const_cast<Bytef*>(data);
@@ -180,11 +184,11 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   out->resize(start + kDepthLinkHeaderBytes);
   out->insert(out->end(), caps.begin(), caps.end());
   const size_t depth_start = out->size();
-  deflate_into(sym.data(), sym.size(), zlib_level, out);
+  deflate_into(sym.data(), sym.size(), zlib_level, tolerance > 0, out);
   const size_t label_start = out->size();
   if (!label.empty()) {
     cv::Mat l = label.isContinuous() ? label : label.clone();
-    deflate_into(l.data, l.total(), zlib_level, out);
+    deflate_into(l.data, l.total(), zlib_level, true, out);
   }
   uint8_t* hdr = out->data() + start;
   std::memcpy(hdr, "VCDL", 4);
