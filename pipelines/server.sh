@@ -39,6 +39,12 @@
 #   MEMORY (frames of viewwarp's background memory, default 8; 0: off; with MODEL it starts from the model's
 #   empty-room colour and draws the room behind the learners, docs/vva.md; with whep-views every lecturer's
 #   view keeps its own).
+#   CAMERA_GROUPS (one IPv4 multicast group per camera in CAMERAS order, as its classroom.sh SERVER: this
+#   server joins the group on the camera's port, so several servers take the same cameras; empty: unicast),
+#   MULTICAST_IFACE (the interface to join on, e.g. lo for cameras on this machine; default the system's).
+#   LINK (vcrd1, the default: rgbdenc frames through rtpgstpay; h264: the cameras send H.264 colour with the
+#   depth in each access unit, rgbdlinkdemux and rgbdlinkjoin pair them again; as the cameras' classroom.sh;
+#   docs/network.md, "The H.264 camera link").
 set -euo pipefail
 . "$(dirname "$0")/trees.sh"
 # shellcheck source=pipelines/srtp.sh
@@ -64,6 +70,11 @@ if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   exit 2
 fi
 RTX=${RTX:-1}
+LINK=${LINK:-vcrd1}
+if [ "$LINK" != h264 ] && [ "$LINK" != vcrd1 ]; then
+  echo "server.sh: LINK must be h264 or vcrd1 (got '$LINK')" >&2
+  exit 2
+fi
 RTX_LATENCY=${RTX_LATENCY:-300}
 PREP_NICE=${PREP_NICE:-19}
 MEMORY=${MEMORY:-8}
@@ -89,8 +100,14 @@ read -r -a camera_ports <<< "${CAMERA_PORTS:-}"
 read -r -a camera_hosts <<< "${CAMERA_HOSTS:-127.0.0.1}"
 read -r -a nack_ports <<< "${CAMERA_NACK_PORTS:-}"
 read -r -a camera_ssrcs <<< "${CAMERA_SSRCS:-}"
+read -r -a camera_groups <<< "${CAMERA_GROUPS:-}"
+if ! [[ ${MULTICAST_IFACE:-lo} =~ ^[A-Za-z0-9._-]+$ ]]; then
+  echo "server.sh: MULTICAST_IFACE is an interface name (got '$MULTICAST_IFACE')" >&2
+  exit 2
+fi
 for p in "$VIDEO_PORT" "$POSE_PORT"; do check_port "$p"; done
 RTP_CAPS="$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,payload=96"
+[ "$LINK" = h264 ] && RTP_CAPS="$RTP_MEDIA,media=video,clock-rate=90000,encoding-name=H264,payload=96"
 branches=""
 i=0
 host=${camera_hosts[0]}
@@ -123,7 +140,16 @@ for k in $CAMERAS; do
   # fixed SSRC, so no stray packet can open a stream that nothing downstream takes.
   streams="payload-types=96 ssrcs=96=$ssrc"
   [ "$RTX" = 1 ] && streams="payload-types=96,97 ssrcs=96=$ssrc,97=$(( (ssrc + 0x8000) % 4294967296 ))"
-  receive="udpsrc port=$port buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host $streams ! $(srtp_dec)"
+  group=${camera_groups[$i - 1]:-}
+  join=""
+  if [ -n "$group" ]; then
+    if ! [[ $group =~ ^(22[4-9]|23[0-9])\.[0-9]{1,3}\.[0-9]{1,3}\.[0-9]{1,3}$ ]]; then
+      echo "server.sh: CAMERA_GROUPS are IPv4 multicast groups, 224.0.0.0 to 239.255.255.255 (got '$group')" >&2
+      exit 2
+    fi
+    join="address=$group auto-multicast=true ${MULTICAST_IFACE:+multicast-iface=$MULTICAST_IFACE}"
+  fi
+  receive="udpsrc port=$port $join buffer-size=$UDP_BUFFER mtu=$((MTU + 100)) caps=\"$RTP_CAPS\" ! senderfilter name=from$k allow=$host $streams ! $(srtp_dec)"
   if [ "$RTX" = 1 ]; then
     branches="$branches rtpsession name=link$k probation=0 rtp-profile=avpf rtcp-min-interval=10000000 bandwidth=20000000 \
       link$k.send_rtcp_src ! udpsink host=$host port=$nack_port sync=false async=false"
@@ -141,9 +167,19 @@ for k in $CAMERAS; do
   # whepviewsink's viewprep (the memory, the warp's first half) runs in this queue's thread, at PREP_NICE too.
   [ "${LECTURER_OUT:-rtp}" = whep-views ] &&
     to_view="queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! views.cam_$k"
-  branches="$branches $receive rtpgstdepay ! \
-    queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! rgbddec name=dec$k $dec_rig stats-interval=$STATS ! \
-    $vda learnerseg $prior ! $to_view"
+  # The old link: the newest coded frame only is decoded, in the low-priority thread. The H.264 link: every
+  # access unit must be decoded (each builds on the one before), so decoding runs in the link's thread;
+  # the newest joined frame goes on to the low-priority one. A lost packet asks the camera for a key frame
+  # (rtph264depay request-keyframe: a PLI through the RTCP session, RFC 4585), and pictures wait for it.
+  if [ "$LINK" = h264 ]; then
+    decode="rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k stats-interval=$STATS ! \
+      openh264dec ! videoconvert ! video/x-raw,format=RGB ! rgbdlinkjoin name=join$k ! \
+      queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE !"
+  else
+    decode="rtpgstdepay ! queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! \
+      rgbddec name=dec$k $dec_rig stats-interval=$STATS !"
+  fi
+  branches="$branches $receive $decode $vda learnerseg $prior ! $to_view"
 done
 # Word-split the description (no globbing): gst-launch-1.0 takes one word per
 # argument and handles the quotes inside them itself.

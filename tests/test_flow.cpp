@@ -231,12 +231,20 @@ class Lecturer {
 
 // The same server chain in one process without network or video coding: the
 // frame rendered for `pose` (the last of a short run).
-cv::Mat all_in_one(const std::string& rig, const std::string& trace) {
+// The camera link's coding in one process, as classroom.sh and server.sh arrange it (LINK).
+std::string link_coding(const std::string& link) {
+  if (link != "h264") return "rgbdenc quality=90 ! rgbddec";
+  return "rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast "
+         "key-int-max=60 bitrate=4000 ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rgbdlinkdemux ! "
+         "openh264dec ! videoconvert ! video/x-raw,format=RGB ! rgbdlinkjoin";
+}
+
+cv::Mat all_in_one(const std::string& rig, const std::string& trace, const std::string& link = "vcrd1") {
   std::string desc = "viewfuse name=fuse pose-trace=" + trace + " ! videoconvert ! video/x-raw,format=RGB ! "
                      "appsink name=out sync=false ";
   for (int k = 0; k < 3; ++k)
     desc += "rgbdtestsrc camera-id=" + std::to_string(k) + " rig=" + rig +
-            " learners=0 sensor-noise=false ground-truth=false num-buffers=8 ! rgbdenc quality=90 ! rgbddec ! learnerseg ! viewwarp rig=" +
+            " learners=0 sensor-noise=false ground-truth=false num-buffers=8 ! " + link_coding(link) + " ! learnerseg ! viewwarp rig=" +
             rig + " ! fuse.cam_" + std::to_string(k) + " ";
   GstElement* p = gst_parse_launch(desc.c_str(), nullptr);
   GstElement* out = gst_bin_get_by_name(GST_BIN(p), "out");
@@ -328,9 +336,9 @@ struct Flow {
 // frames for a pose are made from fewer cameras and match at 20-30 dB. Here the
 // server waits up to 5 s for every camera, so the comparison holds at any speed
 // short of a stall; rendering without late cameras is tested below.
-TEST(Flow, PoseChangesTheViewAndMatchesTheAllInOnePipeline) {
-  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+static void pose_changes_the_view(const std::string& link) {
   Flow f;
+  f.env["LINK"] = link;
   f.start_server("5000000000");
   for (int k = 0; k < 3; ++k) f.start_camera(k);
   Lecturer lecturer(f.ports);
@@ -346,29 +354,41 @@ TEST(Flow, PoseChangesTheViewAndMatchesTheAllInOnePipeline) {
   EXPECT_EQ(got_a.size(), cv::Size(kW, kH));
   EXPECT_LT(cv::PSNR(got_a, got_b), 25.0) << "the pose did not change the view";
 
-  const cv::Mat ref_a = all_in_one(f.rig, f.trace_of(f.a, "a.csv"));
-  const cv::Mat ref_b = all_in_one(f.rig, f.trace_of(f.b, "b.csv"));
+  const cv::Mat ref_a = all_in_one(f.rig, f.trace_of(f.a, "a.csv"), link);
+  const cv::Mat ref_b = all_in_one(f.rig, f.trace_of(f.b, "b.csv"), link);
   ASSERT_FALSE(ref_a.empty());
   ASSERT_FALSE(ref_b.empty());
   const double psnr_a = cv::PSNR(got_a, ref_a), psnr_b = cv::PSNR(got_b, ref_b);
-  RecordProperty("psnr_pose_a", std::to_string(psnr_a));
+  ::testing::Test::RecordProperty("psnr_pose_a", std::to_string(psnr_a));
   if (const char* dump = std::getenv("VCLASSROOM_DUMP_DIR")) {
     cv::Mat row;
     cv::hconcat(std::vector<cv::Mat>{got_a, ref_a, got_b, ref_b}, row);
     cv::cvtColor(row, row, cv::COLOR_RGB2BGR);
     cv::imwrite(std::string(dump) + "/flow.png", row);
   }
-  RecordProperty("psnr_pose_b", std::to_string(psnr_b));
+  ::testing::Test::RecordProperty("psnr_pose_b", std::to_string(psnr_b));
   EXPECT_GT(psnr_a, 35.0);
   EXPECT_GT(psnr_b, 35.0);
+}
+
+TEST(Flow, PoseChangesTheViewAndMatchesTheAllInOnePipeline) {
+  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  pose_changes_the_view("vcrd1");
+}
+
+// The same over the H.264 camera link (LINK=h264), against the all-in-one pipeline with the same coding: the
+// frames the server joins from colour and depth over the network are the ones coded locally.
+TEST(Flow, TheH264CameraLinkMatchesTheAllInOnePipelineWithTheSameCoding) {
+  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  pose_changes_the_view("h264");
 }
 
 // 5 % of the camera packets lost: the server keeps rendering from what
 // arrives. A camera that disconnects does not stall it; when it comes back,
 // rendering goes on.
-TEST(Flow, SurvivesPacketLossAndACameraThatComesAndGoes) {
-  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+static void survives_loss(const std::string& link) {
   Flow f;
+  f.env["LINK"] = link;
   f.start_server();
   for (int k = 0; k < 3; ++k) f.start_camera(k, 0.05);
   Lecturer lecturer(f.ports);
@@ -381,6 +401,18 @@ TEST(Flow, SurvivesPacketLossAndACameraThatComesAndGoes) {
   Pose d = f.a;
   d.seq = 4;
   ASSERT_FALSE(lecturer.frame_for(d, 10).empty()) << "the server stalled when camera 1 came back";
+}
+
+TEST(Flow, SurvivesPacketLossAndACameraThatComesAndGoes) {
+  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  survives_loss("vcrd1");
+}
+
+// The same over the H.264 camera link: retransmissions and key frame requests repair it, a restarted camera
+// (the same SSRC, a new IDR picture and depth key frame) is taken back.
+TEST(Flow, TheH264CameraLinkSurvivesPacketLossAndACameraThatComesAndGoes) {
+  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  survives_loss("h264");
 }
 
 // Every RTP link of the flow encrypted (SRTP_KEY on the scripts, the same key
@@ -405,4 +437,33 @@ TEST(Flow, EveryLinkCarriesSrtpWithTheSharedKey) {
   ASSERT_TRUE(f.decoded.wait_every_camera(1)) << "the server decoded no encrypted camera frames";
   EXPECT_FALSE(lecturer.frame_for(f.a).empty()) << "no frame rendered for the lecturer's encrypted pose ("
                                                  << lecturer.frames() << " encrypted frames shown)";
+}
+
+// Fan-out (docs/network.md): the cameras send their H.264 link to a multicast group (classroom.sh
+// SERVER=group, on lo), and two servers on this machine join it on the same ports (CAMERA_GROUPS): each
+// decodes every camera and renders its own lecturer's view. The group is drawn from the ports, so flows of
+// other tests on the machine use other groups (and their SSRC filters would drop a stray stream anyway).
+TEST(Flow, TwoServersRenderTheirOwnLecturersFromTheSameMulticastCameras) {
+  if (source_dir().empty()) GTEST_SKIP() << "VCLASSROOM_SOURCE_DIR not set (run through meson test)";
+  Flow a, b;
+  for (int k = 0; k < 3; ++k) b.ports.cam[k] = a.ports.cam[k];
+  const std::string group = "239.255." + std::to_string(a.ports.cam[0] % 250 + 1) + "." +
+                            std::to_string(a.ports.video % 250 + 1);
+  for (Flow* f : {&a, &b}) {
+    f->env["LINK"] = "h264";
+    f->env["CAMERA_GROUPS"] = group + " " + group + " " + group;
+    f->env["MULTICAST_IFACE"] = "lo";
+    f->start_server("5000000000");
+  }
+  a.env["SERVER"] = group;
+  a.env["SERVERS"] = "127.0.0.1";
+  a.env["BIND"] = "127.0.0.1";  // the source address the servers' senderfilter takes (CAMERA_HOSTS' default)
+  for (int k = 0; k < 3; ++k) a.start_camera(k);
+  Lecturer lecturer_a(a.ports), lecturer_b(b.ports);
+  ASSERT_TRUE(a.decoded.wait_every_camera(3)) << "server A did not decode frames from every camera";
+  ASSERT_TRUE(b.decoded.wait_every_camera(3)) << "server B did not decode frames from every camera";
+  const cv::Mat view_a = lecturer_a.frame_for(a.a), view_b = lecturer_b.frame_for(b.b);
+  ASSERT_FALSE(view_a.empty()) << "no frame for lecturer A's pose";
+  ASSERT_FALSE(view_b.empty()) << "no frame for lecturer B's pose";
+  EXPECT_LT(cv::PSNR(view_a, view_b), 25.0) << "each server renders its own lecturer's pose";
 }

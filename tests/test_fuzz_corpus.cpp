@@ -16,7 +16,7 @@
 
 namespace fs = std::filesystem;
 
-#define VCLASSROOM_FUZZ_TARGETS(X) X(rgbd_frame) X(pose_wire) X(pose_hdrext) X(rig) X(dataset) X(posed_sequence) X(whep) \
+#define VCLASSROOM_FUZZ_TARGETS(X) X(rgbd_frame) X(depth_link) X(pose_wire) X(pose_hdrext) X(rig) X(dataset) X(posed_sequence) X(whep) \
   X(whep_http_head) X(whep_offer)
 
 #define DECLARE_TARGET(name) extern "C" int vclassroom_fuzz_##name(const uint8_t* data, size_t size);

@@ -899,17 +899,19 @@ TEST(SrtpLink, CarriesFramesWithTheKeyAndNoneWithAnother) {
               r.delivered, frames, wrong.delivered, right.delivered);
 }
 
-// classroom.sh with SRTP_KEY sends what srtpfiledec with the same key file decrypts into whole frames.
+// classroom.sh with SRTP_KEY sends what srtpfiledec with the same key file decrypts into whole frames (the H.264
+// camera link: colour and depth of each frame, docs/network.md).
 TEST(SrtpLink, ClassroomScriptEncryptsItsFrames) {
   if (!have_srtp()) GTEST_SKIP() << "srtpenc/srtpdec (gstreamer1.0-plugins-bad) are not installed";
   vctest::TempDir dir;
   const std::string key = write_key(dir, "srtp.key", 11);
   const int port = vctest::free_udp_port();
   const std::string desc = "udpsrc port=" + std::to_string(port) +
-                           " buffer-size=33554432 mtu=1500 caps=\"application/x-srtp,media=application,"
-                           "clock-rate=90000,encoding-name=X-GST,payload=96\" ! senderfilter allow=127.0.0.1 ! "
+                           " buffer-size=33554432 mtu=1500 caps=\"application/x-srtp,media=video,"
+                           "clock-rate=90000,encoding-name=H264,payload=96\" ! senderfilter allow=127.0.0.1 ! "
                            "srtpfiledec key-file=" + key +
-                           " ! rtpjitterbuffer latency=1500 ! rtpgstdepay ! rgbddec ! appsink name=out sync=false";
+                           " ! rtpjitterbuffer latency=1500 ! rtph264depay ! rgbdlinkdemux ! openh264dec ! videoconvert ! "
+                           "rgbdlinkjoin ! appsink name=out sync=false";
   GError* err = nullptr;
   GstElement* rx = gst_parse_launch(desc.c_str(), &err);
   ASSERT_TRUE(rx && !err) << (err ? err->message : "");
@@ -920,7 +922,7 @@ TEST(SrtpLink, ClassroomScriptEncryptsItsFrames) {
   ScriptRun r = run_script("classroom.sh",
                            {"SOURCE=rgbdtestsrc num-buffers=" + std::to_string(frames) + " ground-truth=false",
                             "PORT=" + std::to_string(port), "NACK_PORT=" + std::to_string(vctest::free_udp_port()),
-                            "SRTP_KEY=" + key},
+                            "SRTP_KEY=" + key, "LINK=h264"},
                            600);  // a hang guard: 45 frames rendered at 960x540 take minutes under the sanitizers
   EXPECT_TRUE(r.ended && r.status == 0) << r.output;
   gst_element_send_event(rx, gst_event_new_eos());

@@ -161,6 +161,8 @@ int main(int argc, char** argv) {
   // The replay sends plain RTP (classroom.sh with RTX=0): the server must not wait for retransmissions
   // that never come (each frame with a lost packet would be held for RTX_LATENCY, 300 ms).
   if (!o.live_cameras) server_env["RTX"] = "0";
+  // The replay sends the recorded rgbdenc frames (the old camera link, classroom.sh LINK=vcrd1).
+  if (!o.live_cameras) server_env["LINK"] = "vcrd1";
   const pid_t server = spawn(o.pipelines + "/server.sh", server_env, server_log);
   children.push_back(server);
 

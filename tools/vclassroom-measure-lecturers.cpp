@@ -182,7 +182,8 @@ int main(int argc, char** argv) {
       // RTX=0: the replay sends plain RTP, as classroom.sh with RTX=0 does; a server waiting for
       // retransmissions that never come holds each frame with a lost packet for RTX_LATENCY (300 ms).
       std::map<std::string, std::string> env = loss_env;
-      env.insert({{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
+      // LINK=vcrd1: the replay sends the recorded rgbdenc frames (the old camera link).
+      env.insert({{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LINK", "vcrd1"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
                    {"WHEP_PORT", std::to_string(port)}, {"WHEP_SESSIONS", std::to_string(n)},
                    {"WIDTH", std::to_string(width)}, {"HEIGHT", std::to_string(height)},
                   {"WARP_SYNC", std::to_string(warp_sync)}, {"LONGEST_TURN", std::to_string(longest_turn)}});

@@ -7,6 +7,10 @@
 
 #include "gstrgbddec.h"
 #include "gstrgbdenc.h"
+#include "gstrgbdlinkdemux.h"
+#include "gstrgbdlinkjoin.h"
+#include "gstrgbdlinkmux.h"
+#include "gstrgbdlinksplit.h"
 #include "gstposerecv.h"
 #include "gstposesend.h"
 #include "gstrtphdrextvcpose.h"
@@ -17,6 +21,10 @@ static gboolean plugin_init(GstPlugin* plugin) {
   gboolean ok = TRUE;
   ok &= GST_ELEMENT_REGISTER(rgbdenc, plugin);
   ok &= GST_ELEMENT_REGISTER(rgbddec, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbdlinksplit, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbdlinkmux, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbdlinkdemux, plugin);
+  ok &= GST_ELEMENT_REGISTER(rgbdlinkjoin, plugin);
   ok &= GST_ELEMENT_REGISTER(posesend, plugin);
   ok &= GST_ELEMENT_REGISTER(poserecv, plugin);
   ok &= GST_ELEMENT_REGISTER(rtphdrextvcpose, plugin);

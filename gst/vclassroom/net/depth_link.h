@@ -1,0 +1,89 @@
+// Depth for the camera link (docs/network.md, "The H.264 camera link"): depth coded across time with an
+// error bound that grows with z², as a consumer depth sensor's own resolution does, plus the learner labels
+// and the camera's caps, in one checksummed frame ("VCDL") that rides in the colour's H.264 access unit.
+//
+// The bound: every coded depth z' of a measured depth z (mm) satisfies |z' - z| <= e(z) with
+//   e(z) = floor(t * z^2 / 10^8) mm, t = tolerance in 1/100 mm at 1 m (t = 280: 2.8 mm at 1 m, 11 mm at 2 m),
+// no measurement (0) stays 0 and a measurement never becomes 0. t = 0 is lossless.
+// How: depth is mapped to bins of width 2 e(a) + 1 starting at a (so every member of a bin lies within
+// e(z) of its centre); a pixel keeps the previous frame's bin (delta frames) or its left neighbour's
+// (key frames) when that bin's centre is within e(z) of z, else takes its own bin. The prediction is the
+// pixel's last measured bin since the key frame (through holes), in a key frame the last measured bin
+// before it on its row. Coded: a bit per pixel (measured or not changed since the previous frame), a bit
+// per measured pixel (differs from its prediction), and for those a byte (the zigzagged difference, 1..254)
+// or 255 and the bin in two bytes; all deflated with zlib (docs/network.md has the layout). Decoding is exact in bins, so nothing drifts between key frames.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace vclassroom {
+
+// Largest error the coder allows at depth z (mm) for `tolerance_centi_mm` (1/100 mm at 1 m).
+uint16_t depth_error_bound(uint16_t z_mm, uint16_t tolerance_centi_mm);
+
+// The default: 2.8 mm at 1 m, just under a Kinect v1's depth step (1/8 px of disparity at f = 580 px,
+// b = 75 mm: 2.87 mm x z^2 in metres; Khoshelham & Elberink 2012), i.e. the coder's error stays inside
+// the step the sensor itself resolves at every depth.
+inline constexpr uint16_t kDefaultDepthTolerance = 280;
+
+// Limits a decoder applies to what the wire declares, before anything is allocated for it.
+struct DepthLinkLimits {
+  int max_width = 4096, max_height = 4096;
+  uint64_t max_pixels = 4096ull * 2160;
+  size_t max_caps_bytes = 4096;
+};
+
+struct DepthLinkFrame {
+  cv::Mat depth;      // CV_16UC1 mm
+  cv::Mat label;      // CV_8UC1 or empty
+  std::string caps;   // the camera's video/x-rgbd caps (calibration), as GStreamer serialises them
+  uint32_t number = 0;
+  bool key = false;
+  uint16_t tolerance = 0;
+};
+
+// The header's fixed part, in bytes.
+inline constexpr size_t kDepthLinkHeaderBytes = 32;
+
+class DepthLinkEncoder {
+ public:
+  // Codes `depth` (and `label` when not empty; same size) as the next frame. A key frame when `key`, when
+  // the size or tolerance changed, or at the first frame. Appends to `out`.
+  void encode(const cv::Mat& depth, const cv::Mat& label, const std::string& caps, bool key,
+              uint16_t tolerance_centi_mm, std::vector<uint8_t>* out, int zlib_level = 1);
+  // The depth the decoder will reconstruct for the last frame encoded (for tests and measurement).
+  cv::Mat reconstructed() const;
+  uint32_t frames() const { return number_; }
+
+ private:
+  cv::Mat bins_;  // CV_16UC1: the last frame's bins (0: no measurement)
+  cv::Mat mem_;   // CV_16UC1: each pixel's last measured bin since the key frame
+  uint16_t tolerance_ = 0;
+  uint32_t number_ = 0;
+  bool have_ref_ = false;
+};
+
+class DepthLinkDecoder {
+ public:
+  explicit DepthLinkDecoder(DepthLinkLimits limits = {}) : limits_(limits) {}
+  // Checks everything (sizes before use, checksum, the frame it builds on) and decodes; false with a reason
+  // when the frame is damaged, oversized, or a delta frame whose predecessor was not decoded (then every
+  // frame is refused until the next key frame).
+  bool decode(const uint8_t* data, size_t size, DepthLinkFrame* frame, std::string* error);
+  void reset() { have_ref_ = false; }
+
+ private:
+  DepthLinkLimits limits_;
+  cv::Mat mem_;
+  cv::Mat depth_;  // the last frame decoded
+  cv::Size size_;
+  uint16_t tolerance_ = 0;
+  uint32_t number_ = 0;
+  bool have_ref_ = false;
+};
+
+}  // namespace vclassroom

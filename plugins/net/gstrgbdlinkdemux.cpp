@@ -1,0 +1,260 @@
+/**
+ * SECTION:element-rgbdlinkdemux
+ * @title: rgbdlinkdemux
+ *
+ * The server side of the H.264 camera link (docs/network.md): before the H.264 decoder, reads the "VCDL"
+ * depth frame from each access unit's SEI, checks every field (sizes before anything is allocated, the
+ * checksum, the caps it names, that a delta frame's predecessor was decoded), decodes depth and labels and
+ * hangs them on the access unit as a meta, which the decoder carries to the picture and rgbdlinkjoin joins
+ * with it. Every access unit is passed on (the decoder needs them all); one whose depth is missing or damaged
+ * goes without the meta, and a rate-limited warning says why (rgbdlinkjoin then drops that picture).
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=30 ! rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rtph264pay ! rtph264depay ! rgbdlinkdemux ! openh264dec ! videoconvert ! rgbdlinkjoin ! fakesink
+ * ]|
+ */
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstrgbdlinkdemux.h"
+
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/warning_limiter.h>
+#include <gst/vclassroom/net/depth_link.h>
+#include <gst/vclassroom/net/h264_sei.h>
+#include <gst/vclassroom/net/rgbd_codec.h>
+
+#include "rgbdcoded.h"
+#include "rgbdlinkmeta.h"
+
+GST_DEBUG_CATEGORY_STATIC(rgbd_link_demux_debug);
+#define GST_CAT_DEFAULT rgbd_link_demux_debug
+
+using namespace vclassroom;
+
+struct _GstRgbdLinkDemux {
+  GstBaseTransform parent;
+  CodecStats stats;  // object lock
+  // Streaming thread only:
+  DepthLinkDecoder* decoder;
+  std::string* caps_text;  // the caps string of out_caps
+  GstCaps* out_caps;       // video/x-rgbd of the joined frames
+  WarningLimiter* warnings;
+  // A depth SEI that came in a unit without a picture (a payloader that puts SPS and PPS between the SEI and
+  // the slice, as rtph264pay config-interval=-1 does, makes rtph264depay start a new access unit there): it
+  // belongs to the picture of the same timestamp that comes next.
+  std::vector<uint8_t>* pending;
+  GstClockTime pending_pts;
+};
+
+G_DEFINE_TYPE(GstRgbdLinkDemux, gst_rgbd_link_demux, GST_TYPE_BASE_TRANSFORM)
+GST_ELEMENT_REGISTER_DEFINE(rgbdlinkdemux, "rgbdlinkdemux", GST_RANK_NONE, GST_TYPE_RGBD_LINK_DEMUX)
+
+#define H264_AU_CAPS "video/x-h264, stream-format=(string)byte-stream, alignment=(string)au"
+static GstStaticPadTemplate sink_template =
+    GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS(H264_AU_CAPS));
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(H264_AU_CAPS));
+
+// The access units pass unchanged. After rtph264depay they declare no profile, which decoders such as
+// openh264dec require in their caps: any is offered (the decoder reads the real one from the stream).
+static GstCaps* gst_rgbd_link_demux_transform_caps(GstBaseTransform*, GstPadDirection direction, GstCaps* caps,
+                                                   GstCaps* filter) {
+  GstCaps* out = gst_caps_copy(caps);
+  for (guint i = 0; i < gst_caps_get_size(out); ++i) {
+    GstStructure* s = gst_caps_get_structure(out, i);
+    if (direction == GST_PAD_SRC || gst_structure_has_field(s, "profile")) continue;
+    GValue list = G_VALUE_INIT, v = G_VALUE_INIT;
+    gst_value_list_init(&list, 4);
+    g_value_init(&v, G_TYPE_STRING);
+    for (const char* profile : {"constrained-baseline", "baseline", "main", "high"}) {
+      g_value_set_string(&v, profile);
+      gst_value_list_append_value(&list, &v);
+    }
+    gst_structure_take_value(s, "profile", &list);
+    g_value_unset(&v);
+  }
+  if (direction == GST_PAD_SRC)
+    for (guint i = 0; i < gst_caps_get_size(out); ++i)
+      gst_structure_remove_fields(gst_caps_get_structure(out, i), "profile", "level", nullptr);
+  return caps_filtered(out, filter);
+}
+
+static void drop_depth(GstRgbdLinkDemux* self, DropKind kind, const std::string& why) {
+  const guint64 dropped = codec_stats_drop(GST_ELEMENT(self), &self->stats, kind).dropped;
+  uint64_t count = 0;
+  int64_t span = 0;
+  if (!self->warnings[int(kind)].note(g_get_monotonic_time() * 1000, &count, &span)) return;
+  const std::string what = describe_occurrences(count, "a frame's depth", "frames' depth", "", span);
+  GST_ELEMENT_WARNING(self, STREAM, DECODE, ("dropped %s; %s: %s", what.c_str(), count == 1 ? "why" : "the last",
+                                             why.c_str()),
+                      ("%" G_GUINT64_FORMAT " frames dropped so far", dropped));
+}
+
+// The caps of the joined frames for a depth frame's caps string: checked (they come from the network) and
+// kept while they stay the same.
+static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkFrame& f, std::string* why, DropKind* kind) {
+  if (self->out_caps && *self->caps_text == f.caps) return true;
+  *kind = DropKind::RejectedCaps;
+  GstCaps* caps = gst_caps_from_string(f.caps.c_str());
+  RgbdInfo info;
+  const bool parsed = caps && gst_caps_is_fixed(caps) && rgbd_info_from_caps(caps, &info, why);
+  if (caps) gst_caps_unref(caps);
+  if (!parsed) {
+    if (why->empty()) *why = "the depth frame's caps do not parse";
+    return false;
+  }
+  *why = rgbd_stream_refusal(info.camera.id, info.width(), info.height(), RgbdStreamLimits(), nullptr, "");
+  if (!why->empty()) return false;
+  if (info.width() != f.depth.cols || info.height() != f.depth.rows) {
+    *kind = DropKind::WrongSize;
+    *why = "the depth frame's caps declare another size than its depth";
+    return false;
+  }
+  info.planes = {Plane::Color, Plane::Depth};
+  if (!f.label.empty()) info.planes.push_back(Plane::Label);
+  gst_caps_replace(&self->out_caps, nullptr);
+  self->out_caps = rgbd_caps_new(info);
+  *self->caps_text = f.caps;
+  return true;
+}
+
+// The planes buffer (depth, then labels) of a depth frame; nullptr (with `why`) when it is refused.
+static GstBuffer* decoded_planes(GstRgbdLinkDemux* self, const std::vector<uint8_t>& data, std::string* why,
+                                 DropKind* kind) {
+  DepthLinkFrame f;
+  *kind = DropKind::Damaged;
+  if (!self->decoder->decode(data.data(), data.size(), &f, why)) return nullptr;
+  if (!joined_caps(self, f, why, kind)) return nullptr;
+  const size_t depth_bytes = f.depth.total() * 2, label_bytes = f.label.total();
+  GstBuffer* planes = gst_buffer_new_allocate(nullptr, depth_bytes + label_bytes, nullptr);
+  gst_buffer_fill(planes, 0, f.depth.data, depth_bytes);
+  if (label_bytes) gst_buffer_fill(planes, depth_bytes, f.label.data, label_bytes);
+  codec_stats_count(GST_ELEMENT(self), &self->stats, data.size(), false);
+  return planes;
+}
+
+// The access unit's depth as a planes buffer for the meta; nullptr (with `why`) when there is none to use,
+// nullptr with `why` empty when the unit holds no picture.
+static GstBuffer* demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, std::string* why, DropKind* kind) {
+  GstMapInfo map;
+  if (!gst_buffer_map(in, &map, GST_MAP_READ)) return nullptr;
+  std::vector<uint8_t> data;
+  const size_t max_len = 3 * size_t(4096) * 2160 + 65536;
+  const SeiFind found = h264_find_user_data(map.data, map.size, kDepthLinkSeiUuid, max_len, &data, why);
+  const bool picture = h264_has_slice(map.data, map.size);
+  gst_buffer_unmap(in, &map);
+  *kind = DropKind::Damaged;
+  const GstClockTime pts = GST_BUFFER_PTS(in);
+  if (found == SeiFind::kFound && !picture) {  // its picture comes next, with the same timestamp
+    self->pending->swap(data);
+    self->pending_pts = pts;
+    return nullptr;
+  }
+  const bool pending = !self->pending->empty() && GST_CLOCK_TIME_IS_VALID(pts) && pts == self->pending_pts;
+  if (found == SeiFind::kAbsent && picture && pending) data.swap(*self->pending);
+  self->pending->clear();
+  if (!data.empty()) return decoded_planes(self, data, why, kind);
+  if (found == SeiFind::kAbsent && picture) *why = "an access unit without depth";
+  return nullptr;  // kMalformed says why; parameter sets alone say nothing
+}
+
+static GstFlowReturn gst_rgbd_link_demux_generate_output(GstBaseTransform* trans, GstBuffer** outbuf) {
+  GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(trans);
+  *outbuf = nullptr;
+  GstBuffer* in;
+  GstFlowReturn ret;
+  if (!take_queued_input(trans, TRUE, &in, &ret)) return ret;
+  std::string why;
+  DropKind kind = DropKind::Damaged;
+  GstBuffer* planes = demux_depth(self, in, &why, &kind);
+  in = gst_buffer_make_writable(in);
+  if (planes) {
+    gst_buffer_add_rgbd_link_meta(in, planes, self->out_caps);
+    gst_buffer_unref(planes);
+  } else if (!why.empty()) {
+    drop_depth(self, kind, why);
+  }
+  *outbuf = in;
+  return GST_FLOW_OK;
+}
+
+static gboolean gst_rgbd_link_demux_sink_event(GstBaseTransform* trans, GstEvent* event) {
+  GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(trans);
+  if (GST_EVENT_TYPE(event) == GST_EVENT_FLUSH_STOP) {
+    self->decoder->reset();
+    self->pending->clear();
+  }
+  return codec_stats_sink_event(trans, event, &self->stats,
+                                GST_BASE_TRANSFORM_CLASS(gst_rgbd_link_demux_parent_class)->sink_event);
+}
+
+static gboolean gst_rgbd_link_demux_start(GstBaseTransform* trans) {
+  GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(trans);
+  self->decoder->reset();
+  self->pending->clear();
+  gst_caps_replace(&self->out_caps, nullptr);
+  self->caps_text->clear();
+  for (int k = 0; k < kDropKinds; ++k) self->warnings[k].reset();
+  GST_OBJECT_LOCK(self);
+  self->stats = CodecStats{0, 0, 0, self->stats.interval};
+  GST_OBJECT_UNLOCK(self);
+  return TRUE;
+}
+
+static void gst_rgbd_link_demux_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
+  if (!codec_stats_set_property(GST_OBJECT(object), &GST_RGBD_LINK_DEMUX(object)->stats, prop_id, value))
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+}
+
+static void gst_rgbd_link_demux_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  if (!codec_stats_get_property(GST_OBJECT(object), GST_RGBD_LINK_DEMUX(object)->stats, prop_id, value))
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+}
+
+static void gst_rgbd_link_demux_finalize(GObject* object) {
+  GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(object);
+  gst_caps_replace(&self->out_caps, nullptr);
+  delete self->decoder;
+  delete self->caps_text;
+  delete[] self->warnings;
+  delete self->pending;
+  G_OBJECT_CLASS(gst_rgbd_link_demux_parent_class)->finalize(object);
+}
+
+static void gst_rgbd_link_demux_class_init(GstRgbdLinkDemuxClass* klass) {
+  GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  GstBaseTransformClass* trans_class = GST_BASE_TRANSFORM_CLASS(klass);
+  gobject_class->set_property = gst_rgbd_link_demux_set_property;
+  gobject_class->get_property = gst_rgbd_link_demux_get_property;
+  gobject_class->finalize = gst_rgbd_link_demux_finalize;
+  codec_stats_install_properties(gobject_class, "Frames whose depth was decoded since the element started");
+  gst_element_class_add_static_pad_template(element_class, &sink_template);
+  gst_element_class_add_static_pad_template(element_class, &src_template);
+  gst_element_class_set_static_metadata(element_class, "RGB-D camera link demuxer", "Codec/Demuxer/Video",
+      "Decodes the depth, labels and calibration an H.264 access unit carries (SEI) onto it as a meta",
+      "gst-vclassroom developers");
+  trans_class->transform_caps = GST_DEBUG_FUNCPTR(gst_rgbd_link_demux_transform_caps);
+  trans_class->generate_output = GST_DEBUG_FUNCPTR(gst_rgbd_link_demux_generate_output);
+  trans_class->start = GST_DEBUG_FUNCPTR(gst_rgbd_link_demux_start);
+  trans_class->sink_event = GST_DEBUG_FUNCPTR(gst_rgbd_link_demux_sink_event);
+  trans_class->passthrough_on_same_caps = FALSE;
+  GST_DEBUG_CATEGORY_INIT(rgbd_link_demux_debug, "rgbdlinkdemux", 0, "RGB-D camera link demuxer");
+}
+
+static void gst_rgbd_link_demux_init(GstRgbdLinkDemux* self) {
+  self->stats = CodecStats();
+  self->decoder = new DepthLinkDecoder();
+  self->caps_text = new std::string();
+  self->out_caps = nullptr;
+  self->warnings = new WarningLimiter[kDropKinds];
+  self->pending = new std::vector<uint8_t>();
+  self->pending_pts = GST_CLOCK_TIME_NONE;
+}

@@ -1,0 +1,229 @@
+/**
+ * SECTION:element-rgbdlinkjoin
+ * @title: rgbdlinkjoin
+ *
+ * The server side of the H.264 camera link (docs/network.md): after the H.264 decoder and videoconvert,
+ * joins each decoded RGB picture with the depth and labels that came in its own access unit (the meta
+ * rgbdlinkdemux attached) into one video/x-rgbd frame, with the camera's calibration in the caps. Colour is
+ * never joined with another instant's depth: a picture without its depth (lost, damaged, or awaiting a depth
+ * key frame), or whose meta was made for another timestamp, is dropped with a rate-limited warning.
+ *
+ * ## Example launch line
+ * |[
+ * gst-launch-1.0 rgbdtestsrc num-buffers=30 ! rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rgbdlinkdemux ! openh264dec ! videoconvert ! rgbdlinkjoin ! rgbddemux name=d d.depth ! fakesink
+ * ]|
+ */
+#ifdef HAVE_CONFIG_H
+#include "config.h"
+#endif
+
+#include "gstrgbdlinkjoin.h"
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <gst/video/video.h>
+
+#include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/warning_limiter.h>
+
+#include "rgbdlinkmeta.h"
+
+GST_DEBUG_CATEGORY_STATIC(rgbd_link_join_debug);
+#define GST_CAT_DEFAULT rgbd_link_join_debug
+
+using namespace vclassroom;
+
+enum { PROP_0, PROP_FRAMES, PROP_DROPPED };
+
+struct _GstRgbdLinkJoin {
+  GstElement parent;
+  GstPad* sinkpad;
+  GstPad* srcpad;
+  guint64 frames, dropped;  // object lock
+  // Streaming thread only:
+  GstVideoInfo vinfo;
+  gboolean have_vinfo;
+  GstCaps* out_caps;
+  GstEvent* pending_segment;  // held until the first joined caps are out (sticky event order)
+  RgbdInfo* info;
+  WarningLimiter* warnings;
+};
+
+G_DEFINE_TYPE(GstRgbdLinkJoin, gst_rgbd_link_join, GST_TYPE_ELEMENT)
+GST_ELEMENT_REGISTER_DEFINE(rgbdlinkjoin, "rgbdlinkjoin", GST_RANK_NONE, GST_TYPE_RGBD_LINK_JOIN)
+
+static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
+    "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("video/x-raw, format=(string)RGB"));
+static GstStaticPadTemplate src_template =
+    GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
+
+static void drop_picture(GstRgbdLinkJoin* self, const std::string& why) {
+  GST_OBJECT_LOCK(self);
+  const guint64 dropped = ++self->dropped;
+  GST_OBJECT_UNLOCK(self);
+  uint64_t count = 0;
+  int64_t span = 0;
+  if (!self->warnings->note(g_get_monotonic_time() * 1000, &count, &span)) return;
+  const std::string what = describe_occurrences(count, "a picture", "pictures", "", span);
+  GST_ELEMENT_WARNING(self, STREAM, DECODE, ("dropped %s; %s: %s", what.c_str(), count == 1 ? "why" : "the last",
+                                             why.c_str()),
+                      ("%" G_GUINT64_FORMAT " pictures dropped so far", dropped));
+}
+
+// The joined frame of picture `in` and its meta; nullptr with `why` when they do not belong together.
+static GstBuffer* join(GstRgbdLinkJoin* self, GstBuffer* in, GstRgbdLinkMeta* meta, std::string* why) {
+  if (GST_CLOCK_TIME_IS_VALID(meta->pts) && GST_BUFFER_PTS(in) != meta->pts) {
+    *why = "a picture whose depth was made for another timestamp";
+    return nullptr;
+  }
+  if (!self->out_caps || !gst_caps_is_equal(self->out_caps, meta->caps)) {
+    if (!rgbd_info_from_caps(meta->caps, self->info, why)) return nullptr;
+    if (self->info->width() != GST_VIDEO_INFO_WIDTH(&self->vinfo) ||
+        self->info->height() != GST_VIDEO_INFO_HEIGHT(&self->vinfo)) {
+      *why = "the colour picture and the depth differ in size";
+      return nullptr;
+    }
+    gst_caps_replace(&self->out_caps, meta->caps);
+    gst_pad_push_event(self->srcpad, gst_event_new_caps(meta->caps));
+    if (self->pending_segment) {
+      gst_pad_push_event(self->srcpad, self->pending_segment);
+      self->pending_segment = nullptr;
+    }
+  }
+  const int w = self->info->width(), h = self->info->height();
+  const size_t depth_bytes = size_t(w) * h * 2;
+  const bool labels = self->info->has(Plane::Label);
+  if (gst_buffer_get_size(meta->planes) != depth_bytes + (labels ? size_t(w) * h : 0)) {
+    *why = "the depth planes do not fit the caps";
+    return nullptr;
+  }
+  GstVideoFrame vf;
+  if (!gst_video_frame_map(&vf, &self->vinfo, in, GST_MAP_READ)) {
+    *why = "cannot map the picture";
+    return nullptr;
+  }
+  GstMapInfo pm;
+  gst_buffer_map(meta->planes, &pm, GST_MAP_READ);
+  std::vector<std::pair<Plane, cv::Mat>> planes = {
+      {Plane::Color, cv::Mat(h, w, CV_8UC3, GST_VIDEO_FRAME_PLANE_DATA(&vf, 0), GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0))},
+      {Plane::Depth, cv::Mat(h, w, CV_16UC1, pm.data)}};
+  if (labels) planes.emplace_back(Plane::Label, cv::Mat(h, w, CV_8UC1, pm.data + depth_bytes));
+  GstBuffer* out = rgbd_buffer_with_planes(*self->info, planes, why);
+  gst_buffer_unmap(meta->planes, &pm);
+  gst_video_frame_unmap(&vf);
+  if (out) gst_buffer_copy_into(out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
+  return out;
+}
+
+static GstFlowReturn gst_rgbd_link_join_chain(GstPad*, GstObject* parent, GstBuffer* in) {
+  GstRgbdLinkJoin* self = GST_RGBD_LINK_JOIN(parent);
+  if (!self->have_vinfo) {
+    gst_buffer_unref(in);
+    return GST_FLOW_NOT_NEGOTIATED;
+  }
+  GstRgbdLinkMeta* meta = gst_buffer_get_rgbd_link_meta(in);
+  std::string why = "a picture without its depth (lost, damaged or awaiting a depth key frame)";
+  GstBuffer* out = meta ? join(self, in, meta, &why) : nullptr;
+  gst_buffer_unref(in);
+  if (!out) {
+    drop_picture(self, why);
+    return GST_FLOW_OK;
+  }
+  GST_OBJECT_LOCK(self);
+  ++self->frames;
+  GST_OBJECT_UNLOCK(self);
+  return gst_pad_push(self->srcpad, out);
+}
+
+static gboolean gst_rgbd_link_join_sink_event(GstPad* pad, GstObject* parent, GstEvent* event) {
+  GstRgbdLinkJoin* self = GST_RGBD_LINK_JOIN(parent);
+  if (GST_EVENT_TYPE(event) == GST_EVENT_CAPS) {
+    GstCaps* caps;
+    gst_event_parse_caps(event, &caps);
+    self->have_vinfo = gst_video_info_from_caps(&self->vinfo, caps);
+    gst_event_unref(event);  // the joined caps come with the first joined frame
+    return self->have_vinfo;
+  }
+  if (GST_EVENT_TYPE(event) == GST_EVENT_SEGMENT && !self->out_caps) {
+    gst_event_replace(&self->pending_segment, event);
+    gst_event_unref(event);
+    return TRUE;
+  }
+  if (GST_EVENT_TYPE(event) == GST_EVENT_FLUSH_STOP || GST_EVENT_TYPE(event) == GST_EVENT_EOS)
+    gst_event_replace(&self->pending_segment, nullptr);
+  return gst_pad_event_default(pad, parent, event);
+}
+
+static GstStateChangeReturn gst_rgbd_link_join_change_state(GstElement* element, GstStateChange transition) {
+  GstRgbdLinkJoin* self = GST_RGBD_LINK_JOIN(element);
+  if (transition == GST_STATE_CHANGE_READY_TO_PAUSED) {
+    gst_caps_replace(&self->out_caps, nullptr);
+    gst_event_replace(&self->pending_segment, nullptr);
+    self->have_vinfo = FALSE;
+    self->warnings->reset();
+    GST_OBJECT_LOCK(self);
+    self->frames = self->dropped = 0;
+    GST_OBJECT_UNLOCK(self);
+  }
+  return GST_ELEMENT_CLASS(gst_rgbd_link_join_parent_class)->change_state(element, transition);
+}
+
+static void gst_rgbd_link_join_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  GstRgbdLinkJoin* self = GST_RGBD_LINK_JOIN(object);
+  GST_OBJECT_LOCK(self);
+  if (prop_id == PROP_FRAMES)
+    g_value_set_uint64(value, self->frames);
+  else if (prop_id == PROP_DROPPED)
+    g_value_set_uint64(value, self->dropped);
+  else
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  GST_OBJECT_UNLOCK(self);
+}
+
+static void gst_rgbd_link_join_finalize(GObject* object) {
+  GstRgbdLinkJoin* self = GST_RGBD_LINK_JOIN(object);
+  gst_caps_replace(&self->out_caps, nullptr);
+  gst_event_replace(&self->pending_segment, nullptr);
+  delete self->info;
+  delete self->warnings;
+  G_OBJECT_CLASS(gst_rgbd_link_join_parent_class)->finalize(object);
+}
+
+static void gst_rgbd_link_join_class_init(GstRgbdLinkJoinClass* klass) {
+  GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
+  GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  gobject_class->get_property = gst_rgbd_link_join_get_property;
+  gobject_class->finalize = gst_rgbd_link_join_finalize;
+  const auto ro = GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
+  g_object_class_install_property(gobject_class, PROP_FRAMES,
+      g_param_spec_uint64("frames", "Frames", "RGB-D frames joined", 0, G_MAXUINT64, 0, ro));
+  g_object_class_install_property(gobject_class, PROP_DROPPED,
+      g_param_spec_uint64("frames-dropped", "Frames dropped", "Pictures dropped without their own depth", 0,
+                          G_MAXUINT64, 0, ro));
+  gst_element_class_add_static_pad_template(element_class, &sink_template);
+  gst_element_class_add_static_pad_template(element_class, &src_template);
+  gst_element_class_set_static_metadata(element_class, "RGB-D camera link joiner", "Filter/Converter/Video",
+      "Joins each decoded picture with the depth its own access unit carried into a video/x-rgbd frame",
+      "gst-vclassroom developers");
+  element_class->change_state = GST_DEBUG_FUNCPTR(gst_rgbd_link_join_change_state);
+  GST_DEBUG_CATEGORY_INIT(rgbd_link_join_debug, "rgbdlinkjoin", 0, "RGB-D camera link joiner");
+}
+
+static void gst_rgbd_link_join_init(GstRgbdLinkJoin* self) {
+  self->sinkpad = gst_pad_new_from_static_template(&sink_template, "sink");
+  gst_pad_set_chain_function(self->sinkpad, GST_DEBUG_FUNCPTR(gst_rgbd_link_join_chain));
+  gst_pad_set_event_function(self->sinkpad, GST_DEBUG_FUNCPTR(gst_rgbd_link_join_sink_event));
+  GST_PAD_SET_PROXY_ALLOCATION(self->sinkpad);
+  gst_element_add_pad(GST_ELEMENT(self), self->sinkpad);
+  self->srcpad = gst_pad_new_from_static_template(&src_template, "src");
+  gst_pad_use_fixed_caps(self->srcpad);
+  gst_element_add_pad(GST_ELEMENT(self), self->srcpad);
+  self->frames = self->dropped = 0;
+  self->have_vinfo = FALSE;
+  self->out_caps = nullptr;
+  self->pending_segment = nullptr;
+  self->info = new RgbdInfo();
+  self->warnings = new WarningLimiter();
+}
