@@ -392,9 +392,6 @@ TEST(WebrtcPlayoutDelay, APayloaderWritesItOnEveryPacketUnderTheNegotiatedId) {
   EXPECT_EQ(with_delay, packets);
 }
 
-// A lecturer's send queue: frames pass while there is room; once one is dropped the rest of its GOP is
-// dropped too (the decoder never gets a frame whose reference is gone), a key frame is asked for once, and
-// sending resumes with the next key frame that finds room.
 // The sound pads of both WHEP sinks: one `audio` (the classroom's sound in) and one `voice` (the lecturers'
 // voices out) each, released and requested again, and left to the element's own disposal, which releases
 // them after its children are gone (that once crashed: the release touched the disposed mixer).
@@ -493,6 +490,9 @@ TEST(WebrtcLecturerSilence, GoneOnlyAfterTheTimeoutWhileFramesWereSent) {
   EXPECT_FALSE(never.gone(3600 * kSecond));
 }
 
+// A lecturer's send queue: frames pass while there is room; once one is dropped the rest of its GOP is
+// dropped too (the decoder never gets a frame whose reference is gone), a key frame is asked for once, and
+// sending resumes with the next key frame that finds room.
 TEST(WebrtcSendGate, ADroppedFrameTakesTheRestOfItsGopAndAsksForOneKeyFrame) {
   GopSendGate gate;
   EXPECT_TRUE(gate.admit(true, false));
@@ -778,7 +778,8 @@ TEST(AudioBrowser, TheClassroomAndTheLecturerHearEachOther) {
       "audio-test.mjs", {"secret-token"});
   if (!run.skip.empty()) GTEST_SKIP() << run.skip;
   EXPECT_TRUE(run.ok) << run.output;
-  for (const char* check : {"ok the answer sends Opus", "ok sound played:", "ok voice sent:", "ok microphone refused:"})
+  for (const char* check : {"ok the answer sends Opus and takes the microphone", "ok sound played:", "ok voice sent:",
+                            "ok microphone refused:"})
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());
   // The voice pad runs on the clock (silence between words) and carries the lecturer's beeps.

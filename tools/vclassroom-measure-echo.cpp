@@ -104,8 +104,9 @@ int main(int argc, char** argv) {
       {"gain", 0, 0, G_OPTION_ARG_DOUBLE, &gain, "The echo's strength at the microphone, 0..1 (default 0.5)", "G"},
       {"voice", 0, 0, G_OPTION_ARG_STRING, &voice_text, "The lecturer's voice: pink-noise (default) or sine", "W"},
       {"dsp", 0, 0, G_OPTION_ARG_STRING, &dsp_text,
-       "More webrtcdsp settings for both runs (default: server.sh's, \"delay-agnostic=true extended-filter=true\"; "
-       "e.g. add \"noise-suppression=false gain-control=false\" to hear the canceller alone)",
+       "webrtcdsp's settings for both runs, in place of server.sh's (the default, \"delay-agnostic=true "
+       "extended-filter=true\"); e.g. those and \"noise-suppression=false gain-control=false\" for the canceller "
+       "alone",
        "SETTINGS"},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   parse_command_line(&argc, &argv, "",

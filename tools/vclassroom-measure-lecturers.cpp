@@ -38,8 +38,9 @@ namespace {
 
 struct LecturerResult {
   double fps = 0, kbps = 0, p50 = 0, p99 = 0;
-  // Where the latency goes (medians, ms): the pose to its frame's echo (server), the echo to the frame's
-  // last packet (transport), that packet to the frame's display (receiver), of which jitter buffer and decode.
+  // Where the latency goes (medians, ms): the pose to its frame's echo (server), the pose to the frame's
+  // last packet (server and transport), that packet to the frame's display (receiver), of which jitter
+  // buffer and decode.
   double server_p50 = 0, receive_p50 = 0, display_p50 = 0, jitter_p50 = 0, decode_p50 = 0;
   long frames = 0, samples = 0;
   // The video's counters over the window: packets received, lost, received again, key frames asked for,

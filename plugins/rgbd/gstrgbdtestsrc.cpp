@@ -17,7 +17,8 @@
  * for learner k; the caps planes are then "color,depth,label,depth-gt" (else "color,depth").
  * calibration-board: someone carries a 9x6 checkerboard of 80 mm squares through the room, holding it
  * still 1 s at each of 24 stops in front of the default rig (docs/real-classroom.md). flash-interval: the
- * room's colour turns white for 200 ms from each multiple of this running time (ns; 0: never), the
+ * room's colour turns white for 200 ms (half the interval when shorter) from each multiple of this running
+ * time (ns; 0: never), the
  * picture's half of a clap whose sound is audiotestsrc's tick: vclassroom-measure-sync times both at the
  * lecturer's page.
  *

@@ -149,13 +149,6 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
   return push_picture(self, round.banner, rt, duration, stamp.pose_from < 0 ? nullptr : &stamps[stamp.pose_from].pose);
 }
 
-// GstAggregator asks every sink pad's upstream for its latency and, when one
-// cannot answer, takes the whole element for not live: it then waits for a
-// frame on every pad, forever for a camera that never sends. A camera branch
-// cannot answer while it is not connected to its source yet (server.sh's
-// rtpssrcdemux makes the camera's pad at its first packet). Such a branch is
-// answered here as an unlinked pad would be (GStreamer leaves those out): no
-// latency of its own, so the view is live with the cameras that send.
 namespace {
 
 gboolean on_first_camera_due(GstClock*, GstClockTime, GstClockID, gpointer data) {
@@ -207,6 +200,13 @@ void watch_for_first_camera(GstViewFuse* self, bool on) {
   st->first_camera_watch = id;
 }
 
+// GstAggregator asks every sink pad's upstream for its latency and, when one
+// cannot answer, takes the whole element for not live: it then waits for a
+// frame on every pad, forever for a camera that never sends. A camera branch
+// cannot answer while it is not connected to its source yet (server.sh's
+// rtpssrcdemux makes the camera's pad at its first packet). Such a branch is
+// answered here as an unlinked pad would be (GStreamer leaves those out): no
+// latency of its own, so the view is live with the cameras that send.
 GstPadProbeReturn answer_latency_of_unconnected_branch(GstPad* pad, GstPadProbeInfo* info, gpointer) {
   GstQuery* query = GST_PAD_PROBE_INFO_QUERY(info);
   if (GST_QUERY_TYPE(query) != GST_QUERY_LATENCY) return GST_PAD_PROBE_OK;

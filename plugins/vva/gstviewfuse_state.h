@@ -99,7 +99,8 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
                             const std::vector<PendingFrame>& pending, const FuseRound& round,
                             const FuseParams& params);
 GstPadProbeReturn answer_latency_of_unconnected_branch(GstPad* pad, GstPadProbeInfo* info, gpointer);
-// Playing (`on`), a view that no camera has sent to after camera-timeout says so once: with no camera the
+// Playing (`on`), a view that no camera has sent to after camera-timeout says so, once each time it starts
+// playing: with no camera the
 // fuse never runs (there is nothing to give its picture a size), so its liveness messages never come.
 void watch_for_first_camera(GstViewFuse* self, bool on);
 

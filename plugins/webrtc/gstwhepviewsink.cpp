@@ -146,8 +146,9 @@ static void on_session_pose(GstWhepViewSink* self, const std::string& session, c
   gst_object_unref(fuse_src);
 }
 
+// The sound pads are the endpoint's; a camera's pad goes as GstElement would take it without this.
 static void gst_whep_view_sink_release_pad(GstElement* element, GstPad* pad) {
-  GST_WHEP_VIEW_SINK(element)->endpoint->release_pad(pad);
+  if (!GST_WHEP_VIEW_SINK(element)->endpoint->release_pad(pad)) gst_element_remove_pad(element, pad);
 }
 
 static GstPad* gst_whep_view_sink_request_new_pad(GstElement* element, GstPadTemplate* templ, const gchar* name,

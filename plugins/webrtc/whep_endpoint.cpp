@@ -65,7 +65,8 @@ struct WhepEndpoint::State {
   std::vector<IceServer> ice_servers;
   GstElement* audio_tee = nullptr;  // the classroom's sound for the sessions (request_audio_pad), or null
   GstPad* audio_pad = nullptr;      // the element's pad for it
-  std::unique_ptr<WhepVoiceMixer> voice;  // the lecturers' voices for the classroom (request_pad), or null
+  std::shared_ptr<WhepVoiceMixer> voice;  // the lecturers' voices for the classroom (request_pad), or null
+  bool voice_requested = false;          // request_pad is making it
   guint bitrate_kbit = 4000;
   guint max_sessions = 4;
   guint lecturer_timeout_s = 15;  // no receiver report for this long: the lecturer is gone; 0: never
@@ -177,12 +178,9 @@ void on_offer_set(GstPromise* promise, gpointer user_data) {
                         gst_promise_new_with_change_func(on_answer_created, s, nullptr));
 }
 
-// Feeds the element's `source` (taken) for session `id` through its send branch and starts answering
-// `offer` (taken). Called with the lock held.
-// webrtcbin's new src pad: the lecturer's microphone (the session's audio) joins the classroom's mix.
-void on_lecturer_voice(GstElement*, GstPad* pad, gpointer user_data) {
-  Session* s = static_cast<Session*>(user_data);
-  if (GST_PAD_DIRECTION(pad) != GST_PAD_SRC) return;
+// A stream from session `s`'s browser (webrtcbin's new src pad, in its streaming thread): the lecturer's
+// microphone joins the classroom's mix where the element has one; anything else the branch drops.
+bool take_lecturer_voice(State* st, const std::string& session, GstPad* pad) {
   GstWebRTCRTPTransceiver* transceiver = nullptr;
   g_object_get(pad, "transceiver", &transceiver, nullptr);
   GstWebRTCKind kind = GST_WEBRTC_KIND_UNKNOWN;
@@ -190,16 +188,22 @@ void on_lecturer_voice(GstElement*, GstPad* pad, gpointer user_data) {
     g_object_get(transceiver, "kind", &kind, nullptr);
     gst_object_unref(transceiver);
   }
-  State* st = s->owner;
-  if (kind != GST_WEBRTC_KIND_AUDIO) return;
-  std::lock_guard<std::mutex> g(st->lock);  // (the mix may be released meanwhile)
-  if (!st->voice) return;
-  if (st->voice->add(s->id, pad))
-    GST_INFO_OBJECT(st->owner, "session %s: the lecturer's voice joins the classroom's mix", s->id.c_str());
-  else
-    GST_WARNING_OBJECT(st->owner, "session %s: the lecturer's voice cannot be decoded", s->id.c_str());
+  std::shared_ptr<WhepVoiceMixer> voice;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    voice = st->voice;
+  }
+  if (kind != GST_WEBRTC_KIND_AUDIO || !voice) return false;
+  if (!voice->add(session, pad)) {
+    GST_WARNING_OBJECT(st->owner, "session %s: the lecturer's voice cannot be decoded", session.c_str());
+    return false;
+  }
+  GST_INFO_OBJECT(st->owner, "session %s: the lecturer's voice joins the classroom's mix", session.c_str());
+  return true;
 }
 
+// Feeds the element's `source` (taken) for session `id` through its send branch and starts answering
+// `offer` (taken). Called with the lock held.
 void start_session_locked(State* st, const std::string& id, GstPad* source, GstSDPMessage* offer,
                           const WhepOffer& offered, SoupServerMessage* msg) {
   Session* s = new Session;
@@ -216,6 +220,7 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   send.ice_servers = st->ice_servers;
   send.max_kbit = int(st->bitrate_kbit);
   send.lecturer_timeout_ns = int64_t(st->lecturer_timeout_s) * GST_SECOND;
+  send.on_incoming = [st, id](GstPad* pad) { return take_lecturer_voice(st, id, pad); };
   send.on_rate = [st, id](int kbit, double fraction_lost) {
     GST_INFO_OBJECT(st->owner, "session %s: %.1f %% lost, now %d kbit/s", id.c_str(), 100 * fraction_lost, kbit);
     gst_element_post_message(GST_ELEMENT(st->owner),
@@ -230,7 +235,6 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
   GstElement* webrtc = s->branch->webrtc();
   g_signal_connect(webrtc, "on-data-channel", G_CALLBACK(on_data_channel), s);
   g_signal_connect(webrtc, "notify::ice-gathering-state", G_CALLBACK(on_gathering_state), s);
-  if (send.take_voice) g_signal_connect(webrtc, "pad-added", G_CALLBACK(on_lecturer_voice), s);
   gst_pad_link(s->source, s->branch->sink());
   if (s->branch->audio_sink()) {
     s->sound = gst_element_request_pad_simple(st->audio_tee, "src_%u");
@@ -249,10 +253,6 @@ void start_session_locked(State* st, const std::string& id, GstPad* source, GstS
 // Takes the session's branch out of the pipeline, lets the element take its source out, and frees it.
 // Lock not held.
 void end_session(State* st, Session* s) {
-  {
-    std::lock_guard<std::mutex> g(st->lock);
-    if (st->voice) st->voice->remove(s->id);
-  }
   gst_pad_unlink(s->source, s->branch->sink());
   if (s->sound) {
     gst_pad_unlink(s->sound, s->branch->audio_sink());
@@ -260,6 +260,13 @@ void end_session(State* st, Session* s) {
     gst_object_unref(s->sound);
   }
   s->branch.reset();
+  // After webrtcbin: no stream of the session's can join the mix any more.
+  std::shared_ptr<WhepVoiceMixer> voice;
+  {
+    std::lock_guard<std::mutex> g(st->lock);
+    voice = st->voice;
+  }
+  if (GstPad* taken = voice ? voice->remove(s->id) : nullptr) gst_object_unref(taken);
   st->hooks.detach(s->id, s->source);
   gst_object_unref(s->source);
   if (s->pending) {
@@ -675,10 +682,18 @@ guint WhepEndpoint::bitrate_kbit() const {
 GstPad* WhepEndpoint::request_pad(GstPadTemplate* templ) {
   const std::string name = GST_PAD_TEMPLATE_NAME_TEMPLATE(templ);
   if (name == "voice") {
+    {
+      std::lock_guard<std::mutex> g(st_->lock);
+      if (st_->voice || st_->voice_requested) return nullptr;
+      st_->voice_requested = true;
+    }
+    // Made without the lock: adding the pad emits pad-added, whose handlers may read the element's settings.
+    auto voice = std::make_shared<WhepVoiceMixer>(st_->owner, templ);
     std::lock_guard<std::mutex> g(st_->lock);
-    if (st_->voice) return nullptr;
-    st_->voice = std::make_unique<WhepVoiceMixer>(st_->owner, templ);
-    return st_->voice->pad();
+    st_->voice_requested = false;
+    if (!voice->pad()) return nullptr;
+    st_->voice = voice;
+    return voice->pad();
   }
   if (name != "audio") return nullptr;
   GstElement* tee = nullptr;
@@ -705,13 +720,21 @@ GstPad* WhepEndpoint::request_pad(GstPadTemplate* templ) {
 }
 
 bool WhepEndpoint::release_pad(GstPad* pad) {
-  std::unique_ptr<WhepVoiceMixer> voice;
+  std::shared_ptr<WhepVoiceMixer> voice;
   {
     std::lock_guard<std::mutex> g(st_->lock);
-    if (pad && st_->voice && pad == st_->voice->pad()) voice = std::move(st_->voice);
+    if (pad && st_->voice && pad == st_->voice->pad()) {
+      voice = std::move(st_->voice);
+      // The sessions go on without being heard: their microphones' streams are dropped from now on.
+      for (auto& [id, s] : st_->sessions)
+        if (GstPad* taken = voice->remove(id)) {
+          s->branch->drain(taken);
+          gst_object_unref(taken);
+        }
+    }
   }
   if (voice) {
-    voice->take_out();  // with the sessions' decoders: the sessions go on without being heard
+    voice->take_out();
     return true;
   }
   {

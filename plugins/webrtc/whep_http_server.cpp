@@ -232,7 +232,8 @@ struct Refusal {
       : impl(i), msg(m), status(s), http_1_0(soup_server_message_get_http_version(m) == SOUP_HTTP_1_0) {
     const char* origin = soup_message_headers_get_one(soup_server_message_get_request_headers(m), "Origin");
     const std::string allow = origin && i->cors_origin ? i->cors_origin(origin) : "";
-    // (The value is one of the origins the element was given, checked at start, or "*".)
+    // (The value is "*" or the request's own Origin, allowed only in its normal form: no header can be made
+    // of it.)
     if (!allow.empty()) cors = "Access-Control-Allow-Origin: " + allow + "\r\nVary: Origin\r\n";
   }
   Impl* impl;

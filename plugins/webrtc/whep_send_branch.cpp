@@ -47,6 +47,9 @@ struct WhepSendBranch::State {
   GstElement* audio_queue = nullptr;  // the classroom's sound, where the offer takes it (else null)
   GstElement* audio_pay = nullptr;
   GstPad* audio_sink = nullptr;
+  std::function<bool(GstPad*)> on_incoming;
+  std::mutex drains_lock;
+  std::vector<GstElement*> drains;  // sinks of received streams nobody takes (WhepSendBranch::drain)
   GopSendGate gate;                                   // the queue's upstream thread's only (on_frame_in)
   GstClockTime last_sent_pts = GST_CLOCK_TIME_NONE;   // the payloader's thread's only (on_frame_out)
   guint ssrc = 0;                                      // the video's; webrtcbin's resent packets have another
@@ -269,12 +272,16 @@ namespace {
 // offer's payload ! webrtcbin) and the lecturer's voice back (`receive`).
 void add_audio(State* st, int payload, bool send, bool receive) {
   if (!send) {
+    // Receiving only; or neither (the element has no sound pads): the section is answered inactive, so the
+    // browser sends nothing there.
     GstCaps* caps = gst_caps_new_simple("application/x-rtp", "media", G_TYPE_STRING, "audio", "encoding-name",
                                         G_TYPE_STRING, "OPUS", "clock-rate", G_TYPE_INT, 48000, "payload", G_TYPE_INT,
                                         payload, nullptr);
     GstWebRTCRTPTransceiver* transceiver = nullptr;
-    g_signal_emit_by_name(st->webrtc, "add-transceiver", GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_RECVONLY, caps,
-                          &transceiver);
+    g_signal_emit_by_name(st->webrtc, "add-transceiver",
+                          receive ? GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_RECVONLY
+                                  : GST_WEBRTC_RTP_TRANSCEIVER_DIRECTION_INACTIVE,
+                          caps, &transceiver);
     gst_caps_unref(caps);
     if (transceiver) gst_object_unref(transceiver);
     return;
@@ -309,6 +316,21 @@ void add_audio(State* st, int payload, bool send, bool receive) {
 }
 
 }  // namespace
+
+namespace {
+
+// webrtcbin's new src pad (a stream from the browser): the element's, or drained.
+void on_incoming_pad(GstElement*, GstPad* pad, gpointer user_data) {
+  auto* branch = static_cast<WhepSendBranch*>(user_data);
+  if (GST_PAD_DIRECTION(pad) != GST_PAD_SRC) return;
+  if (branch->take_incoming(pad)) return;
+  GST_INFO_OBJECT(pad, "a stream from the browser nobody takes: dropped");
+  branch->drain(pad);
+}
+
+}  // namespace
+
+bool WhepSendBranch::take_incoming(GstPad* pad) { return st_->on_incoming && st_->on_incoming(pad); }
 
 WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const WhepSendSettings& settings)
     : st_(new State), reports_(new ReportWatch) {
@@ -386,8 +408,9 @@ WhepSendBranch::WhepSendBranch(GstBin* owner, const std::string& session, const 
   st->sink = gst_element_get_static_pad(st->queue, "sink");
   gst_pad_add_probe(st->sink, GST_PAD_PROBE_TYPE_BUFFER, on_frame_in, st, nullptr);
   gst_pad_add_probe(st->sink, GST_PAD_PROBE_TYPE_QUERY_DOWNSTREAM, on_serialized_query, nullptr, nullptr);
-  if (settings.opus_payload >= 0 && (settings.send_sound || settings.take_voice))
-    add_audio(st, settings.opus_payload, settings.send_sound, settings.take_voice);
+  if (settings.opus_payload >= 0) add_audio(st, settings.opus_payload, settings.send_sound, settings.take_voice);
+  st->on_incoming = settings.on_incoming;
+  g_signal_connect(st->webrtc, "pad-added", G_CALLBACK(on_incoming_pad), this);
   gst_element_sync_state_with_parent(st->webrtc);
   gst_element_sync_state_with_parent(st->pay);
   gst_element_sync_state_with_parent(st->queue);
@@ -403,8 +426,17 @@ WhepSendBranch::~WhepSendBranch() {
     reports_->alive = false;
   }
   State* st = st_.get();
+  std::vector<GstElement*> drains;
+  {
+    std::lock_guard<std::mutex> g(st->drains_lock);
+    drains.swap(st->drains);
+  }
   for (GstElement* e : {st->webrtc, st->pay, st->queue, st->audio_pay, st->audio_queue}) {
     if (!e) continue;
+    gst_element_set_state(e, GST_STATE_NULL);
+    gst_bin_remove(st->owner, e);
+  }
+  for (GstElement* e : drains) {
     gst_element_set_state(e, GST_STATE_NULL);
     gst_bin_remove(st->owner, e);
   }
@@ -426,6 +458,18 @@ void WhepSendBranch::poll_receiver_reports() {
 GstPad* WhepSendBranch::sink() const { return st_->sink; }
 
 GstPad* WhepSendBranch::audio_sink() const { return st_->audio_sink; }
+
+void WhepSendBranch::drain(GstPad* pad) {
+  GstElement* sink = gst_element_factory_make("fakesink", nullptr);
+  g_object_set(sink, "sync", FALSE, "async", FALSE, nullptr);
+  gst_bin_add(st_->owner, sink);
+  GstPad* in = gst_element_get_static_pad(sink, "sink");
+  gst_pad_link(pad, in);
+  gst_object_unref(in);
+  gst_element_sync_state_with_parent(sink);
+  std::lock_guard<std::mutex> g(st_->drains_lock);
+  st_->drains.push_back(sink);
+}
 
 bool WhepSendBranch::lecturer_gone(int64_t* silent_ns) const {
   std::lock_guard<std::mutex> g(reports_->lock);

@@ -29,6 +29,10 @@ struct WhepSendSettings {
   int opus_payload = -1;           // the offer's Opus payload type; -1: no audio
   bool send_sound = false;         // the classroom's sound goes to the lecturer there (audio_sink())
   bool take_voice = false;         // the lecturer's voice comes back there (webrtcbin's audio src pad)
+  // A stream webrtcbin receives from the browser (its new src pad, from its streaming thread): true when
+  // taken (linked); anything not taken goes to a sink of the branch's, since an unlinked pad would stop the
+  // whole pipeline (a browser may send what it was not asked for).
+  std::function<bool(GstPad* pad)> on_incoming;
   std::vector<IceServer> ice_servers;
   int max_kbit = 4000;  // the element's bitrate: the session's rate starts there and never exceeds it
   // The session's rate changed (LossBasedRate, on a new receiver report with this loss); called from
@@ -53,6 +57,10 @@ class WhepSendBranch {
   GstPad* sink() const;
   // Where the classroom's sound (audio/x-opus) goes in, or null (no Opus offered, or settings.send_sound off).
   GstPad* audio_sink() const;
+  // Links `pad` (one of webrtcbin's src pads, unlinked) to a sink of the branch's that drops what comes.
+  void drain(GstPad* pad);
+  // settings.on_incoming's answer for `pad` (false without one).
+  bool take_incoming(GstPad* pad);
   // The page's data channel, once it opens one: the echo goes there. False (nothing taken) when the branch
   // has one already: a page opens one channel, others are ignored.
   bool set_echo_channel(GstWebRTCDataChannel* channel);

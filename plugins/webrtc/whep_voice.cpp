@@ -55,9 +55,13 @@ void WhepVoiceMixer::take_out() {
   std::map<std::string, Voice> voices;
   {
     std::lock_guard<std::mutex> g(lock_);
+    closed_ = true;
     voices.swap(voices_);
   }
-  for (auto& v : voices) remove_voice(v.second);
+  for (auto& v : voices) {
+    remove_voice(v.second);
+    gst_object_unref(v.second.rtp_src);
+  }
   if (pad_) gst_element_remove_pad(GST_ELEMENT(owner_), pad_);
   pad_ = nullptr;
   for (GstElement** e : {&silence_, &mixer_, &caps_}) take_out_of(owner_, std::exchange(*e, nullptr));
@@ -67,16 +71,22 @@ WhepVoiceMixer::~WhepVoiceMixer() {
   for (auto& v : voices_)
     for (GstElement* e : {v.second.depay, v.second.decoder, v.second.convert, v.second.resample}) gst_object_unref(e);
   for (auto& v : voices_) gst_object_unref(v.second.mixer_pad);
+  for (auto& v : voices_) gst_object_unref(v.second.rtp_src);
   for (GstElement* e : {silence_, mixer_, caps_})
     if (e) gst_object_unref(e);
 }
 
 bool WhepVoiceMixer::add(const std::string& session, GstPad* rtp_src) {
-  if (!mixer_) return false;
-  Voice v{make("rtpopusdepay"), make("opusdec"), make("audioconvert"), make("audioresample"), nullptr};
+  {
+    std::lock_guard<std::mutex> g(lock_);
+    if (closed_ || !mixer_) return false;
+  }
+  Voice v{make("rtpopusdepay"), make("opusdec"), make("audioconvert"), make("audioresample"), nullptr,
+          GST_PAD(gst_object_ref(rtp_src))};
   if (!v.depay || !v.decoder || !v.convert || !v.resample) {
     for (GstElement* e : {v.depay, v.decoder, v.convert, v.resample})
       if (e) gst_object_unref(e);
+    gst_object_unref(v.rtp_src);
     return false;
   }
   // A lost packet is concealed (and, where the browser sent it, rebuilt from the next one's FEC).
@@ -91,6 +101,11 @@ bool WhepVoiceMixer::add(const std::string& session, GstPad* rtp_src) {
   for (GstElement* e : {v.resample, v.convert, v.decoder, v.depay}) gst_element_sync_state_with_parent(e);
   const bool joined = linked && gst_pad_link(rtp_src, in) == GST_PAD_LINK_OK;
   gst_object_unref(in);
+  if (!joined) {
+    remove_voice(v);
+    gst_object_unref(v.rtp_src);
+    return false;
+  }
   Voice previous{};
   bool replaced = false;
   {
@@ -100,24 +115,29 @@ bool WhepVoiceMixer::add(const std::string& session, GstPad* rtp_src) {
     if (replaced) previous = old->second;
     voices_[session] = v;
   }
-  if (replaced) remove_voice(previous);
-  return joined;
+  if (replaced) {
+    remove_voice(previous);
+    gst_object_unref(previous.rtp_src);
+  }
+  return true;
 }
 
-void WhepVoiceMixer::remove(const std::string& session) {
+GstPad* WhepVoiceMixer::remove(const std::string& session) {
   Voice v{};
   {
     std::lock_guard<std::mutex> g(lock_);
     auto it = voices_.find(session);
-    if (it == voices_.end()) return;
+    if (it == voices_.end()) return nullptr;
     v = it->second;
     voices_.erase(it);
   }
   remove_voice(v);
+  return v.rtp_src;
 }
 
 void WhepVoiceMixer::remove_voice(const Voice& v) {
   for (GstElement* e : {v.depay, v.decoder, v.convert, v.resample}) take_out_of(owner_, e);
+  if (!v.mixer_pad) return;
   if (mixer_ && GST_OBJECT_PARENT(v.mixer_pad) == GST_OBJECT_CAST(mixer_))
     gst_element_release_request_pad(mixer_, v.mixer_pad);
   gst_object_unref(v.mixer_pad);

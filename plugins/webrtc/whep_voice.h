@@ -26,11 +26,12 @@ class WhepVoiceMixer {
   WhepVoiceMixer& operator=(const WhepVoiceMixer&) = delete;
 
   GstPad* pad() const { return pad_; }
-  // A session's RTP audio (webrtcbin's src pad, Opus) joins the mix; false (nothing linked) when it does
-  // not link. Any thread.
+  // A session's RTP audio (webrtcbin's src pad, Opus) joins the mix; false, with `rtp_src` left unlinked,
+  // when it cannot (an element missing, a link refused, the mixer taken out). Any thread.
   bool add(const std::string& session, GstPad* rtp_src);
-  // The session's decoder leaves the mix (when it has one). Not from its own streaming thread.
-  void remove(const std::string& session);
+  // The session's decoder leaves the mix (when it has one); returns the pad it took from (a reference, now
+  // unlinked: a pad of a live webrtcbin must then be linked elsewhere), or null. Not from its streaming thread.
+  GstPad* remove(const std::string& session);
 
  private:
   struct Voice {
@@ -39,6 +40,7 @@ class WhepVoiceMixer {
     GstElement* convert;
     GstElement* resample;
     GstPad* mixer_pad;
+    GstPad* rtp_src;  // the session's pad it takes (a reference)
   };
   void remove_voice(const Voice& v);
   GstBin* owner_;
@@ -47,6 +49,7 @@ class WhepVoiceMixer {
   GstElement* caps_ = nullptr;
   GstPad* pad_ = nullptr;
   std::mutex lock_;
+  bool closed_ = false;  // taken out: no more voices
   std::map<std::string, Voice> voices_;
 };
 

@@ -16,9 +16,11 @@ try {
   const page = await openLecturer(chromium.browser, base, token, 'page');
   await page.waitForFunction(() => window.vclassroom && window.vclassroom.stats.framesShown > 10, { timeout });
   const answer = await page.evaluate(async () => (await window.vclassroom.joined).pc.remoteDescription.sdp);
-  if (!/m=audio [^\r\n]*\r\n(?:[^m][^\r\n]*\r\n)*a=rtpmap:\d+ OPUS\/48000\/2/i.test(answer) || !/a=sendonly/.test(answer))
-    fail(`the answer sends no Opus: ${answer}`);
-  console.log('ok the answer sends Opus');
+  // The answer's audio section: Opus, both ways (the server has the classroom's sound and a loudspeaker).
+  const audioSection = (answer.split(/\r\nm=/).find(m => m.startsWith('audio ')) || '');
+  if (!/a=rtpmap:\d+ OPUS\/48000\/2/i.test(audioSection) || !/a=sendrecv/.test(audioSection))
+    fail(`the answer's audio section is not Opus both ways: ${audioSection}`);
+  console.log('ok the answer sends Opus and takes the microphone');
   // Sound arrives, is decoded and has energy (the tone), and the page plays it.
   await page.waitForFunction(() => {
     const a = window.vclassroom.stats.soundIn;
@@ -49,7 +51,7 @@ try {
   await other.waitForFunction(() => window.vclassroom && window.vclassroom.stats.microphone !== undefined &&
                                     window.vclassroom.stats.framesShown > 10, { timeout });
   const refused = await other.evaluate(() => ({ mic: window.vclassroom.stats.microphone,
-                                                said: document.getElementById('soundstatus').textContent }));
+                                                said: document.getElementById('micstatus').textContent }));
   if (refused.mic !== 'NotAllowedError' || !refused.said.includes('does not hear you'))
     fail(`a refused microphone: ${JSON.stringify(refused)}`);
   await other.waitForFunction(() => window.vclassroom.stats.soundIn && window.vclassroom.stats.soundIn.packetsReceived > 50,

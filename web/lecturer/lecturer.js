@@ -23,6 +23,7 @@ let xrPose = null;  // set while an XR session drives the pose
 // inside the navigation bounds, horizon level), adopted from the first echo; the rig origin looking level
 // when the server names no pose.
 let home = null;
+let microphone = null;  // the lecturer's microphone's stream, once allowed
 // This page's own poses, seq -> the viewer time it sent (the latest 300): an echo counts for the latency
 // readout only when it names one of them (another lecturer's pose on a shared view has another clock).
 const sentTimes = new Map();
@@ -161,7 +162,8 @@ const echoes = new Map();
 // (getStats).
 const stats = { framesShown: 0, lastSeqShown: 0, latencyMs: [], serverMs: [], receiveMs: [], displayMs: [],
                 jitterMs: [], decodeMs: [], lastSeqEchoed: 0, width: 0, height: 0, clampedShown: 0,
-                lastShownClamped: false, lastShownPose: null, adopted: 0, lastLatencyMs: 0 };
+                lastShownClamped: false, lastShownPose: null, adopted: 0, lastLatencyMs: 0,
+                negativeLatency: 0 };
 const record = (list, value, keep) => { list.push(value); if (list.length > keep) list.shift(); };
 function onEcho(text) {
   const f = text.split(' ');
@@ -186,7 +188,16 @@ function onEcho(text) {
     updateSliders();
     stats.adopted += 1;
   }
-  if (!home && e.pose && !xrPose && seq === 0) adoptHome(e.pose);
+  // The view before this page steers: the server's own (seq 0, its reference camera) becomes home; on a
+  // view another lecturer already steers (whepserversink) the page starts where that view is, without
+  // taking it for home (Reset then asks for the level origin, which the server moves into its bounds).
+  if (seq === 0 && !xrPose && e.pose && !home) {
+    if (e.seq === 0) adoptHome(e.pose);
+    else if (!e.own) {
+      Object.assign(view, poseToView(e.pose.position, e.pose.orientation), { roll: 0 });
+      viewChanged();
+    }
+  }
 }
 // Pose to photon, once per pose of this page's: from the time the page sent it to the expected display of
 // the first frame rendered for it. Later frames of the same pose (the lecturer holds still) and frames of
@@ -198,7 +209,11 @@ function latencyReadout(e, meta) {
   if (!e.own) return e.seq > 0 ? 'pose→photon: another lecturer steers this view' : null;
   if (e.seq === stats.lastSeqShown) return `pose→photon: idle (last ${stats.lastLatencyMs.toFixed(0)} ms)`;
   const latency = meta.expectedDisplayTime - e.time;
-  if (!(e.seq > stats.lastSeqShown) || !(latency >= 0)) return null;  // an older pose's frame, or no time
+  if (!(e.seq > stats.lastSeqShown)) return null;  // an older pose's frame
+  if (!(latency >= 0)) {  // never expected: the page's own clock on both ends
+    stats.negativeLatency += 1;
+    return null;
+  }
   stats.lastSeqShown = e.seq;
   stats.lastLatencyMs = latency;
   record(stats.latencyMs, latency, 300);
@@ -267,8 +282,13 @@ function playSound(track) {
 // The lecturer's microphone, with the browser's own echo cancelling (the classroom's sound from the
 // lecturer's loudspeaker stays out of it). Refused or missing, the lesson goes on and the page says the class
 // does not hear the lecturer.
-async function openMicrophone(sender) {
-  const label = document.getElementById('soundstatus');
+async function openMicrophone(transceiver) {
+  const label = document.getElementById('micstatus');
+  if (transceiver.currentDirection !== 'sendrecv' && transceiver.currentDirection !== 'sendonly') {
+    stats.microphone = 'not taken';
+    label.textContent = 'the classroom has no loudspeaker for you: the class does not hear you';
+    return;
+  }
   if (!navigator.mediaDevices || !navigator.mediaDevices.getUserMedia) {
     stats.microphone = 'unavailable';
     label.textContent = 'no microphone here (the page needs https): the class does not hear you';
@@ -276,7 +296,8 @@ async function openMicrophone(sender) {
   }
   try {
     const mic = await navigator.mediaDevices.getUserMedia({ audio: { echoCancellation: true, noiseSuppression: true } });
-    await sender.replaceTrack(mic.getAudioTracks()[0]);
+    await transceiver.sender.replaceTrack(mic.getAudioTracks()[0]);
+    microphone = mic;
     stats.microphone = 'on';
   } catch (e) {
     stats.microphone = e.name;
@@ -341,12 +362,24 @@ async function join() {
   await pc.setRemoteDescription({ type: 'answer', sdp: await response.text() });
   status.textContent = 'joined';
   const location_ = response.headers.get('Location');
-  window.vclassroom.leave = () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE' }).then(r => r.status);
-  window.addEventListener('pagehide', () => fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE', keepalive: true }));
+  const stopMicrophone = () => { if (microphone) microphone.getTracks().forEach(t => t.stop()); };
+  window.vclassroom.leave = () => {
+    stopMicrophone();
+    return fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE' }).then(r => r.status);
+  };
+  window.addEventListener('pagehide', () => {
+    stopMicrophone();
+    fetch(location_ + '?token=' + encodeURIComponent(token), { method: 'DELETE', keepalive: true });
+  });
   watchFrames(video);
-  openMicrophone(audio.sender);
-  // A server whose cameras have not sent yet has no picture to give: say so rather than a black page.
-  setTimeout(() => { if (stats.framesShown === 0) status.textContent = kNoPicture; }, kNoPictureMs);
+  openMicrophone(audio);
+  // A server whose cameras have not sent yet has no picture to give: say so rather than a black page (and
+  // a connection that never came up is not that).
+  setTimeout(() => {
+    if (stats.framesShown > 0) return;
+    status.textContent = pc.connectionState === 'connected' ? kNoPicture
+                                                            : `no picture: the connection is ${pc.connectionState}`;
+  }, kNoPictureMs);
   setInterval(async () => {
     const report = await pc.getStats();
     report.forEach(r => {
@@ -418,7 +451,7 @@ async function installVR() {
     // In the headset the panel is not seen; back on the page it is.
     const panel = document.getElementById('panel');
     panel.hidden = true;
-    session.addEventListener('end', () => { panel.hidden = false; xrPose = null; });
+    session.addEventListener('end', () => { panel.hidden = false; xrPose = null; viewChanged(); });
     const space = await session.requestReferenceSpace('local');
     const gl = document.createElement('canvas').getContext('webgl', { xrCompatible: true });
     const layer = new XRWebGLLayer(session, gl);

@@ -140,8 +140,8 @@ struct WhepOffer {
   // payload type (96..127). -1: none offered.
   int h264_payload = -1;
   int playout_delay_extension_id = 0;  // the video's a=extmap id (1..255) for kPlayoutDelayUri; 0: none
-  // The first audio section's Opus (opus/48000/2) on a dynamic payload type (35..63 or 96..127): the
-  // classroom's sound goes there. -1: none offered (the lecturer gets the view without sound).
+  // Opus (opus/48000/2) on a dynamic payload type (35..63 or 96..127) in the first audio section that has
+  // it: the classroom's sound and the lecturer's voice go there. -1: none offered (the view without sound).
   int opus_payload = -1;
 };
 // Bounds of an offer: Chrome's and Firefox's are 3-8 kB in 60-200 lines with 3-4 media sections.
