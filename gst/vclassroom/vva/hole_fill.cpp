@@ -1,6 +1,7 @@
 // The hole filling of a fused view (hole_fill.h): the push-pull pyramid over the holes' background
 // borders, and the smoothing both methods share. The fill before issue 35 is in hole_fill_rays.cpp.
 #include <gst/vclassroom/vva/hole_fill.h>
+#include <gst/vclassroom/vva/hole_runs.h>
 
 #include <algorithm>
 #include <cmath>
@@ -48,9 +49,6 @@ struct Level {
   Cell* row(int y) { return cells.data() + size_t(y) * size_t(w); }
   const Cell* row(int y) const { return cells.data() + size_t(y) * size_t(w); }
 };
-
-// Whether any of 4 depths packed in `v` is 0 (a hole).
-inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~v & 0x8000800080008000ull) != 0; }
 
 // The mean of the samples among `n` that hold a value (z > 0); z stays 0 when none does. Every sample in the
 // pyramid is some hole's background already (fill_along_rays_and_mark_sources): no depth test between levels
@@ -101,41 +99,13 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
       uint8_t& m = source_mark.ptr<uint8_t>(sy)[sx];
       if (!m) m = 1, sources->push_back(sy * W + sx);
     };
-    int x = 0;
-    while (x < W) {
-      if (x + 16 <= W) {  // most of a row is seen: skip it 16 depths at a time
-        uint64_t v[4];
-        std::memcpy(v, d + x, 32);
-        if (!(any_zero_u16x4(v[0]) | any_zero_u16x4(v[1]) | any_zero_u16x4(v[2]) | any_zero_u16x4(v[3]))) {
-          x += 16;
-          continue;
-        }
-      }
-      if (x + 4 <= W) {
-        uint64_t v;
-        std::memcpy(&v, d + x, 8);
-        if (!any_zero_u16x4(v)) {
-          x += 4;
-          continue;
-        }
-      }
-      if (d[x]) {
-        ++x;
-        continue;
-      }
-      const int a = x;
-      while (x < W && !d[x]) ++x;
-      const int b = x - 1;  // holes a..b
+    int x = 0, a = 0, b = 0;
+    while (next_hole_run(d, W, &x, &a, &b)) {  // holes a..b
       for (int t = a / kTile; t <= b / kTile; ++t) tiles[t] = 1;
       runs->push_back(HoleRun{y, a, b});
       const int z_left = a > 0 ? d[a - 1] : 0, z_right = b + 1 < W ? d[b + 1] : 0;
       for (int h = a; h <= b; ++h) {
-        if (below[h] < y) {
-          above[h] = y - 1;
-          int yb = y + 1;
-          while (yb < H && !depth.ptr<uint16_t>(yb)[h]) ++yb;
-          below[h] = yb;
-        }
+        find_known_rows(depth, y, h, above, below);
         const int z_up = above[h] >= 0 ? depth.ptr<uint16_t>(above[h])[h] : 0;
         const int z_down = below[h] < H ? depth.ptr<uint16_t>(below[h])[h] : 0;
         const int zmax = std::max(std::max(z_left, z_right), std::max(z_up, z_down));

@@ -2,6 +2,7 @@
 // along the row and the column, those on the far side weighted by 1/distance, a box blur, and optionally the
 // background's texture mirrored in (docs/vva.md).
 #include <gst/vclassroom/vva/hole_fill.h>
+#include <gst/vclassroom/vva/hole_runs.h>
 
 #include <algorithm>
 #include <cstring>
@@ -10,9 +11,6 @@
 namespace vclassroom {
 
 namespace {
-
-// Whether any of 4 depths packed in `v` is 0 (a hole).
-inline bool any_zero_u16x4(uint64_t v) { return ((v - 0x0001000100010001ull) & ~v & 0x8000800080008000ull) != 0; }
 
 // The fill's texture reaches this far (px) into a hole: a disocclusion's width. Farther, a mirror image
 // has little to do with what is hidden, the fill fades out (fade_unseen) and the texture's work would grow
@@ -52,31 +50,11 @@ bool fill_hole_pixels(cv::Mat& color, const cv::Mat& depth, double background_ra
     uint8_t* c = color.ptr<uint8_t>(y);
     uint16_t* nd = new_depth ? new_depth->ptr<uint16_t>(y) : nullptr;
     uint8_t* m = mask.ptr<uint8_t>(y);
-    int x = 0;
-    while (x < W) {
-      if (x + 4 <= W) {
-        uint64_t v;
-        std::memcpy(&v, d + x, 8);
-        if (!any_zero_u16x4(v)) {
-          x += 4;
-          continue;
-        }
-      }
-      if (d[x]) {
-        ++x;
-        continue;
-      }
+    int x = 0, a = 0, b = 0;
+    while (next_hole_run(d, W, &x, &a, &b)) {  // holes a..b, known pixels (if any) at a - 1 and b + 1
       any_hole = true;
-      const int a = x;
-      while (x < W && !d[x]) ++x;
-      const int b = x - 1;  // holes a..b, known pixels (if any) at a - 1 and b + 1
       for (int h = a; h <= b; ++h) {
-        if (below[h] < y) {
-          above[h] = y - 1;
-          int yb = y + 1;
-          while (yb < H && !depth.ptr<uint16_t>(yb)[h]) ++yb;
-          below[h] = yb;
-        }
+        find_known_rows(depth, y, h, above, below);
         Cand k[4];
         if (a > 0) k[0] = Cand{d[a - 1], h - (a - 1), c + 3 * (a - 1)};
         if (b + 1 < W) k[1] = Cand{d[b + 1], b + 1 - h, c + 3 * (b + 1)};
