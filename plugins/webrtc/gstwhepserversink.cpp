@@ -83,12 +83,6 @@ enum { PROP_0, PROP_ENDPOINT_FIRST };
 
 static GstStaticPadTemplate sink_template =
     GST_STATIC_PAD_TEMPLATE("sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("video/x-raw"));
-// The classroom's sound, sent to every lecturer whose browser takes Opus (WhepEndpoint::request_audio_pad).
-static GstStaticPadTemplate audio_template =
-    GST_STATIC_PAD_TEMPLATE("audio", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-opus"));
-// The lecturers' voices mixed for the classroom's loudspeaker (WhepEndpoint::request_pad).
-static GstStaticPadTemplate voice_template = GST_STATIC_PAD_TEMPLATE(
-    "voice", GST_PAD_SRC, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-raw, format=S16LE, rate=48000, channels=1"));
 
 static GstPad* gst_whep_server_sink_request_new_pad(GstElement* element, GstPadTemplate* templ, const gchar*,
                                                     const GstCaps*) {
@@ -226,8 +220,7 @@ static void gst_whep_server_sink_class_init(GstWhepServerSinkClass* klass) {
   element_class->change_state = gst_whep_server_sink_change_state;
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &sink_template);
-  gst_element_class_add_static_pad_template(element_class, &audio_template);
-  gst_element_class_add_static_pad_template(element_class, &voice_template);
+  WhepEndpoint::add_sound_pad_templates(element_class);
   element_class->request_new_pad = gst_whep_server_sink_request_new_pad;
   element_class->release_pad = gst_whep_server_sink_release_pad;
   gst_element_class_set_static_metadata(element_class, "WHEP server sink", "Sink/Network",

@@ -84,12 +84,6 @@ enum {
 
 static GstStaticPadTemplate cam_template =
     GST_STATIC_PAD_TEMPLATE("cam_%u", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("video/x-rgbd"));
-// The classroom's sound, sent to every lecturer whose browser takes Opus (WhepEndpoint::request_audio_pad).
-static GstStaticPadTemplate audio_template =
-    GST_STATIC_PAD_TEMPLATE("audio", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-opus"));
-// The lecturers' voices mixed for the classroom's loudspeaker (WhepEndpoint::request_pad).
-static GstStaticPadTemplate voice_template = GST_STATIC_PAD_TEMPLATE(
-    "voice", GST_PAD_SRC, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-raw, format=S16LE, rate=48000, channels=1"));
 
 // Builds a session's view (lock held); its encoded source pad (a reference), or nullptr.
 static GstPad* attach_view_locked(GstWhepViewSink* self, const std::string& session) {
@@ -316,8 +310,7 @@ static void gst_whep_view_sink_class_init(GstWhepViewSinkClass* klass) {
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   WhepEndpoint::install_properties(gobject_class, PROP_ENDPOINT_FIRST);
   gst_element_class_add_static_pad_template(element_class, &cam_template);
-  gst_element_class_add_static_pad_template(element_class, &audio_template);
-  gst_element_class_add_static_pad_template(element_class, &voice_template);
+  WhepEndpoint::add_sound_pad_templates(element_class);
   gst_element_class_set_static_metadata(element_class, "WHEP view-per-lecturer sink", "Sink/Network",
       "Renders and sends each lecturer a view of their own over WebRTC with WHEP", "gst-vclassroom");
 }

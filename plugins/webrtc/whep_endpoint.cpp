@@ -679,6 +679,15 @@ guint WhepEndpoint::bitrate_kbit() const {
   return st_->bitrate_kbit;
 }
 
+void WhepEndpoint::add_sound_pad_templates(GstElementClass* klass) {
+  static GstStaticPadTemplate audio =
+      GST_STATIC_PAD_TEMPLATE("audio", GST_PAD_SINK, GST_PAD_REQUEST, GST_STATIC_CAPS("audio/x-opus"));
+  static GstStaticPadTemplate voice =
+      GST_STATIC_PAD_TEMPLATE("voice", GST_PAD_SRC, GST_PAD_REQUEST, GST_STATIC_CAPS(WHEP_VOICE_CAPS));
+  gst_element_class_add_static_pad_template(klass, &audio);
+  gst_element_class_add_static_pad_template(klass, &voice);
+}
+
 GstPad* WhepEndpoint::request_pad(GstPadTemplate* templ) {
   const std::string name = GST_PAD_TEMPLATE_NAME_TEMPLATE(templ);
   if (name == "voice") {

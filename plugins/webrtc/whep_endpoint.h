@@ -60,6 +60,8 @@ class WhepEndpoint {
   // Call release_pad from the element's release_pad: false when `pad` is neither.
   GstPad* request_pad(GstPadTemplate* templ);
   bool release_pad(GstPad* pad);
+  // Those two pads' templates, on the element's class.
+  static void add_sound_pad_templates(GstElementClass* klass);
   // NULL -> READY: checks the settings and listens; false after posting an error on the owner.
   bool start();
   // READY -> NULL: ends every session and stops listening.

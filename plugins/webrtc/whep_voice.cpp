@@ -6,9 +6,6 @@ namespace vclassroom {
 
 namespace {
 
-// What the classroom's loudspeaker gets: a voice needs no more, and one format keeps the mix cheap.
-constexpr const char* kVoiceCaps = "audio/x-raw,format=S16LE,rate=48000,channels=1,layout=interleaved";
-
 // A reference of the mixer's own (beside the bin's): the pointer stays valid whatever the bin does.
 GstElement* make(const char* factory) {
   GstElement* e = gst_element_factory_make(factory, nullptr);
@@ -38,7 +35,7 @@ WhepVoiceMixer::WhepVoiceMixer(GstBin* owner, GstPadTemplate* templ) : owner_(ow
     return;
   }
   g_object_set(silence_, "wave", 4 /* silence */, "is-live", TRUE, "samplesperbuffer", 960, nullptr);
-  GstCaps* caps = gst_caps_from_string(kVoiceCaps);
+  GstCaps* caps = gst_caps_from_string(WHEP_VOICE_CAPS);
   g_object_set(caps_, "caps", caps, nullptr);
   gst_caps_unref(caps);
   gst_bin_add_many(owner_, silence_, mixer_, caps_, nullptr);

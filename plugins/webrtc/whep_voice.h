@@ -11,6 +11,10 @@
 #include <mutex>
 #include <string>
 
+// What the classroom's loudspeaker gets (the voice pad's caps): a voice needs no more, and one format keeps
+// the mix cheap.
+#define WHEP_VOICE_CAPS "audio/x-raw, format=S16LE, rate=48000, channels=1, layout=interleaved"
+
 namespace vclassroom {
 
 class WhepVoiceMixer {
