@@ -600,18 +600,20 @@ BrowserRun run_node_script(const std::string& script, const std::string& base, c
   for (const std::string& a : args) argv.push_back(a.c_str());
   argv.push_back(nullptr);
   gchar* output = nullptr;
+  gchar* errors = nullptr;  // the script's "FAIL ..." line goes there: kept with the output
   gint status = 0;
   GError* err = nullptr;
   // Node and Chromium are not ours: no sanitizer runtime preloaded into them (the sanitizer build's env).
   gchar** browser_env = g_environ_unsetenv(g_get_environ(), "LD_PRELOAD");
   const gboolean spawned = g_spawn_sync(dir.c_str(), const_cast<gchar**>(argv.data()), browser_env, G_SPAWN_DEFAULT,
-                                        nullptr, nullptr, &output, nullptr, &status, &err);
+                                        nullptr, nullptr, &output, &errors, &status, &err);
   g_strfreev(browser_env);
   g_free(node);
   EXPECT_TRUE(spawned) << (err ? err->message : "");
   g_clear_error(&err);
-  run.output = output ? output : "";
+  run.output = std::string(output ? output : "") + (errors ? errors : "");
   g_free(output);
+  g_free(errors);
   run.ok = spawned && g_spawn_check_wait_status(status, nullptr);
   return run;
 }

@@ -51,7 +51,7 @@ try {
 
   const shownFor = seq => shownForPage(page, seq);
 
-  try { await page.waitForFunction(() => window.vclassroom.stats.lastSeqShown >= 1, { timeout: 15000 }); } catch (e) {
+  try { await page.waitForFunction(() => window.vclassroom.stats.lastSeqShown >= 1, { timeout }); } catch (e) {
     fail('no echo: ' + JSON.stringify(await page.evaluate(() => ({ seq: window.vclassroom.seq, echoed: window.vclassroom.stats.lastSeqEchoed, shown: window.vclassroom.stats.lastSeqShown, rtp: window.vclassroom.stats.lastRtp }))));
   }
   // The first view is the server's own (its reference camera, 20° down, inside the bounds), level.
@@ -117,7 +117,7 @@ try {
   const dragged = await page.evaluate(() => window.vclassroom.seq);
   await shownFor(dragged);
   try {
-    await page.waitForFunction(() => window.vclassroom.stats.adopted > 0, { timeout: 15000 });
+    await page.waitForFunction(() => window.vclassroom.stats.adopted > 0, { timeout });
   } catch (e) {
     fail('no clamped echo adopted: ' + JSON.stringify(await page.evaluate(() => window.vclassroom.stats)));
   }
