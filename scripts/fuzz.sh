@@ -17,12 +17,12 @@ while [ $# -gt 0 ]; do
   case "$1" in
     --seconds) seconds="${2:?$usage}"; shift 2 ;;
     --build-dir) build="${2:?$usage}"; shift 2 ;;
-    -h|--help) echo "$usage"; echo "targets: rgbd_frame pose_wire pose_hdrext rig dataset posed_sequence whep whep_http_head whep_offer"; exit 0 ;;
+    -h|--help) echo "$usage"; echo "targets: rgbd_frame depth_link pose_wire pose_hdrext rig dataset posed_sequence whep whep_http_head whep_offer"; exit 0 ;;
     -*) echo "$usage" >&2; exit 2 ;;
     *) targets+=("$1"); shift ;;
   esac
 done
-[ ${#targets[@]} -gt 0 ] || targets=(rgbd_frame pose_wire pose_hdrext rig dataset posed_sequence whep whep_http_head whep_offer)
+[ ${#targets[@]} -gt 0 ] || targets=(rgbd_frame depth_link pose_wire pose_hdrext rig dataset posed_sequence whep whep_http_head whep_offer)
 case "$seconds" in ''|*[!0-9]*) echo "fuzz: --seconds needs a whole number" >&2; exit 2 ;; esac
 
 if [ ! -f "$build/build.ninja" ]; then
