@@ -6,7 +6,8 @@
 #   CAMERAS (default "0 1 2"), SECONDS_TO_RUN (stop by itself after that many seconds; default: until Ctrl-C),
 #   MTU (default 65000: loopback carries 64 KiB packets, ~45 times fewer than Ethernet's 1400 bytes),
 #   PORT_BASE (default 5000): this flow's ports are PORT_BASE + camera id (RTP), + 100 + id (each camera's
-#   retransmission requests), PORT_BASE + 10 (video) and + 11 (poses): a second flow on the same host runs
+#   retransmission requests), PORT_BASE + 10 (video), + 11 (poses) and + 12 (the classroom's sound, with
+#   CLASSROOM_SOUND and SPEAKER): a second flow on the same host runs
 #   without crosstalk with e.g. PORT_BASE=6000.
 #   STOP_GRACE (seconds each process gets to end after Ctrl-C or end-of-stream before it is killed, default 5).
 # Runs from the source root, the build folder or installed (pipelines/trees.sh finds the plugins).
@@ -23,7 +24,7 @@ if ! [[ $PORT_BASE =~ ^[0-9]+$ ]] || [ "$PORT_BASE" -lt 1024 ] || [ "$PORT_BASE"
   echo "loopback.sh: PORT_BASE must be 1024 to 65000 (got '$PORT_BASE')" >&2
   exit 2
 fi
-export BASE_PORT=$PORT_BASE VIDEO_PORT=$((PORT_BASE + 10)) POSE_PORT=$((PORT_BASE + 11))
+export BASE_PORT=$PORT_BASE VIDEO_PORT=$((PORT_BASE + 10)) POSE_PORT=$((PORT_BASE + 11)) AUDIO_PORT=$((PORT_BASE + 12))
 pids=()
 stopping=0
 # Asks every process still running to end, waits at most STOP_GRACE seconds, then kills what is left: the

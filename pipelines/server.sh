@@ -4,6 +4,7 @@
 # Variables: CAMERAS (ids, default "0 1 2"), BASE_PORT (camera k on BASE_PORT + k, default 5000),
 #   CAMERA_PORTS (one port per camera in CAMERAS order, instead of BASE_PORT + k),
 #   LECTURER (host, default 127.0.0.1), VIDEO_PORT (default 5010), POSE_PORT (default 5011),
+#   AUDIO_PORT (the classroom's sound to the lecturer, with CLASSROOM_SOUND below; default 5012),
 #   MODEL (folder from vclassroom-build-model; empty: no V-DA), RIG (rig file; empty: the default classroom rig),
 #   each camera's stream must have its size in RIG, or without RIG in MODEL's rig: another size is refused
 #   (frames dropped, a rate-limited warning) and the other cameras go on,
@@ -105,7 +106,8 @@ if ! [[ ${MULTICAST_IFACE:-lo} =~ ^[A-Za-z0-9._-]+$ ]]; then
   echo "server.sh: MULTICAST_IFACE is an interface name (got '$MULTICAST_IFACE')" >&2
   exit 2
 fi
-for p in "$VIDEO_PORT" "$POSE_PORT"; do check_port "$p"; done
+AUDIO_PORT=${AUDIO_PORT:-5012}
+for p in "$VIDEO_PORT" "$POSE_PORT" "$AUDIO_PORT"; do check_port "$p"; done
 RTP_CAPS="$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-GST,payload=96"
 [ "$LINK" = h264 ] && RTP_CAPS="$RTP_MEDIA,media=video,clock-rate=90000,encoding-name=H264,payload=96"
 branches=""
@@ -198,6 +200,11 @@ desc="viewfuse name=fuse latency=$FUSE_LATENCY warp-sync=$WARP_SYNC ${NAV_RIG:+r
   udpsrc port=$POSE_PORT caps=\"$RTP_MEDIA,media=application,clock-rate=90000,encoding-name=X-VCLASSROOM-POSE,payload=96\" ! \
     senderfilter name=from_lecturer lock-ssrc=false allow=$LECTURER ! $(srtp_dec) poses.rtp \
   $branches"
+# The classroom's sound to lecturer.sh (CLASSROOM_SOUND, as below for the browsers): Opus over RTP to
+# AUDIO_PORT, beside the view.
+[ -n "${CLASSROOM_SOUND:-}" ] &&
+  desc="$desc $CLASSROOM_SOUND ! audioconvert ! audioresample ! opusenc inband-fec=true packet-loss-percentage=5 ! \
+    rtpopuspay pt=97 mtu=$MTU ! $SRTP_ENC udpsink host=$LECTURER port=$AUDIO_PORT sync=false async=false"
 # --- WebRTC lecturer output (issue 13, docs/lecturer.md) ---------------------------------------------
 # LECTURER_OUT=whep: the view goes to browsers over WebRTC (whepserversink) instead of RTP/JPEG to
 # LECTURER, and the pose comes back over the page's data channel; every lecturer sees the one view.

@@ -3,6 +3,8 @@
 // rtprtxreceive, as pipelines/classroom.sh and server.sh arrange it), and
 // receivers take packets only from configured senders (senderfilter).
 // Loss comes from a seeded dropper (a pad probe), never from wall time.
+#include <fstream>
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -1071,6 +1073,30 @@ TEST(Scripts, ServerServesAViewPerLecturerOverWhep) {
   EXPECT_EQ(page.substr(0, 12), "HTTP/1.0 200") << page << "\n" << r.output;
   EXPECT_EQ(refused.substr(0, 12), "HTTP/1.0 401") << refused;
   EXPECT_NE(r.output.find("lecturer joins at http://"), std::string::npos) << r.output;
+}
+
+// The classroom's sound on the RTP path: server.sh sends CLASSROOM_SOUND as Opus beside the view, and
+// lecturer.sh plays it where SPEAKER says (here into a file, read back: a second and more of a tone).
+TEST(Scripts, TheLecturerHearsTheClassroomOverRtp) {
+  vctest::TempDir dir;
+  const std::string rig = dir / "rig.yaml";
+  save_rig(vctest::make_rig(1, 64, 48), rig);
+  const std::string sound = dir / "sound.raw";
+  ScriptRun r = run_script("loopback.sh",
+                           {"PORT_BASE=" + port_base(), "CAMERAS=0", "RIG=" + rig, "WIDTH=64", "HEIGHT=48",
+                            "SECONDS_TO_RUN=8", "STOP_GRACE=3",
+                            "SOURCE=rgbdtestsrc camera-id=0 rig=" + rig + " is-live=true ground-truth=false",
+                            "SINK=fakesink", "CLASSROOM_SOUND=audiotestsrc is-live=true volume=0.5",
+                            "SPEAKER=audio/x-raw,format=S16LE ! filesink location=" + sound},
+                           120);
+  EXPECT_TRUE(r.ended) << r.output;
+  std::ifstream in(sound, std::ios::binary);
+  std::vector<int16_t> samples;
+  for (int16_t v; in.read(reinterpret_cast<char*>(&v), sizeof v);) samples.push_back(v);
+  int loud = 0;
+  for (int16_t v : samples) loud += std::abs(int(v)) > 3000;
+  EXPECT_GT(samples.size(), 96000u) << "less than a second of the classroom's sound\n" << r.output;
+  EXPECT_GT(loud, int(samples.size() / 10)) << "the sound is not the tone";
 }
 
 // Two loopback flows on one host (PORT_BASE apart) each run on their own: every lecturer gets its own
