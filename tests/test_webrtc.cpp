@@ -795,6 +795,66 @@ TEST(AudioBrowser, TheClassroomAndTheLecturerHearEachOther) {
   std::printf("voice pad: %zu samples, %d above 1000\n", samples.size(), loud);
 }
 
+namespace {
+
+// The power of `freq` Hz in samples [from, from + n) of 48 kHz audio (Goertzel), normalised by n².
+double tone_power(const std::vector<int16_t>& x, size_t from, size_t n, double freq) {
+  const double w = 2 * M_PI * freq / 48000.0, c = 2 * std::cos(w);
+  double s1 = 0, s2 = 0;
+  for (size_t i = from; i < from + n && i < x.size(); ++i) {
+    const double s0 = x[i] / 32768.0 + c * s1 - s2;
+    s2 = s1;
+    s1 = s0;
+  }
+  return (s1 * s1 + s2 * s2 - c * s1 * s2) / (double(n) * double(n));
+}
+
+}  // namespace
+
+// Two lecturers speak at once (each browser's fake microphone plays a file of its own tone: 300 Hz ticks for
+// the first, 1200 Hz for the second), then the first leaves (tests/browser/two-voices-test.mjs). The voice pad
+// carries both mixed, and after the first left the second alone: its voice left the mix, the rest went on.
+TEST(AudioBrowser, TwoLecturersAreMixedForTheRoomAndOneWhoLeavesDropsOut) {
+  vctest::TempDir dir;
+  const std::string rig = bounded_classroom_rig(dir, 160, 90);
+  const std::string web = std::string(g_getenv("VCLASSROOM_SOURCE_DIR")) + "/web/lecturer";
+  const std::string voice = dir / "voice.raw", low = dir / "low.wav", high = dir / "high.wav";
+  for (const auto& [file, freq] : {std::pair{low, 300}, std::pair{high, 1200}}) {
+    g_autofree gchar* launch = g_find_program_in_path("gst-launch-1.0");
+    ASSERT_NE(launch, nullptr);
+    const vctest::Exit made = vctest::run_tool(
+        {launch, "-q", "audiotestsrc", "wave=ticks", "tick-interval=250000000", "freq=" + std::to_string(freq),
+         "volume=0.8", "num-buffers=200", "!", "audio/x-raw,format=S16LE,rate=48000,channels=1", "!", "wavenc", "!",
+         "filesink", "location=" + file});
+    ASSERT_EQ(made.status, 0) << made.err;
+  }
+  const BrowserRun run = run_browser_script(
+      "whepviewsink name=w port={PORT} token=secret-token rig=" + rig + " web-root=" + web +
+          " rgbdtestsrc camera-id=0 is-live=true rig=" + rig + " ! learnerseg ! w.cam_0" +
+          " w.voice ! queue ! filesink buffer-mode=unbuffered location=" + voice,
+      "two-voices-test.mjs", {"secret-token", low, high});
+  if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+  EXPECT_TRUE(run.ok) << run.output;
+  EXPECT_NE(run.output.find("ok the second speaks on after the first left"), std::string::npos) << run.output;
+  std::ifstream in(voice, std::ios::binary);
+  std::vector<int16_t> x;
+  for (int16_t v; in.read(reinterpret_cast<char*>(&v), sizeof v);) x.push_back(v);
+  // Second by second: which tones are there (well above the other's leak into its band).
+  const size_t second = 48000;
+  ASSERT_GT(x.size(), 6 * second) << "less than 6 s came out of the voice pad";
+  int both = 0, high_alone_after_both = 0;
+  for (size_t from = 0; from + second <= x.size(); from += second) {
+    const double l = tone_power(x, from, second, 300), h = tone_power(x, from, second, 1200);
+    const bool has_low = l > 1e-6, has_high = h > 1e-6;
+    if (has_low && has_high) both += 1;
+    if (both > 0 && has_high && l < h / 100) high_alone_after_both += 1;
+  }
+  EXPECT_GE(both, 2) << "the two voices were never heard together";
+  EXPECT_GE(high_alone_after_both, 2) << "after the first left, the second was not heard alone";
+  std::printf("voice pad: %zu s, %d s of both voices, then %d s of the second alone\n", x.size() / second, both,
+              high_alone_after_both);
+}
+
 // The classroom's sound does not wait for the view: with 90 % of the camera's frames lost before the view,
 // the page still gets its 50 sound packets a second, and with 5 % of the server's RTP lost on the way
 // (tools/lossy_udp.cpp) the sound lost is concealed and plays on (tests/browser/audio-drops-test.mjs).
