@@ -8,7 +8,7 @@
 #   POSE_KEY (file holding the pose key shared with server.sh: every pose is tagged with it; empty: untagged),
 #   VIDEO_SENDERS (addresses the video is taken from, default SERVER): packets from elsewhere, or a second
 #   video stream, are dropped and counted (senderfilter, docs/network.md).
-#   SRTP_KEY (a 30-byte key file: video in and poses out are SRTP; the server needs the same file),
+#   SRTP_KEY (a 30-byte key file: video and sound in and poses out are SRTP; the server needs the same file),
 #   POSES_OUT (a file: every pose sent is also written there as a pose trace, docs/pose.md),
 #   SPEAKER (where the classroom's sound plays, e.g. autoaudiosink; empty, the default: not played),
 #   AUDIO_PORT (the sound from the server's CLASSROOM_SOUND, default 5012).
