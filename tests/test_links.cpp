@@ -3,8 +3,6 @@
 // rtprtxreceive, as pipelines/classroom.sh and server.sh arrange it), and
 // receivers take packets only from configured senders (senderfilter).
 // Loss comes from a seeded dropper (a pad probe), never from wall time.
-#include <fstream>
-
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -1090,9 +1088,7 @@ TEST(Scripts, TheLecturerHearsTheClassroomOverRtp) {
                             "SPEAKER=audio/x-raw,format=S16LE ! filesink location=" + sound},
                            120);
   EXPECT_TRUE(r.ended) << r.output;
-  std::ifstream in(sound, std::ios::binary);
-  std::vector<int16_t> samples;
-  for (int16_t v; in.read(reinterpret_cast<char*>(&v), sizeof v);) samples.push_back(v);
+  const std::vector<int16_t> samples = vctest::read_s16_samples(sound);
   int loud = 0;
   for (int16_t v : samples) loud += std::abs(int(v)) > 3000;
   EXPECT_GT(samples.size(), 96000u) << "less than a second of the classroom's sound\n" << r.output;

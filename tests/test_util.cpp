@@ -274,4 +274,11 @@ std::string small_classroom_rig(const TempDir& dir, int width, int height) {
   return path;
 }
 
+std::vector<int16_t> read_s16_samples(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<int16_t> samples;
+  for (int16_t v; in.read(reinterpret_cast<char*>(&v), sizeof v);) samples.push_back(v);
+  return samples;
+}
+
 }  // namespace vctest

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <optional>
 #include <string>
+#include <cstdint>
 #include <vector>
 
 #include <gst/app/gstappsink.h>
@@ -117,6 +118,8 @@ struct Exit {
   std::string out, err;
 };
 Exit run_tool(const std::vector<std::string>& argv);
+// The 16-bit samples of a raw audio file (host order; empty when it cannot be read).
+std::vector<int16_t> read_s16_samples(const std::string& path);
 
 // vclassroom-calibrate's output `out` ends with "rig error: max C cm, max D deg, floor F deg" within issue 12's
 // targets (1 cm, 0.3 deg, floor 0.5 deg); a failure of the calling test otherwise.

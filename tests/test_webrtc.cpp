@@ -1,8 +1,6 @@
 // The browser lecturer's signalling and pose data channel (issue 13): WHEP
 // request decisions (token first, bounded offers, session cap), the session
 // table, and the pose / frame-echo messages the page exchanges.
-#include <fstream>
-
 #include <gtest/gtest.h>
 
 #include <gst/app/gstappsink.h>
@@ -785,9 +783,7 @@ TEST(AudioBrowser, TheClassroomAndTheLecturerHearEachOther) {
     EXPECT_NE(run.output.find(check), std::string::npos) << check << " missing in:\n" << run.output;
   std::printf("%s", run.output.c_str());
   // The voice pad runs on the clock (silence between words) and carries the lecturer's beeps.
-  std::ifstream in(voice, std::ios::binary);
-  std::vector<int16_t> samples;
-  for (int16_t s; in.read(reinterpret_cast<char*>(&s), sizeof s);) samples.push_back(s);
+  const std::vector<int16_t> samples = vctest::read_s16_samples(voice);
   int loud = 0;
   for (int16_t s : samples) loud += std::abs(int(s)) > 1000;
   EXPECT_GT(samples.size(), 48000u) << "less than a second came out of the voice pad";
@@ -836,9 +832,7 @@ TEST(AudioBrowser, TwoLecturersAreMixedForTheRoomAndOneWhoLeavesDropsOut) {
   if (!run.skip.empty()) GTEST_SKIP() << run.skip;
   EXPECT_TRUE(run.ok) << run.output;
   EXPECT_NE(run.output.find("ok the second speaks on after the first left"), std::string::npos) << run.output;
-  std::ifstream in(voice, std::ios::binary);
-  std::vector<int16_t> x;
-  for (int16_t v; in.read(reinterpret_cast<char*>(&v), sizeof v);) x.push_back(v);
+  const std::vector<int16_t> x = vctest::read_s16_samples(voice);
   // Second by second: which tones are there (well above the other's leak into its band).
   const size_t second = 48000;
   ASSERT_GT(x.size(), 6 * second) << "less than 6 s came out of the voice pad";
