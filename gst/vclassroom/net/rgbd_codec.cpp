@@ -1,5 +1,6 @@
 #include <gst/vclassroom/net/rgbd_codec.h>
 
+#include <gst/vclassroom/core/byte_order.h>
 #include <gst/vclassroom/core/checksum.h>
 #include <gst/vclassroom/core/jpeg.h>
 #include <gst/vclassroom/core/limits.h>
@@ -126,11 +127,8 @@ inline int predict(const uint16_t* row, const uint16_t* up, int x, int last) {
 }
 
 void put_u32(std::vector<uint8_t>* out, uint32_t v) {
-  for (int i = 0; i < 4; ++i) out->push_back(static_cast<uint8_t>(v >> (8 * i)));
-}
-uint32_t get_u32(const uint8_t* p) {
-  return static_cast<uint32_t>(p[0]) | static_cast<uint32_t>(p[1]) << 8 | static_cast<uint32_t>(p[2]) << 16 |
-         static_cast<uint32_t>(p[3]) << 24;
+  out->resize(out->size() + 4);
+  write_le32(out->data() + out->size() - 4, v);
 }
 
 enum : uint8_t { kPlaneColor = 0, kPlaneDepth = 1, kPlaneLabel = 2 };
@@ -324,9 +322,9 @@ bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, 
   if (!data || size < kHeaderSize || std::memcmp(data, "VCRD", 4) != 0) return fail("not an rgbdenc frame (bad magic)");
   if (data[4] != kVersion) return fail("unsupported frame version " + std::to_string(data[4]));
   const int n = data[5];
-  if (get_u32(data + 8) != static_cast<uint32_t>(width) || get_u32(data + 12) != static_cast<uint32_t>(height)) {
+  if (read_le32(data + 8) != static_cast<uint32_t>(width) || read_le32(data + 12) != static_cast<uint32_t>(height)) {
     if (fault) *fault = RgbdFrameFault::kWrongSize;
-    return fail("frame size " + std::to_string(get_u32(data + 8)) + "x" + std::to_string(get_u32(data + 12)) +
+    return fail("frame size " + std::to_string(read_le32(data + 8)) + "x" + std::to_string(read_le32(data + 12)) +
                 " differs from the caps' " + std::to_string(width) + "x" + std::to_string(height));
   }
   size_t at = kHeaderSize;
@@ -336,7 +334,7 @@ bool decode_rgbd_frame(const uint8_t* data, size_t size, int width, int height, 
   for (int i = 0; i < n; ++i) {
     if (size - at < kSectionHeaderSize) return fail("truncated frame (section header)");
     const uint8_t plane = data[at], codec = data[at + 1];
-    const uint32_t len = get_u32(data + at + 4), crc = get_u32(data + at + 8);
+    const uint32_t len = read_le32(data + at + 4), crc = read_le32(data + at + 8);
     at += kSectionHeaderSize;
     if (len > size - at) return fail("truncated frame (section " + std::to_string(i) + ")");
     const uint8_t* payload = data + at;
