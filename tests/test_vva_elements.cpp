@@ -723,17 +723,17 @@ TEST(ViewFuseElement, AHoleBesideABrightObjectIsFilledFromTheWallBehind) {
     g_object_set(src, "caps", caps, nullptr);
     gst_caps_unref(caps);
     gst_element_set_state(pipe, GST_STATE_PLAYING);
-    GstBuffer* buf = rgbd_buffer_new(info);
-    RgbdFrame f;
-    std::string e;
-    EXPECT_TRUE(f.map(buf, info, GST_MAP_WRITE, &e)) << e;
-    scene.color.copyTo(f.color());
-    scene.depth.copyTo(f.depth());
-    f.label().setTo(0);
-    cv::Mat weight = f.plane(Plane::Weight);
-    weight.setTo(255);
+    cv::Mat weight(scene.kH, scene.kW, CV_8UC1, cv::Scalar(255));
     weight.setTo(0, scene.hole);
-    f.unmap();
+    std::string e;
+    GstBuffer* buf = rgbd_buffer_with_planes(info,
+                                             {{Plane::Color, scene.color},
+                                              {Plane::Depth, scene.depth},
+                                              {Plane::Label, cv::Mat::zeros(scene.kH, scene.kW, CV_8UC1)},
+                                              {Plane::Weight, weight}},
+                                             &e);
+    EXPECT_NE(buf, nullptr) << e;
+    if (!buf) return cv::Mat();
     GST_BUFFER_PTS(buf) = 0;
     EXPECT_EQ(gst_app_src_push_buffer(GST_APP_SRC(src), buf), GST_FLOW_OK);
     gst_app_src_end_of_stream(GST_APP_SRC(src));
