@@ -27,6 +27,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include "browser_driver.h"
 #include "flow_harness.h"
 #include "free_port.h"
 #include "tool_options.h"
@@ -118,17 +119,7 @@ int main(int argc, char** argv) {
   g_strfreev(parts);
   for (int n : counts)
     if (n < 1 || n > 8) usage_error("--lecturers: each count 1 to 8");
-  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
-  gchar* absolute = g_canonicalize_filename(source_dir ? source_dir : ".", nullptr);  // node runs in tests/browser
-  const std::string root = absolute;
-  g_free(absolute);
-  const std::string driver = root + "/tests/browser/measure-lecturers.mjs";
-  if (!g_file_test(driver.c_str(), G_FILE_TEST_EXISTS) ||
-      !g_file_test((root + "/tests/browser/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR)) {
-    std::fprintf(stderr, "%s: needs %s and tests/browser/node_modules (scripts/setup.sh runs npm ci); run from the "
-                 "source root or set VCLASSROOM_SOURCE_DIR\n", g_get_prgname(), driver.c_str());
-    return 1;
-  }
+  const std::string root = browser_driver_root("measure-lecturers.mjs");
   // The cameras' coded streams, as pipelines/classroom.sh sends them, recorded once (2 s, looped).
   std::vector<Recording> recordings(live_cameras ? 0 : size_t(cameras));
   std::vector<const Recording*> streams;
@@ -194,19 +185,9 @@ int main(int argc, char** argv) {
         return 1;
       }
     }
-    GError* err = nullptr;
     const std::string base = "http://127.0.0.1:" + std::to_string(port);
-    GSubprocessLauncher* launcher = g_subprocess_launcher_new(G_SUBPROCESS_FLAGS_STDOUT_PIPE);
-    g_subprocess_launcher_set_cwd(launcher, (root + "/tests/browser").c_str());
-    g_subprocess_launcher_unsetenv(launcher, "LD_PRELOAD");
-    GSubprocess* browsers = g_subprocess_launcher_spawn(launcher, &err, "node", driver.c_str(), base.c_str(),
-                                                        "measure-token", std::to_string(n).c_str(),
-                                                        std::to_string(seconds).c_str(), nullptr);
-    g_object_unref(launcher);
-    if (!browsers) {
-      std::fprintf(stderr, "%s: cannot start node: %s\n", g_get_prgname(), err->message);
-      return 1;
-    }
+    GSubprocess* browsers = start_browser_driver(
+        root, "measure-lecturers.mjs", {base, "measure-token", std::to_string(n), std::to_string(seconds)});
     std::fprintf(stderr, "%d lecturer(s): joining, then %d s measured\n", n, seconds);
     GDataInputStream* out = g_data_input_stream_new(g_subprocess_get_stdout_pipe(browsers));
     double cpu_start = -1, cpu_end = -1;

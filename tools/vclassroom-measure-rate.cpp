@@ -18,6 +18,7 @@
 #include <glib.h>
 #include <sys/wait.h>
 
+#include "browser_driver.h"
 #include "tool_options.h"
 
 using namespace vclassroom_tools;
@@ -72,17 +73,8 @@ int main(int argc, char** argv) {
   g_strfreev(parts);
   for (int k : links)
     if (k < 100 || k > 100000) usage_error("--links: each rate 100 to 100000 kbit/s");
-  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
-  gchar* absolute = g_canonicalize_filename(source_dir ? source_dir : ".", nullptr);
-  const std::string root = absolute;
-  g_free(absolute);
+  const std::string root = browser_driver_root("measure-rate.mjs");
   const std::string browser_dir = root + "/tests/browser";
-  if (!g_file_test((browser_dir + "/measure-rate.mjs").c_str(), G_FILE_TEST_EXISTS) ||
-      !g_file_test((browser_dir + "/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR)) {
-    std::fprintf(stderr, "%s: needs tests/browser/measure-rate.mjs and tests/browser/node_modules (scripts/setup.sh "
-                 "runs npm ci); run from the source root or set VCLASSROOM_SOURCE_DIR\n", g_get_prgname());
-    return 1;
-  }
   std::printf("| link kbit/s | settled after s | then received kbit/s | then lost %% | then frames/s | lost %% in the "
               "first 5 s | server's rate after its first change, lowest, last kbit/s (changes) |\n|---|---|---|---|---|---|---|\n");
   for (int link : links) {

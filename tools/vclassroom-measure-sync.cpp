@@ -18,6 +18,7 @@
 #include <glib.h>
 #include <gst/gst.h>
 
+#include "browser_driver.h"
 #include "flow_harness.h"
 #include "free_port.h"
 #include "tool_options.h"
@@ -122,15 +123,7 @@ int main(int argc, char** argv) {
   if (size_text) parse_size_or_exit("--size", size_text, &width, &height);
   if (cameras < 1 || cameras > 3) usage_error("--cameras must be 1 to 3");
   if (seconds < 5 || seconds > 600) usage_error("--seconds must be 5 to 600");
-  const char* source_dir = g_getenv("VCLASSROOM_SOURCE_DIR");
-  g_autofree gchar* root = g_canonicalize_filename(source_dir ? source_dir : ".", nullptr);
-  const std::string driver = std::string(root) + "/tests/browser/measure-sync.mjs";
-  if (!g_file_test(driver.c_str(), G_FILE_TEST_EXISTS) ||
-      !g_file_test((std::string(root) + "/tests/browser/node_modules/puppeteer-core").c_str(), G_FILE_TEST_IS_DIR)) {
-    std::fprintf(stderr, "%s: needs %s and tests/browser/node_modules (scripts/setup.sh runs npm ci); run from the "
-                 "source root or set VCLASSROOM_SOURCE_DIR\n", g_get_prgname(), driver.c_str());
-    return 1;
-  }
+  const std::string root = browser_driver_root("measure-sync.mjs");
   const int port = free_loopback_port(true);
   std::string launch = "whepviewsink name=w port=" + std::to_string(port) + " token=measure-token width=" +
                        std::to_string(width) + " height=" + std::to_string(height) + " web-root=" + root +
@@ -162,16 +155,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string base = "http://127.0.0.1:" + std::to_string(port);
-  GSubprocessLauncher* launcher = g_subprocess_launcher_new(G_SUBPROCESS_FLAGS_STDOUT_PIPE);
-  g_subprocess_launcher_set_cwd(launcher, (std::string(root) + "/tests/browser").c_str());
-  g_subprocess_launcher_unsetenv(launcher, "LD_PRELOAD");
-  GSubprocess* browser = g_subprocess_launcher_spawn(launcher, &err, "node", driver.c_str(), base.c_str(), "measure-token",
-                                                     std::to_string(seconds).c_str(), nullptr);
-  g_object_unref(launcher);
-  if (!browser) {
-    std::fprintf(stderr, "%s: cannot start node: %s\n", g_get_prgname(), err->message);
-    return 1;
-  }
+  GSubprocess* browser =
+      start_browser_driver(root, "measure-sync.mjs", {base, "measure-token", std::to_string(seconds)});
   std::fprintf(stderr, "joining, then %d s measured\n", seconds);
   std::vector<double> page_flashes, page_clicks;
   long frames = -1, sound_packets = -1;
