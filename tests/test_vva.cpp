@@ -28,6 +28,7 @@
 #include <gst/vclassroom/vva/hole_fill.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/vva/prepared_frame.h>
+#include <gst/vclassroom/vva/view_cull.h>
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_turns.h>
 #include <gst/vclassroom/vva/view_warp.h>
@@ -217,6 +218,105 @@ TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeForAnyWarperAndAnyNumberOfViews) {
   other_size.width = 120;
   WarpedView out;
   EXPECT_THROW(view1.warp_prepared(cam, src, other_size, virt, WarpParams(), &out), cv::Exception);
+}
+
+TEST(ViewWarp, SkippingWhatCannotLandInTheViewChangesNoPixel) {
+  // The warp spends its per-pixel work only on the source columns that can land in the view
+  // (WarpParams::cull_outside_view): for views that see all, part or none of the camera, walking, turning and
+  // looking up, the picture is the one every column gives, pixel for pixel - and the views that turn away
+  // do skip columns, or the test would prove nothing.
+  const Classroom room(ClassroomConfig{3, 6, 2.0});
+  const Rig rig = default_classroom_rig();
+  const CameraCalib cam = scale_camera(rig.camera(2), 320, 180);
+  const RenderOutput r = render(room, 0.7, cam);
+  WarpSource src{r.color, r.depth, r.label, cv::Mat()};
+  WarpParams every_column;
+  every_column.cull_outside_view = false;
+  ViewWarper culled_warper, full_warper;
+  PreparedSource prepared;
+  culled_warper.prepare(cam, src, WarpParams(), &prepared);
+  int views_cut = 0;
+  // Sliders: x, y, z, yaw, pitch, roll around camera 0 (50 = centre).
+  const Sliders poses[] = {{50, 50, 50, 50, 50, 50}, {35, 50, 50, 65, 50, 50}, {50, 50, 50, 80, 50, 50},
+                           {60, 45, 60, 30, 40, 50}, {50, 50, 50, 50, 25, 50}, {50, 50, 50, 100, 50, 50},
+                           {45, 55, 40, 55, 60, 70}, {50, 50, 50, 0, 50, 50}};
+  for (const Sliders& s : poses) {
+    const CameraCalib virt =
+        virtual_camera(scale_camera(rig.camera(0), 320, 180), sliders_to_pose(s, rig.camera(0)).cam_to_rig(), NAN);
+    WarpedView culled, full;
+    culled_warper.warp_prepared(cam, src, prepared, virt, WarpParams(), &culled);
+    full_warper.warp_prepared(cam, src, prepared, virt, every_column, &full);
+    EXPECT_EQ(cv::norm(culled.color, full.color, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(culled.depth, full.depth, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(culled.label, full.label, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(culled.weight, full.weight, cv::NORM_INF), 0);
+    // How much the view skips: the tiles columns_in_view keeps, against all.
+    std::vector<float> boxes;
+    std::vector<float> rx(size_t(cam.width) * cam.height), ry(rx.size());
+    for (int v = 0; v < cam.height; ++v)
+      for (int u = 0; u < cam.width; ++u)
+        rx[size_t(v) * cam.width + u] = float((u - cam.cx) / cam.fx), ry[size_t(v) * cam.width + u] =
+                                                                          float((v - cam.cy) / cam.fy);
+    tile_ray_boxes(cam.width, cam.height, rx.data(), ry.data(), &boxes);
+    const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * cam.cam_to_rig;
+    ViewFrustum f{};
+    for (int i = 0; i < 9; ++i) f.r[i] = float(T.linear()(i / 3, i % 3));
+    for (int i = 0; i < 3; ++i) f.t[i] = float(T.translation()(i));
+    f.fx = float(virt.fx), f.fy = float(virt.fy), f.cx = float(virt.cx), f.cy = float(virt.cy);
+    f.width = virt.width, f.height = virt.height;
+    std::vector<std::pair<int, int>> columns;
+    columns_in_view(cam.width, cam.height, boxes, prepared.tile_nearest, prepared.tile_farthest, f, 0.05f, 4,
+                    &columns);
+    int kept = 0;
+    for (const auto& [a, b] : columns) kept += b - a;
+    views_cut += kept < cam.width * int(columns.size());
+  }
+  EXPECT_GE(views_cut, 4) << "most of these views should skip some of the camera";
+}
+
+TEST(ViewCull, ATileLandsWhereItsPointsLandAndNotWhereNoneOfThemCan) {
+  // A 64x32 camera looking at a wall 2 m away: the camera itself sees all of it, a view turned round sees
+  // nothing of it (all behind its lens), and a view moved 1 m left sees the tiles on the left (the wall's
+  // points there project into it) but not those on the right.
+  const CameraCalib cam = pinhole(64, 32, 40);
+  std::vector<float> rx(64 * 32), ry(64 * 32);
+  for (int v = 0; v < 32; ++v)
+    for (int u = 0; u < 64; ++u) rx[size_t(v) * 64 + u] = float((u - cam.cx) / 40), ry[size_t(v) * 64 + u] = float((v - cam.cy) / 40);
+  std::vector<float> boxes;
+  tile_ray_boxes(64, 32, rx.data(), ry.data(), &boxes);
+  ASSERT_EQ(boxes.size(), size_t(4 * 2 * 4));
+  const std::vector<uint16_t> depth(64 * 32, 2000);
+  std::vector<uint16_t> nearest, farthest;
+  tile_depth_ranges(64, 32, depth.data(), &nearest, &farthest);
+  EXPECT_EQ(nearest, std::vector<uint16_t>(8, 2000));
+  auto columns = [&](const Eigen::Isometry3d& source_to_view) {
+    ViewFrustum f{};
+    for (int i = 0; i < 9; ++i) f.r[i] = float(source_to_view.linear()(i / 3, i % 3));
+    for (int i = 0; i < 3; ++i) f.t[i] = float(source_to_view.translation()(i));
+    f.fx = f.fy = 40, f.cx = float(cam.cx), f.cy = float(cam.cy), f.width = 64, f.height = 32;
+    std::vector<std::pair<int, int>> out;
+    columns_in_view(64, 32, boxes, nearest, farthest, f, 0.05f, 0, &out);
+    return out;
+  };
+  using Cols = std::vector<std::pair<int, int>>;
+  EXPECT_EQ(columns(Eigen::Isometry3d::Identity()), (Cols{{0, 64}, {0, 64}}));
+  Eigen::Isometry3d turned = Eigen::Isometry3d::Identity();
+  turned.linear() = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  EXPECT_EQ(columns(turned), (Cols{{0, 0}, {0, 0}}));
+  // The view 1 m to the left of the camera (x -1 m): a source point X lands at x = 40 (X + 1) / 2 + cx, so
+  // the wall's points right of X = 0.575 m (source column 43) land beyond the view's last column; the tile
+  // of columns 48..63 (from column 47 with the pixel around it: X from 0.775 m) cannot land, the one of
+  // 32..47 can.
+  Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
+  moved.translation() = Eigen::Vector3d(1.0, 0, 0);
+  EXPECT_EQ(columns(moved), (Cols{{0, 48}, {0, 48}}));
+  // A tile without depth never lands.
+  std::vector<uint16_t> holes = depth;
+  for (int v = 0; v < 32; ++v)
+    for (int u = 0; u < 16; ++u) holes[size_t(v) * 64 + u] = 0;
+  tile_depth_ranges(64, 32, holes.data(), &nearest, &farthest);
+  EXPECT_EQ(nearest[0], 0);
+  EXPECT_EQ(columns(Eigen::Isometry3d::Identity()), (Cols{{16, 64}, {16, 64}}));
 }
 
 TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {

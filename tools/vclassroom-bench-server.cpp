@@ -126,13 +126,12 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
 // pose), then warped and fused once per view for that view's pose. Prints the camera side per frame and what
 // one view frame costs: everything that depends on the lecturer's pose (warps, fuse with its fill and fade).
 void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame, int frames,
-               int views, int memory, const std::vector<cv::Mat>& empty_rooms) {
+               int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp) {
   std::vector<FramePreparer> preparers(cams.size());
   for (size_t i = 0; i < cams.size(); ++i) {
     preparers[i].set_static_depth(cams[i].prior);
     preparers[i].set_memory(memory, empty_rooms[i]);
   }
-  const WarpParams wp;  // viewwarp's defaults
   const FuseParams fp;  // viewfuse's
   std::vector<std::vector<ViewWarper>> warpers(size_t(views), std::vector<ViewWarper>(cams.size()));
   std::vector<WarpedView> warped(cams.size());
@@ -224,12 +223,17 @@ void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>&
 
 int main(int argc, char** argv) {
   int frames = 60, threads = 2, memory = -1, views = 0;  // memory -1: not given
-  gboolean no_edge_to_near = FALSE, no_model = FALSE, fill_only = FALSE;
+  double yaw = 0;
+  gboolean no_edge_to_near = FALSE, no_model = FALSE, fill_only = FALSE, no_view_cull = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
       {"threads", 0, 0, G_OPTION_ARG_INT, &threads, "threads sharing the cameras (default 2: this machine's cores)", "T"},
       {"no-edge-to-near", 0, 0, G_OPTION_ARG_NONE, &no_edge_to_near,
        "warp as viewwarp edge-to-near=false (the objects' rims stay on the background), for comparison", nullptr},
+      {"no-view-cull", 0, 0, G_OPTION_ARG_NONE, &no_view_cull,
+       "warp every source column, also those that cannot land in the view (WarpParams::cull_outside_view = "
+       "false), for comparison: the same pictures",
+       nullptr},
       {"no-model", 0, 0, G_OPTION_ARG_NONE, &no_model,
        "no empty room's depth for learnerseg and viewwarp (what server.sh runs without MODEL: learnerseg learns "
        "the room's depth as it goes)",
@@ -239,6 +243,10 @@ int main(int argc, char** argv) {
        "once per frame, as whepviewsink does), ending with the CPU time per view frame; the background memory "
        "as --memory, 8 when --memory is not given (default 0: the stages as above)",
        "N"},
+      {"yaw", 0, 0, G_OPTION_ARG_DOUBLE, &yaw,
+       "with --views: the lecturers look this many degrees to the right (negative: left) of the walk's heading, "
+       "as a lecturer turned towards one side of the class (default 0)",
+       "DEG"},
       {"fill-only", 0, 0, G_OPTION_ARG_NONE, &fill_only,
        "only time the hole filling of viewfuse, its two methods (fill-method pyramid and rays) alternating on the "
        "same fused views, with --memory as given",
@@ -261,6 +269,7 @@ int main(int argc, char** argv) {
   cv::setNumThreads(1);  // our threads are the cameras
   WarpParams warp;  // viewwarp's defaults
   warp.edge_to_near = !no_edge_to_near;
+  warp.cull_outside_view = !no_view_cull;
   const Rig rig = default_classroom_rig();
   const Classroom room(ClassroomConfig{1, 6, 2.0}), empty(ClassroomConfig{1, 0, 2.0});
   const int recorded = 8;
@@ -314,14 +323,15 @@ int main(int argc, char** argv) {
   if (views > 0) {
     std::vector<Camera> cams = make_cams({0, 1, 2});
     // View v: the walk above, its start moved v slider steps right and up, so no two views share a pose.
-    const std::function<CameraCalib(int, int)> view_at = [&ref](int f, int v) {
+    const double turn = yaw / kSliderDegrees;
+    const std::function<CameraCalib(int, int)> view_at = [&ref, turn](int f, int v) {
       const double s = (f % 300) / 30.0;
-      const Pose p = sliders_to_pose(Sliders{40 + s + 4 * v, 50.0 + 3 * v, 50, 50 + s, 50, 50}, ref);
+      const Pose p = sliders_to_pose(Sliders{40 + s + 4 * v, 50.0 + 3 * v, 50, 50 + s + turn, 50, 50}, ref);
       return virtual_camera(ref, p.cam_to_rig(), NAN);
     };
     std::printf("V-VA views, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, 1 thread\n",
                 frames);
-    run_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms);
+    run_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp);
     return 0;
   }
   std::printf("V-VA server stages, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, %d thread(s)\n",

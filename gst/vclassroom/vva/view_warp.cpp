@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/core/simd.h>
+#include <gst/vclassroom/vva/view_cull.h>
 #include <gst/vclassroom/vva/warp_record.h>
 
 
@@ -641,6 +642,7 @@ void ViewWarper::prepare_rays(const CameraCalib& src) {
       ray_x_[size_t(v) * src.width + u] = float(r.x());
       ray_y_[size_t(v) * src.width + u] = float(r.y());
     }
+  tile_ray_boxes(src.width, src.height, ray_x_.data(), ray_y_.data(), &tile_rays_);
   rays_for_ = src;
   have_rays_ = true;
 }
@@ -820,7 +822,7 @@ void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, co
 void ViewWarper::warp(const CameraCalib& src, const WarpSource& in, const CameraCalib& virt, const WarpParams& prm,
                       WarpedView* out) {
   prepare_here(src, in, prm);
-  warp_prepared_here(src, in, src_depth_.data(), src_label_.data(), virt, prm, out);
+  warp_prepared_here(src, in, src_depth_.data(), src_label_.data(), tile_nearest_, tile_farthest_, virt, prm, out);
 }
 
 void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const WarpParams& prm, PreparedSource* out) {
@@ -829,6 +831,8 @@ void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const War
   out->height = src.height;
   out->depth.swap(src_depth_);  // the old ones are scratch for the next frame
   out->label.swap(src_label_);
+  out->tile_nearest.swap(tile_nearest_);
+  out->tile_farthest.swap(tile_farthest_);
 }
 
 void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, const PreparedSource& prepared,
@@ -840,7 +844,16 @@ void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, con
   CV_Assert(in.room_depth.empty() || (in.room_depth.type() == CV_16UC1 && in.room_depth.size() == in.color.size() &&
                                       in.room_color.type() == CV_8UC3 && in.room_color.size() == in.color.size()));
   prepare_rays(src);
-  warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), virt, prm, out);
+  const TileGrid g = tile_grid(src.width, src.height);
+  const size_t tiles = size_t(g.cols) * g.rows;
+  if (prepared.tile_nearest.size() == tiles && prepared.tile_farthest.size() == tiles) {
+    warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), prepared.tile_nearest,
+                       prepared.tile_farthest, virt, prm, out);
+    return;
+  }
+  tile_depth_ranges(src.width, src.height, prepared.depth.data(), &tile_nearest_, &tile_farthest_);
+  warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), tile_nearest_, tile_farthest_, virt, prm,
+                     out);
 }
 
 void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
@@ -909,6 +922,7 @@ void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, cons
     for (int k = 0; k < b && k < H; ++k) mark_far_side(int(n / W), k, W, code, drop);
     clear_dropped(n, drop, D);
   }
+  tile_depth_ranges(W, H, src_depth_.data(), &tile_nearest_, &tile_farthest_);
 }
 
 namespace {
@@ -969,6 +983,10 @@ struct ViewWarper::Layer {
   int row_begin, row_end;
   float weight_scale;
   bool sparse;
+  // Per tile (view_cull.h), the nearest and farthest depth of `depth`: the columns that cannot land in the
+  // view are skipped. Null: every column is drawn.
+  const std::vector<uint16_t>* tile_nearest = nullptr;
+  const std::vector<uint16_t>* tile_farthest = nullptr;
 };
 
 // What the cell warp of one layer keeps for every row: the cell and block rows, and where a block cell's
@@ -984,8 +1002,9 @@ struct ViewWarper::CellPass {
 };
 
 void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in, const uint16_t* depth,
-                                    const uint8_t* label, const CameraCalib& virt, const WarpParams& prm,
-                                    WarpedView* out) {
+                                    const uint8_t* label, const std::vector<uint16_t>& tile_nearest,
+                                    const std::vector<uint16_t>& tile_farthest, const CameraCalib& virt,
+                                    const WarpParams& prm, WarpedView* out) {
   const int W = src.width, H = src.height;
   const int VW = virt.width, VH = virt.height;
   const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
@@ -1014,7 +1033,10 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   f.proj.link_scale = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
   f.proj.link_gap = float(prm.max_gap_px);
 
-  splat_layer(f, Layer{depth, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false},
+  const bool cull = prm.cull_outside_view && !prm.mesh;
+  splat_layer(f,
+              Layer{depth, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false,
+                    cull ? &tile_nearest : nullptr, cull ? &tile_farthest : nullptr},
               prm);
   if (!in.room_depth.empty()) draw_room_layer(f, in, prm);
   unpack_view(f, prm, out);
@@ -1176,18 +1198,76 @@ void ViewWarper::splat_cells(const Frame& f, const Layer& layer, const WarpParam
     }
     return;
   }
-  // Whole rows: each row projected and linked once, the rows above kept from the pair before.
-  project_rows(f, layer, std::max(0, first_pair - 1), std::min(H, layer.row_end + 3), 0, W);
   if (first_pair > 0) std::fill_n(links_row(W, first_pair - 1), W, 0u);
+  if (layer.tile_nearest) splat_pairs_in_view(f, layer, pass, first_pair, end_pair);
+  else splat_pairs(f, layer, pass, first_pair, end_pair);
+}
+
+// Whole rows: each row projected and linked once, the rows above kept from the pair before.
+void ViewWarper::splat_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair) {
+  const int W = f.W, H = f.H;
+  project_rows(f, layer, std::max(0, first_pair - 1), std::min(H, layer.row_end + 3), 0, W);
   for (int v = first_pair; v < end_pair; v += 2) {
     link_row(f, layer, v, 0, W);
     if (v + 1 < H) link_row(f, layer, v + 1, 0, W);
-    if (!pass.coarse || v + 1 >= H) {
-      splat_fine_cells(f, layer, pass, v, 0, W, pass.no_blocks);
-      if (v + 1 < H) splat_fine_cells(f, layer, pass, v + 1, 0, W, pass.no_blocks);
+    splat_pair_columns(f, layer, pass, v, 0, W);
+  }
+}
+
+// Rows v and v + 1 drawn over columns [c0, c1) (their links there made).
+void ViewWarper::splat_pair_columns(const Frame& f, const Layer& layer, const CellPass& pass, int v, int c0, int c1) {
+  const int W = f.W, H = f.H;
+  if (!pass.coarse || v + 1 >= H) {
+    splat_fine_cells(f, layer, pass, v, c0, c1, pass.no_blocks);
+    if (v + 1 < H) splat_fine_cells(f, layer, pass, v + 1, c0, c1, pass.no_blocks);
+    return;
+  }
+  splat_block_pair(f, layer, pass, v, c0 / 2, c1 == W ? W / 2 : c1 / 2);
+}
+
+// As splat_pairs, over the columns of each row of tiles that can land in the view (view_cull.h): each row
+// projected over every pair's columns that read it, each pair's rows linked over its columns, with
+// kSpanMargin columns either side (what a cell reads); the row above a pair linked again where the pair
+// before had other columns. The same records as splat_pairs: a cell skipped lands nowhere in the view.
+void ViewWarper::splat_pairs_in_view(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair,
+                                     int end_pair) {
+  const int W = f.W, H = f.H;
+  ViewFrustum view;
+  std::copy(f.proj.r, f.proj.r + 9, view.r);
+  std::copy(f.proj.t, f.proj.t + 3, view.t);
+  view.fx = f.proj.fx, view.fy = f.proj.fy, view.cx = f.proj.cx, view.cy = f.proj.cy;
+  view.width = f.VW, view.height = f.VH;
+  // A cell's affine map strays from the true projection of its pixel by far less than a pixel; 4 px of room.
+  constexpr float kViewMarginPx = 4;
+  columns_in_view(W, H, tile_rays_, *layer.tile_nearest, *layer.tile_farthest, view, kNear, kViewMarginPx,
+                  &view_columns_);
+  // A pair's columns: its tile row's (pairs start on even rows and tiles are an even number of rows high).
+  auto pair_columns = [&](int v) {
+    if (v < first_pair || v >= end_pair) return std::pair<int, int>{0, 0};
+    return view_columns_[size_t(v / kTileSize)];
+  };
+  // Row r is read by the pairs from r - 2 to r + 1.
+  for (int r = std::max(0, first_pair - 1); r < std::min(H, layer.row_end + 3); ++r) {
+    int lo = W, hi = 0;
+    for (int v = (r - 2) & ~1; v <= r + 1; v += 2) {
+      const auto [a, b] = pair_columns(v);
+      if (a < b) lo = std::min(lo, a), hi = std::max(hi, b);
+    }
+    if (lo < hi) project_rows(f, layer, r, r + 1, std::max(0, lo - kSpanMargin), std::min(W, hi + kSpanMargin));
+  }
+  std::pair<int, int> linked_above{0, 0};  // the columns row v - 1 was linked over
+  for (int v = first_pair; v < end_pair; v += 2) {
+    const auto [c0, c1] = pair_columns(v);
+    if (c0 >= c1) {
+      linked_above = {0, 0};
       continue;
     }
-    splat_block_pair(f, layer, pass, v, 0, W / 2);
+    const int lo = std::max(0, c0 - kSpanMargin), hi = std::min(W, c1 + kSpanMargin);
+    if (v > first_pair && linked_above != std::pair<int, int>{lo, hi}) link_row(f, layer, v - 1, lo, hi);
+    link_row(f, layer, v, lo, hi);
+    if (v + 1 < H) link_row(f, layer, v + 1, lo, hi);
+    linked_above = {lo, hi};
+    splat_pair_columns(f, layer, pass, v, c0, c1);
   }
 }
 

@@ -83,6 +83,10 @@ struct WarpParams {
   bool coarse_cells = true;
   // Learner pixels without live depth take their learner's median depth.
   bool fill_learner_depth = true;
+  // Cell warp only: the source columns whose points cannot land in the view
+  // (tiles of view_cull.h) are not projected, linked or set up; the view is
+  // the same pixel for pixel (false: every column, the reference).
+  bool cull_outside_view = true;
 };
 
 // The source warped to the virtual view: all images have the virtual camera's size.
@@ -99,6 +103,8 @@ struct PreparedSource {
   int width = 0, height = 0;
   std::vector<uint16_t> depth;  // the layered depth (mm), steps smoothed, rims given to the near side
   std::vector<uint8_t> label;   // the labels likewise; width * height + 1 (a zero after the last)
+  // Per tile of view_cull.h, the nearest and farthest depth (mm) of `depth`; empty: found when warped.
+  std::vector<uint16_t> tile_nearest, tile_farthest;
 };
 
 // Keeps per-source precomputation (pixel rays) and scratch buffers between
@@ -125,7 +131,9 @@ class ViewWarper {
   // may be those two: the room layer is drawn from them after).
   void prepare_here(const CameraCalib& source, const WarpSource& in, const WarpParams& params);
   void warp_prepared_here(const CameraCalib& source, const WarpSource& in, const uint16_t* depth,
-                          const uint8_t* label, const CameraCalib& virt, const WarpParams& params, WarpedView* out);
+                          const uint8_t* label, const std::vector<uint16_t>& tile_nearest,
+                          const std::vector<uint16_t>& tile_farthest, const CameraCalib& virt,
+                          const WarpParams& params, WarpedView* out);
   // The steps of warp_prepared_here() (view_warp.cpp defines the structures): one layer projected and drawn
   // into the z-buffer, as triangles (mesh) or cells; the room behind the learners as a second layer; the
   // z-buffer unpacked into the view.
@@ -146,6 +154,10 @@ class ViewWarper {
   void splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v, int j_begin, int j_end);
   void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
   void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
+  // The cell warp's rows in pairs over every column, or only over the columns that can land in the view.
+  void splat_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
+  void splat_pairs_in_view(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
+  void splat_pair_columns(const Frame& f, const Layer& layer, const CellPass& pass, int v, int c0, int c1);
   void prepare_rays(const CameraCalib& source);
   // src_depth_ with its steps smoothed (WarpParams::step_ratio).
   void smooth_stepped_depth(int width, int height, const WarpParams& params);
@@ -155,6 +167,9 @@ class ViewWarper {
   CameraCalib rays_for_;
   bool have_rays_ = false;
   std::vector<float> ray_x_, ray_y_;
+  std::vector<float> tile_rays_;  // per tile: the box its rays span (view_cull.h)
+  std::vector<uint16_t> tile_nearest_, tile_farthest_;  // per tile: prepare_here's depth range
+  std::vector<std::pair<int, int>> view_columns_;       // per row of tiles: the columns that can land in the view
   // Per source pixel: projected position, virtual depth (m; <= 0 invalid),
   // longest unbroken mesh edge (px), vertex weight.
   std::vector<float> px_, py_, pz_, plim_, pw_;

@@ -1,0 +1,109 @@
+#include <gst/vclassroom/vva/view_cull.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace vclassroom {
+
+TileGrid tile_grid(int width, int height) {
+  return TileGrid{(width + kTileSize - 1) / kTileSize, (height + kTileSize - 1) / kTileSize};
+}
+
+void tile_ray_boxes(int W, int H, const float* ray_x, const float* ray_y, std::vector<float>* boxes) {
+  const TileGrid g = tile_grid(W, H);
+  boxes->assign(size_t(g.cols) * g.rows * 4, 0.0f);
+  for (int ty = 0; ty < g.rows; ++ty)
+    for (int tx = 0; tx < g.cols; ++tx) {
+      // The tile and a pixel around it: a cell reaches half a pixel beyond its centre.
+      const int u0 = std::max(0, tx * kTileSize - 1), u1 = std::min(W, (tx + 1) * kTileSize + 1);
+      const int v0 = std::max(0, ty * kTileSize - 1), v1 = std::min(H, (ty + 1) * kTileSize + 1);
+      float xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+      for (int v = v0; v < v1; ++v) {
+        const float* rx = ray_x + size_t(v) * W;
+        const float* ry = ray_y + size_t(v) * W;
+        for (int u = u0; u < u1; ++u) {
+          xmin = std::min(xmin, rx[u]);
+          xmax = std::max(xmax, rx[u]);
+          ymin = std::min(ymin, ry[u]);
+          ymax = std::max(ymax, ry[u]);
+        }
+      }
+      float* b = &(*boxes)[(size_t(ty) * g.cols + tx) * 4];
+      b[0] = xmin, b[1] = xmax, b[2] = ymin, b[3] = ymax;
+    }
+}
+
+void tile_depth_ranges(int W, int H, const uint16_t* depth, std::vector<uint16_t>* nearest,
+                       std::vector<uint16_t>* farthest) {
+  const TileGrid g = tile_grid(W, H);
+  nearest->assign(size_t(g.cols) * g.rows, 0xffff);
+  farthest->assign(size_t(g.cols) * g.rows, 0);
+  for (int v = 0; v < H; ++v) {
+    const uint16_t* d = depth + size_t(v) * W;
+    uint16_t* tn = &(*nearest)[size_t(v / kTileSize) * g.cols];
+    uint16_t* tf = &(*farthest)[size_t(v / kTileSize) * g.cols];
+    for (int tx = 0; tx < g.cols; ++tx) {
+      const int u0 = tx * kTileSize, u1 = std::min(W, u0 + kTileSize);
+      uint16_t lo = tn[tx], hi = tf[tx];
+      for (int u = u0; u < u1; ++u) {
+        const uint16_t z = d[u];
+        lo = std::min<uint16_t>(lo, z ? z : uint16_t(0xffff));  // 0: no depth, never the nearest
+        hi = std::max(hi, z);
+      }
+      tn[tx] = lo;
+      tf[tx] = hi;
+    }
+  }
+  for (size_t i = 0; i < nearest->size(); ++i)
+    if (!(*farthest)[i]) (*nearest)[i] = 0;
+}
+
+namespace {
+
+// Whether the points whose rays lie in `box` (x / z and y / z ranges) at depths z0..z1 (m) can land within
+// `margin` px of the view: the convex hull of the eight corners of that frustum piece, projected.
+bool lands_in_view(const float* box, float z0, float z1, const ViewFrustum& v, float near_m, float margin) {
+  float xmin = INFINITY, xmax = -INFINITY, ymin = INFINITY, ymax = -INFINITY;
+  int behind = 0;
+  for (int k = 0; k < 8; ++k) {
+    const float z = k & 4 ? z1 : z0;
+    const float X = box[k & 1] * z, Y = box[2 + ((k >> 1) & 1)] * z;
+    const float qx = v.r[0] * X + v.r[1] * Y + v.r[2] * z + v.t[0];
+    const float qy = v.r[3] * X + v.r[4] * Y + v.r[5] * z + v.t[1];
+    const float qz = v.r[6] * X + v.r[7] * Y + v.r[8] * z + v.t[2];
+    if (!(qz >= near_m)) {
+      ++behind;
+      continue;
+    }
+    const float x = v.fx * qx / qz + v.cx, y = v.fy * qy / qz + v.cy;
+    xmin = std::min(xmin, x), xmax = std::max(xmax, x), ymin = std::min(ymin, y), ymax = std::max(ymax, y);
+  }
+  if (behind == 8) return false;  // wholly behind the lens: nothing of it is drawn
+  if (behind) return true;        // partly: its projection is unbounded
+  return xmax >= -margin && xmin <= float(v.width - 1) + margin && ymax >= -margin &&
+         ymin <= float(v.height - 1) + margin;
+}
+
+}  // namespace
+
+void columns_in_view(int W, int H, const std::vector<float>& boxes, const std::vector<uint16_t>& nearest,
+                     const std::vector<uint16_t>& farthest, const ViewFrustum& view, float near_m, float margin_px,
+                     std::vector<std::pair<int, int>>* columns) {
+  const TileGrid g = tile_grid(W, H);
+  columns->assign(size_t(g.rows), {0, 0});
+  for (int ty = 0; ty < g.rows; ++ty) {
+    const size_t row = size_t(ty) * g.cols;
+    auto lands = [&](int tx) {
+      const size_t i = row + size_t(tx);
+      return nearest[i] != 0 && lands_in_view(&boxes[i * 4], float(nearest[i]) * 0.001f,
+                                              float(farthest[i]) * 0.001f, view, near_m, margin_px);
+    };
+    int first = 0, last = g.cols - 1;
+    while (first < g.cols && !lands(first)) ++first;
+    if (first == g.cols) continue;
+    while (last > first && !lands(last)) --last;
+    (*columns)[size_t(ty)] = {first * kTileSize, std::min(W, (last + 1) * kTileSize)};
+  }
+}
+
+}  // namespace vclassroom
