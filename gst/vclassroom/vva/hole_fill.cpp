@@ -23,14 +23,24 @@ constexpr int kTile = 1 << kTileLevels;
 // pixels are interpolated from them (bilinearly over 4x4 px). Near the border the ray ends give the detail.
 constexpr int kBaseLevel = 2;
 
-// A hole pixel's colour is the mean of its background ray ends (weighted by 1 / distance, as the rays
-// method) and the pyramid's value, which counts as much as one ray end kPyramidDistance px away: next to the
+// A hole pixel's colour is the mean of its background ray ends (weighted by 1 / distance^kRayFalloff, below)
+// and the pyramid's value, which counts as much as one ray end kPyramidDistance px away did at 1 / distance
+// (issue 35's first round, below): next to the
 // background the nearest pixels decide (a structure that meets the hole goes on into it for a few pixels;
 // the 1-px smoothing after the fill keeps the edge soft), farther in the smooth 2-D surface does (no streak
 // drawn from one row or column across a wide hole). 4 px was chosen among 1, 2, 4 and 10 on Middlebury Art
 // and Aloe: within 0.15 dB of each other at every offset, 10 a little higher at the small offsets, but the
 // nearer the pyramid counts the less a wide hole looks like its border's rows.
 constexpr float kPyramidDistance = 4.0f;
+
+// A background ray end counts 1 / distance^kRayFalloff. 0.75 rather than 1 (issue 35's second round): a far
+// end still counts a little, so a hole pixel takes more of an average of its background border and less of
+// the one nearest pixel (whose sensor noise or texture grain is a poor guess a few pixels in). Among 0.5,
+// 0.75, 1, 1.5 and 2: 1.5 and 2 lost 0.05-0.2 dB everywhere; 0.75 gained Art 0.02-0.16 dB at every offset,
+// Teddy 2 -> 6 0.04, 6 -> 2 0.12 and Table I 0.02, at -0.02 on Aloe at offsets 1-2; 0.5 lost 0.1 on Aloe.
+constexpr double kRayFalloff = 0.75;
+// The pyramid's weight, 1 / kPyramidDistance: with the falloff above, as much as a ray end 6.3 px away (the
+// falloff was measured with the pyramid's weight kept, so it changes only how the ray ends share theirs).
 constexpr float kPyramidWeight = 1.0f / kPyramidDistance;
 
 // The smoothing after each method (HoleFillParams::smooth_px -1): the pyramid's fill is smooth already, so
@@ -71,7 +81,7 @@ struct HoleRun {
 // The first half of the fill, along rays. For each hole pixel the known pixels that end its run of holes
 // along its row and its column (its left, right, upper and lower neighbour across the hole) are compared:
 // those on its far side (within `keep` times the farthest of the four) are its background. Their mean,
-// weighted by 1 / distance, goes into `color` at the hole pixel and the sum of the weights into
+// weighted by 1 / distance^kRayFalloff, goes into `color` at the hole pixel and the sum of the weights into
 // `ray_weight` (one per hole pixel, in the order of the runs); and they are listed in `sources` (as
 // y * W + x, each once: `source_mark`, CV_8UC1, zero on entry, marks them) as the pixels the pyramid may
 // fill from. The tiles holding holes are marked in `hole_tile`, and the runs of holes listed in `runs`.
@@ -87,10 +97,10 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
   const int W = depth.cols, H = depth.rows, tiles_x = (W + kTile - 1) / kTile;
   static thread_local std::vector<int> above, below;
   above.assign(size_t(W), -1), below.assign(size_t(W), -1);
-  static thread_local std::vector<float> inverse;  // 1 / distance, for every distance in the image
+  static thread_local std::vector<float> inverse;  // a ray end's weight, for every distance in the image
   if (inverse.size() < size_t(std::max(W, H) + 1)) {
     inverse.resize(size_t(std::max(W, H) + 1));
-    for (size_t i = 1; i < inverse.size(); ++i) inverse[i] = 1.0f / float(i);
+    for (size_t i = 1; i < inverse.size(); ++i) inverse[i] = float(1.0 / std::pow(double(i), kRayFalloff));
   }
   for (int y = 0; y < H; ++y) {
     const uint16_t* d = depth.ptr<uint16_t>(y);
