@@ -83,7 +83,7 @@ struct HoleRun {
 // those on its far side (within `keep` times the farthest of the four) are its background. Their mean,
 // weighted by 1 / distance^kRayFalloff, goes into `color` at the hole pixel and the sum of the weights into
 // `ray_weight` (one per hole pixel, in the order of the runs); and they are listed in `sources` (as
-// y * W + x, each once: `source_mark`, CV_8UC1, zero on entry, marks them) as the pixels the pyramid may
+// y << 16 | x, each once: `source_mark`, CV_8UC1, zero on entry, marks them) as the pixels the pyramid may
 // fill from. The tiles holding holes are marked in `hole_tile`, and the runs of holes listed in `runs`.
 // The foreground that caused a hole ends its runs on the near side and never counts; nor does a surface
 // farther back that does not border the hole (a far wall seen beside the object behind which the hole
@@ -92,7 +92,7 @@ struct HoleRun {
 // column's current run of holes, found by walking down the run once), as in the rays method.
 void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat& color,
                                       std::vector<float>* ray_weight, cv::Mat& source_mark,
-                                      std::vector<int>* sources, std::vector<uint8_t>* hole_tile,
+                                      std::vector<uint32_t>* sources, std::vector<uint8_t>* hole_tile,
                                       std::vector<HoleRun>* runs) {
   const int W = depth.cols, H = depth.rows, tiles_x = (W + kTile - 1) / kTile;
   static thread_local std::vector<int> above, below;
@@ -107,13 +107,14 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
     uint8_t* tiles = hole_tile->data() + size_t(y / kTile) * size_t(tiles_x);
     auto mark = [&](int sy, int sx) {
       uint8_t& m = source_mark.ptr<uint8_t>(sy)[sx];
-      if (!m) m = 1, sources->push_back(sy * W + sx);
+      if (!m) m = 1, sources->push_back(uint32_t(sy) << 16 | uint32_t(sx));
     };
     int x = 0, a = 0, b = 0;
     while (next_hole_run(d, W, &x, &a, &b)) {  // holes a..b
       for (int t = a / kTile; t <= b / kTile; ++t) tiles[t] = 1;
       runs->push_back(HoleRun{y, a, b});
       const int z_left = a > 0 ? d[a - 1] : 0, z_right = b + 1 < W ? d[b + 1] : 0;
+      bool left_used = false, right_used = false;  // the run's own ends: marked once, after it
       for (int h = a; h <= b; ++h) {
         find_known_rows(depth, y, h, above, below);
         const int z_up = above[h] >= 0 ? depth.ptr<uint16_t>(above[h])[h] : 0;
@@ -125,8 +126,8 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
           const float w = inverse[size_t(dist)];
           acc[0] += w * c[0], acc[1] += w * c[1], acc[2] += w * c[2], wsum += w;
         };
-        if (z_left && float(z_left) >= zlo) mark(y, a - 1), take(h - a + 1, color.ptr<uint8_t>(y) + 3 * (a - 1));
-        if (z_right && float(z_right) >= zlo) mark(y, b + 1), take(b + 1 - h, color.ptr<uint8_t>(y) + 3 * (b + 1));
+        if (z_left && float(z_left) >= zlo) left_used = true, take(h - a + 1, color.ptr<uint8_t>(y) + 3 * (a - 1));
+        if (z_right && float(z_right) >= zlo) right_used = true, take(b + 1 - h, color.ptr<uint8_t>(y) + 3 * (b + 1));
         if (z_up && float(z_up) >= zlo) mark(above[h], h), take(y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h);
         if (z_down && float(z_down) >= zlo) mark(below[h], h), take(below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h);
         ray_weight->push_back(wsum);
@@ -136,6 +137,8 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
           for (int k = 0; k < 3; ++k) c[k] = uint8_t(acc[k] * iw + 0.5f);
         }
       }
+      if (left_used) mark(y, a - 1);  // (once per run, not once per hole pixel of it)
+      if (right_used) mark(y, b + 1);
     }
   }
 }
@@ -143,11 +146,10 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
 // The base level from the image: each source pixel added to its cell, then every cell it reached made a
 // mean. `base` holds no value on entry (only the cells listed in `written` were ever given one, and they were
 // emptied); the cells given one are listed there.
-void push_sources(const cv::Mat& color, const cv::Mat& depth, const std::vector<int>& sources, Level& base,
+void push_sources(const cv::Mat& color, const cv::Mat& depth, const std::vector<uint32_t>& sources, Level& base,
                   std::vector<float>& count, std::vector<int>& written) {
-  const int W = color.cols;
-  for (int i : sources) {
-    const int x = i % W, y = i / W;
+  for (uint32_t i : sources) {
+    const int x = int(i & 0xffff), y = int(i >> 16);
     const int c = (y >> kBaseLevel) * base.w + (x >> kBaseLevel);
     if (count[size_t(c)] == 0) written.push_back(c);
     const uint8_t* p = color.ptr<uint8_t>(y) + 3 * x;
@@ -219,7 +221,7 @@ struct PyramidState {
   int tiles_x = 0, tiles_y = 0;
   std::vector<Level> levels;                 // levels[0] stands for the image, levels below the base are unused
   std::vector<uint8_t> hole_tile, active;    // per tile
-  std::vector<int> sources;                  // the pixels the fill takes colour from, as y * W + x
+  std::vector<uint32_t> sources;             // the pixels the fill takes colour from, as y << 16 | x
   std::vector<HoleRun> runs;                 // the holes
   std::vector<float> base_count;             // the base level: sources per cell while they are added
   std::vector<int> base_written;             // the base level: the cells given a value (emptied at the next call)
@@ -421,7 +423,8 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
     const int y = run.y, y0 = std::max(0, y - r), y1 = std::min(H - 1, y + r);
     for (int x = run.a; x <= run.b; ++x, ++fd) {
       if (!*fd) continue;  // not filled
-      const float zlo = keep * float(*fd);
+      // A known depth d is behind when float(d) >= keep * fd, i.e. d >= zlo (integers: no conversion per tap).
+      const int zlo = int(std::ceil(keep * float(*fd)));
       const int x0 = std::max(0, x - r), x1 = std::min(W - 1, x + r);
       int sum[3] = {0, 0, 0}, n = 0;
       for (int v = y0; v <= y1; ++v) {
@@ -429,12 +432,13 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
         const uint16_t* d = depth.ptr<uint16_t>(v);
         const uint8_t* m = mask.ptr<uint8_t>(v);
         for (int u = x0; u <= x1; ++u) {
-          if (d[u] ? float(d[u]) < zlo : !m[u]) continue;  // in front, or a hole left unfilled
+          if (d[u] ? d[u] < zlo : !m[u]) continue;  // in front, or a hole left unfilled
           sum[0] += c[3 * u], sum[1] += c[3 * u + 1], sum[2] += c[3 * u + 2], ++n;
         }
       }
       Smoothed s{y, x, {}};
-      for (int k = 0; k < 3; ++k) s.rgb[k] = uint8_t((2 * sum[k] + n) / (2 * n));  // n >= 1: the pixel itself
+      const float inv = 1.0f / float(n);  // n >= 1: the pixel itself; a reciprocal, not three divisions
+      for (int k = 0; k < 3; ++k) s.rgb[k] = uint8_t(float(sum[k]) * inv + 0.5f);
       out.push_back(s);
     }
   }
@@ -451,6 +455,7 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
 void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
                            cv::Mat& mask, cv::Mat* filled_depth) {
   const int W = color.cols, H = color.rows;
+  CV_Assert(W < 65536 && H < 65536);  // a source is listed as y << 16 | x
   static thread_local PyramidState st;
   st.tiles_x = (W + kTile - 1) / kTile, st.tiles_y = (H + kTile - 1) / kTile;
   st.hole_tile.assign(size_t(st.tiles_x) * size_t(st.tiles_y), 0);
@@ -461,7 +466,7 @@ void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double backgrou
   const float keep = float(1.0 - background_ratio);
   fill_along_rays_and_mark_sources(depth, keep, color, &st.ray_weight, st.source_mark,
                                    &st.sources, &st.hole_tile, &st.runs);
-  for (int i : st.sources) st.source_mark.data[i] = 0;  // continuous: made by cv::Mat::zeros
+  for (uint32_t i : st.sources) st.source_mark.ptr<uint8_t>(int(i >> 16))[i & 0xffff] = 0;
   if (st.runs.empty()) return;
   mark_active_tiles(st);
   pull_down(st, push_up(st, color, depth));
