@@ -40,7 +40,7 @@ constexpr float kPyramidDistance = 4.0f;
 // A background ray end counts 1 / distance^kRayFalloff. 0.75 rather than 1 (issue 35's second round): a far
 // end still counts a little, so a hole pixel takes more of an average of its background border and less of
 // the one nearest pixel (whose sensor noise or texture grain is a poor guess a few pixels in). Among 0.5,
-// 0.75, 1, 1.5 and 2: 1.5 and 2 lost 0.05-0.2 dB everywhere; 0.75 gained Art 0.02-0.16 dB at every offset,
+// 0.75, 1, 1.5 and 2: 1.5 and 2 lost 0.05-0.2 dB everywhere; 0.75 gained Art 0.03-0.12 dB at every offset,
 // Teddy 2 -> 6 0.04, 6 -> 2 0.12 and Table I 0.02, at -0.02 on Aloe at offsets 1-2; 0.5 lost 0.1 on Aloe.
 constexpr double kRayFalloff = 0.75;
 // The pyramid's weight, 1 / kPyramidDistance: with the falloff above, as much as a ray end 6.3 px away (the
