@@ -736,6 +736,41 @@ TEST(HoleFill, TheSameViewIsFilledAlikeWhateverCameBefore) {
   EXPECT_TRUE(vctest::same_image(first, fill(scene.color, scene.depth)));
 }
 
+// A wide hole in one wall whose left part is dark and right part light (both at the wall's depth): the fill
+// goes from one shade to the other across it, every row alike (the ray ends weigh by distance, the pyramid
+// bridges the middle): no streak of one side's colour drawn over the whole hole, no shade outside the two,
+// and the pixels next to each side close to that side. Holds the falloff of the ray ends' weights and the
+// pyramid's coarser base (issue 35's second round) to a fill that still follows its border.
+TEST(HoleFill, AWideHoleBetweenTwoShadesOfAWallGoesFromOneToTheOther) {
+  const int w = 120, h = 60, hole_x0 = 40, hole_x1 = 79;  // a hole 40 px wide, the height of the image
+  cv::Mat color(h, w, CV_8UC3, cv::Scalar(60, 60, 60));
+  color(cv::Rect(hole_x1 + 1, 0, w - hole_x1 - 1, h)).setTo(cv::Scalar(200, 200, 200));
+  cv::Mat depth(h, w, CV_16UC1, cv::Scalar(3000));
+  depth(cv::Rect(hole_x0, 0, hole_x1 - hole_x0 + 1, h)).setTo(0);
+  cv::Mat mask = cv::Mat::zeros(color.size(), CV_8UC1);
+  fill_holes(color, depth, HoleFillParams(), mask);
+  for (int y = 0; y < h; ++y) {
+    int last = 0;
+    for (int x = hole_x0; x <= hole_x1; ++x) {
+      ASSERT_EQ(mask.at<uint8_t>(y, x), 255) << x << "," << y;
+      const cv::Vec3b c = color.at<cv::Vec3b>(y, x);
+      EXPECT_TRUE(c[0] == c[1] && c[1] == c[2]) << "at " << x << "," << y << ": " << c << ", not grey";
+      EXPECT_GE(c[0], 60) << x << "," << y;
+      EXPECT_LE(c[0], 200) << x << "," << y;
+      EXPECT_GE(c[0] + 1, last) << "at " << x << "," << y << ": darker than the pixel left of it";  // rounding
+      last = c[0];
+    }
+    EXPECT_LT(color.at<cv::Vec3b>(y, hole_x0)[0], 90) << "row " << y << ": the first pixel is not the dark side's";
+    EXPECT_GT(color.at<cv::Vec3b>(y, hole_x1)[0], 170) << "row " << y << ": the last pixel is not the light side's";
+    const int middle = color.at<cv::Vec3b>(y, (hole_x0 + hole_x1) / 2)[0];
+    EXPECT_GT(middle, 90) << "row " << y << ": the dark side streaked over the middle";
+    EXPECT_LT(middle, 170) << "row " << y << ": the light side streaked over the middle";
+    if (y > 0)
+      for (int x = hole_x0; x <= hole_x1; ++x)
+        EXPECT_EQ(color.at<cv::Vec3b>(y, x), color.at<cv::Vec3b>(0, x)) << "row " << y << " differs from row 0";
+  }
+}
+
 TEST(LearnerSeg, IdsStayStableThroughMotionOcclusionAndReturn) {
   const int w = 160, h = 100;
   const cv::Mat room(h, w, CV_16UC1, cv::Scalar(3000));
