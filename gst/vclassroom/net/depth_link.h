@@ -60,8 +60,9 @@ class DepthLinkEncoder {
   uint32_t frames() const { return number_; }
 
  private:
-  cv::Mat bins_;  // CV_16UC1: the last frame's bins (0: no measurement)
-  cv::Mat mem_;   // CV_16UC1: each pixel's last measured bin since the key frame
+  cv::Mat recon_;    // CV_16UC1: the last frame as the decoder reconstructs it (mm, 0: no measurement)
+  cv::Mat mem_;      // CV_16UC1: each pixel's last reconstructed measurement since the key frame (mm)
+  cv::Mat history_;  // CV_8UC1: whether each pixel was measured in the last frame (bit 0) and the one before (bit 1)
   uint16_t tolerance_ = 0;
   uint32_t number_ = 0;
   bool have_ref_ = false;
@@ -78,8 +79,8 @@ class DepthLinkDecoder {
 
  private:
   DepthLinkLimits limits_;
-  cv::Mat mem_;
-  cv::Mat depth_;  // the last frame decoded
+  cv::Mat mem_;      // as the encoder's
+  cv::Mat history_;  // as the encoder's
   cv::Size size_;
   uint16_t tolerance_ = 0;
   uint32_t number_ = 0;
