@@ -105,6 +105,10 @@ struct DepthModels {
   BitModel mantissa[3][16][16];     // [kind][length][bit]
 };
 
+// A pixel codes at most 34 bits (measured, changed, escape, sign, 15 of length, 15 of mantissa), each costing
+// at most 7.05 bits of output (a probability never falls below 31/4096): 30 bytes, rounded up.
+constexpr size_t kWorstBytesPerPixel = 32;
+
 enum PixelState : uint8_t { kHole = 0, kSame = 1, kChanged = 2 };
 enum MagnitudeKind { kDeltaDifference = 0, kKeyDifference = 1, kNoPrediction = 2 };
 
@@ -244,6 +248,7 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   uint8_t* cur = state_a.data();
   uint8_t* up = state_b.data();
   for (int y = 0; y < h; ++y) {
+    rc.reserve(size_t(w) * kWorstBytesPerPixel + 16);
     std::swap(cur, up);
     const uint16_t* zr = depth.ptr<uint16_t>(y);
     uint16_t* br = recon_.ptr<uint16_t>(y);

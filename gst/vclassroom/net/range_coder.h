@@ -22,7 +22,18 @@ inline constexpr uint32_t kRangeTop = 1u << 24;
 
 class RangeEncoder {
  public:
-  explicit RangeEncoder(std::vector<uint8_t>* out) : out_(out) {}
+  // Appends to `out`. The bytes go through a raw pointer into room reserve() made, so that the coder's state
+  // can stay in registers (a vector's push_back, which may reallocate, would make it spill at every bit).
+  explicit RangeEncoder(std::vector<uint8_t>* out) : out_(out), start_(out->size()), p_(out->data() + start_) {}
+
+  // Makes room for `bytes` more (at most 8 bits of output per 7 coded bits, plus the carry's pending bytes,
+  // which reserve() counts): call it before coding each row, with the row's worst case.
+  void reserve(size_t bytes) {
+    const size_t used = size_t(p_ - base());
+    if (out_->size() - start_ - used >= bytes + pending_ + 8) return;
+    out_->resize(start_ + used + 2 * (bytes + pending_ + 8) + (out_->size() - start_));
+    p_ = base() + used;
+  }
 
   void put(BitModel& m, bool bit) {
     const uint32_t bound = (range_ >> kRangeProbBits) * m.p0;
@@ -39,18 +50,21 @@ class RangeEncoder {
       shift_low();
     }
   }
-  // Ends the stream: afterwards the decoder has every byte it needs.
+  // Ends the stream (afterwards the decoder has every byte it needs) and trims `out` to what was written.
   void finish() {
+    reserve(8);
     for (int i = 0; i < 5; ++i) shift_low();
+    out_->resize(size_t(p_ - out_->data()));
   }
 
  private:
+  uint8_t* base() { return out_->data() + start_; }
   void shift_low() {
     if (uint32_t(low_) < 0xFF000000u || (low_ >> 32) != 0) {
       const auto carry = uint8_t(low_ >> 32);
       uint8_t byte = cache_;
       do {
-        out_->push_back(uint8_t(byte + carry));
+        *p_++ = uint8_t(byte + carry);
         byte = 0xFF;
       } while (--pending_ != 0);
       cache_ = uint8_t(low_ >> 24);
@@ -60,6 +74,8 @@ class RangeEncoder {
   }
 
   std::vector<uint8_t>* out_;
+  size_t start_;
+  uint8_t* p_;
   uint64_t low_ = 0;
   uint32_t range_ = 0xFFFFFFFFu;
   uint8_t cache_ = 0;
