@@ -137,13 +137,13 @@ inline int neighbours(const uint8_t* cur, const uint8_t* up, int x) {
 }
 
 // A delta frame's new value for a measured depth z that left its prediction p (|z - p| > e(z)): on the grid
-// p + k (e(p) + 1), k != 0, the point within e(z) of z nearest to z pulled e(z) / 2 towards p (the noise
-// drew it away from p: the truth is likely between them, and a value there is kept longer); 0 when the grid
-// has no point within the bound (z much nearer than p), then the pixel escapes to its bin.
-inline int32_t delta_step(uint16_t z, uint16_t p, const DepthBins& b) {
-  const int32_t e = b.bound[z], q = int32_t(b.bound[p]) + 1;
+// p + k (e(p) / 2 + 1), k != 0, the point within e(z) of z nearest to `target` (the encoder's estimate of the
+// true depth, which the noise scatters z around: a value near it is kept longer); 0 when the grid has no
+// point within the bound (z much nearer than p), then the pixel escapes to its bin.
+inline int32_t delta_step(uint16_t z, uint16_t p, int32_t target, const DepthBins& b) {
+  const int32_t e = b.bound[z], q = int32_t(b.bound[p]) / 2 + 1;
   const bool below = z < p;
-  const int32_t num = (below ? z + e / 2 : z - e / 2) - int32_t(p);
+  const int32_t num = std::clamp(target, int32_t(z) - e, int32_t(z) + e) - int32_t(p);
   int32_t k = num >= 0 ? (num + q / 2) / q : -((-num + q / 2) / q);
   if (k == 0) k = below ? -1 : 1;
   for (int32_t c : {k, k + 1, k - 1}) {
@@ -156,7 +156,7 @@ inline int32_t delta_step(uint16_t z, uint16_t p, const DepthBins& b) {
 // Codes one measured pixel against its prediction `p` (mm, 0: none); returns the value the decoder will
 // reconstruct, and its state for the neighbours' contexts in `state`.
 inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t z, uint16_t p,
-                          const DepthBins& b, uint8_t* state) {
+                          int32_t target, const DepthBins& b, uint8_t* state) {
   *state = kChanged;
   if (p == 0) {
     const uint16_t bin = b.bin_of[z];
@@ -175,7 +175,7 @@ inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int change
     put_magnitude(rc, m, kKeyDifference, uint32_t(std::abs(bin - pb)));
     return b.center[bin];
   }
-  const int32_t k = delta_step(z, p, b);
+  const int32_t k = delta_step(z, p, target, b);
   rc.put(m.escape, k == 0);
   if (k == 0) {
     const uint16_t bin = b.bin_of[z];
@@ -184,7 +184,7 @@ inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int change
   }
   rc.put(m.sign[0], k < 0);
   put_magnitude(rc, m, kDeltaDifference, uint32_t(std::abs(k)));
-  return uint16_t(int32_t(p) + k * (int32_t(b.bound[p]) + 1));
+  return uint16_t(int32_t(p) + k * (int32_t(b.bound[p]) / 2 + 1));
 }
 
 // Decodes what put_pixel() coded; 0 when it names a depth beyond the scale.
@@ -207,7 +207,7 @@ inline uint16_t get_pixel(RangeDecoder& rc, DepthModels& m, bool key, int change
   } else {
     const bool below = rc.get(m.sign[0]);
     const int64_t k = get_magnitude(rc, m, kDeltaDifference);
-    const int64_t v = int64_t(p) + (below ? -k : k) * (int64_t(b.bound[p]) + 1);
+    const int64_t v = int64_t(p) + (below ? -k : k) * (int64_t(b.bound[p]) / 2 + 1);
     return v >= 1 && v <= 65535 ? uint16_t(v) : 0;
   }
   return bin >= 1 && bin < nbins ? b.center[size_t(bin)] : 0;
@@ -232,6 +232,7 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   if (key) {
     mem_ = cv::Mat::zeros(h, w, CV_16UC1);
     history_ = cv::Mat::zeros(h, w, CV_8UC1);
+    estimate_ = cv::Mat::zeros(h, w, CV_32FC1);
   }
   recon_.create(h, w, CV_16UC1);
   const size_t start = out->size();
@@ -254,6 +255,7 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
     uint16_t* br = recon_.ptr<uint16_t>(y);
     uint16_t* mr = mem_.ptr<uint16_t>(y);
     uint8_t* hr = history_.ptr<uint8_t>(y);
+    float* er = estimate_.ptr<float>(y);
     uint16_t run = 0;
     for (int x = 0; x < w; ++x) {
       const uint16_t z = zr[x];
@@ -266,8 +268,12 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
         cur[x + 1] = kHole;
         continue;
       }
+      // The estimate of the true depth: the mean of the pixel's last measurements (a quarter of the way
+      // towards each new one), restarted where it jumps by more than twice the bound (something moved).
+      float& est = er[x];
+      est = std::abs(float(z) - est) > 2.0f * float(b.bound[z]) + 1.0f ? float(z) : est + 0.25f * (float(z) - est);
       const uint16_t v = put_pixel(rc, *models, key, (before & 1) * 9 + cur[x] * 3 + up[x + 1], z,
-                                   key ? run : mr[x], b, &cur[x + 1]);
+                                   key ? run : mr[x], int32_t(std::lround(est)), b, &cur[x + 1]);
       mr[x] = run = br[x] = v;
     }
   }

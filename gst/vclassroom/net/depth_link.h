@@ -63,6 +63,7 @@ class DepthLinkEncoder {
   cv::Mat recon_;    // CV_16UC1: the last frame as the decoder reconstructs it (mm, 0: no measurement)
   cv::Mat mem_;      // CV_16UC1: each pixel's last reconstructed measurement since the key frame (mm)
   cv::Mat history_;  // CV_8UC1: whether each pixel was measured in the last frame (bit 0) and the one before (bit 1)
+  cv::Mat estimate_;  // CV_32FC1: each pixel's estimate of its true depth (the encoder's alone; mm)
   uint16_t tolerance_ = 0;
   uint32_t number_ = 0;
   bool have_ref_ = false;
