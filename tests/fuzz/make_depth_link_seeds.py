@@ -64,7 +64,7 @@ class Encoder:
         n = v.bit_length() - 1
         for i in range(n):
             self.bit(("length", c, i), 1)
-        if n < 15:
+        if n < 16:
             self.bit(("length", c, n), 0)
         for j in range(n - 1, -1, -1):
             self.bit(("mantissa", c, n, j), (v >> j) & 1)
@@ -110,7 +110,8 @@ def depth_section(rows, key, t, memory, history):
                     enc.magnitude(1, abs(bin_of[z] - bin_of[p]))
                     v, st = centre[bin_of[z]], 2
                 elif changed:
-                    # t = 0 in these seeds: the step grid is 1 mm and z itself is on it (no escape).
+                    # t = 0 in these seeds: the step grid is 1 mm and z itself is on it (the encoder may
+                    # always step; escaping to the row's bin is its choice where that is shorter).
                     assert t == 0
                     enc.bit("escape", 0)
                     enc.bit(("sign", 0), z < p)

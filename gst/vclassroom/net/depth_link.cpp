@@ -101,30 +101,39 @@ struct DepthModels {
   BitModel changed[2][18];          // [key][measured the frame before * 9 + left's state * 3 + upper's state]
   BitModel sign[2];                 // [key]
   BitModel escape;                  // delta frames: a changed pixel's value is a bin, not a step
-  BitModel length[3][16];           // [kind: 0 delta, 1 key, 2 no prediction][i]
-  BitModel mantissa[3][16][16];     // [kind][length][bit]
+  BitModel length[4][17];           // [kind: 0 step, 1 key difference, 2 bin, 3 delta's row difference][i]
+  BitModel mantissa[4][17][17];     // [kind][length][bit]
 };
 
-// A pixel codes at most 34 bits (measured, changed, escape, sign, 15 of length, 15 of mantissa), each costing
-// at most 7.05 bits of output (a probability never falls below 31/4096): 30 bytes, rounded up.
+// A pixel codes at most 36 bits (measured, changed, escape, sign, 16 of length, 16 of mantissa), each costing
+// at most 7.05 bits of output (a probability never falls below 31/4096): 31.7 bytes, rounded up.
 constexpr size_t kWorstBytesPerPixel = 32;
 
 enum PixelState : uint8_t { kHole = 0, kSame = 1, kChanged = 2 };
-enum MagnitudeKind { kDeltaDifference = 0, kKeyDifference = 1, kNoPrediction = 2 };
+enum MagnitudeKind { kDeltaDifference = 0, kKeyDifference = 1, kNoPrediction = 2, kRowDifference = 3 };
 
-// A magnitude v in 1..65535: its length n = floor(log2 v) in unary (n ones, then a zero unless n = 15), then
+// A magnitude v in 1..131071: its length n = floor(log2 v) in unary (n ones, then a zero unless n = 16), then
 // v's n bits below its leading one, most significant first.
 inline void put_magnitude(RangeEncoder& rc, DepthModels& m, int kind, uint32_t v) {
   int n = 0;
   while ((v >> (n + 1)) != 0) ++n;
   for (int i = 0; i < n; ++i) rc.put(m.length[kind][i], true);
-  if (n < 15) rc.put(m.length[kind][n], false);
+  if (n < 16) rc.put(m.length[kind][n], false);
   for (int b = n - 1; b >= 0; --b) rc.put(m.mantissa[kind][n][b], (v >> b) & 1);
+}
+
+inline uint32_t zigzag(int32_t d) { return (uint32_t(d) << 1) ^ uint32_t(d >> 31); }
+inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
+// n = floor(log2 v): what a magnitude's cost grows with.
+inline int magnitude_length(uint32_t v) {
+  int n = 0;
+  while ((v >> (n + 1)) != 0) ++n;
+  return n;
 }
 
 inline uint32_t get_magnitude(RangeDecoder& rc, DepthModels& m, int kind) {
   int n = 0;
-  while (n < 15 && rc.get(m.length[kind][n])) ++n;
+  while (n < 16 && rc.get(m.length[kind][n])) ++n;
   uint32_t v = 1;
   for (int b = n - 1; b >= 0; --b) v = v << 1 | uint32_t(rc.get(m.mantissa[kind][n][b]));
   return v;
@@ -139,7 +148,7 @@ inline int neighbours(const uint8_t* cur, const uint8_t* up, int x) {
 // A delta frame's new value for a measured depth z that left its prediction p (|z - p| > e(z)): on the grid
 // p + k (e(p) / 2 + 1), k != 0, the point within e(z) of z nearest to `target` (the encoder's estimate of the
 // true depth, which the noise scatters z around: a value near it is kept longer); 0 when the grid has no
-// point within the bound (z much nearer than p), then the pixel escapes to its bin.
+// point within the bound (z much nearer than p).
 inline int32_t delta_step(uint16_t z, uint16_t p, int32_t target, const DepthBins& b) {
   const int32_t e = b.bound[z], q = int32_t(b.bound[p]) / 2 + 1;
   const bool below = z < p;
@@ -156,7 +165,7 @@ inline int32_t delta_step(uint16_t z, uint16_t p, int32_t target, const DepthBin
 // Codes one measured pixel against its prediction `p` (mm, 0: none); returns the value the decoder will
 // reconstruct, and its state for the neighbours' contexts in `state`.
 inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t z, uint16_t p,
-                          int32_t target, const DepthBins& b, uint8_t* state) {
+                          uint16_t left, int32_t target, const DepthBins& b, uint8_t* state) {
   *state = kChanged;
   if (p == 0) {
     const uint16_t bin = b.bin_of[z];
@@ -175,11 +184,16 @@ inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int change
     put_magnitude(rc, m, kKeyDifference, uint32_t(std::abs(bin - pb)));
     return b.center[bin];
   }
+  // The step from p, or (escape) the bin coded against the bin of the depth decoded last on the row, `left`
+  // (its bin alone where there is none), whichever is shorter: where the camera or something in view moved,
+  // the row is the better prediction.
   const int32_t k = delta_step(z, p, target, b);
-  rc.put(m.escape, k == 0);
-  if (k == 0) {
-    const uint16_t bin = b.bin_of[z];
-    put_magnitude(rc, m, kNoPrediction, bin);
+  const int32_t bin = b.bin_of[z];
+  const uint32_t row = left != 0 ? zigzag(bin - int32_t(b.bin_of[left])) + 1 : 0;
+  const bool escape = k == 0 || (left != 0 && magnitude_length(row) < magnitude_length(uint32_t(std::abs(k))));
+  rc.put(m.escape, escape);
+  if (escape) {
+    put_magnitude(rc, m, left != 0 ? kRowDifference : kNoPrediction, left != 0 ? row : uint32_t(bin));
     return b.center[bin];
   }
   rc.put(m.sign[0], k < 0);
@@ -188,7 +202,7 @@ inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int change
 }
 
 // Decodes what put_pixel() coded; 0 when it names a depth beyond the scale.
-inline uint16_t get_pixel(RangeDecoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t p,
+inline uint16_t get_pixel(RangeDecoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t p, uint16_t left,
                           const DepthBins& b, uint8_t* state) {
   const auto nbins = int64_t(b.center.size());
   *state = kChanged;
@@ -203,7 +217,8 @@ inline uint16_t get_pixel(RangeDecoder& rc, DepthModels& m, bool key, int change
     const int64_t d = get_magnitude(rc, m, kKeyDifference);
     bin = below ? int64_t(b.bin_of[p]) - d : int64_t(b.bin_of[p]) + d;
   } else if (rc.get(m.escape)) {
-    bin = get_magnitude(rc, m, kNoPrediction);
+    bin = left != 0 ? int64_t(b.bin_of[left]) + unzigzag(get_magnitude(rc, m, kRowDifference) - 1)
+                    : int64_t(get_magnitude(rc, m, kNoPrediction));
   } else {
     const bool below = rc.get(m.sign[0]);
     const int64_t k = get_magnitude(rc, m, kDeltaDifference);
@@ -273,7 +288,7 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
       float& est = er[x];
       est = std::abs(float(z) - est) > 2.0f * float(b.bound[z]) + 1.0f ? float(z) : est + 0.25f * (float(z) - est);
       const uint16_t v = put_pixel(rc, *models, key, (before & 1) * 9 + cur[x] * 3 + up[x + 1], z,
-                                   key ? run : mr[x], int32_t(std::lround(est)), b, &cur[x + 1]);
+                                   key ? run : mr[x], run, int32_t(std::lround(est)), b, &cur[x + 1]);
       mr[x] = run = br[x] = v;
     }
   }
@@ -370,7 +385,7 @@ std::string decode_pixels(const uint8_t* data, size_t size, bool key, const Dept
         continue;
       }
       const uint16_t v = get_pixel(rc, *models, key, (before & 1) * 9 + cur[x] * 3 + up[x + 1],
-                                   key ? run : mr[x], b, &cur[x + 1]);
+                                   key ? run : mr[x], run, b, &cur[x + 1]);
       if (v == 0) return "depth section names a depth beyond the scale";
       mr[x] = run = zr[x] = v;
     }
