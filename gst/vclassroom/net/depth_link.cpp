@@ -165,7 +165,7 @@ inline int32_t delta_step(uint16_t z, uint16_t p, int32_t target, const DepthBin
 // Codes one measured pixel against its prediction `p` (mm, 0: none); returns the value the decoder will
 // reconstruct, and its state for the neighbours' contexts in `state`.
 inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t z, uint16_t p,
-                          uint16_t left, int32_t target, const DepthBins& b, uint8_t* state) {
+                          uint16_t left, float target, const DepthBins& b, uint8_t* state) {
   *state = kChanged;
   if (p == 0) {
     const uint16_t bin = b.bin_of[z];
@@ -187,7 +187,7 @@ inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int change
   // The step from p, or (escape) the bin coded against the bin of the depth decoded last on the row, `left`
   // (its bin alone where there is none), whichever is shorter: where the camera or something in view moved,
   // the row is the better prediction.
-  const int32_t k = delta_step(z, p, target, b);
+  const int32_t k = delta_step(z, p, int32_t(target + 0.5f), b);  // target >= 0: rounded
   const int32_t bin = b.bin_of[z];
   const uint32_t row = left != 0 ? zigzag(bin - int32_t(b.bin_of[left])) + 1 : 0;
   const bool escape = k == 0 || (left != 0 && magnitude_length(row) < magnitude_length(uint32_t(std::abs(k))));
@@ -288,7 +288,7 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
       float& est = er[x];
       est = std::abs(float(z) - est) > 2.0f * float(b.bound[z]) + 1.0f ? float(z) : est + 0.25f * (float(z) - est);
       const uint16_t v = put_pixel(rc, *models, key, (before & 1) * 9 + cur[x] * 3 + up[x + 1], z,
-                                   key ? run : mr[x], run, int32_t(std::lround(est)), b, &cur[x + 1]);
+                                   key ? run : mr[x], run, est, b, &cur[x + 1]);
       mr[x] = run = br[x] = v;
     }
   }
