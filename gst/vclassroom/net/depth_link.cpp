@@ -89,7 +89,7 @@ bool inflate_bounded(const uint8_t* data, size_t size, size_t capacity, std::vec
   return true;
 }
 
-DepthBins& recon_for(uint16_t tolerance) {
+DepthBins& bins_for(uint16_t tolerance) {
   thread_local DepthBins bins;
   build_bins(tolerance, &bins);
   return bins;
@@ -112,11 +112,17 @@ constexpr size_t kWorstBytesPerPixel = 32;
 enum PixelState : uint8_t { kHole = 0, kSame = 1, kChanged = 2 };
 enum MagnitudeKind { kDeltaDifference = 0, kKeyDifference = 1, kNoPrediction = 2, kRowDifference = 3 };
 
+// n = floor(log2 v): what a magnitude's cost grows with.
+inline int magnitude_length(uint32_t v) {
+  int n = 0;
+  while ((v >> (n + 1)) != 0) ++n;
+  return n;
+}
+
 // A magnitude v in 1..131071: its length n = floor(log2 v) in unary (n ones, then a zero unless n = 16), then
 // v's n bits below its leading one, most significant first.
 inline void put_magnitude(RangeEncoder& rc, DepthModels& m, int kind, uint32_t v) {
-  int n = 0;
-  while ((v >> (n + 1)) != 0) ++n;
+  const int n = magnitude_length(v);
   for (int i = 0; i < n; ++i) rc.put(m.length[kind][i], true);
   if (n < 16) rc.put(m.length[kind][n], false);
   for (int b = n - 1; b >= 0; --b) rc.put(m.mantissa[kind][n][b], (v >> b) & 1);
@@ -124,12 +130,6 @@ inline void put_magnitude(RangeEncoder& rc, DepthModels& m, int kind, uint32_t v
 
 inline uint32_t zigzag(int32_t d) { return (uint32_t(d) << 1) ^ uint32_t(d >> 31); }
 inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
-// n = floor(log2 v): what a magnitude's cost grows with.
-inline int magnitude_length(uint32_t v) {
-  int n = 0;
-  while ((v >> (n + 1)) != 0) ++n;
-  return n;
-}
 
 inline uint32_t get_magnitude(RangeDecoder& rc, DepthModels& m, int kind) {
   int n = 0;
@@ -242,7 +242,7 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   if (!label.empty() && (label.type() != CV_8UC1 || label.size() != depth.size()))
     throw Error("depth link: labels must be an 8-bit image of the depth's size");
   if (!have_ref_ || tolerance != tolerance_ || recon_.size() != depth.size()) key = true;
-  const DepthBins& b = recon_for(tolerance);
+  const DepthBins& b = bins_for(tolerance);
   const int w = depth.cols, h = depth.rows;
   if (key) {
     mem_ = cv::Mat::zeros(h, w, CV_16UC1);
@@ -254,9 +254,9 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   out->resize(start + kDepthLinkHeaderBytes);
   out->insert(out->end(), caps.begin(), caps.end());
   const size_t depth_start = out->size();
-  // Every pixel in raster order: measured or not, then (measured, with a prediction) whether its bin differs
-  // from the prediction, then (it does) the difference; the prediction is the pixel's last measured bin since
-  // the key frame (delta frames) or the last measured bin before it on its row (key frames).
+  // Every pixel in raster order: measured or not, then (measured, with a prediction) whether it keeps the
+  // prediction, then (it does not) its new value; the prediction is the pixel's last decoded measurement
+  // since the key frame (delta frames) or the last depth decoded before it on its row (key frames).
   auto models = std::make_unique<DepthModels>();
   RangeEncoder rc(out);
   const int k = key ? 1 : 0;
@@ -419,7 +419,7 @@ bool DepthLinkDecoder::decode(const uint8_t* data, size_t size, DepthLinkFrame* 
     history_ = cv::Mat::zeros(h, w, CV_8UC1);
   }
   cv::Mat depth(h, w, CV_16UC1);
-  const std::string why = decode_pixels(p + hd.caps_len, hd.depth_len, key, recon_for(hd.tolerance), &depth, &mem_,
+  const std::string why = decode_pixels(p + hd.caps_len, hd.depth_len, key, bins_for(hd.tolerance), &depth, &mem_,
                                         &history_);
   if (!why.empty()) return fail(why);
   cv::Mat label;
