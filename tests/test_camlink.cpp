@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <random>
 
 #include <gst/rtp/gstrtcpbuffer.h>
 #include <opencv2/imgproc.hpp>
@@ -12,6 +13,7 @@
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/net/depth_link.h>
 #include <gst/vclassroom/net/h264_sei.h>
+#include <gst/vclassroom/net/range_coder.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/synthetic/synthetic_camera.h>
 
@@ -172,6 +174,83 @@ TEST(DepthLink, EveryDamageIsRefusedWithAReason) {
   std::string err;
   EXPECT_FALSE(dec.decode(big.data(), big.size(), &f, &err));
   EXPECT_NE(err.find("beyond the limits"), std::string::npos) << err;
+}
+
+TEST(RangeCoder, BitsComeBackInTheirContextsAndACutStreamIsNoticed) {
+  std::mt19937 rng(7);
+  std::vector<std::pair<int, bool>> bits;  // (context, bit): context k's bits are 1 with probability k / 8
+  for (int i = 0; i < 20000; ++i) {
+    const int k = int(rng() % 9);
+    bits.emplace_back(k, int(rng() % 8) < k);
+  }
+  std::vector<uint8_t> out{0xAB};  // appends after what is there
+  {
+    BitModel models[9];
+    RangeEncoder rc(&out);
+    rc.reserve(64);
+    for (size_t i = 0; i < bits.size(); ++i) {
+      if (i % 256 == 0) rc.reserve(256 * 4);
+      rc.put(models[bits[i].first], bits[i].second);
+    }
+    rc.finish();
+  }
+  ASSERT_EQ(out[0], 0xAB);
+  // Skewed contexts cost less than a bit each: well under 20000 bits.
+  EXPECT_LT(out.size(), 20000u / 8 * 9 / 10);
+  auto decode = [&](size_t n, size_t* overrun, size_t* left) {
+    BitModel models[9];
+    RangeDecoder rc(out.data() + 1, n);
+    size_t wrong = 0;
+    for (const auto& b : bits) wrong += rc.get(models[b.first]) != b.second;
+    *overrun = rc.overrun();
+    *left = rc.left();
+    return wrong;
+  };
+  size_t overrun = 0, left = 0;
+  EXPECT_EQ(decode(out.size() - 1, &overrun, &left), 0u);
+  EXPECT_EQ(overrun, 0u);  // read to exactly its last byte
+  EXPECT_EQ(left, 0u);
+  decode(out.size() - 3, &overrun, &left);
+  EXPECT_GT(overrun, 0u);
+}
+
+TEST(DepthLink, ADepthThatStaysWithinTheBoundCostsLittleAcrossTime) {
+  // The same scene again with fresh sensor noise (frame 0's instant, noise of frames 1..7): the delta frames
+  // keep most pixels from the frame before and cost clearly less than the key frame (the sensor's holes,
+  // drawn anew in every frame, are most of what is left).
+  Rig rig = default_classroom_rig();
+  CameraCalib cam = scale_camera(rig.cameras[0], 320, 180);
+  SyntheticCamera camera;
+  camera.configure(SyntheticCameraConfig());
+  DepthLinkEncoder enc;
+  DepthLinkDecoder dec;
+  std::vector<size_t> bytes;
+  for (int i = 0; i < 8; ++i) {
+    const cv::Mat depth = camera.frame(cam, 0.0, uint64_t(i)).depth.clone();
+    std::vector<uint8_t> wire;
+    enc.encode(depth, cv::Mat(), "c", i == 0, kDefaultDepthTolerance, &wire);
+    DepthLinkFrame f;
+    std::string err;
+    ASSERT_TRUE(dec.decode(wire.data(), wire.size(), &f, &err)) << err;
+    EXPECT_EQ(bound_violations(depth, f.depth, kDefaultDepthTolerance), 0);
+    bytes.push_back(wire.size());
+  }
+  // (Frame 1 re-sends the pixels whose key-frame bin centre lay near the bound; then the values settle near
+  // the encoder's estimate of the truth.)
+  for (int i = 4; i < 8; ++i) EXPECT_LT(bytes[size_t(i)] * 20, bytes[0] * 17) << "frame " << i << ": " << bytes[size_t(i)];
+}
+
+TEST(DepthLink, ASectionTooShortForItsDeclaredImageIsRefusedBeforeAllocating) {
+  DepthLinkEncoder enc;
+  std::vector<uint8_t> wire;
+  enc.encode(cv::Mat(4, 4, CV_16UC1, cv::Scalar(1500)), cv::Mat(), "", true, 280, &wire);
+  // Declared 2000 x 2000 (within the limits): its section would need at least 3906 bytes.
+  wire[8] = 0xd0; wire[9] = 0x07; wire[10] = 0xd0; wire[11] = 0x07;
+  DepthLinkDecoder dec;
+  DepthLinkFrame f;
+  std::string err;
+  EXPECT_FALSE(dec.decode(wire.data(), wire.size(), &f, &err));
+  EXPECT_NE(err.find("too short for its image"), std::string::npos) << err;
 }
 
 TEST(DepthLink, WrongInputIsTheProjectsError) {

@@ -2,11 +2,16 @@
 // frames are recorded into memory first, then sent through the old link (rgbdenc: JPEG q90 + lossless
 // depth, rtpgstpay) and the new one (x264enc + depth coded across time in SEI, rtph264pay), MTU 1400; the
 // camera side and the server side run as separate pipelines so each one's CPU is measured alone. Reports
-// Mbit/s on the wire (RTP + 28 bytes of IPv4/UDP headers per packet), CPU ms per frame on each side,
-// colour PSNR against the camera's own image, and the depth error against the sensor's depth (p99, max,
-// and the pixels beyond the documented bound). With --redwood, the depth coder alone on the Redwood
-// sequence as well.
+// Mbit/s on the wire (RTP + 28 bytes of IPv4/UDP headers per packet), CPU ms per frame on each side (the
+// process's CPU time over all its threads), colour PSNR against the camera's own image, the depth error
+// against the sensor's depth (p99, max, and the pixels beyond the documented bound), and the depth coder
+// alone (its thread's CPU time). With --view, the view PSNR loss: the lecturer's view rendered (viewwarp and
+// viewfuse's library, no labels, no prior) from the 3 cameras' frames as each link delivers them and from
+// the uncoded frames, at poses along a path, each against the classroom rendered exactly from that pose
+// (the ground truth); the loss is the drop of that PSNR. With --redwood, the same for the Redwood sequence's
+// depth (each frame warped to the next one's pose, against that real frame).
 #include <sys/resource.h>
+#include <time.h>
 
 #include <algorithm>
 #include <cmath>
@@ -19,10 +24,16 @@
 #include <gst/video/video.h>
 #include <gst/gst.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <gst/vclassroom/core/image_io.h>
+#include <gst/vclassroom/core/image_metrics.h>
 #include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/net/depth_link.h>
+#include <gst/vclassroom/synthetic/classroom.h>
+#include <gst/vclassroom/vva/view_fuse.h>
+#include <gst/vclassroom/vva/view_warp.h>
 
 #include "tool_options.h"
 #include "tool_support.h"
@@ -36,6 +47,18 @@ double cpu_seconds() {
   getrusage(RUSAGE_SELF, &u);
   return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
+
+double thread_cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+// One frame as a link delivers it (empty where it was lost).
+struct Delivered {
+  cv::Mat color;  // RGB
+  cv::Mat depth;  // mm
+};
 
 // Pushes `in` (with `caps`) through `chain` into an appsink; returns what came out and the CPU it took.
 std::vector<GstSample*> run_chain(const std::string& chain, GstCaps* caps, const std::vector<GstBuffer*>& in,
@@ -96,7 +119,8 @@ double percentile(std::vector<uint16_t>* v, double q) {
 }
 
 LinkResult measure(const vclassroom_tools::Recording& rec, const std::string& camera_chain,
-                   const std::string& server_chain, uint16_t tolerance, int fps) {
+                   const std::string& server_chain, uint16_t tolerance, int fps, std::vector<Delivered>* delivered) {
+  delivered->assign(rec.frames.size(), Delivered());
   LinkResult r;
   double enc_s = 0, dec_s = 0;
   std::vector<GstSample*> rtp = run_chain(camera_chain, rec.caps, rec.frames, &enc_s);
@@ -141,6 +165,7 @@ LinkResult measure(const vclassroom_tools::Recording& rec, const std::string& ca
     next = i + 1;
     if (i >= rec.frames.size() || !t.map(rec.frames[i], ti, GST_MAP_READ, &err)) continue;
     psnr_sum += cv::PSNR(t.color(), o.color(), 255.0);
+    (*delivered)[i] = Delivered{o.color().clone(), o.depth().clone()};
     const cv::Mat td = t.depth(), od = o.depth();
     for (int y = 0; y < td.rows; ++y)
       for (int x = 0; x < td.cols; ++x) {
@@ -163,58 +188,169 @@ LinkResult measure(const vclassroom_tools::Recording& rec, const std::string& ca
   return r;
 }
 
-// The lecturer's view along `trace` rendered from the 3 cameras coded by `coding` (non-live, so every run
-// renders the same frames at the same poses): learnerseg, viewwarp and viewfuse as server.sh runs them.
-std::vector<cv::Mat> views(const std::string& coding, const std::string& trace, int frames) {
-  std::string desc = "viewfuse name=fuse pose-trace=" + trace + " ! videoconvert ! video/x-raw,format=RGB ! "
-                     "appsink name=out sync=false ";
-  for (int k = 0; k < 3; ++k)
-    desc += "rgbdtestsrc camera-id=" + std::to_string(k) + " seed=1 ground-truth=false num-buffers=" +
-            std::to_string(frames) + " ! " + coding + " ! learnerseg ! viewwarp ! fuse.cam_" + std::to_string(k) + " ";
-  std::vector<cv::Mat> out;
-  GError* err = nullptr;
-  GstElement* p = gst_parse_launch(desc.c_str(), &err);
-  if (!p || err) {
-    std::fprintf(stderr, "cannot build the view pipeline: %s\n", err ? err->message : "?");
-    std::exit(1);
+// The depth coder alone on one camera's frames (a key frame every `key_interval`): Mbit/s at `fps` and each
+// side's thread CPU time per frame.
+struct DepthAlone {
+  double mbit = 0, enc_ms = 0, dec_ms = 0, holes_mbit = 0;
+};
+
+DepthAlone depth_alone(const std::vector<cv::Mat>& depths, const std::vector<cv::Mat>& labels, uint16_t tolerance,
+                       int key_interval, int fps) {
+  DepthLinkEncoder enc;
+  DepthLinkDecoder dec;
+  DepthAlone r;
+  double bytes = 0, enc_s = 0, dec_s = 0;
+  for (size_t i = 0; i < depths.size(); ++i) {
+    std::vector<uint8_t> wire;
+    const double t0 = thread_cpu_seconds();
+    enc.encode(depths[i], labels.empty() ? cv::Mat() : labels[i], "", i % size_t(key_interval) == 0, tolerance,
+               &wire);
+    const double t1 = thread_cpu_seconds();
+    DepthLinkFrame f;
+    std::string err;
+    if (!dec.decode(wire.data(), wire.size(), &f, &err)) std::fprintf(stderr, "depth alone: %s\n", err.c_str());
+    dec_s += thread_cpu_seconds() - t1;
+    enc_s += t1 - t0;
+    bytes += double(wire.size());
   }
-  GstElement* sink = gst_bin_get_by_name(GST_BIN(p), "out");
-  gst_element_set_state(p, GST_STATE_PLAYING);
-  while (GstSample* s = gst_app_sink_pull_sample(GST_APP_SINK(sink))) {
-    GstVideoInfo vi;
-    gst_video_info_from_caps(&vi, gst_sample_get_caps(s));
-    GstMapInfo map;
-    gst_buffer_map(gst_sample_get_buffer(s), &map, GST_MAP_READ);
-    out.push_back(cv::Mat(vi.height, vi.width, CV_8UC3, map.data, size_t(GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0))).clone());
-    gst_buffer_unmap(gst_sample_get_buffer(s), &map);
-    gst_sample_unref(s);
+  // The holes' share: the same frames with every measured pixel at one depth (its values then cost next to
+  // nothing), without labels.
+  DepthLinkEncoder holes;
+  double hole_bytes = 0;
+  for (size_t i = 0; i < depths.size(); ++i) {
+    std::vector<uint8_t> wire;
+    cv::Mat flat(depths[i].size(), CV_16UC1, cv::Scalar(0));
+    flat.setTo(2000, depths[i] != 0);
+    holes.encode(flat, cv::Mat(), "", i % size_t(key_interval) == 0, tolerance, &wire);
+    hole_bytes += double(wire.size());
   }
-  gst_element_set_state(p, GST_STATE_NULL);
-  gst_object_unref(sink);
-  gst_object_unref(p);
-  return out;
+  const double n = double(depths.size());
+  r.holes_mbit = hole_bytes * 8 * fps / n / 1e6;
+  r.mbit = bytes * 8 * fps / n / 1e6;
+  r.enc_ms = 1000 * enc_s / n;
+  r.dec_ms = 1000 * dec_s / n;
+  return r;
 }
 
-// Mean PSNR of `a` against `b`, frame by frame.
-double mean_psnr(const std::vector<cv::Mat>& a, const std::vector<cv::Mat>& b) {
-  double sum = 0;
-  const size_t n = std::min(a.size(), b.size()), skip = 5;
-  for (size_t i = skip; i < n; ++i) sum += cv::PSNR(a[i], b[i], 255.0);
-  return n > skip ? sum / double(n - skip) : 0;
+// The view of `virt` warped from each camera's frame and fused (viewwarp and viewfuse's library, as
+// server.sh runs them without a model: no prior; without labels: every pixel in one layer).
+cv::Mat render_view(const std::vector<CameraCalib>& cams, const std::vector<const Delivered*>& frames,
+                    const CameraCalib& virt, cv::Mat* filled = nullptr) {
+  std::vector<WarpedView> warped(cams.size());
+  std::vector<const WarpedView*> ptrs;
+  ViewWarper warper;
+  for (size_t k = 0; k < cams.size(); ++k) {
+    if (!frames[k] || frames[k]->color.empty()) continue;
+    warper.warp(cams[k], WarpSource{frames[k]->color, frames[k]->depth, cv::Mat(), cv::Mat()}, virt, WarpParams(),
+                &warped[k]);
+    ptrs.push_back(&warped[k]);
+  }
+  FusedView fused;
+  fuse_views(ptrs, FuseParams(), &fused);
+  if (filled) *filled = fused.filled.clone();
+  return fused.color;
 }
 
+// PSNR over the pixels where `mask` is non-zero.
+double psnr_masked(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
+  const double values = 3.0 * cv::countNonZero(mask), se = cv::norm(a, b, cv::NORM_L2SQR, mask);
+  return values == 0 || se == 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 * values / se);
+}
+
+// The view PSNR of each link (index 0: the uncoded frames) against the ground truth, and against the view
+// from the uncoded frames, averaged over the poses.
+struct ViewScores {
+  std::vector<double> truth, direct;
+  std::vector<double> seen;  // against the truth over the pixels the cameras saw in the uncoded frames' view
+  double seen_share = 0;
+  int poses = 0;
+};
+
+// `links[l][k][i]`: link l's frame i of camera k. A lecturer walking along a path beside the centre camera
+// (sliders [40..60, 50, 55, 50, 50, 50]): pose j of `poses` at frame i_j spread over the sequence, the
+// classroom rendered exactly from it at the frame's scene time (i / fps) as the ground truth.
+ViewScores view_scores(const std::vector<std::vector<std::vector<Delivered>>>& links,
+                       const std::vector<CameraCalib>& cams, int learners, int poses, int fps) {
+  ViewScores s;
+  s.truth.assign(links.size(), 0);
+  s.direct.assign(links.size(), 0);
+  s.seen.assign(links.size(), 0);
+  const Classroom room(ClassroomConfig{1, learners, 2.0});
+  ClassroomRenderer renderer;
+  const size_t frames = links[0][0].size();
+  for (int j = 0; j < poses; ++j) {
+    const size_t i = frames * size_t(2 * j + 1) / size_t(2 * poses);
+    Sliders sl = parse_sliders("[50,50,55,50,50,50]");
+    sl[0] = 40 + 20.0 * j / std::max(1, poses - 1);
+    const CameraCalib virt = virtual_camera(cams[0], sliders_to_pose(sl, cams[0]).cam_to_rig(), NAN);
+    RenderOutput truth;
+    renderer.render(room, double(i) / fps, virt, &truth);
+    cv::Mat reference, seen;
+    for (size_t l = 0; l < links.size(); ++l) {
+      std::vector<const Delivered*> frame;
+      for (const auto& cam : links[l]) frame.push_back(&cam[i]);
+      cv::Mat filled;
+      const cv::Mat view = render_view(cams, frame, virt, &filled);
+      if (l == 0) {
+        reference = view;
+        seen = filled == 0;
+        s.seen_share += double(cv::countNonZero(seen)) / double(seen.total()) / poses;
+      }
+      s.truth[l] += psnr_rgb(view, truth.color) / poses;
+      s.seen[l] += psnr_masked(view, truth.color, seen) / poses;
+      s.direct[l] += (l == 0 ? 99.0 : psnr_rgb(view, reference)) / poses;
+    }
+  }
+  s.poses = poses;
+  return s;
+}
+
+// Redwood "log" trajectory: per frame a line "i j n" then the 4x4 camera-to-world matrix; [] when unreadable.
+std::vector<Eigen::Isometry3d> read_trajectory(const std::string& path) {
+  std::vector<Eigen::Isometry3d> poses;
+  FILE* f = std::fopen(path.c_str(), "r");
+  if (!f) return poses;
+  int a, b, c;
+  while (std::fscanf(f, "%d %d %d", &a, &b, &c) == 3) {
+    Eigen::Matrix4d m;
+    for (int r = 0; r < 4; ++r)
+      for (int k = 0; k < 4; ++k)
+        if (std::fscanf(f, "%lf", &m(r, k)) != 1) return {};
+    Eigen::Isometry3d iso;
+    iso.matrix() = m;
+    poses.push_back(iso);
+  }
+  std::fclose(f);
+  return poses;
+}
+
+// Redwood: the depth coder alone (lossless and within the bound), and the depth's share of the view PSNR
+// loss: each frame warped (with its own colour, uncoded) to the next frame's pose with the coded and with
+// the uncoded depth, against that next real frame (the ground truth the sequence has).
 void redwood(const std::string& dir, uint16_t tolerance) {
-  std::vector<cv::Mat> depths;
+  std::vector<cv::Mat> depths, colors;
   for (int i = 0; i < 5; ++i) {
     char name[32];
-    std::snprintf(name, sizeof name, "/depth/%05d.png", i);
-    depths.push_back(read_depth_mm(dir + name, 1.0));
+    std::snprintf(name, sizeof name, "%05d", i);
+    depths.push_back(read_depth_mm(dir + "/depth/" + name + ".png", 1.0));
+    cv::Mat bgr = read_color_image(dir + "/color/" + name + ".jpg", "colour"), rgb;
+    cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+    colors.push_back(rgb);
   }
+  const std::vector<Eigen::Isometry3d> traj = read_trajectory(dir + "/trajectory.log");
+  CameraCalib cam;
+  cam.width = 640;
+  cam.height = 480;
+  cam.fx = cam.fy = 525;
+  cam.cx = 319.5;
+  cam.cy = 239.5;
+  std::vector<double> view_psnr;
   for (uint16_t tol : {uint16_t(0), tolerance}) {
     DepthLinkEncoder enc;
     DepthLinkDecoder dec;
     size_t bytes = 0, beyond = 0;
     std::vector<uint16_t> errors;
+    double psnr = 0;
     for (size_t i = 0; i < depths.size(); ++i) {
       std::vector<uint8_t> wire;
       enc.encode(depths[i], cv::Mat(), "", i == 0, tol, &wire);
@@ -229,58 +365,110 @@ void redwood(const std::string& dir, uint16_t tolerance) {
           errors.push_back(uint16_t(std::abs(int(z) - int(c))));
           if (errors.back() > depth_error_bound(z, tol)) ++beyond;
         }
+      if (i + 1 < depths.size() && traj.size() == depths.size()) {
+        CameraCalib from = cam, to = cam;
+        from.cam_to_rig = traj[i];
+        to.cam_to_rig = traj[i + 1];
+        const Delivered d{colors[i], f.depth};
+        psnr += psnr_rgb(render_view({from}, {&d}, to), colors[i + 1]) / double(depths.size() - 1);
+      }
     }
+    view_psnr.push_back(psnr);
     std::printf("redwood depth, tolerance %.2f mm at 1 m: %.1f kB/frame (%.1f Mbit/s at 30 fps), error p99 %.0f mm, "
-                "max %d mm, pixels beyond the bound %zu\n",
+                "max %d mm, pixels beyond the bound %zu; each frame warped to the next's pose: %.2f dB against it\n",
                 tol / 100.0, bytes / 1000.0 / double(depths.size()), bytes * 8.0 * 30 / double(depths.size()) / 1e6,
-                percentile(&errors, 0.99), errors.empty() ? 0 : *std::max_element(errors.begin(), errors.end()), beyond);
+                percentile(&errors, 0.99), errors.empty() ? 0 : *std::max_element(errors.begin(), errors.end()), beyond,
+                psnr);
   }
+  if (traj.size() == depths.size())
+    std::printf("redwood: view PSNR loss from the depth coding %.2f dB (colour uncoded)\n", view_psnr[0] - view_psnr[1]);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  int frames = 60, cameras = 3, bitrate = 4000;
+  int frames = 60, cameras = 3, bitrate = 4000, learners = 3, poses = 8;
   double tolerance = kDefaultDepthTolerance / 100.0;
   gchar* redwood_dir = nullptr;
-  gchar* trace = nullptr;
+  gchar* colour = nullptr;
   gboolean view = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames per camera (default 60: 2 s at 30 fps)", "N"},
       {"cameras", 0, 0, G_OPTION_ARG_INT, &cameras, "synthetic cameras 0..N-1 (default 3)", "N"},
+      {"learners", 0, 0, G_OPTION_ARG_INT, &learners, "learners in the classroom (default 3, rgbdtestsrc's and so "
+       "classroom.sh's)", "N"},
       {"bitrate", 0, 0, G_OPTION_ARG_INT, &bitrate, "x264enc bitrate in kbit/s (default 4000, classroom.sh's)", "K"},
+      {"colour", 0, 0, G_OPTION_ARG_STRING, &colour, "the colour's format on the new link: I420 (default, "
+       "classroom.sh's) or Y444 (decoded with avdec_h264)", "FORMAT"},
       {"tolerance", 0, 0, G_OPTION_ARG_DOUBLE, &tolerance, "depth tolerance, mm at 1 m (default 2.8; 0: lossless)", "T"},
       {"redwood", 0, 0, G_OPTION_ARG_FILENAME, &redwood_dir, "also code the Redwood sequence's depth in DIR", "DIR"},
-      {"view", 0, 0, G_OPTION_ARG_NONE, &view, "also render the lecturer's view from the 3 cameras through each link "
-       "and compare it with the view from the uncoded frames (PSNR loss)", nullptr},
-      {"trace", 0, 0, G_OPTION_ARG_FILENAME, &trace, "the view's pose trace (default: one pose, the first of "
-       "pipelines/lecturer-walk.csv, held)", "CSV"},
+      {"view", 0, 0, G_OPTION_ARG_NONE, &view, "also render the lecturer's view from the cameras through each link and "
+       "from the uncoded frames, against the ground truth (the view PSNR loss)", nullptr},
+      {"poses", 0, 0, G_OPTION_ARG_INT, &poses, "poses along the lecturer's path for --view (default 8)", "N"},
       {}};
   vclassroom_tools::parse_command_line(
       &argc, &argv, "",
       "Sends each synthetic camera (960x540 at 30 fps, sensor model on, seed 1) through the old camera link and\n"
-      "the new one and prints Mbit/s on the wire, CPU per frame, colour PSNR and depth error.",
+      "the new one and prints Mbit/s on the wire, CPU per frame, colour PSNR, depth error and the view PSNR loss.",
       entries, gst_init_get_option_group());
-  if (frames < 2 || cameras < 1 || cameras > 3 || bitrate < 100 || tolerance < 0 || tolerance > 655)
-    vclassroom_tools::usage_error("--frames >= 2, --cameras 1 to 3, --bitrate >= 100, --tolerance 0 to 655");
+  const std::string format = colour ? colour : "I420";
+  if (frames < 2 || cameras < 1 || cameras > 3 || bitrate < 100 || tolerance < 0 || tolerance > 655 ||
+      learners < 0 || learners > kClassroomMaxLearners || poses < 1 || poses > frames ||
+      (format != "I420" && format != "Y444"))
+    vclassroom_tools::usage_error("--frames >= 2, --cameras 1 to 3, --bitrate >= 100, --tolerance 0 to 655, "
+                                  "--learners 0 to the classroom's most, --poses 1 to --frames, --colour I420 or Y444");
   const auto tol = uint16_t(std::lround(tolerance * 100));
   char tol_text[32];
   std::snprintf(tol_text, sizeof tol_text, "%.2f", tolerance);
   const std::string old_cam = "rgbdenc quality=90 ! rtpgstpay config-interval=1 mtu=1400 pt=96";
   const std::string old_srv = "rtpgstdepay ! rgbddec";
+  const std::string profile = format == "Y444" ? "high-4:4:4" : "constrained-baseline";
   const std::string new_cam =
-      "rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast "
-      "key-int-max=60 bitrate=" + std::to_string(bitrate) + " ! video/x-h264,profile=constrained-baseline ! "
-      "rgbdlinkmux depth-tolerance=" + tol_text + " ! rtph264pay mtu=1400 pt=96";
-  const std::string new_srv = "rtph264depay ! rgbdlinkdemux ! openh264dec ! videoconvert ! rgbdlinkjoin";
+      "rgbdlinksplit ! videoconvert ! video/x-raw,format=" + format + " ! x264enc tune=zerolatency "
+      "speed-preset=ultrafast key-int-max=60 bitrate=" + std::to_string(bitrate) + " ! video/x-h264,profile=" +
+      profile + " ! rgbdlinkmux depth-tolerance=" + tol_text + " ! rtph264pay mtu=1400 pt=96";
+  const std::string new_srv = std::string("rtph264depay ! rgbdlinkdemux ! ") +
+                              (format == "Y444" ? "avdec_h264" : "openh264dec") + " ! videoconvert ! rgbdlinkjoin";
   LinkResult sum_old, sum_new;
+  DepthAlone depth_sum;
+  // [link: uncoded, old, new][camera][frame]
+  std::vector<std::vector<std::vector<Delivered>>> delivered(3, std::vector<std::vector<Delivered>>(size_t(cameras)));
+  std::vector<CameraCalib> calibs;
   for (int k = 0; k < cameras; ++k) {
     vclassroom_tools::Recording rec;
     if (!vclassroom_tools::record_stream("rgbdtestsrc camera-id=" + std::to_string(k) + " seed=1 ground-truth=false "
-                                         "num-buffers=" + std::to_string(frames), frames, &rec))
+                                         "learners=" + std::to_string(learners) + " num-buffers=" +
+                                         std::to_string(frames), frames, &rec))
       return 1;
+    RgbdInfo info;
+    std::string err;
+    rgbd_info_from_caps(rec.caps, &info, &err);
+    calibs.push_back(info.camera);
+    std::vector<cv::Mat> depths, labels;
+    for (GstBuffer* b : rec.frames) {
+      RgbdFrame f;
+      if (!f.map(b, info, GST_MAP_READ, &err)) return 1;
+      delivered[0][size_t(k)].push_back(Delivered{f.color().clone(), f.depth().clone()});
+      depths.push_back(f.depth().clone());
+      if (info.has(Plane::Label)) labels.push_back(f.label().clone());
+    }
+    if (k == 0) {  // the camera side's colour part alone: the same chain without rgbdlinkmux
+      double colour_s = 0;
+      const std::string colour_only = new_cam.substr(0, new_cam.find(" ! rgbdlinkmux"));
+      for (GstSample* s : run_chain(colour_only, rec.caps, rec.frames, &colour_s)) gst_sample_unref(s);
+      std::printf("camera 0, the new link's colour alone (split, videoconvert, x264enc): %.1f ms per frame\n",
+                  1000 * colour_s / double(rec.frames.size()));
+    }
+    const DepthAlone d = depth_alone(depths, labels, tol, 60, 30);
+    std::printf("camera %d, the depth coder alone (labels included): %.1f Mbit/s (the holes alone %.1f), encode %.1f "
+                "ms, decode %.1f ms per frame (thread CPU)\n", k, d.mbit, d.holes_mbit, d.enc_ms, d.dec_ms);
+    depth_sum.holes_mbit += d.holes_mbit / cameras;
+    depth_sum.mbit += d.mbit / cameras;
+    depth_sum.enc_ms += d.enc_ms / cameras;
+    depth_sum.dec_ms += d.dec_ms / cameras;
     for (int link = 0; link < 2; ++link) {
-      const LinkResult r = link == 0 ? measure(rec, old_cam, old_srv, 0, 30) : measure(rec, new_cam, new_srv, tol, 30);
+      const LinkResult r = link == 0 ? measure(rec, old_cam, old_srv, 0, 30, &delivered[1][size_t(k)])
+                                     : measure(rec, new_cam, new_srv, tol, 30, &delivered[2][size_t(k)]);
       std::printf("camera %d, %s: %zu/%d frames, %.1f Mbit/s, camera CPU %.1f ms/frame, server CPU %.1f ms/frame, "
                   "colour PSNR %.2f dB, depth error p99 %.0f mm, max %.0f mm, beyond the bound %zu, holes changed %zu\n",
                   k, link == 0 ? "old link (rgbdenc, rtpgstpay)" : "new link (H.264 + depth SEI, rtph264pay)",
@@ -292,42 +480,30 @@ int main(int argc, char** argv) {
       s.dec_ms += r.dec_ms / cameras;
       s.psnr += r.psnr / cameras;
       s.p99 = std::max(s.p99, r.p99);
-      s.beyond_bound += r.beyond_bound;
+      s.beyond_bound += r.beyond_bound + r.holes_changed;
     }
   }
+  std::printf("depth coder alone: %.1f Mbit/s per camera (the holes alone %.1f), encode %.1f ms, decode %.1f ms per "
+              "frame\n", depth_sum.mbit, depth_sum.holes_mbit, depth_sum.enc_ms, depth_sum.dec_ms);
   if (redwood_dir) redwood(redwood_dir, tol);
-  double view_old = 0, view_new = 0;
-  if (view) {
-    // One pose held (a pose reaches the warps a frame or two after it is sent, on their own threads, so a
-    // moving pose would make runs differ by when it arrived, not by the link); the first frames, rendered
-    // before it arrived, are not compared.
-    std::string t = trace ? trace : "";
-    if (t.empty()) {
-      t = vclassroom_tools::make_temp_dir("camlink") + "/pose.csv";
-      FILE* f = std::fopen(t.c_str(), "w");
-      std::fprintf(f, "t,x,y,z,qw,qx,qy,qz,fov\n0.0000,-0.80000,-0.25,-0.3,0.173648178,0.984807753,0,0,90\n");
-      std::fclose(f);
-    }
-    const std::vector<cv::Mat> clean = views("identity", t, frames);
-    const std::vector<cv::Mat> old_v = views("rgbdenc quality=90 ! rgbddec", t, frames);
-    const std::vector<cv::Mat> new_v = views(
-        new_cam.substr(0, new_cam.find(" ! rtph264pay")) + " ! rgbdlinkdemux ! openh264dec ! videoconvert ! "
-        "video/x-raw,format=RGB ! rgbdlinkjoin", t, frames);
-    view_old = mean_psnr(old_v, clean);
-    view_new = mean_psnr(new_v, clean);
-    std::printf("view along %s, %zu / %zu / %zu frames: PSNR against the view from the uncoded frames: old link "
-                "%.2f dB, new link %.2f dB\n", t.c_str(), clean.size(), old_v.size(), new_v.size(), view_old, view_new);
-  }
   std::printf("old link: %.1f Mbit/s per camera, camera %.1f ms, server %.1f ms per frame, colour PSNR %.2f dB\n",
               sum_old.mbit, sum_old.enc_ms, sum_old.dec_ms, sum_old.psnr);
-  std::printf("camera link: %.1f Mbit/s per camera, camera %.1f ms, server %.1f ms per frame, colour PSNR %.2f dB "
-              "(%.2f dB below the old link's), depth error p99 %.0f mm, %zu pixels beyond the bound\n",
-              sum_new.mbit, sum_new.enc_ms, sum_new.dec_ms, sum_new.psnr, sum_old.psnr - sum_new.psnr, sum_new.p99,
-              sum_new.beyond_bound);
-  if (view)
-    std::printf("camera link: %.1f Mbit/s per camera, view PSNR against the uncoded frames' view %.2f dB (old link "
-                "%.2f dB), depth error p99 %.0f mm\n", sum_new.mbit, view_new, view_old, sum_new.p99);
+  std::printf("new link: %.1f Mbit/s per camera, camera %.1f ms, server %.1f ms per frame, colour PSNR %.2f dB, "
+              "depth error p99 %.0f mm, %zu pixels beyond the bound\n", sum_new.mbit, sum_new.enc_ms, sum_new.dec_ms,
+              sum_new.psnr, sum_new.p99, sum_new.beyond_bound);
+  if (view) {
+    const ViewScores v = view_scores(delivered, calibs, learners, poses, 30);
+    std::printf("view, %d poses along the path, PSNR against the ground truth: uncoded frames %.2f dB, old link "
+                "%.2f dB, new link %.2f dB; against the view from the uncoded frames: old %.2f dB, new %.2f dB\n",
+                v.poses, v.truth[0], v.truth[1], v.truth[2], v.direct[1], v.direct[2]);
+    std::printf("view over the %.0f %% of pixels the cameras saw (not hole-filled): uncoded frames %.2f dB, old link %.2f "
+                "dB, new link %.2f dB: PSNR loss old %.2f dB, new %.2f dB\n", 100 * v.seen_share, v.seen[0], v.seen[1],
+                v.seen[2], v.seen[0] - v.seen[1], v.seen[0] - v.seen[2]);
+    std::printf("old link: view PSNR loss %.2f dB\n", v.truth[0] - v.truth[1]);
+    std::printf("camera link: %.1f Mbit/s per camera, view PSNR loss %.2f dB, depth error p99 %.0f mm\n", sum_new.mbit,
+                v.truth[0] - v.truth[2], sum_new.p99);
+  }
   g_free(redwood_dir);
-  g_free(trace);
+  g_free(colour);
   return sum_new.beyond_bound == 0 ? 0 : 1;
 }

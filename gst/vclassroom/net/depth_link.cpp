@@ -1,9 +1,12 @@
 #include <gst/vclassroom/net/depth_link.h>
 
+#include <gst/vclassroom/net/range_coder.h>
+
 #include <zlib.h>
 
 #include <algorithm>
 #include <cstring>
+#include <memory>
 
 #include <gst/vclassroom/core/byte_order.h>
 #include <gst/vclassroom/core/error.h>
@@ -11,9 +14,8 @@
 namespace vclassroom {
 namespace {
 
-constexpr uint8_t kVersion = 1;
+constexpr uint8_t kVersion = 2;
 constexpr uint8_t kFlagKey = 1, kFlagLabels = 2;
-constexpr uint8_t kEscape = 255;
 
 // The bins of one tolerance: bin_of[z] for every 16-bit depth, and each bin's centre (bin 0: no measurement).
 struct DepthBins {
@@ -93,39 +95,137 @@ DepthBins& bins_for(uint16_t tolerance) {
   return bins;
 }
 
-inline uint32_t zigzag(int32_t r) { return (uint32_t(r) << 1) ^ uint32_t(r >> 31); }
-inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
-
-// Bits, most significant first.
-struct BitWriter {
-  std::vector<uint8_t>* out;
-  uint8_t acc = 0;
-  int n = 0;
-  void put(bool bit) {
-    acc = uint8_t(acc << 1 | bit);
-    if (++n == 8) flush();
-  }
-  void flush() {
-    if (n == 0) return;
-    out->push_back(uint8_t(acc << (8 - n)));
-    acc = 0;
-    n = 0;
-  }
+// The contexts both sides start every frame with (docs/network.md, "The depth frame", lists them).
+struct DepthModels {
+  BitModel measured[2][64];         // [key][history << 4 | measured neighbours]
+  BitModel changed[2][18];          // [key][measured the frame before * 9 + left's state * 3 + upper's state]
+  BitModel sign[2];                 // [key]
+  BitModel escape;                  // delta frames: a changed pixel's value is a bin, not a step
+  BitModel length[4][17];           // [kind: 0 step, 1 key difference, 2 bin, 3 delta's row difference][i]
+  BitModel mantissa[4][17][17];     // [kind][length][bit]
 };
 
-// A changed pixel's value: the zigzagged difference to its prediction in 1..254, else 255 and the bin in two
-// bytes.
-inline void put_value(uint16_t bin, uint16_t p, std::vector<uint8_t>* values) {
-  if (p != 0) {
-    const uint32_t s = zigzag(int32_t(bin) - int32_t(p));
-    if (s < kEscape) {
-      values->push_back(uint8_t(s));
-      return;
-    }
+// A pixel codes at most 36 bits (measured, changed, escape, sign, 16 of length, 16 of mantissa), each costing
+// at most 7.05 bits of output (a probability never falls below 31/4096): 31.7 bytes, rounded up.
+constexpr size_t kWorstBytesPerPixel = 32;
+
+enum PixelState : uint8_t { kHole = 0, kSame = 1, kChanged = 2 };
+enum MagnitudeKind { kDeltaDifference = 0, kKeyDifference = 1, kNoPrediction = 2, kRowDifference = 3 };
+
+// n = floor(log2 v): what a magnitude's cost grows with.
+inline int magnitude_length(uint32_t v) {
+  int n = 0;
+  while ((v >> (n + 1)) != 0) ++n;
+  return n;
+}
+
+// A magnitude v in 1..131071: its length n = floor(log2 v) in unary (n ones, then a zero unless n = 16), then
+// v's n bits below its leading one, most significant first.
+inline void put_magnitude(RangeEncoder& rc, DepthModels& m, int kind, uint32_t v) {
+  const int n = magnitude_length(v);
+  for (int i = 0; i < n; ++i) rc.put(m.length[kind][i], true);
+  if (n < 16) rc.put(m.length[kind][n], false);
+  for (int b = n - 1; b >= 0; --b) rc.put(m.mantissa[kind][n][b], (v >> b) & 1);
+}
+
+inline uint32_t zigzag(int32_t d) { return (uint32_t(d) << 1) ^ uint32_t(d >> 31); }
+inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
+
+inline uint32_t get_magnitude(RangeDecoder& rc, DepthModels& m, int kind) {
+  int n = 0;
+  while (n < 16 && rc.get(m.length[kind][n])) ++n;
+  uint32_t v = 1;
+  for (int b = n - 1; b >= 0; --b) v = v << 1 | uint32_t(rc.get(m.mantissa[kind][n][b]));
+  return v;
+}
+
+// Which of a pixel's four causal neighbours (left, upper, upper left, upper right) are measured; `cur` and
+// `up` hold the row's and the row above's states at x + 1 (a hole on either side of the image).
+inline int neighbours(const uint8_t* cur, const uint8_t* up, int x) {
+  return int(cur[x] != kHole) | int(up[x + 1] != kHole) << 1 | int(up[x] != kHole) << 2 | int(up[x + 2] != kHole) << 3;
+}
+
+// A delta frame's new value for a measured depth z that left its prediction p (|z - p| > e(z)): on the grid
+// p + k (e(p) / 2 + 1), k != 0, the point within e(z) of z nearest to `target` (the encoder's estimate of the
+// true depth, which the noise scatters z around: a value near it is kept longer); 0 when the grid has no
+// point within the bound (z much nearer than p).
+inline int32_t delta_step(uint16_t z, uint16_t p, int32_t target, const DepthBins& b) {
+  const int32_t e = b.bound[z], q = int32_t(b.bound[p]) / 2 + 1;
+  const bool below = z < p;
+  const int32_t num = std::clamp(target, int32_t(z) - e, int32_t(z) + e) - int32_t(p);
+  int32_t k = num >= 0 ? (num + q / 2) / q : -((-num + q / 2) / q);
+  if (k == 0) k = below ? -1 : 1;
+  for (int32_t c : {k, k + 1, k - 1}) {
+    const int64_t v = int64_t(p) + int64_t(c) * q;
+    if (c != 0 && (c < 0) == below && v >= 1 && v <= 65535 && std::abs(v - int64_t(z)) <= e) return c;
   }
-  values->push_back(kEscape);
-  values->push_back(uint8_t(bin));
-  values->push_back(uint8_t(bin >> 8));
+  return 0;
+}
+
+// Codes one measured pixel against its prediction `p` (mm, 0: none); returns the value the decoder will
+// reconstruct, and its state for the neighbours' contexts in `state`.
+inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t z, uint16_t p,
+                          uint16_t left, float target, const DepthBins& b, uint8_t* state) {
+  *state = kChanged;
+  if (p == 0) {
+    const uint16_t bin = b.bin_of[z];
+    put_magnitude(rc, m, kNoPrediction, bin);
+    return b.center[bin];
+  }
+  const bool changed = std::abs(int32_t(z) - int32_t(p)) > int32_t(b.bound[z]);
+  rc.put(m.changed[key][changed_ctx], changed);
+  if (!changed) {
+    *state = kSame;
+    return p;
+  }
+  if (key) {  // p is a bin's centre, z in another bin
+    const int32_t bin = b.bin_of[z], pb = b.bin_of[p];
+    rc.put(m.sign[1], bin < pb);
+    put_magnitude(rc, m, kKeyDifference, uint32_t(std::abs(bin - pb)));
+    return b.center[bin];
+  }
+  // The step from p, or (escape) the bin coded against the bin of the depth decoded last on the row, `left`
+  // (its bin alone where there is none), whichever is shorter: where the camera or something in view moved,
+  // the row is the better prediction.
+  const int32_t k = delta_step(z, p, int32_t(target + 0.5f), b);  // target >= 0: rounded
+  const int32_t bin = b.bin_of[z];
+  const uint32_t row = left != 0 ? zigzag(bin - int32_t(b.bin_of[left])) + 1 : 0;
+  const bool escape = k == 0 || (left != 0 && magnitude_length(row) < magnitude_length(uint32_t(std::abs(k))));
+  rc.put(m.escape, escape);
+  if (escape) {
+    put_magnitude(rc, m, left != 0 ? kRowDifference : kNoPrediction, left != 0 ? row : uint32_t(bin));
+    return b.center[bin];
+  }
+  rc.put(m.sign[0], k < 0);
+  put_magnitude(rc, m, kDeltaDifference, uint32_t(std::abs(k)));
+  return uint16_t(int32_t(p) + k * (int32_t(b.bound[p]) / 2 + 1));
+}
+
+// Decodes what put_pixel() coded; 0 when it names a depth beyond the scale.
+inline uint16_t get_pixel(RangeDecoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t p, uint16_t left,
+                          const DepthBins& b, uint8_t* state) {
+  const auto nbins = int64_t(b.center.size());
+  *state = kChanged;
+  int64_t bin;
+  if (p == 0) {
+    bin = get_magnitude(rc, m, kNoPrediction);
+  } else if (!rc.get(m.changed[key][changed_ctx])) {
+    *state = kSame;
+    return p;
+  } else if (key) {
+    const bool below = rc.get(m.sign[1]);
+    const int64_t d = get_magnitude(rc, m, kKeyDifference);
+    bin = below ? int64_t(b.bin_of[p]) - d : int64_t(b.bin_of[p]) + d;
+  } else if (rc.get(m.escape)) {
+    bin = left != 0 ? int64_t(b.bin_of[left]) + unzigzag(get_magnitude(rc, m, kRowDifference) - 1)
+                    : int64_t(get_magnitude(rc, m, kNoPrediction));
+  } else {
+    const bool below = rc.get(m.sign[0]);
+    const int64_t k = get_magnitude(rc, m, kDeltaDifference);
+    const int64_t v = int64_t(p) + (below ? -k : k) * (int64_t(b.bound[p]) / 2 + 1);
+    return v >= 1 && v <= 65535 ? uint16_t(v) : 0;
+  }
+  return bin >= 1 && bin < nbins ? b.center[size_t(bin)] : 0;
 }
 
 }  // namespace
@@ -141,47 +241,58 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
     throw Error("depth link: depth must be a 16-bit image of at most 65535 x 65535");
   if (!label.empty() && (label.type() != CV_8UC1 || label.size() != depth.size()))
     throw Error("depth link: labels must be an 8-bit image of the depth's size");
-  if (!have_ref_ || tolerance != tolerance_ || bins_.size() != depth.size()) key = true;
+  if (!have_ref_ || tolerance != tolerance_ || recon_.size() != depth.size()) key = true;
   const DepthBins& b = bins_for(tolerance);
   const int w = depth.cols, h = depth.rows;
-  // The prediction: in a delta frame the pixel's last measured bin (through holes), in a key frame the
-  // last measured bin before it on its row. Both sides keep the same memory.
-  cv::Mat bins(h, w, CV_16UC1);
-  cv::Mat mem = key ? cv::Mat::zeros(h, w, CV_16UC1) : mem_.clone();
-  // Three parts, deflated together: which pixels changed between measured and not (a bit per pixel; in a key
-  // frame: which are measured), which measured pixels differ from their prediction (a bit each), and the
-  // values of those.
-  std::vector<uint8_t> sym, changed, values;
-  sym.reserve(size_t(w) * h / 8 + 1);
-  BitWriter mask{&sym}, change{&changed};
-  for (int y = 0; y < h; ++y) {
-    const uint16_t* zr = depth.ptr<uint16_t>(y);
-    uint16_t* br = bins.ptr<uint16_t>(y);
-    uint16_t* mr = mem.ptr<uint16_t>(y);
-    const uint16_t* prev = key ? nullptr : bins_.ptr<uint16_t>(y);
-    uint16_t run = 0;
-    for (int x = 0; x < w; ++x) {
-      const uint16_t z = zr[x];
-      mask.put((z != 0) != (prev && prev[x] != 0));
-      br[x] = 0;
-      if (z == 0) continue;
-      const uint16_t p = key ? run : mr[x];
-      const int d = int(b.center[p]) - int(z);
-      const uint16_t bin = (p != 0 && std::abs(d) <= int(b.bound[z])) ? p : b.bin_of[z];
-      mr[x] = run = br[x] = bin;
-      change.put(bin != p);
-      if (bin != p) put_value(bin, p, &values);
-    }
+  if (key) {
+    mem_ = cv::Mat::zeros(h, w, CV_16UC1);
+    history_ = cv::Mat::zeros(h, w, CV_8UC1);
+    estimate_ = cv::Mat::zeros(h, w, CV_32FC1);
   }
-  mask.flush();
-  change.flush();
-  sym.insert(sym.end(), changed.begin(), changed.end());
-  sym.insert(sym.end(), values.begin(), values.end());
+  recon_.create(h, w, CV_16UC1);
   const size_t start = out->size();
   out->resize(start + kDepthLinkHeaderBytes);
   out->insert(out->end(), caps.begin(), caps.end());
   const size_t depth_start = out->size();
-  deflate_into(sym.data(), sym.size(), zlib_level, tolerance > 0, out);
+  // Every pixel in raster order: measured or not, then (measured, with a prediction) whether it keeps the
+  // prediction, then (it does not) its new value; the prediction is the pixel's last decoded measurement
+  // since the key frame (delta frames) or the last depth decoded before it on its row (key frames).
+  auto models = std::make_unique<DepthModels>();
+  RangeEncoder rc(out);
+  const int k = key ? 1 : 0;
+  std::vector<uint8_t> state_a(size_t(w) + 2, kHole), state_b(size_t(w) + 2, kHole);
+  uint8_t* cur = state_a.data();
+  uint8_t* up = state_b.data();
+  for (int y = 0; y < h; ++y) {
+    rc.reserve(size_t(w) * kWorstBytesPerPixel + 16);
+    std::swap(cur, up);
+    const uint16_t* zr = depth.ptr<uint16_t>(y);
+    uint16_t* br = recon_.ptr<uint16_t>(y);
+    uint16_t* mr = mem_.ptr<uint16_t>(y);
+    uint8_t* hr = history_.ptr<uint8_t>(y);
+    float* er = estimate_.ptr<float>(y);
+    uint16_t run = 0;
+    for (int x = 0; x < w; ++x) {
+      const uint16_t z = zr[x];
+      const bool measured = z != 0;
+      const int before = hr[x];
+      rc.put(models->measured[k][before << 4 | neighbours(cur, up, x)], measured);
+      hr[x] = uint8_t((before << 1 | int(measured)) & 3);
+      br[x] = 0;
+      if (!measured) {
+        cur[x + 1] = kHole;
+        continue;
+      }
+      // The estimate of the true depth: the mean of the pixel's last measurements (a quarter of the way
+      // towards each new one), restarted where it jumps by more than twice the bound (something moved).
+      float& est = er[x];
+      est = std::abs(float(z) - est) > 2.0f * float(b.bound[z]) + 1.0f ? float(z) : est + 0.25f * (float(z) - est);
+      const uint16_t v = put_pixel(rc, *models, key, (before & 1) * 9 + cur[x] * 3 + up[x + 1], z,
+                                   key ? run : mr[x], run, est, b, &cur[x + 1]);
+      mr[x] = run = br[x] = v;
+    }
+  }
+  rc.finish();
   const size_t label_start = out->size();
   if (!label.empty()) {
     cv::Mat l = label.isContinuous() ? label : label.clone();
@@ -202,19 +313,11 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   uLong crc = ::crc32(0, hdr, 28);
   crc = ::crc32_z(crc, hdr + kDepthLinkHeaderBytes, out->size() - start - kDepthLinkHeaderBytes);
   write_le32(hdr + 28, uint32_t(crc));
-  bins_ = bins;
-  mem_ = mem;
   tolerance_ = tolerance;
   have_ref_ = true;
 }
 
-cv::Mat DepthLinkEncoder::reconstructed() const {
-  cv::Mat z(bins_.size(), CV_16UC1);
-  const DepthBins& b = bins_for(tolerance_);
-  for (int y = 0; y < bins_.rows; ++y)
-    for (int x = 0; x < bins_.cols; ++x) z.ptr<uint16_t>(y)[x] = b.center[bins_.ptr<uint16_t>(y)[x]];
-  return z;
-}
+cv::Mat DepthLinkEncoder::reconstructed() const { return recon_.clone(); }
 
 namespace {
 
@@ -230,7 +333,7 @@ struct Header {
 std::string parse_header(const uint8_t* data, size_t size, const DepthLinkLimits& limits, Header* hd) {
   if (size < kDepthLinkHeaderBytes) return "depth frame shorter than its header";
   if (std::memcmp(data, "VCDL", 4) != 0) return "not a depth frame (magic)";
-  if (data[4] != kVersion) return "depth frame version " + std::to_string(data[4]) + " (this reads 1)";
+  if (data[4] != kVersion) return "depth frame version " + std::to_string(data[4]) + " (this reads 2)";
   hd->flags = data[5];
   if (hd->flags & ~(kFlagKey | kFlagLabels)) return "depth frame with unknown flags";
   hd->tolerance = uint16_t(read_le16(data + 6));
@@ -247,9 +350,48 @@ std::string parse_header(const uint8_t* data, size_t size, const DepthLinkLimits
   if (hd->caps_len + hd->depth_len + hd->label_len != size - kDepthLinkHeaderBytes)
     return "depth frame's section lengths do not add up to its size";
   if (((hd->flags & kFlagLabels) != 0) != (hd->label_len > 0)) return "depth frame's label flag and section disagree";
+  // Every pixel costs the depth coder more than 1/1024 of a byte (its measured bit alone at least 0.011 bit): a
+  // shorter section cannot be an image of the declared size, and nothing is allocated for it.
+  if (hd->depth_len < uint64_t(hd->w) * uint64_t(hd->h) / 1024 + 5) return "depth section too short for its image";
   uLong crc = ::crc32(0, data, 28);
   crc = ::crc32_z(crc, data + kDepthLinkHeaderBytes, size - kDepthLinkHeaderBytes);
   if (uint32_t(crc) != read_le32(data + 28)) return "depth frame checksum";
+  return "";
+}
+
+// Decodes the depth section into `depth`, updating `mem` and `history` (the state of encode()); "" or why not.
+std::string decode_pixels(const uint8_t* data, size_t size, bool key, const DepthBins& b, cv::Mat* depth,
+                          cv::Mat* mem, cv::Mat* history) {
+  const int w = depth->cols, h = depth->rows;
+  auto models = std::make_unique<DepthModels>();
+  RangeDecoder rc(data, size);
+  const int k = key ? 1 : 0;
+  std::vector<uint8_t> state_a(size_t(w) + 2, kHole), state_b(size_t(w) + 2, kHole);
+  uint8_t* cur = state_a.data();
+  uint8_t* up = state_b.data();
+  for (int y = 0; y < h; ++y) {
+    std::swap(cur, up);
+    uint16_t* zr = depth->ptr<uint16_t>(y);
+    uint16_t* mr = mem->ptr<uint16_t>(y);
+    uint8_t* hr = history->ptr<uint8_t>(y);
+    uint16_t run = 0;
+    for (int x = 0; x < w; ++x) {
+      const int before = hr[x];
+      const bool measured = rc.get(models->measured[k][before << 4 | neighbours(cur, up, x)]);
+      hr[x] = uint8_t((before << 1 | int(measured)) & 3);
+      zr[x] = 0;
+      if (!measured) {
+        cur[x + 1] = kHole;
+        continue;
+      }
+      const uint16_t v = get_pixel(rc, *models, key, (before & 1) * 9 + cur[x] * 3 + up[x + 1],
+                                   key ? run : mr[x], run, b, &cur[x + 1]);
+      if (v == 0) return "depth section names a depth beyond the scale";
+      mr[x] = run = zr[x] = v;
+    }
+    if (rc.overrun() > 0) return "depth section cut short";
+  }
+  if (rc.left() > 0) return "depth section longer than its image";
   return "";
 }
 
@@ -263,85 +405,40 @@ bool DepthLinkDecoder::decode(const uint8_t* data, size_t size, DepthLinkFrame* 
   Header hd;
   const std::string bad = parse_header(data, size, limits_, &hd);
   if (!bad.empty()) return fail(bad);
-  const uint16_t tolerance = hd.tolerance;
+  const bool key = hd.flags & kFlagKey;
   const int w = hd.w, h = hd.h;
-  const uint32_t number = hd.number;
-  const uint64_t caps_len = hd.caps_len, depth_len = hd.depth_len, label_len = hd.label_len;
-  const uint8_t flags = hd.flags;
-  const bool key = flags & kFlagKey;
-  if (!key && !(have_ref_ && number == number_ + 1 && tolerance == tolerance_ && size_ == cv::Size(w, h)))
-    return fail("delta depth frame " + std::to_string(number) + " without the frame before it (waiting for a key frame)");
+  if (!key && !(have_ref_ && hd.number == number_ + 1 && hd.tolerance == tolerance_ && size_ == cv::Size(w, h)))
+    return fail("delta depth frame " + std::to_string(hd.number) +
+                " without the frame before it (waiting for a key frame)");
   const uint8_t* p = data + kDepthLinkHeaderBytes;
   const size_t pixels = size_t(w) * size_t(h);
-  std::vector<uint8_t> sym;
-  const size_t mask_bytes = (pixels + 7) / 8;
-  if (!inflate_bounded(p + caps_len, depth_len, 2 * mask_bytes + 3 * pixels, &sym) || sym.size() < mask_bytes)
-    return fail("depth section does not inflate to the image");
-  const DepthBins& b = bins_for(tolerance);
-  const auto nbins = int32_t(b.center.size());
+  // From here the state is changed in place: a frame refused from here on waits for the next key frame.
+  have_ref_ = false;
+  if (key) {
+    mem_ = cv::Mat::zeros(h, w, CV_16UC1);
+    history_ = cv::Mat::zeros(h, w, CV_8UC1);
+  }
   cv::Mat depth(h, w, CV_16UC1);
-  cv::Mat mem = key ? cv::Mat::zeros(h, w, CV_16UC1) : mem_.clone();
-  // First which pixels are measured: then where the change bits end and the values begin is known.
-  size_t measured = 0;
-  for (int y = 0, i = 0; y < h; ++y) {
-    uint16_t* zr = depth.ptr<uint16_t>(y);
-    const uint16_t* prev = key ? nullptr : depth_.ptr<uint16_t>(y);
-    for (int x = 0; x < w; ++x, ++i) {
-      const bool flip = (sym[size_t(i) >> 3] >> (7 - (i & 7))) & 1;
-      zr[x] = uint16_t((prev && prev[x] != 0) != flip);
-      measured += zr[x];
-    }
-  }
-  const size_t change_bytes = (measured + 7) / 8;
-  if (sym.size() < mask_bytes + change_bytes) return fail("depth section cut short");
-  const uint8_t* change = sym.data() + mask_bytes;
-  const uint8_t* v = change + change_bytes;
-  const uint8_t* v_end = sym.data() + sym.size();
-  size_t k = 0;
-  for (int y = 0; y < h; ++y) {
-    uint16_t* mr = mem.ptr<uint16_t>(y);
-    uint16_t* zr = depth.ptr<uint16_t>(y);
-    uint16_t run = 0;
-    for (int x = 0; x < w; ++x) {
-      if (zr[x] == 0) continue;
-      const uint16_t p = key ? run : mr[x];
-      int32_t bin = p;
-      if ((change[k >> 3] >> (7 - (k & 7))) & 1) {
-        if (v >= v_end) return fail("depth section's values cut short");
-        if (*v == kEscape) {
-          if (v_end - v < 3) return fail("depth section's values cut short");
-          bin = int32_t(read_le16(v + 1));
-          v += 3;
-        } else {
-          bin = int32_t(p) + unzigzag(*v++);
-        }
-      }
-      ++k;
-      if (bin <= 0 || bin >= nbins) return fail("depth section names a depth beyond the scale");
-      mr[x] = run = uint16_t(bin);
-      zr[x] = b.center[bin];
-    }
-  }
-  if (v != v_end) return fail("depth section longer than its image");
+  const std::string why = decode_pixels(p + hd.caps_len, hd.depth_len, key, bins_for(hd.tolerance), &depth, &mem_,
+                                        &history_);
+  if (!why.empty()) return fail(why);
   cv::Mat label;
-  if (label_len > 0) {
+  if (hd.label_len > 0) {
     std::vector<uint8_t> l;
-    if (!inflate_bounded(p + caps_len + depth_len, label_len, pixels, &l) || l.size() != pixels)
+    if (!inflate_bounded(p + hd.caps_len + hd.depth_len, hd.label_len, pixels, &l) || l.size() != pixels)
       return fail("label section does not inflate to the image");
     label = cv::Mat(h, w, CV_8UC1);
     std::memcpy(label.data, l.data(), pixels);
   }
   frame->depth = depth;
   frame->label = label;
-  frame->caps.assign(reinterpret_cast<const char*>(p), caps_len);
-  frame->number = number;
+  frame->caps.assign(reinterpret_cast<const char*>(p), hd.caps_len);
+  frame->number = hd.number;
   frame->key = key;
-  frame->tolerance = tolerance;
-  mem_ = mem;
-  depth_ = depth;
+  frame->tolerance = hd.tolerance;
   size_ = cv::Size(w, h);
-  tolerance_ = tolerance;
-  number_ = number;
+  tolerance_ = hd.tolerance;
+  number_ = hd.number;
   have_ref_ = true;
   return true;
 }

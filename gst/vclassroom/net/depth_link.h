@@ -5,13 +5,14 @@
 // The bound: every coded depth z' of a measured depth z (mm) satisfies |z' - z| <= e(z) with
 //   e(z) = floor(t * z^2 / 10^8) mm, t = tolerance in 1/100 mm at 1 m (t = 280: 2.8 mm at 1 m, 11 mm at 2 m),
 // no measurement (0) stays 0 and a measurement never becomes 0. t = 0 is lossless.
-// How: depth is mapped to bins of width 2 e(a) + 1 starting at a (so every member of a bin lies within
-// e(z) of its centre); a pixel keeps the previous frame's bin (delta frames) or its left neighbour's
-// (key frames) when that bin's centre is within e(z) of z, else takes its own bin. The prediction is the
-// pixel's last measured bin since the key frame (through holes), in a key frame the last measured bin
-// before it on its row. Coded: a bit per pixel (measured or not changed since the previous frame), a bit
-// per measured pixel (differs from its prediction), and for those a byte (the zigzagged difference, 1..254)
-// or 255 and the bin in two bytes; all deflated with zlib (docs/network.md has the layout). Decoding is exact in bins, so nothing drifts between key frames.
+// How: depth is mapped to bins of width 2 e(a) + 1 starting at a (every member of a bin lies within e(z)
+// of its centre). A measured pixel keeps its prediction p when |z - p| <= e(z): in a delta frame p is the
+// pixel's last decoded measurement since the key frame (through holes), in a key frame the last decoded
+// depth before it on its row. Otherwise a key frame codes its bin, a delta frame a step k on the grid
+// p + k (e(p) / 2 + 1) towards the encoder's running estimate of the true depth (its bin where no grid
+// point is within the bound). Coded with an adaptive binary range coder (range_coder.h) whose contexts are
+// the pixel's measured neighbours and its measured-ness in the last two frames; labels deflated with zlib
+// (docs/network.md has the layout, field by field). Decoding is exact, so nothing drifts between key frames.
 #pragma once
 
 #include <cstdint>
@@ -60,8 +61,10 @@ class DepthLinkEncoder {
   uint32_t frames() const { return number_; }
 
  private:
-  cv::Mat bins_;  // CV_16UC1: the last frame's bins (0: no measurement)
-  cv::Mat mem_;   // CV_16UC1: each pixel's last measured bin since the key frame
+  cv::Mat recon_;    // CV_16UC1: the last frame as the decoder reconstructs it (mm, 0: no measurement)
+  cv::Mat mem_;      // CV_16UC1: each pixel's last reconstructed measurement since the key frame (mm)
+  cv::Mat history_;  // CV_8UC1: whether each pixel was measured in the last frame (bit 0) and the one before (bit 1)
+  cv::Mat estimate_;  // CV_32FC1: each pixel's estimate of its true depth (the encoder's alone; mm)
   uint16_t tolerance_ = 0;
   uint32_t number_ = 0;
   bool have_ref_ = false;
@@ -78,8 +81,8 @@ class DepthLinkDecoder {
 
  private:
   DepthLinkLimits limits_;
-  cv::Mat mem_;
-  cv::Mat depth_;  // the last frame decoded
+  cv::Mat mem_;      // as the encoder's
+  cv::Mat history_;  // as the encoder's
   cv::Size size_;
   uint16_t tolerance_ = 0;
   uint32_t number_ = 0;
