@@ -765,9 +765,10 @@ TEST(HoleFill, AWideHoleBetweenTwoShadesOfAWallGoesFromOneToTheOther) {
     const int middle = color.at<cv::Vec3b>(y, (hole_x0 + hole_x1) / 2)[0];
     EXPECT_GT(middle, 90) << "row " << y << ": the dark side streaked over the middle";
     EXPECT_LT(middle, 170) << "row " << y << ": the light side streaked over the middle";
-    if (y > 0)
+    if (y > 0) {
       for (int x = hole_x0; x <= hole_x1; ++x)
         EXPECT_EQ(color.at<cv::Vec3b>(y, x), color.at<cv::Vec3b>(0, x)) << "row " << y << " differs from row 0";
+    }
   }
 }
 
