@@ -224,54 +224,49 @@ TEST(ViewWarp, SkippingWhatCannotLandInTheViewChangesNoPixel) {
   // The warp spends its per-pixel work only on the source columns that can land in the view
   // (WarpParams::cull_outside_view): for views that see all, part or none of the camera, walking, turning and
   // looking up, the picture is the one every column gives, pixel for pixel - and the views that turn away
-  // do skip columns, or the test would prove nothing.
+  // do skip columns (the warper's own account), or the test would prove nothing. Two cameras: one whose
+  // size is a whole number of tiles, with clean depth, and one of odd size (a narrower last row and column
+  // of tiles, the odd last column's cells) with the sensor's noisy depth, a static layer and labels.
   const Classroom room(ClassroomConfig{3, 6, 2.0});
+  const Classroom empty(ClassroomConfig{3, 0, 2.0});
   const Rig rig = default_classroom_rig();
-  const CameraCalib cam = scale_camera(rig.camera(2), 320, 180);
-  const RenderOutput r = render(room, 0.7, cam);
-  WarpSource src{r.color, r.depth, r.label, cv::Mat()};
+  const CameraCalib clean_cam = scale_camera(rig.camera(2), 320, 180);
+  const CameraCalib noisy_cam = scale_camera(rig.camera(1), 331, 185);
+  const RenderOutput clean = render(room, 0.7, clean_cam);
+  RenderOutput noisy = render(room, 0.7, noisy_cam);
+  cv::Mat noisy_depth, noisy_color;
+  apply_sensor_model(noisy, noisy_cam, SensorParams(), 3, 7, &noisy_depth, &noisy_color);
+  const struct {
+    CameraCalib cam;
+    WarpSource src;
+  } sources[] = {{clean_cam, WarpSource{clean.color, clean.depth, clean.label, cv::Mat()}},
+                 {noisy_cam, WarpSource{noisy_color, noisy_depth, noisy.label, render(empty, 0.0, noisy_cam).depth}}};
   WarpParams every_column;
   every_column.cull_outside_view = false;
-  ViewWarper culled_warper, full_warper;
-  PreparedSource prepared;
-  culled_warper.prepare(cam, src, WarpParams(), &prepared);
-  int views_cut = 0;
-  // Sliders: x, y, z, yaw, pitch, roll around camera 0 (50 = centre).
+  // Sliders: x, y, z, yaw, pitch, roll around camera 0 (50 = centre; a step is 2 cm or 1.8 degrees).
   const Sliders poses[] = {{50, 50, 50, 50, 50, 50}, {35, 50, 50, 65, 50, 50}, {50, 50, 50, 80, 50, 50},
                            {60, 45, 60, 30, 40, 50}, {50, 50, 50, 50, 25, 50}, {50, 50, 50, 100, 50, 50},
-                           {45, 55, 40, 55, 60, 70}, {50, 50, 50, 0, 50, 50}};
-  for (const Sliders& s : poses) {
-    const CameraCalib virt =
-        virtual_camera(scale_camera(rig.camera(0), 320, 180), sliders_to_pose(s, rig.camera(0)).cam_to_rig(), NAN);
-    WarpedView culled, full;
-    culled_warper.warp_prepared(cam, src, prepared, virt, WarpParams(), &culled);
-    full_warper.warp_prepared(cam, src, prepared, virt, every_column, &full);
-    EXPECT_EQ(cv::norm(culled.color, full.color, cv::NORM_INF), 0);
-    EXPECT_EQ(cv::norm(culled.depth, full.depth, cv::NORM_INF), 0);
-    EXPECT_EQ(cv::norm(culled.label, full.label, cv::NORM_INF), 0);
-    EXPECT_EQ(cv::norm(culled.weight, full.weight, cv::NORM_INF), 0);
-    // How much the view skips: the tiles columns_in_view keeps, against all.
-    std::vector<float> boxes;
-    std::vector<float> rx(size_t(cam.width) * cam.height), ry(rx.size());
-    for (int v = 0; v < cam.height; ++v)
-      for (int u = 0; u < cam.width; ++u)
-        rx[size_t(v) * cam.width + u] = float((u - cam.cx) / cam.fx), ry[size_t(v) * cam.width + u] =
-                                                                          float((v - cam.cy) / cam.fy);
-    tile_ray_boxes(cam.width, cam.height, rx.data(), ry.data(), &boxes);
-    const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * cam.cam_to_rig;
-    ViewFrustum f{};
-    for (int i = 0; i < 9; ++i) f.r[i] = float(T.linear()(i / 3, i % 3));
-    for (int i = 0; i < 3; ++i) f.t[i] = float(T.translation()(i));
-    f.fx = float(virt.fx), f.fy = float(virt.fy), f.cx = float(virt.cx), f.cy = float(virt.cy);
-    f.width = virt.width, f.height = virt.height;
-    std::vector<std::pair<int, int>> columns;
-    columns_in_view(cam.width, cam.height, boxes, prepared.tile_nearest, prepared.tile_farthest, f, 0.05f, 4,
-                    &columns);
-    int kept = 0;
-    for (const auto& [a, b] : columns) kept += b - a;
-    views_cut += kept < cam.width * int(columns.size());
+                           {45, 55, 40, 55, 60, 70}, {50, 50, 50, 0, 50, 50},  {20, 50, 80, 70, 35, 50}};
+  for (const auto& [cam, src] : sources) {
+    ViewWarper culled_warper, full_warper;
+    PreparedSource prepared;
+    culled_warper.prepare(cam, src, WarpParams(), &prepared);
+    int views_cut = 0;
+    for (const Sliders& s : poses) {
+      const CameraCalib virt = virtual_camera(scale_camera(rig.camera(0), 320, 180),
+                                              sliders_to_pose(s, rig.camera(0)).cam_to_rig(), NAN);
+      WarpedView culled, full;
+      culled_warper.warp_prepared(cam, src, prepared, virt, WarpParams(), &culled);
+      full_warper.warp_prepared(cam, src, prepared, virt, every_column, &full);
+      EXPECT_EQ(cv::norm(culled.color, full.color, cv::NORM_INF), 0) << cam.width << " " << format_sliders(s);
+      EXPECT_EQ(cv::norm(culled.depth, full.depth, cv::NORM_INF), 0) << cam.width << " " << format_sliders(s);
+      EXPECT_EQ(cv::norm(culled.label, full.label, cv::NORM_INF), 0) << cam.width << " " << format_sliders(s);
+      EXPECT_EQ(cv::norm(culled.weight, full.weight, cv::NORM_INF), 0) << cam.width << " " << format_sliders(s);
+      EXPECT_EQ(full_warper.warped_share(), 1.0);
+      views_cut += culled_warper.warped_share() < 0.9;
+    }
+    EXPECT_GE(views_cut, 4) << cam.width << "x" << cam.height << ": most of these views should skip some of it";
   }
-  EXPECT_GE(views_cut, 4) << "most of these views should skip some of the camera";
 }
 
 TEST(ViewCull, ATileLandsWhereItsPointsLandAndNotWhereNoneOfThemCan) {
@@ -290,12 +285,10 @@ TEST(ViewCull, ATileLandsWhereItsPointsLandAndNotWhereNoneOfThemCan) {
   tile_depth_ranges(64, 32, depth.data(), &nearest, &farthest);
   EXPECT_EQ(nearest, std::vector<uint16_t>(8, 2000));
   auto columns = [&](const Eigen::Isometry3d& source_to_view) {
-    ViewFrustum f{};
-    for (int i = 0; i < 9; ++i) f.r[i] = float(source_to_view.linear()(i / 3, i % 3));
-    for (int i = 0; i < 3; ++i) f.t[i] = float(source_to_view.translation()(i));
-    f.fx = f.fy = 40, f.cx = float(cam.cx), f.cy = float(cam.cy), f.width = 64, f.height = 32;
+    CameraCalib view = cam;  // the source at the rig's origin, the view placed relative to it
+    view.cam_to_rig = source_to_view.inverse();
     std::vector<std::pair<int, int>> out;
-    columns_in_view(64, 32, boxes, nearest, farthest, f, 0.05f, 0, &out);
+    columns_in_view(64, 32, boxes, nearest, farthest, frustum_between(cam, view), 0.05f, 0, &out);
     return out;
   };
   using Cols = std::vector<std::pair<int, int>>;
@@ -310,10 +303,14 @@ TEST(ViewCull, ATileLandsWhereItsPointsLandAndNotWhereNoneOfThemCan) {
   Eigen::Isometry3d moved = Eigen::Isometry3d::Identity();
   moved.translation() = Eigen::Vector3d(1.0, 0, 0);
   EXPECT_EQ(columns(moved), (Cols{{0, 48}, {0, 48}}));
-  // A tile without depth never lands.
+  // A tile without depth, the pixel around it included, never lands; with one column of depth beside it,
+  // it does (that column's cells reach half a pixel into it).
   std::vector<uint16_t> holes = depth;
   for (int v = 0; v < 32; ++v)
     for (int u = 0; u < 16; ++u) holes[size_t(v) * 64 + u] = 0;
+  tile_depth_ranges(64, 32, holes.data(), &nearest, &farthest);
+  EXPECT_EQ(nearest[0], 2000);
+  for (int v = 0; v < 32; ++v) holes[size_t(v) * 64 + 16] = 0;
   tile_depth_ranges(64, 32, holes.data(), &nearest, &farthest);
   EXPECT_EQ(nearest[0], 0);
   EXPECT_EQ(columns(Eigen::Isometry3d::Identity()), (Cols{{16, 64}, {16, 64}}));

@@ -40,22 +40,37 @@ void tile_depth_ranges(int W, int H, const uint16_t* depth, std::vector<uint16_t
   farthest->assign(size_t(g.cols) * g.rows, 0);
   for (int v = 0; v < H; ++v) {
     const uint16_t* d = depth + size_t(v) * W;
-    uint16_t* tn = &(*nearest)[size_t(v / kTileSize) * g.cols];
-    uint16_t* tf = &(*farthest)[size_t(v / kTileSize) * g.cols];
+    // The tile rows whose ring holds row v: its own, and the one above or below when v is a tile's edge.
+    const int ty0 = std::max(0, (v - 1) / kTileSize), ty1 = std::min(g.rows - 1, (v + 1) / kTileSize);
     for (int tx = 0; tx < g.cols; ++tx) {
-      const int u0 = tx * kTileSize, u1 = std::min(W, u0 + kTileSize);
-      uint16_t lo = tn[tx], hi = tf[tx];
+      const int u0 = std::max(0, tx * kTileSize - 1), u1 = std::min(W, (tx + 1) * kTileSize + 1);
+      uint16_t lo = 0xffff, hi = 0;
       for (int u = u0; u < u1; ++u) {
         const uint16_t z = d[u];
         lo = std::min<uint16_t>(lo, z ? z : uint16_t(0xffff));  // 0: no depth, never the nearest
         hi = std::max(hi, z);
       }
-      tn[tx] = lo;
-      tf[tx] = hi;
+      for (int ty = ty0; ty <= ty1; ++ty) {
+        const size_t i = size_t(ty) * g.cols + size_t(tx);
+        (*nearest)[i] = std::min((*nearest)[i], lo);
+        (*farthest)[i] = std::max((*farthest)[i], hi);
+      }
     }
   }
   for (size_t i = 0; i < nearest->size(); ++i)
     if (!(*farthest)[i]) (*nearest)[i] = 0;
+}
+
+ViewFrustum frustum_between(const CameraCalib& source, const CameraCalib& view) {
+  const Eigen::Isometry3d T = view.cam_to_rig.inverse() * source.cam_to_rig;
+  ViewFrustum f{};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) f.r[3 * r + c] = float(T.linear()(r, c));
+    f.t[r] = float(T.translation()(r));
+  }
+  f.fx = float(view.fx), f.fy = float(view.fy), f.cx = float(view.cx), f.cy = float(view.cy);
+  f.width = view.width, f.height = view.height;
+  return f;
 }
 
 namespace {

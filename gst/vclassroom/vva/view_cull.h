@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include <gst/vclassroom/core/rig.h>
+
 namespace vclassroom {
 
 constexpr int kTileSize = 16;  // source pixels per tile side (the last column and row of tiles may be narrower)
@@ -27,8 +29,9 @@ TileGrid tile_grid(int width, int height);
 // Depends on the camera's intrinsics only.
 void tile_ray_boxes(int width, int height, const float* ray_x, const float* ray_y, std::vector<float>* boxes);
 
-// Per tile, the nearest and farthest non-zero depth (mm) of `depth` (width x height); both 0 where the tile
-// has none.
+// Per tile, the nearest and farthest non-zero depth (mm) of `depth` (width x height) over the tile and the
+// pixels around it (one more on every side, as the ray boxes: a cell at the tile's edge is shaped by its
+// neighbour across it); both 0 where there is none.
 void tile_depth_ranges(int width, int height, const uint16_t* depth, std::vector<uint16_t>* nearest,
                        std::vector<uint16_t>* farthest);
 
@@ -39,6 +42,8 @@ struct ViewFrustum {
   float fx, fy, cx, cy;
   int width, height;
 };
+// The view `view` (no distortion) as the source camera `source` sees it (both with their cam_to_rig).
+ViewFrustum frustum_between(const CameraCalib& source, const CameraCalib& view);
 
 // For each row of tiles, the source columns [first, second) from its first to its last tile whose points
 // can land within `margin_px` of the view (empty, first == second, when none can). Conservative: a tile

@@ -983,10 +983,9 @@ struct ViewWarper::Layer {
   int row_begin, row_end;
   float weight_scale;
   bool sparse;
-  // Per tile (view_cull.h), the nearest and farthest depth of `depth`: the columns that cannot land in the
-  // view are skipped. Null: every column is drawn.
-  const std::vector<uint16_t>* tile_nearest = nullptr;
-  const std::vector<uint16_t>* tile_farthest = nullptr;
+  // Per row of tiles (view_cull.h), the columns that can land in the view: the others are skipped. Null:
+  // every column is drawn.
+  const std::vector<std::pair<int, int>>* columns = nullptr;
 };
 
 // What the cell warp of one layer keeps for every row: the cell and block rows, and where a block cell's
@@ -1034,9 +1033,21 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   f.proj.link_gap = float(prm.max_gap_px);
 
   const bool cull = prm.cull_outside_view && !prm.mesh;
+  warped_share_ = 1.0;
+  if (cull) {
+    // A cell's affine map strays from the true projection of its pixel by far less than a pixel: 4 px of room.
+    constexpr float kViewMarginPx = 4;
+    columns_in_view(W, H, tile_rays_, tile_nearest, tile_farthest, frustum_between(src, virt), kNear, kViewMarginPx,
+                    &view_columns_);
+    size_t kept = 0;
+    for (size_t ty = 0; ty < view_columns_.size(); ++ty)
+      kept += size_t(view_columns_[ty].second - view_columns_[ty].first) *
+              size_t(std::min(kTileSize, H - int(ty) * kTileSize));
+    warped_share_ = double(kept) / double(n);
+  }
   splat_layer(f,
               Layer{depth, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false,
-                    cull ? &tile_nearest : nullptr, cull ? &tile_farthest : nullptr},
+                    cull ? &view_columns_ : nullptr},
               prm);
   if (!in.room_depth.empty()) draw_room_layer(f, in, prm);
   unpack_view(f, prm, out);
@@ -1199,7 +1210,7 @@ void ViewWarper::splat_cells(const Frame& f, const Layer& layer, const WarpParam
     return;
   }
   if (first_pair > 0) std::fill_n(links_row(W, first_pair - 1), W, 0u);
-  if (layer.tile_nearest) splat_pairs_in_view(f, layer, pass, first_pair, end_pair);
+  if (layer.columns) splat_pairs_in_view(f, layer, pass, first_pair, end_pair);
   else splat_pairs(f, layer, pass, first_pair, end_pair);
 }
 
@@ -1225,26 +1236,17 @@ void ViewWarper::splat_pair_columns(const Frame& f, const Layer& layer, const Ce
   splat_block_pair(f, layer, pass, v, c0 / 2, c1 == W ? W / 2 : c1 / 2);
 }
 
-// As splat_pairs, over the columns of each row of tiles that can land in the view (view_cull.h): each row
+// As splat_pairs, over the columns of each row of tiles that can land in the view (layer.columns): each row
 // projected over every pair's columns that read it, each pair's rows linked over its columns, with
 // kSpanMargin columns either side (what a cell reads); the row above a pair linked again where the pair
 // before had other columns. The same records as splat_pairs: a cell skipped lands nowhere in the view.
 void ViewWarper::splat_pairs_in_view(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair,
                                      int end_pair) {
   const int W = f.W, H = f.H;
-  ViewFrustum view;
-  std::copy(f.proj.r, f.proj.r + 9, view.r);
-  std::copy(f.proj.t, f.proj.t + 3, view.t);
-  view.fx = f.proj.fx, view.fy = f.proj.fy, view.cx = f.proj.cx, view.cy = f.proj.cy;
-  view.width = f.VW, view.height = f.VH;
-  // A cell's affine map strays from the true projection of its pixel by far less than a pixel; 4 px of room.
-  constexpr float kViewMarginPx = 4;
-  columns_in_view(W, H, tile_rays_, *layer.tile_nearest, *layer.tile_farthest, view, kNear, kViewMarginPx,
-                  &view_columns_);
   // A pair's columns: its tile row's (pairs start on even rows and tiles are an even number of rows high).
   auto pair_columns = [&](int v) {
     if (v < first_pair || v >= end_pair) return std::pair<int, int>{0, 0};
-    return view_columns_[size_t(v / kTileSize)];
+    return (*layer.columns)[size_t(v / kTileSize)];
   };
   // Row r is read by the pairs from r - 2 to r + 1.
   for (int r = std::max(0, first_pair - 1); r < std::min(H, layer.row_end + 3); ++r) {

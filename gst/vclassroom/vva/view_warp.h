@@ -125,6 +125,9 @@ class ViewWarper {
   void prepare(const CameraCalib& source, const WarpSource& in, const WarpParams& params, PreparedSource* out);
   void warp_prepared(const CameraCalib& source, const WarpSource& in, const PreparedSource& prepared,
                      const CameraCalib& virt, const WarpParams& params, WarpedView* out);
+  // The share of the source's pixels the last warp set up (WarpParams::cull_outside_view: those whose
+  // columns can land in the view; 1 without it).
+  double warped_share() const { return warped_share_; }
 
  private:
   // prepare() into src_depth_ and src_label_; warp_prepared() of the prepared depth and labels given (which
@@ -170,6 +173,7 @@ class ViewWarper {
   std::vector<float> tile_rays_;  // per tile: the box its rays span (view_cull.h)
   std::vector<uint16_t> tile_nearest_, tile_farthest_;  // per tile: prepare_here's depth range
   std::vector<std::pair<int, int>> view_columns_;       // per row of tiles: the columns that can land in the view
+  double warped_share_ = 1.0;
   // Per source pixel: projected position, virtual depth (m; <= 0 invalid),
   // longest unbroken mesh edge (px), vertex weight.
   std::vector<float> px_, py_, pz_, plim_, pw_;
