@@ -1,8 +1,10 @@
 // An adaptive binary range coder (the camera link's depth, docs/network.md "The depth frame"): each bit is
 // coded with a probability that its context learns as it goes, so a bit that is nearly always the same costs
 // a small fraction of a bit. 32-bit range, 12-bit probabilities moving 1/32 of the way towards each bit
-// coded; the carry is propagated through a one-byte cache (the first byte written is always 0).
-// Written for this project; header-only so the per-pixel loops inline it.
+// coded (range coding: G. N. N. Martin 1979, docs/references.md). The bytes are written to memory as they
+// leave the low end of the interval, so a carry out of it is added to the bytes already written (the run of
+// 0xFF bytes before it turns to 0 and the byte before them takes the 1); a leading 0 byte stops every
+// such run. Header-only so the per-pixel loops inline it.
 #pragma once
 
 #include <cstddef>
@@ -24,14 +26,18 @@ class RangeEncoder {
  public:
   // Appends to `out`. The bytes go through a raw pointer into room reserve() made, so that the coder's state
   // can stay in registers (a vector's push_back, which may reallocate, would make it spill at every bit).
-  explicit RangeEncoder(std::vector<uint8_t>* out) : out_(out), start_(out->size()), p_(out->data() + start_) {}
+  explicit RangeEncoder(std::vector<uint8_t>* out) : out_(out), start_(out->size()), p_(nullptr) {
+    out_->resize(start_ + 64);
+    p_ = base();
+    *p_++ = 0;  // the leading byte: a carry never reaches it, and stops at it
+  }
 
-  // Makes room for `bytes` more (at most 8 bits of output per 7 coded bits, plus the carry's pending bytes,
-  // which reserve() counts): call it before coding each row, with the row's worst case.
+  // Makes room for `bytes` more (a coded bit writes at most one byte): call it before coding each row, with
+  // the row's worst case.
   void reserve(size_t bytes) {
     const size_t used = size_t(p_ - base());
-    if (out_->size() - start_ - used >= bytes + pending_ + 8) return;
-    out_->resize(start_ + used + 2 * (bytes + pending_ + 8) + (out_->size() - start_));
+    if (out_->size() - start_ - used >= bytes + 8) return;
+    out_->resize(start_ + used + 2 * (bytes + 8) + (out_->size() - start_));
     p_ = base() + used;
   }
 
@@ -53,23 +59,20 @@ class RangeEncoder {
   // Ends the stream (afterwards the decoder has every byte it needs) and trims `out` to what was written.
   void finish() {
     reserve(8);
-    for (int i = 0; i < 5; ++i) shift_low();
+    for (int i = 0; i < 4; ++i) shift_low();  // the four bytes of the interval's low end
     out_->resize(size_t(p_ - out_->data()));
   }
 
  private:
   uint8_t* base() { return out_->data() + start_; }
+  // The interval's top byte out; first the carry, if the low end passed 2^32, into what was written.
   void shift_low() {
-    if (uint32_t(low_) < 0xFF000000u || (low_ >> 32) != 0) {
-      const auto carry = uint8_t(low_ >> 32);
-      uint8_t byte = cache_;
-      do {
-        *p_++ = uint8_t(byte + carry);
-        byte = 0xFF;
-      } while (--pending_ != 0);
-      cache_ = uint8_t(low_ >> 24);
+    if (low_ >> 32) {
+      uint8_t* q = p_;
+      while (*--q == 0xFF) *q = 0;
+      ++*q;
     }
-    ++pending_;
+    *p_++ = uint8_t(low_ >> 24);
     low_ = (low_ & 0x00FFFFFFu) << 8;
   }
 
@@ -78,8 +81,6 @@ class RangeEncoder {
   uint8_t* p_;
   uint64_t low_ = 0;
   uint32_t range_ = 0xFFFFFFFFu;
-  uint8_t cache_ = 0;
-  uint64_t pending_ = 1;
 };
 
 // Reads what RangeEncoder wrote. Never reads outside [data, data + size): past the end it reads zeros and
