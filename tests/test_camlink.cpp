@@ -251,6 +251,9 @@ TEST(DepthLink, ASectionTooShortForItsDeclaredImageIsRefusedBeforeAllocating) {
   std::string err;
   EXPECT_FALSE(dec.decode(wire.data(), wire.size(), &f, &err));
   EXPECT_NE(err.find("too short for its image"), std::string::npos) << err;
+  // Nothing of the declared size was made: the frame's images are still empty.
+  EXPECT_TRUE(f.depth.empty());
+  EXPECT_TRUE(f.label.empty());
 }
 
 TEST(DepthLink, WrongInputIsTheProjectsError) {

@@ -14,17 +14,14 @@
 #include <gst/vclassroom/core/jpeg.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 
+#include "cpu_clock.h"
 #include "tool_options.h"
 
 using namespace vclassroom;
 
 namespace {
 
-double cpu_ms() {
-  timespec t;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-}
+double cpu_ms() { return vclassroom_tools::thread_cpu_ms(); }
 
 }  // namespace
 

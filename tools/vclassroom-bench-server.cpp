@@ -24,6 +24,7 @@
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>
 
+#include "cpu_clock.h"
 #include "tool_options.h"
 
 using namespace vclassroom;
@@ -46,12 +47,7 @@ double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-// CPU time of the calling thread: what a stage costs, whatever else runs on the machine.
-double thread_cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
+using vclassroom_tools::thread_cpu_ms;
 
 struct Result {
   double seg_ms = 0, memory_ms = 0, warp_ms = 0, fuse_ms = 0;  // CPU time per frame, summed over cameras

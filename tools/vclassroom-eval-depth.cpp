@@ -34,6 +34,7 @@
 #include <gst/vclassroom/vda/static_model.h>
 #include <gst/vclassroom/core/visualize.h>
 
+#include "cpu_clock.h"
 #include "tool_options.h"
 
 using namespace vclassroom;
@@ -63,11 +64,7 @@ struct Args {
 // disturbed by other processes on a shared machine than wall time.
 struct CpuClock {
   using time_point = double;
-  static double now() {
-    timespec t;
-    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-    return t.tv_sec * 1e3 + t.tv_nsec * 1e-6;
-  }
+  static double now() { return vclassroom_tools::thread_cpu_ms(); }
 };
 
 double ms_since(double t0) { return CpuClock::now() - t0; }

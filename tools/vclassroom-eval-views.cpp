@@ -295,11 +295,6 @@ void eval_teddy(const Options& opt) {
 }
 
 
-// PSNR over the pixels where `mask` is non-zero.
-double psnr_rgb_masked(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
-  const double values = 3.0 * cv::countNonZero(mask), se = cv::norm(a, b, cv::NORM_L2SQR, mask);
-  return values == 0 || se == 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 * values / se);
-}
 
 // The synthetic classroom: cameras 1 and 2 -> camera 0 (leave-one-out, the
 // paper's Table I), and -> novel lecturer poses against the exact renderer.

@@ -16,6 +16,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -30,11 +32,13 @@
 #include <gst/vclassroom/core/image_metrics.h>
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/core/view_offset.h>
+#include <gst/vclassroom/datasets/posed_sequence.h>
 #include <gst/vclassroom/net/depth_link.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>
 
+#include "cpu_clock.h"
 #include "tool_options.h"
 #include "tool_support.h"
 
@@ -48,11 +52,7 @@ double cpu_seconds() {
   return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-double thread_cpu_seconds() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
-}
+double thread_cpu_seconds() { return vclassroom_tools::thread_cpu_ms() * 1e-3; }
 
 // One frame as a link delivers it (empty where it was lost).
 struct Delivered {
@@ -251,12 +251,6 @@ cv::Mat render_view(const std::vector<CameraCalib>& cams, const std::vector<cons
   return fused.color;
 }
 
-// PSNR over the pixels where `mask` is non-zero.
-double psnr_masked(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
-  const double values = 3.0 * cv::countNonZero(mask), se = cv::norm(a, b, cv::NORM_L2SQR, mask);
-  return values == 0 || se == 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 * values / se);
-}
-
 // The view PSNR of each link (index 0: the uncoded frames) against the ground truth, and against the view
 // from the uncoded frames, averaged over the poses.
 struct ViewScores {
@@ -297,7 +291,7 @@ ViewScores view_scores(const std::vector<std::vector<std::vector<Delivered>>>& l
         s.seen_share += double(cv::countNonZero(seen)) / double(seen.total()) / poses;
       }
       s.truth[l] += psnr_rgb(view, truth.color) / poses;
-      s.seen[l] += psnr_masked(view, truth.color, seen) / poses;
+      s.seen[l] += psnr_rgb_masked(view, truth.color, seen) / poses;
       s.direct[l] += (l == 0 ? 99.0 : psnr_rgb(view, reference)) / poses;
     }
   }
@@ -305,23 +299,13 @@ ViewScores view_scores(const std::vector<std::vector<std::vector<Delivered>>>& l
   return s;
 }
 
-// Redwood "log" trajectory: per frame a line "i j n" then the 4x4 camera-to-world matrix; [] when unreadable.
+// The Redwood trajectory.log's camera-to-world poses (the importer's parser); [] when the file is unreadable.
 std::vector<Eigen::Isometry3d> read_trajectory(const std::string& path) {
-  std::vector<Eigen::Isometry3d> poses;
-  FILE* f = std::fopen(path.c_str(), "r");
-  if (!f) return poses;
-  int a, b, c;
-  while (std::fscanf(f, "%d %d %d", &a, &b, &c) == 3) {
-    Eigen::Matrix4d m;
-    for (int r = 0; r < 4; ++r)
-      for (int k = 0; k < 4; ++k)
-        if (std::fscanf(f, "%lf", &m(r, k)) != 1) return {};
-    Eigen::Isometry3d iso;
-    iso.matrix() = m;
-    poses.push_back(iso);
-  }
-  std::fclose(f);
-  return poses;
+  std::ifstream in(path);
+  if (!in) return {};
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_trajectory_log(text.str(), path);
 }
 
 // Redwood: the depth coder alone (lossless and within the bound), and the depth's share of the view PSNR
@@ -338,12 +322,11 @@ void redwood(const std::string& dir, uint16_t tolerance) {
     colors.push_back(rgb);
   }
   const std::vector<Eigen::Isometry3d> traj = read_trajectory(dir + "/trajectory.log");
+  const PosedSequenceIntrinsics k;  // Redwood's, as the importer takes them
   CameraCalib cam;
   cam.width = 640;
   cam.height = 480;
-  cam.fx = cam.fy = 525;
-  cam.cx = 319.5;
-  cam.cy = 239.5;
+  cam.fx = k.fx, cam.fy = k.fy, cam.cx = k.cx, cam.cy = k.cy;
   std::vector<double> view_psnr;
   for (uint16_t tol : {uint16_t(0), tolerance}) {
     DepthLinkEncoder enc;

@@ -13,6 +13,13 @@ cv::Rect whole_or(const cv::Mat& m, const cv::Rect& roi) {
 }
 }  // namespace
 
+double psnr_rgb_masked(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
+  CV_Assert(a.type() == CV_8UC3 && b.type() == CV_8UC3 && a.size() == b.size() && mask.type() == CV_8UC1 &&
+            mask.size() == a.size());
+  const double values = 3.0 * cv::countNonZero(mask), se = cv::norm(a, b, cv::NORM_L2SQR, mask);
+  return values == 0 || se == 0 ? 99.0 : 10 * std::log10(255.0 * 255.0 * values / se);
+}
+
 double psnr_rgb(const cv::Mat& a, const cv::Mat& b, const cv::Rect& roi) {
   CV_Assert(a.type() == CV_8UC3 && b.type() == CV_8UC3 && a.size() == b.size());
   const cv::Rect r = whole_or(a, roi);

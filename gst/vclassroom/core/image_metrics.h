@@ -11,6 +11,9 @@ namespace vclassroom {
 // PSNR in dB of two CV_8UC3 images of the same size over `roi` (whole image
 // when empty). +infinity when they are identical.
 double psnr_rgb(const cv::Mat& a, const cv::Mat& b, const cv::Rect& roi = cv::Rect());
+// PSNR in dB of two CV_8UC3 images over the pixels where the CV_8UC1 `mask` is non-zero; 99 when the mask is
+// empty or the images agree there.
+double psnr_rgb_masked(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask);
 // Mean SSIM (0..1) of the luma of two CV_8UC3 RGB images over `roi`. The
 // window statistics are computed inside the roi only (the crop is applied
 // first), and the mean is over the windows' centres that lie fully inside
