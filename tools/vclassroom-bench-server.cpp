@@ -61,6 +61,43 @@ double cpu_ms_now() {
   return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
+// The rig's cameras `ids`, each with `recorded` frames of `room` (sensor model on) to play in a loop, the
+// empty room's depth as their static layer (with `model`) and a background memory of `memory` frames
+// seeded with the empty room (memory > 0); each camera's view of the empty room into `empty_rooms`.
+std::vector<Camera> record_cameras(const Rig& rig, const std::vector<int>& ids, const Classroom& room,
+                                   const Classroom& empty, int recorded, bool model, int memory,
+                                   std::vector<cv::Mat>* empty_rooms) {
+  std::vector<Camera> cams(ids.size());
+  empty_rooms->clear();
+  ClassroomRenderer renderer;
+  for (size_t i = 0; i < ids.size(); ++i) {
+    Camera& c = cams[i];
+    c.calib = rig.camera(ids[i]);
+    RenderOutput e;
+    renderer.render(empty, 0.0, c.calib, &e);
+    empty_rooms->push_back(e.color);
+    if (model) {
+      c.prior = e.depth.clone();
+      c.seg.set_static_depth(c.prior);
+    }
+    if (memory > 0) {
+      BackgroundMemoryParams mp;
+      mp.frames = memory;
+      c.memory = BackgroundMemory(mp);
+      c.memory.seed(e.color);
+    }
+    for (int f = 0; f < recorded; ++f) {
+      RenderOutput r;
+      renderer.render(room, f / 30.0, c.calib, &r);
+      cv::Mat d, col;
+      apply_sensor_model(r, c.calib, SensorParams(), 1, uint64_t(f), &d, &col);
+      c.color.push_back(col);
+      c.depth.push_back(d);
+    }
+  }
+  return cams;
+}
+
 // One server step per frame: every camera segmented and warped (cameras split
 // over `threads` threads), then fused. The virtual view moves every frame, as
 // a lecturer's head does: nothing can be reused from the frame before.
@@ -275,35 +312,7 @@ int main(int argc, char** argv) {
   const int recorded = 8;
   std::vector<cv::Mat> empty_rooms;  // each camera's view of the empty room, as make_cams made them
   auto make_cams = [&](const std::vector<int>& ids) {
-    std::vector<Camera> cams(ids.size());
-    empty_rooms.clear();
-    ClassroomRenderer renderer;
-    for (size_t i = 0; i < ids.size(); ++i) {
-      Camera& c = cams[i];
-      c.calib = rig.camera(ids[i]);
-      RenderOutput e;
-      renderer.render(empty, 0.0, c.calib, &e);
-      empty_rooms.push_back(e.color);
-      if (!no_model) {
-        c.prior = e.depth.clone();
-        c.seg.set_static_depth(c.prior);
-      }
-      if (memory > 0) {
-        BackgroundMemoryParams mp;
-        mp.frames = memory;
-        c.memory = BackgroundMemory(mp);
-        c.memory.seed(e.color);
-      }
-      for (int f = 0; f < recorded; ++f) {
-        RenderOutput r;
-        renderer.render(room, f / 30.0, c.calib, &r);
-        cv::Mat d, col;
-        apply_sensor_model(r, c.calib, SensorParams(), 1, uint64_t(f), &d, &col);
-        c.color.push_back(col);
-        c.depth.push_back(d);
-      }
-    }
-    return cams;
+    return record_cameras(rig, ids, room, empty, recorded, !no_model, memory, &empty_rooms);
   };
   const CameraCalib& ref = rig.camera(0);
   // Camera 0's pose moved 0.2 m left, then on along a slow sideways walk with
