@@ -29,6 +29,9 @@ hold_namespace() {
   mkfifo "$dir/$1"
   { unshare -n sh -c 'echo $$ > "$0"; exec sleep 3600' "$dir/$1" || echo failed > "$dir/$1"; } > /dev/null 2>&1 &
   read -r holder < "$dir/$1"
+  # Read once: when cleanup later kills the holder, unshare fails and the "failed" goes to a plain file, not
+  # to a FIFO nobody reads any more (the writer would wait for a reader for ever, left behind by the test).
+  rm -f "$dir/$1"
   echo "$holder"
 }
 in_namespace() {
