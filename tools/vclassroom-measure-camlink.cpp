@@ -367,6 +367,76 @@ void redwood(const std::string& dir, uint16_t tolerance) {
     std::printf("redwood: view PSNR loss from the depth coding %.2f dB (colour uncoded)\n", view_psnr[0] - view_psnr[1]);
 }
 
+// The camera and server chains of each link, and the tolerance the new one codes depth with.
+struct Chains {
+  std::string old_cam, old_srv, new_cam, new_srv;
+  uint16_t tolerance;
+};
+// Each link's figures and the depth coder's alone, summed over the cameras as means.
+struct Totals {
+  LinkResult old_link, new_link;
+  DepthAlone depth;
+};
+
+// Camera k recorded (`frames` frames, `learners` learners), its depth coder alone, both links measured; its
+// delivered frames into delivered[link][k], its calibration into `calibs`. False when the recording failed.
+bool measure_camera(int k, int cameras, int frames, int learners, const Chains& chains,
+                    std::vector<std::vector<std::vector<Delivered>>>& delivered, std::vector<CameraCalib>* calibs,
+                    Totals* totals) {
+  const std::string &old_cam = chains.old_cam, &old_srv = chains.old_srv, &new_cam = chains.new_cam,
+                    &new_srv = chains.new_srv;
+  const uint16_t tol = chains.tolerance;
+  LinkResult &sum_old = totals->old_link, &sum_new = totals->new_link;
+  DepthAlone& depth_sum = totals->depth;
+  vclassroom_tools::Recording rec;
+  if (!vclassroom_tools::record_stream("rgbdtestsrc camera-id=" + std::to_string(k) + " seed=1 ground-truth=false "
+                                       "learners=" + std::to_string(learners) + " num-buffers=" +
+                                       std::to_string(frames), frames, &rec))
+    return false;
+  RgbdInfo info;
+  std::string err;
+  rgbd_info_from_caps(rec.caps, &info, &err);
+  calibs->push_back(info.camera);
+  std::vector<cv::Mat> depths, labels;
+  for (GstBuffer* b : rec.frames) {
+    RgbdFrame f;
+    if (!f.map(b, info, GST_MAP_READ, &err)) return false;
+    delivered[0][size_t(k)].push_back(Delivered{f.color().clone(), f.depth().clone()});
+    depths.push_back(f.depth().clone());
+    if (info.has(Plane::Label)) labels.push_back(f.label().clone());
+  }
+  if (k == 0) {  // the camera side's colour part alone: the same chain without rgbdlinkmux
+    double colour_s = 0;
+    const std::string colour_only = new_cam.substr(0, new_cam.find(" ! rgbdlinkmux"));
+    for (GstSample* s : run_chain(colour_only, rec.caps, rec.frames, &colour_s)) gst_sample_unref(s);
+    std::printf("camera 0, the new link's colour alone (split, videoconvert, x264enc): %.1f ms per frame\n",
+                1000 * colour_s / double(rec.frames.size()));
+  }
+  const DepthAlone d = depth_alone(depths, labels, tol, 60, 30);
+  std::printf("camera %d, the depth coder alone (labels included): %.1f Mbit/s (the holes alone %.1f), encode %.1f "
+              "ms, decode %.1f ms per frame (thread CPU)\n", k, d.mbit, d.holes_mbit, d.enc_ms, d.dec_ms);
+  depth_sum.holes_mbit += d.holes_mbit / cameras;
+  depth_sum.mbit += d.mbit / cameras;
+  depth_sum.enc_ms += d.enc_ms / cameras;
+  depth_sum.dec_ms += d.dec_ms / cameras;
+  for (int link = 0; link < 2; ++link) {
+    const LinkResult r = link == 0 ? measure(rec, old_cam, old_srv, 0, 30, &delivered[1][size_t(k)])
+                                   : measure(rec, new_cam, new_srv, tol, 30, &delivered[2][size_t(k)]);
+    std::printf("camera %d, %s: %zu/%d frames, %.1f Mbit/s, camera CPU %.1f ms/frame, server CPU %.1f ms/frame, "
+                "colour PSNR %.2f dB, depth error p99 %.0f mm, max %.0f mm, beyond the bound %zu, holes changed %zu\n",
+                k, link == 0 ? "old link (rgbdenc, rtpgstpay)" : "new link (H.264 + depth SEI, rtph264pay)",
+                r.frames, frames, r.mbit, r.enc_ms, r.dec_ms, r.psnr, r.p99, r.max_err, r.beyond_bound,
+                r.holes_changed);
+    LinkResult& s = link == 0 ? sum_old : sum_new;
+    s.mbit += r.mbit / cameras;
+    s.enc_ms += r.enc_ms / cameras;
+    s.dec_ms += r.dec_ms / cameras;
+    s.psnr += r.psnr / cameras;
+    s.p99 = std::max(s.p99, r.p99);
+    s.beyond_bound += r.beyond_bound + r.holes_changed;
+  }
+  return true;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -412,60 +482,16 @@ int main(int argc, char** argv) {
       profile + " ! rgbdlinkmux depth-tolerance=" + tol_text + " ! rtph264pay mtu=1400 pt=96";
   const std::string new_srv = std::string("rtph264depay ! rgbdlinkdemux ! ") +
                               (format == "Y444" ? "avdec_h264" : "openh264dec") + " ! videoconvert ! rgbdlinkjoin";
-  LinkResult sum_old, sum_new;
-  DepthAlone depth_sum;
+  Totals totals;
   // [link: uncoded, old, new][camera][frame]
   std::vector<std::vector<std::vector<Delivered>>> delivered(3, std::vector<std::vector<Delivered>>(size_t(cameras)));
   std::vector<CameraCalib> calibs;
-  for (int k = 0; k < cameras; ++k) {
-    vclassroom_tools::Recording rec;
-    if (!vclassroom_tools::record_stream("rgbdtestsrc camera-id=" + std::to_string(k) + " seed=1 ground-truth=false "
-                                         "learners=" + std::to_string(learners) + " num-buffers=" +
-                                         std::to_string(frames), frames, &rec))
+  for (int k = 0; k < cameras; ++k)
+    if (!measure_camera(k, cameras, frames, learners, Chains{old_cam, old_srv, new_cam, new_srv, tol}, delivered,
+                        &calibs, &totals))
       return 1;
-    RgbdInfo info;
-    std::string err;
-    rgbd_info_from_caps(rec.caps, &info, &err);
-    calibs.push_back(info.camera);
-    std::vector<cv::Mat> depths, labels;
-    for (GstBuffer* b : rec.frames) {
-      RgbdFrame f;
-      if (!f.map(b, info, GST_MAP_READ, &err)) return 1;
-      delivered[0][size_t(k)].push_back(Delivered{f.color().clone(), f.depth().clone()});
-      depths.push_back(f.depth().clone());
-      if (info.has(Plane::Label)) labels.push_back(f.label().clone());
-    }
-    if (k == 0) {  // the camera side's colour part alone: the same chain without rgbdlinkmux
-      double colour_s = 0;
-      const std::string colour_only = new_cam.substr(0, new_cam.find(" ! rgbdlinkmux"));
-      for (GstSample* s : run_chain(colour_only, rec.caps, rec.frames, &colour_s)) gst_sample_unref(s);
-      std::printf("camera 0, the new link's colour alone (split, videoconvert, x264enc): %.1f ms per frame\n",
-                  1000 * colour_s / double(rec.frames.size()));
-    }
-    const DepthAlone d = depth_alone(depths, labels, tol, 60, 30);
-    std::printf("camera %d, the depth coder alone (labels included): %.1f Mbit/s (the holes alone %.1f), encode %.1f "
-                "ms, decode %.1f ms per frame (thread CPU)\n", k, d.mbit, d.holes_mbit, d.enc_ms, d.dec_ms);
-    depth_sum.holes_mbit += d.holes_mbit / cameras;
-    depth_sum.mbit += d.mbit / cameras;
-    depth_sum.enc_ms += d.enc_ms / cameras;
-    depth_sum.dec_ms += d.dec_ms / cameras;
-    for (int link = 0; link < 2; ++link) {
-      const LinkResult r = link == 0 ? measure(rec, old_cam, old_srv, 0, 30, &delivered[1][size_t(k)])
-                                     : measure(rec, new_cam, new_srv, tol, 30, &delivered[2][size_t(k)]);
-      std::printf("camera %d, %s: %zu/%d frames, %.1f Mbit/s, camera CPU %.1f ms/frame, server CPU %.1f ms/frame, "
-                  "colour PSNR %.2f dB, depth error p99 %.0f mm, max %.0f mm, beyond the bound %zu, holes changed %zu\n",
-                  k, link == 0 ? "old link (rgbdenc, rtpgstpay)" : "new link (H.264 + depth SEI, rtph264pay)",
-                  r.frames, frames, r.mbit, r.enc_ms, r.dec_ms, r.psnr, r.p99, r.max_err, r.beyond_bound,
-                  r.holes_changed);
-      LinkResult& s = link == 0 ? sum_old : sum_new;
-      s.mbit += r.mbit / cameras;
-      s.enc_ms += r.enc_ms / cameras;
-      s.dec_ms += r.dec_ms / cameras;
-      s.psnr += r.psnr / cameras;
-      s.p99 = std::max(s.p99, r.p99);
-      s.beyond_bound += r.beyond_bound + r.holes_changed;
-    }
-  }
+  const LinkResult &sum_old = totals.old_link, &sum_new = totals.new_link;
+  const DepthAlone& depth_sum = totals.depth;
   std::printf("depth coder alone: %.1f Mbit/s per camera (the holes alone %.1f), encode %.1f ms, decode %.1f ms per "
               "frame\n", depth_sum.mbit, depth_sum.holes_mbit, depth_sum.enc_ms, depth_sum.dec_ms);
   if (redwood_dir) redwood(redwood_dir, tol);
