@@ -11,6 +11,12 @@ fi
 launch_pid=""
 launch_killer=""
 
+# pkill without a preloaded library: under the sanitizer build's tests the scripts run with libasan in
+# LD_PRELOAD, and procps' pkill then deadlocks in glibc's textdomain before it does anything.
+kill_children() {
+  env -u LD_PRELOAD pkill "$@"
+}
+
 stop_launch() {
   [ -n "$launch_pid" ] || exit 130
   kill -INT "$launch_pid" 2>/dev/null || true
@@ -32,7 +38,7 @@ run_launch() {
   done
   # The killer is no longer needed: it and its sleep end now.
   if [ -n "$launch_killer" ]; then
-    pkill -P "$launch_killer" 2>/dev/null || true
+    kill_children -P "$launch_killer" 2>/dev/null || true
     kill "$launch_killer" 2>/dev/null || true
   fi
   trap - INT TERM
@@ -55,7 +61,7 @@ end_processes() {
     sleep 0.1  # polling the processes' end, bounded by STOP_GRACE
     waited=$((waited + 1))
   done
-  for p in $scripts; do pkill -KILL -P "$p" 2>/dev/null || true; done
+  for p in $scripts; do kill_children -KILL -P "$p" 2>/dev/null || true; done
   for p in $scripts $launches; do kill -KILL "$p" 2>/dev/null || true; done
   wait 2>/dev/null || true
 }
