@@ -50,6 +50,7 @@ struct _GstRgbdLinkMux {
   DepthLinkEncoder* encoder;
   RgbdInfo* info;
   GstCaps* info_caps;
+  std::string* caps_text;  // info_caps serialised, as each depth frame carries it
   guint since_key;
   gboolean warned_no_meta;
 };
@@ -69,6 +70,9 @@ static bool mux_depth(GstRgbdLinkMux* self, GstBuffer* in, GstRgbdLinkMeta* meta
   if (!self->info_caps || !gst_caps_is_equal(self->info_caps, meta->caps)) {
     if (!rgbd_info_from_caps(meta->caps, self->info, why)) return false;
     gst_caps_replace(&self->info_caps, meta->caps);
+    gchar* text = gst_caps_to_string(meta->caps);
+    *self->caps_text = text;
+    g_free(text);
   }
   GST_OBJECT_LOCK(self);
   const auto tolerance = uint16_t(std::lround(self->tolerance * 100));
@@ -84,14 +88,12 @@ static bool mux_depth(GstRgbdLinkMux* self, GstBuffer* in, GstRgbdLinkMeta* meta
   const bool idr = h264_is_idr(map.data, map.size);
   const bool key = idr || self->since_key + 1 >= interval;
   std::vector<uint8_t> depth;
-  gchar* caps = gst_caps_to_string(meta->caps);
   try {
-    self->encoder->encode(frame.depth(), frame.label(), caps, key, tolerance, &depth);
+    self->encoder->encode(frame.depth(), frame.label(), *self->caps_text, key, tolerance, &depth);
     h264_insert_user_data(map.data, map.size, kDepthLinkSeiUuid, depth.data(), depth.size(), au);
   } catch (const Error& e) {
     *why = e.what();
   }
-  g_free(caps);
   gst_buffer_unmap(in, &map);
   if (!why->empty()) return false;
   self->since_key = key ? 0 : self->since_key + 1;
@@ -111,8 +113,10 @@ static GstFlowReturn gst_rgbd_link_mux_generate_output(GstBaseTransform* trans, 
   if (!meta) {
     why = "an access unit without its RGB-D frame (rgbdlinksplit must come before the encoder)";
   } else if (mux_depth(self, in, meta, &au, &why)) {
-    GstBuffer* out = gst_buffer_new_allocate(nullptr, au.size(), nullptr);
-    gst_buffer_fill(out, 0, au.data(), au.size());
+    // The access unit's bytes handed over as they are, not copied again.
+    auto* bytes = new std::vector<uint8_t>(std::move(au));
+    GstBuffer* out = gst_buffer_new_wrapped_full(GstMemoryFlags(0), bytes->data(), bytes->size(), 0, bytes->size(),
+                                                 bytes, [](gpointer p) { delete static_cast<std::vector<uint8_t>*>(p); });
     gst_buffer_copy_into(out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
     gst_buffer_unref(in);
     *outbuf = out;
@@ -182,6 +186,7 @@ static void gst_rgbd_link_mux_get_property(GObject* object, guint prop_id, GValu
 static void gst_rgbd_link_mux_finalize(GObject* object) {
   GstRgbdLinkMux* self = GST_RGBD_LINK_MUX(object);
   gst_caps_replace(&self->info_caps, nullptr);
+  delete self->caps_text;
   delete self->encoder;
   delete self->info;
   G_OBJECT_CLASS(gst_rgbd_link_mux_parent_class)->finalize(object);
@@ -223,4 +228,5 @@ static void gst_rgbd_link_mux_init(GstRgbdLinkMux* self) {
   self->encoder = new DepthLinkEncoder();
   self->info = new RgbdInfo();
   self->info_caps = nullptr;
+  self->caps_text = new std::string();
 }
