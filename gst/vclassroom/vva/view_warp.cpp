@@ -25,6 +25,9 @@ constexpr float kRoomLayerWeight = 0.5f;  // the remembered room's quality again
 constexpr uint32_t kRight = 0x0f, kDown = 0xf0;
 
 
+// Whether a warp with these settings skips what cannot land in the view (the cell warp only).
+bool culls(const WarpParams& prm) { return prm.cull_outside_view && !prm.mesh; }
+
 bool same_intrinsics(const CameraCalib& a, const CameraCalib& b) {
   return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx &&
          a.cy == b.cy && a.distortion == b.distortion;
@@ -844,16 +847,16 @@ void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, con
   CV_Assert(in.room_depth.empty() || (in.room_depth.type() == CV_16UC1 && in.room_depth.size() == in.color.size() &&
                                       in.room_color.type() == CV_8UC3 && in.room_color.size() == in.color.size()));
   prepare_rays(src);
+  // The tiles' depth ranges as prepared, or found here when the frame was prepared without them.
+  const std::vector<uint16_t>* nearest = &prepared.tile_nearest;
+  const std::vector<uint16_t>* farthest = &prepared.tile_farthest;
   const TileGrid g = tile_grid(src.width, src.height);
   const size_t tiles = size_t(g.cols) * g.rows;
-  if (prepared.tile_nearest.size() == tiles && prepared.tile_farthest.size() == tiles) {
-    warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), prepared.tile_nearest,
-                       prepared.tile_farthest, virt, prm, out);
-    return;
+  if (culls(prm) && (nearest->size() != tiles || farthest->size() != tiles)) {
+    tile_depth_ranges(src.width, src.height, prepared.depth.data(), &tile_nearest_, &tile_farthest_);
+    nearest = &tile_nearest_, farthest = &tile_farthest_;
   }
-  tile_depth_ranges(src.width, src.height, prepared.depth.data(), &tile_nearest_, &tile_farthest_);
-  warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), tile_nearest_, tile_farthest_, virt, prm,
-                     out);
+  warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), *nearest, *farthest, virt, prm, out);
 }
 
 void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
@@ -922,7 +925,12 @@ void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, cons
     for (int k = 0; k < b && k < H; ++k) mark_far_side(int(n / W), k, W, code, drop);
     clear_dropped(n, drop, D);
   }
-  tile_depth_ranges(W, H, src_depth_.data(), &tile_nearest_, &tile_farthest_);
+  if (culls(prm)) {
+    tile_depth_ranges(W, H, src_depth_.data(), &tile_nearest_, &tile_farthest_);
+  } else {
+    tile_nearest_.clear();  // none: a warp that culls finds them itself
+    tile_farthest_.clear();
+  }
 }
 
 namespace {
@@ -1032,7 +1040,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   f.proj.link_scale = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
   f.proj.link_gap = float(prm.max_gap_px);
 
-  const bool cull = prm.cull_outside_view && !prm.mesh;
+  const bool cull = culls(prm);
   warped_share_ = 1.0;
   if (cull) {
     // A cell's affine map strays from the true projection of its pixel by far less than a pixel: 4 px of room.
