@@ -26,11 +26,7 @@ namespace {
 
 // Frames `n` of the synthetic classroom's camera 0 at w x h, sensor model on.
 std::vector<SyntheticCamera::Planes> classroom_frames(int n, int w = 320, int h = 180) {
-  Rig rig = default_classroom_rig();
-  CameraCalib cam = rig.cameras[0];
-  const double s = double(w) / cam.width;
-  cam.fx *= s; cam.fy *= s; cam.cx = (cam.cx + 0.5) * s - 0.5; cam.cy = (cam.cy + 0.5) * s - 0.5;
-  cam.width = w; cam.height = h;
+  const CameraCalib cam = scale_camera(default_classroom_rig().cameras[0], w, h);
   SyntheticCamera camera;
   camera.configure(SyntheticCameraConfig());
   std::vector<SyntheticCamera::Planes> out;

@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include <zlib.h>
 
 #include <opencv2/core.hpp>
 
+#include <gst/vclassroom/core/byte_order.h>
 #include <gst/vclassroom/net/depth_link.h>
 #include <gst/vclassroom/net/h264_sei.h>
 
@@ -31,9 +31,7 @@ const std::vector<uint8_t>& key_frame() {
 // The frame's checksum would stop the fuzzer at once: written right into the copy unless the size is odd.
 void fix_checksum(std::vector<uint8_t>* f) {
   if (f->size() < vclassroom::kDepthLinkHeaderBytes || (f->size() & 1)) return;
-  uLong crc = crc32(0, f->data(), 28);
-  crc = crc32_z(crc, f->data() + 32, f->size() - 32);
-  for (int b = 0; b < 4; ++b) (*f)[28 + b] = uint8_t(crc >> (8 * b));
+  vclassroom::write_le32(f->data() + 28, vclassroom::depth_frame_crc(f->data(), f->size()));
 }
 
 void decode_after_key(const std::vector<uint8_t>& frame) {

@@ -12,6 +12,13 @@
 #include <gst/vclassroom/core/error.h>
 
 namespace vclassroom {
+
+uint32_t depth_frame_crc(const uint8_t* frame, size_t size) {
+  uLong crc = ::crc32(0, frame, 28);
+  crc = ::crc32_z(crc, frame + kDepthLinkHeaderBytes, size - kDepthLinkHeaderBytes);
+  return uint32_t(crc);
+}
+
 namespace {
 
 constexpr uint8_t kVersion = 2;
@@ -310,9 +317,7 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   write_le32(hdr + 16, uint32_t(caps.size()));
   write_le32(hdr + 20, uint32_t(label_start - depth_start));
   write_le32(hdr + 24, uint32_t(out->size() - label_start));
-  uLong crc = ::crc32(0, hdr, 28);
-  crc = ::crc32_z(crc, hdr + kDepthLinkHeaderBytes, out->size() - start - kDepthLinkHeaderBytes);
-  write_le32(hdr + 28, uint32_t(crc));
+  write_le32(hdr + 28, depth_frame_crc(hdr, out->size() - start));
   tolerance_ = tolerance;
   have_ref_ = true;
 }
@@ -353,9 +358,7 @@ std::string parse_header(const uint8_t* data, size_t size, const DepthLinkLimits
   // Every pixel costs the depth coder more than 1/1024 of a byte (its measured bit alone at least 0.011 bit): a
   // shorter section cannot be an image of the declared size, and nothing is allocated for it.
   if (hd->depth_len < uint64_t(hd->w) * uint64_t(hd->h) / 1024 + 5) return "depth section too short for its image";
-  uLong crc = ::crc32(0, data, 28);
-  crc = ::crc32_z(crc, data + kDepthLinkHeaderBytes, size - kDepthLinkHeaderBytes);
-  if (uint32_t(crc) != read_le32(data + 28)) return "depth frame checksum";
+  if (depth_frame_crc(data, size) != read_le32(data + 28)) return "depth frame checksum";
   return "";
 }
 

@@ -50,6 +50,10 @@ struct DepthLinkFrame {
 // The header's fixed part, in bytes.
 inline constexpr size_t kDepthLinkHeaderBytes = 32;
 
+// A depth frame's checksum (docs/network.md): CRC-32 of the header's first 28 bytes and of everything after
+// the header; `size` >= kDepthLinkHeaderBytes. It is stored in bytes 28..31.
+uint32_t depth_frame_crc(const uint8_t* frame, size_t size);
+
 class DepthLinkEncoder {
  public:
   // Codes `depth` (and `label` when not empty; same size) as the next frame. A key frame when `key`, when
