@@ -88,10 +88,7 @@ static void drop_frame(GstRgbdDec* self, DropKind kind, int camera_id, const std
   static const char* const plural[kDropKinds] = {"damaged frames", "frames of the wrong size",
                                                  "frames with refused caps"};
   const std::string source = camera_id >= 0 ? "camera " + std::to_string(camera_id) : "";
-  const std::string what = describe_occurrences(count, singular[int(kind)], plural[int(kind)], source, span);
-  GST_ELEMENT_WARNING(self, STREAM, DECODE, ("dropped %s; %s: %s", what.c_str(), count == 1 ? "why" : "the last",
-                                             why.c_str()),
-                      ("%" G_GUINT64_FORMAT " frames dropped so far", dropped));
+  warn_dropped(GST_ELEMENT(self), count, span, singular[int(kind)], plural[int(kind)], source, why, dropped, "frames");
 }
 
 // Why `caps` (video/x-rgbd-coded from upstream) cannot be decoded, "" when

@@ -91,10 +91,7 @@ static void drop_depth(GstRgbdLinkDemux* self, DropKind kind, const std::string&
   uint64_t count = 0;
   int64_t span = 0;
   if (!self->warnings[int(kind)].note(g_get_monotonic_time() * 1000, &count, &span)) return;
-  const std::string what = describe_occurrences(count, "a frame's depth", "frames' depth", "", span);
-  GST_ELEMENT_WARNING(self, STREAM, DECODE, ("dropped %s; %s: %s", what.c_str(), count == 1 ? "why" : "the last",
-                                             why.c_str()),
-                      ("%" G_GUINT64_FORMAT " frames dropped so far", dropped));
+  warn_dropped(GST_ELEMENT(self), count, span, "a frame's depth", "frames' depth", "", why, dropped, "frames");
 }
 
 // The caps of the joined frames for a depth frame's caps string: checked (they come from the network) and

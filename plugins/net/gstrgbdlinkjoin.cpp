@@ -28,6 +28,7 @@
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/core/warning_limiter.h>
 
+#include "rgbdcoded.h"
 #include "rgbdlinkmeta.h"
 
 GST_DEBUG_CATEGORY_STATIC(rgbd_link_join_debug);
@@ -66,10 +67,7 @@ static void drop_picture(GstRgbdLinkJoin* self, const std::string& why) {
   uint64_t count = 0;
   int64_t span = 0;
   if (!self->warnings->note(g_get_monotonic_time() * 1000, &count, &span)) return;
-  const std::string what = describe_occurrences(count, "a picture", "pictures", "", span);
-  GST_ELEMENT_WARNING(self, STREAM, DECODE, ("dropped %s; %s: %s", what.c_str(), count == 1 ? "why" : "the last",
-                                             why.c_str()),
-                      ("%" G_GUINT64_FORMAT " pictures dropped so far", dropped));
+  warn_dropped(GST_ELEMENT(self), count, span, "a picture", "pictures", "", why, dropped, "pictures");
 }
 
 // The joined frame of picture `in` and its meta; nullptr with `why` when they do not belong together.

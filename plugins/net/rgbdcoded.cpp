@@ -2,6 +2,8 @@
 
 #include <string>
 
+#include <gst/vclassroom/core/warning_limiter.h>
+
 GstCaps* caps_filtered(GstCaps* caps, GstCaps* filter) {
   if (!filter) return caps;
   GstCaps* out = gst_caps_intersect_full(filter, caps, GST_CAPS_INTERSECT_FIRST);
@@ -149,4 +151,12 @@ gboolean codec_stats_sink_event(GstBaseTransform* trans, GstEvent* event, CodecS
                                 gboolean (*parent_sink_event)(GstBaseTransform*, GstEvent*)) {
   if (GST_EVENT_TYPE(event) == GST_EVENT_EOS) codec_stats_post(GST_ELEMENT(trans), st);
   return parent_sink_event(trans, event);
+}
+
+void warn_dropped(GstElement* self, uint64_t count, int64_t span, const char* singular, const char* plural,
+                  const std::string& source, const std::string& why, guint64 dropped, const char* units) {
+  const std::string what = vclassroom::describe_occurrences(count, singular, plural, source, span);
+  GST_ELEMENT_WARNING(self, STREAM, DECODE, ("dropped %s; %s: %s", what.c_str(), count == 1 ? "why" : "the last",
+                                             why.c_str()),
+                      ("%" G_GUINT64_FORMAT " %s dropped so far", dropped, units));
 }

@@ -5,6 +5,8 @@
 #include <gst/base/gstbasetransform.h>
 #include <gst/gst.h>
 
+#include <string>
+
 #include <gst/vclassroom/core/rgbd.h>
 
 
@@ -44,6 +46,11 @@ bool codec_stats_set_property(GstObject* self, CodecStats* st, guint prop_id, co
 CodecStats codec_stats_count(GstElement* self, CodecStats* st, guint64 bytes, bool dropped);
 // Counts one frame dropped for `kind`, as codec_stats_count.
 CodecStats codec_stats_drop(GstElement* self, CodecStats* st, DropKind kind);
+// The warning a rate-limited drop posts when its WarningLimiter says one is due: `count` drops of `singular` /
+// `plural` (from `source`, "" for none) over `span` ns, the last one's reason, and `dropped` `units` so far
+// ("dropped 37 damaged frames from camera 2 in the last 5 s; the last: ...").
+void warn_dropped(GstElement* self, uint64_t count, int64_t span, const char* singular, const char* plural,
+                  const std::string& source, const std::string& why, guint64 dropped, const char* units);
 // Adds the packet counts of the rtpjitterbuffer upstream (packets-received, -lost, -repaired,
 // retransmissions-requested) to a stats structure, when there is one.
 void add_link_stats(GstElement* self, GstStructure* s);
