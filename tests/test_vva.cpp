@@ -316,6 +316,36 @@ TEST(ViewCull, ATileLandsWhereItsPointsLandAndNotWhereNoneOfThemCan) {
   EXPECT_EQ(columns(Eigen::Isometry3d::Identity()), (Cols{{16, 64}, {16, 64}}));
 }
 
+TEST(ViewCull, ATilesDepthRangeIsThatOfItsPixelsAndTheRingAroundIt) {
+  // Odd sizes (partial tiles at the right and the bottom), random depth with holes, against the definition
+  // taken pixel by pixel: the nearest non-zero and the farthest depth over the tile grown by one pixel.
+  const int W = 70, H = 37;
+  cv::RNG rng(7);
+  std::vector<uint16_t> depth(size_t(W) * H);
+  for (auto& z : depth) z = rng.uniform(0, 4) == 0 ? 0 : uint16_t(rng.uniform(300, 9000));
+  // One tile and its ring without depth at all.
+  for (int v = 15; v < 33; ++v)
+    for (int u = 15; u < 33; ++u) depth[size_t(v) * W + u] = 0;
+  std::vector<uint16_t> nearest, farthest;
+  tile_depth_ranges(W, H, depth.data(), &nearest, &farthest);
+  const TileGrid g = tile_grid(W, H);
+  ASSERT_EQ(nearest.size(), size_t(g.cols) * g.rows);
+  for (int ty = 0; ty < g.rows; ++ty)
+    for (int tx = 0; tx < g.cols; ++tx) {
+      int lo = 0x10000, hi = 0;
+      for (int v = std::max(0, ty * kTileSize - 1); v < std::min(H, (ty + 1) * kTileSize + 1); ++v)
+        for (int u = std::max(0, tx * kTileSize - 1); u < std::min(W, (tx + 1) * kTileSize + 1); ++u) {
+          const int z = depth[size_t(v) * W + u];
+          if (z) lo = std::min(lo, z);
+          hi = std::max(hi, z);
+        }
+      const size_t i = size_t(ty) * g.cols + size_t(tx);
+      EXPECT_EQ(nearest[i], hi ? lo : 0) << "tile " << tx << ", " << ty;
+      EXPECT_EQ(farthest[i], hi) << "tile " << tx << ", " << ty;
+    }
+  EXPECT_EQ(farthest[size_t(1) * g.cols + 1], 0);  // the tile without depth
+}
+
 TEST(ViewWarp, OccluderInFrontIsNeverOverwrittenByTheBackground) {
   const int w = 120, h = 80;
   const CameraCalib src = pinhole(w, h, 100);

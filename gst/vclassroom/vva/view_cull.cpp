@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <gst/vclassroom/core/simd.h>
+
 namespace vclassroom {
 
 TileGrid tile_grid(int width, int height) {
@@ -33,32 +35,43 @@ void tile_ray_boxes(int W, int H, const float* ray_x, const float* ray_y, std::v
     }
 }
 
+namespace {
+
+// Column by column, the nearest (0: no depth, never the nearest) and farthest depth of one more row.
+VCLASSROOM_SIMD_CLONES
+void fold_depth_row(int n, const uint16_t* __restrict d, uint16_t* __restrict lo, uint16_t* __restrict hi) {
+  for (int u = 0; u < n; ++u) {
+    const uint16_t z = d[u];
+    const uint16_t near = z ? z : uint16_t(0xffff);
+    lo[u] = near < lo[u] ? near : lo[u];
+    hi[u] = z > hi[u] ? z : hi[u];
+  }
+}
+
+}  // namespace
+
 void tile_depth_ranges(int W, int H, const uint16_t* depth, std::vector<uint16_t>* nearest,
                        std::vector<uint16_t>* farthest) {
   const TileGrid g = tile_grid(W, H);
   nearest->assign(size_t(g.cols) * g.rows, 0xffff);
   farthest->assign(size_t(g.cols) * g.rows, 0);
-  for (int v = 0; v < H; ++v) {
-    const uint16_t* d = depth + size_t(v) * W;
-    // The tile rows whose ring holds row v: its own, and the one above or below when v is a tile's edge.
-    const int ty0 = std::max(0, (v - 1) / kTileSize), ty1 = std::min(g.rows - 1, (v + 1) / kTileSize);
+  // Per row of tiles, its rows and the ring's folded into one row of columns (a loop over whole rows the
+  // compiler vectorises; this runs for every camera frame), then each tile's columns and ring read from it.
+  std::vector<uint16_t> lo(static_cast<size_t>(W)), hi(static_cast<size_t>(W));
+  for (int ty = 0; ty < g.rows; ++ty) {
+    std::fill(lo.begin(), lo.end(), uint16_t(0xffff));
+    std::fill(hi.begin(), hi.end(), uint16_t(0));
+    const int v0 = std::max(0, ty * kTileSize - 1), v1 = std::min(H, (ty + 1) * kTileSize + 1);
+    for (int v = v0; v < v1; ++v) fold_depth_row(W, depth + size_t(v) * W, lo.data(), hi.data());
     for (int tx = 0; tx < g.cols; ++tx) {
       const int u0 = std::max(0, tx * kTileSize - 1), u1 = std::min(W, (tx + 1) * kTileSize + 1);
-      uint16_t lo = 0xffff, hi = 0;
-      for (int u = u0; u < u1; ++u) {
-        const uint16_t z = d[u];
-        lo = std::min<uint16_t>(lo, z ? z : uint16_t(0xffff));  // 0: no depth, never the nearest
-        hi = std::max(hi, z);
-      }
-      for (int ty = ty0; ty <= ty1; ++ty) {
-        const size_t i = size_t(ty) * g.cols + size_t(tx);
-        (*nearest)[i] = std::min((*nearest)[i], lo);
-        (*farthest)[i] = std::max((*farthest)[i], hi);
-      }
+      const size_t i = size_t(ty) * g.cols + size_t(tx);
+      const uint16_t near = *std::min_element(lo.begin() + u0, lo.begin() + u1);
+      const uint16_t far = *std::max_element(hi.begin() + u0, hi.begin() + u1);
+      (*nearest)[i] = far ? near : 0;  // a tile without depth: 0 .. 0
+      (*farthest)[i] = far;
     }
   }
-  for (size_t i = 0; i < nearest->size(); ++i)
-    if (!(*farthest)[i]) (*nearest)[i] = 0;
 }
 
 ViewFrustum frustum_between(const CameraCalib& source, const CameraCalib& view) {
