@@ -99,11 +99,12 @@ void BackgroundMemory::seed(const cv::Mat& empty_room) {
   if (empty_room.type() != CV_8UC3 || empty_room.empty())
     throw Error("background memory: the empty room must be an RGB image");
   empty_room.convertTo(mean_, CV_16UC3, kFraction);
-  empty_room.copyTo(remembered_);
+  empty_room.copyTo(own_remembered_);
+  remembered_ = own_remembered_;
   count_ = cv::Mat(empty_room.size(), CV_8UC1, cv::Scalar(std::clamp(params_.frames, 1, 255)));
 }
 
-void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Mat* out) {
+void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Mat* out, cv::Mat* remembered) {
   if (color.type() != CV_8UC3 || (!label.empty() && (label.type() != CV_8UC1 || label.size() != color.size())))
     throw Error("background memory: expected an RGB image and a label plane of its size");
   if (mean_.size() != color.size()) {
@@ -111,7 +112,10 @@ void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Ma
     count_ = cv::Mat::zeros(color.size(), CV_8UC1);
   }
   out->create(color.size(), CV_8UC3);
-  remembered_.create(color.size(), CV_8UC3);
+  // Never into the caller's image of an earlier frame, which remembered_ may still share.
+  cv::Mat& target = remembered ? *remembered : own_remembered_;
+  target.create(color.size(), CV_8UC3);
+  remembered_ = target;
   const int frames = std::clamp(params_.frames, 1, 255);
   // Beyond 255 levels every difference is noise: no restart ever.
   const int change = std::clamp(params_.change, 0, 255);
@@ -147,13 +151,13 @@ void BackgroundMemory::room_behind_learners(const cv::Mat& label, const cv::Mat&
   *color = remembered_;
 }
 
-void BackgroundMemory::apply(WarpSource* src) {
-  update(src->color, src->label, &shown_);
-  src->color = shown_;
+void BackgroundMemory::apply(WarpSource* src, cv::Mat* shown, cv::Mat* room_color, cv::Mat* room_depth) {
+  update(src->color, src->label, shown, room_color);
+  src->color = *shown;
   if (src->static_depth.empty() || src->label.empty()) return;
-  room_behind_learners(src->label, src->static_depth, &room_color_, &room_depth_);
-  src->room_color = room_color_;
-  src->room_depth = room_depth_;
+  room_behind_learners(src->label, src->static_depth, room_color, room_depth);
+  src->room_color = *room_color;
+  src->room_depth = *room_depth;
 }
 
 }  // namespace vclassroom

@@ -39,8 +39,9 @@ class BackgroundMemory {
   // Takes this frame (RGB CV_8UC3; label CV_8UC1, 0 static, or empty: all static) into the memory and writes
   // to *out the frame with every static pixel replaced by its remembered colour (the others as they are).
   // A seed of another size is dropped. Throws Error on a wrong type or size; the memory starts again when
-  // the size changes.
-  void update(const cv::Mat& color, const cv::Mat& label, cv::Mat* out);
+  // the size changes. With `remembered`, the remembered room (room_behind_learners' colour) is written there
+  // (reused when its size fits) instead of into the memory's own image.
+  void update(const cv::Mat& color, const cv::Mat& label, cv::Mat* out, cv::Mat* remembered = nullptr);
 
   // The room behind this frame's learners, as a layer for the warp
   // (WarpSource::room_*): *depth is `static_depth` where a learner (label
@@ -58,7 +59,10 @@ class BackgroundMemory {
   // where it has a static depth and labels - the room behind its learners
   // as the warp's room layer. The images stay with the memory until the
   // next frame.
-  void apply(WarpSource* src);
+  void apply(WarpSource* src) { apply(src, &shown_, &room_color_, &room_depth_); }
+  // The same with the images written into the caller's own (reused when their size fits): a caller that keeps
+  // them beyond the next frame (viewprep's prepared frames) copies nothing.
+  void apply(WarpSource* src, cv::Mat* shown, cv::Mat* room_color, cv::Mat* room_depth);
 
   // Frames of one colour after which a remembered pixel counts as the room.
   int stable_count() const { return std::clamp((params_.frames + 1) / 2, 1, 255); }
@@ -67,13 +71,15 @@ class BackgroundMemory {
     mean_.release();
     count_.release();
     remembered_.release();
+    own_remembered_.release();
   }
 
  private:
   BackgroundMemoryParams params_;
   cv::Mat mean_;        // CV_16UC3, 1/256 grey levels
   cv::Mat count_;       // CV_8UC1: frames in the mean, 0 = nothing remembered
-  cv::Mat remembered_;  // CV_8UC3: the mean, rounded
+  cv::Mat remembered_;      // CV_8UC3: the mean, rounded (the last update()'s image: own_remembered_ or the caller's)
+  cv::Mat own_remembered_;  // where update() writes it when the caller gives no image
   cv::Mat shown_, room_color_, room_depth_;  // apply()'s images of this frame
 };
 

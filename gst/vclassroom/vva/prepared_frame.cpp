@@ -46,10 +46,12 @@ std::shared_ptr<PreparedFrame> FramePreparer::prepare(const CameraCalib& camera,
       if (!empty_room_.empty() && empty_room_.size() == color.size()) memory_.seed(empty_room_);
       memory_fresh_ = false;
     }
-    memory_.apply(&src);  // its images stay with the memory until the next frame: copied
-    src.color.copyTo(out->color);
-    src.room_color.copyTo(out->room_color);
-    src.room_depth.copyTo(out->room_depth);
+    // Written straight into the prepared frame's images, which outlive the memory's next frame.
+    memory_.apply(&src, &out->color, &out->room_color, &out->room_depth);
+    if (src.room_depth.empty()) {  // no room layer this frame (no static depth or labels)
+      out->room_color.release();
+      out->room_depth.release();
+    }
   } else {
     out->color.release();
     out->room_color.release();
