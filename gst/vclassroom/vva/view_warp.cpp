@@ -146,10 +146,13 @@ void smooth_steps(int n, ptrdiff_t stride, const uint16_t* __restrict d, const u
     for (int k = 1; k <= kStepRadius; ++k) {
       const ptrdiff_t before = i - k * stride, after = i + k * stride;
       const uint8_t cb = code[before], ca = code[after - stride];
+      // Every neighbour exists (see above): loaded whatever the selects decide, so the loop vectorises
+      // (a load on one side of a condition kept it scalar).
+      const int db = d[before], da = d[after];
       on_before = on_before & (cb != kBreak);
       on_after = on_after & (ca != kBreak);
       stepped = stepped | (on_before & (cb == kStep)) | (on_after & (ca == kStep));
-      sum += (on_before ? d[before] : 0) + (on_after ? d[after] : 0);
+      sum += (on_before ? db : 0) + (on_after ? da : 0);
       count += (on_before ? 1 : 0) + (on_after ? 1 : 0);
     }
     out[i] = stepped ? uint16_t(float(sum) / float(count) + 0.5f) : uint16_t(c);
