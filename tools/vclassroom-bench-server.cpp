@@ -190,17 +190,16 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
       for (size_t i = 0; i < cams.size(); ++i)
         warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, wp, &warped[i]);
       const double t1 = thread_cpu_ms();
-      if (timed)
-        for (size_t i = 0; i < cams.size(); ++i) {
-          share += warpers[size_t(v)][i].warped_share();
-          drawn += double(cv::countNonZero(warped[i].depth)) / double(warped[i].depth.total());
-        }
       std::vector<const WarpedView*> inputs;
       for (auto& w : warped) inputs.push_back(&w);
       fuse_views(inputs, fp, &fused);
       if (timed) {
         warp_ms += t1 - t0;
         fuse_ms += thread_cpu_ms() - t1;
+        for (size_t i = 0; i < cams.size(); ++i) {  // not timed
+          share += warpers[size_t(v)][i].warped_share();
+          drawn += double(cv::countNonZero(warped[i].depth)) / double(warped[i].depth.total());
+        }
       }
     }
   }

@@ -112,7 +112,8 @@ void BackgroundMemory::update(const cv::Mat& color, const cv::Mat& label, cv::Ma
     count_ = cv::Mat::zeros(color.size(), CV_8UC1);
   }
   out->create(color.size(), CV_8UC3);
-  // Never into the caller's image of an earlier frame, which remembered_ may still share.
+  // The remembered room goes into the caller's image or the memory's own, never into remembered_ as it
+  // stands: that may be a caller's image of an earlier frame, still in use.
   cv::Mat& target = remembered ? *remembered : own_remembered_;
   target.create(color.size(), CV_8UC3);
   remembered_ = target;

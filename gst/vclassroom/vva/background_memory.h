@@ -48,9 +48,9 @@ class BackgroundMemory {
   // != 0), or a pixel within room_margin of one, hides a room pixel the
   // memory knows steadily (the same colour for half its frames, so a
   // learner's edge the segmentation missed for a frame is not taken for the
-  // room); 0 elsewhere. *color is the remembered room (the memory's own image,
-  // valid until the next update()). Call after update()
-  // with the same label plane.
+  // room); 0 elsewhere. *color is the remembered room (the image update()
+  // wrote it into: the memory's own is valid until the next update()). Call
+  // after update() with the same label plane.
   void room_behind_learners(const cv::Mat& label, const cv::Mat& static_depth, cv::Mat* color,
                             cv::Mat* depth) const;
 

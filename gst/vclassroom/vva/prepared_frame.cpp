@@ -48,10 +48,9 @@ std::shared_ptr<PreparedFrame> FramePreparer::prepare(const CameraCalib& camera,
     }
     // Written straight into the prepared frame's images, which outlive the memory's next frame.
     memory_.apply(&src, &out->color, &out->room_color, &out->room_depth);
-    if (src.room_depth.empty()) {  // no room layer this frame (no static depth or labels)
-      out->room_color.release();
-      out->room_depth.release();
-    }
+    // No room layer this frame (no static depth or labels): nor a depth left from the frame this one reuses.
+    // (The remembered room stays in room_color, its buffer kept for the next frame; nothing draws it.)
+    if (src.room_depth.empty()) out->room_depth.release();
   } else {
     out->color.release();
     out->room_color.release();
