@@ -190,9 +190,9 @@ struct RiceContext {
   }
   void update(uint32_t v) {
     a += v;
-    if (++n == 32) {
+    if (++n == 4) {
       a >>= 1;
-      n = 16;
+      n = 2;
     }
   }
 };
@@ -254,9 +254,9 @@ inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); 
 
 // The contexts both sides start every frame with (docs/network.md, "The depth section", lists them).
 struct DepthContexts {
-  RiceContext run[2];    // a row's runs: [0 measured, 1 holes]
+  RiceContext run[4];    // a row's runs: [2 * (0 measured, 1 holes) + the pixel above the run's start measured]
   RiceContext gap;       // delta frames: measured pixels kept before the next value
-  RiceContext step[5];   // delta frames: a value as a step from the pixel's last value p (0: a bin follows),
+  RiceContext step[15];  // delta frames: a value as a step from the pixel's last value p (0: a bin follows),
                          // [step_context(e(p))]
   RiceContext row[2];    // a bin as the difference to the row's last depth: [0 delta frame, 1 key frame]
   RiceContext bin;       // a bin where the row has no depth before it
@@ -284,7 +284,16 @@ inline int32_t delta_step(uint16_t z, uint16_t p, int32_t target, const DepthBin
 
 // The step's context: its size e(p) / 2 + 1 in classes 1 (e(p) <= 1: the step is in mm, near the camera where
 // the bound is below the sensor's 1 mm rounding), 2 to 3, 4 to 7 … (larger steps are fewer).
-inline int step_context(uint16_t e) { return e <= 1 ? 0 : e <= 5 ? 1 : e <= 13 ? 2 : e <= 29 ? 3 : 4; }
+inline int step_context(uint16_t p, uint16_t left, const DepthBins& b) {
+  const uint16_t e = b.bound[p];
+  const int size = e <= 1 ? 0 : e <= 5 ? 1 : e <= 13 ? 2 : e <= 29 ? 3 : 4;
+  const int edge = left == 0 ? 2 : std::abs(int(b.bin_of[p]) - int(b.bin_of[left])) > 1 ? 1 : 0;
+  return size * 3 + edge;
+}
+
+// Run i's context (it starts at x): holes or measured, and whether the pixel above its start has a depth (the
+// row above, `up`; none above the first row: as if it had).
+inline int run_context(int i, const uint16_t* up, int x) { return (i & 1) * 2 + int(up == nullptr || up[x] != 0); }
 
 // A step k != 0 as the code's value: 1, 2, 3, 4 … for +1, -1, +2, -2 …; 0 says a bin follows.
 inline uint32_t step_symbol(int32_t k) { return k > 0 ? uint32_t(2 * k - 1) : uint32_t(-2 * k); }
@@ -373,7 +382,7 @@ inline int next_event(const uint8_t* event, int x, int end) {
 inline uint16_t put_value(BitWriter& bw, DepthContexts& c, bool key, uint16_t z, uint16_t p, float est,
                           uint16_t left, const DepthBins& b) {
   if (!key && p != 0) {
-    RiceContext& sc = c.step[step_context(b.bound[p])];
+    RiceContext& sc = c.step[step_context(p, left, b)];
     const int32_t k = delta_step(z, p, int32_t(est + 0.5f), b);  // est >= 0: rounded
     if (k != 0) {
       const uint32_t s = step_symbol(k);
@@ -395,7 +404,7 @@ inline uint16_t put_value(BitWriter& bw, DepthContexts& c, bool key, uint16_t z,
 // bin, in a delta frame the gaps between the measured pixels sent and what each becomes. Updates `mem` (the
 // last value of each pixel) and writes the row as the decoder reconstructs it to `recon`.
 void encode_row(BitWriter& bw, DepthContexts& c, bool key, const uint16_t* z, uint16_t* mem, float* est,
-                uint16_t* recon, int w, const DepthBins& b, std::vector<int>& runs, std::vector<uint8_t>& event) {
+                const uint16_t* up, uint16_t* recon, int w, const DepthBins& b, std::vector<int>& runs, std::vector<uint8_t>& event) {
   uint8_t* measured = event.data() + w;
   if (key) {
     for (int x = 0; x < w; ++x) {
@@ -407,7 +416,8 @@ void encode_row(BitWriter& bw, DepthContexts& c, bool key, const uint16_t* z, ui
     mark_events(z, mem, float(b.tolerance) * 1e-8f * (1.0f - 1e-6f), est, event.data(), measured, w);
   }
   const int nruns = row_runs(measured, w, runs.data());
-  for (int i = 0; i < nruns; ++i) put_rice(bw, c.run[i & 1], uint32_t(runs[i] - (i > 0 ? 1 : 0)));
+  for (int i = 0, x = 0; i < nruns; x += runs[i], ++i)
+    put_rice(bw, c.run[run_context(i, up, x)], uint32_t(runs[i] - (i > 0 ? 1 : 0)));
   uint16_t left = 0;  // the row's last depth so far (reconstructed)
   uint32_t kept = 0;  // measured pixels kept since the last one sent
   int x = 0;
@@ -473,6 +483,7 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   for (int y = 0; y < h; ++y) {
     bw.reserve(size_t(w) * kWorstBitsPerPixel + 64);
     encode_row(bw, ctx, key, depth.ptr<uint16_t>(y), mem_.ptr<uint16_t>(y), estimate_.ptr<float>(y),
+               y > 0 ? recon_.ptr<uint16_t>(y - 1) : nullptr,
                recon_.ptr<uint16_t>(y), w, b, runs, event);
   }
   bw.finish();
@@ -548,11 +559,11 @@ int count_zeros(const uint16_t* v, int w) {
 
 // Decodes one row that encode_row() coded into `out`, updating `mem`; "" or why not. `runs` and `starts` hold
 // at least w + 1 entries.
-std::string decode_row(BitReader& br, DepthContexts& c, bool key, uint16_t* mem, uint16_t* out, int w,
+std::string decode_row(BitReader& br, DepthContexts& c, bool key, uint16_t* mem, const uint16_t* up, uint16_t* out, int w,
                        const DepthBins& b, std::vector<int>& runs, std::vector<int>& starts) {
   int nruns = 0, x = 0, measured = 0;
   while (x < w || nruns == 0) {
-    const uint32_t r = get_rice(br, c.run[nruns & 1]) + (nruns > 0 ? 1 : 0);
+    const uint32_t r = get_rice(br, c.run[run_context(nruns, up, x)]) + (nruns > 0 ? 1 : 0);
     if (r > uint32_t(w - x)) return "depth section's runs pass the row's end";
     starts[size_t(nruns)] = x;
     runs[size_t(nruns)] = int(r);
@@ -595,7 +606,7 @@ std::string decode_row(BitReader& br, DepthContexts& c, bool key, uint16_t* mem,
       const uint16_t left = prev >= 0 ? mem[prev] : 0;
       const uint16_t p = mem[px];
       uint16_t v;
-      const uint32_t s = p != 0 ? get_rice(br, c.step[step_context(b.bound[p])]) : 0;
+      const uint32_t s = p != 0 ? get_rice(br, c.step[step_context(p, left, b)]) : 0;
       if (s != 0) {
         const int64_t nv = int64_t(p) + int64_t(symbol_step(s)) * (int64_t(b.bound[p]) / 2 + 1);
         v = nv >= 1 && nv <= 65535 ? uint16_t(nv) : 0;
@@ -635,7 +646,8 @@ std::string decode_pixels(const uint8_t* data, size_t size, bool key, const Dept
   std::vector<int> runs(size_t(w) + 1), starts(size_t(w) + 1);
   const uint64_t bits = uint64_t(size) * 8;
   for (int y = 0; y < h; ++y) {
-    const std::string why = decode_row(br, ctx, key, mem->ptr<uint16_t>(y), depth->ptr<uint16_t>(y), w, b, runs,
+    const std::string why = decode_row(br, ctx, key, mem->ptr<uint16_t>(y), y > 0 ? depth->ptr<uint16_t>(y - 1) : nullptr,
+                                       depth->ptr<uint16_t>(y), w, b, runs,
                                        starts);
     if (!why.empty()) return why;
     if (br.consumed() > bits) return "depth section cut short";
