@@ -400,24 +400,39 @@ inline uint16_t put_value(BitWriter& bw, DepthContexts& c, bool key, uint16_t z,
   return b.center[b.bin_of[z]];
 }
 
-// Codes one row (docs/network.md, "The depth section"): its runs, then in a key frame every measured pixel's
-// bin, in a delta frame the gaps between the measured pixels sent and what each becomes. Updates `mem` (the
-// last value of each pixel) and writes the row as the decoder reconstructs it to `recon`.
-void encode_row(BitWriter& bw, DepthContexts& c, bool key, const uint16_t* z, uint16_t* mem, float* est,
-                const uint16_t* up, uint16_t* recon, int w, const DepthBins& b, std::vector<int>& runs, std::vector<uint8_t>& event) {
-  uint8_t* measured = event.data() + w;
-  if (key) {
-    for (int x = 0; x < w; ++x) {
-      est[x] = float(z[x]);
-      measured[x] = uint8_t(z[x] != 0);
+// A key frame's row after its runs: each measured pixel keeps the row's last depth `left` where that is within
+// its bound (a bin's centre, so only a pixel of another bin is sent), else its bin is sent against left's (or
+// alone at the row's first depth), with the gaps between the pixels sent as in a delta frame.
+void encode_key_row(BitWriter& bw, DepthContexts& c, const uint16_t* z, uint16_t* mem, float* est, int w,
+                    const DepthBins& b, const int* runs, int nruns) {
+  uint16_t left = 0;
+  uint32_t kept = 0;
+  for (int x = 0; x < w; ++x) est[x] = float(z[x]);
+  for (int i = 0, x = 0; i < nruns; x += runs[i], ++i) {
+    if (i & 1) continue;  // holes
+    for (int px = x; px < x + runs[i]; ++px) {
+      const int32_t zi = z[px];
+      if (left != 0 && std::abs(zi - int32_t(left)) <= int32_t(b.bound[zi])) {
+        ++kept;
+        mem[px] = left;
+        continue;
+      }
+      put_rice(bw, c.gap, kept);
+      kept = 0;
+      const int32_t bin = b.bin_of[zi];
+      if (left != 0)
+        put_rice(bw, c.row[1], zigzag(bin - int32_t(b.bin_of[left])) - 1);  // never 0: another bin
+      else
+        put_rice(bw, c.bin, uint32_t(bin));
+      mem[px] = left = b.center[size_t(bin)];
     }
-    std::memset(event.data(), 1, size_t(w));
-  } else {
-    mark_events(z, mem, float(b.tolerance) * 1e-8f * (1.0f - 1e-6f), est, event.data(), measured, w);
   }
-  const int nruns = row_runs(measured, w, runs.data());
-  for (int i = 0, x = 0; i < nruns; x += runs[i], ++i)
-    put_rice(bw, c.run[run_context(i, up, x)], uint32_t(runs[i] - (i > 0 ? 1 : 0)));
+  put_rice(bw, c.gap, kept);
+}
+
+// A delta frame's row after its runs: the gaps between the measured pixels sent (`event`) and what each becomes.
+void encode_delta_values(BitWriter& bw, DepthContexts& c, const uint16_t* z, uint16_t* mem, const float* est,
+                         const DepthBins& b, const int* runs, int nruns, const uint8_t* event) {
   uint16_t left = 0;  // the row's last depth so far (reconstructed)
   uint32_t kept = 0;  // measured pixels kept since the last one sent
   int x = 0;
@@ -426,22 +441,40 @@ void encode_row(BitWriter& bw, DepthContexts& c, bool key, const uint16_t* z, ui
     const int end = x + runs[i];
     int px = x;
     for (;;) {
-      const int next = next_event(event.data(), px, end);
+      const int next = next_event(event, px, end);
       kept += uint32_t(next - px);
       if (next > x) left = mem[next - 1];
       if (next == end) break;
-      if (!key) {
-        put_rice(bw, c.gap, kept);
-        kept = 0;
-      }
-      mem[next] = left = put_value(bw, c, key, z[next], mem[next], est[next], left, b);
+      put_rice(bw, c.gap, kept);
+      kept = 0;
+      mem[next] = left = put_value(bw, c, false, z[next], mem[next], est[next], left, b);
       px = next + 1;
     }
   }
-  if (!key) put_rice(bw, c.gap, kept);  // the row's end: a gap as long as the measured pixels left
+  put_rice(bw, c.gap, kept);  // the row's end: a gap as long as the measured pixels left
+}
+
+// Codes one row (docs/network.md, "The depth section"): its runs, then in a key frame every measured pixel's
+// bin, in a delta frame the gaps between the measured pixels sent and what each becomes. Updates `mem` (the
+// last value of each pixel) and writes the row as the decoder reconstructs it to `recon`.
+void encode_row(BitWriter& bw, DepthContexts& c, bool key, const uint16_t* z, uint16_t* mem, float* est,
+                const uint16_t* up, uint16_t* recon, int w, const DepthBins& b, std::vector<int>& runs, std::vector<uint8_t>& event) {
+  uint8_t* measured = event.data() + w;
+  if (key) {
+    for (int x = 0; x < w; ++x) measured[x] = uint8_t(z[x] != 0);
+  } else {
+    mark_events(z, mem, float(b.tolerance) * 1e-8f * (1.0f - 1e-6f), est, event.data(), measured, w);
+  }
+  const int nruns = row_runs(measured, w, runs.data());
+  for (int i = 0, x = 0; i < nruns; x += runs[i], ++i)
+    put_rice(bw, c.run[run_context(i, up, x)], uint32_t(runs[i] - (i > 0 ? 1 : 0)));
+  if (key) {
+    encode_key_row(bw, c, z, mem, est, w, b, runs.data(), nruns);
+  } else {
+    encode_delta_values(bw, c, z, mem, est, b, runs.data(), nruns, event.data());
+  }
   // The row as the decoder has it: the measured pixels' last values, zeros in the holes.
-  x = 0;
-  for (int i = 0; i < nruns; x += runs[i], ++i) {
+  for (int i = 0, x = 0; i < nruns; x += runs[i], ++i) {
     if (i & 1)
       std::memset(recon + x, 0, size_t(runs[i]) * 2);
     else
@@ -576,36 +609,40 @@ std::string decode_row(BitReader& br, DepthContexts& c, bool key, uint16_t* mem,
     if (px > starts[size_t(i)]) return px - 1;
     return i >= 2 && runs[size_t(i - 2)] > 0 ? starts[size_t(i - 2)] + runs[size_t(i - 2)] - 1 : -1;
   };
-  if (key) {
-    uint16_t left = 0;
-    for (int i = 0; i < nruns; i += 2)
-      for (int px = starts[size_t(i)]; px < starts[size_t(i)] + runs[size_t(i)]; ++px) {
-        const uint16_t v = get_bin(br, c, true, left, b);
-        if (v == 0) return "depth section names a depth beyond the scale";
-        mem[px] = left = v;
-      }
-  } else {
-    // The gaps: kept pixels are skipped run by run, so a row costs its events and its runs, not its pixels.
-    uint32_t remaining = uint32_t(measured);
-    int i = 0, px = starts[0];
-    for (;;) {
-      const uint32_t g = get_rice(br, c.gap);
-      if (g > remaining) return "depth section's gap passes the row's measured pixels";
-      if (g == remaining) break;
-      remaining -= g + 1;
-      uint32_t skip = g;
-      for (;;) {  // to the g-th measured pixel from px (it exists: g < remaining before)
-        const uint32_t avail = uint32_t(starts[size_t(i)] + runs[size_t(i)] - px);
-        if (skip < avail) break;
-        skip -= avail;
-        i += 2;
-        px = starts[size_t(i)];
-      }
-      px += int(skip);
+  // The gaps: kept pixels are skipped run by run, so a row costs its events and its runs, not its pixels (in a
+  // key frame they take the row's last depth, a fill).
+  uint32_t remaining = uint32_t(measured);  // measured pixels from the cursor (run i, pixel px) on
+  int i = 0, px = 0;
+  uint16_t key_left = 0;  // key frames: the row's last depth
+  auto settle = [&] {  // the cursor off the end of a run, onto the next measured run if there is one
+    while (px == starts[size_t(i)] + runs[size_t(i)] && i + 2 < nruns) {
+      i += 2;
+      px = starts[size_t(i)];
+    }
+  };
+  settle();
+  for (;;) {
+    const uint32_t g = get_rice(br, c.gap);
+    if (g > remaining) return "depth section's gap passes the row's measured pixels";
+    if (key && g > 0 && key_left == 0) return "depth section keeps a key frame's depth that has none before it";
+    for (uint32_t n = g; n > 0; settle()) {  // n <= the measured pixels from px on
+      const uint32_t t = std::min(n, uint32_t(starts[size_t(i)] + runs[size_t(i)] - px));
+      if (key) std::fill(mem + px, mem + px + t, key_left);
+      px += int(t);
+      n -= t;
+    }
+    if (g == remaining) break;
+    remaining -= g + 1;
+    uint16_t v;
+    if (key) {
+      const int64_t bin = key_left != 0 ? int64_t(b.bin_of[key_left]) + unzigzag(get_rice(br, c.row[1]) + 1)
+                                        : int64_t(get_rice(br, c.bin));
+      v = bin >= 1 && bin < int64_t(b.center.size()) ? b.center[size_t(bin)] : 0;
+      key_left = v;
+    } else {
       const int prev = before(i, px);
       const uint16_t left = prev >= 0 ? mem[prev] : 0;
       const uint16_t p = mem[px];
-      uint16_t v;
       const uint32_t s = p != 0 ? get_rice(br, c.step[step_context(p, left, b)]) : 0;
       if (s != 0) {
         const int64_t nv = int64_t(p) + int64_t(symbol_step(s)) * (int64_t(b.bound[p]) / 2 + 1);
@@ -613,14 +650,11 @@ std::string decode_row(BitReader& br, DepthContexts& c, bool key, uint16_t* mem,
       } else {
         v = get_bin(br, c, false, left, b);
       }
-      if (v == 0) return "depth section names a depth beyond the scale";
-      mem[px] = v;
-      ++px;
-      if (px == starts[size_t(i)] + runs[size_t(i)] && i + 2 < nruns) {
-        i += 2;
-        px = starts[size_t(i)];
-      }
     }
+    if (v == 0) return "depth section names a depth beyond the scale";
+    mem[px] = v;
+    ++px;
+    settle();
   }
   // The row: its measured pixels' last values, zeros in its holes; a measured pixel that never had a value
   // (a delta frame that sent no value for it) makes the frame invalid: then the row has more zeros than holes.
