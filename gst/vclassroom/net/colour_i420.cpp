@@ -1,0 +1,57 @@
+#include <gst/vclassroom/net/colour_i420.h>
+
+#include <algorithm>
+
+#include <gst/vclassroom/core/simd.h>
+
+namespace vclassroom {
+
+namespace {
+
+// BT.601 limited range in 8-bit fixed point (the coefficients x 256, as ITU-R BT.601 and most converters round
+// them): Y = 16 + (66 R + 129 G + 25 B) / 256, Cb = 128 + (-38 R - 74 G + 112 B) / 256,
+// Cr = 128 + (112 R - 94 G - 18 B) / 256, rounded; the chroma of the sum of four pixels divided by 1024.
+VCLASSROOM_SIMD_INLINE uint8_t luma(int r, int g, int b) { return uint8_t(((66 * r + 129 * g + 25 * b + 128) >> 8) + 16); }
+
+// One pair of rows (`r1` may be `r0` at an odd last row): both luma rows and one chroma row.
+VCLASSROOM_SIMD_CLONES
+void convert_rows(const uint8_t* __restrict r0, const uint8_t* __restrict r1, int w, uint8_t* y0,
+                  uint8_t* y1, uint8_t* __restrict cb, uint8_t* __restrict cr) {
+  const int pairs = w / 2;
+  for (int i = 0; i < pairs; ++i) {
+    const uint8_t* a = r0 + 6 * i;
+    const uint8_t* c = r1 + 6 * i;
+    y0[2 * i] = luma(a[0], a[1], a[2]);
+    y0[2 * i + 1] = luma(a[3], a[4], a[5]);
+    y1[2 * i] = luma(c[0], c[1], c[2]);
+    y1[2 * i + 1] = luma(c[3], c[4], c[5]);
+    const int r = a[0] + a[3] + c[0] + c[3], g = a[1] + a[4] + c[1] + c[4], b = a[2] + a[5] + c[2] + c[5];
+    // Offsets keep the sums positive before the shift (128 << 10 for the 128, 512 to round).
+    cb[i] = uint8_t((-38 * r - 74 * g + 112 * b + (128 << 10) + 512) >> 10);
+    cr[i] = uint8_t((112 * r - 94 * g - 18 * b + (128 << 10) + 512) >> 10);
+  }
+  if (w & 1) {  // the odd last column: its own pixel twice
+    const uint8_t* a = r0 + 3 * (w - 1);
+    const uint8_t* c = r1 + 3 * (w - 1);
+    y0[w - 1] = luma(a[0], a[1], a[2]);
+    y1[w - 1] = luma(c[0], c[1], c[2]);
+    const int r = 2 * (a[0] + c[0]), g = 2 * (a[1] + c[1]), b = 2 * (a[2] + c[2]);
+    cb[pairs] = uint8_t((-38 * r - 74 * g + 112 * b + (128 << 10) + 512) >> 10);
+    cr[pairs] = uint8_t((112 * r - 94 * g - 18 * b + (128 << 10) + 512) >> 10);
+  }
+}
+
+}  // namespace
+
+void rgb_to_i420(const uint8_t* rgb, int rgb_stride, int w, int h, uint8_t* y, int y_stride, uint8_t* cb,
+                 int cb_stride, uint8_t* cr, int cr_stride) {
+  for (int row = 0; row < h; row += 2) {
+    const int next = std::min(row + 1, h - 1);
+    // An odd last row: converted twice into the same luma row (the second write is the same value).
+    convert_rows(rgb + size_t(row) * size_t(rgb_stride), rgb + size_t(next) * size_t(rgb_stride), w,
+                 y + size_t(row) * size_t(y_stride), y + size_t(next) * size_t(y_stride),
+                 cb + size_t(row / 2) * size_t(cb_stride), cr + size_t(row / 2) * size_t(cr_stride));
+  }
+}
+
+}  // namespace vclassroom
