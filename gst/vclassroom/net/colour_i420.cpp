@@ -1,6 +1,7 @@
 #include <gst/vclassroom/net/colour_i420.h>
 
 #include <algorithm>
+#include <vector>
 
 #include <gst/vclassroom/core/simd.h>
 
@@ -41,7 +42,54 @@ void convert_rows(const uint8_t* __restrict r0, const uint8_t* __restrict r1, in
   }
 }
 
+// Chroma of one output row, both planes, in 1/4 (vertically interpolated: 3 x the nearer chroma row + the other).
+VCLASSROOM_SIMD_CLONES
+void blend_rows(const uint8_t* __restrict near_cb, const uint8_t* __restrict far_cb, const uint8_t* __restrict near_cr,
+                const uint8_t* __restrict far_cr, int n, int16_t* __restrict cb4, int16_t* __restrict cr4) {
+  for (int i = 0; i < n; ++i) {
+    cb4[i] = int16_t(3 * near_cb[i] + far_cb[i]);
+    cr4[i] = int16_t(3 * near_cr[i] + far_cr[i]);
+  }
+}
+
+VCLASSROOM_SIMD_INLINE uint8_t clamp8(int v) { return uint8_t(std::clamp(v, 0, 255)); }
+
+// One output row from its luma row and the row's vertically interpolated chroma (cb4, cr4: ceil(w/2) + 2
+// entries, the first and last repeating their neighbours so that the horizontal step needs no edge case).
+// BT.601 limited range back to RGB, the coefficients x 256: R = 298 (Y - 16) + 409 Cr', G = 298 (Y - 16)
+// - 100 Cb' - 208 Cr', B = 298 (Y - 16) + 516 Cb' (Cb' = Cb - 128, Cr' = Cr - 128, here in 1/16), rounded.
+VCLASSROOM_SIMD_CLONES
+void rgb_row(const uint8_t* __restrict y, const int16_t* __restrict cb4, const int16_t* __restrict cr4, int w,
+             uint8_t* __restrict rgb) {
+  for (int x = 0; x < w; ++x) {
+    const int i = x / 2 + 1, other = (x & 1) ? i + 1 : i - 1;  // the nearer chroma column and the other
+    const int u = 3 * cb4[i] + cb4[other] - 128 * 16, v = 3 * cr4[i] + cr4[other] - 128 * 16;
+    const int l = 298 * 16 * (int(y[x]) - 16) + 2048;
+    rgb[3 * x] = clamp8((l + 409 * v) >> 12);
+    rgb[3 * x + 1] = clamp8((l - 100 * u - 208 * v) >> 12);
+    rgb[3 * x + 2] = clamp8((l + 516 * u) >> 12);
+  }
+}
+
 }  // namespace
+
+void i420_to_rgb(const uint8_t* y, int y_stride, const uint8_t* cb, int cb_stride, const uint8_t* cr, int cr_stride,
+                 int w, int h, uint8_t* rgb, int rgb_stride) {
+  const int cw = (w + 1) / 2, ch = (h + 1) / 2;
+  std::vector<int16_t> cb4(size_t(cw) + 2), cr4(size_t(cw) + 2);
+  for (int row = 0; row < h; ++row) {
+    // The chroma row this row lies in and the one on its other side (centred siting: below for an odd row).
+    const int near = row / 2, far = std::clamp((row & 1) ? near + 1 : near - 1, 0, ch - 1);
+    blend_rows(cb + size_t(near) * size_t(cb_stride), cb + size_t(far) * size_t(cb_stride),
+               cr + size_t(near) * size_t(cr_stride), cr + size_t(far) * size_t(cr_stride), cw, cb4.data() + 1,
+               cr4.data() + 1);
+    cb4[0] = cb4[1];
+    cr4[0] = cr4[1];
+    cb4[size_t(cw) + 1] = cb4[size_t(cw)];
+    cr4[size_t(cw) + 1] = cr4[size_t(cw)];
+    rgb_row(y + size_t(row) * size_t(y_stride), cb4.data(), cr4.data(), w, rgb + size_t(row) * size_t(rgb_stride));
+  }
+}
 
 void rgb_to_i420(const uint8_t* rgb, int rgb_stride, int w, int h, uint8_t* y, int y_stride, uint8_t* cb,
                  int cb_stride, uint8_t* cr, int cr_stride) {
