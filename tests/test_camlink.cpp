@@ -13,7 +13,6 @@
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/net/depth_link.h>
 #include <gst/vclassroom/net/h264_sei.h>
-#include <gst/vclassroom/net/range_coder.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/synthetic/synthetic_camera.h>
 
@@ -170,44 +169,6 @@ TEST(DepthLink, EveryDamageIsRefusedWithAReason) {
   std::string err;
   EXPECT_FALSE(dec.decode(big.data(), big.size(), &f, &err));
   EXPECT_NE(err.find("beyond the limits"), std::string::npos) << err;
-}
-
-TEST(RangeCoder, BitsComeBackInTheirContextsAndACutStreamIsNoticed) {
-  std::mt19937 rng(7);
-  std::vector<std::pair<int, bool>> bits;  // (context, bit): context k's bits are 1 with probability k / 8
-  for (int i = 0; i < 20000; ++i) {
-    const int k = int(rng() % 9);
-    bits.emplace_back(k, int(rng() % 8) < k);
-  }
-  std::vector<uint8_t> out{0xAB};  // appends after what is there
-  {
-    BitModel models[9];
-    RangeEncoder rc(&out);
-    rc.reserve(64);
-    for (size_t i = 0; i < bits.size(); ++i) {
-      if (i % 256 == 0) rc.reserve(256 * 4);
-      rc.put(models[bits[i].first], bits[i].second);
-    }
-    rc.finish();
-  }
-  ASSERT_EQ(out[0], 0xAB);
-  // Skewed contexts cost less than a bit each: well under 20000 bits.
-  EXPECT_LT(out.size(), 20000u / 8 * 9 / 10);
-  auto decode = [&](size_t n, size_t* overrun, size_t* left) {
-    BitModel models[9];
-    RangeDecoder rc(out.data() + 1, n);
-    size_t wrong = 0;
-    for (const auto& b : bits) wrong += rc.get(models[b.first]) != b.second;
-    *overrun = rc.overrun();
-    *left = rc.left();
-    return wrong;
-  };
-  size_t overrun = 0, left = 0;
-  EXPECT_EQ(decode(out.size() - 1, &overrun, &left), 0u);
-  EXPECT_EQ(overrun, 0u);  // read to exactly its last byte
-  EXPECT_EQ(left, 0u);
-  decode(out.size() - 3, &overrun, &left);
-  EXPECT_GT(overrun, 0u);
 }
 
 TEST(DepthLink, ADepthThatStaysWithinTheBoundCostsLittleAcrossTime) {
