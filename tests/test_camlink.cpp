@@ -11,6 +11,7 @@
 #include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/image_io.h>
 #include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/net/colour_i420.h>
 #include <gst/vclassroom/net/depth_link.h>
 #include <gst/vclassroom/net/h264_sei.h>
 #include <gst/vclassroom/synthetic/classroom.h>
@@ -169,6 +170,33 @@ TEST(DepthLink, EveryDamageIsRefusedWithAReason) {
   std::string err;
   EXPECT_FALSE(dec.decode(big.data(), big.size(), &f, &err));
   EXPECT_NE(err.find("beyond the limits"), std::string::npos) << err;
+}
+
+// rgbdlinksplit's and rgbdlinkjoin's own conversions: grey stays grey at BT.601's levels, a smooth image comes
+// back within a few levels, and odd sizes are converted whole (the sanitizer build checks the edges).
+TEST(ColourI420, RgbComesBackFromI420AndOddSizesAreWhole) {
+  for (const cv::Size size : {cv::Size(64, 48), cv::Size(7, 5), cv::Size(1, 1)}) {
+    const int w = size.width, h = size.height, cw = (w + 1) / 2, ch = (h + 1) / 2;
+    cv::Mat rgb(h, w, CV_8UC3);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) rgb.at<cv::Vec3b>(y, x) = cv::Vec3b(uint8_t(40 + 2 * x), uint8_t(90 + y), 150);
+    cv::Mat luma(h, w, CV_8UC1, cv::Scalar(0)), cb(ch, cw, CV_8UC1, cv::Scalar(0)), cr(ch, cw, CV_8UC1, cv::Scalar(0));
+    rgb_to_i420(rgb.data, int(rgb.step), w, h, luma.data, int(luma.step), cb.data, int(cb.step), cr.data,
+                int(cr.step));
+    cv::Mat back(h, w, CV_8UC3, cv::Scalar(0, 0, 0));
+    i420_to_rgb(luma.data, int(luma.step), cb.data, int(cb.step), cr.data, int(cr.step), w, h, back.data,
+                int(back.step));
+    cv::Mat diff;
+    cv::absdiff(rgb, back, diff);
+    double worst = 0;
+    cv::minMaxLoc(diff.reshape(1), nullptr, &worst);
+    EXPECT_LE(worst, 3) << w << "x" << h;
+  }
+  cv::Mat grey(2, 2, CV_8UC3, cv::Scalar(255, 255, 255)), l(2, 2, CV_8UC1), u(1, 1, CV_8UC1), v(1, 1, CV_8UC1);
+  rgb_to_i420(grey.data, int(grey.step), 2, 2, l.data, int(l.step), u.data, 1, v.data, 1);
+  EXPECT_EQ(l.at<uint8_t>(0, 0), 235);
+  EXPECT_EQ(u.at<uint8_t>(0, 0), 128);
+  EXPECT_EQ(v.at<uint8_t>(0, 0), 128);
 }
 
 TEST(DepthLink, ADepthThatStaysWithinTheBoundCostsLittleAcrossTime) {

@@ -14,10 +14,11 @@ namespace {
 // Cr = 128 + (112 R - 94 G - 18 B) / 256, rounded; the chroma of the sum of four pixels divided by 1024.
 VCLASSROOM_SIMD_INLINE uint8_t luma(int r, int g, int b) { return uint8_t(((66 * r + 129 * g + 25 * b + 128) >> 8) + 16); }
 
-// One pair of rows (`r1` may be `r0` at an odd last row): both luma rows and one chroma row.
+// One pair of rows (`r1` may be `r0` at an odd last row, then `y1` a scratch row): both luma rows and one
+// chroma row.
 VCLASSROOM_SIMD_CLONES
-void convert_rows(const uint8_t* __restrict r0, const uint8_t* __restrict r1, int w, uint8_t* y0,
-                  uint8_t* y1, uint8_t* __restrict cb, uint8_t* __restrict cr) {
+void convert_rows(const uint8_t* __restrict r0, const uint8_t* __restrict r1, int w, uint8_t* __restrict y0,
+                  uint8_t* __restrict y1, uint8_t* __restrict cb, uint8_t* __restrict cr) {
   const int pairs = w / 2;
   for (int i = 0; i < pairs; ++i) {
     const uint8_t* a = r0 + 6 * i;
@@ -54,20 +55,32 @@ void blend_rows(const uint8_t* __restrict near_cb, const uint8_t* __restrict far
 
 VCLASSROOM_SIMD_INLINE uint8_t clamp8(int v) { return uint8_t(std::clamp(v, 0, 255)); }
 
-// One output row from its luma row and the row's vertically interpolated chroma (cb4, cr4: ceil(w/2) + 2
-// entries, the first and last repeating their neighbours so that the horizontal step needs no edge case).
-// BT.601 limited range back to RGB, the coefficients x 256: R = 298 (Y - 16) + 409 Cr', G = 298 (Y - 16)
-// - 100 Cb' - 208 Cr', B = 298 (Y - 16) + 516 Cb' (Cb' = Cb - 128, Cr' = Cr - 128, here in 1/16), rounded.
+// Each output column's chroma offsets from the row's vertically interpolated chroma (cb4, cr4: ceil(w/2) + 2
+// entries, the first and last repeating their neighbours so that no column is an edge case), horizontally
+// interpolated (3 x the nearer + the other, in 1/16) less 128 x 16: column 2i from i and i - 1, 2i + 1 from
+// i and i + 1 (entries shifted by one).
 VCLASSROOM_SIMD_CLONES
-void rgb_row(const uint8_t* __restrict y, const int16_t* __restrict cb4, const int16_t* __restrict cr4, int w,
+void chroma_columns(const int16_t* __restrict cb4, const int16_t* __restrict cr4, int pairs,
+                    int16_t* __restrict u, int16_t* __restrict v) {
+  for (int i = 0; i < pairs; ++i) {
+    u[2 * i] = int16_t(3 * cb4[i + 1] + cb4[i] - 128 * 16);
+    u[2 * i + 1] = int16_t(3 * cb4[i + 1] + cb4[i + 2] - 128 * 16);
+    v[2 * i] = int16_t(3 * cr4[i + 1] + cr4[i] - 128 * 16);
+    v[2 * i + 1] = int16_t(3 * cr4[i + 1] + cr4[i + 2] - 128 * 16);
+  }
+}
+
+// One output row from its luma row and its columns' chroma offsets (u, v in 1/16). BT.601 limited range back
+// to RGB, the coefficients x 256: R = 298 (Y - 16) + 409 Cr', G = 298 (Y - 16) - 100 Cb' - 208 Cr',
+// B = 298 (Y - 16) + 516 Cb' (Cb' = Cb - 128, Cr' = Cr - 128), rounded.
+VCLASSROOM_SIMD_CLONES
+void rgb_row(const uint8_t* __restrict y, const int16_t* __restrict u, const int16_t* __restrict v, int w,
              uint8_t* __restrict rgb) {
   for (int x = 0; x < w; ++x) {
-    const int i = x / 2 + 1, other = (x & 1) ? i + 1 : i - 1;  // the nearer chroma column and the other
-    const int u = 3 * cb4[i] + cb4[other] - 128 * 16, v = 3 * cr4[i] + cr4[other] - 128 * 16;
     const int l = 298 * 16 * (int(y[x]) - 16) + 2048;
-    rgb[3 * x] = clamp8((l + 409 * v) >> 12);
-    rgb[3 * x + 1] = clamp8((l - 100 * u - 208 * v) >> 12);
-    rgb[3 * x + 2] = clamp8((l + 516 * u) >> 12);
+    rgb[3 * x] = clamp8((l + 409 * v[x]) >> 12);
+    rgb[3 * x + 1] = clamp8((l - 100 * u[x] - 208 * v[x]) >> 12);
+    rgb[3 * x + 2] = clamp8((l + 516 * u[x]) >> 12);
   }
 }
 
@@ -76,7 +89,7 @@ void rgb_row(const uint8_t* __restrict y, const int16_t* __restrict cb4, const i
 void i420_to_rgb(const uint8_t* y, int y_stride, const uint8_t* cb, int cb_stride, const uint8_t* cr, int cr_stride,
                  int w, int h, uint8_t* rgb, int rgb_stride) {
   const int cw = (w + 1) / 2, ch = (h + 1) / 2;
-  std::vector<int16_t> cb4(size_t(cw) + 2), cr4(size_t(cw) + 2);
+  std::vector<int16_t> cb4(size_t(cw) + 2), cr4(size_t(cw) + 2), u(2 * size_t(cw)), v(2 * size_t(cw));
   for (int row = 0; row < h; ++row) {
     // The chroma row this row lies in and the one on its other side (centred siting: below for an odd row).
     const int near = row / 2, far = std::clamp((row & 1) ? near + 1 : near - 1, 0, ch - 1);
@@ -87,17 +100,19 @@ void i420_to_rgb(const uint8_t* y, int y_stride, const uint8_t* cb, int cb_strid
     cr4[0] = cr4[1];
     cb4[size_t(cw) + 1] = cb4[size_t(cw)];
     cr4[size_t(cw) + 1] = cr4[size_t(cw)];
-    rgb_row(y + size_t(row) * size_t(y_stride), cb4.data(), cr4.data(), w, rgb + size_t(row) * size_t(rgb_stride));
+    chroma_columns(cb4.data(), cr4.data(), cw, u.data(), v.data());
+    rgb_row(y + size_t(row) * size_t(y_stride), u.data(), v.data(), w, rgb + size_t(row) * size_t(rgb_stride));
   }
 }
 
 void rgb_to_i420(const uint8_t* rgb, int rgb_stride, int w, int h, uint8_t* y, int y_stride, uint8_t* cb,
                  int cb_stride, uint8_t* cr, int cr_stride) {
+  std::vector<uint8_t> scratch(h & 1 ? size_t(w) : 0);  // an odd last row's second luma row, dropped
   for (int row = 0; row < h; row += 2) {
-    const int next = std::min(row + 1, h - 1);
-    // An odd last row: converted twice into the same luma row (the second write is the same value).
-    convert_rows(rgb + size_t(row) * size_t(rgb_stride), rgb + size_t(next) * size_t(rgb_stride), w,
-                 y + size_t(row) * size_t(y_stride), y + size_t(next) * size_t(y_stride),
+    const bool pair = row + 1 < h;
+    const uint8_t* r0 = rgb + size_t(row) * size_t(rgb_stride);
+    convert_rows(r0, pair ? r0 + rgb_stride : r0, w, y + size_t(row) * size_t(y_stride),
+                 pair ? y + size_t(row + 1) * size_t(y_stride) : scratch.data(),
                  cb + size_t(row / 2) * size_t(cb_stride), cr + size_t(row / 2) * size_t(cr_stride));
   }
 }
