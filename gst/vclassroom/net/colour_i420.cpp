@@ -14,32 +14,35 @@ namespace {
 // Cr = 128 + (112 R - 94 G - 18 B) / 256, rounded; the chroma of the sum of four pixels divided by 1024.
 VCLASSROOM_SIMD_INLINE uint8_t luma(int r, int g, int b) { return uint8_t(((66 * r + 129 * g + 25 * b + 128) >> 8) + 16); }
 
-// One pair of rows (`r1` may be `r0` at an odd last row, then `y1` a scratch row): both luma rows and one
-// chroma row.
+// One RGB row into planes (so that the loops after it are plain lanes the compiler vectorises).
 VCLASSROOM_SIMD_CLONES
-void convert_rows(const uint8_t* __restrict r0, const uint8_t* __restrict r1, int w, uint8_t* __restrict y0,
-                  uint8_t* __restrict y1, uint8_t* __restrict cb, uint8_t* __restrict cr) {
-  const int pairs = w / 2;
+void deinterleave(const uint8_t* __restrict rgb, int w, uint8_t* __restrict r, uint8_t* __restrict g,
+                  uint8_t* __restrict b) {
+  for (int x = 0; x < w; ++x) {
+    r[x] = rgb[3 * x];
+    g[x] = rgb[3 * x + 1];
+    b[x] = rgb[3 * x + 2];
+  }
+}
+
+VCLASSROOM_SIMD_CLONES
+void luma_row(const uint8_t* __restrict r, const uint8_t* __restrict g, const uint8_t* __restrict b, int w,
+              uint8_t* __restrict y) {
+  for (int x = 0; x < w; ++x) y[x] = luma(r[x], g[x], b[x]);
+}
+
+// One chroma row from the planes of its two rows (each padded to an even width by repeating the last pixel).
+// Offsets keep the sums positive before the shift (128 << 10 for the 128, 512 to round).
+VCLASSROOM_SIMD_CLONES
+void chroma_row(const uint8_t* __restrict r0, const uint8_t* __restrict g0, const uint8_t* __restrict b0,
+                const uint8_t* __restrict r1, const uint8_t* __restrict g1, const uint8_t* __restrict b1, int pairs,
+                uint8_t* __restrict cb, uint8_t* __restrict cr) {
   for (int i = 0; i < pairs; ++i) {
-    const uint8_t* a = r0 + 6 * i;
-    const uint8_t* c = r1 + 6 * i;
-    y0[2 * i] = luma(a[0], a[1], a[2]);
-    y0[2 * i + 1] = luma(a[3], a[4], a[5]);
-    y1[2 * i] = luma(c[0], c[1], c[2]);
-    y1[2 * i + 1] = luma(c[3], c[4], c[5]);
-    const int r = a[0] + a[3] + c[0] + c[3], g = a[1] + a[4] + c[1] + c[4], b = a[2] + a[5] + c[2] + c[5];
-    // Offsets keep the sums positive before the shift (128 << 10 for the 128, 512 to round).
+    const int r = r0[2 * i] + r0[2 * i + 1] + r1[2 * i] + r1[2 * i + 1];
+    const int g = g0[2 * i] + g0[2 * i + 1] + g1[2 * i] + g1[2 * i + 1];
+    const int b = b0[2 * i] + b0[2 * i + 1] + b1[2 * i] + b1[2 * i + 1];
     cb[i] = uint8_t((-38 * r - 74 * g + 112 * b + (128 << 10) + 512) >> 10);
     cr[i] = uint8_t((112 * r - 94 * g - 18 * b + (128 << 10) + 512) >> 10);
-  }
-  if (w & 1) {  // the odd last column: its own pixel twice
-    const uint8_t* a = r0 + 3 * (w - 1);
-    const uint8_t* c = r1 + 3 * (w - 1);
-    y0[w - 1] = luma(a[0], a[1], a[2]);
-    y1[w - 1] = luma(c[0], c[1], c[2]);
-    const int r = 2 * (a[0] + c[0]), g = 2 * (a[1] + c[1]), b = 2 * (a[2] + c[2]);
-    cb[pairs] = uint8_t((-38 * r - 74 * g + 112 * b + (128 << 10) + 512) >> 10);
-    cr[pairs] = uint8_t((112 * r - 94 * g - 18 * b + (128 << 10) + 512) >> 10);
   }
 }
 
@@ -107,13 +110,22 @@ void i420_to_rgb(const uint8_t* y, int y_stride, const uint8_t* cb, int cb_strid
 
 void rgb_to_i420(const uint8_t* rgb, int rgb_stride, int w, int h, uint8_t* y, int y_stride, uint8_t* cb,
                  int cb_stride, uint8_t* cr, int cr_stride) {
-  std::vector<uint8_t> scratch(h & 1 ? size_t(w) : 0);  // an odd last row's second luma row, dropped
+  const int cw = (w + 1) / 2;
+  // Two rows' planes, each 2 cw wide: an odd last column is repeated, an odd last row uses its own planes twice.
+  std::vector<uint8_t> planes(6 * size_t(cw) * 2);
+  uint8_t* p[6];
+  for (int i = 0; i < 6; ++i) p[i] = planes.data() + size_t(i) * 2 * size_t(cw);
   for (int row = 0; row < h; row += 2) {
-    const bool pair = row + 1 < h;
-    const uint8_t* r0 = rgb + size_t(row) * size_t(rgb_stride);
-    convert_rows(r0, pair ? r0 + rgb_stride : r0, w, y + size_t(row) * size_t(y_stride),
-                 pair ? y + size_t(row + 1) * size_t(y_stride) : scratch.data(),
-                 cb + size_t(row / 2) * size_t(cb_stride), cr + size_t(row / 2) * size_t(cr_stride));
+    const int rows = std::min(2, h - row);
+    for (int k = 0; k < rows; ++k) {
+      uint8_t *r = p[3 * k], *g = p[3 * k + 1], *b = p[3 * k + 2];
+      deinterleave(rgb + size_t(row + k) * size_t(rgb_stride), w, r, g, b);
+      if (w & 1) r[w] = r[w - 1], g[w] = g[w - 1], b[w] = b[w - 1];
+      luma_row(r, g, b, w, y + size_t(row + k) * size_t(y_stride));
+    }
+    const int second = rows == 2 ? 3 : 0;
+    chroma_row(p[0], p[1], p[2], p[second], p[second + 1], p[second + 2], cw, cb + size_t(row / 2) * size_t(cb_stride),
+               cr + size_t(row / 2) * size_t(cr_stride));
   }
 }
 
