@@ -129,7 +129,9 @@ TEST(DepthLink, ADeltaFrameWithoutItsPredecessorWaitsForTheNextKeyFrame) {
   DepthLinkEncoder enc;
   DepthLinkDecoder dec;
   std::vector<std::vector<uint8_t>> wire(4);
-  for (int i = 0; i < 4; ++i) enc.encode(frames[i].depth, frames[i].label, "c", i == 3, 280, &wire[i]);
+  // A still scene, so that frames 1 and 2 are delta frames (where more than half of the measured pixels change,
+  // as between these small frames of the moving classroom, the encoder sends key frames instead).
+  for (int i = 0; i < 4; ++i) enc.encode(frames[i == 3 ? 3 : 0].depth, frames[0].label, "c", i == 3, 280, &wire[i]);
   DepthLinkFrame f;
   std::string err;
   ASSERT_TRUE(dec.decode(wire[0].data(), wire[0].size(), &f, &err)) << err;
@@ -528,4 +530,11 @@ TEST(DepthLink, FramesWrittenFromTheDocumentationDecode) {
   ASSERT_TRUE(dec.decode(delta.data(), delta.size(), &f, &err)) << err;
   EXPECT_FALSE(f.key);
   EXPECT_TRUE(same_image(f.depth, (cv::Mat_<uint16_t>(2, 4) << 1000, 1001, 1001, 1002, 0, 0, 1003, 0)));
+  // Within the default bound: kept values, a step, bins (make_depth_link_seeds.py's measurements).
+  DepthLinkDecoder near;
+  const std::vector<uint8_t> near_key = read("key-4x2-t280.vcdl"), near_delta = read("delta-4x2-t280.vcdl");
+  ASSERT_TRUE(near.decode(near_key.data(), near_key.size(), &f, &err)) << err;
+  EXPECT_EQ(bound_violations((cv::Mat_<uint16_t>(2, 4) << 1000, 1001, 3000, 0, 2990, 0, 3003, 3010), f.depth, 280), 0);
+  ASSERT_TRUE(near.decode(near_delta.data(), near_delta.size(), &f, &err)) << err;
+  EXPECT_EQ(bound_violations((cv::Mat_<uint16_t>(2, 4) << 1001, 1009, 3040, 3000, 2995, 2990, 0, 3012), f.depth, 280), 0);
 }

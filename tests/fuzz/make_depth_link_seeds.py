@@ -164,7 +164,12 @@ def main():
     memory = [None, None]
     key = frame([[1000, 1000, 0, 1002], [0, 0, 1003, 1003]], [[0, 0, 1, 1], [0, 2, 2, 0]], True, 0, 0, memory)
     delta = frame([[1000, 1001, 1001, 1002], [0, 0, 1003, 0]], None, False, 1, 0, memory)
+    # Within the default bound (t = 280: e = 2 mm at 1 m, 25 mm at 3 m): kept values, a step and a bin.
+    memory = [None, None]
+    near_key = frame([[1000, 1001, 3000, 0], [2990, 0, 3003, 3010]], None, True, 0, 280, memory)
+    near_delta = frame([[1001, 1009, 3040, 3000], [2995, 2990, 0, 3012]], None, False, 1, 280, memory)
     files = {"key-4x2-lossless.vcdl": key, "delta-4x2-lossless.vcdl": delta, "truncated-key.vcdl": key[:40],
+             "key-4x2-t280.vcdl": near_key, "delta-4x2-t280.vcdl": near_delta,
              "access-unit-with-depth-sei.h264": access_unit(key)}
     for name, data in files.items():
         with open(os.path.join(out, name), "wb") as f:

@@ -347,20 +347,24 @@ int row_runs(const uint8_t* measured, int w, int* runs) {
 // vectorised: moves each measured pixel's estimate of its true depth (the mean of its last measurements, a
 // quarter of the way towards each new one, restarted where a measurement jumps by more than twice the bound:
 // something moved) and marks the pixels that must be sent: measured, and without a last value or beyond the
-// bound of it. The bound is computed in single precision and shrunk by a millionth before it is floored, so it
+// bound of it; returns how many. The bound is computed in single precision and shrunk by a millionth before it is floored, so it
 // is never above e(z) (the product's rounding error is below 3 in 10^7): at worst a pixel is sent that the
 // exact bound would have kept, never one kept that it would have sent (only the encoder decides this).
 VCLASSROOM_SIMD_CLONES
-void mark_events(const uint16_t* __restrict z, const uint16_t* __restrict mem, float scale, float* __restrict est,
-                 uint8_t* __restrict event, uint8_t* __restrict measured, int w) {
+int mark_events(const uint16_t* __restrict z, const uint16_t* __restrict mem, float scale, float* __restrict est,
+                uint8_t* __restrict event, uint8_t* __restrict measured, int w) {
+  int events = 0;
   for (int x = 0; x < w; ++x) {
     const float zf = float(z[x]), m = float(mem[x]), old = est[x];
     const float e = std::floor(zf * zf * scale), d = zf - old;
     const float moved = std::abs(d) > 2.0f * e + 1.0f ? zf : old + 0.25f * d;
     est[x] = zf != 0.0f ? moved : old;
-    event[x] = uint8_t(int(zf != 0.0f) & (int(m == 0.0f) | int(std::abs(zf - m) > e)));
+    const int sent = int(zf != 0.0f) & (int(m == 0.0f) | int(std::abs(zf - m) > e));
+    event[x] = uint8_t(sent);
     measured[x] = uint8_t(zf != 0.0f);
+    events += sent;
   }
+  return events;
 }
 
 // The first x in [x, end) with event[x] set, or end: eight flags at a time, since most are not.
@@ -458,20 +462,17 @@ void encode_delta_values(BitWriter& bw, DepthContexts& c, const uint16_t* z, uin
 // bin, in a delta frame the gaps between the measured pixels sent and what each becomes. Updates `mem` (the
 // last value of each pixel) and writes the row as the decoder reconstructs it to `recon`.
 void encode_row(BitWriter& bw, DepthContexts& c, bool key, const uint16_t* z, uint16_t* mem, float* est,
-                const uint16_t* up, uint16_t* recon, int w, const DepthBins& b, std::vector<int>& runs, std::vector<uint8_t>& event) {
-  uint8_t* measured = event.data() + w;
-  if (key) {
+                const uint16_t* up, uint16_t* recon, int w, const DepthBins& b, std::vector<int>& runs,
+                const uint8_t* event, uint8_t* measured) {
+  if (key)
     for (int x = 0; x < w; ++x) measured[x] = uint8_t(z[x] != 0);
-  } else {
-    mark_events(z, mem, float(b.tolerance) * 1e-8f * (1.0f - 1e-6f), est, event.data(), measured, w);
-  }
   const int nruns = row_runs(measured, w, runs.data());
   for (int i = 0, x = 0; i < nruns; x += runs[i], ++i)
     put_rice(bw, c.run[run_context(i, up, x)], uint32_t(runs[i] - (i > 0 ? 1 : 0)));
   if (key) {
     encode_key_row(bw, c, z, mem, est, w, b, runs.data(), nruns);
   } else {
-    encode_delta_values(bw, c, z, mem, est, b, runs.data(), nruns, event.data());
+    encode_delta_values(bw, c, z, mem, est, b, runs.data(), nruns, event);
   }
   // The row as the decoder has it: the measured pixels' last values, zeros in the holes.
   for (int i = 0, x = 0; i < nruns; x += runs[i], ++i) {
@@ -498,6 +499,20 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   if (!have_ref_ || tolerance != tolerance_ || recon_.size() != depth.size()) key = true;
   const DepthBins& b = bins_for(tolerance);
   const int w = depth.cols, h = depth.rows;
+  // A delta frame's pixels to send, marked first for the whole frame: where they are most of its measured
+  // pixels (the camera moved: Redwood's handheld sequence), a key frame costs less — it predicts each pixel
+  // from the row, not from a memory the motion made stale — and is sent instead.
+  flags_.resize(2 * size_t(w) * size_t(h));
+  uint8_t* const sent = flags_.data();
+  uint8_t* const measured = flags_.data() + size_t(w) * size_t(h);
+  if (!key) {
+    const float scale = float(tolerance) * 1e-8f * (1.0f - 1e-6f);
+    size_t events = 0, pixels = size_t(cv::countNonZero(depth));
+    for (int y = 0; y < h; ++y)
+      events += size_t(mark_events(depth.ptr<uint16_t>(y), mem_.ptr<uint16_t>(y), scale, estimate_.ptr<float>(y),
+                                   sent + size_t(y) * size_t(w), measured + size_t(y) * size_t(w), w));
+    key = 2 * events > pixels;
+  }
   if (key) {
     mem_ = cv::Mat::zeros(h, w, CV_16UC1);
     estimate_ = cv::Mat::zeros(h, w, CV_32FC1);
@@ -512,12 +527,11 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   DepthContexts ctx;
   BitWriter bw(out);
   std::vector<int> runs(size_t(w) + 1);
-  std::vector<uint8_t> event(2 * size_t(w));  // the row's flags: sent, then measured
   for (int y = 0; y < h; ++y) {
     bw.reserve(size_t(w) * kWorstBitsPerPixel + 64);
     encode_row(bw, ctx, key, depth.ptr<uint16_t>(y), mem_.ptr<uint16_t>(y), estimate_.ptr<float>(y),
                y > 0 ? recon_.ptr<uint16_t>(y - 1) : nullptr,
-               recon_.ptr<uint16_t>(y), w, b, runs, event);
+               recon_.ptr<uint16_t>(y), w, b, runs, sent + size_t(y) * size_t(w), measured + size_t(y) * size_t(w));
   }
   bw.finish();
   const size_t label_start = out->size();

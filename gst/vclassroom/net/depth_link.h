@@ -58,7 +58,8 @@ uint32_t depth_frame_crc(const uint8_t* frame, size_t size);
 class DepthLinkEncoder {
  public:
   // Codes `depth` (and `label` when not empty; same size) as the next frame. A key frame when `key`, when
-  // the size or tolerance changed, or at the first frame. Appends to `out`.
+  // the size or tolerance changed, at the first frame, or where a delta frame would send more than half of its
+  // measured pixels (the camera moved). Appends to `out`.
   void encode(const cv::Mat& depth, const cv::Mat& label, const std::string& caps, bool key,
               uint16_t tolerance_centi_mm, std::vector<uint8_t>* out, int zlib_level = 1);
   // The depth the decoder will reconstruct for the last frame encoded (for tests and measurement).
@@ -69,6 +70,7 @@ class DepthLinkEncoder {
   cv::Mat recon_;    // CV_16UC1: the last frame as the decoder reconstructs it (mm, 0: no measurement)
   cv::Mat mem_;      // CV_16UC1: each pixel's last reconstructed measurement since the key frame (mm)
   cv::Mat estimate_;  // CV_32FC1: each pixel's estimate of its true depth (the encoder's alone; mm)
+  std::vector<uint8_t> flags_;  // per pixel: to be sent (delta frames), then measured
   uint16_t tolerance_ = 0;
   uint32_t number_ = 0;
   bool have_ref_ = false;
