@@ -299,19 +299,19 @@ inline int run_context(int i, const uint16_t* up, int x) { return (i & 1) * 2 + 
 inline uint32_t step_symbol(int32_t k) { return k > 0 ? uint32_t(2 * k - 1) : uint32_t(-2 * k); }
 inline int32_t symbol_step(uint32_t s) { return (s & 1) ? int32_t((s + 1) / 2) : -int32_t(s / 2); }
 
-// The bin of a value that has no step (key frames, pixels without a last value, escapes): against the bin of
-// the row's last depth `left` when there is one, else the bin itself.
-inline void put_bin(BitWriter& bw, DepthContexts& c, bool key, uint16_t z, uint16_t left, const DepthBins& b) {
+// A delta frame's bin (a pixel without a last value, or an escape): against the bin of the row's last depth
+// `left` when there is one, else the bin itself.
+inline void put_bin(BitWriter& bw, DepthContexts& c, uint16_t z, uint16_t left, const DepthBins& b) {
   const int32_t bin = b.bin_of[z];
   if (left != 0)
-    put_rice(bw, c.row[key ? 1 : 0], zigzag(bin - int32_t(b.bin_of[left])));
+    put_rice(bw, c.row[0], zigzag(bin - int32_t(b.bin_of[left])));
   else
     put_rice(bw, c.bin, uint32_t(bin));
 }
 
 // What put_bin() wrote, as the bin's centre; 0 when the bin is beyond the scale.
-inline uint16_t get_bin(BitReader& br, DepthContexts& c, bool key, uint16_t left, const DepthBins& b) {
-  const int64_t bin = left != 0 ? int64_t(b.bin_of[left]) + unzigzag(get_rice(br, c.row[key ? 1 : 0]))
+inline uint16_t get_bin(BitReader& br, DepthContexts& c, uint16_t left, const DepthBins& b) {
+  const int64_t bin = left != 0 ? int64_t(b.bin_of[left]) + unzigzag(get_rice(br, c.row[0]))
                                 : int64_t(get_rice(br, c.bin));
   return bin >= 1 && bin < int64_t(b.center.size()) ? b.center[size_t(bin)] : 0;
 }
@@ -379,13 +379,13 @@ inline int next_event(const uint8_t* event, int x, int end) {
   return x;
 }
 
-// What one measured pixel that is sent becomes: in a key frame, or without a last value p, its bin; else a
-// step from p towards the estimate, or (0, then the bin) where no step is within the bound or the bin
-// against the row's last depth `left` is shorter (where the camera or something in view moved). Returns the
-// value the decoder reconstructs.
-inline uint16_t put_value(BitWriter& bw, DepthContexts& c, bool key, uint16_t z, uint16_t p, float est,
-                          uint16_t left, const DepthBins& b) {
-  if (!key && p != 0) {
+// What one measured pixel that a delta frame sends becomes: without a last value p, its bin; else a step from
+// p towards the estimate, or (0, then the bin) where no step is within the bound or the bin against the
+// row's last depth `left` is shorter (where the camera or something in view moved). Returns the value the
+// decoder reconstructs.
+inline uint16_t put_value(BitWriter& bw, DepthContexts& c, uint16_t z, uint16_t p, float est, uint16_t left,
+                          const DepthBins& b) {
+  if (p != 0) {
     RiceContext& sc = c.step[step_context(p, left, b)];
     const int32_t k = delta_step(z, p, int32_t(est + 0.5f), b);  // est >= 0: rounded
     if (k != 0) {
@@ -400,7 +400,7 @@ inline uint16_t put_value(BitWriter& bw, DepthContexts& c, bool key, uint16_t z,
     }
     put_rice(bw, sc, 0);
   }
-  put_bin(bw, c, key, z, left, b);
+  put_bin(bw, c, z, left, b);
   return b.center[b.bin_of[z]];
 }
 
@@ -451,7 +451,7 @@ void encode_delta_values(BitWriter& bw, DepthContexts& c, const uint16_t* z, uin
       if (next == end) break;
       put_rice(bw, c.gap, kept);
       kept = 0;
-      mem[next] = left = put_value(bw, c, false, z[next], mem[next], est[next], left, b);
+      mem[next] = left = put_value(bw, c, z[next], mem[next], est[next], left, b);
       px = next + 1;
     }
   }
@@ -662,7 +662,7 @@ std::string decode_row(BitReader& br, DepthContexts& c, bool key, uint16_t* mem,
         const int64_t nv = int64_t(p) + int64_t(symbol_step(s)) * (int64_t(b.bound[p]) / 2 + 1);
         v = nv >= 1 && nv <= 65535 ? uint16_t(nv) : 0;
       } else {
-        v = get_bin(br, c, false, left, b);
+        v = get_bin(br, c, left, b);
       }
     }
     if (v == 0) return "depth section names a depth beyond the scale";
