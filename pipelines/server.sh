@@ -175,7 +175,7 @@ for k in $CAMERAS; do
   # (rtph264depay request-keyframe: a PLI through the RTCP session, RFC 4585), and pictures wait for it.
   if [ "$LINK" = h264 ]; then
     decode="rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k stats-interval=$STATS ! \
-      openh264dec ! videoconvert ! video/x-raw,format=RGB ! rgbdlinkjoin name=join$k ! \
+      openh264dec ! videoconvert ! rgbdlinkjoin name=join$k ! \
       queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE !"
   else
     decode="rtpgstdepay ! queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! \

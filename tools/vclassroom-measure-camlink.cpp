@@ -477,7 +477,8 @@ int main(int argc, char** argv) {
   const std::string old_srv = "rtpgstdepay ! rgbddec";
   const std::string profile = format == "Y444" ? "high-4:4:4" : "constrained-baseline";
   const std::string new_cam =
-      "rgbdlinksplit ! videoconvert ! video/x-raw,format=" + format + " ! x264enc tune=zerolatency "
+      std::string("rgbdlinksplit") + (format == "Y444" ? " format=RGB" : "") + " ! videoconvert ! video/x-raw,format=" +
+      format + " ! x264enc tune=zerolatency "
       "speed-preset=ultrafast key-int-max=60 bitrate=" + std::to_string(bitrate) + " ! video/x-h264,profile=" +
       profile + " ! rgbdlinkmux depth-tolerance=" + tol_text + " ! rtph264pay mtu=1400 pt=96";
   const std::string new_srv = std::string("rtph264depay ! rgbdlinkdemux ! ") +

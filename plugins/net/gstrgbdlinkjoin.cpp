@@ -2,8 +2,9 @@
  * SECTION:element-rgbdlinkjoin
  * @title: rgbdlinkjoin
  *
- * The server side of the H.264 camera link (docs/network.md): after the H.264 decoder and videoconvert,
- * joins each decoded RGB picture with the depth and labels that came in its own access unit (the meta
+ * The server side of the H.264 camera link (docs/network.md): after the H.264 decoder, joins each decoded
+ * picture (I420, converted to RGB here, BT.601 as rgbdlinksplit made it: a videoconvert before it passes it
+ * through; or RGB) with the depth and labels that came in its own access unit (the meta
  * rgbdlinkdemux attached) into one video/x-rgbd frame, with the camera's calibration in the caps. Colour is
  * never joined with another instant's depth: a picture without its depth (lost, damaged, or awaiting a depth
  * key frame), or whose meta was made for another timestamp, is dropped with a rate-limited warning.
@@ -26,6 +27,7 @@
 #include <gst/video/video.h>
 
 #include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/net/colour_i420.h>
 #include <gst/vclassroom/core/warning_limiter.h>
 
 #include "rgbdcoded.h"
@@ -56,7 +58,7 @@ G_DEFINE_TYPE(GstRgbdLinkJoin, gst_rgbd_link_join, GST_TYPE_ELEMENT)
 GST_ELEMENT_REGISTER_DEFINE(rgbdlinkjoin, "rgbdlinkjoin", GST_RANK_NONE, GST_TYPE_RGBD_LINK_JOIN)
 
 static GstStaticPadTemplate sink_template = GST_STATIC_PAD_TEMPLATE(
-    "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("video/x-raw, format=(string)RGB"));
+    "sink", GST_PAD_SINK, GST_PAD_ALWAYS, GST_STATIC_CAPS("video/x-raw, format=(string){ I420, RGB }"));
 static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
 
@@ -102,14 +104,28 @@ static GstBuffer* join(GstRgbdLinkJoin* self, GstBuffer* in, GstRgbdLinkMeta* me
     *why = "cannot map the picture";
     return nullptr;
   }
+  const bool i420 = GST_VIDEO_FRAME_FORMAT(&vf) == GST_VIDEO_FORMAT_I420;
   GstMapInfo pm;
   gst_buffer_map(meta->planes, &pm, GST_MAP_READ);
-  std::vector<std::pair<Plane, cv::Mat>> planes = {
-      {Plane::Color, cv::Mat(h, w, CV_8UC3, GST_VIDEO_FRAME_PLANE_DATA(&vf, 0), GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0))},
-      {Plane::Depth, cv::Mat(h, w, CV_16UC1, pm.data)}};
+  std::vector<std::pair<Plane, cv::Mat>> planes = {{Plane::Depth, cv::Mat(h, w, CV_16UC1, pm.data)}};
+  if (!i420)
+    planes.emplace_back(Plane::Color, cv::Mat(h, w, CV_8UC3, GST_VIDEO_FRAME_PLANE_DATA(&vf, 0),
+                                              GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0)));
   if (labels) planes.emplace_back(Plane::Label, cv::Mat(h, w, CV_8UC1, pm.data + depth_bytes));
   GstBuffer* out = rgbd_buffer_with_planes(*self->info, planes, why);
   gst_buffer_unmap(meta->planes, &pm);
+  if (out && i420) {  // the colour converted right into the frame's plane
+    RgbdFrame frame;
+    if (frame.map(out, *self->info, GST_MAP_WRITE, why)) {
+      cv::Mat rgb = frame.color();
+      auto plane = [&](int p) { return static_cast<const uint8_t*>(GST_VIDEO_FRAME_PLANE_DATA(&vf, p)); };
+      i420_to_rgb(plane(0), GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0), plane(1), GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 1),
+                  plane(2), GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 2), w, h, rgb.data, int(rgb.step));
+    } else {
+      gst_buffer_unref(out);
+      out = nullptr;
+    }
+  }
   gst_video_frame_unmap(&vf);
   if (out) gst_buffer_copy_into(out, in, GstBufferCopyFlags(GST_BUFFER_COPY_FLAGS | GST_BUFFER_COPY_TIMESTAMPS), 0, -1);
   return out;

@@ -1,6 +1,6 @@
 #include <gst/vclassroom/net/depth_link.h>
 
-#include <gst/vclassroom/net/range_coder.h>
+#include <gst/vclassroom/core/simd.h>
 
 #include <zlib.h>
 
@@ -21,7 +21,7 @@ uint32_t depth_frame_crc(const uint8_t* frame, size_t size) {
 
 namespace {
 
-constexpr uint8_t kVersion = 2;
+constexpr uint8_t kVersion = 3;
 constexpr uint8_t kFlagKey = 1, kFlagLabels = 2;
 
 // The bins of one tolerance: bin_of[z] for every 16-bit depth, and each bin's centre (bin 0: no measurement).
@@ -102,55 +102,168 @@ DepthBins& bins_for(uint16_t tolerance) {
   return bins;
 }
 
-// The contexts both sides start every frame with (docs/network.md, "The depth frame", lists them).
-struct DepthModels {
-  BitModel measured[2][64];         // [key][history << 4 | measured neighbours]
-  BitModel changed[2][18];          // [key][measured the frame before * 9 + left's state * 3 + upper's state]
-  BitModel sign[2];                 // [key]
-  BitModel escape;                  // delta frames: a changed pixel's value is a bin, not a step
-  BitModel length[4][17];           // [kind: 0 step, 1 key difference, 2 bin, 3 delta's row difference][i]
-  BitModel mantissa[4][17][17];     // [kind][length][bit]
+// Bits go out most significant first. The writer keeps its bits in a register and its bytes go through a raw
+// pointer into room reserve() made (a vector's push_back, which may reallocate, would cost a check per byte).
+class BitWriter {
+ public:
+  explicit BitWriter(std::vector<uint8_t>* out) : out_(out), start_(out->size()) {}
+  // Room for `bits` more: call it before each row with the row's worst case.
+  void reserve(size_t bits) {
+    const size_t need = used_ + bits / 8 + 16;
+    if (out_->size() - start_ < need) out_->resize(start_ + 2 * need);
+  }
+  // v < 2^bits, bits <= 32.
+  void put(uint32_t v, int bits) {
+    acc_ = acc_ << bits | v;
+    n_ += bits;
+    while (n_ >= 8) {
+      n_ -= 8;
+      (*out_)[start_ + used_++] = uint8_t(acc_ >> n_);
+    }
+  }
+  // Pads the last byte with zeros and trims `out` to what was written.
+  void finish() {
+    if (n_ > 0) put(0, 8 - n_);
+    out_->resize(start_ + used_);
+  }
+
+ private:
+  std::vector<uint8_t>* out_;
+  size_t start_, used_ = 0;
+  uint64_t acc_ = 0;
+  int n_ = 0;
 };
 
-// A pixel codes at most 36 bits (measured, changed, escape, sign, 16 of length, 16 of mantissa), each costing
-// at most 7.05 bits of output (a probability never falls below 31/4096): 31.7 bytes, rounded up.
-constexpr size_t kWorstBytesPerPixel = 32;
+// Reads what BitWriter wrote; past the end it reads zeros, and consumed() then exceeds the section's bits.
+class BitReader {
+ public:
+  BitReader(const uint8_t* data, size_t size) : p_(data), end_(data + size) {}
+  // At least 41 bits in the register (a code needs at most 41).
+  void refill() {
+    if (n_ > 40) return;
+    if (end_ - p_ >= 8) {  // eight bytes at once, whole bytes counted (the rest is read again next time)
+      uint64_t word;
+      std::memcpy(&word, p_, 8);
+      acc_ |= __builtin_bswap64(word) >> n_;
+      const int bytes = (63 - n_) >> 3;
+      p_ += bytes;
+      n_ += 8 * bytes;
+      return;
+    }
+    while (n_ <= 56) {
+      acc_ |= uint64_t(p_ < end_ ? *p_++ : 0) << (56 - n_);
+      n_ += 8;
+    }
+  }
+  // After refill(): the next `bits` (0 to 32).
+  uint32_t take(int bits) {
+    if (bits == 0) return 0;
+    const auto v = uint32_t(acc_ >> (64 - bits));
+    acc_ <<= bits;
+    n_ -= bits;
+    consumed_ += uint64_t(bits);
+    return v;
+  }
+  // After refill(): the number of zero bits before the next one (64 when the register holds none).
+  int zeros() const { return acc_ == 0 ? 64 : __builtin_clzll(acc_); }
+  uint64_t consumed() const { return consumed_; }
 
-enum PixelState : uint8_t { kHole = 0, kSame = 1, kChanged = 2 };
-enum MagnitudeKind { kDeltaDifference = 0, kKeyDifference = 1, kNoPrediction = 2, kRowDifference = 3 };
+ private:
+  const uint8_t* p_;
+  const uint8_t* end_;
+  uint64_t acc_ = 0;
+  int n_ = 0;
+  uint64_t consumed_ = 0;
+};
 
-// n = floor(log2 v): what a magnitude's cost grows with.
-inline int magnitude_length(uint32_t v) {
-  int n = 0;
-  while ((v >> (n + 1)) != 0) ++n;
-  return n;
+// An adaptive Golomb-Rice code (LOCO-I's, Weinberger et al. 2000, docs/references.md): the parameter k follows
+// the running mean of the values the context coded (A their sum, N their count, both halved when N reaches
+// 32), so a context whose values are small codes them in few bits and one whose values grow adapts within a
+// few values. Every field of the depth section is one such code, so a value costs a few shifts, never a
+// decision per bit.
+struct RiceContext {
+  uint32_t a = 4, n = 1;
+  int k() const {
+    int k = 0;
+    while (k < 17 && (n << k) < a) ++k;
+    return k;
+  }
+  void update(uint32_t v) {
+    a += v;
+    if (++n == 4) {
+      a >>= 1;
+      n = 2;
+    }
+  }
+};
+
+// A quotient v >> k of kRiceLimit or more is written as kRiceLimit zeros and then u = v - (kRiceLimit << k) + 1
+// in Elias's gamma code (floor(log2 u) zeros, then u's bits from its leading one), so that the rare large
+// value (an edge's flying pixel, a learner who moved) costs bits logarithmic in its size, not its quotient in
+// unary. Values are below 2^17 (a depth step or a bin difference of a 16-bit depth, zigzagged); a code that
+// says more decodes as kRiceInvalid, which every field refuses.
+constexpr int kRiceLimit = 6;
+constexpr uint32_t kRiceInvalid = 1u << 17;
+
+inline int bit_length(uint32_t u) { return 32 - __builtin_clz(u); }  // u > 0
+
+inline int rice_bits(uint32_t v, int k) {
+  const uint32_t q = v >> k;
+  return q < uint32_t(kRiceLimit) ? int(q) + 1 + k : kRiceLimit + 2 * bit_length(v - (uint32_t(kRiceLimit) << k) + 1) - 1;
 }
 
-// A magnitude v in 1..131071: its length n = floor(log2 v) in unary (n ones, then a zero unless n = 16), then
-// v's n bits below its leading one, most significant first.
-inline void put_magnitude(RangeEncoder& rc, DepthModels& m, int kind, uint32_t v) {
-  const int n = magnitude_length(v);
-  for (int i = 0; i < n; ++i) rc.put(m.length[kind][i], true);
-  if (n < 16) rc.put(m.length[kind][n], false);
-  for (int b = n - 1; b >= 0; --b) rc.put(m.mantissa[kind][n][b], (v >> b) & 1);
+inline void put_rice(BitWriter& bw, RiceContext& c, uint32_t v) {
+  const int k = c.k();
+  const uint32_t q = v >> k;
+  if (q < uint32_t(kRiceLimit)) {
+    bw.put(1, int(q) + 1);
+    if (k > 0) bw.put(v & ((1u << k) - 1), k);
+  } else {
+    const uint32_t u = v - (uint32_t(kRiceLimit) << k) + 1;
+    const int n = bit_length(u);
+    bw.put(0, kRiceLimit + n - 1);
+    bw.put(u, n);
+  }
+  c.update(v);
+}
+
+inline uint32_t get_rice(BitReader& br, RiceContext& c) {
+  br.refill();
+  const int k = c.k();
+  const int z = br.zeros();
+  uint32_t v;
+  if (z < kRiceLimit) {
+    br.take(z + 1);
+    v = uint32_t(z) << k | br.take(k);
+  } else {
+    const int n = z - kRiceLimit + 1;  // u's bits
+    if (n > 18) {
+      br.take(z < 32 ? z : 32);
+      v = kRiceInvalid;
+    } else {
+      br.take(z);
+      v = std::min(br.take(n) - 1 + (uint32_t(kRiceLimit) << k), kRiceInvalid);
+    }
+  }
+  c.update(v);
+  return v;
 }
 
 inline uint32_t zigzag(int32_t d) { return (uint32_t(d) << 1) ^ uint32_t(d >> 31); }
 inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
 
-inline uint32_t get_magnitude(RangeDecoder& rc, DepthModels& m, int kind) {
-  int n = 0;
-  while (n < 16 && rc.get(m.length[kind][n])) ++n;
-  uint32_t v = 1;
-  for (int b = n - 1; b >= 0; --b) v = v << 1 | uint32_t(rc.get(m.mantissa[kind][n][b]));
-  return v;
-}
+// The contexts both sides start every frame with (docs/network.md, "The depth section", lists them).
+struct DepthContexts {
+  RiceContext run[4];    // a row's runs: [2 * (0 measured, 1 holes) + the pixel above the run's start measured]
+  RiceContext gap;       // delta frames: measured pixels kept before the next value
+  RiceContext step[15];  // delta frames: a value as a step from the pixel's last value p (0: a bin follows),
+                         // [step_context(e(p))]
+  RiceContext row[2];    // a bin as the difference to the row's last depth: [0 delta frame, 1 key frame]
+  RiceContext bin;       // a bin where the row has no depth before it
+};
 
-// Which of a pixel's four causal neighbours (left, upper, upper left, upper right) are measured; `cur` and
-// `up` hold the row's and the row above's states at x + 1 (a hole on either side of the image).
-inline int neighbours(const uint8_t* cur, const uint8_t* up, int x) {
-  return int(cur[x] != kHole) | int(up[x + 1] != kHole) << 1 | int(up[x] != kHole) << 2 | int(up[x + 2] != kHole) << 3;
-}
+// A row codes at most w + 1 runs, and per pixel a gap, a step and a bin; each code at most 41 bits.
+constexpr size_t kWorstBitsPerPixel = 4 * 41;
 
 // A delta frame's new value for a measured depth z that left its prediction p (|z - p| > e(z)): on the grid
 // p + k (e(p) / 2 + 1), k != 0, the point within e(z) of z nearest to `target` (the encoder's estimate of the
@@ -169,70 +282,205 @@ inline int32_t delta_step(uint16_t z, uint16_t p, int32_t target, const DepthBin
   return 0;
 }
 
-// Codes one measured pixel against its prediction `p` (mm, 0: none); returns the value the decoder will
-// reconstruct, and its state for the neighbours' contexts in `state`.
-inline uint16_t put_pixel(RangeEncoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t z, uint16_t p,
-                          uint16_t left, float target, const DepthBins& b, uint8_t* state) {
-  *state = kChanged;
-  if (p == 0) {
-    const uint16_t bin = b.bin_of[z];
-    put_magnitude(rc, m, kNoPrediction, bin);
-    return b.center[bin];
-  }
-  const bool changed = std::abs(int32_t(z) - int32_t(p)) > int32_t(b.bound[z]);
-  rc.put(m.changed[key][changed_ctx], changed);
-  if (!changed) {
-    *state = kSame;
-    return p;
-  }
-  if (key) {  // p is a bin's centre, z in another bin
-    const int32_t bin = b.bin_of[z], pb = b.bin_of[p];
-    rc.put(m.sign[1], bin < pb);
-    put_magnitude(rc, m, kKeyDifference, uint32_t(std::abs(bin - pb)));
-    return b.center[bin];
-  }
-  // The step from p, or (escape) the bin coded against the bin of the depth decoded last on the row, `left`
-  // (its bin alone where there is none), whichever is shorter: where the camera or something in view moved,
-  // the row is the better prediction.
-  const int32_t k = delta_step(z, p, int32_t(target + 0.5f), b);  // target >= 0: rounded
-  const int32_t bin = b.bin_of[z];
-  const uint32_t row = left != 0 ? zigzag(bin - int32_t(b.bin_of[left])) + 1 : 0;
-  const bool escape = k == 0 || (left != 0 && magnitude_length(row) < magnitude_length(uint32_t(std::abs(k))));
-  rc.put(m.escape, escape);
-  if (escape) {
-    put_magnitude(rc, m, left != 0 ? kRowDifference : kNoPrediction, left != 0 ? row : uint32_t(bin));
-    return b.center[bin];
-  }
-  rc.put(m.sign[0], k < 0);
-  put_magnitude(rc, m, kDeltaDifference, uint32_t(std::abs(k)));
-  return uint16_t(int32_t(p) + k * (int32_t(b.bound[p]) / 2 + 1));
+// The step's context: its size e(p) / 2 + 1 in classes 1 (e(p) <= 1: the step is in mm, near the camera where
+// the bound is below the sensor's 1 mm rounding), 2 to 3, 4 to 7 … (larger steps are fewer).
+inline int step_context(uint16_t p, uint16_t left, const DepthBins& b) {
+  const uint16_t e = b.bound[p];
+  const int size = e <= 1 ? 0 : e <= 5 ? 1 : e <= 13 ? 2 : e <= 29 ? 3 : 4;
+  const int edge = left == 0 ? 2 : std::abs(int(b.bin_of[p]) - int(b.bin_of[left])) > 1 ? 1 : 0;
+  return size * 3 + edge;
 }
 
-// Decodes what put_pixel() coded; 0 when it names a depth beyond the scale.
-inline uint16_t get_pixel(RangeDecoder& rc, DepthModels& m, bool key, int changed_ctx, uint16_t p, uint16_t left,
-                          const DepthBins& b, uint8_t* state) {
-  const auto nbins = int64_t(b.center.size());
-  *state = kChanged;
-  int64_t bin;
-  if (p == 0) {
-    bin = get_magnitude(rc, m, kNoPrediction);
-  } else if (!rc.get(m.changed[key][changed_ctx])) {
-    *state = kSame;
-    return p;
-  } else if (key) {
-    const bool below = rc.get(m.sign[1]);
-    const int64_t d = get_magnitude(rc, m, kKeyDifference);
-    bin = below ? int64_t(b.bin_of[p]) - d : int64_t(b.bin_of[p]) + d;
-  } else if (rc.get(m.escape)) {
-    bin = left != 0 ? int64_t(b.bin_of[left]) + unzigzag(get_magnitude(rc, m, kRowDifference) - 1)
-                    : int64_t(get_magnitude(rc, m, kNoPrediction));
-  } else {
-    const bool below = rc.get(m.sign[0]);
-    const int64_t k = get_magnitude(rc, m, kDeltaDifference);
-    const int64_t v = int64_t(p) + (below ? -k : k) * (int64_t(b.bound[p]) / 2 + 1);
-    return v >= 1 && v <= 65535 ? uint16_t(v) : 0;
+// Run i's context (it starts at x): holes or measured, and whether the pixel above its start has a depth (the
+// row above, `up`; none above the first row: as if it had).
+inline int run_context(int i, const uint16_t* up, int x) { return (i & 1) * 2 + int(up == nullptr || up[x] != 0); }
+
+// A step k != 0 as the code's value: 1, 2, 3, 4 … for +1, -1, +2, -2 …; 0 says a bin follows.
+inline uint32_t step_symbol(int32_t k) { return k > 0 ? uint32_t(2 * k - 1) : uint32_t(-2 * k); }
+inline int32_t symbol_step(uint32_t s) { return (s & 1) ? int32_t((s + 1) / 2) : -int32_t(s / 2); }
+
+// A delta frame's bin (a pixel without a last value, or an escape): against the bin of the row's last depth
+// `left` when there is one, else the bin itself.
+inline void put_bin(BitWriter& bw, DepthContexts& c, uint16_t z, uint16_t left, const DepthBins& b) {
+  const int32_t bin = b.bin_of[z];
+  if (left != 0)
+    put_rice(bw, c.row[0], zigzag(bin - int32_t(b.bin_of[left])));
+  else
+    put_rice(bw, c.bin, uint32_t(bin));
+}
+
+// What put_bin() wrote, as the bin's centre; 0 when the bin is beyond the scale.
+inline uint16_t get_bin(BitReader& br, DepthContexts& c, uint16_t left, const DepthBins& b) {
+  const int64_t bin = left != 0 ? int64_t(b.bin_of[left]) + unzigzag(get_rice(br, c.row[0]))
+                                : int64_t(get_rice(br, c.bin));
+  return bin >= 1 && bin < int64_t(b.center.size()) ? b.center[size_t(bin)] : 0;
+}
+
+// The first x in [x, end) whose flag differs from `flag` (0 or 1), or end: eight flags at a time.
+inline int next_other(const uint8_t* flags, int x, int end, uint8_t flag) {
+  const uint64_t same = flag ? 0x0101010101010101ull : 0;
+  while (x + 8 <= end) {
+    uint64_t word;
+    std::memcpy(&word, flags + x, 8);
+    if (word != same) return x + __builtin_ctzll(word ^ same) / 8;  // little-endian: the lowest byte is flags[x]
+    x += 8;
   }
-  return bin >= 1 && bin < nbins ? b.center[size_t(bin)] : 0;
+  while (x < end && flags[x] == flag) ++x;
+  return x;
+}
+
+// One row's measured pixels (`measured`: 1 or 0 per pixel) as runs: runs[0] measured from x = 0 (maybe
+// empty), then holes, measured … each but the first at least 1 long, ending at w. Returns the number of runs.
+int row_runs(const uint8_t* measured, int w, int* runs) {
+  int n = 0, x = 0;
+  uint8_t flag = 1;
+  while (x < w) {
+    const int start = x;
+    x = next_other(measured, x, w, flag);
+    runs[n++] = x - start;
+    flag ^= 1;
+  }
+  return n;
+}
+
+// The encoder's per-pixel pass over a delta frame's row, without branches or table look-ups so that it is
+// vectorised: moves each measured pixel's estimate of its true depth (the mean of its last measurements, a
+// quarter of the way towards each new one, restarted where a measurement jumps by more than twice the bound:
+// something moved) and marks the pixels that must be sent: measured, and without a last value or beyond the
+// bound of it; returns how many. The bound is computed in single precision and shrunk by a millionth before it is floored, so it
+// is never above e(z) (the product's rounding error is below 3 in 10^7): at worst a pixel is sent that the
+// exact bound would have kept, never one kept that it would have sent (only the encoder decides this).
+VCLASSROOM_SIMD_CLONES
+int mark_events(const uint16_t* __restrict z, const uint16_t* __restrict mem, float scale, float* __restrict est,
+                uint8_t* __restrict event, uint8_t* __restrict measured, int w) {
+  int events = 0;
+  for (int x = 0; x < w; ++x) {
+    const float zf = float(z[x]), m = float(mem[x]), old = est[x];
+    const float e = std::floor(zf * zf * scale), d = zf - old;
+    const float moved = std::abs(d) > 2.0f * e + 1.0f ? zf : old + 0.25f * d;
+    est[x] = zf != 0.0f ? moved : old;
+    const int sent = int(zf != 0.0f) & (int(m == 0.0f) | int(std::abs(zf - m) > e));
+    event[x] = uint8_t(sent);
+    measured[x] = uint8_t(zf != 0.0f);
+    events += sent;
+  }
+  return events;
+}
+
+// The first x in [x, end) with event[x] set, or end: eight flags at a time, since most are not.
+inline int next_event(const uint8_t* event, int x, int end) {
+  while (x + 8 <= end) {
+    uint64_t word;
+    std::memcpy(&word, event + x, 8);
+    if (word != 0) return x + __builtin_ctzll(word) / 8;  // little-endian: the lowest byte is event[x]
+    x += 8;
+  }
+  while (x < end && !event[x]) ++x;
+  return x;
+}
+
+// What one measured pixel that a delta frame sends becomes: without a last value p, its bin; else a step from
+// p towards the estimate, or (0, then the bin) where no step is within the bound or the bin against the
+// row's last depth `left` is shorter (where the camera or something in view moved). Returns the value the
+// decoder reconstructs.
+inline uint16_t put_value(BitWriter& bw, DepthContexts& c, uint16_t z, uint16_t p, float est, uint16_t left,
+                          const DepthBins& b) {
+  if (p != 0) {
+    RiceContext& sc = c.step[step_context(p, left, b)];
+    const int32_t k = delta_step(z, p, int32_t(est + 0.5f), b);  // est >= 0: rounded
+    if (k != 0) {
+      const uint32_t s = step_symbol(k);
+      const int32_t bin = b.bin_of[z];
+      const bool row_shorter = left != 0 && rice_bits(zigzag(bin - int32_t(b.bin_of[left])), c.row[0].k()) +
+                                                    rice_bits(0, sc.k()) < rice_bits(s, sc.k());
+      if (!row_shorter) {
+        put_rice(bw, sc, s);
+        return uint16_t(int32_t(p) + k * (int32_t(b.bound[p]) / 2 + 1));
+      }
+    }
+    put_rice(bw, sc, 0);
+  }
+  put_bin(bw, c, z, left, b);
+  return b.center[b.bin_of[z]];
+}
+
+// A key frame's row after its runs: each measured pixel keeps the row's last depth `left` where that is within
+// its bound (a bin's centre, so only a pixel of another bin is sent), else its bin is sent against left's (or
+// alone at the row's first depth), with the gaps between the pixels sent as in a delta frame.
+void encode_key_row(BitWriter& bw, DepthContexts& c, const uint16_t* z, uint16_t* mem, float* est, int w,
+                    const DepthBins& b, const int* runs, int nruns) {
+  uint16_t left = 0;
+  uint32_t kept = 0;
+  for (int x = 0; x < w; ++x) est[x] = float(z[x]);
+  for (int i = 0, x = 0; i < nruns; x += runs[i], ++i) {
+    if (i & 1) continue;  // holes
+    for (int px = x; px < x + runs[i]; ++px) {
+      const int32_t zi = z[px];
+      if (left != 0 && std::abs(zi - int32_t(left)) <= int32_t(b.bound[zi])) {
+        ++kept;
+        mem[px] = left;
+        continue;
+      }
+      put_rice(bw, c.gap, kept);
+      kept = 0;
+      const int32_t bin = b.bin_of[zi];
+      if (left != 0)
+        put_rice(bw, c.row[1], zigzag(bin - int32_t(b.bin_of[left])) - 1);  // never 0: another bin
+      else
+        put_rice(bw, c.bin, uint32_t(bin));
+      mem[px] = left = b.center[size_t(bin)];
+    }
+  }
+  put_rice(bw, c.gap, kept);
+}
+
+// A delta frame's row after its runs: the gaps between the measured pixels sent (`event`) and what each becomes.
+void encode_delta_values(BitWriter& bw, DepthContexts& c, const uint16_t* z, uint16_t* mem, const float* est,
+                         const DepthBins& b, const int* runs, int nruns, const uint8_t* event) {
+  uint16_t left = 0;  // the row's last depth so far (reconstructed)
+  uint32_t kept = 0;  // measured pixels kept since the last one sent
+  int x = 0;
+  for (int i = 0; i < nruns; x += runs[i], ++i) {
+    if (i & 1) continue;  // holes
+    const int end = x + runs[i];
+    int px = x;
+    for (;;) {
+      const int next = next_event(event, px, end);
+      kept += uint32_t(next - px);
+      if (next > x) left = mem[next - 1];
+      if (next == end) break;
+      put_rice(bw, c.gap, kept);
+      kept = 0;
+      mem[next] = left = put_value(bw, c, z[next], mem[next], est[next], left, b);
+      px = next + 1;
+    }
+  }
+  put_rice(bw, c.gap, kept);  // the row's end: a gap as long as the measured pixels left
+}
+
+// Codes one row (docs/network.md, "The depth section"): its runs, then in a key frame every measured pixel's
+// bin, in a delta frame the gaps between the measured pixels sent and what each becomes. Updates `mem` (the
+// last value of each pixel) and writes the row as the decoder reconstructs it to `recon`.
+void encode_row(BitWriter& bw, DepthContexts& c, bool key, const uint16_t* z, uint16_t* mem, float* est,
+                const uint16_t* up, uint16_t* recon, int w, const DepthBins& b, std::vector<int>& runs,
+                const uint8_t* event, uint8_t* measured) {
+  if (key)
+    for (int x = 0; x < w; ++x) measured[x] = uint8_t(z[x] != 0);
+  const int nruns = row_runs(measured, w, runs.data());
+  for (int i = 0, x = 0; i < nruns; x += runs[i], ++i)
+    put_rice(bw, c.run[run_context(i, up, x)], uint32_t(runs[i] - (i > 0 ? 1 : 0)));
+  if (key) {
+    encode_key_row(bw, c, z, mem, est, w, b, runs.data(), nruns);
+  } else {
+    encode_delta_values(bw, c, z, mem, est, b, runs.data(), nruns, event);
+  }
+  // The row as the decoder has it: the measured pixels' last values, zeros in the holes.
+  for (int i = 0, x = 0; i < nruns; x += runs[i], ++i) {
+    if (i & 1)
+      std::memset(recon + x, 0, size_t(runs[i]) * 2);
+    else
+      std::memcpy(recon + x, mem + x, size_t(runs[i]) * 2);
+  }
 }
 
 }  // namespace
@@ -251,9 +499,22 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   if (!have_ref_ || tolerance != tolerance_ || recon_.size() != depth.size()) key = true;
   const DepthBins& b = bins_for(tolerance);
   const int w = depth.cols, h = depth.rows;
+  // A delta frame's pixels to send, marked first for the whole frame: where they are most of its measured
+  // pixels (the camera moved: Redwood's handheld sequence), a key frame costs less — it predicts each pixel
+  // from the row, not from a memory the motion made stale — and is sent instead.
+  flags_.resize(2 * size_t(w) * size_t(h));
+  uint8_t* const sent = flags_.data();
+  uint8_t* const measured = flags_.data() + size_t(w) * size_t(h);
+  if (!key) {
+    const float scale = float(tolerance) * 1e-8f * (1.0f - 1e-6f);
+    size_t events = 0, pixels = size_t(cv::countNonZero(depth));
+    for (int y = 0; y < h; ++y)
+      events += size_t(mark_events(depth.ptr<uint16_t>(y), mem_.ptr<uint16_t>(y), scale, estimate_.ptr<float>(y),
+                                   sent + size_t(y) * size_t(w), measured + size_t(y) * size_t(w), w));
+    key = 2 * events > pixels;
+  }
   if (key) {
     mem_ = cv::Mat::zeros(h, w, CV_16UC1);
-    history_ = cv::Mat::zeros(h, w, CV_8UC1);
     estimate_ = cv::Mat::zeros(h, w, CV_32FC1);
   }
   recon_.create(h, w, CV_16UC1);
@@ -261,45 +522,18 @@ void DepthLinkEncoder::encode(const cv::Mat& depth, const cv::Mat& label, const 
   out->resize(start + kDepthLinkHeaderBytes);
   out->insert(out->end(), caps.begin(), caps.end());
   const size_t depth_start = out->size();
-  // Every pixel in raster order: measured or not, then (measured, with a prediction) whether it keeps the
-  // prediction, then (it does not) its new value; the prediction is the pixel's last decoded measurement
-  // since the key frame (delta frames) or the last depth decoded before it on its row (key frames).
-  auto models = std::make_unique<DepthModels>();
-  RangeEncoder rc(out);
-  const int k = key ? 1 : 0;
-  std::vector<uint8_t> state_a(size_t(w) + 2, kHole), state_b(size_t(w) + 2, kHole);
-  uint8_t* cur = state_a.data();
-  uint8_t* up = state_b.data();
+  // Row by row: its runs of measured pixels and holes, then the values sent (every measured pixel in a key
+  // frame; in a delta frame those beyond the bound of their last value, as gaps between them).
+  DepthContexts ctx;
+  BitWriter bw(out);
+  std::vector<int> runs(size_t(w) + 1);
   for (int y = 0; y < h; ++y) {
-    rc.reserve(size_t(w) * kWorstBytesPerPixel + 16);
-    std::swap(cur, up);
-    const uint16_t* zr = depth.ptr<uint16_t>(y);
-    uint16_t* br = recon_.ptr<uint16_t>(y);
-    uint16_t* mr = mem_.ptr<uint16_t>(y);
-    uint8_t* hr = history_.ptr<uint8_t>(y);
-    float* er = estimate_.ptr<float>(y);
-    uint16_t run = 0;
-    for (int x = 0; x < w; ++x) {
-      const uint16_t z = zr[x];
-      const bool measured = z != 0;
-      const int before = hr[x];
-      rc.put(models->measured[k][before << 4 | neighbours(cur, up, x)], measured);
-      hr[x] = uint8_t((before << 1 | int(measured)) & 3);
-      br[x] = 0;
-      if (!measured) {
-        cur[x + 1] = kHole;
-        continue;
-      }
-      // The estimate of the true depth: the mean of the pixel's last measurements (a quarter of the way
-      // towards each new one), restarted where it jumps by more than twice the bound (something moved).
-      float& est = er[x];
-      est = std::abs(float(z) - est) > 2.0f * float(b.bound[z]) + 1.0f ? float(z) : est + 0.25f * (float(z) - est);
-      const uint16_t v = put_pixel(rc, *models, key, (before & 1) * 9 + cur[x] * 3 + up[x + 1], z,
-                                   key ? run : mr[x], run, est, b, &cur[x + 1]);
-      mr[x] = run = br[x] = v;
-    }
+    bw.reserve(size_t(w) * kWorstBitsPerPixel + 64);
+    encode_row(bw, ctx, key, depth.ptr<uint16_t>(y), mem_.ptr<uint16_t>(y), estimate_.ptr<float>(y),
+               y > 0 ? recon_.ptr<uint16_t>(y - 1) : nullptr,
+               recon_.ptr<uint16_t>(y), w, b, runs, sent + size_t(y) * size_t(w), measured + size_t(y) * size_t(w));
   }
-  rc.finish();
+  bw.finish();
   const size_t label_start = out->size();
   if (!label.empty()) {
     cv::Mat l = label.isContinuous() ? label : label.clone();
@@ -338,7 +572,7 @@ struct Header {
 std::string parse_header(const uint8_t* data, size_t size, const DepthLinkLimits& limits, Header* hd) {
   if (size < kDepthLinkHeaderBytes) return "depth frame shorter than its header";
   if (std::memcmp(data, "VCDL", 4) != 0) return "not a depth frame (magic)";
-  if (data[4] != kVersion) return "depth frame version " + std::to_string(data[4]) + " (this reads 2)";
+  if (data[4] != kVersion) return "depth frame version " + std::to_string(data[4]) + " (this reads 3)";
   hd->flags = data[5];
   if (hd->flags & ~(kFlagKey | kFlagLabels)) return "depth frame with unknown flags";
   hd->tolerance = uint16_t(read_le16(data + 6));
@@ -355,46 +589,121 @@ std::string parse_header(const uint8_t* data, size_t size, const DepthLinkLimits
   if (hd->caps_len + hd->depth_len + hd->label_len != size - kDepthLinkHeaderBytes)
     return "depth frame's section lengths do not add up to its size";
   if (((hd->flags & kFlagLabels) != 0) != (hd->label_len > 0)) return "depth frame's label flag and section disagree";
-  // Every pixel costs the depth coder more than 1/1024 of a byte (its measured bit alone at least 0.011 bit): a
-  // shorter section cannot be an image of the declared size, and nothing is allocated for it.
-  if (hd->depth_len < uint64_t(hd->w) * uint64_t(hd->h) / 1024 + 5) return "depth section too short for its image";
+  // Every row codes at least two codes of at least a bit each (its runs, and in a delta frame its end; a key
+  // frame's measured pixel at least a bit more): a shorter section cannot hold the declared rows.
+  if (hd->depth_len < (uint64_t(hd->h) + 3) / 4) return "depth section too short for its image";
   if (depth_frame_crc(data, size) != read_le32(data + 28)) return "depth frame checksum";
   return "";
 }
 
-// Decodes the depth section into `depth`, updating `mem` and `history` (the state of encode()); "" or why not.
-std::string decode_pixels(const uint8_t* data, size_t size, bool key, const DepthBins& b, cv::Mat* depth,
-                          cv::Mat* mem, cv::Mat* history) {
-  const int w = depth->cols, h = depth->rows;
-  auto models = std::make_unique<DepthModels>();
-  RangeDecoder rc(data, size);
-  const int k = key ? 1 : 0;
-  std::vector<uint8_t> state_a(size_t(w) + 2, kHole), state_b(size_t(w) + 2, kHole);
-  uint8_t* cur = state_a.data();
-  uint8_t* up = state_b.data();
-  for (int y = 0; y < h; ++y) {
-    std::swap(cur, up);
-    uint16_t* zr = depth->ptr<uint16_t>(y);
-    uint16_t* mr = mem->ptr<uint16_t>(y);
-    uint8_t* hr = history->ptr<uint8_t>(y);
-    uint16_t run = 0;
-    for (int x = 0; x < w; ++x) {
-      const int before = hr[x];
-      const bool measured = rc.get(models->measured[k][before << 4 | neighbours(cur, up, x)]);
-      hr[x] = uint8_t((before << 1 | int(measured)) & 3);
-      zr[x] = 0;
-      if (!measured) {
-        cur[x + 1] = kHole;
-        continue;
-      }
-      const uint16_t v = get_pixel(rc, *models, key, (before & 1) * 9 + cur[x] * 3 + up[x + 1],
-                                   key ? run : mr[x], run, b, &cur[x + 1]);
-      if (v == 0) return "depth section names a depth beyond the scale";
-      mr[x] = run = zr[x] = v;
-    }
-    if (rc.overrun() > 0) return "depth section cut short";
+// The zeros in a row (vectorised: the decoder's one pass over every pixel).
+VCLASSROOM_SIMD_CLONES
+int count_zeros(const uint16_t* v, int w) {
+  int n = 0;
+  for (int x = 0; x < w; ++x) n += v[x] == 0;
+  return n;
+}
+
+// Decodes one row that encode_row() coded into `out`, updating `mem`; "" or why not. `runs` and `starts` hold
+// at least w + 1 entries.
+std::string decode_row(BitReader& br, DepthContexts& c, bool key, uint16_t* mem, const uint16_t* up, uint16_t* out, int w,
+                       const DepthBins& b, std::vector<int>& runs, std::vector<int>& starts) {
+  int nruns = 0, x = 0, measured = 0;
+  while (x < w || nruns == 0) {
+    const uint32_t r = get_rice(br, c.run[run_context(nruns, up, x)]) + (nruns > 0 ? 1 : 0);
+    if (r > uint32_t(w - x)) return "depth section's runs pass the row's end";
+    starts[size_t(nruns)] = x;
+    runs[size_t(nruns)] = int(r);
+    if ((nruns & 1) == 0) measured += int(r);
+    x += int(r);
+    ++nruns;
   }
-  if (rc.left() > 0) return "depth section longer than its image";
+  // The measured pixel before the one at x in run i (even), or -1: what "the row's last depth" refers to.
+  auto before = [&](int i, int px) {
+    if (px > starts[size_t(i)]) return px - 1;
+    return i >= 2 && runs[size_t(i - 2)] > 0 ? starts[size_t(i - 2)] + runs[size_t(i - 2)] - 1 : -1;
+  };
+  // The gaps: kept pixels are skipped run by run, so a row costs its events and its runs, not its pixels (in a
+  // key frame they take the row's last depth, a fill).
+  uint32_t remaining = uint32_t(measured);  // measured pixels from the cursor (run i, pixel px) on
+  int i = 0, px = 0;
+  uint16_t key_left = 0;  // key frames: the row's last depth
+  auto settle = [&] {  // the cursor off the end of a run, onto the next measured run if there is one
+    while (px == starts[size_t(i)] + runs[size_t(i)] && i + 2 < nruns) {
+      i += 2;
+      px = starts[size_t(i)];
+    }
+  };
+  settle();
+  for (;;) {
+    const uint32_t g = get_rice(br, c.gap);
+    if (g > remaining) return "depth section's gap passes the row's measured pixels";
+    if (key && g > 0 && key_left == 0) return "depth section keeps a key frame's depth that has none before it";
+    for (uint32_t n = g; n > 0; settle()) {  // n <= the measured pixels from px on
+      const uint32_t t = std::min(n, uint32_t(starts[size_t(i)] + runs[size_t(i)] - px));
+      if (key) std::fill(mem + px, mem + px + t, key_left);
+      px += int(t);
+      n -= t;
+    }
+    if (g == remaining) break;
+    remaining -= g + 1;
+    uint16_t v;
+    if (key) {
+      const int64_t bin = key_left != 0 ? int64_t(b.bin_of[key_left]) + unzigzag(get_rice(br, c.row[1]) + 1)
+                                        : int64_t(get_rice(br, c.bin));
+      v = bin >= 1 && bin < int64_t(b.center.size()) ? b.center[size_t(bin)] : 0;
+      key_left = v;
+    } else {
+      const int prev = before(i, px);
+      const uint16_t left = prev >= 0 ? mem[prev] : 0;
+      const uint16_t p = mem[px];
+      const uint32_t s = p != 0 ? get_rice(br, c.step[step_context(p, left, b)]) : 0;
+      if (s != 0) {
+        const int64_t nv = int64_t(p) + int64_t(symbol_step(s)) * (int64_t(b.bound[p]) / 2 + 1);
+        v = nv >= 1 && nv <= 65535 ? uint16_t(nv) : 0;
+      } else {
+        v = get_bin(br, c, left, b);
+      }
+    }
+    if (v == 0) return "depth section names a depth beyond the scale";
+    mem[px] = v;
+    ++px;
+    settle();
+  }
+  // The row: its measured pixels' last values, zeros in its holes; a measured pixel that never had a value
+  // (a delta frame that sent no value for it) makes the frame invalid: then the row has more zeros than holes.
+  int holes = 0;
+  for (int j = 0; j < nruns; ++j) {
+    const size_t n = size_t(runs[size_t(j)]);
+    if (j & 1) {
+      std::memset(out + starts[size_t(j)], 0, n * 2);
+      holes += int(n);
+    } else {
+      std::memcpy(out + starts[size_t(j)], mem + starts[size_t(j)], n * 2);
+    }
+  }
+  return count_zeros(out, w) == holes ? "" : "depth section leaves a measured pixel without a value";
+}
+
+// Decodes the depth section into `depth`, updating `mem` (the state of encode()); "" or why not.
+std::string decode_pixels(const uint8_t* data, size_t size, bool key, const DepthBins& b, cv::Mat* depth,
+                          cv::Mat* mem) {
+  const int w = depth->cols, h = depth->rows;
+  DepthContexts ctx;
+  BitReader br(data, size);
+  std::vector<int> runs(size_t(w) + 1), starts(size_t(w) + 1);
+  const uint64_t bits = uint64_t(size) * 8;
+  for (int y = 0; y < h; ++y) {
+    const std::string why = decode_row(br, ctx, key, mem->ptr<uint16_t>(y), y > 0 ? depth->ptr<uint16_t>(y - 1) : nullptr,
+                                       depth->ptr<uint16_t>(y), w, b, runs,
+                                       starts);
+    if (!why.empty()) return why;
+    if (br.consumed() > bits) return "depth section cut short";
+  }
+  // The last byte's unused bits are zeros, and nothing follows it.
+  if ((br.consumed() + 7) / 8 != size) return "depth section longer than its image";
+  br.refill();
+  if (br.take(int((8 - br.consumed() % 8) % 8)) != 0) return "depth section's padding is not zero";
   return "";
 }
 
@@ -419,11 +728,9 @@ bool DepthLinkDecoder::decode(const uint8_t* data, size_t size, DepthLinkFrame* 
   have_ref_ = false;
   if (key) {
     mem_ = cv::Mat::zeros(h, w, CV_16UC1);
-    history_ = cv::Mat::zeros(h, w, CV_8UC1);
   }
   cv::Mat depth(h, w, CV_16UC1);
-  const std::string why = decode_pixels(p + hd.caps_len, hd.depth_len, key, bins_for(hd.tolerance), &depth, &mem_,
-                                        &history_);
+  const std::string why = decode_pixels(p + hd.caps_len, hd.depth_len, key, bins_for(hd.tolerance), &depth, &mem_);
   if (!why.empty()) return fail(why);
   cv::Mat label;
   if (hd.label_len > 0) {

@@ -6,12 +6,13 @@
 //   e(z) = floor(t * z^2 / 10^8) mm, t = tolerance in 1/100 mm at 1 m (t = 280: 2.8 mm at 1 m, 11 mm at 2 m),
 // no measurement (0) stays 0 and a measurement never becomes 0. t = 0 is lossless.
 // How: depth is mapped to bins of width 2 e(a) + 1 starting at a (every member of a bin lies within e(z)
-// of its centre). A measured pixel keeps its prediction p when |z - p| <= e(z): in a delta frame p is the
-// pixel's last decoded measurement since the key frame (through holes), in a key frame the last decoded
-// depth before it on its row. Otherwise a key frame codes its bin, a delta frame a step k on the grid
-// p + k (e(p) / 2 + 1) towards the encoder's running estimate of the true depth (its bin where no grid
-// point is within the bound). Coded with an adaptive binary range coder (range_coder.h) whose contexts are
-// the pixel's measured neighbours and its measured-ness in the last two frames; labels deflated with zlib
+// of its centre). Each row sends its runs of measured pixels and holes, then only the measured pixels whose
+// value changes, as gaps between them: in a delta frame a pixel keeps its last value since the key frame
+// while the measurement stays within the bound of it, and a changed one steps on the grid p + k (e(p) / 2 + 1)
+// towards the encoder's running estimate of the true depth (or sends its bin where no grid point is within
+// the bound, or the row's is cheaper); in a key frame a pixel keeps the row's last depth. So the decoder's
+// work is a copy of each run plus one code per change, not a decision per pixel. Every field is an adaptive
+// Golomb-Rice code (the parameter following the context's last values); labels deflated with zlib
 // (docs/network.md has the layout, field by field). Decoding is exact, so nothing drifts between key frames.
 #pragma once
 
@@ -57,7 +58,8 @@ uint32_t depth_frame_crc(const uint8_t* frame, size_t size);
 class DepthLinkEncoder {
  public:
   // Codes `depth` (and `label` when not empty; same size) as the next frame. A key frame when `key`, when
-  // the size or tolerance changed, or at the first frame. Appends to `out`.
+  // the size or tolerance changed, at the first frame, or where a delta frame would send more than half of its
+  // measured pixels (the camera moved). Appends to `out`.
   void encode(const cv::Mat& depth, const cv::Mat& label, const std::string& caps, bool key,
               uint16_t tolerance_centi_mm, std::vector<uint8_t>* out, int zlib_level = 1);
   // The depth the decoder will reconstruct for the last frame encoded (for tests and measurement).
@@ -67,8 +69,8 @@ class DepthLinkEncoder {
  private:
   cv::Mat recon_;    // CV_16UC1: the last frame as the decoder reconstructs it (mm, 0: no measurement)
   cv::Mat mem_;      // CV_16UC1: each pixel's last reconstructed measurement since the key frame (mm)
-  cv::Mat history_;  // CV_8UC1: whether each pixel was measured in the last frame (bit 0) and the one before (bit 1)
   cv::Mat estimate_;  // CV_32FC1: each pixel's estimate of its true depth (the encoder's alone; mm)
+  std::vector<uint8_t> flags_;  // per pixel: to be sent (delta frames), then measured
   uint16_t tolerance_ = 0;
   uint32_t number_ = 0;
   bool have_ref_ = false;
@@ -86,7 +88,6 @@ class DepthLinkDecoder {
  private:
   DepthLinkLimits limits_;
   cv::Mat mem_;      // as the encoder's
-  cv::Mat history_;  // as the encoder's
   cv::Size size_;
   uint16_t tolerance_ = 0;
   uint32_t number_ = 0;
