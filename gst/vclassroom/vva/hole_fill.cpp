@@ -159,6 +159,12 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
   }
 }
 
+// A pixel's share of the two base cells nearest to it along one axis (push_sources).
+struct Splat {
+  int cell[2];
+  float weight[2];
+};
+
 // The pyramid's state, kept between calls (a view's holes change little from frame to frame, the buffers'
 // sizes not at all).
 struct PyramidState {
@@ -172,6 +178,7 @@ struct PyramidState {
   std::vector<std::vector<uint8_t>> needed;  // above kTileLevels: per cell, whether it lies over an active tile
   std::vector<int> cell_x0, cell_y0;         // per column / row: the first of the two base cells it lies between
   std::vector<float> weight_x1, weight_y1;   // and the second one's bilinear weight
+  std::vector<Splat> splat_x, splat_y;       // per column / row: the two base cells a source's weight goes to
   std::vector<float> support_x, support_y;   // per base cell column / row: the weight its pixels give it
   cv::Mat source_mark;                       // the sources marked (zero between calls)
   // Per hole pixel, in the order of the runs (the passes over the holes follow it, so these are read and
@@ -186,16 +193,20 @@ struct PyramidState {
 // 2^kBaseLevel but at the image's edges (the half beyond the outer centres is lost) and less at the far
 // edge of an image whose size is not a multiple of it (540 rows: the last cell's centre is the last row).
 void base_cells_along(int n_px, int n_cells, std::vector<int>& first, std::vector<float>& second_weight,
-                      std::vector<float>& support) {
-  first.resize(size_t(n_px)), second_weight.resize(size_t(n_px));
+                      std::vector<Splat>& splat, std::vector<float>& support) {
+  first.resize(size_t(n_px)), second_weight.resize(size_t(n_px)), splat.resize(size_t(n_px));
   support.assign(size_t(n_cells), 0.0f);
   for (int x = 0; x < n_px; ++x) {
     const float f = (float(x) + 0.5f) / float(1 << kBaseLevel) - 0.5f;
     first[size_t(x)] = std::clamp(int(std::floor(f)), 0, std::max(0, n_cells - 2));
     second_weight[size_t(x)] = n_cells < 2 ? 0.f : std::clamp(f - float(first[size_t(x)]), 0.0f, 1.0f);
+    // The splat: a cell beyond the edge gets weight 0 (and an index inside, never read with a weight).
     const int u = int(std::floor(f));
-    if (u >= 0 && u < n_cells) support[size_t(u)] += 1 - (f - float(u));
-    if (u + 1 < n_cells) support[size_t(u + 1)] += f - float(u);
+    const float w1 = f - float(u);
+    Splat& sp = splat[size_t(x)];
+    sp.cell[0] = std::max(u, 0), sp.weight[0] = u >= 0 ? 1 - w1 : 0.0f;
+    sp.cell[1] = std::min(u + 1, n_cells - 1), sp.weight[1] = u + 1 < n_cells ? w1 : 0.0f;
+    support[size_t(sp.cell[0])] += sp.weight[0], support[size_t(sp.cell[1])] += sp.weight[1];
   }
 }
 
@@ -209,22 +220,20 @@ void push_sources(const cv::Mat& color, const cv::Mat& depth, PyramidState& st, 
   std::vector<int>& written = st.base_written;
   for (uint32_t i : st.sources) {
     const int x = int(i & 0xffff), y = int(i >> 16);
-    constexpr float kInvCell = 1.0f / float(1 << kBaseLevel);
-    const float fx = (float(x) + 0.5f) * kInvCell - 0.5f, fy = (float(y) + 0.5f) * kInvCell - 0.5f;
-    const int cx = int(std::floor(fx)), cy = int(std::floor(fy));
-    const float wx = fx - float(cx), wy = fy - float(cy);
+    const Splat& sx = st.splat_x[size_t(x)];
+    const Splat& sy = st.splat_y[size_t(y)];
     const uint8_t* p = color.ptr<uint8_t>(y) + 3 * x;
-    const float z = depth.ptr<uint16_t>(y)[x];
-    for (int k = 0; k < 4; ++k) {
-      const int u = cx + (k & 1), v = cy + (k >> 1);
-      const float w = ((k & 1) ? wx : 1 - wx) * ((k >> 1) ? wy : 1 - wy);
-      if (u < 0 || v < 0 || u >= base.w || v >= base.h || w <= 0) continue;  // beyond the image's edge: lost
-      const int c = v * base.w + u;
-      if (weight[size_t(c)] == 0) written.push_back(c);
-      Cell& cell = base.cells[size_t(c)];
-      cell.r += w * p[0], cell.g += w * p[1], cell.b += w * p[2], cell.z += w * z;
-      weight[size_t(c)] += w;
-    }
+    const float r = p[0], g = p[1], b = p[2], z = depth.ptr<uint16_t>(y)[x];
+    for (int j = 0; j < 2; ++j)
+      for (int k = 0; k < 2; ++k) {
+        const float w = sy.weight[j] * sx.weight[k];
+        if (w <= 0) continue;  // beyond the image's edge: lost
+        const int c = sy.cell[j] * base.w + sx.cell[k];
+        if (weight[size_t(c)] == 0) written.push_back(c);
+        Cell& cell = base.cells[size_t(c)];
+        cell.r += w * r, cell.g += w * g, cell.b += w * b, cell.z += w * z;
+        weight[size_t(c)] += w;
+      }
   }
   constexpr float kFull = float((1 << kBaseLevel) * (1 << kBaseLevel));  // an inner cell's support
   for (int c : written) {
@@ -355,8 +364,8 @@ int push_up(PyramidState& st, const cv::Mat& color, const cv::Mat& depth) {
     if (l == kBaseLevel) {
       for (int c : st.base_written) up.cells[size_t(c)] = Cell{0, 0, 0, 0}, st.base_count[size_t(c)] = 0;
       st.base_written.clear();
-      base_cells_along(depth.cols, w, st.cell_x0, st.weight_x1, st.support_x);
-      base_cells_along(depth.rows, h, st.cell_y0, st.weight_y1, st.support_y);
+      base_cells_along(depth.cols, w, st.cell_x0, st.weight_x1, st.splat_x, st.support_x);
+      base_cells_along(depth.rows, h, st.cell_y0, st.weight_y1, st.splat_y, st.support_y);
       push_sources(color, depth, st, up);
       empty = true;  // the sources alone: a hole's cells hold none
     } else if (l <= kTileLevels) {
