@@ -53,10 +53,13 @@ constexpr float kPyramidWeight = 1.0f / kPyramidDistance;
 // border moved by a pixel (the learners' motion, the sensor's noise), a source crossed a cell's edge or a cell
 // came and went with one source, and the fill deep in the hole jumped with it (the pyramid's part of the
 // fill's flicker). Now a source that moves a pixel moves its weights by 1/8, and a cell resting on one or two
-// border pixels (their noise and grain) takes the coarser level's wider average instead. Among 0, 0.25, 1,
-// 1.5, 2, 3 and 4 over Art, Aloe, Teddy (and Table I and the flicker for the best): 2 gave Art +0.03..0.12
-// dB, Teddy +0.05..0.08, Table I +0.02, the flicker with memory 8 0.750 -> 0.739; 1 and 1.5 lost at Art's
-// offset 5, 3 and 4 gained less at offsets 1-2.
+// border pixels (their noise and grain) takes the coarser level's wider average instead. Among 0 (any weight),
+// 0.25, 1, 1.5, 2, 3 and 4 over Art, Aloe and Teddy (Table I and the flicker for the best): 2 gave Art
+// +0.02..0.09 dB at every offset, Aloe -0.01..+0.03, Teddy +0.05 / +0.08, Table I +0.04 (the pixels no source
+// sees +0.15), the flicker with memory 8 0.750 -> 0.739 grey levels and with memory 0 1.61 -> 1.595; 0 and
+// 0.25 lost 0.1-0.2 dB at Art's offsets 4-5 against 2, 1 and 1.5 0.09-0.16 at offset 5, 3 and 4 gained less at
+// offsets 1-2 (the sweep with the far edge's cells needing the full weight; scaling it there, below, cost Art
+// at offset 5 0.03 dB, but a hole the height of the image is now filled alike in every row).
 constexpr float kMinCellWeight = 2.0f;
 
 // The smoothing after each method (HoleFillParams::smooth_px -1): the pyramid's fill is smooth already, so
