@@ -47,6 +47,21 @@ constexpr double kRayFalloff = 0.75;
 // falloff was measured with the pyramid's weight kept, so it changes only how the ray ends share theirs).
 constexpr float kPyramidWeight = 1.0f / kPyramidDistance;
 
+// A base cell's sources are shared among the four cells nearest to each by its bilinear weights (issue 35's
+// third round), and a cell holds a value only where they add up to kMinCellWeight or more. Before, each source
+// went whole to the one 8x8 cell it lies in, and a cell held a value from a single source: when the hole's
+// border moved by a pixel (the learners' motion, the sensor's noise), a source crossed a cell's edge or a cell
+// came and went with one source, and the fill deep in the hole jumped with it (the pyramid's part of the
+// fill's flicker). Now a source that moves a pixel moves its weights by 1/8, and a cell resting on one or two
+// border pixels (their noise and grain) takes the coarser level's wider average instead. Among 0 (any weight),
+// 0.25, 1, 1.5, 2, 3 and 4 over Art, Aloe and Teddy (Table I and the flicker for the best): 2 gave Art
+// +0.02..0.09 dB at every offset, Aloe -0.01..+0.03, Teddy +0.05 / +0.08, Table I +0.04 (the pixels no source
+// sees +0.15), the flicker with memory 8 0.750 -> 0.739 grey levels and with memory 0 1.61 -> 1.595; 0 and
+// 0.25 lost 0.1-0.2 dB at Art's offsets 4-5 against 2, 1 and 1.5 0.09-0.16 at offset 5, 3 and 4 gained less at
+// offsets 1-2 (the sweep with the far edge's cells needing the full weight; scaling it there, below, cost Art
+// at offset 5 0.03 dB, but a hole the height of the image is now filled alike in every row).
+constexpr float kMinCellWeight = 2.0f;
+
 // The smoothing after each method (HoleFillParams::smooth_px -1): the pyramid's fill is smooth already, so
 // 1 px (against 2: Art at offset 1 +0.03 dB, the wider offsets within 0.01, Teddy 2 -> 6 +0.12; 0 px lost
 // 0.02-0.04 everywhere); the rays' 2 px, as before issue 35.
@@ -147,24 +162,89 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
   }
 }
 
-// The base level from the image: each source pixel added to its cell, then every cell it reached made a
-// mean. `base` holds no value on entry (only the cells listed in `written` were ever given one, and they were
-// emptied); the cells given one are listed there.
-void push_sources(const cv::Mat& color, const cv::Mat& depth, const std::vector<uint32_t>& sources, Level& base,
-                  std::vector<float>& count, std::vector<int>& written) {
-  for (uint32_t i : sources) {
-    const int x = int(i & 0xffff), y = int(i >> 16);
-    const int c = (y >> kBaseLevel) * base.w + (x >> kBaseLevel);
-    if (count[size_t(c)] == 0) written.push_back(c);
-    const uint8_t* p = color.ptr<uint8_t>(y) + 3 * x;
-    Cell& cell = base.cells[size_t(c)];
-    cell.r += p[0], cell.g += p[1], cell.b += p[2], cell.z += depth.ptr<uint16_t>(y)[x];
-    count[size_t(c)] += 1;
+// A pixel's share of the two base cells nearest to it along one axis (push_sources).
+struct Splat {
+  int cell[2];
+  float weight[2];
+};
+
+// The pyramid's state, kept between calls (a view's holes change little from frame to frame, the buffers'
+// sizes not at all).
+struct PyramidState {
+  int tiles_x = 0, tiles_y = 0;
+  std::vector<Level> levels;                 // levels[0] stands for the image, levels below the base are unused
+  std::vector<uint8_t> hole_tile, active;    // per tile
+  std::vector<uint32_t> sources;             // the pixels the fill takes colour from, as y << 16 | x
+  std::vector<HoleRun> runs;                 // the holes
+  std::vector<float> base_count;             // the base level: the sources' weight per cell while they are added
+  std::vector<int> base_written;             // the base level: the cells given a value (emptied at the next call)
+  std::vector<std::vector<uint8_t>> needed;  // above kTileLevels: per cell, whether it lies over an active tile
+  std::vector<int> cell_x0, cell_y0;         // per column / row: the first of the two base cells it lies between
+  std::vector<float> weight_x1, weight_y1;   // and the second one's bilinear weight
+  std::vector<Splat> splat_x, splat_y;       // per column / row: the two base cells a source's weight goes to
+  std::vector<float> support_x, support_y;   // per base cell column / row: the weight its pixels give it
+  cv::Mat source_mark;                       // the sources marked (zero between calls)
+  // Per hole pixel, in the order of the runs (the passes over the holes follow it, so these are read and
+  // written in order rather than scattered over image-sized buffers):
+  std::vector<float> ray_weight;             // the ray ends' summed weight
+  std::vector<uint16_t> fill_depth;          // the depth of the background it was filled from (0: not filled)
+};
+
+// Each column's (or row's) two nearest base cells, centres at (x + 0.5) / 2^kBaseLevel - 0.5: the first
+// one and the second one's bilinear weight (beyond the outer centres, all of it to the outer cell). And each
+// cell's support: the bilinear weights all pixels of the column (row) give it as push_sources shares them,
+// 2^kBaseLevel but at the image's edges (the half beyond the outer centres is lost) and less at the far
+// edge of an image whose size is not a multiple of it (540 rows: the last cell's centre is the last row).
+void base_cells_along(int n_px, int n_cells, std::vector<int>& first, std::vector<float>& second_weight,
+                      std::vector<Splat>& splat, std::vector<float>& support) {
+  first.resize(size_t(n_px)), second_weight.resize(size_t(n_px)), splat.resize(size_t(n_px));
+  support.assign(size_t(n_cells), 0.0f);
+  for (int x = 0; x < n_px; ++x) {
+    const float f = (float(x) + 0.5f) / float(1 << kBaseLevel) - 0.5f;
+    first[size_t(x)] = std::clamp(int(std::floor(f)), 0, std::max(0, n_cells - 2));
+    second_weight[size_t(x)] = n_cells < 2 ? 0.f : std::clamp(f - float(first[size_t(x)]), 0.0f, 1.0f);
+    // The splat: a cell beyond the edge gets weight 0 (and an index inside, never read with a weight).
+    const int u = int(std::floor(f));
+    const float w1 = f - float(u);
+    Splat& sp = splat[size_t(x)];
+    sp.cell[0] = std::max(u, 0), sp.weight[0] = u >= 0 ? 1 - w1 : 0.0f;
+    sp.cell[1] = std::min(u + 1, n_cells - 1), sp.weight[1] = u + 1 < n_cells ? w1 : 0.0f;
+    support[size_t(sp.cell[0])] += sp.weight[0], support[size_t(sp.cell[1])] += sp.weight[1];
   }
+}
+
+// The base level from the image: each source pixel shared among the four base cells nearest to it by its
+// bilinear weights (the cells' centres are those fill_from_base interpolates between), then every cell it
+// reached made a weighted mean. A cell that got less than kMinCellWeight in all holds no value: it is pulled
+// from the coarser level like a cell without sources. `base` holds no value on entry (only the cells listed
+// in `written` were ever given one, and they were emptied); the cells given one are listed there.
+void push_sources(const cv::Mat& color, const cv::Mat& depth, PyramidState& st, Level& base) {
+  std::vector<float>& weight = st.base_count;
+  std::vector<int>& written = st.base_written;
+  for (uint32_t i : st.sources) {
+    const int x = int(i & 0xffff), y = int(i >> 16);
+    const Splat& sx = st.splat_x[size_t(x)];
+    const Splat& sy = st.splat_y[size_t(y)];
+    const uint8_t* p = color.ptr<uint8_t>(y) + 3 * x;
+    const float r = p[0], g = p[1], b = p[2], z = depth.ptr<uint16_t>(y)[x];
+    for (int j = 0; j < 2; ++j)
+      for (int k = 0; k < 2; ++k) {
+        const float w = sy.weight[j] * sx.weight[k];
+        if (w <= 0) continue;  // beyond the image's edge: lost
+        const int c = sy.cell[j] * base.w + sx.cell[k];
+        if (weight[size_t(c)] == 0) written.push_back(c);
+        Cell& cell = base.cells[size_t(c)];
+        cell.r += w * r, cell.g += w * g, cell.b += w * b, cell.z += w * z;
+        weight[size_t(c)] += w;
+      }
+  }
+  constexpr float kFull = float((1 << kBaseLevel) * (1 << kBaseLevel));  // an inner cell's support
   for (int c : written) {
     Cell& cell = base.cells[size_t(c)];
-    const float inv = 1.0f / count[size_t(c)];
-    cell = Cell{cell.r * inv, cell.g * inv, cell.b * inv, cell.z * inv};
+    const float inv = 1.0f / weight[size_t(c)];
+    // At the far edge a cell's support is smaller: so is the weight it needs.
+    const float need = kMinCellWeight / kFull * st.support_x[size_t(c % base.w)] * st.support_y[size_t(c / base.w)];
+    cell = weight[size_t(c)] >= need ? Cell{cell.r * inv, cell.g * inv, cell.b * inv, cell.z * inv} : Cell{0, 0, 0, 0};
   }
 }
 
@@ -219,25 +299,6 @@ inline Cell pull_from(const Level& up, int x, int y) {
   return Cell{r * inv, g * inv, b * inv, z * inv};
 }
 
-// The pyramid's state, kept between calls (a view's holes change little from frame to frame, the buffers'
-// sizes not at all).
-struct PyramidState {
-  int tiles_x = 0, tiles_y = 0;
-  std::vector<Level> levels;                 // levels[0] stands for the image, levels below the base are unused
-  std::vector<uint8_t> hole_tile, active;    // per tile
-  std::vector<uint32_t> sources;             // the pixels the fill takes colour from, as y << 16 | x
-  std::vector<HoleRun> runs;                 // the holes
-  std::vector<float> base_count;             // the base level: sources per cell while they are added
-  std::vector<int> base_written;             // the base level: the cells given a value (emptied at the next call)
-  std::vector<std::vector<uint8_t>> needed;  // above kTileLevels: per cell, whether it lies over an active tile
-  std::vector<int> cell_x0, cell_y0;         // per column / row: the first of the two base cells it lies between
-  std::vector<float> weight_x1, weight_y1;   // and the second one's bilinear weight
-  cv::Mat source_mark;                       // the sources marked (zero between calls)
-  // Per hole pixel, in the order of the runs (the passes over the holes follow it, so these are read and
-  // written in order rather than scattered over image-sized buffers):
-  std::vector<float> ray_weight;             // the ray ends' summed weight
-  std::vector<uint16_t> fill_depth;          // the depth of the background it was filled from (0: not filled)
-};
 
 // The cells of level `l` (kBaseLevel <= l <= kTileLevels) inside tile (tx, ty).
 inline void tile_cells(const Level& lv, int l, int tx, int ty, int* x0, int* x1, int* y0, int* y1) {
@@ -306,7 +367,9 @@ int push_up(PyramidState& st, const cv::Mat& color, const cv::Mat& depth) {
     if (l == kBaseLevel) {
       for (int c : st.base_written) up.cells[size_t(c)] = Cell{0, 0, 0, 0}, st.base_count[size_t(c)] = 0;
       st.base_written.clear();
-      push_sources(color, depth, st.sources, up, st.base_count, st.base_written);
+      base_cells_along(depth.cols, w, st.cell_x0, st.weight_x1, st.splat_x, st.support_x);
+      base_cells_along(depth.rows, h, st.cell_y0, st.weight_y1, st.splat_y, st.support_y);
+      push_sources(color, depth, st, up);
       empty = true;  // the sources alone: a hole's cells hold none
     } else if (l <= kTileLevels) {
       for (int ty = 0; ty < st.tiles_y; ++ty)
@@ -357,24 +420,12 @@ void pull_down(PyramidState& st, int top) {
   }
 }
 
-// Each column's (or row's) two nearest base cells, centres at (x + 0.5) / 2^kBaseLevel - 0.5: the first
-// one and the second one's bilinear weight.
-void base_cells_along(int n_px, int n_cells, std::vector<int>& first, std::vector<float>& second_weight) {
-  first.resize(size_t(n_px)), second_weight.resize(size_t(n_px));
-  for (int x = 0; x < n_px; ++x) {
-    const float f = (float(x) + 0.5f) / float(1 << kBaseLevel) - 0.5f;
-    first[size_t(x)] = std::clamp(int(std::floor(f)), 0, std::max(0, n_cells - 2));
-    second_weight[size_t(x)] = n_cells < 2 ? 0.f : std::clamp(f - float(first[size_t(x)]), 0.0f, 1.0f);
-  }
-}
-
 // Every hole pixel: the pyramid's value there (the bilinear interpolation of the four nearest base cells
 // that hold a value), with the ray ends' mean that `color` holds there, the pyramid counting as one more ray
 // end kPyramidDistance px away.
 void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* filled_depth) {
   const Level& base = st.levels[kBaseLevel];
-  base_cells_along(color.cols, base.w, st.cell_x0, st.weight_x1);
-  base_cells_along(color.rows, base.h, st.cell_y0, st.weight_y1);
+  // (st.cell_x0 ... for this size: push_up made them)
   st.fill_depth.resize(st.ray_weight.size());
   const float* ray_w = st.ray_weight.data();
   uint16_t* fd = st.fill_depth.data();
