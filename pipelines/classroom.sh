@@ -4,7 +4,7 @@
 # the server's RTCP NACKs and key frame requests (PLI/FIR, RFC 4585/5104) come back on NACK_PORT, rtprtxsend
 # resends and x264enc sends a key frame (docs/network.md, "The H.264 camera link").
 # LINK (vcrd1, the default: rgbdenc's JPEG + lossless depth through rtpgstpay, about 140 Mbit/s; h264: the
-#   camera link above, about 25 Mbit/s at 960x540, its colour 4:2:0 (docs/network.md says what that costs);
+#   camera link above, about 14 Mbit/s at 960x540, its colour 4:2:0 (docs/network.md says what that costs);
 #   the server's LINK must match),
 # DEPTH_TOLERANCE (h264 link: the largest depth error in mm at 1 m, growing with z^2; default 2.8, just under
 #   the depth step a Kinect-class sensor resolves; 0: lossless), BITRATE (h264 link: x264enc kbit/s, default

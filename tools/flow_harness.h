@@ -390,14 +390,15 @@ class CameraReplay {
   CameraReplay& operator=(const CameraReplay&) = delete;
   ~CameraReplay() { stop(); }
 
-  // `recordings[i]` is camera `cameras[i]`, sent to 127.0.0.1:base_port + camera; `drop` the share of
-  // packets lost on the way. False, with the reason on stderr, when a pipeline cannot start.
+  // `recordings[i]` is camera `cameras[i]`, sent through `payloader` (rtpgstpay for rgbdenc's frames,
+  // rtph264pay for the H.264 link's) to 127.0.0.1:base_port + camera; `drop` the share of packets lost on the
+  // way. False, with the reason on stderr, when a pipeline cannot start.
   bool start(const std::vector<const Recording*>& recordings, const std::vector<int>& cameras, double drop, int mtu,
-             int base_port = 5000) {
+             const std::string& payloader = "rtpgstpay config-interval=1", int base_port = 5000) {
     for (size_t i = 0; i < recordings.size(); ++i) {
       auto c = std::make_unique<Camera>();
       c->recording = recordings[i];
-      const std::string desc = "appsrc name=src format=time is-live=true ! rtpgstpay config-interval=1 mtu=" +
+      const std::string desc = "appsrc name=src format=time is-live=true ! " + payloader + " mtu=" +
                                std::to_string(mtu) + " pt=96 ssrc=" + std::to_string(0x56430000u + unsigned(cameras[i])) +
                                " ! identity drop-probability=" + std::to_string(drop) +
                                " ! udpsink host=127.0.0.1 port=" + std::to_string(base_port + cameras[i]) + " sync=false";

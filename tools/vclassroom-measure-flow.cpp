@@ -55,18 +55,34 @@ struct Options {
   int mtu = 65000;
   // Nice value of the server's camera-preparing threads (server.sh's PREP_NICE); -1: the script's default.
   int prep_nice = -1;
+  // The camera link (classroom.sh's and server.sh's LINK): vcrd1 or h264.
+  std::string link = "vcrd1";
 };
+
+// What a camera of the replay sends, up to its payloader, as classroom.sh runs it (its defaults) for o.link: the
+// H.264 link's key frames every 60 frames, so the recording's 60 frames loop from a key frame.
+std::string camera_coder(const Options& o) {
+  if (o.link == "h264")
+    return "rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! "
+           "x264enc tune=zerolatency speed-preset=ultrafast key-int-max=60 bitrate=4000 ! "
+           "video/x-h264,profile=constrained-baseline ! rgbdlinkmux depth-tolerance=2.8 key-interval=60";
+  return "rgbdenc quality=90";
+}
+
+std::string camera_payloader(const Options& o) {
+  return o.link == "h264" ? "rtph264pay" : "rtpgstpay config-interval=1";
+}
 
 // Bytes per second one classroom pipeline sends (measured in this process, before the run).
 double camera_link_rate(const Options& o) {
   uint64_t bytes = 0;
   GstElement* p = gst_parse_launch(
-      ("rgbdtestsrc camera-id=0 num-buffers=60 ground-truth=false ! rgbdenc quality=90 ! "
-      "rtpgstpay config-interval=1 mtu=" + std::to_string(o.mtu) + " ! fakesink name=net").c_str(),
+      ("rgbdtestsrc camera-id=0 num-buffers=60 ground-truth=false ! " + camera_coder(o) + " ! " + camera_payloader(o) +
+       " mtu=" + std::to_string(o.mtu) + " ! fakesink name=net").c_str(),
       nullptr);
   GstElement* net = gst_bin_get_by_name(GST_BIN(p), "net");
   GstPad* pad = gst_element_get_static_pad(net, "sink");
-  // rtpgstpay pushes buffer lists: one buffer per packet, each with 28 bytes of IP/UDP header to add.
+  // The payloaders push buffer lists: one buffer per packet, each with 28 bytes of IP/UDP header to add.
   gst_pad_add_probe(
       pad, GstPadProbeType(GST_PAD_PROBE_TYPE_BUFFER | GST_PAD_PROBE_TYPE_BUFFER_LIST),
       [](GstPad*, GstPadProbeInfo* info, gpointer data) {
@@ -96,7 +112,7 @@ double camera_link_rate(const Options& o) {
 
 int main(int argc, char** argv) {
   Options o;
-  g_autofree gchar *cameras = nullptr, *model = nullptr, *pipelines = nullptr;
+  g_autofree gchar *cameras = nullptr, *model = nullptr, *pipelines = nullptr, *link = nullptr;
   gboolean live_cameras = FALSE;
   const GOptionEntry entries[] = {
       {"seconds", 0, 0, G_OPTION_ARG_INT, &o.seconds, "measured seconds (default 20)", "N"},
@@ -108,6 +124,8 @@ int main(int argc, char** argv) {
       {"mtu", 0, 0, G_OPTION_ARG_INT, &o.mtu,
        "largest RTP packet on every link (default 65000, loopback's; 1400 fits Ethernet)", "BYTES"},
       {"prep-nice", 0, 0, G_OPTION_ARG_INT, &o.prep_nice, "server.sh's PREP_NICE (default: the script's)", "N"},
+      {"link", 0, 0, G_OPTION_ARG_STRING, &link,
+       "the camera link: vcrd1 (default: rgbdenc over rtpgstpay) or h264 (H.264 with the depth, rtph264pay)", "LINK"},
       {"pipelines", 0, 0, G_OPTION_ARG_FILENAME, &pipelines, "folder of server.sh and classroom.sh (default pipelines)",
        "DIR"},
       {}};
@@ -120,6 +138,8 @@ int main(int argc, char** argv) {
       entries, gst_init_get_option_group());
   if (model) o.model = model;
   if (pipelines) o.pipelines = pipelines;
+  if (link) o.link = link;
+  if (o.link != "vcrd1" && o.link != "h264") vclassroom_tools::usage_error("--link is vcrd1 or h264");
   o.live_cameras = live_cameras;
   if (cameras) {
     o.cameras.clear();
@@ -137,7 +157,7 @@ int main(int argc, char** argv) {
   std::vector<vclassroom_tools::Recording> recordings(o.live_cameras ? 0 : o.cameras.size());
   for (size_t i = 0; i < recordings.size(); ++i)
     if (!vclassroom_tools::record_stream("rgbdtestsrc camera-id=" + std::to_string(o.cameras[i]) +
-                                             " num-buffers=60 ground-truth=false ! rgbdenc quality=90",
+                                             " num-buffers=60 ground-truth=false ! " + camera_coder(o),
                                          60, &recordings[i])) {
       std::fprintf(stderr, "could not record camera %d\n", o.cameras[i]);
       return 1;
@@ -161,8 +181,8 @@ int main(int argc, char** argv) {
   // The replay sends plain RTP (classroom.sh with RTX=0): the server must not wait for retransmissions
   // that never come (each frame with a lost packet would be held for RTX_LATENCY, 300 ms).
   if (!o.live_cameras) server_env["RTX"] = "0";
-  // The replay sends the recorded rgbdenc frames (the old camera link, classroom.sh LINK=vcrd1).
-  if (!o.live_cameras) server_env["LINK"] = "vcrd1";
+  // The replay sends the recorded frames of the link asked for; live cameras and the server take it too.
+  server_env["LINK"] = o.link;
   const pid_t server = spawn(o.pipelines + "/server.sh", server_env, server_log);
   children.push_back(server);
 
@@ -184,7 +204,7 @@ int main(int argc, char** argv) {
   } else {
     std::vector<const vclassroom_tools::Recording*> streams;
     for (const auto& r : recordings) streams.push_back(&r);
-    if (!replay.start(streams, o.cameras, o.drop, o.mtu)) {
+    if (!replay.start(streams, o.cameras, o.drop, o.mtu, camera_payloader(o))) {
       std::fprintf(stderr, "could not start the cameras' replay\n");
       // The server already runs: stop it, so it does not keep the ports.
       for (pid_t c : children) {
@@ -216,9 +236,10 @@ int main(int argc, char** argv) {
 
   const std::vector<double> latency_ms = d.latencies_ms();
   const uint64_t poses_sent = lecturer.poses_sent;
-  std::printf("machine: %s, %ld cores; %zu synthetic cameras 960x540 at 30 fps on loopback (%s), %d s, V-DA %s, MTU %d, PREP_NICE %s\n",
+  std::printf("machine: %s, %ld cores; %zu synthetic cameras 960x540 at 30 fps on loopback (%s, LINK=%s), %d s, V-DA %s, MTU %d, PREP_NICE %s\n",
               vclassroom_tools::cpu_model().c_str(), sysconf(_SC_NPROCESSORS_ONLN), o.cameras.size(),
               o.live_cameras ? "live: pipelines/classroom.sh processes" : "coded streams replayed by this program",
+              o.link.c_str(),
               o.seconds, o.model.empty() ? "off" : "on", o.mtu,
               o.prep_nice >= 0 ? std::to_string(o.prep_nice).c_str() : "default");
   std::printf("poses sent: %lu; distinct poses displayed: %zu\n", static_cast<unsigned long>(poses_sent), latency_ms.size());
