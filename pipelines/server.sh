@@ -173,9 +173,11 @@ for k in $CAMERAS; do
   # access unit must be decoded (each builds on the one before), so decoding runs in the link's thread;
   # the newest joined frame goes on to the low-priority one. A lost packet asks the camera for a key frame
   # (rtph264depay request-keyframe: a PLI through the RTCP session, RFC 4585), and pictures wait for it.
+  # FFmpeg's decoder on one thread: a little cheaper per picture than openh264dec, and the pose-to-photon
+  # latency 10-15 ms lower with it (docs/network.md, "The whole flow, measured").
   if [ "$LINK" = h264 ]; then
     decode="rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k stats-interval=$STATS ! \
-      openh264dec ! videoconvert ! rgbdlinkjoin name=join$k ! \
+      avdec_h264 max-threads=1 ! videoconvert ! rgbdlinkjoin name=join$k ! \
       queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE !"
   else
     decode="rtpgstdepay ! queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! \

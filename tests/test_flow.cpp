@@ -236,7 +236,7 @@ std::string link_coding(const std::string& link) {
   if (link != "h264") return "rgbdenc quality=90 ! rgbddec";
   return "rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast "
          "key-int-max=60 bitrate=4000 ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rgbdlinkdemux ! "
-         "openh264dec ! videoconvert ! rgbdlinkjoin";
+         "avdec_h264 max-threads=1 ! videoconvert ! rgbdlinkjoin";
 }
 
 cv::Mat all_in_one(const std::string& rig, const std::string& trace, const std::string& link = "vcrd1") {

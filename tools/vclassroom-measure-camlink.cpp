@@ -481,8 +481,8 @@ int main(int argc, char** argv) {
       format + " ! x264enc tune=zerolatency "
       "speed-preset=ultrafast key-int-max=60 bitrate=" + std::to_string(bitrate) + " ! video/x-h264,profile=" +
       profile + " ! rgbdlinkmux depth-tolerance=" + tol_text + " ! rtph264pay mtu=1400 pt=96";
-  const std::string new_srv = std::string("rtph264depay ! rgbdlinkdemux ! ") +
-                              (format == "Y444" ? "avdec_h264" : "openh264dec") + " ! videoconvert ! rgbdlinkjoin";
+  // The decoder as server.sh runs it (FFmpeg's, one thread; it also decodes the 4:4:4 of --colour Y444).
+  const std::string new_srv = "rtph264depay ! rgbdlinkdemux ! avdec_h264 max-threads=1 ! videoconvert ! rgbdlinkjoin";
   Totals totals;
   // [link: uncoded, old, new][camera][frame]
   std::vector<std::vector<std::vector<Delivered>>> delivered(3, std::vector<std::vector<Delivered>>(size_t(cameras)));
