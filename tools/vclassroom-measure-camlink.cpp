@@ -452,7 +452,7 @@ int main(int argc, char** argv) {
        "classroom.sh's)", "N"},
       {"bitrate", 0, 0, G_OPTION_ARG_INT, &bitrate, "x264enc bitrate in kbit/s (default 4000, classroom.sh's)", "K"},
       {"colour", 0, 0, G_OPTION_ARG_STRING, &colour, "the colour's format on the new link: I420 (default, "
-       "classroom.sh's) or Y444 (decoded with avdec_h264)", "FORMAT"},
+       "classroom.sh's) or Y444 (high-4:4:4, which avdec_h264 decodes as it does I420)", "FORMAT"},
       {"tolerance", 0, 0, G_OPTION_ARG_DOUBLE, &tolerance, "depth tolerance, mm at 1 m (default 2.8; 0: lossless)", "T"},
       {"redwood", 0, 0, G_OPTION_ARG_FILENAME, &redwood_dir, "also code the Redwood sequence's depth in DIR", "DIR"},
       {"view", 0, 0, G_OPTION_ARG_NONE, &view, "also render the lecturer's view from the cameras through each link and "

@@ -198,7 +198,8 @@ int main(int argc, char** argv) {
     for (int k : o.cameras) {
       camera_logs.push_back(std::string(log_dir) + "/camera" + std::to_string(k) + ".log");
       children.push_back(spawn(o.pipelines + "/classroom.sh",
-                               {{"CAMERA", std::to_string(k)}, {"DROP", std::to_string(o.drop)}, {"STATS", "30"}, {"MTU", std::to_string(o.mtu)}},
+                               {{"CAMERA", std::to_string(k)}, {"DROP", std::to_string(o.drop)}, {"STATS", "30"},
+                                {"MTU", std::to_string(o.mtu)}, {"LINK", o.link}},
                                camera_logs.back()));
     }
   } else {

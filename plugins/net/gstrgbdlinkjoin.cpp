@@ -11,7 +11,7 @@
  *
  * ## Example launch line
  * |[
- * gst-launch-1.0 rgbdtestsrc num-buffers=30 ! rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rgbdlinkdemux ! openh264dec ! videoconvert ! rgbdlinkjoin ! rgbddemux name=d d.depth ! fakesink
+ * gst-launch-1.0 rgbdtestsrc num-buffers=30 ! rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rgbdlinkdemux ! avdec_h264 max-threads=1 ! videoconvert ! rgbdlinkjoin ! rgbddemux name=d d.depth ! fakesink
  * ]|
  */
 #ifdef HAVE_CONFIG_H
@@ -97,6 +97,12 @@ static GstBuffer* join(GstRgbdLinkJoin* self, GstBuffer* in, GstRgbdLinkMeta* me
   const bool labels = self->info->has(Plane::Label);
   if (gst_buffer_get_size(meta->planes) != depth_bytes + (labels ? size_t(w) * h : 0)) {
     *why = "the depth planes do not fit the caps";
+    return nullptr;
+  }
+  // Checked for every picture, not only when the depth's caps change: a new picture size (a new SPS) under
+  // the same depth caps would otherwise be read at the depth's size, past the picture's planes.
+  if (w != GST_VIDEO_INFO_WIDTH(&self->vinfo) || h != GST_VIDEO_INFO_HEIGHT(&self->vinfo)) {
+    *why = "the colour picture and the depth differ in size";
     return nullptr;
   }
   GstVideoFrame vf;

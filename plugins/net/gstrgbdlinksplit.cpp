@@ -137,6 +137,8 @@ static void gst_rgbd_link_split_set_property(GObject* object, guint prop_id, con
     return;
   }
   const char* format = g_value_get_string(value);
+  if (format != nullptr && g_ascii_strcasecmp(format, "RGB") != 0 && g_ascii_strcasecmp(format, "I420") != 0)
+    GST_WARNING_OBJECT(self, "format '%s' is neither I420 nor RGB: I420 it is", format);
   GST_OBJECT_LOCK(self);
   self->rgb = format != nullptr && g_ascii_strcasecmp(format, "RGB") == 0;
   GST_OBJECT_UNLOCK(self);

@@ -178,7 +178,7 @@ class BitReader {
 
 // An adaptive Golomb-Rice code (LOCO-I's, Weinberger et al. 2000, docs/references.md): the parameter k follows
 // the running mean of the values the context coded (A their sum, N their count, both halved when N reaches
-// 32), so a context whose values are small codes them in few bits and one whose values grow adapts within a
+// 4), so a context whose values are small codes them in few bits and one whose values grow adapts within a
 // few values. Every field of the depth section is one such code, so a value costs a few shifts, never a
 // decision per bit.
 struct RiceContext {
@@ -367,18 +367,6 @@ int mark_events(const uint16_t* __restrict z, const uint16_t* __restrict mem, fl
   return events;
 }
 
-// The first x in [x, end) with event[x] set, or end: eight flags at a time, since most are not.
-inline int next_event(const uint8_t* event, int x, int end) {
-  while (x + 8 <= end) {
-    uint64_t word;
-    std::memcpy(&word, event + x, 8);
-    if (word != 0) return x + __builtin_ctzll(word) / 8;  // little-endian: the lowest byte is event[x]
-    x += 8;
-  }
-  while (x < end && !event[x]) ++x;
-  return x;
-}
-
 // What one measured pixel that a delta frame sends becomes: without a last value p, its bin; else a step from
 // p towards the estimate, or (0, then the bin) where no step is within the bound or the bin against the
 // row's last depth `left` is shorter (where the camera or something in view moved). Returns the value the
@@ -445,7 +433,7 @@ void encode_delta_values(BitWriter& bw, DepthContexts& c, const uint16_t* z, uin
     const int end = x + runs[i];
     int px = x;
     for (;;) {
-      const int next = next_event(event, px, end);
+      const int next = next_other(event, px, end, 0);  // the next event: most pixels have none
       kept += uint32_t(next - px);
       if (next > x) left = mem[next - 1];
       if (next == end) break;
@@ -589,8 +577,8 @@ std::string parse_header(const uint8_t* data, size_t size, const DepthLinkLimits
   if (hd->caps_len + hd->depth_len + hd->label_len != size - kDepthLinkHeaderBytes)
     return "depth frame's section lengths do not add up to its size";
   if (((hd->flags & kFlagLabels) != 0) != (hd->label_len > 0)) return "depth frame's label flag and section disagree";
-  // Every row codes at least two codes of at least a bit each (its runs, and in a delta frame its end; a key
-  // frame's measured pixel at least a bit more): a shorter section cannot hold the declared rows.
+  // Every row codes at least two codes of at least a bit each (its runs and its final gap; a key frame's
+  // measured pixel at least a bit more): a shorter section cannot hold the declared rows.
   if (hd->depth_len < (uint64_t(hd->h) + 3) / 4) return "depth section too short for its image";
   if (depth_frame_crc(data, size) != read_le32(data + 28)) return "depth frame checksum";
   return "";

@@ -30,7 +30,7 @@ struct WarpSource {
   cv::Mat static_depth;  // CV_16UC1 mm
   // The room behind the learners as a camera remembers it
   // (BackgroundMemory::room_behind_learners): drawn behind what the camera
-  // sees now, where room_depth is non-zero. Both may be empty (no layer).
+  // sees now, where room_depth is non-zero. room_depth empty: no layer (room_color may be empty too).
   cv::Mat room_color{};  // CV_8UC3 RGB
   cv::Mat room_depth{};  // CV_16UC1 mm, 0 = none
 };
