@@ -310,6 +310,53 @@ guint64 uint64_property(GstElement* bin, const char* element, const char* proper
 
 }  // namespace
 
+// A decoder whose pictures change size while the depth keeps its caps (a new SPS, or a scaler between them):
+// each such picture is dropped, never read at the depth's size past its planes (the sanitizer build would see
+// that read).
+TEST(CameraLink, APictureThatChangesSizeUnderTheSameDepthIsDroppedNotRead) {
+  TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 320, 180);
+  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=20 ground-truth=false ! rgbdlinksplit ! "
+                         "videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast "
+                         "key-int-max=30 ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rgbdlinkdemux ! "
+                         "avdec_h264 max-threads=1 ! videoscale ! capsfilter name=size "
+                         "caps=video/x-raw,width=320,height=180 ! rgbdlinkjoin name=join ! "
+                         "appsink name=out sync=false");
+  GstElement* size = gst_bin_get_by_name(GST_BIN(p), "size");
+  GstElement* join = gst_bin_get_by_name(GST_BIN(p), "join");
+  GstPad* pad = gst_element_get_static_pad(join, "sink");
+  // After the 8th picture the scaler makes them smaller; the depth's caps stay as they were.
+  static int pictures;
+  pictures = 0;
+  gst_pad_add_probe(
+      pad, GST_PAD_PROBE_TYPE_BUFFER,
+      [](GstPad*, GstPadProbeInfo*, gpointer filter) {
+        if (++pictures == 8) {
+          GstCaps* smaller = gst_caps_from_string("video/x-raw,width=160,height=90");
+          g_object_set(filter, "caps", smaller, nullptr);
+          gst_caps_unref(smaller);
+        }
+        return GST_PAD_PROBE_OK;
+      },
+      size, nullptr);
+  GstElement* out_sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  {
+    SampleCollector out(out_sink);
+    RunResult r = run_pipeline(p);
+    EXPECT_EQ(r.error, "");
+    EXPECT_GE(pictures, 12);  // the pictures after the change reached the join
+    EXPECT_EQ(uint64_property(p, "join", "frames"), out.size());
+    EXPECT_GE(out.size(), 7u);
+    EXPECT_LE(out.size(), 10u);  // the first pictures, of the depth's size; none after the change
+    EXPECT_GE(uint64_property(p, "join", "frames-dropped"), 10u);
+  }
+  gst_object_unref(pad);
+  gst_object_unref(join);
+  gst_object_unref(size);
+  gst_object_unref(out_sink);
+  gst_object_unref(p);
+}
+
 TEST(CameraLink, EveryFrameArrivesWithItsOwnDepthWithinTheBoundAndItsLabels) {
   TempDir dir;
   const std::string rig = small_classroom_rig(dir, 320, 180);
