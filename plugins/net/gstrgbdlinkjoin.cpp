@@ -163,6 +163,13 @@ static gboolean gst_rgbd_link_join_sink_event(GstPad* pad, GstObject* parent, Gs
     GstCaps* caps;
     gst_event_parse_caps(event, &caps);
     self->have_vinfo = gst_video_info_from_caps(&self->vinfo, caps);
+    // The conversion back is BT.601's, as rgbdlinksplit made it; another matrix would come out in the wrong
+    // colours (a stream converted by something else, a decoder that reads BT.709 from the stream).
+    if (self->have_vinfo && GST_VIDEO_INFO_FORMAT(&self->vinfo) == GST_VIDEO_FORMAT_I420 &&
+        GST_VIDEO_INFO_COLORIMETRY(&self->vinfo).matrix != GST_VIDEO_COLOR_MATRIX_BT601 &&
+        GST_VIDEO_INFO_COLORIMETRY(&self->vinfo).matrix != GST_VIDEO_COLOR_MATRIX_UNKNOWN)
+      GST_ELEMENT_WARNING(self, STREAM, FORMAT, ("I420 pictures that are not BT.601"),
+                          ("the colours are converted as BT.601 (rgbdlinksplit's); these caps say otherwise"));
     gst_event_unref(event);  // the joined caps come with the first joined frame
     return self->have_vinfo;
   }

@@ -425,7 +425,8 @@ void pull_down(PyramidState& st, int top) {
 // end kPyramidDistance px away.
 void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* filled_depth) {
   const Level& base = st.levels[kBaseLevel];
-  // (st.cell_x0 ... for this size: push_up made them)
+  // Each column's and row's base cells, as push_up made them for this size.
+  CV_Assert(st.cell_x0.size() == size_t(color.cols) && st.cell_y0.size() == size_t(color.rows));
   st.fill_depth.resize(st.ray_weight.size());
   const float* ray_w = st.ray_weight.data();
   uint16_t* fd = st.fill_depth.data();

@@ -1,5 +1,7 @@
 #include <gst/vclassroom/vva/prepared_frame.h>
 
+#include <atomic>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -30,8 +32,10 @@ void FramePreparer::set_memory(int frames, const cv::Mat& empty_room) {
 std::shared_ptr<PreparedFrame> FramePreparer::prepare(const CameraCalib& camera, const cv::Mat& color,
                                                       const cv::Mat& depth, const cv::Mat& label,
                                                       const WarpParams& params) {
-  // The last frame's images are reused when nobody holds that frame any more.
+  // The last frame's images are reused when nobody holds that frame any more. use_count() is a relaxed
+  // read: the fence orders the last holder's reads (another thread's) before the writes below.
   if (!last_ || last_.use_count() > 1) last_ = std::make_shared<PreparedFrame>();
+  std::atomic_thread_fence(std::memory_order_acquire);
   std::shared_ptr<PreparedFrame> out = last_;
   WarpSource src;
   src.color = color;
