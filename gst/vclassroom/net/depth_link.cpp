@@ -10,6 +10,7 @@
 
 #include <gst/vclassroom/core/byte_order.h>
 #include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/net/zigzag.h>
 
 namespace vclassroom {
 
@@ -50,7 +51,6 @@ void build_bins(uint16_t tolerance, DepthBins* b) {
     a = end;
   }
 }
-
 
 // `rle`: run-length matches only (Z_RLE). Within a tolerance the bit planes' redundancy is runs of zero bytes:
 // on the synthetic classroom at 960x540 10 % smaller and a third faster than the default strategy; lossless,
@@ -248,9 +248,6 @@ inline uint32_t get_rice(BitReader& br, RiceContext& c) {
   c.update(v);
   return v;
 }
-
-inline uint32_t zigzag(int32_t d) { return (uint32_t(d) << 1) ^ uint32_t(d >> 31); }
-inline int32_t unzigzag(uint32_t v) { return int32_t(v >> 1) ^ -int32_t(v & 1); }
 
 // The contexts both sides start every frame with (docs/network.md, "The depth section", lists them).
 struct DepthContexts {

@@ -4,6 +4,7 @@
 #include <gst/vclassroom/core/checksum.h>
 #include <gst/vclassroom/core/jpeg.h>
 #include <gst/vclassroom/core/limits.h>
+#include <gst/vclassroom/net/zigzag.h>
 
 #include <algorithm>
 #include <array>
@@ -104,9 +105,6 @@ class NibbleReader {
   uint64_t bits_ = 0;  // the next avail_ nibbles, the rest zero
   int avail_ = 0;
 };
-
-inline uint32_t zigzag(int32_t r) { return (static_cast<uint32_t>(r) << 1) ^ static_cast<uint32_t>(r >> 31); }
-inline int32_t unzigzag(uint32_t u) { return static_cast<int32_t>(u >> 1) ^ -static_cast<int32_t>(u & 1); }
 
 // LOCO-I's median edge detector from the left (a), upper (b) and upper-left
 // (c) neighbours: a + b - c clamped to [min(a, b), max(a, b)].
