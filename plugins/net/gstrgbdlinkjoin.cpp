@@ -78,13 +78,19 @@ static GstBuffer* join(GstRgbdLinkJoin* self, GstBuffer* in, GstRgbdLinkMeta* me
     *why = "a picture whose depth was made for another timestamp";
     return nullptr;
   }
-  if (!self->out_caps || !gst_caps_is_equal(self->out_caps, meta->caps)) {
-    if (!rgbd_info_from_caps(meta->caps, self->info, why)) return nullptr;
-    if (self->info->width() != GST_VIDEO_INFO_WIDTH(&self->vinfo) ||
-        self->info->height() != GST_VIDEO_INFO_HEIGHT(&self->vinfo)) {
-      *why = "the colour picture and the depth differ in size";
-      return nullptr;
-    }
+  // The depth's caps parsed when they change, and kept only once a picture fits them.
+  const bool new_caps = !self->out_caps || !gst_caps_is_equal(self->out_caps, meta->caps);
+  RgbdInfo parsed;
+  if (new_caps && !rgbd_info_from_caps(meta->caps, &parsed, why)) return nullptr;
+  const RgbdInfo& info = new_caps ? parsed : *self->info;
+  // Every picture, not only when the depth's caps change: a new picture size (a new SPS) under the same depth
+  // caps would otherwise be read at the depth's size, past the picture's planes.
+  if (info.width() != GST_VIDEO_INFO_WIDTH(&self->vinfo) || info.height() != GST_VIDEO_INFO_HEIGHT(&self->vinfo)) {
+    *why = "the colour picture and the depth differ in size";
+    return nullptr;
+  }
+  if (new_caps) {
+    *self->info = parsed;
     gst_caps_replace(&self->out_caps, meta->caps);
     gst_pad_push_event(self->srcpad, gst_event_new_caps(meta->caps));
     if (self->pending_segment) {
@@ -97,12 +103,6 @@ static GstBuffer* join(GstRgbdLinkJoin* self, GstBuffer* in, GstRgbdLinkMeta* me
   const bool labels = self->info->has(Plane::Label);
   if (gst_buffer_get_size(meta->planes) != depth_bytes + (labels ? size_t(w) * h : 0)) {
     *why = "the depth planes do not fit the caps";
-    return nullptr;
-  }
-  // Checked for every picture, not only when the depth's caps change: a new picture size (a new SPS) under
-  // the same depth caps would otherwise be read at the depth's size, past the picture's planes.
-  if (w != GST_VIDEO_INFO_WIDTH(&self->vinfo) || h != GST_VIDEO_INFO_HEIGHT(&self->vinfo)) {
-    *why = "the colour picture and the depth differ in size";
     return nullptr;
   }
   GstVideoFrame vf;
