@@ -367,8 +367,11 @@ int push_up(PyramidState& st, const cv::Mat& color, const cv::Mat& depth) {
     if (l == kBaseLevel) {
       for (int c : st.base_written) up.cells[size_t(c)] = Cell{0, 0, 0, 0}, st.base_count[size_t(c)] = 0;
       st.base_written.clear();
-      base_cells_along(depth.cols, w, st.cell_x0, st.weight_x1, st.splat_x, st.support_x);
-      base_cells_along(depth.rows, h, st.cell_y0, st.weight_y1, st.splat_y, st.support_y);
+      // They depend on the sizes only: made again when those change, not for every view.
+      if (st.cell_x0.size() != size_t(depth.cols) || st.support_x.size() != size_t(w))
+        base_cells_along(depth.cols, w, st.cell_x0, st.weight_x1, st.splat_x, st.support_x);
+      if (st.cell_y0.size() != size_t(depth.rows) || st.support_y.size() != size_t(h))
+        base_cells_along(depth.rows, h, st.cell_y0, st.weight_y1, st.splat_y, st.support_y);
       push_sources(color, depth, st, up);
       empty = true;  // the sources alone: a hole's cells hold none
     } else if (l <= kTileLevels) {
