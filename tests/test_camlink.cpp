@@ -13,6 +13,7 @@
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/net/colour_i420.h>
 #include <gst/vclassroom/net/depth_link.h>
+#include <gst/vclassroom/net/depth_link_backlog.h>
 #include <gst/vclassroom/net/h264_sei.h>
 #include <gst/vclassroom/synthetic/classroom.h>
 #include <gst/vclassroom/synthetic/synthetic_camera.h>
@@ -141,6 +142,105 @@ TEST(DepthLink, ADeltaFrameWithoutItsPredecessorWaitsForTheNextKeyFrame) {
   ASSERT_TRUE(dec.decode(wire[3].data(), wire[3].size(), &f, &err)) << err;
   EXPECT_TRUE(f.key);
   EXPECT_EQ(f.number, 3u);
+}
+
+namespace {
+
+// `n` coded frames of a still scene in which a block of nearer depth moves (so most are delta frames), a key
+// frame where `key(i)`; `direct` gets each frame as a decoder fed every frame in order makes it.
+std::vector<std::vector<uint8_t>> moving_block_frames(int n, bool (*key)(int), std::vector<cv::Mat>* direct) {
+  const auto still = classroom_frames(1, 96, 54);
+  DepthLinkEncoder enc;
+  DepthLinkDecoder dec;
+  std::vector<std::vector<uint8_t>> wire(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    cv::Mat depth = still[0].depth.clone();
+    depth(cv::Rect(4 + 3 * i, 10, 8, 8)).setTo(900);
+    enc.encode(depth, still[0].label, "c", key(i), 280, &wire[size_t(i)]);
+    DepthLinkFrame f;
+    std::string err;
+    EXPECT_TRUE(dec.decode(wire[size_t(i)].data(), wire[size_t(i)].size(), &f, &err)) << err;
+    direct->push_back(f.depth);
+  }
+  return wire;
+}
+
+bool first_only(int i) { return i == 0; }
+
+}  // namespace
+
+// The server decodes a camera's depth only when a picture is taken (rgbdlinkjoin behind a leaky queue): the
+// frames in between are decoded on the way, so each picture gets exactly the depth that came with it.
+TEST(DepthLinkBacklog, APictureGetsItsOwnDepthThoughThePicturesBeforeItWereDropped) {
+  std::vector<cv::Mat> direct;
+  const auto wire = moving_block_frames(12, first_only, &direct);
+  DepthLinkBacklog backlog;
+  int deltas = 0;
+  for (size_t i = 0; i < wire.size(); ++i) {
+    DepthLinkHeader h;
+    std::string err;
+    ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &err)) << err;
+    EXPECT_EQ(h.number, uint32_t(i));
+    deltas += h.key ? 0 : 1;
+    if (i % 4 != 3) continue;  // three pictures of four dropped before the join
+    DepthLinkFrame f;
+    ASSERT_TRUE(backlog.take(uint32_t(i), &f, &err)) << err;
+    EXPECT_EQ(f.number, uint32_t(i));
+    EXPECT_TRUE(same_image(f.depth, direct[i])) << "frame " << i;
+    EXPECT_EQ(backlog.queued(), 0u);  // the frames before it went with it
+  }
+  EXPECT_EQ(deltas, 11);
+  DepthLinkFrame f;
+  std::string err;
+  EXPECT_FALSE(backlog.take(5, &f, &err));  // already gone
+  EXPECT_NE(err.find("not queued"), std::string::npos) << err;
+}
+
+TEST(DepthLinkBacklog, AFrameThatBreaksTheChainIsRefusedAndSoAreItsSuccessorsUntilAKeyFrame) {
+  std::vector<cv::Mat> direct;
+  const auto wire = moving_block_frames(6, [](int i) { return i == 0 || i == 4; }, &direct);
+  DepthLinkBacklog backlog;
+  DepthLinkHeader h;
+  std::string err;
+  ASSERT_TRUE(backlog.push(wire[0].data(), wire[0].size(), &h, &err)) << err;
+  EXPECT_FALSE(backlog.push(wire[2].data(), wire[2].size(), &h, &err));  // frame 1 lost
+  EXPECT_NE(err.find("without the frame before it"), std::string::npos) << err;
+  EXPECT_FALSE(backlog.push(wire[3].data(), wire[3].size(), &h, &err));
+  std::vector<uint8_t> damaged = wire[4];
+  damaged[damaged.size() / 2] ^= 1;
+  EXPECT_FALSE(backlog.push(damaged.data(), damaged.size(), &h, &err));
+  EXPECT_NE(err.find("checksum"), std::string::npos) << err;
+  ASSERT_TRUE(backlog.push(wire[4].data(), wire[4].size(), &h, &err)) << err;
+  ASSERT_TRUE(backlog.push(wire[5].data(), wire[5].size(), &h, &err)) << err;
+  DepthLinkFrame f;
+  ASSERT_TRUE(backlog.take(5, &f, &err)) << err;  // from key frame 4; frame 0 is never decoded
+  EXPECT_TRUE(same_image(f.depth, direct[5]));
+}
+
+// Its limits keep a starved taker from holding every frame a camera sends: the oldest go, and what builds on
+// them waits for the next key frame instead of decoding wrong.
+TEST(DepthLinkBacklog, ItsLimitsDropTheOldestFramesAndWhatBuildsOnThemWaitsForAKeyFrame) {
+  std::vector<cv::Mat> direct;
+  const auto wire = moving_block_frames(9, [](int i) { return i == 0 || i == 7; }, &direct);
+  DepthLinkBacklogLimits limits;
+  limits.max_frames = 3;
+  DepthLinkBacklog backlog(DepthLinkLimits(), limits);
+  DepthLinkHeader h;
+  std::string err;
+  DepthLinkFrame f;
+  ASSERT_TRUE(backlog.push(wire[0].data(), wire[0].size(), &h, &err)) << err;
+  ASSERT_TRUE(backlog.take(0, &f, &err)) << err;
+  for (size_t i = 1; i < 7; ++i) ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &err)) << err;
+  EXPECT_EQ(backlog.queued(), 3u);  // 4, 5, 6: frames 1 to 3 went
+  EXPECT_FALSE(backlog.take(6, &f, &err));
+  EXPECT_NE(err.find("without the frame before it"), std::string::npos) << err;
+  for (size_t i = 7; i < 9; ++i) ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &err)) << err;
+  ASSERT_TRUE(backlog.take(8, &f, &err)) << err;
+  EXPECT_TRUE(same_image(f.depth, direct[8]));
+  limits.max_bytes = wire[8].size() - 1;
+  DepthLinkBacklog small(DepthLinkLimits(), limits);
+  EXPECT_FALSE(small.push(wire[0].data(), wire[0].size(), &h, &err));
+  EXPECT_NE(err.find("larger than the backlog"), std::string::npos) << err;
 }
 
 TEST(DepthLink, EveryDamageIsRefusedWithAReason) {
@@ -390,6 +490,58 @@ TEST(CameraLink, EveryFrameArrivesWithItsOwnDepthWithinTheBoundAndItsLabels) {
     }
   }
   EXPECT_EQ(uint64_property(p, "join", "frames"), 40u);
+  gst_object_unref(truth_sink);
+  gst_object_unref(out_sink);
+  gst_object_unref(p);
+}
+
+// As pipelines/server.sh runs the link: a leaky queue before rgbdlinkjoin drops most pictures, and the join
+// decodes their depth frames only on the way to the next picture it takes. Each joined frame still has its
+// own instant's depth (within the bound) and labels.
+TEST(CameraLink, PicturesDroppedBeforeTheJoinLeaveTheOthersTheirOwnDepth) {
+  TempDir dir;
+  const std::string rig = small_classroom_rig(dir, 320, 180);
+  std::string chain = link_chain(30);
+  chain.replace(chain.find("rgbdlinkjoin"), 0, "identity name=gate ! ");
+  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=40 ground-truth=true ! tee name=t "
+                         "t. ! queue ! appsink name=truth sync=false "
+                         "t. ! queue ! " + chain + " ! appsink name=out sync=false");
+  GstElement* gate = gst_bin_get_by_name(GST_BIN(p), "gate");
+  GstPad* gate_src = gst_element_get_static_pad(gate, "src");
+  guint seen = 0;
+  gst_pad_add_probe(gate_src, GST_PAD_PROBE_TYPE_BUFFER,
+                    [](GstPad*, GstPadProbeInfo*, gpointer n) -> GstPadProbeReturn {
+                      return (*static_cast<guint*>(n))++ % 3 == 0 ? GST_PAD_PROBE_OK : GST_PAD_PROBE_DROP;
+                    },
+                    &seen, nullptr);
+  GstElement* truth_sink = gst_bin_get_by_name(GST_BIN(p), "truth");
+  GstElement* out_sink = gst_bin_get_by_name(GST_BIN(p), "out");
+  {
+    SampleCollector truth(truth_sink), out(out_sink);
+    RunResult r = run_pipeline(p);
+    EXPECT_EQ(r.error, "");
+    ASSERT_EQ(truth.size(), 40u);
+    ASSERT_EQ(out.size(), 14u);  // pictures 0, 3, ..., 39
+    for (size_t i = 0; i < out.size(); ++i) {
+      const size_t t_index = 3 * i;
+      ASSERT_EQ(GST_BUFFER_PTS(out.buffer(i)) - GST_BUFFER_PTS(out.buffer(0)),
+                GST_BUFFER_PTS(truth.buffer(t_index)) - GST_BUFFER_PTS(truth.buffer(0)));
+      RgbdInfo oi, ti;
+      std::string err;
+      ASSERT_TRUE(rgbd_info_from_caps(out.caps(i), &oi, &err)) << err;
+      ASSERT_TRUE(rgbd_info_from_caps(truth.caps(t_index), &ti, &err)) << err;
+      RgbdFrame o, t;
+      ASSERT_TRUE(o.map(out.buffer(i), oi, GST_MAP_READ, &err)) << err;
+      ASSERT_TRUE(t.map(truth.buffer(t_index), ti, GST_MAP_READ, &err)) << err;
+      EXPECT_EQ(bound_violations(t.depth(), o.depth(), kDefaultDepthTolerance), 0) << "frame " << t_index;
+      EXPECT_TRUE(same_image(t.label(), o.label())) << "frame " << t_index;
+    }
+  }
+  EXPECT_EQ(seen, 40u);
+  EXPECT_EQ(uint64_property(p, "join", "frames"), 14u);
+  EXPECT_EQ(uint64_property(p, "demux", "frames"), 40u);  // every depth frame came whole and was queued
+  gst_object_unref(gate_src);
+  gst_object_unref(gate);
   gst_object_unref(truth_sink);
   gst_object_unref(out_sink);
   gst_object_unref(p);

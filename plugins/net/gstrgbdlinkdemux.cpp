@@ -3,11 +3,14 @@
  * @title: rgbdlinkdemux
  *
  * The server side of the H.264 camera link (docs/network.md): before the H.264 decoder, reads the "VCDL"
- * depth frame from each access unit's SEI, checks every field (sizes before anything is allocated, the
- * checksum, the caps it names, that a delta frame's predecessor was decoded), decodes depth and labels and
- * hangs them on the access unit as a meta, which the decoder carries to the picture and rgbdlinkjoin joins
- * with it. Every access unit is passed on (the decoder needs them all); one whose depth is missing or damaged
- * goes without the meta, and a rate-limited warning says why (rgbdlinkjoin then drops that picture).
+ * depth frame from each access unit's SEI, checks its header (sizes before anything is allocated, the
+ * checksum, the caps it names, that a delta frame's predecessor came), queues it and hangs its number on the
+ * access unit as a meta, which the decoder carries to the picture. rgbdlinkjoin decodes the depth when it
+ * joins that picture, in its own thread: where a leaky queue drops pictures before it, the depth frames they
+ * came with are decoded only as far as later ones need them, and at that thread's priority
+ * (docs/network.md, "Decoding the depth where the picture is used"). Every access unit is passed on (the
+ * decoder needs them all); one whose depth is missing or damaged goes without the meta, and a rate-limited
+ * warning says why (rgbdlinkjoin then drops that picture).
  *
  * ## Example launch line
  * |[
@@ -21,12 +24,13 @@
 #include "gstrgbdlinkdemux.h"
 
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/core/warning_limiter.h>
-#include <gst/vclassroom/net/depth_link.h>
+#include <gst/vclassroom/net/depth_link_backlog.h>
 #include <gst/vclassroom/net/h264_sei.h>
 #include <gst/vclassroom/net/rgbd_codec.h>
 
@@ -42,7 +46,7 @@ struct _GstRgbdLinkDemux {
   GstBaseTransform parent;
   CodecStats stats;  // object lock
   // Streaming thread only:
-  DepthLinkDecoder* decoder;
+  std::shared_ptr<DepthLinkBacklog>* backlog;  // shared with the metas (rgbdlinkjoin decodes)
   std::string* caps_text;  // the caps string of out_caps
   GstCaps* out_caps;       // video/x-rgbd of the joined frames
   WarningLimiter* warnings;
@@ -96,7 +100,7 @@ static void drop_depth(GstRgbdLinkDemux* self, DropKind kind, const std::string&
 
 // The caps of the joined frames for a depth frame's caps string: checked (they come from the network) and
 // kept while they stay the same.
-static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkFrame& f, std::string* why, DropKind* kind) {
+static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkHeader& f, std::string* why, DropKind* kind) {
   if (self->out_caps && *self->caps_text == f.caps) return true;
   *kind = DropKind::RejectedCaps;
   GstCaps* caps = gst_caps_from_string(f.caps.c_str());
@@ -109,39 +113,36 @@ static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkFrame& f, std::st
   }
   *why = rgbd_stream_refusal(info.camera.id, info.width(), info.height(), RgbdStreamLimits(), nullptr, "");
   if (!why->empty()) return false;
-  if (info.width() != f.depth.cols || info.height() != f.depth.rows) {
+  if (info.width() != f.width || info.height() != f.height) {
     *kind = DropKind::WrongSize;
     *why = "the depth frame's caps declare another size than its depth";
     return false;
   }
   info.planes = {Plane::Color, Plane::Depth};
-  if (!f.label.empty()) info.planes.push_back(Plane::Label);
+  if (f.labels) info.planes.push_back(Plane::Label);
   gst_caps_replace(&self->out_caps, nullptr);
   self->out_caps = rgbd_caps_new(info);
   *self->caps_text = f.caps;
   return true;
 }
 
-// The planes buffer (depth, then labels) of a depth frame; nullptr (with `why`) when it is refused.
-static GstBuffer* decoded_planes(GstRgbdLinkDemux* self, const std::vector<uint8_t>& data, std::string* why,
-                                 DropKind* kind) {
-  DepthLinkFrame f;
+// Queues a depth frame; its number, or false (with `why`) when it is refused.
+static bool queue_depth(GstRgbdLinkDemux* self, const std::vector<uint8_t>& data, guint32* number, std::string* why,
+                        DropKind* kind) {
+  DepthLinkHeader header;
   *kind = DropKind::Damaged;
-  if (!self->decoder->decode(data.data(), data.size(), &f, why)) return nullptr;
-  if (!joined_caps(self, f, why, kind)) return nullptr;
-  const size_t depth_bytes = f.depth.total() * 2, label_bytes = f.label.total();
-  GstBuffer* planes = gst_buffer_new_allocate(nullptr, depth_bytes + label_bytes, nullptr);
-  gst_buffer_fill(planes, 0, f.depth.data, depth_bytes);
-  if (label_bytes) gst_buffer_fill(planes, depth_bytes, f.label.data, label_bytes);
+  if (!(*self->backlog)->push(data.data(), data.size(), &header, why)) return false;
+  if (!joined_caps(self, header, why, kind)) return false;
   codec_stats_count(GST_ELEMENT(self), &self->stats, data.size(), false);
-  return planes;
+  *number = header.number;
+  return true;
 }
 
-// The access unit's depth as a planes buffer for the meta; nullptr (with `why`) when there is none to use,
-// nullptr with `why` empty when the unit holds no picture.
-static GstBuffer* demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, std::string* why, DropKind* kind) {
+// Queues the access unit's depth; its number, or false: with `why` when there is none to use, with `why`
+// empty when the unit holds no picture.
+static bool demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, guint32* number, std::string* why, DropKind* kind) {
   GstMapInfo map;
-  if (!gst_buffer_map(in, &map, GST_MAP_READ)) return nullptr;
+  if (!gst_buffer_map(in, &map, GST_MAP_READ)) return false;
   std::vector<uint8_t> data;
   const size_t max_len = 3 * size_t(4096) * 2160 + 65536;
   const SeiFind found = h264_find_user_data(map.data, map.size, kDepthLinkSeiUuid, max_len, &data, why);
@@ -152,14 +153,14 @@ static GstBuffer* demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, std::string
   if (found == SeiFind::kFound && !picture) {  // its picture comes next, with the same timestamp
     self->pending->swap(data);
     self->pending_pts = pts;
-    return nullptr;
+    return false;
   }
   const bool pending = !self->pending->empty() && GST_CLOCK_TIME_IS_VALID(pts) && pts == self->pending_pts;
   if (found == SeiFind::kAbsent && picture && pending) data.swap(*self->pending);
   self->pending->clear();
-  if (!data.empty()) return decoded_planes(self, data, why, kind);
+  if (!data.empty()) return queue_depth(self, data, number, why, kind);
   if (found == SeiFind::kAbsent && picture) *why = "an access unit without depth";
-  return nullptr;  // kMalformed says why; parameter sets alone say nothing
+  return false;  // kMalformed says why; parameter sets alone say nothing
 }
 
 static GstFlowReturn gst_rgbd_link_demux_generate_output(GstBaseTransform* trans, GstBuffer** outbuf) {
@@ -170,11 +171,11 @@ static GstFlowReturn gst_rgbd_link_demux_generate_output(GstBaseTransform* trans
   if (!take_queued_input(trans, TRUE, &in, &ret)) return ret;
   std::string why;
   DropKind kind = DropKind::Damaged;
-  GstBuffer* planes = demux_depth(self, in, &why, &kind);
+  guint32 number = 0;
+  const bool queued = demux_depth(self, in, &number, &why, &kind);
   in = gst_buffer_make_writable(in);
-  if (planes) {
-    gst_buffer_add_rgbd_link_meta(in, planes, self->out_caps);
-    gst_buffer_unref(planes);
+  if (queued) {
+    gst_buffer_add_rgbd_link_backlog_meta(in, *self->backlog, number, self->out_caps);
   } else if (!why.empty()) {
     drop_depth(self, kind, why);
   }
@@ -185,7 +186,7 @@ static GstFlowReturn gst_rgbd_link_demux_generate_output(GstBaseTransform* trans
 static gboolean gst_rgbd_link_demux_sink_event(GstBaseTransform* trans, GstEvent* event) {
   GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(trans);
   if (GST_EVENT_TYPE(event) == GST_EVENT_FLUSH_STOP) {
-    self->decoder->reset();
+    (*self->backlog)->reset();
     self->pending->clear();
   }
   return codec_stats_sink_event(trans, event, &self->stats,
@@ -194,7 +195,7 @@ static gboolean gst_rgbd_link_demux_sink_event(GstBaseTransform* trans, GstEvent
 
 static gboolean gst_rgbd_link_demux_start(GstBaseTransform* trans) {
   GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(trans);
-  self->decoder->reset();
+  (*self->backlog)->reset();
   self->pending->clear();
   gst_caps_replace(&self->out_caps, nullptr);
   self->caps_text->clear();
@@ -218,7 +219,7 @@ static void gst_rgbd_link_demux_get_property(GObject* object, guint prop_id, GVa
 static void gst_rgbd_link_demux_finalize(GObject* object) {
   GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(object);
   gst_caps_replace(&self->out_caps, nullptr);
-  delete self->decoder;
+  delete self->backlog;
   delete self->caps_text;
   delete[] self->warnings;
   delete self->pending;
@@ -232,11 +233,11 @@ static void gst_rgbd_link_demux_class_init(GstRgbdLinkDemuxClass* klass) {
   gobject_class->set_property = gst_rgbd_link_demux_set_property;
   gobject_class->get_property = gst_rgbd_link_demux_get_property;
   gobject_class->finalize = gst_rgbd_link_demux_finalize;
-  codec_stats_install_properties(gobject_class, "Frames whose depth was decoded since the element started");
+  codec_stats_install_properties(gobject_class, "Frames whose depth came whole since the element started");
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(element_class, "RGB-D camera link demuxer", "Codec/Demuxer/Video",
-      "Decodes the depth, labels and calibration an H.264 access unit carries (SEI) onto it as a meta",
+      "Hangs the depth, labels and calibration an H.264 access unit carries (SEI) on it as a meta",
       "gst-vclassroom developers");
   trans_class->transform_caps = GST_DEBUG_FUNCPTR(gst_rgbd_link_demux_transform_caps);
   trans_class->generate_output = GST_DEBUG_FUNCPTR(gst_rgbd_link_demux_generate_output);
@@ -248,7 +249,7 @@ static void gst_rgbd_link_demux_class_init(GstRgbdLinkDemuxClass* klass) {
 
 static void gst_rgbd_link_demux_init(GstRgbdLinkDemux* self) {
   self->stats = CodecStats();
-  self->decoder = new DepthLinkDecoder();
+  self->backlog = new std::shared_ptr<DepthLinkBacklog>(std::make_shared<DepthLinkBacklog>());
   self->caps_text = new std::string();
   self->out_caps = nullptr;
   self->warnings = new WarningLimiter[kDropKinds];

@@ -5,7 +5,10 @@
  * The server side of the H.264 camera link (docs/network.md): after the H.264 decoder, joins each decoded
  * picture (I420, converted to RGB here, BT.601 as rgbdlinksplit made it: a videoconvert before it passes it
  * through; or RGB) with the depth and labels that came in its own access unit (the meta
- * rgbdlinkdemux attached) into one video/x-rgbd frame, with the camera's calibration in the caps. Colour is
+ * rgbdlinkdemux attached) into one video/x-rgbd frame, with the camera's calibration in the caps. The depth
+ * is decoded here, with the depth frames before it that no picture took: a leaky queue before this element
+ * (as pipelines/server.sh has, in a low-priority thread) spares the conversion and most of the depth decoding
+ * of the pictures it drops (docs/network.md, "Decoding the depth where the picture is used"). Colour is
  * never joined with another instant's depth: a picture without its depth (lost, damaged, or awaiting a depth
  * key frame), or whose meta was made for another timestamp, is dropped with a rate-limited warning.
  *
@@ -28,6 +31,7 @@
 
 #include <gst/vclassroom/core/rgbd.h>
 #include <gst/vclassroom/net/colour_i420.h>
+#include <gst/vclassroom/net/depth_link_backlog.h>
 #include <gst/vclassroom/core/warning_limiter.h>
 
 #include "rgbdcoded.h"
@@ -99,10 +103,11 @@ static GstBuffer* join(GstRgbdLinkJoin* self, GstBuffer* in, GstRgbdLinkMeta* me
     }
   }
   const int w = self->info->width(), h = self->info->height();
-  const size_t depth_bytes = size_t(w) * h * 2;
+  DepthLinkFrame depth;
+  if (!(*meta->backlog)->take(meta->number, &depth, why)) return nullptr;
   const bool labels = self->info->has(Plane::Label);
-  if (gst_buffer_get_size(meta->planes) != depth_bytes + (labels ? size_t(w) * h : 0)) {
-    *why = "the depth planes do not fit the caps";
+  if (depth.depth.cols != w || depth.depth.rows != h || labels == depth.label.empty()) {
+    *why = "the depth frame does not fit the caps";
     return nullptr;
   }
   GstVideoFrame vf;
@@ -111,15 +116,12 @@ static GstBuffer* join(GstRgbdLinkJoin* self, GstBuffer* in, GstRgbdLinkMeta* me
     return nullptr;
   }
   const bool i420 = GST_VIDEO_FRAME_FORMAT(&vf) == GST_VIDEO_FORMAT_I420;
-  GstMapInfo pm;
-  gst_buffer_map(meta->planes, &pm, GST_MAP_READ);
-  std::vector<std::pair<Plane, cv::Mat>> planes = {{Plane::Depth, cv::Mat(h, w, CV_16UC1, pm.data)}};
+  std::vector<std::pair<Plane, cv::Mat>> planes = {{Plane::Depth, depth.depth}};
   if (!i420)
     planes.emplace_back(Plane::Color, cv::Mat(h, w, CV_8UC3, GST_VIDEO_FRAME_PLANE_DATA(&vf, 0),
                                               GST_VIDEO_FRAME_PLANE_STRIDE(&vf, 0)));
-  if (labels) planes.emplace_back(Plane::Label, cv::Mat(h, w, CV_8UC1, pm.data + depth_bytes));
+  if (labels) planes.emplace_back(Plane::Label, depth.label);
   GstBuffer* out = rgbd_buffer_with_planes(*self->info, planes, why);
-  gst_buffer_unmap(meta->planes, &pm);
   if (out && i420) {  // the colour converted right into the frame's plane
     RgbdFrame frame;
     if (frame.map(out, *self->info, GST_MAP_WRITE, why)) {
@@ -145,7 +147,7 @@ static GstFlowReturn gst_rgbd_link_join_chain(GstPad*, GstObject* parent, GstBuf
   }
   GstRgbdLinkMeta* meta = gst_buffer_get_rgbd_link_meta(in);
   std::string why = "a picture without its depth (lost, damaged or awaiting a depth key frame)";
-  GstBuffer* out = meta ? join(self, in, meta, &why) : nullptr;
+  GstBuffer* out = meta && meta->backlog ? join(self, in, meta, &why) : nullptr;
   gst_buffer_unref(in);
   if (!out) {
     drop_picture(self, why);

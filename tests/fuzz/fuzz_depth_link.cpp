@@ -1,6 +1,7 @@
-// libFuzzer target: the camera link's depth as it arrives (rgbdlinkdemux): an H.264 access unit whose depth
-// SEI is found and decoded, and the bytes themselves as a depth frame ("VCDL"), each after a valid key frame
-// so that delta frames are explored too. Never crashes, never overflows (UBSan), says why whenever it refuses.
+// libFuzzer target: the camera link's depth as it arrives (rgbdlinkdemux, rgbdlinkjoin): an H.264 access unit
+// whose depth SEI is found and decoded, and the bytes themselves as a depth frame ("VCDL"), each after a valid
+// key frame so that delta frames are explored too, through the decoder and through the server's backlog (checked
+// on arrival, decoded when taken). Never crashes, never overflows (UBSan), says why whenever it refuses.
 #include <cstdint>
 #include <cstdlib>
 #include <string>
@@ -11,6 +12,7 @@
 
 #include <gst/vclassroom/core/byte_order.h>
 #include <gst/vclassroom/net/depth_link.h>
+#include <gst/vclassroom/net/depth_link_backlog.h>
 #include <gst/vclassroom/net/h264_sei.h>
 
 namespace {
@@ -44,6 +46,15 @@ void decode_after_key(const std::vector<uint8_t>& frame) {
   if (!dec.decode(key_frame().data(), key_frame().size(), &f, &err)) std::abort();
   err.clear();
   if (!dec.decode(frame.data(), frame.size(), &f, &err) && err.empty()) std::abort();  // a refusal says why
+  vclassroom::DepthLinkBacklog backlog(limits);
+  vclassroom::DepthLinkHeader h;
+  if (!backlog.push(key_frame().data(), key_frame().size(), &h, &err)) std::abort();
+  err.clear();
+  if (!backlog.push(frame.data(), frame.size(), &h, &err)) {
+    if (err.empty()) std::abort();
+    return;
+  }
+  if (!backlog.take(h.number, &f, &err) && err.empty()) std::abort();
 }
 
 }  // namespace

@@ -579,6 +579,25 @@ std::string parse_header(const uint8_t* data, size_t size, const DepthLinkLimits
   return "";
 }
 
+}  // namespace
+
+std::string check_depth_frame(const uint8_t* data, size_t size, const DepthLinkLimits& limits,
+                              DepthLinkHeader* header) {
+  Header hd;
+  const std::string bad = parse_header(data, size, limits, &hd);
+  if (!bad.empty()) return bad;
+  header->number = hd.number;
+  header->key = hd.flags & kFlagKey;
+  header->labels = hd.flags & kFlagLabels;
+  header->tolerance = hd.tolerance;
+  header->width = hd.w;
+  header->height = hd.h;
+  header->caps.assign(reinterpret_cast<const char*>(data + kDepthLinkHeaderBytes), size_t(hd.caps_len));
+  return "";
+}
+
+namespace {
+
 // The zeros in a row (vectorised: the decoder's one pass over every pixel).
 VCLASSROOM_SIMD_CLONES
 int count_zeros(const uint16_t* v, int w) {
@@ -693,6 +712,10 @@ std::string decode_pixels(const uint8_t* data, size_t size, bool key, const Dept
 }  // namespace
 
 bool DepthLinkDecoder::decode(const uint8_t* data, size_t size, DepthLinkFrame* frame, std::string* error) {
+  return decode_frame(data, size, frame, error);
+}
+
+bool DepthLinkDecoder::decode_frame(const uint8_t* data, size_t size, DepthLinkFrame* frame, std::string* error) {
   auto fail = [&](const std::string& why) {
     if (error) *error = why;
     return false;
@@ -712,23 +735,31 @@ bool DepthLinkDecoder::decode(const uint8_t* data, size_t size, DepthLinkFrame* 
   if (key) {
     mem_ = cv::Mat::zeros(h, w, CV_16UC1);
   }
-  cv::Mat depth(h, w, CV_16UC1);
+  cv::Mat depth;
+  if (frame) {
+    depth.create(h, w, CV_16UC1);
+  } else {
+    scratch_.create(h, w, CV_16UC1);
+    depth = scratch_;
+  }
   const std::string why = decode_pixels(p + hd.caps_len, hd.depth_len, key, bins_for(hd.tolerance), &depth, &mem_);
   if (!why.empty()) return fail(why);
   cv::Mat label;
-  if (hd.label_len > 0) {
+  if (frame && hd.label_len > 0) {
     std::vector<uint8_t> l;
     if (!inflate_bounded(p + hd.caps_len + hd.depth_len, hd.label_len, pixels, &l) || l.size() != pixels)
       return fail("label section does not inflate to the image");
     label = cv::Mat(h, w, CV_8UC1);
     std::memcpy(label.data, l.data(), pixels);
   }
-  frame->depth = depth;
-  frame->label = label;
-  frame->caps.assign(reinterpret_cast<const char*>(p), hd.caps_len);
-  frame->number = hd.number;
-  frame->key = key;
-  frame->tolerance = hd.tolerance;
+  if (frame) {
+    frame->depth = depth;
+    frame->label = label;
+    frame->caps.assign(reinterpret_cast<const char*>(p), hd.caps_len);
+    frame->number = hd.number;
+    frame->key = key;
+    frame->tolerance = hd.tolerance;
+  }
   size_ = cv::Size(w, h);
   tolerance_ = hd.tolerance;
   number_ = hd.number;

@@ -48,6 +48,21 @@ struct DepthLinkFrame {
   uint16_t tolerance = 0;
 };
 
+// What a depth frame's header declares.
+struct DepthLinkHeader {
+  uint32_t number = 0;
+  bool key = false;
+  bool labels = false;
+  uint16_t tolerance = 0;
+  int width = 0, height = 0;
+  std::string caps;
+};
+
+// Checks a depth frame's header, the lengths of its sections and its checksum against `limits`, without
+// decoding it (cheap: what a receiver can afford on every frame); "" or why not.
+std::string check_depth_frame(const uint8_t* data, size_t size, const DepthLinkLimits& limits,
+                              DepthLinkHeader* header);
+
 // The header's fixed part, in bytes.
 inline constexpr size_t kDepthLinkHeaderBytes = 32;
 
@@ -83,10 +98,16 @@ class DepthLinkDecoder {
   // when the frame is damaged, oversized, or a delta frame whose predecessor was not decoded (then every
   // frame is refused until the next key frame).
   bool decode(const uint8_t* data, size_t size, DepthLinkFrame* frame, std::string* error);
+  // The same checks and the same state, for a frame nobody will use (one a later delta frame builds on):
+  // its labels are not inflated and its depth goes to a scratch image.
+  bool skip(const uint8_t* data, size_t size, std::string* error) { return decode_frame(data, size, nullptr, error); }
   void reset() { have_ref_ = false; }
 
  private:
+  bool decode_frame(const uint8_t* data, size_t size, DepthLinkFrame* frame, std::string* error);
+
   DepthLinkLimits limits_;
+  cv::Mat scratch_;  // skip()'s depth
   cv::Mat mem_;      // as the encoder's
   cv::Size size_;
   uint16_t tolerance_ = 0;
