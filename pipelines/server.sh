@@ -180,7 +180,7 @@ for k in $CAMERAS; do
   if [ "$LINK" = h264 ]; then
     decode="rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k stats-interval=$STATS ! \
       avdec_h264 max-threads=1 ! queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! \
-      videoconvert ! rgbdlinkjoin name=join$k !"
+      videoconvert ! rgbdlinkjoin name=join$k stats-interval=$STATS !"
   else
     decode="rtpgstdepay ! queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! \
       rgbddec name=dec$k $dec_rig stats-interval=$STATS !"

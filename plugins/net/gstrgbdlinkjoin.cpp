@@ -42,13 +42,11 @@ GST_DEBUG_CATEGORY_STATIC(rgbd_link_join_debug);
 
 using namespace vclassroom;
 
-enum { PROP_0, PROP_FRAMES, PROP_DROPPED };
-
 struct _GstRgbdLinkJoin {
   GstElement parent;
   GstPad* sinkpad;
   GstPad* srcpad;
-  guint64 frames, dropped;  // object lock
+  CodecStats stats;  // object lock
   // Streaming thread only:
   GstVideoInfo vinfo;
   gboolean have_vinfo;
@@ -67,9 +65,7 @@ static GstStaticPadTemplate src_template =
     GST_STATIC_PAD_TEMPLATE("src", GST_PAD_SRC, GST_PAD_ALWAYS, GST_STATIC_CAPS(kRgbdTemplateCaps));
 
 static void drop_picture(GstRgbdLinkJoin* self, const std::string& why) {
-  GST_OBJECT_LOCK(self);
-  const guint64 dropped = ++self->dropped;
-  GST_OBJECT_UNLOCK(self);
+  const guint64 dropped = codec_stats_drop(GST_ELEMENT(self), &self->stats, DropKind::Damaged).dropped;
   uint64_t count = 0;
   int64_t span = 0;
   if (!self->warnings->note(g_get_monotonic_time() * 1000, &count, &span)) return;
@@ -153,9 +149,7 @@ static GstFlowReturn gst_rgbd_link_join_chain(GstPad*, GstObject* parent, GstBuf
     drop_picture(self, why);
     return GST_FLOW_OK;
   }
-  GST_OBJECT_LOCK(self);
-  ++self->frames;
-  GST_OBJECT_UNLOCK(self);
+  codec_stats_count(GST_ELEMENT(self), &self->stats, 0, false);
   return gst_pad_push(self->srcpad, out);
 }
 
@@ -182,6 +176,7 @@ static gboolean gst_rgbd_link_join_sink_event(GstPad* pad, GstObject* parent, Gs
   }
   if (GST_EVENT_TYPE(event) == GST_EVENT_FLUSH_STOP || GST_EVENT_TYPE(event) == GST_EVENT_EOS)
     gst_event_replace(&self->pending_segment, nullptr);
+  if (GST_EVENT_TYPE(event) == GST_EVENT_EOS) codec_stats_post(GST_ELEMENT(self), &self->stats);
   return gst_pad_event_default(pad, parent, event);
 }
 
@@ -193,22 +188,20 @@ static GstStateChangeReturn gst_rgbd_link_join_change_state(GstElement* element,
     self->have_vinfo = FALSE;
     self->warnings->reset();
     GST_OBJECT_LOCK(self);
-    self->frames = self->dropped = 0;
+    self->stats = CodecStats{0, 0, 0, self->stats.interval};
     GST_OBJECT_UNLOCK(self);
   }
   return GST_ELEMENT_CLASS(gst_rgbd_link_join_parent_class)->change_state(element, transition);
 }
 
-static void gst_rgbd_link_join_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
-  GstRgbdLinkJoin* self = GST_RGBD_LINK_JOIN(object);
-  GST_OBJECT_LOCK(self);
-  if (prop_id == PROP_FRAMES)
-    g_value_set_uint64(value, self->frames);
-  else if (prop_id == PROP_DROPPED)
-    g_value_set_uint64(value, self->dropped);
-  else
+static void gst_rgbd_link_join_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
+  if (!codec_stats_set_property(GST_OBJECT(object), &GST_RGBD_LINK_JOIN(object)->stats, prop_id, value))
     G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
-  GST_OBJECT_UNLOCK(self);
+}
+
+static void gst_rgbd_link_join_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
+  if (!codec_stats_get_property(GST_OBJECT(object), GST_RGBD_LINK_JOIN(object)->stats, prop_id, value))
+    G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
 }
 
 static void gst_rgbd_link_join_finalize(GObject* object) {
@@ -223,14 +216,10 @@ static void gst_rgbd_link_join_finalize(GObject* object) {
 static void gst_rgbd_link_join_class_init(GstRgbdLinkJoinClass* klass) {
   GObjectClass* gobject_class = G_OBJECT_CLASS(klass);
   GstElementClass* element_class = GST_ELEMENT_CLASS(klass);
+  gobject_class->set_property = gst_rgbd_link_join_set_property;
   gobject_class->get_property = gst_rgbd_link_join_get_property;
   gobject_class->finalize = gst_rgbd_link_join_finalize;
-  const auto ro = GParamFlags(G_PARAM_READABLE | G_PARAM_STATIC_STRINGS);
-  g_object_class_install_property(gobject_class, PROP_FRAMES,
-      g_param_spec_uint64("frames", "Frames", "RGB-D frames joined", 0, G_MAXUINT64, 0, ro));
-  g_object_class_install_property(gobject_class, PROP_DROPPED,
-      g_param_spec_uint64("frames-dropped", "Frames dropped", "Pictures dropped without their own depth", 0,
-                          G_MAXUINT64, 0, ro));
+  codec_stats_install_properties(gobject_class, "RGB-D frames joined (their depth decoded) since the element started");
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(element_class, "RGB-D camera link joiner", "Filter/Converter/Video",
@@ -249,7 +238,7 @@ static void gst_rgbd_link_join_init(GstRgbdLinkJoin* self) {
   self->srcpad = gst_pad_new_from_static_template(&src_template, "src");
   gst_pad_use_fixed_caps(self->srcpad);
   gst_element_add_pad(GST_ELEMENT(self), self->srcpad);
-  self->frames = self->dropped = 0;
+  self->stats = CodecStats();
   self->have_vinfo = FALSE;
   self->out_caps = nullptr;
   self->pending_segment = nullptr;
