@@ -178,7 +178,7 @@ for k in $CAMERAS; do
   # FFmpeg's decoder on one thread: a little cheaper per picture than openh264dec, and the pose-to-photon
   # latency 10-15 ms lower with it (docs/network.md, "The whole flow, measured").
   if [ "$LINK" = h264 ]; then
-    decode="rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k stats-interval=$STATS ! \
+    decode="rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k $dec_rig stats-interval=$STATS ! \
       avdec_h264 max-threads=1 ! queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! \
       videoconvert ! rgbdlinkjoin name=join$k stats-interval=$STATS !"
   else

@@ -547,6 +547,31 @@ TEST(CameraLink, PicturesDroppedBeforeTheJoinLeaveTheOthersTheirOwnDepth) {
   gst_object_unref(p);
 }
 
+// A server given its rig (server.sh passes RIG or the model's to rgbdlinkdemux as to rgbddec) refuses a
+// camera the rig has at another size, with the reason, before anything is decoded; a rig it cannot read stops
+// the pipeline with an error.
+TEST(CameraLink, TheDemuxRefusesACameraTheRigHasAtAnotherSize) {
+  TempDir dir, other;
+  const std::string rig = small_classroom_rig(dir, 160, 90);
+  const std::string server_rig = small_classroom_rig(other, 320, 180);
+  std::string chain = link_chain(10);
+  chain.replace(chain.find("rgbdlinkdemux name=demux"), std::string("rgbdlinkdemux name=demux").size(),
+                "rgbdlinkdemux name=demux rig=" + server_rig);
+  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=10 ! " + chain + " ! fakesink");
+  RunResult r = run_pipeline(p);
+  EXPECT_EQ(r.error, "");
+  EXPECT_EQ(uint64_property(p, "join", "frames"), 0u);
+  EXPECT_EQ(uint64_property(p, "demux", "frames-dropped"), 10u);
+  ASSERT_GE(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("has camera 0 at 320x180"), std::string::npos) << r.warnings[0];
+  gst_object_unref(p);
+  chain.replace(chain.find(server_rig), server_rig.size(), dir / "missing.yaml");
+  p = launch("rgbdtestsrc rig=" + rig + " num-buffers=10 ! " + chain + " ! fakesink");
+  r = run_pipeline(p);
+  EXPECT_NE(r.error.find("Cannot read the rig"), std::string::npos) << r.error;
+  gst_object_unref(p);
+}
+
 TEST(CameraLink, LosslessDepthComesBackBitExact) {
   TempDir dir;
   const std::string rig = small_classroom_rig(dir, 160, 90);

@@ -10,7 +10,8 @@
  * came with are decoded only as far as later ones need them, and at that thread's priority
  * (docs/network.md, "Decoding the depth where the picture is used"). Every access unit is passed on (the
  * decoder needs them all); one whose depth is missing or damaged goes without the meta, and a rate-limited
- * warning says why (rgbdlinkjoin then drops that picture).
+ * warning says why (rgbdlinkjoin then drops that picture). With `rig` set, a camera the rig does not have, or
+ * of another size than the rig's, is refused as rgbddec refuses it.
  *
  * ## Example launch line
  * |[
@@ -25,10 +26,13 @@
 
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/rgbd.h>
+#include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/core/warning_limiter.h>
 #include <gst/vclassroom/net/depth_link_backlog.h>
 #include <gst/vclassroom/net/h264_sei.h>
@@ -42,9 +46,15 @@ GST_DEBUG_CATEGORY_STATIC(rgbd_link_demux_debug);
 
 using namespace vclassroom;
 
+enum { PROP_RIG = 1 };
+
 struct _GstRgbdLinkDemux {
   GstBaseTransform parent;
-  CodecStats stats;  // object lock
+  CodecStats stats;        // object lock
+  std::string* rig_path;   // object lock
+  // Streaming thread only:
+  std::optional<Rig>* rig;  // loaded at start
+  std::string* rig_source;  // the path it was loaded from
   // Streaming thread only:
   std::shared_ptr<DepthLinkBacklog>* backlog;  // shared with the metas (rgbdlinkjoin decodes)
   std::string* caps_text;  // the caps string of out_caps
@@ -111,7 +121,8 @@ static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkHeader& f, std::s
     if (why->empty()) *why = "the depth frame's caps do not parse";
     return false;
   }
-  *why = rgbd_stream_refusal(info.camera.id, info.width(), info.height(), RgbdStreamLimits(), nullptr, "");
+  *why = rgbd_stream_refusal(info.camera.id, info.width(), info.height(), RgbdStreamLimits(),
+                             *self->rig ? &**self->rig : nullptr, *self->rig_source);
   if (!why->empty()) return false;
   if (info.width() != f.width || info.height() != f.height) {
     *kind = DropKind::WrongSize;
@@ -202,18 +213,40 @@ static gboolean gst_rgbd_link_demux_start(GstBaseTransform* trans) {
   for (int k = 0; k < kDropKinds; ++k) self->warnings[k].reset();
   GST_OBJECT_LOCK(self);
   self->stats = CodecStats{0, 0, 0, self->stats.interval};
+  const std::string rig_path = *self->rig_path;
   GST_OBJECT_UNLOCK(self);
+  self->rig->reset();
+  *self->rig_source = rig_path;
+  if (rig_path.empty()) return TRUE;
+  try {
+    *self->rig = load_rig(rig_path);
+  } catch (const Error& e) {
+    GST_ELEMENT_ERROR(self, RESOURCE, READ, ("Cannot read the rig %s", rig_path.c_str()), ("%s", e.what()));
+    return FALSE;
+  }
   return TRUE;
 }
 
 static void gst_rgbd_link_demux_set_property(GObject* object, guint prop_id, const GValue* value, GParamSpec* pspec) {
-  if (!codec_stats_set_property(GST_OBJECT(object), &GST_RGBD_LINK_DEMUX(object)->stats, prop_id, value))
+  GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(object);
+  if (prop_id == PROP_RIG) {
+    GST_OBJECT_LOCK(self);
+    *self->rig_path = g_value_get_string(value) ? g_value_get_string(value) : "";
+    GST_OBJECT_UNLOCK(self);
+  } else if (!codec_stats_set_property(GST_OBJECT(object), &self->stats, prop_id, value)) {
     G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
 }
 
 static void gst_rgbd_link_demux_get_property(GObject* object, guint prop_id, GValue* value, GParamSpec* pspec) {
-  if (!codec_stats_get_property(GST_OBJECT(object), GST_RGBD_LINK_DEMUX(object)->stats, prop_id, value))
+  GstRgbdLinkDemux* self = GST_RGBD_LINK_DEMUX(object);
+  if (prop_id == PROP_RIG) {
+    GST_OBJECT_LOCK(self);
+    g_value_set_string(value, self->rig_path->c_str());
+    GST_OBJECT_UNLOCK(self);
+  } else if (!codec_stats_get_property(GST_OBJECT(object), self->stats, prop_id, value)) {
     G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
+  }
 }
 
 static void gst_rgbd_link_demux_finalize(GObject* object) {
@@ -223,6 +256,9 @@ static void gst_rgbd_link_demux_finalize(GObject* object) {
   delete self->caps_text;
   delete[] self->warnings;
   delete self->pending;
+  delete self->rig_path;
+  delete self->rig;
+  delete self->rig_source;
   G_OBJECT_CLASS(gst_rgbd_link_demux_parent_class)->finalize(object);
 }
 
@@ -234,6 +270,10 @@ static void gst_rgbd_link_demux_class_init(GstRgbdLinkDemuxClass* klass) {
   gobject_class->get_property = gst_rgbd_link_demux_get_property;
   gobject_class->finalize = gst_rgbd_link_demux_finalize;
   codec_stats_install_properties(gobject_class, "Frames whose depth came whole since the element started");
+  g_object_class_install_property(
+      gobject_class, PROP_RIG,
+      g_param_spec_string("rig", "Rig file", "Rig YAML file whose cameras and sizes the depth's caps must match (empty: any)",
+                          "", GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_READY)));
   gst_element_class_add_static_pad_template(element_class, &sink_template);
   gst_element_class_add_static_pad_template(element_class, &src_template);
   gst_element_class_set_static_metadata(element_class, "RGB-D camera link demuxer", "Codec/Demuxer/Video",
@@ -255,4 +295,7 @@ static void gst_rgbd_link_demux_init(GstRgbdLinkDemux* self) {
   self->warnings = new WarningLimiter[kDropKinds];
   self->pending = new std::vector<uint8_t>();
   self->pending_pts = GST_CLOCK_TIME_NONE;
+  self->rig_path = new std::string();
+  self->rig = new std::optional<Rig>();
+  self->rig_source = new std::string();
 }
