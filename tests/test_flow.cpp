@@ -34,6 +34,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "test_util.h"
+#include "tools/camera_link_chain.h"
 
 using namespace vclassroom;
 
@@ -234,9 +235,7 @@ class Lecturer {
 // The camera link's coding in one process, as classroom.sh and server.sh arrange it (LINK).
 std::string link_coding(const std::string& link) {
   if (link != "h264") return "rgbdenc quality=90 ! rgbddec";
-  return "rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! x264enc tune=zerolatency speed-preset=ultrafast "
-         "key-int-max=60 bitrate=4000 ! video/x-h264,profile=constrained-baseline ! rgbdlinkmux ! rgbdlinkdemux ! "
-         "avdec_h264 max-threads=1 ! videoconvert ! rgbdlinkjoin";
+  return vclassroom_tools::camera_link_coder() + " ! " + vclassroom_tools::camera_link_decoder();
 }
 
 cv::Mat all_in_one(const std::string& rig, const std::string& trace, const std::string& link = "vcrd1") {

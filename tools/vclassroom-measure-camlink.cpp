@@ -38,6 +38,7 @@
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>
 
+#include "camera_link_chain.h"
 #include "cpu_clock.h"
 #include "tool_options.h"
 #include "tool_support.h"
@@ -475,14 +476,13 @@ int main(int argc, char** argv) {
   std::snprintf(tol_text, sizeof tol_text, "%.2f", tolerance);
   const std::string old_cam = "rgbdenc quality=90 ! rtpgstpay config-interval=1 mtu=1400 pt=96";
   const std::string old_srv = "rtpgstdepay ! rgbddec";
-  const std::string profile = format == "Y444" ? "high-4:4:4" : "constrained-baseline";
-  const std::string new_cam =
-      std::string("rgbdlinksplit") + (format == "Y444" ? " format=RGB" : "") + " ! videoconvert ! video/x-raw,format=" +
-      format + " ! x264enc tune=zerolatency "
-      "speed-preset=ultrafast key-int-max=60 bitrate=" + std::to_string(bitrate) + " ! video/x-h264,profile=" +
-      profile + " ! rgbdlinkmux depth-tolerance=" + tol_text + " ! rtph264pay mtu=1400 pt=96";
+  vclassroom_tools::CameraLinkCoding coding;
+  coding.bitrate_kbps = bitrate;
+  coding.tolerance = tol_text;
+  coding.format = format;
+  const std::string new_cam = vclassroom_tools::camera_link_coder(coding) + " ! rtph264pay mtu=1400 pt=96";
   // The decoder as server.sh runs it (FFmpeg's, one thread; it also decodes the 4:4:4 of --colour Y444).
-  const std::string new_srv = "rtph264depay ! rgbdlinkdemux ! avdec_h264 max-threads=1 ! videoconvert ! rgbdlinkjoin";
+  const std::string new_srv = "rtph264depay ! " + vclassroom_tools::camera_link_decoder();
   Totals totals;
   // [link: uncoded, old, new][camera][frame]
   std::vector<std::vector<std::vector<Delivered>>> delivered(3, std::vector<std::vector<Delivered>>(size_t(cameras)));

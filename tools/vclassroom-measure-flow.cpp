@@ -29,6 +29,7 @@
 #include <gst/vclassroom/net/pose_wire.h>
 #include <gst/vclassroom/core/pose_meta.h>
 
+#include "camera_link_chain.h"
 #include "flow_harness.h"
 #include "tool_options.h"
 #include "tool_support.h"
@@ -62,10 +63,7 @@ struct Options {
 // What a camera of the replay sends, up to its payloader, as classroom.sh runs it (its defaults) for o.link: the
 // H.264 link's key frames every 60 frames, so the recording's 60 frames loop from a key frame.
 std::string camera_coder(const Options& o) {
-  if (o.link == "h264")
-    return "rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! "
-           "x264enc tune=zerolatency speed-preset=ultrafast key-int-max=60 bitrate=4000 ! "
-           "video/x-h264,profile=constrained-baseline ! rgbdlinkmux depth-tolerance=2.8 key-interval=60";
+  if (o.link == "h264") return vclassroom_tools::camera_link_coder();
   return "rgbdenc quality=90";
 }
 

@@ -1,0 +1,33 @@
+// The H.264 camera link's coding as pipelines/classroom.sh runs it (LINK=h264, docs/network.md), for the
+// programs and tests that run it in-process instead of through the script: one description, so that they
+// measure and test what a camera sends.
+#pragma once
+
+#include <string>
+
+namespace vclassroom_tools {
+
+struct CameraLinkCoding {
+  int key_interval = 60;        // classroom.sh's KEY_INTERVAL: x264enc's key-int-max and rgbdlinkmux's key-interval
+  int bitrate_kbps = 4000;      // BITRATE
+  std::string tolerance = "2.8";  // DEPTH_TOLERANCE, mm at 1 m
+  std::string format = "I420";    // the colour: I420 (classroom.sh's) or Y444 (high-4:4:4)
+};
+
+// From the camera's video/x-rgbd frames to the H.264 access units with their depth (before the payloader).
+inline std::string camera_link_coder(const CameraLinkCoding& c = {}) {
+  const bool y444 = c.format == "Y444";
+  return std::string("rgbdlinksplit") + (y444 ? " format=RGB" : "") + " ! videoconvert ! video/x-raw,format=" +
+         c.format + " ! x264enc tune=zerolatency speed-preset=ultrafast key-int-max=" +
+         std::to_string(c.key_interval) + " bitrate=" + std::to_string(c.bitrate_kbps) +
+         " ! video/x-h264,profile=" + (y444 ? "high-4:4:4" : "constrained-baseline") +
+         " ! rgbdlinkmux depth-tolerance=" + c.tolerance + " key-interval=" + std::to_string(c.key_interval);
+}
+
+// pipelines/server.sh's decoding of those access units (after rtph264depay) back to video/x-rgbd frames, without
+// its leaky queue.
+inline std::string camera_link_decoder() {
+  return "rgbdlinkdemux ! avdec_h264 max-threads=1 ! videoconvert ! rgbdlinkjoin";
+}
+
+}  // namespace vclassroom_tools
