@@ -110,18 +110,26 @@ class BitWriter {
     const size_t need = used_ + bits / 8 + 16;
     if (out_->size() - start_ < need) out_->resize(start_ + 2 * need);
   }
-  // v < 2^bits, bits <= 32.
+  // v < 2^bits, bits <= 32. The register holds fewer than 32 bits between calls and goes out four bytes at a
+  // time (not a byte per loop).
   void put(uint32_t v, int bits) {
     acc_ = acc_ << bits | v;
     n_ += bits;
-    while (n_ >= 8) {
-      n_ -= 8;
-      (*out_)[start_ + used_++] = uint8_t(acc_ >> n_);
+    if (n_ >= 32) {
+      n_ -= 32;
+      const uint32_t word = __builtin_bswap32(uint32_t(acc_ >> n_));
+      std::memcpy(out_->data() + start_ + used_, &word, 4);
+      used_ += 4;
     }
   }
   // Pads the last byte with zeros and trims `out` to what was written.
   void finish() {
-    if (n_ > 0) put(0, 8 - n_);
+    while (n_ >= 8) {
+      n_ -= 8;
+      (*out_)[start_ + used_++] = uint8_t(acc_ >> n_);
+    }
+    if (n_ > 0) (*out_)[start_ + used_++] = uint8_t(acc_ << (8 - n_));
+    n_ = 0;
     out_->resize(start_ + used_);
   }
 
@@ -181,10 +189,13 @@ class BitReader {
 // decision per bit.
 struct RiceContext {
   uint32_t a = 4, n = 1;
+  // The least k with n 2^k >= a, at most 17, from a's bit length (n is 1 to 3): no loop over k.
   int k() const {
-    int k = 0;
-    while (k < 17 && (n << k) < a) ++k;
-    return k;
+    if (a <= n) return 0;
+    const int bits = 32 - __builtin_clz(a - 1);  // 2^bits >= a > 2^(bits - 1), bits >= 2 here
+    int k = bits - int(n >> 1);                   // n = 1: bits; n = 2 or 3: bits - 1
+    k -= int(n == 3 && (3u << (bits - 2)) >= a);  // n = 3: bits - 2 where that reaches a
+    return std::min(k, 17);
   }
   void update(uint32_t v) {
     a += v;
@@ -210,8 +221,8 @@ inline int rice_bits(uint32_t v, int k) {
   return q < uint32_t(kRiceLimit) ? int(q) + 1 + k : kRiceLimit + 2 * bit_length(v - (uint32_t(kRiceLimit) << k) + 1) - 1;
 }
 
-inline void put_rice(BitWriter& bw, RiceContext& c, uint32_t v) {
-  const int k = c.k();
+// `k`: c.k(), where the caller has it already.
+inline void put_rice(BitWriter& bw, RiceContext& c, uint32_t v, int k) {
   const uint32_t q = v >> k;
   if (q < uint32_t(kRiceLimit)) {
     bw.put(1, int(q) + 1);
@@ -224,6 +235,8 @@ inline void put_rice(BitWriter& bw, RiceContext& c, uint32_t v) {
   }
   c.update(v);
 }
+
+inline void put_rice(BitWriter& bw, RiceContext& c, uint32_t v) { put_rice(bw, c, v, c.k()); }
 
 inline uint32_t get_rice(BitReader& br, RiceContext& c) {
   br.refill();
@@ -370,18 +383,19 @@ inline uint16_t put_value(BitWriter& bw, DepthContexts& c, uint16_t z, uint16_t 
                           const DepthBins& b) {
   if (p != 0) {
     RiceContext& sc = c.step[step_context(p, left, b)];
+    const int ks = sc.k();
     const int32_t k = delta_step(z, p, int32_t(est + 0.5f), b);  // est >= 0: rounded
     if (k != 0) {
       const uint32_t s = step_symbol(k);
       const int32_t bin = b.bin_of[z];
       const bool row_shorter = left != 0 && rice_bits(zigzag(bin - int32_t(b.bin_of[left])), c.row[0].k()) +
-                                                    rice_bits(0, sc.k()) < rice_bits(s, sc.k());
+                                                    rice_bits(0, ks) < rice_bits(s, ks);
       if (!row_shorter) {
-        put_rice(bw, sc, s);
+        put_rice(bw, sc, s, ks);
         return uint16_t(int32_t(p) + k * (int32_t(b.bound[p]) / 2 + 1));
       }
     }
-    put_rice(bw, sc, 0);
+    put_rice(bw, sc, 0, ks);
   }
   put_bin(bw, c, z, left, b);
   return b.center[b.bin_of[z]];
