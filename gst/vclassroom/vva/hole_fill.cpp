@@ -4,6 +4,7 @@
 #include <gst/vclassroom/vva/hole_runs.h>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -63,9 +64,18 @@ constexpr float kPyramidWeight = 1.0f / kPyramidDistance;
 constexpr float kMinCellWeight = 2.0f;
 
 // The smoothing after each method (HoleFillParams::smooth_px -1): the pyramid's fill is smooth already, so
-// 1 px (against 2: Art at offset 1 +0.03 dB, the wider offsets within 0.01, Teddy 2 -> 6 +0.12; 0 px lost
-// 0.02-0.04 everywhere); the rays' 2 px, as before issue 35.
+// 1 px next to the border (against 2 everywhere: Art at offset 1 +0.03 dB, the wider offsets within 0.01,
+// Teddy 2 -> 6 +0.12; 0 px lost 0.02-0.04 everywhere); the rays' 2 px, as before issue 35.
 constexpr int kPyramidSmoothPx = 1, kRaysSmoothPx = 2;
+// Deeper in a hole the pyramid's smoothing widens (issue 35's fourth round): a pixel whose nearest known pixel
+// along its row and column is d px away is smoothed over a box of radius d - 1 (the widest that reaches no
+// farther than its border along them), between kPyramidSmoothPx and kPyramidSmoothMaxPx. There the fill is the
+// ray ends' mean, each a single border pixel whose grain or noise runs on along its row or column as a faint
+// streak, which a wider box averages out; next to the border the nearest pixels' detail is kept. 3 px against
+// the 1 px everywhere: Art +0.01 at every offset (24.18 at offset 5), Aloe +0.02-0.04, Teddy 2 -> 6 +0.02,
+// Table I +0.01 (its unseen pixels +0.02); a radius-2 or -3 box from 3 or 4 px in gave the same within 0.01,
+// one of 4 px 0.00-0.01 more for a box of 81 taps.
+constexpr int kPyramidSmoothMaxPx = 3;
 
 // A pyramid cell: the mean colour and depth of the sources under it (or pulled from above); z == 0: none.
 struct Cell {
@@ -111,7 +121,8 @@ struct HoleRun {
 // along its row and its column (its left, right, upper and lower neighbour across the hole) are compared:
 // those on its far side (within `keep` times the farthest of the four) are its background. Their mean,
 // weighted by 1 / distance^kRayFalloff, goes into `color` at the hole pixel and the sum of the weights into
-// `ray_weight` (one per hole pixel, in the order of the runs); and they are listed in `sources` (as
+// `ray_weight` (one per hole pixel, in the order of the runs), the distance to the nearest known pixel along
+// the four rays (255 at most) into `border_px`; and they are listed in `sources` (as
 // y << 16 | x, each once: `source_mark`, CV_8UC1, zero on entry, marks them) as the pixels the pyramid may
 // fill from. The tiles holding holes are marked in `hole_tile`, and the runs of holes listed in `runs`.
 // The foreground that caused a hole ends its runs on the near side and never counts; nor does a surface
@@ -120,7 +131,8 @@ struct HoleRun {
 // 4 depths at a time; a hole's column ends come from a per-column state (the known row above and below the
 // column's current run of holes, found by walking down the run once), as in the rays method.
 void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat& color,
-                                      std::vector<float>* ray_weight, cv::Mat& source_mark,
+                                      std::vector<float>* ray_weight, std::vector<uint8_t>* border_px,
+                                      cv::Mat& source_mark,
                                       std::vector<uint32_t>* sources, std::vector<uint8_t>* hole_tile,
                                       std::vector<HoleRun>* runs) {
   const int W = depth.cols, H = depth.rows, tiles_x = (W + kTile - 1) / kTile;
@@ -162,6 +174,12 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
         if (z_up && float(z_up) >= zlo) mark(above[h], h), take(y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h);
         if (z_down && float(z_down) >= zlo) mark(below[h], h), take(below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h);
         ray_weight->push_back(wsum);
+        int nearest = INT_MAX;  // the nearest known pixel along the four rays, whatever its depth
+        if (z_left) nearest = std::min(nearest, h - a + 1);
+        if (z_right) nearest = std::min(nearest, b + 1 - h);
+        if (z_up) nearest = std::min(nearest, y - above[h]);
+        if (z_down) nearest = std::min(nearest, below[h] - y);
+        border_px->push_back(uint8_t(std::min(nearest, 255)));
         if (wsum > 0) {
           uint8_t* c = color.ptr<uint8_t>(y) + 3 * h;
           const float iw = 1.0f / wsum;
@@ -199,6 +217,7 @@ struct PyramidState {
   // Per hole pixel, in the order of the runs (the passes over the holes follow it, so these are read and
   // written in order rather than scattered over image-sized buffers):
   std::vector<float> ray_weight;             // the ray ends' summed weight
+  std::vector<uint8_t> border_px;            // the nearest known pixel's distance along the rays
   std::vector<uint16_t> fill_depth;          // the depth of the background it was filled from (0: not filled)
 };
 
@@ -479,9 +498,11 @@ void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* fi
 
 // The pyramid's smoothing: each filled pixel becomes the mean of the (2r+1)^2 box around it, over the pixels
 // there that are filled too or lie behind it (within `keep` of the depth it was filled from, or farther): the
-// object that caused the hole is never blurred into it. The new colours are kept aside until all are made.
-void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const cv::Mat& mask, float keep, int r) {
-  if (r <= 0) return;
+// object that caused the hole is never blurred into it. r is `r_min`, or up to `r_max` deeper in the hole
+// (kPyramidSmoothMaxPx). The new colours are kept aside until all are made.
+void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const cv::Mat& mask, float keep,
+                   int r_min, int r_max) {
+  if (r_max <= 0) return;
   const int W = color.cols, H = color.rows;
   struct Smoothed {
     int y, x;
@@ -490,10 +511,13 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
   std::vector<Smoothed>& out = kept_between_calls<std::vector<Smoothed>, 0>();
   out.clear();
   const uint16_t* fd = st.fill_depth.data();
+  const uint8_t* border = st.border_px.data();
   for (const HoleRun& run : st.runs) {
-    const int y = run.y, y0 = std::max(0, y - r), y1 = std::min(H - 1, y + r);
-    for (int x = run.a; x <= run.b; ++x, ++fd) {
+    const int y = run.y;
+    for (int x = run.a; x <= run.b; ++x, ++fd, ++border) {
       if (!*fd) continue;  // not filled
+      const int r = std::clamp(int(*border) - 1, r_min, r_max);
+      const int y0 = std::max(0, y - r), y1 = std::min(H - 1, y + r);
       // A known depth d is behind when float(d) >= keep * fd, i.e. d >= zlo (integers: no conversion per tap).
       const int zlo = int(std::ceil(keep * float(*fd)));
       const int x0 = std::max(0, x - r), x1 = std::min(W - 1, x + r);
@@ -581,17 +605,20 @@ void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double backgrou
   st.hole_tile.assign(size_t(st.tiles_x) * size_t(st.tiles_y), 0);
   if (st.source_mark.size() != depth.size()) st.source_mark = cv::Mat::zeros(depth.size(), CV_8UC1);
   st.ray_weight.clear();
+  st.border_px.clear();
   st.sources.clear();
   st.runs.clear();
   const float keep = float(1.0 - background_ratio);
-  fill_along_rays_and_mark_sources(depth, keep, color, &st.ray_weight, st.source_mark,
+  fill_along_rays_and_mark_sources(depth, keep, color, &st.ray_weight, &st.border_px, st.source_mark,
                                    &st.sources, &st.hole_tile, &st.runs);
   for (uint32_t i : st.sources) st.source_mark.ptr<uint8_t>(int(i >> 16))[i & 0xffff] = 0;
   if (!st.runs.empty()) {
     mark_active_tiles(st);
     pull_down(st, push_up(st, color, depth));
     fill_from_base(st, color, mask, filled_depth);
-    smooth_behind(st, color, depth, mask, keep, smooth_px);
+    // smooth_px < 0: 1 px next to the border, wider deeper in (kPyramidSmoothMaxPx).
+    if (smooth_px < 0) smooth_behind(st, color, depth, mask, keep, kPyramidSmoothPx, kPyramidSmoothMaxPx);
+    else smooth_behind(st, color, depth, mask, keep, smooth_px, smooth_px);
   }
   if (history) keep_steady_fill(st, color, *history);  // also without holes: the last frame's are gone
 }
@@ -659,8 +686,7 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& para
     fill_holes_along_rays(color, depth, rays, mask, filled_depth);
     return;
   }
-  const int smooth_px = params.smooth_px < 0 ? kPyramidSmoothPx : params.smooth_px;
-  fill_holes_by_pyramid(color, depth, params.background_ratio, smooth_px, mask, filled_depth, history);
+  fill_holes_by_pyramid(color, depth, params.background_ratio, params.smooth_px, mask, filled_depth, history);
 }
 
 }  // namespace vclassroom

@@ -26,8 +26,8 @@ struct HoleFillParams {
   // A sample counts as background when its depth is within this share of the farthest one it is compared
   // with (the ray ends of a hole pixel; a pyramid cell's children or a hole's coarser neighbours).
   double background_ratio = 0.12;
-  // The filled pixels are then box-blurred over (2r+1)^2 (0: not at all; -1: the method's own, 1 px after
-  // the pyramid, 2 px after the rays).
+  // The filled pixels are then box-blurred over (2r+1)^2 (0: not at all; -1: the method's own, after the
+  // pyramid 1 px next to the hole's border and up to 3 px deeper in, 2 px after the rays).
   int smooth_px = -1;
   // Rays only: each filled pixel within 16 px of the hole's edge gets, times this, the detail of its mirror
   // image across the edge on its nearest background side (FuseParams::fill_texture). 0: smooth.
@@ -53,7 +53,8 @@ void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& para
                 cv::Mat* filled_depth = nullptr, HoleFillHistory* history = nullptr);
 
 // The two methods, as fill_holes runs them by params.method (the pyramid's smoothing averages only what
-// lies behind each filled pixel; the rays' blurs all around it, as before issue 35).
+// lies behind each filled pixel, smooth_px < 0 its own widening one; the rays' blurs all around it, as before
+// issue 35).
 void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
                            cv::Mat& mask, cv::Mat* filled_depth, HoleFillHistory* history = nullptr);
 void fill_holes_along_rays(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
