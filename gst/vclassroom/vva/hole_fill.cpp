@@ -71,11 +71,11 @@ constexpr int kPyramidSmoothPx = 1, kRaysSmoothPx = 2;
 // along its row and column is d px away is smoothed over a box of radius d - 1 (the widest that reaches no
 // farther than its border along them), between kPyramidSmoothPx and kPyramidSmoothMaxPx. There the fill is the
 // ray ends' mean, each a single border pixel whose grain or noise runs on along its row or column as a faint
-// streak, which a wider box averages out; next to the border the nearest pixels' detail is kept. 3 px against
-// the 1 px everywhere: Art +0.01 at every offset (24.18 at offset 5), Aloe +0.02-0.04, Teddy 2 -> 6 +0.02,
-// Table I +0.01 (its unseen pixels +0.02); a radius-2 or -3 box from 3 or 4 px in gave the same within 0.01,
-// one of 4 px 0.00-0.01 more for a box of 81 taps.
-constexpr int kPyramidSmoothMaxPx = 3;
+// streak, which a wider box averages out; next to the border the nearest pixels' detail is kept. 2 px against
+// the 1 px everywhere: Art +0.01 at offsets 1-5 (24.18 at offset 5), Aloe +0.01-0.03, Teddy 2 -> 6 +0.02;
+// 3 px gained Aloe 0.01 more but cost the Redwood frames 0 <- 1 and 0 <- 2, 4 0.01 dB each; a fixed radius
+// from 3 or 4 px in instead of d - 1 gave the same within 0.01.
+constexpr int kPyramidSmoothMaxPx = 2;
 
 // A pyramid cell: the mean colour and depth of the sources under it (or pulled from above); z == 0: none.
 struct Cell {

@@ -27,7 +27,7 @@ struct HoleFillParams {
   // with (the ray ends of a hole pixel; a pyramid cell's children or a hole's coarser neighbours).
   double background_ratio = 0.12;
   // The filled pixels are then box-blurred over (2r+1)^2 (0: not at all; -1: the method's own, after the
-  // pyramid 1 px next to the hole's border and up to 3 px deeper in, 2 px after the rays).
+  // pyramid 1 px next to the hole's border and 2 px deeper in, 2 px after the rays).
   int smooth_px = -1;
   // Rays only: each filled pixel within 16 px of the hole's edge gets, times this, the detail of its mirror
   // image across the edge on its nearest background side (FuseParams::fill_texture). 0: smooth.
