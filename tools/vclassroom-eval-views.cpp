@@ -255,7 +255,7 @@ void eval_middlebury(const Options& opt) {
                                           k == 2 || k == 6 ? opt.images : "", "vva-" + scene + "-view1-to-" +
                                                                                   std::to_string(k));
       const double b = best.at(scene)[k - 2];
-      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.2f | %s\n",
+      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.3f | %s\n",
                   scene.c_str(), k - 1, s.psnr.avg(), 100 * s.ssim.avg(), b, s.psnr.avg() - b,
                   s.holes.line().c_str());
     }
