@@ -571,7 +571,7 @@ int main(int argc, char** argv) {
        "before it)",
        "METHOD"},
       {"fill-smooth", 0, 0, G_OPTION_ARG_INT, &opt.fill_smooth_px,
-       "the box blur over the filled pixels, radius in px (default: the method's own, 1 for pyramid, 2 for rays; 0: none)", "PX"},
+       "the box blur over the filled pixels, radius in px (default: the method's own, 1 for pyramid next to a hole's border and 2 deeper in, 2 for rays; 0: none)", "PX"},
       {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 0)",
        "PX"},
       {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,

@@ -73,8 +73,9 @@ constexpr int kPyramidSmoothPx = 1, kRaysSmoothPx = 2;
 // ray ends' mean, each a single border pixel whose grain or noise runs on along its row or column as a faint
 // streak, which a wider box averages out; next to the border the nearest pixels' detail is kept. 2 px against
 // the 1 px everywhere: Art +0.01 at offsets 1-5 (24.18 at offset 5), Aloe +0.01-0.03, Teddy 2 -> 6 +0.02;
-// 3 px gained Aloe 0.01 more but cost the Redwood frames 0 <- 1 and 0 <- 2, 4 0.01 dB each; a fixed radius
-// from 3 or 4 px in instead of d - 1 gave the same within 0.01.
+// 3 px gained Art at offset 5 0.005 dB more and Aloe 0.01-0.02 but cost the Redwood frames 0 <- 1 and
+// 0 <- 2, 4 0.006 dB each (one target's hair for another's); a fixed radius from 3 or 4 px in instead of d - 1
+// gave the same within 0.01.
 constexpr int kPyramidSmoothMaxPx = 2;
 
 // A pyramid cell: the mean colour and depth of the sources under it (or pulled from above); z == 0: none.

@@ -273,7 +273,8 @@ void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double backgroun
 bool same_rendered_view(const WarpedPose& a, const WarpedPose& b) {
   const RenderedPose &p = a.rendered, &q = b.rendered;
   if (!a.known || !b.known || !p.known || !q.known) return false;
-  return std::equal(p.position, p.position + 3, q.position) && std::equal(p.orientation, p.orientation + 4, q.orientation);
+  return std::equal(p.position, p.position + 3, q.position) &&
+         std::equal(p.orientation, p.orientation + 4, q.orientation);
 }
 
 HoleFillParams hole_fill_params(const FuseParams& fuse) {

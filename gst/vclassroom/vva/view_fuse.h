@@ -33,7 +33,8 @@ struct FuseParams {
   // The filled pixels are then box-blurred over (2r+1)² : a fill can only
   // guess, and a smooth guess errs least (on Middlebury Art/Aloe it is worth
   // 0.5-1 dB with the rays, see docs/vva.md; 2 rather than 3 with the rims).
-  // -1: the method's own (HoleFillParams::smooth_px: 1 px for the pyramid, 2 for the rays).
+  // -1: the method's own (HoleFillParams::smooth_px: for the pyramid 1 px next to a hole's border and 2 px
+  // deeper in, 2 for the rays).
   int fill_smooth_px = -1;
   // Texture on the smooth fill: each filled pixel within kTextureReach px of the hole's edge gets, times
   // this, the detail (deviation from its 3x3 mean) of its mirror image across the edge on its nearest
