@@ -255,7 +255,7 @@ void eval_middlebury(const Options& opt) {
                                           k == 2 || k == 6 ? opt.images : "", "vva-" + scene + "-view1-to-" +
                                                                                   std::to_string(k));
       const double b = best.at(scene)[k - 2];
-      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.2f | %s\n",
+      std::printf("%-5s   %d    |  %6.2f   %6.2f   |  %6.2f                              | %+5.3f | %s\n",
                   scene.c_str(), k - 1, s.psnr.avg(), 100 * s.ssim.avg(), b, s.psnr.avg() - b,
                   s.holes.line().c_str());
     }
@@ -312,7 +312,8 @@ struct Config {
 void synthesize(const std::vector<CameraCalib>& cams, const std::vector<RgbdImages>& in,
                 const std::vector<cv::Mat>& priors, const std::vector<cv::Mat>& labels, const Config& c,
                 const CameraCalib& virt, const WarpParams& wp, const FuseParams& fp, std::vector<ViewWarper>& warpers,
-                const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms, FusedView* out) {
+                const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms, FusedView* out,
+                HoleFillHistory* fill_history = nullptr) {
   std::vector<WarpedView> warped(cams.size());
   std::vector<const WarpedView*> ptrs;
   for (size_t i = 0; i < cams.size(); ++i) {
@@ -329,7 +330,7 @@ void synthesize(const std::vector<CameraCalib>& cams, const std::vector<RgbdImag
     warpers[i].warp(cams[i], src, virt, wp, &warped[i]);
     ptrs.push_back(&warped[i]);
   }
-  fuse_views(ptrs, fp, out);
+  fuse_views(ptrs, fp, out, fill_history);
 }
 
 void eval_classroom(const Options& opt) {
@@ -410,6 +411,9 @@ void eval_classroom(const Options& opt) {
   double hole_share = 0;
   const double fps = 10.0;  // segmentation sees consecutive frames at 10 fps
   FusedView fused;
+  // Each configuration's view from each pose is a sequence of its own, as one viewfuse's output from a pose
+  // that stays: it keeps its fill's history from frame to frame (HoleFillHistory), the others' never reach it.
+  std::vector<HoleFillHistory> histories(configs.size() * (1 + novel.size()));
   cv::Mat last_synth, last_real;
   vclassroom_tools::Progress progress("synthetic classroom frames", opt.frames);
   for (int f = 0; f < opt.frames; ++f) {
@@ -460,7 +464,8 @@ void eval_classroom(const Options& opt) {
         synthesize(sources, in, src_priors, src_labels, configs[c], target, wp, fp, warpers, nullptr, &fused);
         unseen = fused.filled.clone();
       }
-      synthesize(sources, in, src_priors, src_labels, configs[c], target, wp, fp, warpers, room_layers, &fused);
+      synthesize(sources, in, src_priors, src_labels, configs[c], target, wp, fp, warpers, room_layers, &fused,
+                 &histories[c * (1 + novel.size())]);
       if (c == 0) {
         if (unseen.empty()) unseen = fused.filled.clone();
         if (cv::countNonZero(unseen) > 0) hole_psnr.add(psnr_rgb_masked(fused.color, imgs[0].color, unseen));
@@ -476,7 +481,8 @@ void eval_classroom(const Options& opt) {
       for (size_t k = 0; k < novel.size(); ++k) {
         RenderOutput gt;
         renderer.render(room, t, novel[k], &gt);
-        synthesize(sources, in, src_priors, src_labels, configs[c], novel[k], wp, fp, warpers, room_layers, &fused);
+        synthesize(sources, in, src_priors, src_labels, configs[c], novel[k], wp, fp, warpers, room_layers, &fused,
+                   &histories[c * (1 + novel.size()) + 1 + k]);
         npsnr[c].add(psnr_rgb(fused.color, gt.color));
         nssim[c].add(ssim_luma(fused.color, gt.color));
         if (c == 0 && k == 1 && f == opt.frames - 1 && !opt.images.empty())
@@ -565,7 +571,7 @@ int main(int argc, char** argv) {
        "before it)",
        "METHOD"},
       {"fill-smooth", 0, 0, G_OPTION_ARG_INT, &opt.fill_smooth_px,
-       "the box blur over the filled pixels, radius in px (default: the method's own, 1 for pyramid, 2 for rays; 0: none)", "PX"},
+       "the box blur over the filled pixels, radius in px (default: the method's own, 1 for pyramid next to a hole's border and 2 deeper in, 2 for rays; 0: none)", "PX"},
       {"boundary", 0, 0, G_OPTION_ARG_INT, &opt.boundary_px, "source pixels dropped next to depth edges (default 0)",
        "PX"},
       {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,

@@ -232,9 +232,13 @@ static GstFlowReturn gst_view_fuse_aggregate(GstAggregator* agg, gboolean timeou
   return ret;
 }
 
-// After a flush (a seek) running time starts again: forget the last output time.
+// After a flush (a seek) running time starts again: forget the last output time, and the last picture's
+// fill (the next frame need not follow it).
 static GstFlowReturn gst_view_fuse_flush(GstAggregator* agg) {
-  GST_VIEW_FUSE(agg)->st->last_out = GST_CLOCK_TIME_NONE;
+  vclassroom::ViewFuseState* st = GST_VIEW_FUSE(agg)->st;
+  st->last_out = GST_CLOCK_TIME_NONE;
+  st->fill_history.clear();
+  st->fill_pose = vclassroom::WarpedPose{};
   return GST_FLOW_OK;
 }
 
@@ -259,6 +263,8 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
   st->last_out = GST_CLOCK_TIME_NONE;
   st->have_out = false;
   st->have_fused = false;
+  st->fill_history.clear();
+  st->fill_pose = WarpedPose{};
   NavigationClamp bounds;
   if (!rig_path.empty()) {
     try {

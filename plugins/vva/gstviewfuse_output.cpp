@@ -120,8 +120,12 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
     drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
     return GST_FLOW_OK;
   }
+  const OutputStamp stamp = output_stamp(stamps);
+  const WarpedPose pose = stamp.pose_from < 0 ? WarpedPose{} : stamps[size_t(stamp.pose_from)].pose;
+  if (!same_rendered_view(pose, st->fill_pose)) st->fill_history.clear();  // another view: nothing to keep
+  st->fill_pose = pose;
   try {
-    fuse_views(ptrs, params, &st->fused);
+    fuse_views(ptrs, params, &st->fused, &st->fill_history);
   } catch (const cv::Exception& e) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
     st->have_fused = false;
@@ -142,7 +146,6 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
   frames.clear();
   drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
   send_trace_pose(self);
-  const OutputStamp stamp = output_stamp(stamps);
   const GstClockTime rt = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : clock_time(stamps[stamp.time_from].running_time_ns);
   const GstClockTime duration = stamp.time_from < 0 ? GST_CLOCK_TIME_NONE : GST_BUFFER_DURATION(bufs[fused[stamp.time_from]]);
   GST_LOG_OBJECT(self, "fused %zu inputs", ptrs.size());

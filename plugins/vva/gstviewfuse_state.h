@@ -56,6 +56,9 @@ struct ViewFuseState {
   GstVideoInfo out_info{};
   bool have_out = false;
   FusedView fused;
+  // The fill of the last picture, kept while the pose it was rendered for stays (same_rendered_view).
+  HoleFillHistory fill_history;
+  WarpedPose fill_pose;
   bool have_fused = false;  // fused holds the last picture sent
   GstClockTime last_out = GST_CLOCK_TIME_NONE;  // running time of the last output frame
 };

@@ -3,6 +3,8 @@
 // disocclusion's background), never from the foreground object that caused it.
 #pragma once
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 namespace vclassroom {
@@ -24,24 +26,37 @@ struct HoleFillParams {
   // A sample counts as background when its depth is within this share of the farthest one it is compared
   // with (the ray ends of a hole pixel; a pyramid cell's children or a hole's coarser neighbours).
   double background_ratio = 0.12;
-  // The filled pixels are then box-blurred over (2r+1)^2 (0: not at all; -1: the method's own, 1 px after
-  // the pyramid, 2 px after the rays).
+  // The filled pixels are then box-blurred over (2r+1)^2 (0: not at all; -1: the method's own, after the
+  // pyramid 1 px next to the hole's border and 2 px deeper in, 2 px after the rays).
   int smooth_px = -1;
   // Rays only: each filled pixel within 16 px of the hole's edge gets, times this, the detail of its mirror
   // image across the edge on its nearest background side (FuseParams::fill_texture). 0: smooth.
   double texture = 0;
 };
 
+// What the pyramid fill made in the frame before, for a view whose pose has not changed since (the caller
+// clears it when it does): a hole that stays put then keeps its fill where its background border changed by
+// no more than its noise (issue 35's fourth round). Empty: nothing kept yet.
+struct HoleFillHistory {
+  cv::Mat color;           // CV_8UC3: the fill's colour where `depth` is set
+  cv::Mat depth;           // CV_16UC1: the background depth each pixel was filled from; 0 where none was
+  std::vector<int> spans;  // the filled runs, as y, first x, last x (to clear `depth` at the next frame)
+  void clear() { color.release(), depth.release(), spans.clear(); }
+};
+
 // Fills every pixel of `color` (CV_8UC3) where `depth` (CV_16UC1) is 0. `mask` (CV_8UC1, the size of
 // `color`, zero on entry) gets 255 where a colour was made. `filled_depth` (optional, a copy of `depth`)
 // gets the background depth chosen for each filled pixel. A view without any known pixel stays as it is.
+// `history` (optional, the pyramid only): the same view's fill of the frame before, blended in (see
+// keep_steady_fill in hole_fill.cpp) and then replaced by this frame's.
 void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
-                cv::Mat* filled_depth = nullptr);
+                cv::Mat* filled_depth = nullptr, HoleFillHistory* history = nullptr);
 
 // The two methods, as fill_holes runs them by params.method (the pyramid's smoothing averages only what
-// lies behind each filled pixel; the rays' blurs all around it, as before issue 35).
+// lies behind each filled pixel, smooth_px < 0 its own widening one; the rays' blurs all around it, as before
+// issue 35).
 void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
-                           cv::Mat& mask, cv::Mat* filled_depth);
+                           cv::Mat& mask, cv::Mat* filled_depth, HoleFillHistory* history = nullptr);
 void fill_holes_along_rays(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
                            cv::Mat* filled_depth);
 

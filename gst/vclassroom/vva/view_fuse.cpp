@@ -213,7 +213,8 @@ void fade_unseen(cv::Mat& color, const cv::Mat& depth, double start, double leng
 
 }  // namespace
 
-void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams& prm, FusedView* out) {
+void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams& prm, FusedView* out,
+                HoleFillHistory* fill_history) {
   std::vector<const WarpedView*> views;
   for (const WarpedView* v : views_in)
     if (v && !v->color.empty()) views.push_back(v);
@@ -246,7 +247,7 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   const int unseen = int(out->depth.total()) - cv::countNonZero(out->depth);
   out->unseen_share = double(unseen) / double(out->depth.total());
   if (prm.fill_holes) {
-    fill_holes(out->color, out->depth, hole_fill_params(prm), out->filled);
+    fill_holes(out->color, out->depth, hole_fill_params(prm), out->filled, nullptr, fill_history);
     if (prm.fade_unseen && unseen > 0)
       fade_unseen(out->color, out->depth, prm.fade_start * size.width, prm.fade_length * size.width);
   }
@@ -267,6 +268,13 @@ void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double backgroun
   p.texture = texture;
   fill_holes(color, depth, p, mask, &new_depth);
   depth = new_depth;
+}
+
+bool same_rendered_view(const WarpedPose& a, const WarpedPose& b) {
+  const RenderedPose &p = a.rendered, &q = b.rendered;
+  if (!a.known || !b.known || !p.known || !q.known) return false;
+  return std::equal(p.position, p.position + 3, q.position) &&
+         std::equal(p.orientation, p.orientation + 4, q.orientation);
 }
 
 HoleFillParams hole_fill_params(const FuseParams& fuse) {

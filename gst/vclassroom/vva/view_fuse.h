@@ -33,7 +33,8 @@ struct FuseParams {
   // The filled pixels are then box-blurred over (2r+1)² : a fill can only
   // guess, and a smooth guess errs least (on Middlebury Art/Aloe it is worth
   // 0.5-1 dB with the rays, see docs/vva.md; 2 rather than 3 with the rims).
-  // -1: the method's own (HoleFillParams::smooth_px: 1 px for the pyramid, 2 for the rays).
+  // -1: the method's own (HoleFillParams::smooth_px: for the pyramid 1 px next to a hole's border and 2 px
+  // deeper in, 2 for the rays).
   int fill_smooth_px = -1;
   // Texture on the smooth fill: each filled pixel within kTextureReach px of the hole's edge gets, times
   // this, the detail (deviation from its 3x3 mean) of its mirror image across the edge on its nearest
@@ -60,8 +61,11 @@ struct FusedView {
   double unseen_share = 0;  // share of the pixels no camera (nor the static model) provided
 };
 
-// `views` all have the same size; null or empty entries (a stopped camera) are skipped.
-void fuse_views(const std::vector<const WarpedView*>& views, const FuseParams& params, FusedView* out);
+// `views` all have the same size; null or empty entries (a stopped camera) are skipped. `fill_history`
+// (optional): the fill of this view's frame before, kept by a caller that fuses a sequence from one pose and
+// cleared by it when the pose changes (HoleFillHistory): steady holes keep a steady fill.
+void fuse_views(const std::vector<const WarpedView*>& views, const FuseParams& params, FusedView* out,
+                HoleFillHistory* fill_history = nullptr);
 
 // Fills every pixel of `color` where `depth` is 0 along rays (HoleFillMethod::Rays): from the nearest known
 // pixels along the row and column (both directions), keeping only those on
@@ -84,6 +88,10 @@ struct WarpedPose {
   RenderedPose rendered;        // the pose as rendered (after the navigation bounds), echoed with the frame
   uint64_t session = 0;         // whose pose (Pose::session): seqs are ordered within a session only
 };
+// Whether two frames' poses name the same rendered view (both known, the same position and orientation): a
+// fused sequence keeps its HoleFillHistory while this holds from frame to frame, and clears it otherwise.
+bool same_rendered_view(const WarpedPose& a, const WarpedPose& b);
+
 
 // Live, one output frame should show one view: a camera's frame warped for
 // an older pose than the newest among `inputs` is stale, unless the viewer
