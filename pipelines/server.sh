@@ -170,15 +170,19 @@ for k in $CAMERAS; do
   [ "${LECTURER_OUT:-rtp}" = whep-views ] &&
     to_view="queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! views.cam_$k"
   # The old link: the newest coded frame only is decoded, in the low-priority thread. The H.264 link: every
-  # picture must be decoded (each builds on the one before), so the H.264 decoder runs in the link's thread;
-  # the newest picture goes on to the low-priority one, where rgbdlinkjoin converts it and decodes its depth
-  # (with the depth frames of the pictures dropped before it, which the depth builds on; docs/network.md,
-  # "Decoding the depth where the picture is used"). A lost packet asks the camera for a key frame
+  # picture must be decoded (each builds on the one before), so a queue of up to half a second of packets
+  # feeds the H.264 decoder in a low-priority thread of its own, which catches up while the views wait (at
+  # normal priority it delays them); a decoder that falls further behind loses the oldest packets, asks the
+  # camera for a key frame and starts again from it. The newest picture goes on to the low-priority
+  # preparation thread, where rgbdlinkjoin converts it and decodes its depth (with the depth frames of the
+  # pictures dropped before it, which the depth builds on; docs/network.md, "Decoding the depth where the
+  # picture is used"). A lost packet asks the camera for a key frame
   # (rtph264depay request-keyframe: a PLI through the RTCP session, RFC 4585), and pictures wait for it.
   # FFmpeg's decoder on one thread: a little cheaper per picture than openh264dec, and the pose-to-photon
   # latency 10-15 ms lower with it (docs/network.md, "The whole flow, measured").
   if [ "$LINK" = h264 ]; then
-    decode="rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k $dec_rig stats-interval=$STATS ! \
+    decode="queue max-size-buffers=0 max-size-bytes=0 max-size-time=500000000 leaky=downstream ! \
+      threadpriority nice=$PREP_NICE ! rtph264depay request-keyframe=true wait-for-keyframe=true ! rgbdlinkdemux name=dec$k $dec_rig stats-interval=$STATS ! \
       avdec_h264 max-threads=1 ! queue max-size-buffers=1 leaky=downstream ! threadpriority nice=$PREP_NICE ! \
       videoconvert ! rgbdlinkjoin name=join$k stats-interval=$STATS !"
   else
