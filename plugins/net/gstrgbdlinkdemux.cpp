@@ -55,7 +55,6 @@ struct _GstRgbdLinkDemux {
   // Streaming thread only:
   std::optional<Rig>* rig;  // loaded at start
   std::string* rig_source;  // the path it was loaded from
-  // Streaming thread only:
   std::shared_ptr<DepthLinkBacklog>* backlog;  // shared with the metas (rgbdlinkjoin decodes)
   std::string* caps_text;  // the caps string of out_caps
   GstCaps* out_caps;       // video/x-rgbd of the joined frames
@@ -137,13 +136,16 @@ static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkHeader& f, std::s
   return true;
 }
 
-// Queues a depth frame; its number, or false (with `why`) when it is refused.
+// Queues a depth frame; its number, or false (with `why`) when it is refused. Its caps are checked first, so
+// that a refused camera's frames are not kept.
 static bool queue_depth(GstRgbdLinkDemux* self, const std::vector<uint8_t>& data, guint32* number, std::string* why,
                         DropKind* kind) {
   DepthLinkHeader header;
   *kind = DropKind::Damaged;
+  *why = check_depth_frame(data.data(), data.size(), DepthLinkLimits(), &header);
+  if (!why->empty() || !joined_caps(self, header, why, kind)) return false;
+  *kind = DropKind::Damaged;
   if (!(*self->backlog)->push(data.data(), data.size(), &header, why)) return false;
-  if (!joined_caps(self, header, why, kind)) return false;
   codec_stats_count(GST_ELEMENT(self), &self->stats, data.size(), false);
   *number = header.number;
   return true;

@@ -8,7 +8,9 @@
  * rgbdlinkdemux attached) into one video/x-rgbd frame, with the camera's calibration in the caps. The depth
  * is decoded here, with the depth frames before it that no picture took: a leaky queue before this element
  * (as pipelines/server.sh has, in a low-priority thread) spares the conversion and most of the depth decoding
- * of the pictures it drops (docs/network.md, "Decoding the depth where the picture is used"). Colour is
+ * of the pictures it drops (docs/network.md, "Decoding the depth where the picture is used"). It counts as
+ * the codecs do (`frames`: joined, `frames-dropped`, a vclassroom-codec-stats message every `stats-interval`;
+ * its `bytes` stay 0: rgbdlinkdemux counts the coded bytes). Colour is
  * never joined with another instant's depth: a picture without its depth (lost, damaged, or awaiting a depth
  * key frame), or whose meta was made for another timestamp, is dropped with a rate-limited warning.
  *
