@@ -408,6 +408,18 @@ guint64 uint64_property(GstElement* bin, const char* element, const char* proper
   return v;
 }
 
+// Maps frame `i` of `out` and frame `t` of `truth`, each with its own caps; false (and a failure added) when
+// either cannot be.
+bool map_pair(const SampleCollector& out, size_t i, const SampleCollector& truth, size_t t, RgbdFrame* o,
+              RgbdFrame* tf) {
+  RgbdInfo oi, ti;
+  std::string err;
+  const bool ok = rgbd_info_from_caps(out.caps(i), &oi, &err) && rgbd_info_from_caps(truth.caps(t), &ti, &err) &&
+                  o->map(out.buffer(i), oi, GST_MAP_READ, &err) && tf->map(truth.buffer(t), ti, GST_MAP_READ, &err);
+  if (!ok) ADD_FAILURE() << "frames " << i << " / " << t << ": " << err;
+  return ok;
+}
+
 }  // namespace
 
 // A decoder whose pictures change size while the depth keeps its caps (a new SPS, or a scaler between them):
@@ -526,13 +538,8 @@ TEST(CameraLink, PicturesDroppedBeforeTheJoinLeaveTheOthersTheirOwnDepth) {
       const size_t t_index = 3 * i;
       ASSERT_EQ(GST_BUFFER_PTS(out.buffer(i)) - GST_BUFFER_PTS(out.buffer(0)),
                 GST_BUFFER_PTS(truth.buffer(t_index)) - GST_BUFFER_PTS(truth.buffer(0)));
-      RgbdInfo oi, ti;
-      std::string err;
-      ASSERT_TRUE(rgbd_info_from_caps(out.caps(i), &oi, &err)) << err;
-      ASSERT_TRUE(rgbd_info_from_caps(truth.caps(t_index), &ti, &err)) << err;
       RgbdFrame o, t;
-      ASSERT_TRUE(o.map(out.buffer(i), oi, GST_MAP_READ, &err)) << err;
-      ASSERT_TRUE(t.map(truth.buffer(t_index), ti, GST_MAP_READ, &err)) << err;
+      ASSERT_TRUE(map_pair(out, i, truth, t_index, &o, &t));
       EXPECT_EQ(bound_violations(t.depth(), o.depth(), kDefaultDepthTolerance), 0) << "frame " << t_index;
       EXPECT_TRUE(same_image(t.label(), o.label())) << "frame " << t_index;
     }
@@ -586,13 +593,8 @@ TEST(CameraLink, LosslessDepthComesBackBitExact) {
     EXPECT_EQ(run_pipeline(p).error, "");
     ASSERT_EQ(out.size(), 12u);
     for (size_t i = 0; i < out.size(); ++i) {
-      RgbdInfo oi, ti;
-      std::string err;
-      ASSERT_TRUE(rgbd_info_from_caps(out.caps(i), &oi, &err));
-      ASSERT_TRUE(rgbd_info_from_caps(truth.caps(i), &ti, &err));
       RgbdFrame o, t;
-      ASSERT_TRUE(o.map(out.buffer(i), oi, GST_MAP_READ, &err));
-      ASSERT_TRUE(t.map(truth.buffer(i), ti, GST_MAP_READ, &err));
+      ASSERT_TRUE(map_pair(out, i, truth, i, &o, &t));
       EXPECT_TRUE(same_image(t.depth(), o.depth())) << "frame " << i;
     }
   }
