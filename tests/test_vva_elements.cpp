@@ -75,6 +75,55 @@ WarpedView pull_warped(GstHarness* h, GstBuffer* in) {
   return v;
 }
 
+// A pipeline `desc` with an appsrc "src" (taking `info`'s caps) and an appsink "out", playing; stopped and
+// released when it goes.
+class AppPipeline {
+ public:
+  AppPipeline(const std::string& desc, const RgbdInfo& info) {
+    GError* err = nullptr;
+    pipe_ = gst_parse_launch(desc.c_str(), &err);
+    EXPECT_EQ(err, nullptr) << (err ? err->message : "");
+    if (err) g_error_free(err);
+    src_ = gst_bin_get_by_name(GST_BIN(pipe_), "src");
+    sink_ = gst_bin_get_by_name(GST_BIN(pipe_), "out");
+    GstCaps* caps = rgbd_caps_new(info);
+    g_object_set(src_, "caps", caps, nullptr);
+    gst_caps_unref(caps);
+    gst_element_set_state(pipe_, GST_STATE_PLAYING);
+  }
+  AppPipeline(const AppPipeline&) = delete;
+  AppPipeline& operator=(const AppPipeline&) = delete;
+  ~AppPipeline() {
+    gst_element_set_state(pipe_, GST_STATE_NULL);
+    gst_object_unref(src_);
+    gst_object_unref(sink_);
+    gst_object_unref(pipe_);
+  }
+  GstAppSrc* src() const { return GST_APP_SRC(src_); }
+  GstAppSink* sink() const { return GST_APP_SINK(sink_); }
+
+ private:
+  GstElement* pipe_ = nullptr;
+  GstElement* src_ = nullptr;
+  GstElement* sink_ = nullptr;
+};
+
+// The next RGB picture (w x h) from `sink`, copied; empty (and a failure added) when none comes in 30 s.
+cv::Mat pull_picture(GstAppSink* sink, int w, int h) {
+  GstSample* s = gst_app_sink_try_pull_sample(sink, 30 * GST_SECOND);
+  EXPECT_NE(s, nullptr) << "no fused frame";
+  if (!s) return cv::Mat();
+  GstMapInfo map;
+  GstVideoInfo vi;
+  GstBuffer* b = gst_sample_get_buffer(s);
+  EXPECT_TRUE(gst_video_info_from_caps(&vi, gst_sample_get_caps(s)));
+  EXPECT_TRUE(gst_buffer_map(b, &map, GST_MAP_READ));
+  cv::Mat out = cv::Mat(h, w, CV_8UC3, map.data, size_t(GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0))).clone();
+  gst_buffer_unmap(b, &map);
+  gst_sample_unref(s);
+  return out;
+}
+
 }  // namespace
 
 // Through viewwarp (background-memory=8): the same static scene with fresh camera noise in every frame gives
@@ -728,15 +777,7 @@ TEST(ViewFuseElement, AHolesFillIsKeptWhileThePoseStaysAndNotAcrossAPoseChange) 
   // Runs viewfuse over frames of these colours, each with its pose; returns the pictures.
   auto fuse = [&](const std::vector<std::pair<cv::Mat, Pose>>& frames) {
     std::vector<cv::Mat> pictures;
-    GError* err = nullptr;
-    GstElement* pipe = gst_parse_launch("appsrc name=src format=time ! viewfuse ! appsink name=out sync=false", &err);
-    EXPECT_EQ(err, nullptr) << (err ? err->message : "");
-    GstElement* src = gst_bin_get_by_name(GST_BIN(pipe), "src");
-    GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
-    GstCaps* caps = rgbd_caps_new(info);
-    g_object_set(src, "caps", caps, nullptr);
-    gst_caps_unref(caps);
-    gst_element_set_state(pipe, GST_STATE_PLAYING);
+    AppPipeline fuser("appsrc name=src format=time ! viewfuse ! appsink name=out sync=false", info);
     for (size_t i = 0; i < frames.size(); ++i) {
       std::string e;
       GstBuffer* buf = rgbd_buffer_with_planes(info,
@@ -750,25 +791,12 @@ TEST(ViewFuseElement, AHolesFillIsKeptWhileThePoseStaysAndNotAcrossAPoseChange) 
       GST_BUFFER_PTS(buf) = i * 33 * GST_MSECOND;
       GST_BUFFER_DURATION(buf) = 33 * GST_MSECOND;
       buffer_add_pose_meta(buf, i + 1, 0, rendered_pose_of(frames[i].second));
-      EXPECT_EQ(gst_app_src_push_buffer(GST_APP_SRC(src), buf), GST_FLOW_OK);
-      GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 30 * GST_SECOND);
-      EXPECT_NE(s, nullptr) << "no fused frame " << i;
-      if (!s) break;
-      GstMapInfo map;
-      GstVideoInfo vi;
-      GstBuffer* b = gst_sample_get_buffer(s);
-      EXPECT_TRUE(gst_video_info_from_caps(&vi, gst_sample_get_caps(s)));
-      EXPECT_TRUE(gst_buffer_map(b, &map, GST_MAP_READ));
-      pictures.push_back(
-          cv::Mat(scene.kH, scene.kW, CV_8UC3, map.data, size_t(GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0))).clone());
-      gst_buffer_unmap(b, &map);
-      gst_sample_unref(s);
+      EXPECT_EQ(gst_app_src_push_buffer(fuser.src(), buf), GST_FLOW_OK);
+      cv::Mat picture = pull_picture(fuser.sink(), scene.kW, scene.kH);
+      if (picture.empty()) break;
+      pictures.push_back(picture);
     }
-    gst_app_src_end_of_stream(GST_APP_SRC(src));
-    gst_element_set_state(pipe, GST_STATE_NULL);
-    gst_object_unref(src);
-    gst_object_unref(sink);
-    gst_object_unref(pipe);
+    gst_app_src_end_of_stream(fuser.src());
     return pictures;
   };
   // The largest change of a hole pixel's channel between two pictures.
@@ -795,17 +823,8 @@ TEST(ViewFuseElement, AHoleBesideABrightObjectIsFilledFromTheWallBehind) {
   info.camera = scale_camera(default_classroom_rig().camera(0), scene.kW, scene.kH);
   info.planes = {Plane::Color, Plane::Depth, Plane::Label, Plane::Weight};
   auto fused = [&](const char* method) {
-    const std::string desc = std::string("appsrc name=src format=time ! viewfuse fill-method=") + method +
-                             " ! appsink name=out sync=false";
-    GError* err = nullptr;
-    GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
-    EXPECT_EQ(err, nullptr) << (err ? err->message : "");
-    GstElement* src = gst_bin_get_by_name(GST_BIN(pipe), "src");
-    GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
-    GstCaps* caps = rgbd_caps_new(info);
-    g_object_set(src, "caps", caps, nullptr);
-    gst_caps_unref(caps);
-    gst_element_set_state(pipe, GST_STATE_PLAYING);
+    AppPipeline fuser(std::string("appsrc name=src format=time ! viewfuse fill-method=") + method +
+                          " ! appsink name=out sync=false", info);
     cv::Mat weight(scene.kH, scene.kW, CV_8UC1, cv::Scalar(255));
     weight.setTo(0, scene.hole);
     std::string e;
@@ -818,26 +837,9 @@ TEST(ViewFuseElement, AHoleBesideABrightObjectIsFilledFromTheWallBehind) {
     EXPECT_NE(buf, nullptr) << e;
     if (!buf) return cv::Mat();
     GST_BUFFER_PTS(buf) = 0;
-    EXPECT_EQ(gst_app_src_push_buffer(GST_APP_SRC(src), buf), GST_FLOW_OK);
-    gst_app_src_end_of_stream(GST_APP_SRC(src));
-    GstSample* s = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 30 * GST_SECOND);
-    EXPECT_NE(s, nullptr) << "no fused frame";
-    cv::Mat out;
-    if (s) {
-      GstMapInfo map;
-      GstBuffer* b = gst_sample_get_buffer(s);
-      GstVideoInfo vi;
-      EXPECT_TRUE(gst_video_info_from_caps(&vi, gst_sample_get_caps(s)));
-      EXPECT_TRUE(gst_buffer_map(b, &map, GST_MAP_READ));
-      out = cv::Mat(scene.kH, scene.kW, CV_8UC3, map.data, size_t(GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0))).clone();
-      gst_buffer_unmap(b, &map);
-      gst_sample_unref(s);
-    }
-    gst_element_set_state(pipe, GST_STATE_NULL);
-    gst_object_unref(src);
-    gst_object_unref(sink);
-    gst_object_unref(pipe);
-    return out;
+    EXPECT_EQ(gst_app_src_push_buffer(fuser.src(), buf), GST_FLOW_OK);
+    gst_app_src_end_of_stream(fuser.src());
+    return pull_picture(fuser.sink(), scene.kW, scene.kH);
   };
   auto not_wall_like = [&](const cv::Mat& out) {
     int n = 0;
