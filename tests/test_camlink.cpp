@@ -178,13 +178,15 @@ TEST(DepthLinkBacklog, APictureGetsItsOwnDepthThoughThePicturesBeforeItWereDropp
   int deltas = 0;
   for (size_t i = 0; i < wire.size(); ++i) {
     DepthLinkHeader h;
+    uint64_t id = 0;
     std::string err;
-    ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &err)) << err;
+    ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &id, &err)) << err;
     EXPECT_EQ(h.number, uint32_t(i));
+    EXPECT_EQ(id, uint64_t(i));
     deltas += h.key ? 0 : 1;
     if (i % 4 != 3) continue;  // three pictures of four dropped before the join
     DepthLinkFrame f;
-    ASSERT_TRUE(backlog.take(uint32_t(i), &f, &err)) << err;
+    ASSERT_TRUE(backlog.take(id, &f, &err)) << err;
     EXPECT_EQ(f.number, uint32_t(i));
     EXPECT_TRUE(same_image(f.depth, direct[i])) << "frame " << i;
     EXPECT_EQ(backlog.queued(), 0u);  // the frames before it went with it
@@ -201,19 +203,21 @@ TEST(DepthLinkBacklog, AFrameThatBreaksTheChainIsRefusedAndSoAreItsSuccessorsUnt
   const auto wire = moving_block_frames(6, [](int i) { return i == 0 || i == 4; }, &direct);
   DepthLinkBacklog backlog;
   DepthLinkHeader h;
+  uint64_t id = 0;
   std::string err;
-  ASSERT_TRUE(backlog.push(wire[0].data(), wire[0].size(), &h, &err)) << err;
-  EXPECT_FALSE(backlog.push(wire[2].data(), wire[2].size(), &h, &err));  // frame 1 lost
+  ASSERT_TRUE(backlog.push(wire[0].data(), wire[0].size(), &h, &id, &err)) << err;
+  EXPECT_FALSE(backlog.push(wire[2].data(), wire[2].size(), &h, &id, &err));  // frame 1 lost
   EXPECT_NE(err.find("without the frame before it"), std::string::npos) << err;
-  EXPECT_FALSE(backlog.push(wire[3].data(), wire[3].size(), &h, &err));
+  EXPECT_FALSE(backlog.push(wire[3].data(), wire[3].size(), &h, &id, &err));
   std::vector<uint8_t> damaged = wire[4];
   damaged[damaged.size() / 2] ^= 1;
-  EXPECT_FALSE(backlog.push(damaged.data(), damaged.size(), &h, &err));
+  EXPECT_FALSE(backlog.push(damaged.data(), damaged.size(), &h, &id, &err));
   EXPECT_NE(err.find("checksum"), std::string::npos) << err;
-  ASSERT_TRUE(backlog.push(wire[4].data(), wire[4].size(), &h, &err)) << err;
-  ASSERT_TRUE(backlog.push(wire[5].data(), wire[5].size(), &h, &err)) << err;
+  ASSERT_TRUE(backlog.push(wire[4].data(), wire[4].size(), &h, &id, &err)) << err;
+  ASSERT_TRUE(backlog.push(wire[5].data(), wire[5].size(), &h, &id, &err)) << err;
+  EXPECT_EQ(id, 2u);  // the third frame queued
   DepthLinkFrame f;
-  ASSERT_TRUE(backlog.take(5, &f, &err)) << err;  // from key frame 4; frame 0 is never decoded
+  ASSERT_TRUE(backlog.take(id, &f, &err)) << err;  // from key frame 4; frame 0 is never decoded
   EXPECT_TRUE(same_image(f.depth, direct[5]));
 }
 
@@ -226,21 +230,51 @@ TEST(DepthLinkBacklog, ItsLimitsDropTheOldestFramesAndWhatBuildsOnThemWaitsForAK
   limits.max_frames = 3;
   DepthLinkBacklog backlog(DepthLinkLimits(), limits);
   DepthLinkHeader h;
+  uint64_t id = 0;
   std::string err;
   DepthLinkFrame f;
-  ASSERT_TRUE(backlog.push(wire[0].data(), wire[0].size(), &h, &err)) << err;
-  ASSERT_TRUE(backlog.take(0, &f, &err)) << err;
-  for (size_t i = 1; i < 7; ++i) ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &err)) << err;
+  ASSERT_TRUE(backlog.push(wire[0].data(), wire[0].size(), &h, &id, &err)) << err;
+  ASSERT_TRUE(backlog.take(id, &f, &err)) << err;
+  for (size_t i = 1; i < 7; ++i) ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &id, &err)) << err;
   EXPECT_EQ(backlog.queued(), 3u);  // 4, 5, 6: frames 1 to 3 went
-  EXPECT_FALSE(backlog.take(6, &f, &err));
+  EXPECT_FALSE(backlog.take(id, &f, &err));
   EXPECT_NE(err.find("without the frame before it"), std::string::npos) << err;
-  for (size_t i = 7; i < 9; ++i) ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &err)) << err;
-  ASSERT_TRUE(backlog.take(8, &f, &err)) << err;
+  for (size_t i = 7; i < 9; ++i) ASSERT_TRUE(backlog.push(wire[i].data(), wire[i].size(), &h, &id, &err)) << err;
+  ASSERT_TRUE(backlog.take(id, &f, &err)) << err;
   EXPECT_TRUE(same_image(f.depth, direct[8]));
   limits.max_bytes = wire[8].size() - 1;
   DepthLinkBacklog small(DepthLinkLimits(), limits);
-  EXPECT_FALSE(small.push(wire[0].data(), wire[0].size(), &h, &err));
+  EXPECT_FALSE(small.push(wire[0].data(), wire[0].size(), &h, &id, &err));
   EXPECT_NE(err.find("larger than the backlog"), std::string::npos) << err;
+}
+
+// A camera that restarts numbers its frames from 0 again while frames of its last run are still queued: a
+// picture gets the frame it came with, never an older one of the same number.
+TEST(DepthLinkBacklog, ACameraThatRestartsNeverGetsItsLastRunsFrameOfTheSameNumber) {
+  std::vector<cv::Mat> first;
+  const auto before = moving_block_frames(4, first_only, &first);
+  DepthLinkEncoder restarted;  // the new run: a block elsewhere, its frames numbered 0 and 1 again
+  std::vector<std::vector<uint8_t>> again(2);
+  const auto still = classroom_frames(1, 96, 54);
+  for (int i = 0; i < 2; ++i) {
+    cv::Mat depth = still[0].depth.clone();
+    depth(cv::Rect(40 + 5 * i, 20, 8, 8)).setTo(1500);
+    restarted.encode(depth, still[0].label, "c", i == 0, 280, &again[size_t(i)]);
+  }
+  DepthLinkDecoder direct;
+  DepthLinkFrame expected, f;
+  std::string err;
+  ASSERT_TRUE(direct.decode(again[0].data(), again[0].size(), &expected, &err)) << err;
+  ASSERT_TRUE(direct.decode(again[1].data(), again[1].size(), &expected, &err)) << err;
+  DepthLinkBacklog backlog;
+  DepthLinkHeader h;
+  uint64_t id = 0;
+  for (const auto& frame : before) ASSERT_TRUE(backlog.push(frame.data(), frame.size(), &h, &id, &err)) << err;
+  for (const auto& frame : again) ASSERT_TRUE(backlog.push(frame.data(), frame.size(), &h, &id, &err)) << err;
+  EXPECT_EQ(h.number, 1u);  // as the last run's second frame
+  ASSERT_TRUE(backlog.take(id, &f, &err)) << err;
+  EXPECT_TRUE(same_image(f.depth, expected.depth));
+  EXPECT_FALSE(same_image(f.depth, first[1]));
 }
 
 TEST(DepthLink, EveryDamageIsRefusedWithAReason) {

@@ -4,8 +4,8 @@
  *
  * The server side of the H.264 camera link (docs/network.md): before the H.264 decoder, reads the "VCDL"
  * depth frame from each access unit's SEI, checks its header (sizes before anything is allocated, the
- * checksum, the caps it names, that a delta frame's predecessor came), queues it and hangs its number on the
- * access unit as a meta, which the decoder carries to the picture. rgbdlinkjoin decodes the depth when it
+ * checksum, the caps it names, that a delta frame's predecessor came), queues it and hangs its place in the
+ * queue on the access unit as a meta, which the decoder carries to the picture. rgbdlinkjoin decodes the depth when it
  * joins that picture, in its own thread: where a leaky queue drops pictures before it, the depth frames they
  * came with are decoded only as far as later ones need them, and at that thread's priority
  * (docs/network.md, "Decoding the depth where the picture is used"). Every access unit is passed on (the
@@ -136,24 +136,25 @@ static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkHeader& f, std::s
   return true;
 }
 
-// Queues a depth frame; its number, or false (with `why`) when it is refused. Its caps are checked first, so
+// Queues a depth frame; its id in the backlog, or false (with `why`) when it is refused. Its caps are checked first, so
 // that a refused camera's frames are not kept.
-static bool queue_depth(GstRgbdLinkDemux* self, const std::vector<uint8_t>& data, guint32* number, std::string* why,
+static bool queue_depth(GstRgbdLinkDemux* self, const std::vector<uint8_t>& data, guint64* id, std::string* why,
                         DropKind* kind) {
   DepthLinkHeader header;
   *kind = DropKind::Damaged;
   *why = check_depth_frame(data.data(), data.size(), DepthLinkLimits(), &header);
   if (!why->empty() || !joined_caps(self, header, why, kind)) return false;
   *kind = DropKind::Damaged;
-  if (!(*self->backlog)->push(data.data(), data.size(), &header, why)) return false;
+  uint64_t queued = 0;
+  if (!(*self->backlog)->push(data.data(), data.size(), &header, &queued, why)) return false;
   codec_stats_count(GST_ELEMENT(self), &self->stats, data.size(), false);
-  *number = header.number;
+  *id = queued;
   return true;
 }
 
-// Queues the access unit's depth; its number, or false: with `why` when there is none to use, with `why`
+// Queues the access unit's depth; its id in the backlog, or false: with `why` when there is none to use, with `why`
 // empty when the unit holds no picture.
-static bool demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, guint32* number, std::string* why, DropKind* kind) {
+static bool demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, guint64* id, std::string* why, DropKind* kind) {
   GstMapInfo map;
   if (!gst_buffer_map(in, &map, GST_MAP_READ)) return false;
   std::vector<uint8_t> data;
@@ -171,7 +172,7 @@ static bool demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, guint32* number, 
   const bool pending = !self->pending->empty() && GST_CLOCK_TIME_IS_VALID(pts) && pts == self->pending_pts;
   if (found == SeiFind::kAbsent && picture && pending) data.swap(*self->pending);
   self->pending->clear();
-  if (!data.empty()) return queue_depth(self, data, number, why, kind);
+  if (!data.empty()) return queue_depth(self, data, id, why, kind);
   if (found == SeiFind::kAbsent && picture) *why = "an access unit without depth";
   return false;  // kMalformed says why; parameter sets alone say nothing
 }
@@ -184,11 +185,11 @@ static GstFlowReturn gst_rgbd_link_demux_generate_output(GstBaseTransform* trans
   if (!take_queued_input(trans, TRUE, &in, &ret)) return ret;
   std::string why;
   DropKind kind = DropKind::Damaged;
-  guint32 number = 0;
-  const bool queued = demux_depth(self, in, &number, &why, &kind);
+  guint64 id = 0;
+  const bool queued = demux_depth(self, in, &id, &why, &kind);
   in = gst_buffer_make_writable(in);
   if (queued) {
-    gst_buffer_add_rgbd_link_backlog_meta(in, *self->backlog, number, self->out_caps);
+    gst_buffer_add_rgbd_link_backlog_meta(in, *self->backlog, id, self->out_caps);
   } else if (!why.empty()) {
     drop_depth(self, kind, why);
   }

@@ -102,7 +102,7 @@ static GstBuffer* join(GstRgbdLinkJoin* self, GstBuffer* in, GstRgbdLinkMeta* me
   }
   const int w = self->info->width(), h = self->info->height();
   DepthLinkFrame depth;
-  if (!(*meta->backlog)->take(meta->number, &depth, why)) return nullptr;
+  if (!(*meta->backlog)->take(meta->id, &depth, why)) return nullptr;
   const bool labels = self->info->has(Plane::Label);
   if (depth.depth.cols != w || depth.depth.rows != h || labels == depth.label.empty()) {
     *why = "the depth frame does not fit the caps";

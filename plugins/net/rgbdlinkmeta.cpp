@@ -14,7 +14,7 @@ static gboolean rgbd_link_meta_init(GstMeta* meta, gpointer, GstBuffer*) {
   auto* m = reinterpret_cast<GstRgbdLinkMeta*>(meta);
   m->planes = nullptr;
   m->backlog = nullptr;
-  m->number = 0;
+  m->id = 0;
   m->caps = nullptr;
   m->pts = GST_CLOCK_TIME_NONE;
   return TRUE;
@@ -32,7 +32,7 @@ static const GstMetaInfo* rgbd_link_meta_get_info();
 static gboolean rgbd_link_meta_transform(GstBuffer* dest, GstMeta* meta, GstBuffer*, GQuark type, gpointer) {
   if (!GST_META_TRANSFORM_IS_COPY(type)) return FALSE;  // a scaled or cropped frame no longer matches
   auto* m = reinterpret_cast<GstRgbdLinkMeta*>(meta);
-  GstRgbdLinkMeta* copy = m->backlog ? gst_buffer_add_rgbd_link_backlog_meta(dest, *m->backlog, m->number, m->caps)
+  GstRgbdLinkMeta* copy = m->backlog ? gst_buffer_add_rgbd_link_backlog_meta(dest, *m->backlog, m->id, m->caps)
                                       : gst_buffer_add_rgbd_link_meta(dest, m->planes, m->caps);
   if (copy) copy->pts = m->pts;
   return copy != nullptr;
@@ -60,11 +60,11 @@ GstRgbdLinkMeta* gst_buffer_add_rgbd_link_meta(GstBuffer* buffer, GstBuffer* pla
 
 GstRgbdLinkMeta* gst_buffer_add_rgbd_link_backlog_meta(GstBuffer* buffer,
                                                        const std::shared_ptr<vclassroom::DepthLinkBacklog>& backlog,
-                                                       guint32 number, GstCaps* caps) {
+                                                       guint64 id, GstCaps* caps) {
   auto* m = reinterpret_cast<GstRgbdLinkMeta*>(gst_buffer_add_meta(buffer, rgbd_link_meta_get_info(), nullptr));
   if (!m) return nullptr;
   m->backlog = new std::shared_ptr<vclassroom::DepthLinkBacklog>(backlog);
-  m->number = number;
+  m->id = id;
   m->caps = gst_caps_ref(caps);
   m->pts = GST_BUFFER_PTS(buffer);
   return m;

@@ -48,13 +48,14 @@ void decode_after_key(const std::vector<uint8_t>& frame) {
   if (!dec.decode(frame.data(), frame.size(), &f, &err) && err.empty()) std::abort();  // a refusal says why
   vclassroom::DepthLinkBacklog backlog(limits);
   vclassroom::DepthLinkHeader h;
-  if (!backlog.push(key_frame().data(), key_frame().size(), &h, &err)) std::abort();
+  uint64_t id = 0;
+  if (!backlog.push(key_frame().data(), key_frame().size(), &h, &id, &err)) std::abort();
   err.clear();
-  if (!backlog.push(frame.data(), frame.size(), &h, &err)) {
+  if (!backlog.push(frame.data(), frame.size(), &h, &id, &err)) {
     if (err.empty()) std::abort();
     return;
   }
-  if (!backlog.take(h.number, &f, &err) && err.empty()) std::abort();
+  if (!backlog.take(id, &f, &err) && err.empty()) std::abort();
 }
 
 }  // namespace

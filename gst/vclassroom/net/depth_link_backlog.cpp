@@ -4,7 +4,8 @@
 
 namespace vclassroom {
 
-bool DepthLinkBacklog::push(const uint8_t* data, size_t size, DepthLinkHeader* header, std::string* why) {
+bool DepthLinkBacklog::push(const uint8_t* data, size_t size, DepthLinkHeader* header, uint64_t* id,
+                            std::string* why) {
   DepthLinkHeader hd;
   std::string bad = check_depth_frame(data, size, limits_, &hd);
   if (bad.empty() && size > backlog_.max_bytes) bad = "depth frame larger than the backlog holds";
@@ -22,7 +23,8 @@ bool DepthLinkBacklog::push(const uint8_t* data, size_t size, DepthLinkHeader* h
     queued_bytes_ -= queue_.front().data.size();
     queue_.pop_front();
   }
-  queue_.push_back(Queued{hd.number, hd.key, std::vector<uint8_t>(data, data + size)});
+  *id = next_id_++;
+  queue_.push_back(Queued{*id, hd.key, std::vector<uint8_t>(data, data + size)});
   queued_bytes_ += size;
   chain_ = true;
   last_ = hd;
@@ -30,14 +32,14 @@ bool DepthLinkBacklog::push(const uint8_t* data, size_t size, DepthLinkHeader* h
   return true;
 }
 
-bool DepthLinkBacklog::take(uint32_t number, DepthLinkFrame* frame, std::string* why) {
+bool DepthLinkBacklog::take(uint64_t id, DepthLinkFrame* frame, std::string* why) {
   std::vector<Queued> run;  // from the last key frame at or before the wanted one (or the oldest) to it
   {
     std::lock_guard<std::mutex> lock(mutex_);
     size_t wanted = 0;
-    while (wanted < queue_.size() && queue_[wanted].number != number) ++wanted;
+    while (wanted < queue_.size() && queue_[wanted].id != id) ++wanted;
     if (wanted == queue_.size()) {
-      if (why) *why = "depth frame " + std::to_string(number) + " is not queued (refused or dropped)";
+      if (why) *why = "depth frame #" + std::to_string(id) + " of the backlog is not queued (refused or dropped)";
       return false;
     }
     size_t start = wanted;

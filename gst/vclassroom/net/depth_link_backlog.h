@@ -31,15 +31,17 @@ class DepthLinkBacklog {
       : limits_(limits), backlog_(backlog), decoder_(limits) {}
 
   // Any thread. Checks the frame (check_depth_frame) and that it continues the frames pushed before it (a key
-  // frame, or a delta frame with the next number, the same size and tolerance), and queues a copy; the oldest
-  // frames go when the limits are passed (their successors then wait for a key frame). False with a reason
-  // when refused; after a refusal delta frames are refused until the next key frame.
-  bool push(const uint8_t* data, size_t size, DepthLinkHeader* header, std::string* why);
+  // frame, or a delta frame with the next number, the same size and tolerance), and queues a copy under `id`,
+  // the backlog's own count of the frames it queued (a camera that restarts numbers its frames from 0 again:
+  // the wire's numbers may repeat, the ids never do); the oldest frames go when the limits are passed (their
+  // successors then wait for a key frame). False with a reason when refused; after a refusal delta frames
+  // are refused until the next key frame.
+  bool push(const uint8_t* data, size_t size, DepthLinkHeader* header, uint64_t* id, std::string* why);
 
-  // One thread at a time. Decodes the queued frames before and including the one numbered `number`, in
-  // order (from the last key frame among them), removes them from the queue and returns that frame. False with
-  // a reason when it is not queued (refused, or dropped for the limits) or does not decode.
-  bool take(uint32_t number, DepthLinkFrame* frame, std::string* why);
+  // One thread at a time. Decodes the queued frames before and including the one queued under `id`, in order
+  // (from the last key frame among them), removes them from the queue and returns that frame. False with a
+  // reason when it is not queued (refused, or dropped for the limits) or does not decode.
+  bool take(uint64_t id, DepthLinkFrame* frame, std::string* why);
 
   // Forgets every queued frame and the decoder's state (a flush, a restart).
   void reset();
@@ -48,7 +50,7 @@ class DepthLinkBacklog {
 
  private:
   struct Queued {
-    uint32_t number;
+    uint64_t id;
     bool key;
     std::vector<uint8_t> data;
   };
@@ -57,6 +59,7 @@ class DepthLinkBacklog {
   mutable std::mutex mutex_;
   std::deque<Queued> queue_;  // in the order pushed
   size_t queued_bytes_ = 0;
+  uint64_t next_id_ = 0;
   bool chain_ = false;  // the last frame pushed was queued: a delta frame may follow it
   DepthLinkHeader last_;
   std::mutex decode_mutex_;  // held by take(): the decoder's state is take's alone
