@@ -187,12 +187,14 @@ class BitReader {
 // 4), so a context whose values are small codes them in few bits and one whose values grow adapts within a
 // few values. Every field of the depth section is one such code, so a value costs a few shifts, never a
 // decision per bit.
+inline int bit_length(uint32_t u) { return 32 - __builtin_clz(u); }  // u > 0
+
 struct RiceContext {
   uint32_t a = 4, n = 1;
   // The least k with n 2^k >= a, at most 17, from a's bit length (n is 1 to 3): no loop over k.
   int k() const {
     if (a <= n) return 0;
-    const int bits = 32 - __builtin_clz(a - 1);  // 2^bits >= a > 2^(bits - 1), bits >= 2 here
+    const int bits = bit_length(a - 1);           // 2^bits >= a > 2^(bits - 1), bits >= 2 here
     int k = bits - int(n >> 1);                   // n = 1: bits; n = 2 or 3: bits - 1
     k -= int(n == 3 && (3u << (bits - 2)) >= a);  // n = 3: bits - 2 where that reaches a
     return std::min(k, 17);
@@ -213,8 +215,6 @@ struct RiceContext {
 // says more decodes as kRiceInvalid, which every field refuses.
 constexpr int kRiceLimit = 6;
 constexpr uint32_t kRiceInvalid = 1u << 17;
-
-inline int bit_length(uint32_t u) { return 32 - __builtin_clz(u); }  // u > 0
 
 inline int rice_bits(uint32_t v, int k) {
   const uint32_t q = v >> k;
