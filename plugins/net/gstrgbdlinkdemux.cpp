@@ -138,16 +138,17 @@ static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkHeader& f, std::s
 
 // Queues a depth frame; its id in the backlog, or false (with `why`) when it is refused. Its caps are checked first, so
 // that a refused camera's frames are not kept.
-static bool queue_depth(GstRgbdLinkDemux* self, const std::vector<uint8_t>& data, guint64* id, std::string* why,
+static bool queue_depth(GstRgbdLinkDemux* self, std::vector<uint8_t> data, guint64* id, std::string* why,
                         DropKind* kind) {
   DepthLinkHeader header;
   *kind = DropKind::Damaged;
   *why = check_depth_frame(data.data(), data.size(), DepthLinkLimits(), &header);
   if (!why->empty() || !joined_caps(self, header, why, kind)) return false;
   *kind = DropKind::Damaged;
+  const size_t bytes = data.size();
   uint64_t queued = 0;
-  if (!(*self->backlog)->push(data.data(), data.size(), &header, &queued, why)) return false;
-  codec_stats_count(GST_ELEMENT(self), &self->stats, data.size(), false);
+  if (!(*self->backlog)->push_checked(std::move(data), header, &queued, why)) return false;
+  codec_stats_count(GST_ELEMENT(self), &self->stats, bytes, false);
   *id = queued;
   return true;
 }
@@ -172,7 +173,7 @@ static bool demux_depth(GstRgbdLinkDemux* self, GstBuffer* in, guint64* id, std:
   const bool pending = !self->pending->empty() && GST_CLOCK_TIME_IS_VALID(pts) && pts == self->pending_pts;
   if (found == SeiFind::kAbsent && picture && pending) data.swap(*self->pending);
   self->pending->clear();
-  if (!data.empty()) return queue_depth(self, data, id, why, kind);
+  if (!data.empty()) return queue_depth(self, std::move(data), id, why, kind);
   if (found == SeiFind::kAbsent && picture) *why = "an access unit without depth";
   return false;  // kMalformed says why; parameter sets alone say nothing
 }

@@ -6,9 +6,21 @@ namespace vclassroom {
 
 bool DepthLinkBacklog::push(const uint8_t* data, size_t size, DepthLinkHeader* header, uint64_t* id,
                             std::string* why) {
-  DepthLinkHeader hd;
-  std::string bad = check_depth_frame(data, size, limits_, &hd);
-  if (bad.empty() && size > backlog_.max_bytes) bad = "depth frame larger than the backlog holds";
+  const std::string bad = check_depth_frame(data, size, limits_, header);
+  if (!bad.empty()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    chain_ = false;
+    if (why) *why = bad;
+    return false;
+  }
+  return push_checked(std::vector<uint8_t>(data, data + size), *header, id, why);
+}
+
+bool DepthLinkBacklog::push_checked(std::vector<uint8_t> frame, const DepthLinkHeader& hd, uint64_t* id,
+                                    std::string* why) {
+  const size_t size = frame.size();
+  std::string bad;
+  if (size > backlog_.max_bytes) bad = "depth frame larger than the backlog holds";
   std::lock_guard<std::mutex> lock(mutex_);
   if (bad.empty() && !hd.key &&
       !(chain_ && hd.number == last_.number + 1 && hd.tolerance == last_.tolerance && hd.width == last_.width &&
@@ -24,11 +36,10 @@ bool DepthLinkBacklog::push(const uint8_t* data, size_t size, DepthLinkHeader* h
     queue_.pop_front();
   }
   *id = next_id_++;
-  queue_.push_back(Queued{*id, hd.key, std::vector<uint8_t>(data, data + size)});
+  queue_.push_back(Queued{*id, hd.key, std::move(frame)});
   queued_bytes_ += size;
   chain_ = true;
   last_ = hd;
-  *header = std::move(hd);
   return true;
 }
 

@@ -37,6 +37,9 @@ class DepthLinkBacklog {
   // successors then wait for a key frame). False with a reason when refused; after a refusal delta frames
   // are refused until the next key frame.
   bool push(const uint8_t* data, size_t size, DepthLinkHeader* header, uint64_t* id, std::string* why);
+  // The same for a frame that check_depth_frame() accepted with `header` (the caller's check, not repeated):
+  // its bytes are taken, not copied.
+  bool push_checked(std::vector<uint8_t> frame, const DepthLinkHeader& header, uint64_t* id, std::string* why);
 
   // One thread at a time. Decodes the queued frames before and including the one queued under `id`, in order
   // (from the last key frame among them), removes them from the queue and returns that frame. False with a
