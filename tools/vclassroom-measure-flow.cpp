@@ -256,15 +256,16 @@ int main(int argc, char** argv) {
       std::printf("camera %d: no frame counts in the logs\n", k);
       continue;
     }
-    // The H.264 link's demux ("dec") checks and queues every frame's depth; the frames the server used are
-    // those its join decoded (docs/network.md, "Decoding the depth where the picture is used").
-    const auto used = o.link == "h264" ? vclassroom_tools::last_codec_stats(server_log, "join" + std::to_string(k)) : got;
     std::printf("camera %d: %lld frames sent (%.1f fps), %lld %s by the server (%.1f %%), %lld damaged",
                 k, sent.first, sent.first / static_cast<double>(o.seconds), got.first,
                 o.link == "h264" ? "received whole" : "decoded", sent.first ? 100.0 * got.first / sent.first : 0.0,
                 got.second);
-    if (o.link == "h264")
+    // The H.264 link's demux ("dec") checks and queues every frame's depth; the frames the server used are
+    // those its join decoded (docs/network.md, "Decoding the depth where the picture is used").
+    if (o.link == "h264") {
+      const auto used = vclassroom_tools::last_codec_stats(server_log, "join" + std::to_string(k));
       std::printf(", %lld joined and used (%.1f %%)", used.first, sent.first ? 100.0 * used.first / sent.first : 0.0);
+    }
     std::printf("; final counts at end of stream\n");
   }
   std::printf("bitrate: camera link %.1f Mbit/s each (measured alone); server->lecturer %.2f Mbit/s; pose link %.3f Mbit/s\n",
