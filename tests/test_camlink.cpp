@@ -442,6 +442,15 @@ guint64 uint64_property(GstElement* bin, const char* element, const char* proper
   return v;
 }
 
+// `frames` camera frames of `rig` (rgbdtestsrc, `extra` its further properties) both as they are, to the appsink
+// "truth", and through `chain`, to the appsink "out".
+GstElement* launch_beside_truth(const std::string& rig, int frames, const std::string& chain,
+                                const std::string& extra = "") {
+  return launch("rgbdtestsrc rig=" + rig + " num-buffers=" + std::to_string(frames) + extra +
+                " ! tee name=t t. ! queue ! appsink name=truth sync=false t. ! queue ! " + chain +
+                " ! appsink name=out sync=false");
+}
+
 // Maps frame `i` of `out` and frame `t` of `truth`, each with its own caps; false (and a failure added) when
 // either cannot be.
 bool map_pair(const SampleCollector& out, size_t i, const SampleCollector& truth, size_t t, RgbdFrame* o,
@@ -506,9 +515,7 @@ TEST(CameraLink, APictureThatChangesSizeUnderTheSameDepthIsDroppedNotRead) {
 TEST(CameraLink, EveryFrameArrivesWithItsOwnDepthWithinTheBoundAndItsLabels) {
   TempDir dir;
   const std::string rig = small_classroom_rig(dir, 320, 180);
-  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=40 ground-truth=true ! tee name=t "
-                         "t. ! queue ! appsink name=truth sync=false "
-                         "t. ! queue ! " + link_chain(15) + " ! appsink name=out sync=false");
+  GstElement* p = launch_beside_truth(rig, 40, link_chain(15), " ground-truth=true");
   GstElement* truth_sink = gst_bin_get_by_name(GST_BIN(p), "truth");
   GstElement* out_sink = gst_bin_get_by_name(GST_BIN(p), "out");
   {
@@ -549,9 +556,7 @@ TEST(CameraLink, PicturesDroppedBeforeTheJoinLeaveTheOthersTheirOwnDepth) {
   const std::string rig = small_classroom_rig(dir, 320, 180);
   std::string chain = link_chain(30);
   chain.replace(chain.find("rgbdlinkjoin"), 0, "identity name=gate ! ");
-  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=40 ground-truth=true ! tee name=t "
-                         "t. ! queue ! appsink name=truth sync=false "
-                         "t. ! queue ! " + chain + " ! appsink name=out sync=false");
+  GstElement* p = launch_beside_truth(rig, 40, chain, " ground-truth=true");
   GstElement* gate = gst_bin_get_by_name(GST_BIN(p), "gate");
   GstPad* gate_src = gst_element_get_static_pad(gate, "src");
   guint seen = 0;
@@ -618,8 +623,7 @@ TEST(CameraLink, LosslessDepthComesBackBitExact) {
   const std::string rig = small_classroom_rig(dir, 160, 90);
   std::string chain = link_chain(30);
   chain.replace(chain.find("rgbdlinkmux name=mux"), 20, "rgbdlinkmux name=mux depth-tolerance=0");
-  GstElement* p = launch("rgbdtestsrc rig=" + rig + " num-buffers=12 ! tee name=t t. ! queue ! appsink name=truth "
-                         "sync=false t. ! queue ! " + chain + " ! appsink name=out sync=false");
+  GstElement* p = launch_beside_truth(rig, 12, chain);
   GstElement* truth_sink = gst_bin_get_by_name(GST_BIN(p), "truth");
   GstElement* out_sink = gst_bin_get_by_name(GST_BIN(p), "out");
   {
