@@ -118,10 +118,12 @@ set -f
 # server's request, SPS/PPS with every IDR (x264enc repeats them in a byte stream, so a server that joins late
 # starts at the next one; rtph264pay config-interval=-1 would put them between the depth SEI and the slices,
 # where rtph264depay cuts the access unit in two); the depth,
-# labels and calibration ride in each access unit (rgbdlinkmux).
+# labels and calibration ride in each access unit (rgbdlinkmux). x264enc codes in one thread: zerolatency's
+# slices over several threads cost a quarter more CPU per frame (docs/network.md, "Cost"), and a camera's PC is
+# small; one thread codes a 960x540 picture in about 3 ms.
 if [ "$LINK" = h264 ]; then
   coder="rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! \
-    x264enc tune=zerolatency speed-preset=ultrafast key-int-max=$KEY_INTERVAL bitrate=$BITRATE ! \
+    x264enc tune=zerolatency speed-preset=ultrafast threads=1 key-int-max=$KEY_INTERVAL bitrate=$BITRATE ! \
     video/x-h264,profile=constrained-baseline ! \
     rgbdlinkmux name=enc depth-tolerance=$DEPTH_TOLERANCE key-interval=$KEY_INTERVAL stats-interval=$STATS"
   pay="rtph264pay mtu=$MTU pt=96 ssrc=$SSRC"

@@ -18,7 +18,7 @@ struct CameraLinkCoding {
 inline std::string camera_link_coder(const CameraLinkCoding& c = {}) {
   const bool y444 = c.format == "Y444";
   return std::string("rgbdlinksplit") + (y444 ? " format=RGB" : "") + " ! videoconvert ! video/x-raw,format=" +
-         c.format + " ! x264enc tune=zerolatency speed-preset=ultrafast key-int-max=" +
+         c.format + " ! x264enc tune=zerolatency speed-preset=ultrafast threads=1 key-int-max=" +
          std::to_string(c.key_interval) + " bitrate=" + std::to_string(c.bitrate_kbps) +
          " ! video/x-h264,profile=" + (y444 ? "high-4:4:4" : "constrained-baseline") +
          " ! rgbdlinkmux depth-tolerance=" + c.tolerance + " key-interval=" + std::to_string(c.key_interval);
