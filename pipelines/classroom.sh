@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Classroom side, one camera: source -> rgbdenc -> rtpgstpay, or with LINK=h264 H.264 colour with the depth in
-# each access unit (rgbdlinksplit, x264enc, rgbdlinkmux) -> rtph264pay -> UDP to the server, with retransmission of lost packets (RFC 4588):
+# Classroom side, one camera: source -> H.264 colour with the depth in each access unit (rgbdlinksplit,
+# x264enc, rgbdlinkmux) -> rtph264pay, or with LINK=vcrd1 rgbdenc -> rtpgstpay -> UDP to the server, with retransmission of lost packets (RFC 4588):
 # the server's RTCP NACKs and key frame requests (PLI/FIR, RFC 4585/5104) come back on NACK_PORT, rtprtxsend
 # resends and x264enc sends a key frame (docs/network.md, "The H.264 camera link").
-# LINK (vcrd1, the default: rgbdenc's JPEG + lossless depth through rtpgstpay, about 140 Mbit/s; h264: the
-#   camera link above, about 14 Mbit/s at 960x540, its colour 4:2:0 (docs/network.md says what that costs);
-#   the server's LINK must match),
+# LINK (h264, the default: the camera link above, about 14 Mbit/s at 960x540, its colour 4:2:0, its depth within
+#   DEPTH_TOLERANCE (docs/network.md says what that costs); vcrd1: rgbdenc's JPEG + lossless depth through
+#   rtpgstpay, about 140 Mbit/s; the server's LINK must match),
 # DEPTH_TOLERANCE (h264 link: the largest depth error in mm at 1 m, growing with z^2; default 2.8, just under
 #   the depth step a Kinect-class sensor resolves; 0: lossless), BITRATE (h264 link: x264enc kbit/s, default
 #   4000), KEY_INTERVAL (h264 link: frames between key frames at most, default 60: 2 s at 30 fps),
@@ -46,7 +46,7 @@ MTU=${MTU:-1400}
 RTX=${RTX:-1}
 RTX_KEEP_MS=${RTX_KEEP_MS:-500}
 SSRC=${SSRC:-$((0x56430000 + CAMERA))}
-LINK=${LINK:-vcrd1}
+LINK=${LINK:-h264}
 # A multicast group as SERVER: the stream goes to the group, the requests come from SERVERS.
 send_opts=""
 if [[ $SERVER =~ ^(22[4-9]|23[0-9])\.[0-9]{1,3}\.[0-9]{1,3}\.[0-9]{1,3}$ ]]; then

@@ -43,8 +43,8 @@
 #   CAMERA_GROUPS (one IPv4 multicast group per camera in CAMERAS order, as its classroom.sh SERVER: this
 #   server joins the group on the camera's port, so several servers take the same cameras; empty: unicast),
 #   MULTICAST_IFACE (the interface to join on, e.g. lo for cameras on this machine; default the system's).
-#   LINK (vcrd1, the default: rgbdenc frames through rtpgstpay; h264: the cameras send H.264 colour with the
-#   depth in each access unit, rgbdlinkdemux and rgbdlinkjoin pair them again; as the cameras' classroom.sh;
+#   LINK (h264, the default: the cameras send H.264 colour with the depth in each access unit, rgbdlinkdemux
+#   and rgbdlinkjoin pair them again; vcrd1: rgbdenc frames through rtpgstpay; as the cameras' classroom.sh;
 #   docs/network.md, "The H.264 camera link").
 set -euo pipefail
 . "$(dirname "$0")/trees.sh"
@@ -71,7 +71,7 @@ if ! [[ $MTU =~ ^[0-9]+$ ]] || [ "$MTU" -lt 200 ] || [ "$MTU" -gt 65000 ]; then
   exit 2
 fi
 RTX=${RTX:-1}
-LINK=${LINK:-vcrd1}
+LINK=${LINK:-h264}
 if [ "$LINK" != h264 ] && [ "$LINK" != vcrd1 ]; then
   echo "server.sh: LINK must be h264 or vcrd1 (got '$LINK')" >&2
   exit 2

@@ -57,7 +57,7 @@ struct Options {
   // Nice value of the server's camera-preparing threads (server.sh's PREP_NICE); -1: the script's default.
   int prep_nice = -1;
   // The camera link (classroom.sh's and server.sh's LINK): vcrd1 or h264.
-  std::string link = "vcrd1";
+  std::string link = "h264";
 };
 
 // What a camera of the replay sends, up to its payloader, as classroom.sh runs it (its defaults) for o.link: the
@@ -123,7 +123,7 @@ int main(int argc, char** argv) {
        "largest RTP packet on every link (default 65000, loopback's; 1400 fits Ethernet)", "BYTES"},
       {"prep-nice", 0, 0, G_OPTION_ARG_INT, &o.prep_nice, "server.sh's PREP_NICE (default: the script's)", "N"},
       {"link", 0, 0, G_OPTION_ARG_STRING, &link,
-       "the camera link: vcrd1 (default: rgbdenc over rtpgstpay) or h264 (H.264 with the depth, rtph264pay)", "LINK"},
+       "the camera link: h264 (default: H.264 with the depth, rtph264pay, as classroom.sh) or vcrd1 (rgbdenc over rtpgstpay)", "LINK"},
       {"pipelines", 0, 0, G_OPTION_ARG_FILENAME, &pipelines, "folder of server.sh and classroom.sh (default pipelines)",
        "DIR"},
       {}};
