@@ -418,6 +418,10 @@ int run_all(DocRunner& runner, const std::vector<DocCommand>& commands, int* ski
   int ran = 0;
   *skipped = 0;
   for (const DocCommand& c : commands) {
+    // Said before it runs, so that a command that hangs (once in eight runs of the whole suite, not reproduced
+    // since) is named in the log the test's timeout leaves.
+    std::printf("[ docs     ] running %s\n", c.where.c_str());
+    std::fflush(stdout);
     std::string skip;
     const std::string failure = runner.run(c, &skip);
     if (!skip.empty()) {
