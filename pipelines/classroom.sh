@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Classroom side, one camera: source -> H.264 colour with the depth in each access unit (rgbdlinksplit,
-# x264enc, rgbdlinkmux) -> rtph264pay, or with LINK=vcrd1 rgbdenc -> rtpgstpay -> UDP to the server, with retransmission of lost packets (RFC 4588):
+# x264enc, rgbdlinkmux) -> rtph264pay, or with LINK=vcrd1 rgbdenc -> rtpgstpay -> UDP to the server, with
+# retransmission of lost packets (RFC 4588):
 # the server's RTCP NACKs and key frame requests (PLI/FIR, RFC 4585/5104) come back on NACK_PORT, rtprtxsend
 # resends and x264enc sends a key frame (docs/network.md, "The H.264 camera link").
 # LINK (h264, the default: the camera link above, about 14 Mbit/s at 960x540, its colour 4:2:0, its depth within
@@ -119,8 +120,8 @@ set -f
 # starts at the next one; rtph264pay config-interval=-1 would put them between the depth SEI and the slices,
 # where rtph264depay cuts the access unit in two); the depth,
 # labels and calibration ride in each access unit (rgbdlinkmux). x264enc codes in one thread: zerolatency's
-# slices over several threads cost a quarter more CPU per frame (docs/network.md, "Cost"), and a camera's PC is
-# small; one thread codes a 960x540 picture in about 3 ms.
+# slices over several threads cost a quarter more CPU per frame (docs/network.md, "The H.264 camera link",
+# "In service"), and a camera's PC is small; one thread codes a 960x540 picture in about 3 ms.
 if [ "$LINK" = h264 ]; then
   coder="rgbdlinksplit ! videoconvert ! video/x-raw,format=I420 ! \
     x264enc tune=zerolatency speed-preset=ultrafast threads=1 key-int-max=$KEY_INTERVAL bitrate=$BITRATE ! \
