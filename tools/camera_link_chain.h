@@ -24,6 +24,16 @@ inline std::string camera_link_coder(const CameraLinkCoding& c = {}) {
          " ! rgbdlinkmux depth-tolerance=" + c.tolerance + " key-interval=" + std::to_string(c.key_interval);
 }
 
+// What a replayed camera of the link `link` (classroom.sh's LINK: h264 or vcrd1) sends, up to its payloader, as
+// classroom.sh runs it with its defaults (the H.264 link's key frames every 60 frames, so a recording of 60 frames
+// loops from a key frame), and its payloader (without mtu).
+inline std::string camera_link_replay_coder(const std::string& link) {
+  return link == "h264" ? camera_link_coder() : "rgbdenc quality=90";
+}
+inline std::string camera_link_replay_payloader(const std::string& link) {
+  return link == "h264" ? "rtph264pay" : "rtpgstpay config-interval=1";
+}
+
 // pipelines/server.sh's decoding of those access units (after rtph264depay) back to video/x-rgbd frames, without
 // its leaky queue.
 inline std::string camera_link_decoder() {

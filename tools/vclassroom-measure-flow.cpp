@@ -60,16 +60,8 @@ struct Options {
   std::string link = "h264";
 };
 
-// What a camera of the replay sends, up to its payloader, as classroom.sh runs it (its defaults) for o.link: the
-// H.264 link's key frames every 60 frames, so the recording's 60 frames loop from a key frame.
-std::string camera_coder(const Options& o) {
-  if (o.link == "h264") return vclassroom_tools::camera_link_coder();
-  return "rgbdenc quality=90";
-}
-
-std::string camera_payloader(const Options& o) {
-  return o.link == "h264" ? "rtph264pay" : "rtpgstpay config-interval=1";
-}
+std::string camera_coder(const Options& o) { return vclassroom_tools::camera_link_replay_coder(o.link); }
+std::string camera_payloader(const Options& o) { return vclassroom_tools::camera_link_replay_payloader(o.link); }
 
 // Bytes per second one classroom pipeline sends (measured in this process, before the run).
 double camera_link_rate(const Options& o) {

@@ -28,6 +28,7 @@
 #include <unistd.h>
 
 #include "browser_driver.h"
+#include "camera_link_chain.h"
 #include "flow_harness.h"
 #include "free_port.h"
 #include "tool_options.h"
@@ -63,6 +64,7 @@ int main(int argc, char** argv) {
   gboolean live_cameras = FALSE;
   gint64 warp_sync = 100000000, longest_turn = 100000000;
   gdouble loss_percent = 0;
+  g_autofree gchar* link_text = nullptr;
   const GOptionEntry entries[] = {
       {"lecturers", 0, 0, G_OPTION_ARG_STRING, &counts_text, "Counts of lecturers to measure (default 1,2,4)", "N,N"},
       {"seconds", 0, 0, G_OPTION_ARG_INT, &seconds, "Measured window per count (default 20)", "S"},
@@ -85,6 +87,10 @@ int main(int argc, char** argv) {
        "! whepviewsink) instead of replaying their coded streams into pipelines/server.sh: the rendering then "
        "takes the server's CPU",
        nullptr},
+      {"link", 0, 0, G_OPTION_ARG_STRING, &link_text,
+       "The replayed cameras' link (classroom.sh's and server.sh's LINK): h264 (default, as the scripts) or vcrd1 "
+       "(rgbdenc over rtpgstpay)",
+       "LINK"},
       {nullptr, 0, 0, G_OPTION_ARG_NONE, nullptr, nullptr, nullptr}};
   parse_command_line(&argc, &argv, "",
                      "Pose-to-photon latency, bitrate and server CPU with several browser lecturers "
@@ -97,6 +103,8 @@ int main(int argc, char** argv) {
   if (warp_sync < 0 || warp_sync > 1000000000) usage_error("--warp-sync must be 0 to 1000000000 ns");
   if (longest_turn < 0 || longest_turn > 1000000000) usage_error("--longest-turn must be 0 to 1000000000 ns");
   if (!(loss_percent >= 0 && loss_percent <= 50)) usage_error("--loss must be 0 to 50 %");
+  const std::string link = link_text ? link_text : "h264";
+  if (link != "h264" && link != "vcrd1") usage_error("--link is h264 or vcrd1");
   // The lossy network, built beside this tool (a measuring aid of the build tree, not installed).
   std::map<std::string, std::string> loss_env;
   if (loss_percent > 0) {
@@ -126,7 +134,8 @@ int main(int argc, char** argv) {
   std::vector<int> camera_ids;
   for (int k = 0; k < cameras; ++k) camera_ids.push_back(k);
   for (size_t k = 0; k < recordings.size(); ++k) {
-    if (!record_stream("rgbdtestsrc camera-id=" + std::to_string(k) + " num-buffers=60 ground-truth=false ! rgbdenc quality=90",
+    if (!record_stream("rgbdtestsrc camera-id=" + std::to_string(k) + " num-buffers=60 ground-truth=false ! " +
+                           camera_link_replay_coder(link),
                        60, &recordings[k])) {
       std::fprintf(stderr, "%s: could not record camera %zu\n", g_get_prgname(), k);
       return 1;
@@ -139,6 +148,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string server_log = log_dir + "/server.log";
+  std::printf("%d cameras %s, LINK=%s\n", cameras, live_cameras ? "rendered live inside the server" : "replayed into pipelines/server.sh",
+              link.c_str());
   std::printf("| lecturers | fps shown (each) | kbit/s (each) | pose-to-photon p50 / p99 ms | server CPU ms per frame | "
               "server CPU %% of one core |\n|---|---|---|---|---|---|\n");
   for (int n : counts) {
@@ -174,13 +185,12 @@ int main(int argc, char** argv) {
       // RTX=0: the replay sends plain RTP, as classroom.sh with RTX=0 does; a server waiting for
       // retransmissions that never come holds each frame with a lost packet for RTX_LATENCY (300 ms).
       std::map<std::string, std::string> env = loss_env;
-      // LINK=vcrd1: the replay sends the recorded rgbdenc frames (the old camera link).
-      env.insert({{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LINK", "vcrd1"}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
+      env.insert({{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LINK", link}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
                    {"WHEP_PORT", std::to_string(port)}, {"WHEP_SESSIONS", std::to_string(n)},
                    {"WIDTH", std::to_string(width)}, {"HEIGHT", std::to_string(height)},
                   {"WARP_SYNC", std::to_string(warp_sync)}, {"LONGEST_TURN", std::to_string(longest_turn)}});
       pid = spawn(root + "/pipelines/server.sh", env, server_log);
-      if (!replay.start(streams, camera_ids, 0.0, 65000)) {
+      if (!replay.start(streams, camera_ids, 0.0, 65000, camera_link_replay_payloader(link))) {
         stop_tree(pid);
         return 1;
       }
