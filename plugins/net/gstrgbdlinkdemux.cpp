@@ -111,18 +111,21 @@ static void drop_depth(GstRgbdLinkDemux* self, DropKind kind, const std::string&
 // kept while they stay the same.
 static bool joined_caps(GstRgbdLinkDemux* self, const DepthLinkHeader& f, std::string* why, DropKind* kind) {
   if (self->out_caps && *self->caps_text == f.caps) return true;
-  *kind = DropKind::RejectedCaps;
   GstCaps* caps = gst_caps_from_string(f.caps.c_str());
   RgbdInfo info;
   const bool parsed = caps && gst_caps_is_fixed(caps) && rgbd_info_from_caps(caps, &info, why);
   if (caps) gst_caps_unref(caps);
   if (!parsed) {
+    *kind = DropKind::RejectedCaps;
     if (why->empty()) *why = "the depth frame's caps do not parse";
     return false;
   }
   *why = rgbd_stream_refusal(info.camera.id, info.width(), info.height(), RgbdStreamLimits(),
                              *self->rig ? &**self->rig : nullptr, *self->rig_source);
-  if (!why->empty()) return false;
+  if (!why->empty()) {
+    *kind = DropKind::RejectedCaps;
+    return false;
+  }
   if (info.width() != f.width || info.height() != f.height) {
     *kind = DropKind::WrongSize;
     *why = "the depth frame's caps declare another size than its depth";
@@ -142,9 +145,8 @@ static bool queue_depth(GstRgbdLinkDemux* self, std::vector<uint8_t> data, guint
                         DropKind* kind) {
   DepthLinkHeader header;
   *kind = DropKind::Damaged;
-  *why = check_depth_frame(data.data(), data.size(), DepthLinkLimits(), &header);
+  *why = (*self->backlog)->check(data.data(), data.size(), &header);
   if (!why->empty() || !joined_caps(self, header, why, kind)) return false;
-  *kind = DropKind::Damaged;
   const size_t bytes = data.size();
   uint64_t queued = 0;
   if (!(*self->backlog)->push_checked(std::move(data), header, &queued, why)) return false;

@@ -6,7 +6,7 @@ namespace vclassroom {
 
 bool DepthLinkBacklog::push(const uint8_t* data, size_t size, DepthLinkHeader* header, uint64_t* id,
                             std::string* why) {
-  const std::string bad = check_depth_frame(data, size, limits_, header);
+  const std::string bad = check(data, size, header);
   if (!bad.empty()) {
     std::lock_guard<std::mutex> lock(mutex_);
     chain_ = false;

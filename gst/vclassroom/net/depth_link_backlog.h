@@ -37,8 +37,13 @@ class DepthLinkBacklog {
   // successors then wait for a key frame). False with a reason when refused; after a refusal delta frames
   // are refused until the next key frame.
   bool push(const uint8_t* data, size_t size, DepthLinkHeader* header, uint64_t* id, std::string* why);
-  // The same for a frame that check_depth_frame() accepted with `header` (the caller's check, not repeated):
-  // its bytes are taken, not copied.
+  // check_depth_frame() under the backlog's limits: "" and the header, or why the frame is refused. A caller
+  // that must look at the header before it queues (its caps) checks here, then calls push_checked().
+  std::string check(const uint8_t* data, size_t size, DepthLinkHeader* header) const {
+    return check_depth_frame(data, size, limits_, header);
+  }
+  // The same as push() for a frame that check() accepted with `header` (not checked again): its bytes are
+  // taken, not copied.
   bool push_checked(std::vector<uint8_t> frame, const DepthLinkHeader& header, uint64_t* id, std::string* why);
 
   // One thread at a time. Decodes the queued frames before and including the one queued under `id`, in order
