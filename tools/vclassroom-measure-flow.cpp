@@ -60,14 +60,13 @@ struct Options {
   std::string link = "h264";
 };
 
-std::string camera_coder(const Options& o) { return vclassroom_tools::camera_link_replay_coder(o.link); }
-std::string camera_payloader(const Options& o) { return vclassroom_tools::camera_link_replay_payloader(o.link); }
-
 // Bytes per second one classroom pipeline sends (measured in this process, before the run).
 double camera_link_rate(const Options& o) {
   uint64_t bytes = 0;
   GstElement* p = gst_parse_launch(
-      ("rgbdtestsrc camera-id=0 num-buffers=60 ground-truth=false ! " + camera_coder(o) + " ! " + camera_payloader(o) +
+      ("rgbdtestsrc camera-id=0 num-buffers=60 ground-truth=false ! " +
+       vclassroom_tools::camera_link_replay_coder(o.link) + " ! " +
+       vclassroom_tools::camera_link_replay_payloader(o.link) +
        " mtu=" + std::to_string(o.mtu) + " ! fakesink name=net").c_str(),
       nullptr);
   GstElement* net = gst_bin_get_by_name(GST_BIN(p), "net");
@@ -147,7 +146,7 @@ int main(int argc, char** argv) {
   std::vector<vclassroom_tools::Recording> recordings(o.live_cameras ? 0 : o.cameras.size());
   for (size_t i = 0; i < recordings.size(); ++i)
     if (!vclassroom_tools::record_stream("rgbdtestsrc camera-id=" + std::to_string(o.cameras[i]) +
-                                             " num-buffers=60 ground-truth=false ! " + camera_coder(o),
+                                             " num-buffers=60 ground-truth=false ! " + vclassroom_tools::camera_link_replay_coder(o.link),
                                          60, &recordings[i])) {
       std::fprintf(stderr, "could not record camera %d\n", o.cameras[i]);
       return 1;
@@ -195,7 +194,7 @@ int main(int argc, char** argv) {
   } else {
     std::vector<const vclassroom_tools::Recording*> streams;
     for (const auto& r : recordings) streams.push_back(&r);
-    if (!replay.start(streams, o.cameras, o.drop, o.mtu, camera_payloader(o))) {
+    if (!replay.start(streams, o.cameras, o.drop, o.mtu, vclassroom_tools::camera_link_replay_payloader(o.link))) {
       std::fprintf(stderr, "could not start the cameras' replay\n");
       // The server already runs: stop it, so it does not keep the ports.
       for (pid_t c : children) {
