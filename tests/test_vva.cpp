@@ -894,6 +894,57 @@ TEST(HoleFill, AWideHoleBetweenTwoShadesOfAWallGoesFromOneToTheOther) {
   }
 }
 
+// The pyramid's smoothing as defined (HoleFillParams::smooth_px): each filled pixel becomes the mean of the
+// pixels of its (2r+1)^2 box that are filled too or lie behind the depth it was filled from (within the
+// background ratio), rounded as the fill rounds; never the object in front. Random colours and depths with
+// rectangles and speckle of holes, some at the image's edges; a narrow box and one wide enough to need
+// 32-bit sums (17x17 taps of 255).
+TEST(HoleFill, EachFilledPixelIsTheMeanOfWhatLiesBehindItInItsBox) {
+  cv::RNG rng(20261127);
+  for (int r : {1, 2, 8}) {
+    const cv::Size size(150, 90);
+    cv::Mat color(size, CV_8UC3), depth(size, CV_16UC1);
+    rng.fill(color, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(depth, cv::RNG::UNIFORM, 1500, 5000);
+    for (int i = 0; i < 6; ++i)
+      cv::rectangle(depth, cv::Rect(rng.uniform(-20, size.width), rng.uniform(-10, size.height), rng.uniform(2, 40),
+                                    rng.uniform(2, 30)),
+                    cv::Scalar(0), cv::FILLED);
+    for (int i = 0; i < 200; ++i) depth.at<uint16_t>(rng.uniform(0, size.height), rng.uniform(0, size.width)) = 0;
+    HoleFillParams p;
+    p.smooth_px = 0;
+    cv::Mat unsmoothed = color.clone(), mask0 = cv::Mat::zeros(size, CV_8UC1), fill_depth = depth.clone();
+    fill_holes(unsmoothed, depth, p, mask0, &fill_depth);
+    p.smooth_px = r;
+    cv::Mat smoothed = color.clone(), mask = cv::Mat::zeros(size, CV_8UC1);
+    fill_holes(smoothed, depth, p, mask);
+    ASSERT_EQ(cv::norm(mask, mask0, cv::NORM_INF), 0);
+    const float keep = float(1.0 - p.background_ratio);
+    int checked = 0;
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x) {
+        if (!mask.at<uint8_t>(y, x)) continue;
+        const int bound = int(std::ceil(keep * float(fill_depth.at<uint16_t>(y, x))));
+        int sum[3] = {0, 0, 0}, n = 0;
+        for (int v = std::max(0, y - r); v <= std::min(size.height - 1, y + r); ++v)
+          for (int u = std::max(0, x - r); u <= std::min(size.width - 1, x + r); ++u) {
+            const int d = depth.at<uint16_t>(v, u);
+            if (d ? d < bound : !mask.at<uint8_t>(v, u)) continue;  // in front, or a hole left unfilled
+            const cv::Vec3b c = unsmoothed.at<cv::Vec3b>(v, u);
+            for (int k = 0; k < 3; ++k) sum[k] += c[k];
+            ++n;
+          }
+        ASSERT_GE(n, 1);
+        const float inv = 1.0f / float(n);
+        for (int k = 0; k < 3; ++k)
+          ASSERT_EQ(smoothed.at<cv::Vec3b>(y, x)[k], uint8_t(float(sum[k]) * inv + 0.5f))
+              << "radius " << r << " at " << x << "," << y << " channel " << k;
+        ++checked;
+      }
+    EXPECT_GT(checked, 1000) << "radius " << r;
+  }
+}
+
 TEST(LearnerSeg, IdsStayStableThroughMotionOcclusionAndReturn) {
   const int w = 160, h = 100;
   const cv::Mat room(h, w, CV_16UC1, cv::Scalar(3000));

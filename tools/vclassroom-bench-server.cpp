@@ -268,7 +268,7 @@ void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>&
 
 int main(int argc, char** argv) {
   int frames = 60, threads = 2, memory = -1, views = 0;  // memory -1: not given
-  double yaw = 0;
+  double yaw = 0, pitch = 0;
   gboolean no_edge_to_near = FALSE, no_model = FALSE, fill_only = FALSE, no_view_cull = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
@@ -291,6 +291,11 @@ int main(int argc, char** argv) {
       {"yaw", 0, 0, G_OPTION_ARG_DOUBLE, &yaw,
        "with --views: the lecturers look this many degrees to the right (negative: left) of the walk's heading, "
        "as a lecturer turned towards one side of the class (default 0)",
+       "DEG"},
+      {"pitch", 0, 0, G_OPTION_ARG_DOUBLE, &pitch,
+       "the lecturers look this many degrees up (negative: down) from the cameras' tilt; 20 is a headset worn "
+       "level above cameras tilted 20 degrees down, as the browser page's scripted headset in "
+       "vclassroom-measure-lecturers, whose view is then a third unseen (default 0)",
        "DEG"},
       {"fill-only", 0, 0, G_OPTION_ARG_NONE, &fill_only,
        "only time the hole filling of viewfuse, its two methods (fill-method pyramid and rays) alternating on the "
@@ -325,10 +330,11 @@ int main(int argc, char** argv) {
   const CameraCalib& ref = rig.camera(0);
   // Camera 0's pose moved 0.2 m left, then on along a slow sideways walk with
   // a head turn (1 slider step per 30 frames).
+  const double look_up = pitch / kSliderDegrees;
   auto virt_at = [&](int w, int h) {
-    return std::function<CameraCalib(int)>([&ref, w, h](int f) {
+    return std::function<CameraCalib(int)>([&ref, w, h, look_up](int f) {
       const double s = (f % 300) / 30.0;
-      const Pose p = sliders_to_pose(Sliders{40 + s, 50, 50, 50 + s, 50, 50}, ref);
+      const Pose p = sliders_to_pose(Sliders{40 + s, 50, 50, 50 + s, 50 + look_up, 50}, ref);
       return virtual_camera(scale_camera(ref, w, h), p.cam_to_rig(), NAN);
     });
   };
@@ -341,9 +347,9 @@ int main(int argc, char** argv) {
     std::vector<Camera> cams = make_cams({0, 1, 2});
     // View v: the walk above, its start moved v slider steps right and up, so no two views share a pose.
     const double turn = yaw / kSliderDegrees;
-    const std::function<CameraCalib(int, int)> view_at = [&ref, turn](int f, int v) {
+    const std::function<CameraCalib(int, int)> view_at = [&ref, turn, look_up](int f, int v) {
       const double s = (f % 300) / 30.0;
-      const Pose p = sliders_to_pose(Sliders{40 + s + 4 * v, 50.0 + 3 * v, 50, 50 + s + turn, 50, 50}, ref);
+      const Pose p = sliders_to_pose(Sliders{40 + s + 4 * v, 50.0 + 3 * v, 50, 50 + s + turn, 50 + look_up, 50}, ref);
       return virtual_camera(ref, p.cam_to_rig(), NAN);
     };
     std::printf("V-VA views, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, 1 thread\n",

@@ -2,11 +2,13 @@
 // borders, and the smoothing both methods share. The fill before issue 35 is in hole_fill_rays.cpp.
 #include <gst/vclassroom/vva/hole_fill.h>
 #include <gst/vclassroom/vva/hole_runs.h>
+#include <gst/vclassroom/core/simd.h>
 
 #include <algorithm>
 #include <climits>
 #include <cmath>
 #include <cstring>
+#include <utility>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -135,7 +137,7 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
                                       std::vector<float>* ray_weight, std::vector<uint8_t>* border_px,
                                       cv::Mat& source_mark,
                                       std::vector<uint32_t>* sources, std::vector<uint8_t>* hole_tile,
-                                      std::vector<HoleRun>* runs) {
+                                      std::vector<HoleRun>* runs, const cv::Mat* left_to_caller) {
   const int W = depth.cols, H = depth.rows, tiles_x = (W + kTile - 1) / kTile;
   std::vector<int>& above = kept_between_calls<std::vector<int>, 0>();
   std::vector<int>& below = kept_between_calls<std::vector<int>, 1>();
@@ -153,18 +155,30 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
       uint8_t& m = source_mark.ptr<uint8_t>(sy)[sx];
       if (!m) m = 1, sources->push_back(uint32_t(sy) << 16 | uint32_t(sx));
     };
+    const uint8_t* left_out = left_to_caller ? left_to_caller->ptr<uint8_t>(y) : nullptr;
     int x = 0, a = 0, b = 0;
     while (next_hole_run(d, W, &x, &a, &b)) {  // holes a..b
       for (int t = a / kTile; t <= b / kTile; ++t) tiles[t] = 1;
-      runs->push_back(HoleRun{y, a, b});
       const int z_left = a > 0 ? d[a - 1] : 0, z_right = b + 1 < W ? d[b + 1] : 0;
       bool left_used = false, right_used = false;  // the run's own ends: marked once, after it
+      int segment = a;  // the first pixel of the run's part filled here (runs lists only those parts)
       for (int h = a; h <= b; ++h) {
         find_known_rows(depth, y, h, above, below);
         const int z_up = above[h] >= 0 ? depth.ptr<uint16_t>(above[h])[h] : 0;
         const int z_down = below[h] < H ? depth.ptr<uint16_t>(below[h])[h] : 0;
         const int zmax = std::max(std::max(z_left, z_right), std::max(z_up, z_down));
         const float zlo = float(zmax) * keep;
+        if (left_out && left_out[h]) {
+          // Not filled, but its ray ends are sources as before (the pyramid's cells, and so the fill of the
+          // pixels near it, stay as they were), and its tile holds a hole.
+          if (z_left && float(z_left) >= zlo) left_used = true;
+          if (z_right && float(z_right) >= zlo) right_used = true;
+          if (z_up && float(z_up) >= zlo) mark(above[h], h);
+          if (z_down && float(z_down) >= zlo) mark(below[h], h);
+          if (segment < h) runs->push_back(HoleRun{y, segment, h - 1});
+          segment = h + 1;
+          continue;
+        }
         float acc[3] = {0, 0, 0}, wsum = 0;
         auto take = [&](int dist, const uint8_t* c) {
           const float w = inverse[size_t(dist)];
@@ -187,6 +201,7 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
           for (int k = 0; k < 3; ++k) c[k] = uint8_t(acc[k] * iw + 0.5f);
         }
       }
+      if (segment <= b) runs->push_back(HoleRun{y, segment, b});
       if (left_used) mark(y, a - 1);  // (once per run, not once per hole pixel of it)
       if (right_used) mark(y, b + 1);
     }
@@ -500,47 +515,168 @@ void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* fi
 // The pyramid's smoothing: each filled pixel becomes the mean of the (2r+1)^2 box around it, over the pixels
 // there that are filled too or lie behind it (within `keep` of the depth it was filled from, or farther): the
 // object that caused the hole is never blurred into it. r is `r_min`, or up to `r_max` deeper in the hole
-// (kPyramidSmoothMaxPx). The new colours are kept aside until all are made.
+// (kPyramidSmoothMaxPx). Every box reads the colours as the pyramid left them.
+//
+// A view that looks where no camera does is half holes (a lecturer looking level above cameras tilted down), and
+// a box per filled pixel tested tap by tap was then the server's largest cost. So the rows the boxes read are
+// first copied into planes padded by r_max on each side: a key per pixel (its depth; a filled hole
+// kFilledKey, an unfilled one 0) and the three colours. A tap then counts where its key is at least the
+// centre's bound, one compare, and a run's pixels are summed tap by tap in vectors (sum_taps).
+constexpr uint16_t kFilledKey = 65535;  // above any bound: a filled pixel always counts
+
+struct SmoothPlanes {
+  int stride = 0, pad = 0;
+  std::vector<uint16_t> key;
+  std::vector<uint8_t> red, green, blue;
+  std::vector<std::pair<int, int>> spans;  // a row's columns to copy
+  // Per run pixel (reused run to run): its bound, radius, and the sums.
+  std::vector<uint16_t> bound, radius, sum_r, sum_g, sum_b, count;
+  std::vector<uint32_t> wide_r, wide_g, wide_b, wide_count;
+};
+
+// Columns x0..x1 of row v into the planes.
+void copy_to_planes(SmoothPlanes& p, const cv::Mat& color, const cv::Mat& depth, const cv::Mat& mask, int v, int x0,
+                    int x1) {
+  const size_t at = size_t(v) * size_t(p.stride) + size_t(p.pad);
+  const uint8_t* c = color.ptr<uint8_t>(v);
+  const uint16_t* d = depth.ptr<uint16_t>(v);
+  const uint8_t* m = mask.ptr<uint8_t>(v);
+  uint16_t* key = p.key.data() + at;
+  uint8_t *r = p.red.data() + at, *g = p.green.data() + at, *b = p.blue.data() + at;
+  for (int u = x0; u <= x1; ++u) {
+    key[u] = d[u] ? d[u] : m[u] ? kFilledKey : 0;
+    r[u] = c[3 * u], g[u] = c[3 * u + 1], b[u] = c[3 * u + 2];
+  }
+}
+
+// What the boxes of `runs` (sorted by row) read, into the planes: in each row the columns within R of a run
+// within R rows, each once.
+void copy_boxes_to_planes(SmoothPlanes& p, const std::vector<HoleRun>& runs, const cv::Mat& color,
+                          const cv::Mat& depth, const cv::Mat& mask, int R) {
+  const int W = color.cols, H = color.rows;
+  std::vector<std::pair<int, int>>& spans = p.spans;
+  size_t first = 0;  // the first run at or below row v - R
+  for (int v = std::max(0, runs.front().y - R); v <= std::min(H - 1, runs.back().y + R); ++v) {
+    while (first < runs.size() && runs[first].y < v - R) ++first;
+    spans.clear();
+    for (size_t i = first; i < runs.size() && runs[i].y <= v + R; ++i)
+      spans.emplace_back(std::max(0, runs[i].a - R), std::min(W - 1, runs[i].b + R));
+    std::sort(spans.begin(), spans.end());
+    for (size_t i = 0; i < spans.size();) {
+      int x0 = spans[i].first, x1 = spans[i].second;
+      for (++i; i < spans.size() && spans[i].first <= x1 + 1; ++i) x1 = std::max(x1, spans[i].second);
+      copy_to_planes(p, color, depth, mask, v, x0, x1);
+    }
+  }
+}
+
+// The sums of one run of n pixels: tap (du, dv) counts for pixel i when the key there is at least bound[i] and
+// the tap lies within radius[i]. Row pointers (rows[dv + R], null outside the image) point at the run's first
+// pixel. Sum is wide enough for (2R+1)^2 taps of 255.
+template <typename Sum>
+VCLASSROOM_SIMD_INLINE void sum_taps(int n, int R, const uint16_t* const* key_rows, const uint8_t* const* red_rows,
+                                     const uint8_t* const* green_rows, const uint8_t* const* blue_rows,
+                                     const uint16_t* __restrict bound, const uint16_t* __restrict radius,
+                                     Sum* __restrict sr, Sum* __restrict sg, Sum* __restrict sb, Sum* __restrict count) {
+  for (int i = 0; i < n; ++i) sr[i] = 0, sg[i] = 0, sb[i] = 0, count[i] = 0;
+  for (int dv = -R; dv <= R; ++dv) {
+    if (!key_rows[dv + R]) continue;
+    for (int du = -R; du <= R; ++du) {
+      const uint16_t reach = uint16_t(std::max(std::abs(dv), std::abs(du)));
+      const uint16_t* __restrict k = key_rows[dv + R] + du;
+      const uint8_t* __restrict r = red_rows[dv + R] + du;
+      const uint8_t* __restrict g = green_rows[dv + R] + du;
+      const uint8_t* __restrict b = blue_rows[dv + R] + du;
+      for (int i = 0; i < n; ++i) {
+        const Sum take = (k[i] >= bound[i]) & (radius[i] >= reach);
+        const Sum all = Sum(0) - take;
+        sr[i] += Sum(r[i]) & all, sg[i] += Sum(g[i]) & all, sb[i] += Sum(b[i]) & all, count[i] += take;
+      }
+    }
+  }
+}
+
+VCLASSROOM_SIMD_CLONES
+void sum_taps_16(int n, int R, const uint16_t* const* key_rows, const uint8_t* const* red_rows,
+                 const uint8_t* const* green_rows, const uint8_t* const* blue_rows, const uint16_t* bound,
+                 const uint16_t* radius, uint16_t* sr, uint16_t* sg, uint16_t* sb, uint16_t* count) {
+  sum_taps(n, R, key_rows, red_rows, green_rows, blue_rows, bound, radius, sr, sg, sb, count);
+}
+
+VCLASSROOM_SIMD_CLONES
+void sum_taps_32(int n, int R, const uint16_t* const* key_rows, const uint8_t* const* red_rows,
+                 const uint8_t* const* green_rows, const uint8_t* const* blue_rows, const uint16_t* bound,
+                 const uint16_t* radius, uint32_t* sr, uint32_t* sg, uint32_t* sb, uint32_t* count) {
+  sum_taps(n, R, key_rows, red_rows, green_rows, blue_rows, bound, radius, sr, sg, sb, count);
+}
+
+// One run's new colours, written straight into `color` (the boxes read the planes, not `color`).
+template <typename Sum>
+void write_means(int n, const uint16_t* fd, const Sum* sr, const Sum* sg, const Sum* sb, const Sum* count,
+                 uint8_t* c) {
+  for (int i = 0; i < n; ++i) {
+    if (!fd[i]) continue;  // not filled
+    const float inv = 1.0f / float(count[i]);  // count >= 1: the pixel itself; a reciprocal, not three divisions
+    c[3 * i] = uint8_t(float(sr[i]) * inv + 0.5f);
+    c[3 * i + 1] = uint8_t(float(sg[i]) * inv + 0.5f);
+    c[3 * i + 2] = uint8_t(float(sb[i]) * inv + 0.5f);
+  }
+}
+
 void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const cv::Mat& mask, float keep,
                    int r_min, int r_max) {
-  if (r_max <= 0) return;
-  const int W = color.cols, H = color.rows;
-  struct Smoothed {
-    int y, x;
-    uint8_t rgb[3];
-  };
-  std::vector<Smoothed>& out = kept_between_calls<std::vector<Smoothed>, 0>();
-  out.clear();
+  if (r_max <= 0 || st.runs.empty()) return;
+  const int W = color.cols, H = color.rows, R = r_max;
+  SmoothPlanes& p = kept_between_calls<SmoothPlanes, 0>();
+  p.pad = R, p.stride = W + 2 * R;
+  const size_t plane = size_t(H) * size_t(p.stride);
+  if (p.key.size() != plane) {  // the padding stays 0: never counted
+    p.key.assign(plane, 0), p.red.assign(plane, 0), p.green.assign(plane, 0), p.blue.assign(plane, 0);
+  }
+  copy_boxes_to_planes(p, st.runs, color, depth, mask, R);
+  const bool wide = (2 * R + 1) * (2 * R + 1) * 255 > 65535;
+  std::vector<const uint16_t*> key_rows(size_t(2 * R + 1));
+  std::vector<const uint8_t*> red_rows(key_rows.size()), green_rows(key_rows.size()), blue_rows(key_rows.size());
   const uint16_t* fd = st.fill_depth.data();
   const uint8_t* border = st.border_px.data();
   for (const HoleRun& run : st.runs) {
-    const int y = run.y;
-    for (int x = run.a; x <= run.b; ++x, ++fd, ++border) {
-      if (!*fd) continue;  // not filled
-      const int r = std::clamp(int(*border) - 1, r_min, r_max);
-      const int y0 = std::max(0, y - r), y1 = std::min(H - 1, y + r);
-      // A known depth d is behind when float(d) >= keep * fd, i.e. d >= zlo (integers: no conversion per tap).
-      const int zlo = int(std::ceil(keep * float(*fd)));
-      const int x0 = std::max(0, x - r), x1 = std::min(W - 1, x + r);
-      int sum[3] = {0, 0, 0}, n = 0;
-      for (int v = y0; v <= y1; ++v) {
-        const uint8_t* c = color.ptr<uint8_t>(v);
-        const uint16_t* d = depth.ptr<uint16_t>(v);
-        const uint8_t* m = mask.ptr<uint8_t>(v);
-        for (int u = x0; u <= x1; ++u) {
-          if (d[u] ? d[u] < zlo : !m[u]) continue;  // in front, or a hole left unfilled
-          sum[0] += c[3 * u], sum[1] += c[3 * u + 1], sum[2] += c[3 * u + 2], ++n;
-        }
-      }
-      Smoothed s{y, x, {}};
-      const float inv = 1.0f / float(n);  // n >= 1: the pixel itself; a reciprocal, not three divisions
-      for (int k = 0; k < 3; ++k) s.rgb[k] = uint8_t(float(sum[k]) * inv + 0.5f);
-      out.push_back(s);
+    const int n = run.b - run.a + 1;
+    p.bound.resize(size_t(n)), p.radius.resize(size_t(n));
+    for (int i = 0; i < n; ++i) {
+      // A known depth d is behind when float(d) >= keep * fd, i.e. d >= bound (integers: no conversion per tap).
+      p.bound[size_t(i)] = uint16_t(std::max(1, int(std::ceil(keep * float(fd[i])))));  // an unfilled hole never counts
+      p.radius[size_t(i)] = uint16_t(std::clamp(int(border[i]) - 1, r_min, r_max));
     }
+    for (int dv = -R; dv <= R; ++dv) {
+      const int v = run.y + dv;
+      const bool inside = v >= 0 && v < H;
+      const size_t at = size_t(v) * size_t(p.stride) + size_t(p.pad + run.a);
+      key_rows[size_t(dv + R)] = inside ? p.key.data() + at : nullptr;
+      red_rows[size_t(dv + R)] = inside ? p.red.data() + at : nullptr;
+      green_rows[size_t(dv + R)] = inside ? p.green.data() + at : nullptr;
+      blue_rows[size_t(dv + R)] = inside ? p.blue.data() + at : nullptr;
+    }
+    uint8_t* out = color.ptr<uint8_t>(run.y) + 3 * run.a;
+    if (!wide) {
+      p.sum_r.resize(size_t(n)), p.sum_g.resize(size_t(n)), p.sum_b.resize(size_t(n)), p.count.resize(size_t(n));
+      sum_taps_16(n, R, key_rows.data(), red_rows.data(), green_rows.data(), blue_rows.data(), p.bound.data(),
+                  p.radius.data(), p.sum_r.data(), p.sum_g.data(), p.sum_b.data(), p.count.data());
+      write_means(n, fd, p.sum_r.data(), p.sum_g.data(), p.sum_b.data(), p.count.data(), out);
+    } else {
+      p.wide_r.resize(size_t(n)), p.wide_g.resize(size_t(n)), p.wide_b.resize(size_t(n));
+      p.wide_count.resize(size_t(n));
+      sum_taps_32(n, R, key_rows.data(), red_rows.data(), green_rows.data(), blue_rows.data(), p.bound.data(),
+                  p.radius.data(), p.wide_r.data(), p.wide_g.data(), p.wide_b.data(), p.wide_count.data());
+      write_means(n, fd, p.wide_r.data(), p.wide_g.data(), p.wide_b.data(), p.wide_count.data(), out);
+    }
+    fd += n, border += n;
   }
-  for (const Smoothed& s : out) std::memcpy(color.ptr<uint8_t>(s.y) + 3 * s.x, s.rgb, 3);
 }
 
+// The pyramid's smoothing: each filled pixel becomes the mean of the (2r+1)^2 box around it, over the pixels
+// there that are filled too or lie behind it (within `keep` of the depth it was filled from, or farther): the
+// object that caused the hole is never blurred into it. r is `r_min`, or up to `r_max` deeper in the hole
+// (kPyramidSmoothMaxPx). The new colours are kept aside until all are made.
 // A filled pixel that was filled the frame before too, from a background within kSteadyDepthRatio of the same
 // depth, takes its old colour plus a share of the change: the change's largest channel over kSteadyPassLevels
 // grey levels, at least kSteadyMinShare. The sensor's noise on a hole's border moves its fill by a few grey
@@ -598,7 +734,8 @@ void keep_steady_fill(const PyramidState& st, cv::Mat& color, HoleFillHistory& h
 // depends on the image alone (no pose, no earlier frame), so a hole that stays put is filled alike, up to
 // its border's noise, which `history` (when given) damps.
 void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
-                           cv::Mat& mask, cv::Mat* filled_depth, HoleFillHistory* history) {
+                           cv::Mat& mask, cv::Mat* filled_depth, HoleFillHistory* history,
+                           const cv::Mat* left_to_caller) {
   const int W = color.cols, H = color.rows;
   CV_Assert(W < 65536 && H < 65536);  // a source is listed as y << 16 | x
   PyramidState& st = kept_between_calls<PyramidState, 0>();
@@ -611,15 +748,15 @@ void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double backgrou
   st.runs.clear();
   const float keep = float(1.0 - background_ratio);
   fill_along_rays_and_mark_sources(depth, keep, color, &st.ray_weight, &st.border_px, st.source_mark,
-                                   &st.sources, &st.hole_tile, &st.runs);
+                                   &st.sources, &st.hole_tile, &st.runs, left_to_caller);
   for (uint32_t i : st.sources) st.source_mark.ptr<uint8_t>(int(i >> 16))[i & 0xffff] = 0;
   if (!st.runs.empty()) {
     mark_active_tiles(st);
     pull_down(st, push_up(st, color, depth));
     fill_from_base(st, color, mask, filled_depth);
     // smooth_px < 0: 1 px next to the border, wider deeper in (kPyramidSmoothMaxPx).
-    if (smooth_px < 0) smooth_behind(st, color, depth, mask, keep, kPyramidSmoothPx, kPyramidSmoothMaxPx);
-    else smooth_behind(st, color, depth, mask, keep, smooth_px, smooth_px);
+    const int r0 = smooth_px < 0 ? kPyramidSmoothPx : smooth_px, r1 = smooth_px < 0 ? kPyramidSmoothMaxPx : smooth_px;
+    smooth_behind(st, color, depth, mask, keep, r0, r1);
   }
   if (history) keep_steady_fill(st, color, *history);  // also without holes: the last frame's are gone
 }
@@ -677,17 +814,24 @@ void smooth_filled_pixels(cv::Mat& color, const cv::Mat& filled, int smooth_px) 
   for (const Smoothed& s : out) std::memcpy(color.ptr<uint8_t>(s.y) + 3 * s.x, s.rgb, 3);
 }
 
+int hole_fill_reach(const HoleFillParams& params) {
+  if (params.smooth_px >= 0) return params.smooth_px;
+  return params.method == HoleFillMethod::Rays ? kRaysSmoothPx : std::max(kPyramidSmoothPx, kPyramidSmoothMaxPx);
+}
+
 void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
-                cv::Mat* filled_depth, HoleFillHistory* history) {
+                cv::Mat* filled_depth, HoleFillHistory* history, const cv::Mat* left_to_caller) {
   CV_Assert(color.type() == CV_8UC3 && depth.type() == CV_16UC1 && mask.type() == CV_8UC1 &&
             color.size() == depth.size() && mask.size() == color.size());
+  CV_Assert(!left_to_caller || (left_to_caller->type() == CV_8UC1 && left_to_caller->size() == color.size()));
   if (params.method == HoleFillMethod::Rays) {
     HoleFillParams rays = params;
     if (rays.smooth_px < 0) rays.smooth_px = kRaysSmoothPx;
     fill_holes_along_rays(color, depth, rays, mask, filled_depth);
     return;
   }
-  fill_holes_by_pyramid(color, depth, params.background_ratio, params.smooth_px, mask, filled_depth, history);
+  fill_holes_by_pyramid(color, depth, params.background_ratio, params.smooth_px, mask, filled_depth, history,
+                        left_to_caller);
 }
 
 }  // namespace vclassroom

@@ -49,14 +49,24 @@ struct HoleFillHistory {
 // gets the background depth chosen for each filled pixel. A view without any known pixel stays as it is.
 // `history` (optional, the pyramid only): the same view's fill of the frame before, blended in (see
 // keep_steady_fill in hole_fill.cpp) and then replaced by this frame's.
+// `left_to_caller` (optional, CV_8UC1 the size of `color`; the pyramid only): hole pixels set there are not
+// filled (colour and mask untouched), for a caller that paints them itself (viewfuse's fade, far from
+// anything seen). The other pixels are filled as without it, bit for bit, as long as no pixel within
+// hole_fill_reach() of one left is kept (the smoothing reads its neighbours' fill).
 void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
-                cv::Mat* filled_depth = nullptr, HoleFillHistory* history = nullptr);
+                cv::Mat* filled_depth = nullptr, HoleFillHistory* history = nullptr,
+                const cv::Mat* left_to_caller = nullptr);
+
+// How far (px, along a row, a column or diagonally) a filled pixel's colour reads the fill of other hole
+// pixels: the smoothing's widest radius.
+int hole_fill_reach(const HoleFillParams& params);
 
 // The two methods, as fill_holes runs them by params.method (the pyramid's smoothing averages only what
 // lies behind each filled pixel, smooth_px < 0 its own widening one; the rays' blurs all around it, as before
 // issue 35).
 void fill_holes_by_pyramid(cv::Mat& color, const cv::Mat& depth, double background_ratio, int smooth_px,
-                           cv::Mat& mask, cv::Mat* filled_depth, HoleFillHistory* history = nullptr);
+                           cv::Mat& mask, cv::Mat* filled_depth, HoleFillHistory* history = nullptr,
+                           const cv::Mat* left_to_caller = nullptr);
 void fill_holes_along_rays(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
                            cv::Mat* filled_depth);
 

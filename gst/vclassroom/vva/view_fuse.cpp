@@ -142,8 +142,8 @@ void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_m
   store_row(W, s.r.data(), s.g.data(), s.b.data(), s.z.data(), s.lab.data(), oc, od, ol);
 }
 
-// Blends the fill towards a neutral grey with the distance to the nearest
-// seen pixel: untouched up to `start` px, grey from `start + length` px on.
+// The fade of the fill towards a neutral grey with the distance to the nearest seen pixel: untouched up to
+// `start` px, grey from `start + length` px on.
 //
 // The distance is OpenCV's 3x3 chamfer (steps of kStraight and kDiagonal px),
 // and it is taken only where it can matter, with the very values the whole
@@ -151,17 +151,24 @@ void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_m
 // seen lies in a block of unseen pixels (kBlock px square: a seen pixel in
 // its block would be at most (kBlock - 1) * kDiagonal away), so only the box
 // around those blocks is faded; and the transform runs on that box grown by
-// the distance where the fade saturates, so every seen pixel nearer than that
-// to a faded one is inside it (a chamfer path stays within the box of its
+// the farthest distance asked for, so every seen pixel nearer than that
+// to a pixel of the box is inside it (a chamfer path stays within the box of its
 // ends). A view with no such block skips the transform (a full-frame pass of
 // a few ms); one that turns from the room shows a band of them and gains less.
-void fade_unseen(cv::Mat& color, const cv::Mat& depth, double start, double length) {
-  constexpr double kStraight = 0.955, kDiagonal = 1.3693;  // cv::distanceTransform's DIST_L2 3x3 mask
+constexpr double kStraight = 0.955, kDiagonal = 1.3693;  // cv::distanceTransform's DIST_L2 3x3 mask
+
+struct UnseenDistance {
+  cv::Rect blocks;  // where a pixel may be farther than the fade's start
+  cv::Rect around;  // the transform's box
+  cv::Mat distance;  // CV_32FC1 over `around`
+};
+
+// The distances of UnseenDistance, exact up to `exact_to` px; false when no pixel is farther than `start`.
+bool measure_unseen(const cv::Mat& depth, double start, double exact_to, UnseenDistance* u) {
   constexpr int kBlock = 8;
   const int W = depth.cols, H = depth.rows;
-  cv::Rect unseen_blocks;  // where a pixel may be farther than `start`
   if (start < (kBlock - 1) * kDiagonal) {
-    unseen_blocks = cv::Rect(0, 0, W, H);
+    u->blocks = cv::Rect(0, 0, W, H);
   } else {
     int x0 = W, y0 = H, x1 = 0, y1 = 0;
     std::vector<uint8_t> all_unseen(size_t((W + kBlock - 1) / kBlock));
@@ -187,26 +194,49 @@ void fade_unseen(cv::Mat& color, const cv::Mat& depth, double start, double leng
         y1 = std::max(y1, std::min(H, by + kBlock));
       }
     }
-    if (x0 >= x1) return;
-    unseen_blocks = cv::Rect(x0, y0, x1 - x0, y1 - y0);
+    if (x0 >= x1) return false;
+    u->blocks = cv::Rect(x0, y0, x1 - x0, y1 - y0);
   }
-  const int margin = int(std::ceil((start + length) / kStraight)) + 1;
-  const cv::Rect around = cv::Rect(unseen_blocks.x - margin, unseen_blocks.y - margin,
-                                   unseen_blocks.width + 2 * margin, unseen_blocks.height + 2 * margin) &
-                          cv::Rect(0, 0, W, H);
-  static thread_local cv::Mat holes, distance;
-  cv::compare(depth(around), 0, holes, cv::CMP_EQ);
-  cv::distanceTransform(holes, distance, cv::DIST_L2, cv::DIST_MASK_3);
+  const int margin = int(std::ceil(exact_to / kStraight)) + 1;
+  u->around = cv::Rect(u->blocks.x - margin, u->blocks.y - margin, u->blocks.width + 2 * margin,
+                       u->blocks.height + 2 * margin) &
+              cv::Rect(0, 0, W, H);
+  static thread_local cv::Mat holes;
+  cv::compare(depth(u->around), 0, holes, cv::CMP_EQ);
+  cv::distanceTransform(holes, u->distance, cv::DIST_L2, cv::DIST_MASK_3);
+  return true;
+}
+
+// The holes farther than `beyond` from everything seen, set in `left` (zero elsewhere).
+void mark_far_holes(const UnseenDistance& u, double beyond, cv::Mat& left) {
+  left.setTo(0);
+  const float limit = float(beyond);
+  for (int y = u.blocks.y; y < u.blocks.y + u.blocks.height; ++y) {
+    const float* d = u.distance.ptr<float>(y - u.around.y) - u.around.x;
+    uint8_t* l = left.ptr<uint8_t>(y);
+    for (int x = u.blocks.x; x < u.blocks.x + u.blocks.width; ++x) l[x] = d[x] > limit ? 255 : 0;
+  }
+}
+
+// The fade itself. The pixels in `left` (optional: the fill left them to the fade, all of them grey here) are
+// marked in `filled` as made.
+void fade_unseen(const UnseenDistance& u, cv::Mat& color, double start, double length, const cv::Mat* left,
+                 cv::Mat& filled) {
   constexpr float kNeutral = 96.0f;  // a dim grey, calm beside any picture
   const float s = float(start), inv_len = 1.0f / float(std::max(length, 1.0));
-  for (int y = unseen_blocks.y; y < unseen_blocks.y + unseen_blocks.height; ++y) {
-    const float* d = distance.ptr<float>(y - around.y) - around.x;
+  for (int y = u.blocks.y; y < u.blocks.y + u.blocks.height; ++y) {
+    const float* d = u.distance.ptr<float>(y - u.around.y) - u.around.x;
     uint8_t* c = color.ptr<uint8_t>(y);
-    for (int x = unseen_blocks.x; x < unseen_blocks.x + unseen_blocks.width; ++x) {
+    for (int x = u.blocks.x; x < u.blocks.x + u.blocks.width; ++x) {
       if (d[x] <= s) continue;
       float a = std::min(1.0f, (d[x] - s) * inv_len);
       a = a * a * (3 - 2 * a);  // smoothstep: no visible ring where the fade starts
       for (int k = 0; k < 3; ++k) c[3 * x + k] = uint8_t(float(c[3 * x + k]) * (1 - a) + kNeutral * a + 0.5f);
+    }
+    if (left) {
+      const uint8_t* l = left->ptr<uint8_t>(y);
+      uint8_t* f = filled.ptr<uint8_t>(y);
+      for (int x = u.blocks.x; x < u.blocks.x + u.blocks.width; ++x) f[x] |= l[x];
     }
   }
 }
@@ -246,11 +276,25 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   // The fused depth stays as seen (0 in the holes): the fill's depth is a guess.
   const int unseen = int(out->depth.total()) - cv::countNonZero(out->depth);
   out->unseen_share = double(unseen) / double(out->depth.total());
-  if (prm.fill_holes) {
-    fill_holes(out->color, out->depth, hole_fill_params(prm), out->filled, nullptr, fill_history);
-    if (prm.fade_unseen && unseen > 0)
-      fade_unseen(out->color, out->depth, prm.fade_start * size.width, prm.fade_length * size.width);
+  if (!prm.fill_holes) return;
+  const HoleFillParams fill = hole_fill_params(prm);
+  const double start = prm.fade_start * size.width, length = prm.fade_length * size.width;
+  // The holes farther than this from anything seen are grey after the fade, whatever the fill made there, and
+  // so is every pixel whose fill reads theirs (within hole_fill_reach, at most that many diagonal steps nearer):
+  // the fill leaves them to the fade. A lecturer looking where no camera does is half holes, most of them
+  // there. (The pyramid only: the rays' fill, kept for comparison, fills them all.)
+  const double far = start + length + hole_fill_reach(fill) * kDiagonal + 1;
+  UnseenDistance unseen_distance;
+  const bool fade = prm.fade_unseen && unseen > 0 && measure_unseen(out->depth, start, far, &unseen_distance);
+  static thread_local cv::Mat left;
+  // (A view with nothing seen is left as it is by the fill: then none is marked made.)
+  const bool leave = fade && fill.method == HoleFillMethod::Pyramid && unseen < int(out->depth.total());
+  if (leave) {
+    left.create(size, CV_8UC1);
+    mark_far_holes(unseen_distance, far, left);
   }
+  fill_holes(out->color, out->depth, fill, out->filled, nullptr, fill_history, leave ? &left : nullptr);
+  if (fade) fade_unseen(unseen_distance, out->color, start, length, leave ? &left : nullptr, out->filled);
 }
 
 void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px,
