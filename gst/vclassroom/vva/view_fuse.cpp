@@ -201,9 +201,11 @@ bool measure_unseen(const cv::Mat& depth, double start, double exact_to, UnseenD
   u->around = cv::Rect(u->blocks.x - margin, u->blocks.y - margin, u->blocks.width + 2 * margin,
                        u->blocks.height + 2 * margin) &
               cv::Rect(0, 0, W, H);
-  static thread_local cv::Mat holes;
+  // Kept between frames (a fresh image each frame costs page faults); u->distance shares it.
+  static thread_local cv::Mat holes, distance;
   cv::compare(depth(u->around), 0, holes, cv::CMP_EQ);
-  cv::distanceTransform(holes, u->distance, cv::DIST_L2, cv::DIST_MASK_3);
+  cv::distanceTransform(holes, distance, cv::DIST_L2, cv::DIST_MASK_3);
+  u->distance = distance;
   return true;
 }
 
