@@ -383,7 +383,8 @@ TEST(HonestEdge, TheFadeIsTheWholeFramesDistanceFadeWhateverTheHolesLookLike) {
     v.depth.create(size, CV_16UC1);
     rng.fill(v.depth, cv::RNG::UNIFORM, 1500, 5000);
     v.weight = cv::Mat(size, CV_8UC1, cv::Scalar(255));
-    // Unseen: rectangles (some at the frame's edges), discs and speckle; trial 0 only speckle, trial 1 nothing seen.
+    // Unseen: rectangles (some at the frame's edges), discs and speckle; trial 0 only speckle, trial 1 nothing seen,
+    // trial 4 two pixels seen.
     const int shapes = trial == 0 ? 0 : rng.uniform(1, 6);
     for (int i = 0; i < shapes; ++i) {
       const cv::Point p(rng.uniform(-size.width / 4, size.width), rng.uniform(-size.height / 4, size.height));
@@ -395,6 +396,10 @@ TEST(HonestEdge, TheFadeIsTheWholeFramesDistanceFadeWhateverTheHolesLookLike) {
     }
     for (int i = 0; i < 400; ++i) v.depth.at<uint16_t>(rng.uniform(0, size.height), rng.uniform(0, size.width)) = 0;
     if (trial == 1) v.depth.setTo(0);
+    if (trial == 4) {  // two pixels seen: too little for the pyramid's cells, so it fills nothing
+      v.depth.setTo(0);
+      v.depth.at<uint16_t>(100, 200) = 3000, v.depth.at<uint16_t>(300, 700) = 2500;
+    }
     FuseParams fade, plain;
     plain.fade_unseen = false;
     FusedView faded, unfaded;

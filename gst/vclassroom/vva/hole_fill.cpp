@@ -168,13 +168,14 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
         const int z_down = below[h] < H ? depth.ptr<uint16_t>(below[h])[h] : 0;
         const int zmax = std::max(std::max(z_left, z_right), std::max(z_up, z_down));
         const float zlo = float(zmax) * keep;
-        if (left_out && left_out[h]) {
-          // Not filled, but its ray ends are sources as before (the pyramid's cells, and so the fill of the
-          // pixels near it, stay as they were), and its tile holds a hole.
-          if (z_left && float(z_left) >= zlo) left_used = true;
-          if (z_right && float(z_right) >= zlo) right_used = true;
-          if (z_up && float(z_up) >= zlo) mark(above[h], h);
-          if (z_down && float(z_down) >= zlo) mark(below[h], h);
+        // Which ray ends lie behind: the pyramid's sources, whether this pixel is filled or left to the caller
+        // (so the pyramid's cells, and the fill of the pixels near it, are the same either way).
+        const bool behind_left = z_left && float(z_left) >= zlo, behind_right = z_right && float(z_right) >= zlo;
+        const bool behind_up = z_up && float(z_up) >= zlo, behind_down = z_down && float(z_down) >= zlo;
+        left_used |= behind_left, right_used |= behind_right;
+        if (behind_up) mark(above[h], h);
+        if (behind_down) mark(below[h], h);
+        if (left_out && left_out[h]) {  // not filled; its tile holds a hole all the same
           if (segment < h) runs->push_back(HoleRun{y, segment, h - 1});
           segment = h + 1;
           continue;
@@ -184,10 +185,10 @@ void fill_along_rays_and_mark_sources(const cv::Mat& depth, float keep, cv::Mat&
           const float w = inverse[size_t(dist)];
           acc[0] += w * c[0], acc[1] += w * c[1], acc[2] += w * c[2], wsum += w;
         };
-        if (z_left && float(z_left) >= zlo) left_used = true, take(h - a + 1, color.ptr<uint8_t>(y) + 3 * (a - 1));
-        if (z_right && float(z_right) >= zlo) right_used = true, take(b + 1 - h, color.ptr<uint8_t>(y) + 3 * (b + 1));
-        if (z_up && float(z_up) >= zlo) mark(above[h], h), take(y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h);
-        if (z_down && float(z_down) >= zlo) mark(below[h], h), take(below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h);
+        if (behind_left) take(h - a + 1, color.ptr<uint8_t>(y) + 3 * (a - 1));
+        if (behind_right) take(b + 1 - h, color.ptr<uint8_t>(y) + 3 * (b + 1));
+        if (behind_up) take(y - above[h], color.ptr<uint8_t>(above[h]) + 3 * h);
+        if (behind_down) take(below[h] - y, color.ptr<uint8_t>(below[h]) + 3 * h);
         ray_weight->push_back(wsum);
         int nearest = INT_MAX;  // the nearest known pixel along the four rays, whatever its depth
         if (z_left) nearest = std::min(nearest, h - a + 1);
@@ -522,16 +523,31 @@ void fill_from_base(PyramidState& st, cv::Mat& color, cv::Mat& mask, cv::Mat* fi
 // first copied into planes padded by r_max on each side: a key per pixel (its depth; a filled hole
 // kFilledKey, an unfilled one 0) and the three colours. A tap then counts where its key is at least the
 // centre's bound, one compare, and a run's pixels are summed tap by tap in vectors (sum_taps).
-constexpr uint16_t kFilledKey = 65535;  // above any bound: a filled pixel always counts
+constexpr uint16_t kFilledKey = 65535;  // at least any bound: a filled pixel always counts
+
+template <typename Sum>
+struct RunSums {
+  std::vector<Sum> r, g, b, count;
+  void resize(size_t n) { r.resize(n), g.resize(n), b.resize(n), count.resize(n); }
+};
+
+// The rows of the planes a run's boxes read, at the run's first pixel (null outside the image).
+struct TapRows {
+  const uint16_t* const* key;
+  const uint8_t* const* red;
+  const uint8_t* const* green;
+  const uint8_t* const* blue;
+};
 
 struct SmoothPlanes {
-  int stride = 0, pad = 0;
+  int rows = 0, stride = 0, pad = 0;
   std::vector<uint16_t> key;
   std::vector<uint8_t> red, green, blue;
   std::vector<std::pair<int, int>> spans;  // a row's columns to copy
-  // Per run pixel (reused run to run): its bound, radius, and the sums.
-  std::vector<uint16_t> bound, radius, sum_r, sum_g, sum_b, count;
-  std::vector<uint32_t> wide_r, wide_g, wide_b, wide_count;
+  // Per run pixel (reused run to run): its bound and radius, and the sums (16-bit up to 7 px of radius).
+  std::vector<uint16_t> bound, radius;
+  RunSums<uint16_t> narrow;
+  RunSums<uint32_t> wide;
 };
 
 // Columns x0..x1 of row v into the planes.
@@ -577,7 +593,8 @@ template <typename Sum>
 VCLASSROOM_SIMD_INLINE void sum_taps(int n, int R, const uint16_t* const* key_rows, const uint8_t* const* red_rows,
                                      const uint8_t* const* green_rows, const uint8_t* const* blue_rows,
                                      const uint16_t* __restrict bound, const uint16_t* __restrict radius,
-                                     Sum* __restrict sr, Sum* __restrict sg, Sum* __restrict sb, Sum* __restrict count) {
+                                     Sum* __restrict sr, Sum* __restrict sg, Sum* __restrict sb,
+                                     Sum* __restrict count) {
   for (int i = 0; i < n; ++i) sr[i] = 0, sg[i] = 0, sb[i] = 0, count[i] = 0;
   for (int dv = -R; dv <= R; ++dv) {
     if (!key_rows[dv + R]) continue;
@@ -623,14 +640,25 @@ void write_means(int n, const uint16_t* fd, const Sum* sr, const Sum* sg, const 
   }
 }
 
+// One run of n filled pixels (fill depth `fd`, 0 where not filled): its boxes summed by `sum_taps_n` (the 16-
+// or 32-bit copy) into `sums`, the means written at `out`.
+template <typename Sum, typename SumTaps>
+void smooth_run(int n, int R, const TapRows& rows, const uint16_t* bound, const uint16_t* radius, const uint16_t* fd,
+                RunSums<Sum>& sums, SumTaps sum_taps_n, uint8_t* out) {
+  sums.resize(size_t(n));
+  sum_taps_n(n, R, rows.key, rows.red, rows.green, rows.blue, bound, radius, sums.r.data(), sums.g.data(),
+             sums.b.data(), sums.count.data());
+  write_means(n, fd, sums.r.data(), sums.g.data(), sums.b.data(), sums.count.data(), out);
+}
+
 void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const cv::Mat& mask, float keep,
                    int r_min, int r_max) {
   if (r_max <= 0 || st.runs.empty()) return;
   const int W = color.cols, H = color.rows, R = r_max;
   SmoothPlanes& p = kept_between_calls<SmoothPlanes, 0>();
-  p.pad = R, p.stride = W + 2 * R;
-  const size_t plane = size_t(H) * size_t(p.stride);
-  if (p.key.size() != plane) {  // the padding stays 0: never counted
+  if (p.rows != H || p.stride != W + 2 * R || p.pad != R) {  // a new layout: the padding 0 (never counted)
+    p.rows = H, p.pad = R, p.stride = W + 2 * R;
+    const size_t plane = size_t(H) * size_t(p.stride);
     p.key.assign(plane, 0), p.red.assign(plane, 0), p.green.assign(plane, 0), p.blue.assign(plane, 0);
   }
   copy_boxes_to_planes(p, st.runs, color, depth, mask, R);
@@ -643,8 +671,9 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
     const int n = run.b - run.a + 1;
     p.bound.resize(size_t(n)), p.radius.resize(size_t(n));
     for (int i = 0; i < n; ++i) {
-      // A known depth d is behind when float(d) >= keep * fd, i.e. d >= bound (integers: no conversion per tap).
-      p.bound[size_t(i)] = uint16_t(std::max(1, int(std::ceil(keep * float(fd[i])))));  // an unfilled hole never counts
+      // A known depth d is behind when float(d) >= keep * fd, i.e. d >= bound (integers: no conversion per
+      // tap); at least 1, so that an unfilled hole (key 0) never counts.
+      p.bound[size_t(i)] = uint16_t(std::clamp(int(std::ceil(keep * float(fd[i]))), 1, int(kFilledKey)));
       p.radius[size_t(i)] = uint16_t(std::clamp(int(border[i]) - 1, r_min, r_max));
     }
     for (int dv = -R; dv <= R; ++dv) {
@@ -656,27 +685,14 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
       green_rows[size_t(dv + R)] = inside ? p.green.data() + at : nullptr;
       blue_rows[size_t(dv + R)] = inside ? p.blue.data() + at : nullptr;
     }
+    const TapRows rows{key_rows.data(), red_rows.data(), green_rows.data(), blue_rows.data()};
     uint8_t* out = color.ptr<uint8_t>(run.y) + 3 * run.a;
-    if (!wide) {
-      p.sum_r.resize(size_t(n)), p.sum_g.resize(size_t(n)), p.sum_b.resize(size_t(n)), p.count.resize(size_t(n));
-      sum_taps_16(n, R, key_rows.data(), red_rows.data(), green_rows.data(), blue_rows.data(), p.bound.data(),
-                  p.radius.data(), p.sum_r.data(), p.sum_g.data(), p.sum_b.data(), p.count.data());
-      write_means(n, fd, p.sum_r.data(), p.sum_g.data(), p.sum_b.data(), p.count.data(), out);
-    } else {
-      p.wide_r.resize(size_t(n)), p.wide_g.resize(size_t(n)), p.wide_b.resize(size_t(n));
-      p.wide_count.resize(size_t(n));
-      sum_taps_32(n, R, key_rows.data(), red_rows.data(), green_rows.data(), blue_rows.data(), p.bound.data(),
-                  p.radius.data(), p.wide_r.data(), p.wide_g.data(), p.wide_b.data(), p.wide_count.data());
-      write_means(n, fd, p.wide_r.data(), p.wide_g.data(), p.wide_b.data(), p.wide_count.data(), out);
-    }
+    if (wide) smooth_run(n, R, rows, p.bound.data(), p.radius.data(), fd, p.wide, sum_taps_32, out);
+    else smooth_run(n, R, rows, p.bound.data(), p.radius.data(), fd, p.narrow, sum_taps_16, out);
     fd += n, border += n;
   }
 }
 
-// The pyramid's smoothing: each filled pixel becomes the mean of the (2r+1)^2 box around it, over the pixels
-// there that are filled too or lie behind it (within `keep` of the depth it was filled from, or farther): the
-// object that caused the hole is never blurred into it. r is `r_min`, or up to `r_max` deeper in the hole
-// (kPyramidSmoothMaxPx). The new colours are kept aside until all are made.
 // A filled pixel that was filled the frame before too, from a background within kSteadyDepthRatio of the same
 // depth, takes its old colour plus a share of the change: the change's largest channel over kSteadyPassLevels
 // grey levels, at least kSteadyMinShare. The sensor's noise on a hole's border moves its fill by a few grey

@@ -49,10 +49,12 @@ struct HoleFillHistory {
 // gets the background depth chosen for each filled pixel. A view without any known pixel stays as it is.
 // `history` (optional, the pyramid only): the same view's fill of the frame before, blended in (see
 // keep_steady_fill in hole_fill.cpp) and then replaced by this frame's.
-// `left_to_caller` (optional, CV_8UC1 the size of `color`; the pyramid only): hole pixels set there are not
-// filled (colour and mask untouched), for a caller that paints them itself (viewfuse's fade, far from
-// anything seen). The other pixels are filled as without it, bit for bit, as long as no pixel within
-// hole_fill_reach() of one left is kept (the smoothing reads its neighbours' fill).
+// `left_to_caller` (optional, CV_8UC1 the size of `color`; the pyramid only, the rays ignore it): hole pixels
+// set there are not filled (colour, mask and `filled_depth` untouched, nothing kept in `history`), for a caller
+// that paints them itself (viewfuse's fade, far from anything seen). The other pixels are filled as without
+// it, bit for bit, but for those within hole_fill_reach() of one left (the smoothing reads its neighbours'
+// fill), which the caller must paint over too. With a history, a pixel left in one frame and filled in the next
+// has no fill of the frame before to be damped against.
 void fill_holes(cv::Mat& color, const cv::Mat& depth, const HoleFillParams& params, cv::Mat& mask,
                 cv::Mat* filled_depth = nullptr, HoleFillHistory* history = nullptr,
                 const cv::Mat* left_to_caller = nullptr);

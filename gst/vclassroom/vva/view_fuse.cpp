@@ -289,14 +289,19 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   UnseenDistance unseen_distance;
   const bool fade = prm.fade_unseen && unseen > 0 && measure_unseen(out->depth, start, far, &unseen_distance);
   static thread_local cv::Mat left;
-  // (A view with nothing seen is left as it is by the fill: then none is marked made.)
-  const bool leave = fade && fill.method == HoleFillMethod::Pyramid && unseen < int(out->depth.total());
+  const bool leave = fade && fill.method == HoleFillMethod::Pyramid;
+  int left_count = 0;
   if (leave) {
     left.create(size, CV_8UC1);
     mark_far_holes(unseen_distance, far, left);
+    left_count = cv::countNonZero(left);
   }
   fill_holes(out->color, out->depth, fill, out->filled, nullptr, fill_history, leave ? &left : nullptr);
-  if (fade) fade_unseen(unseen_distance, out->color, start, length, leave ? &left : nullptr, out->filled);
+  // The holes left to the fade count as made where the fill would have made them: the pyramid fills every hole
+  // or, with too little seen to hold a value (nothing, or a few pixels), none; the holes it did fill say which.
+  const bool made =
+      leave && unseen < int(out->depth.total()) && (left_count == unseen || cv::countNonZero(out->filled) > 0);
+  if (fade) fade_unseen(unseen_distance, out->color, start, length, made ? &left : nullptr, out->filled);
 }
 
 void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px,
