@@ -146,7 +146,8 @@ int main(int argc, char** argv) {
   std::vector<vclassroom_tools::Recording> recordings(o.live_cameras ? 0 : o.cameras.size());
   for (size_t i = 0; i < recordings.size(); ++i)
     if (!vclassroom_tools::record_stream("rgbdtestsrc camera-id=" + std::to_string(o.cameras[i]) +
-                                             " num-buffers=60 ground-truth=false ! " + vclassroom_tools::camera_link_replay_coder(o.link),
+                                             " num-buffers=60 ground-truth=false ! " +
+                                             vclassroom_tools::camera_link_replay_coder(o.link),
                                          60, &recordings[i])) {
       std::fprintf(stderr, "could not record camera %d\n", o.cameras[i]);
       return 1;

@@ -148,8 +148,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string server_log = log_dir + "/server.log";
-  std::printf("%d cameras %s, LINK=%s\n", cameras, live_cameras ? "rendered live inside the server" : "replayed into pipelines/server.sh",
-              link.c_str());
+  std::printf("%d cameras %s, LINK=%s\n", cameras,
+              live_cameras ? "rendered live inside the server" : "replayed into pipelines/server.sh", link.c_str());
   std::printf("| lecturers | fps shown (each) | kbit/s (each) | pose-to-photon p50 / p99 ms | server CPU ms per frame | "
               "server CPU %% of one core |\n|---|---|---|---|---|---|\n");
   for (int n : counts) {
@@ -185,10 +185,11 @@ int main(int argc, char** argv) {
       // RTX=0: the replay sends plain RTP, as classroom.sh with RTX=0 does; a server waiting for
       // retransmissions that never come holds each frame with a lost packet for RTX_LATENCY (300 ms).
       std::map<std::string, std::string> env = loss_env;
-      env.insert({{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LINK", link}, {"LECTURER_OUT", "whep-views"}, {"TOKEN", "measure-token"},
-                   {"WHEP_PORT", std::to_string(port)}, {"WHEP_SESSIONS", std::to_string(n)},
-                   {"WIDTH", std::to_string(width)}, {"HEIGHT", std::to_string(height)},
-                  {"WARP_SYNC", std::to_string(warp_sync)}, {"LONGEST_TURN", std::to_string(longest_turn)}});
+      env.insert({{"CAMERAS", ids}, {"MTU", "65000"}, {"RTX", "0"}, {"LINK", link}, {"LECTURER_OUT", "whep-views"},
+                  {"TOKEN", "measure-token"}, {"WHEP_PORT", std::to_string(port)},
+                  {"WHEP_SESSIONS", std::to_string(n)}, {"WIDTH", std::to_string(width)},
+                  {"HEIGHT", std::to_string(height)}, {"WARP_SYNC", std::to_string(warp_sync)},
+                  {"LONGEST_TURN", std::to_string(longest_turn)}});
       pid = spawn(root + "/pipelines/server.sh", env, server_log);
       if (!replay.start(streams, camera_ids, 0.0, 65000, camera_link_replay_payloader(link))) {
         stop_tree(pid);

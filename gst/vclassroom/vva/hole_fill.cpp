@@ -587,23 +587,21 @@ void copy_boxes_to_planes(SmoothPlanes& p, const std::vector<HoleRun>& runs, con
 }
 
 // The sums of one run of n pixels: tap (du, dv) counts for pixel i when the key there is at least bound[i] and
-// the tap lies within radius[i]. Row pointers (rows[dv + R], null outside the image) point at the run's first
-// pixel. Sum is wide enough for (2R+1)^2 taps of 255.
+// the tap lies within radius[i]. Sum is wide enough for (2R+1)^2 taps of 255.
 template <typename Sum>
-VCLASSROOM_SIMD_INLINE void sum_taps(int n, int R, const uint16_t* const* key_rows, const uint8_t* const* red_rows,
-                                     const uint8_t* const* green_rows, const uint8_t* const* blue_rows,
-                                     const uint16_t* __restrict bound, const uint16_t* __restrict radius,
+VCLASSROOM_SIMD_INLINE void sum_taps(int n, int R, const TapRows& rows, const uint16_t* __restrict bound,
+                                     const uint16_t* __restrict radius,
                                      Sum* __restrict sr, Sum* __restrict sg, Sum* __restrict sb,
                                      Sum* __restrict count) {
   for (int i = 0; i < n; ++i) sr[i] = 0, sg[i] = 0, sb[i] = 0, count[i] = 0;
   for (int dv = -R; dv <= R; ++dv) {
-    if (!key_rows[dv + R]) continue;
+    if (!rows.key[dv + R]) continue;
     for (int du = -R; du <= R; ++du) {
       const uint16_t reach = uint16_t(std::max(std::abs(dv), std::abs(du)));
-      const uint16_t* __restrict k = key_rows[dv + R] + du;
-      const uint8_t* __restrict r = red_rows[dv + R] + du;
-      const uint8_t* __restrict g = green_rows[dv + R] + du;
-      const uint8_t* __restrict b = blue_rows[dv + R] + du;
+      const uint16_t* __restrict k = rows.key[dv + R] + du;
+      const uint8_t* __restrict r = rows.red[dv + R] + du;
+      const uint8_t* __restrict g = rows.green[dv + R] + du;
+      const uint8_t* __restrict b = rows.blue[dv + R] + du;
       for (int i = 0; i < n; ++i) {
         const Sum take = (k[i] >= bound[i]) & (radius[i] >= reach);
         const Sum all = Sum(0) - take;
@@ -614,17 +612,15 @@ VCLASSROOM_SIMD_INLINE void sum_taps(int n, int R, const uint16_t* const* key_ro
 }
 
 VCLASSROOM_SIMD_CLONES
-void sum_taps_16(int n, int R, const uint16_t* const* key_rows, const uint8_t* const* red_rows,
-                 const uint8_t* const* green_rows, const uint8_t* const* blue_rows, const uint16_t* bound,
-                 const uint16_t* radius, uint16_t* sr, uint16_t* sg, uint16_t* sb, uint16_t* count) {
-  sum_taps(n, R, key_rows, red_rows, green_rows, blue_rows, bound, radius, sr, sg, sb, count);
+void sum_taps_16(int n, int R, const TapRows& rows, const uint16_t* bound, const uint16_t* radius, uint16_t* sr,
+                 uint16_t* sg, uint16_t* sb, uint16_t* count) {
+  sum_taps(n, R, rows, bound, radius, sr, sg, sb, count);
 }
 
 VCLASSROOM_SIMD_CLONES
-void sum_taps_32(int n, int R, const uint16_t* const* key_rows, const uint8_t* const* red_rows,
-                 const uint8_t* const* green_rows, const uint8_t* const* blue_rows, const uint16_t* bound,
-                 const uint16_t* radius, uint32_t* sr, uint32_t* sg, uint32_t* sb, uint32_t* count) {
-  sum_taps(n, R, key_rows, red_rows, green_rows, blue_rows, bound, radius, sr, sg, sb, count);
+void sum_taps_32(int n, int R, const TapRows& rows, const uint16_t* bound, const uint16_t* radius, uint32_t* sr,
+                 uint32_t* sg, uint32_t* sb, uint32_t* count) {
+  sum_taps(n, R, rows, bound, radius, sr, sg, sb, count);
 }
 
 // One run's new colours, written straight into `color` (the boxes read the planes, not `color`).
@@ -646,8 +642,7 @@ template <typename Sum, typename SumTaps>
 void smooth_run(int n, int R, const TapRows& rows, const uint16_t* bound, const uint16_t* radius, const uint16_t* fd,
                 RunSums<Sum>& sums, SumTaps sum_taps_n, uint8_t* out) {
   sums.resize(size_t(n));
-  sum_taps_n(n, R, rows.key, rows.red, rows.green, rows.blue, bound, radius, sums.r.data(), sums.g.data(),
-             sums.b.data(), sums.count.data());
+  sum_taps_n(n, R, rows, bound, radius, sums.r.data(), sums.g.data(), sums.b.data(), sums.count.data());
   write_means(n, fd, sums.r.data(), sums.g.data(), sums.b.data(), sums.count.data(), out);
 }
 
@@ -665,6 +660,7 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
   const bool wide = (2 * R + 1) * (2 * R + 1) * 255 > 65535;
   std::vector<const uint16_t*> key_rows(size_t(2 * R + 1));
   std::vector<const uint8_t*> red_rows(key_rows.size()), green_rows(key_rows.size()), blue_rows(key_rows.size());
+  const TapRows rows{key_rows.data(), red_rows.data(), green_rows.data(), blue_rows.data()};  // set run by run
   const uint16_t* fd = st.fill_depth.data();
   const uint8_t* border = st.border_px.data();
   for (const HoleRun& run : st.runs) {
@@ -685,7 +681,6 @@ void smooth_behind(PyramidState& st, cv::Mat& color, const cv::Mat& depth, const
       green_rows[size_t(dv + R)] = inside ? p.green.data() + at : nullptr;
       blue_rows[size_t(dv + R)] = inside ? p.blue.data() + at : nullptr;
     }
-    const TapRows rows{key_rows.data(), red_rows.data(), green_rows.data(), blue_rows.data()};
     uint8_t* out = color.ptr<uint8_t>(run.y) + 3 * run.a;
     if (wide) smooth_run(n, R, rows, p.bound.data(), p.radius.data(), fd, p.wide, sum_taps_32, out);
     else smooth_run(n, R, rows, p.bound.data(), p.radius.data(), fd, p.narrow, sum_taps_16, out);

@@ -209,15 +209,21 @@ bool measure_unseen(const cv::Mat& depth, double start, double exact_to, UnseenD
   return true;
 }
 
-// The holes farther than `beyond` from everything seen, set in `left` (zero elsewhere).
-void mark_far_holes(const UnseenDistance& u, double beyond, cv::Mat& left) {
+// The holes farther than `beyond` from everything seen, set in `left` (zero elsewhere); how many.
+int mark_far_holes(const UnseenDistance& u, double beyond, cv::Mat& left) {
   left.setTo(0);
   const float limit = float(beyond);
+  int count = 0;
   for (int y = u.blocks.y; y < u.blocks.y + u.blocks.height; ++y) {
     const float* d = u.distance.ptr<float>(y - u.around.y) - u.around.x;
     uint8_t* l = left.ptr<uint8_t>(y);
-    for (int x = u.blocks.x; x < u.blocks.x + u.blocks.width; ++x) l[x] = d[x] > limit ? 255 : 0;
+    for (int x = u.blocks.x; x < u.blocks.x + u.blocks.width; ++x) {
+      const bool is_far = d[x] > limit;
+      l[x] = is_far ? 255 : 0;
+      count += is_far;
+    }
   }
+  return count;
 }
 
 // The fade itself. The pixels in `left` (optional: the fill left them to the fade, all of them grey here) are
@@ -293,8 +299,7 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   int left_count = 0;
   if (leave) {
     left.create(size, CV_8UC1);
-    mark_far_holes(unseen_distance, far, left);
-    left_count = cv::countNonZero(left);
+    left_count = mark_far_holes(unseen_distance, far, left);
   }
   fill_holes(out->color, out->depth, fill, out->filled, nullptr, fill_history, leave ? &left : nullptr);
   // The holes left to the fade count as made where the fill would have made them: the pyramid fills every hole
