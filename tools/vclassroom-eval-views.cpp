@@ -21,6 +21,7 @@
 #include <gst/vclassroom/core/image_metrics.h>
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
+#include <gst/vclassroom/vva/room_lookup.h>
 #include <gst/vclassroom/datasets/middlebury.h>
 #include <gst/vclassroom/vda/plane_refine.h>
 #include <gst/vclassroom/core/view_offset.h>
@@ -58,6 +59,9 @@ struct Options {
   int crop_right = 0;
   int dataset_frames = 0;  // 0: every frame
   std::string out;
+  // classroom, experiment (issue 31): also score the full system with the room's colour looked up backward
+  // per view pixel (room_lookup.h), in several variants.
+  bool room_lookup = false;
 };
 
 FuseParams fuse_params(const Options& opt) {
@@ -333,6 +337,115 @@ void synthesize(const std::vector<CameraCalib>& cams, const std::vector<RgbdImag
   fuse_views(ptrs, fp, out, fill_history);
 }
 
+// Experiment (issue 31, wip/room-lookup): the full system's view with the colour of every seen room pixel
+// (label 0, not filled) replaced by the backward lookup's (room_lookup.h).
+struct MaskedScore {  // squared errors pooled over the pixels of a mask
+  double se = 0, values = 0;
+  void add(const cv::Mat& synth, const cv::Mat& real, const cv::Mat& mask) {
+    const int n = cv::countNonZero(mask);
+    if (n == 0) return;
+    se += cv::norm(synth, real, cv::NORM_L2SQR, mask);
+    values += 3.0 * n;
+  }
+  double psnr() const { return values == 0 ? NAN : 10 * std::log10(255.0 * 255.0 * values / se); }
+};
+
+struct LookupVariant {
+  const char* name;
+  RoomLookupParams params;
+  Stats psnr, ssim, npsnr, nssim;
+  MaskedScore room_today, room_lookup, nroom_today, nroom_lookup;  // over the candidates: today's colour / looked up
+  double candidates = 0, replaced = 0, by_one = 0, pixels = 0;
+};
+
+std::vector<LookupVariant> lookup_variants() {
+  auto v = [](const char* name, RoomSampling s, RoomWeights w) {
+    LookupVariant l{name, RoomLookupParams(), {}, {}, {}, {}, {}, {}, {}, {}};
+    l.params.sampling = s;
+    l.params.weights = w;
+    return l;
+  };
+  return {v("lookup: bilinear, weights as viewfuse", RoomSampling::Bilinear, RoomWeights::Fuse),
+          v("lookup: nearest, weights as viewfuse", RoomSampling::Nearest, RoomWeights::Fuse),
+          v("lookup: bilinear, viewfuse w/o magnification", RoomSampling::Bilinear, RoomWeights::FuseNoStretch),
+          v("lookup: bilinear, ray angle only (cos^8)", RoomSampling::Bilinear, RoomWeights::Angle),
+          v("lookup: bilinear, equal weights", RoomSampling::Bilinear, RoomWeights::Equal)};
+}
+
+// Each source as the full system's warp draws its room: the prepared depth and colour where the label is
+// 0, the background memory's room layer (its depth and remembered colour) where a learner hides it.
+std::vector<RoomLookupSource> room_lookup_sources(const std::vector<CameraCalib>& cams, const std::vector<RgbdImages>& in,
+                                                  const std::vector<cv::Mat>& priors, const std::vector<cv::Mat>& labels,
+                                                  const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms,
+                                                  const WarpParams& wp) {
+  std::vector<RoomLookupSource> out(cams.size());
+  ViewWarper warper;
+  for (size_t i = 0; i < cams.size(); ++i) {
+    WarpSource src;
+    src.color = in[i].color;
+    src.depth = in[i].depth;
+    src.label = labels[i];
+    src.static_depth = priors[i];
+    if (rooms) src.room_color = (*rooms)[i].first, src.room_depth = (*rooms)[i].second;
+    PreparedSource prep;
+    warper.prepare(cams[i], src, wp, &prep);
+    const int W = cams[i].width, H = cams[i].height;
+    RoomLookupSource& s = out[i];
+    s.camera = cams[i];
+    s.color = src.color.clone();
+    s.depth = cv::Mat::zeros(H, W, CV_16UC1);
+    s.remembered = cv::Mat::zeros(H, W, CV_8UC1);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        const size_t k = size_t(y) * W + x;
+        if (prep.label[k] == 0 && prep.depth[k]) {
+          s.depth.at<uint16_t>(y, x) = prep.depth[k];
+        } else if (!src.room_depth.empty() && src.room_depth.at<uint16_t>(y, x)) {
+          s.depth.at<uint16_t>(y, x) = src.room_depth.at<uint16_t>(y, x);
+          s.remembered.at<uint8_t>(y, x) = 255;
+          s.color.at<cv::Vec3b>(y, x) = src.room_color.at<cv::Vec3b>(y, x);
+        }
+      }
+  }
+  return out;
+}
+
+// Scores every variant on one fused view of `virt` against `real`.
+void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomLookupSource>& sources,
+                   const CameraCalib& virt, const FusedView& fused, const cv::Mat& real, bool novel) {
+  cv::Mat mask = (fused.label == 0) & (fused.filled == 0) & (fused.depth != 0);
+  for (LookupVariant& l : variants) {
+    cv::Mat color = fused.color.clone();
+    const RoomLookupStats st = room_lookup(sources, virt, fused.depth, mask, l.params, &color);
+    (novel ? l.npsnr : l.psnr).add(psnr_rgb(color, real));
+    (novel ? l.nssim : l.ssim).add(ssim_luma(color, real));
+    (novel ? l.nroom_today : l.room_today).add(fused.color, real, mask);
+    (novel ? l.nroom_lookup : l.room_lookup).add(color, real, mask);
+    if (!novel) {
+      l.candidates += double(st.candidates);
+      l.replaced += double(st.replaced);
+      l.by_one += double(st.by_one);
+      l.pixels += double(mask.total());
+    }
+  }
+}
+
+void print_lookups(const std::vector<LookupVariant>& variants) {
+  if (variants.empty()) return;
+  std::printf("\nRoom lookup (experiment, issue 31): the full system's seen room pixels (label 0, not filled) "
+              "recoloured by backward lookup\n");
+  std::printf("%-46s | Table I PSNR  SSIMx100 | novel PSNR  SSIMx100 | room px: today -> lookup (Table I; novel)\n",
+              "variant");
+  for (const LookupVariant& l : variants)
+    std::printf("%-46s | %7.3f %9.2f | %7.3f %9.2f | %6.2f -> %6.2f; %6.2f -> %6.2f\n", l.name, l.psnr.avg(),
+                100 * l.ssim.avg(), l.npsnr.avg(), 100 * l.nssim.avg(), l.room_today.psnr(), l.room_lookup.psnr(),
+                l.nroom_today.psnr(), l.nroom_lookup.psnr());
+  const LookupVariant& l = variants[0];
+  std::printf("Table I: candidates %.1f %% of the view, of them %.2f %% looked up (%.1f %% from one camera only)\n",
+              100 * l.candidates / l.pixels, 100 * l.replaced / std::max(1.0, l.candidates),
+              100 * l.by_one / std::max(1.0, l.replaced));
+}
+
 void eval_classroom(const Options& opt) {
   const FuseParams fp = fuse_params(opt);
   const Rig rig = default_classroom_rig();
@@ -415,6 +528,8 @@ void eval_classroom(const Options& opt) {
   // that stays: it keeps its fill's history from frame to frame (HoleFillHistory), the others' never reach it.
   std::vector<HoleFillHistory> histories(configs.size() * (1 + novel.size()));
   cv::Mat last_synth, last_real;
+  std::vector<LookupVariant> lookups = opt.room_lookup ? lookup_variants() : std::vector<LookupVariant>();
+  std::vector<RoomLookupSource> lookup_sources;
   vclassroom_tools::Progress progress("synthetic classroom frames", opt.frames);
   for (int f = 0; f < opt.frames; ++f) {
     progress.step(f + 1);
@@ -471,6 +586,10 @@ void eval_classroom(const Options& opt) {
         if (cv::countNonZero(unseen) > 0) hole_psnr.add(psnr_rgb_masked(fused.color, imgs[0].color, unseen));
         hole_share += double(cv::countNonZero(unseen)) / double(unseen.total()) / opt.frames;
         filled_holes.add(fused.color, imgs[0].color, fused.filled, cv::Rect(0, 0, fused.color.cols, fused.color.rows));
+        if (opt.room_lookup) {
+          lookup_sources = room_lookup_sources(sources, in, src_priors, src_labels, room_layers, wp);
+          score_lookups(lookups, lookup_sources, target, fused, imgs[0].color, false);
+        }
       }
       psnr[c].add(psnr_rgb(fused.color, imgs[0].color));
       ssim[c].add(ssim_luma(fused.color, imgs[0].color));
@@ -483,6 +602,7 @@ void eval_classroom(const Options& opt) {
         renderer.render(room, t, novel[k], &gt);
         synthesize(sources, in, src_priors, src_labels, configs[c], novel[k], wp, fp, warpers, room_layers, &fused,
                    &histories[c * (1 + novel.size()) + 1 + k]);
+        if (c == 0 && opt.room_lookup) score_lookups(lookups, lookup_sources, novel[k], fused, gt.color, true);
         npsnr[c].add(psnr_rgb(fused.color, gt.color));
         nssim[c].add(ssim_luma(fused.color, gt.color));
         if (c == 0 && k == 1 && f == opt.frames - 1 && !opt.images.empty())
@@ -520,6 +640,7 @@ void eval_classroom(const Options& opt) {
   for (size_t c = 0; c < configs.size(); ++c)
     std::printf("%-52s | %7.2f %6.2f %6.2f | %11.2f %6.2f %6.2f\n", configs[c].name, npsnr[c].avg(), npsnr[c].max(),
                 npsnr[c].min(), 100 * nssim[c].avg(), 100 * nssim[c].max(), 100 * nssim[c].min());
+  print_lookups(lookups);
   std::printf("learnerseg against the ground-truth labels (IoU avg/min over frames):\n");
   for (int i = 0; i < 3; ++i)
     std::printf("  camera %d: foreground IoU %.3f / %.3f, per-learner IoU %.3f / %.3f\n", i, iou[i].avg(),
@@ -546,7 +667,7 @@ int main(int argc, char** argv) {
   Options opt;
   g_autofree gchar *shared = nullptr, *images = nullptr, *only = nullptr, *size = nullptr, *priors_dir = nullptr,
         *model = nullptr, *dataset = nullptr, *sources = nullptr, *rig = nullptr, *out = nullptr, *fill = nullptr;
-  gboolean mesh = FALSE;
+  gboolean mesh = FALSE, room_lookup = FALSE;
   opt.frames = 0;  // told apart from "not given" below
   const GOptionEntry entries[] = {
       {"shared", 0, 0, G_OPTION_ARG_FILENAME, &shared,
@@ -576,6 +697,10 @@ int main(int argc, char** argv) {
        "PX"},
       {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,
        "warp with the triangle mesh rasteriser (reference) instead of the cell splat", nullptr},
+      {"room-lookup", 0, 0, G_OPTION_ARG_NONE, &room_lookup,
+       "classroom, experiment (issue 31): also score the full system with each seen room pixel's colour looked up "
+       "backward from the cameras (room_lookup.h), in several variants",
+       nullptr},
       {"model", 0, 0, G_OPTION_ARG_FILENAME, &model,
        "V-DA's static model (vclassroom-build-model --synthetic, 960x540): the static layer is its prior depth "
        "and the sensor depth goes through depthcomplete + planerefine first, as in the live pipeline; without it "
@@ -611,6 +736,7 @@ int main(int argc, char** argv) {
   opt.images = vclassroom_tools::text_of(images);
   opt.only = vclassroom_tools::text_of(only);
   opt.mesh = mesh;
+  opt.room_lookup = room_lookup;
   opt.write_priors = vclassroom_tools::text_of(priors_dir);
   opt.model = vclassroom_tools::text_of(model);
   if (size) vclassroom_tools::parse_size_or_exit("--size", size, &opt.width, &opt.height);
