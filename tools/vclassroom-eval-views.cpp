@@ -355,21 +355,34 @@ struct LookupVariant {
   RoomLookupParams params;
   Stats psnr, ssim, npsnr, nssim;
   MaskedScore room_today, room_lookup, nroom_today, nroom_lookup;  // over the candidates: today's colour / looked up
+  MaskedScore one_today, one_lookup, two_today, two_lookup;  // Table I, the pixels one / several cameras saw
   double candidates = 0, replaced = 0, by_one = 0, pixels = 0;
 };
 
 std::vector<LookupVariant> lookup_variants() {
   auto v = [](const char* name, RoomSampling s, RoomWeights w) {
-    LookupVariant l{name, RoomLookupParams(), {}, {}, {}, {}, {}, {}, {}, {}};
+    LookupVariant l{name, RoomLookupParams(), {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}};
     l.params.sampling = s;
     l.params.weights = w;
+    return l;
+  };
+  auto refined = [](LookupVariant l) {
+    l.params.refine_steps = 2;
     return l;
   };
   return {v("lookup: bilinear, weights as viewfuse", RoomSampling::Bilinear, RoomWeights::Fuse),
           v("lookup: nearest, weights as viewfuse", RoomSampling::Nearest, RoomWeights::Fuse),
           v("lookup: bilinear, viewfuse w/o magnification", RoomSampling::Bilinear, RoomWeights::FuseNoStretch),
           v("lookup: bilinear, ray angle only (cos^8)", RoomSampling::Bilinear, RoomWeights::Angle),
-          v("lookup: bilinear, equal weights", RoomSampling::Bilinear, RoomWeights::Equal)};
+          v("lookup: bilinear, equal weights", RoomSampling::Bilinear, RoomWeights::Equal),
+          refined(v("lookup: bilinear, viewfuse, own surface 2 steps", RoomSampling::Bilinear, RoomWeights::Fuse)),
+          refined(v("lookup: bilinear, equal, own surface 2 steps", RoomSampling::Bilinear, RoomWeights::Equal)),
+          refined(v("lookup: strict cells, viewfuse, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Fuse)),
+          refined(v("lookup: strict cells, equal, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal)),
+          v("lookup: strict cells, viewfuse", RoomSampling::BilinearStrict, RoomWeights::Fuse),
+          v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
+          refined(v("lookup: bilinear all 4, viewfuse, own surface 2", RoomSampling::BilinearAll, RoomWeights::Fuse)),
+          refined(v("lookup: bilinear all 4, equal, own surface 2", RoomSampling::BilinearAll, RoomWeights::Equal))};
 }
 
 // Each source as the full system's warp draws its room: the prepared depth and colour where the label is
@@ -416,12 +429,39 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
   cv::Mat mask = (fused.label == 0) & (fused.filled == 0) & (fused.depth != 0);
   for (LookupVariant& l : variants) {
     cv::Mat color = fused.color.clone();
-    const RoomLookupStats st = room_lookup(sources, virt, fused.depth, mask, l.params, &color);
+    cv::Mat seen;
+    const RoomLookupStats st = room_lookup(sources, virt, fused.depth, mask, l.params, &color, &seen);
+    if (const char* dump = std::getenv("VCLASSROOM_LOOKUP_DUMP"); dump && !novel && &l == &variants.back()) {
+      // Scratch: where the lookup loses or gains against today (grey 128 = equal; brighter = lookup worse).
+      cv::Mat et, el, diff;
+      cv::absdiff(fused.color, real, et);
+      cv::absdiff(color, real, el);
+      cv::cvtColor(et, et, cv::COLOR_RGB2GRAY);
+      cv::cvtColor(el, el, cv::COLOR_RGB2GRAY);
+      el.convertTo(el, CV_16S);
+      et.convertTo(et, CV_16S);
+      cv::Mat d16 = (el - et) * 4 + 128;
+      d16.convertTo(diff, CV_8U);
+      cv::Mat bgr;
+      cv::imwrite(std::string(dump) + "/diff.png", diff);
+      cv::cvtColor(fused.color, bgr, cv::COLOR_RGB2BGR);
+      cv::imwrite(std::string(dump) + "/today.png", bgr);
+      cv::cvtColor(color, bgr, cv::COLOR_RGB2BGR);
+      cv::imwrite(std::string(dump) + "/lookup.png", bgr);
+      cv::cvtColor(real, bgr, cv::COLOR_RGB2BGR);
+      cv::imwrite(std::string(dump) + "/real.png", bgr);
+      cv::imwrite(std::string(dump) + "/seen.png", seen * 100);
+    }
     (novel ? l.npsnr : l.psnr).add(psnr_rgb(color, real));
     (novel ? l.nssim : l.ssim).add(ssim_luma(color, real));
     (novel ? l.nroom_today : l.room_today).add(fused.color, real, mask);
     (novel ? l.nroom_lookup : l.room_lookup).add(color, real, mask);
     if (!novel) {
+      const cv::Mat one = seen == 1, two = seen >= 2;
+      l.one_today.add(fused.color, real, one);
+      l.one_lookup.add(color, real, one);
+      l.two_today.add(fused.color, real, two);
+      l.two_lookup.add(color, real, two);
       l.candidates += double(st.candidates);
       l.replaced += double(st.replaced);
       l.by_one += double(st.by_one);
@@ -430,16 +470,23 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
   }
 }
 
-void print_lookups(const std::vector<LookupVariant>& variants) {
+void print_lookups(const std::vector<LookupVariant>& variants, const Stats& psnr, const Stats& ssim,
+                   const Stats& npsnr, const Stats& nssim) {
   if (variants.empty()) return;
   std::printf("\nRoom lookup (experiment, issue 31): the full system's seen room pixels (label 0, not filled) "
               "recoloured by backward lookup\n");
   std::printf("%-46s | Table I PSNR  SSIMx100 | novel PSNR  SSIMx100 | room px: today -> lookup (Table I; novel)\n",
               "variant");
+  std::printf("%-46s | %7.3f %9.2f | %7.3f %9.2f |\n", "today (full system)", psnr.avg(), 100 * ssim.avg(),
+              npsnr.avg(), 100 * nssim.avg());
   for (const LookupVariant& l : variants)
     std::printf("%-46s | %7.3f %9.2f | %7.3f %9.2f | %6.2f -> %6.2f; %6.2f -> %6.2f\n", l.name, l.psnr.avg(),
                 100 * l.ssim.avg(), l.npsnr.avg(), 100 * l.nssim.avg(), l.room_today.psnr(), l.room_lookup.psnr(),
                 l.nroom_today.psnr(), l.nroom_lookup.psnr());
+  std::printf("%-46s | room px seen by one camera: today -> lookup | by two or more\n", "variant (Table I)");
+  for (const LookupVariant& l : variants)
+    std::printf("%-46s | %6.2f -> %6.2f | %6.2f -> %6.2f\n", l.name, l.one_today.psnr(), l.one_lookup.psnr(),
+                l.two_today.psnr(), l.two_lookup.psnr());
   const LookupVariant& l = variants[0];
   std::printf("Table I: candidates %.1f %% of the view, of them %.2f %% looked up (%.1f %% from one camera only)\n",
               100 * l.candidates / l.pixels, 100 * l.replaced / std::max(1.0, l.candidates),
@@ -640,7 +687,7 @@ void eval_classroom(const Options& opt) {
   for (size_t c = 0; c < configs.size(); ++c)
     std::printf("%-52s | %7.2f %6.2f %6.2f | %11.2f %6.2f %6.2f\n", configs[c].name, npsnr[c].avg(), npsnr[c].max(),
                 npsnr[c].min(), 100 * nssim[c].avg(), 100 * nssim[c].max(), 100 * nssim[c].min());
-  print_lookups(lookups);
+  print_lookups(lookups, psnr[0], ssim[0], npsnr[0], nssim[0]);
   std::printf("learnerseg against the ground-truth labels (IoU avg/min over frames):\n");
   for (int i = 0; i < 3; ++i)
     std::printf("  camera %d: foreground IoU %.3f / %.3f, per-learner IoU %.3f / %.3f\n", i, iou[i].avg(),

@@ -12,6 +12,7 @@ namespace {
 struct Look {
   float su = 0, sv = 0;  // source position (px)
   float quality = 0;     // the warp's per-point quality before the magnification term (0: not seen)
+  bool strict = false;   // every neighbour of the 2x2 agrees (the warp's cell coverage)
   float rgb[3] = {0, 0, 0};
 };
 
@@ -53,17 +54,49 @@ bool sample(const RoomLookupSource& s, float u, float v, float z_mm, const RoomL
   const int xs[4] = {x0, x1, x0, x1}, ys[4] = {y0, y0, y1, y1};
   const float ws[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
   float sum = 0, acc[3] = {0, 0, 0}, mem = 0;
+  constexpr float kEdge = 0.02f;  // view_warp.cpp: how far a cell reaches past its centre towards a depth edge
+  const float reach[4] = {std::min(1 - fx, 1 - fy), std::min(fx, 1 - fy), std::min(1 - fx, fy), std::min(fx, fy)};
+  look->strict = true;
   for (int k = 0; k < 4; ++k) {
-    if (ws[k] <= 0 || !agrees(z_mm, s.depth.at<uint16_t>(ys[k], xs[k]), p)) continue;
+    const bool ok = agrees(z_mm, s.depth.at<uint16_t>(ys[k], xs[k]), p);
+    if (!ok && reach[k] > kEdge) look->strict = false;
+    if (ws[k] <= 0 || !ok) continue;
     const cv::Vec3b c = s.color.at<cv::Vec3b>(ys[k], xs[k]);
     for (int ch = 0; ch < 3; ++ch) acc[ch] += ws[k] * float(c[ch]);
     sum += ws[k];
     if (!s.remembered.empty() && s.remembered.at<uint8_t>(ys[k], xs[k])) mem += ws[k];
   }
   if (sum <= 1e-6f) return false;
+  if (p.sampling == RoomSampling::BilinearAll) {
+    sum = 1.0f, acc[0] = acc[1] = acc[2] = 0;
+    for (int k = 0; k < 4; ++k) {
+      const cv::Vec3b c = s.color.at<cv::Vec3b>(ys[k], xs[k]);
+      for (int ch = 0; ch < 3; ++ch) acc[ch] += ws[k] * float(c[ch]);
+    }
+  }
   for (int ch = 0; ch < 3; ++ch) look->rgb[ch] = acc[ch] / sum;
   *remembered = mem > 0.5f * sum;
   return true;
+}
+
+// The camera's room depth (mm) at (u, v) from the neighbours that agree with z_mm, bilinear; 0 when none does.
+float surface_depth(const RoomLookupSource& s, float u, float v, float z_mm, const RoomLookupParams& p) {
+  const int W = s.depth.cols, H = s.depth.rows;
+  u = std::clamp(u, 0.0f, float(W - 1));
+  v = std::clamp(v, 0.0f, float(H - 1));
+  const int x0 = std::min(int(u), W - 1), y0 = std::min(int(v), H - 1);
+  const int x1 = std::min(x0 + 1, W - 1), y1 = std::min(y0 + 1, H - 1);
+  const float fx = u - float(x0), fy = v - float(y0);
+  const int xs[4] = {x0, x1, x0, x1}, ys[4] = {y0, y0, y1, y1};
+  const float ws[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+  float sum = 0, acc = 0;
+  for (int k = 0; k < 4; ++k) {
+    const int d = s.depth.at<uint16_t>(ys[k], xs[k]);
+    if (ws[k] <= 0 || !agrees(z_mm, d, p)) continue;
+    acc += ws[k] * float(d);
+    sum += ws[k];
+  }
+  return sum > 1e-6f ? acc / sum : 0.0f;
 }
 
 // Camera `s` looking at every candidate pixel of the view: where it lands, whether it sees the point, and
@@ -79,21 +112,32 @@ void look_from(const RoomLookupSource& s, const CameraCalib& virt, const cv::Mat
     for (int x = 0; x < VW; ++x) {
       const int z_mm = view_depth.at<uint16_t>(y, x);
       if (!mask.at<uint8_t>(y, x) || z_mm == 0) continue;
-      const float z = float(z_mm) * 0.001f;
-      const Eigen::Vector3f P((float(x) - vcx) * ifx * z, (float(y) - vcy) * ify * z, z);
-      const Eigen::Vector3f q = g.r * P + g.t;
-      if (q.z() < 0.05f) continue;
-      float u, v;
-      if (distorted) {
-        const auto uv = s.camera.project(q.cast<double>());
-        if (!uv) continue;
-        u = float(uv->x()), v = float(uv->y());
-      } else {
-        u = float(s.camera.fx) * q.x() / q.z() + float(s.camera.cx);
-        v = float(s.camera.fy) * q.y() / q.z() + float(s.camera.cy);
+      const Eigen::Vector3f ray((float(x) - vcx) * ifx, (float(y) - vcy) * ify, 1.0f);
+      Eigen::Vector3f P = ray * (float(z_mm) * 0.001f), q;
+      float u = 0, v = 0;
+      bool inside = false;
+      for (int step = 0; step <= p.refine_steps; ++step) {
+        if (step > 0) {  // onto the camera's own surface: q.z = its depth, along the view ray
+          const float d = surface_depth(s, u, v, q.z() * 1000.0f, p), a = g.r.row(2).dot(ray);
+          if (d == 0 || std::fabs(a) < 1e-3f) break;
+          const float z = (d * 0.001f - g.t.z()) / a;
+          if (!agrees(z * 1000.0f, z_mm, p)) break;  // not the view's surface any more
+          P = ray * z;
+        }
+        q = g.r * P + g.t;
+        if (q.z() < 0.05f) break;
+        if (distorted) {
+          const auto uv = s.camera.project(q.cast<double>());
+          if (!uv) break;
+          u = float(uv->x()), v = float(uv->y());
+        } else {
+          u = float(s.camera.fx) * q.x() / q.z() + float(s.camera.cx);
+          v = float(s.camera.fy) * q.y() / q.z() + float(s.camera.cy);
+        }
+        inside = u >= -0.5f && v >= -0.5f && u <= float(s.camera.width) - 0.5f && v <= float(s.camera.height) - 0.5f;
+        if (!inside) break;
       }
-      if (!(u >= -0.5f && v >= -0.5f && u <= float(s.camera.width) - 0.5f && v <= float(s.camera.height) - 0.5f))
-        continue;
+      if (!inside) continue;
       Look& look = (*looks)[size_t(y) * VW + x];
       bool remembered = false;
       if (!sample(s, u, v, q.z() * 1000.0f, p, &look, &remembered)) continue;
@@ -141,9 +185,13 @@ RoomLookupStats room_lookup(const std::vector<RoomLookupSource>& sources, const 
       ++st.candidates;
       float sum = 0, acc[3] = {0, 0, 0};
       int seen = 0;
+      bool any_strict = false;
+      if (p.sampling == RoomSampling::BilinearStrict)
+        for (size_t i = 0; i < sources.size(); ++i)
+          any_strict |= looks[i][size_t(y) * VW + x].quality > 0 && looks[i][size_t(y) * VW + x].strict;
       for (size_t i = 0; i < sources.size(); ++i) {
         const Look& l = looks[i][size_t(y) * VW + x];
-        if (l.quality <= 0) continue;
+        if (l.quality <= 0 || (any_strict && !l.strict)) continue;
         float q = l.quality;
         if (p.weights == RoomWeights::Fuse) q /= std::sqrt(std::max(magnification(looks[i], VW, VH, x, y), 1.0f));
         const float byte = std::clamp(std::floor(q * 255.0f + 0.5f), 1.0f, 255.0f);  // the warp's weight byte
@@ -157,7 +205,7 @@ RoomLookupStats room_lookup(const std::vector<RoomLookupSource>& sources, const 
       st.by_one += seen == 1;
       cv::Vec3b& out = color->at<cv::Vec3b>(y, x);
       for (int ch = 0; ch < 3; ++ch) out[ch] = cv::saturate_cast<uint8_t>(acc[ch] / sum);
-      if (replaced) replaced->at<uint8_t>(y, x) = 255;
+      if (replaced) replaced->at<uint8_t>(y, x) = uint8_t(seen);
     }
   return st;
 }

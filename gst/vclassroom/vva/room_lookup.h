@@ -26,6 +26,12 @@ struct RoomLookupSource {
 enum class RoomSampling {
   Nearest,   // the nearest source pixel, if its depth agrees
   Bilinear,  // the 2x2 around the position, each neighbour whose depth agrees, bilinear weights renormalised
+  // As Bilinear, but a camera counts only where every neighbour of the 2x2 around the position (those more
+  // than a fiftieth of a pixel away from it) agrees: the coverage of the warp's cells, which end at their
+  // pixel centre towards a depth edge; where no camera covers a pixel so, the cameras as with Bilinear.
+  BilinearStrict,
+  BilinearAll,  // seen when a neighbour of the 2x2 agrees; the colour bilinear over all four, as the warp's
+                // sampler takes it (across a depth edge too: the cameras' own images mix the two sides there)
 };
 
 enum class RoomWeights {
@@ -43,6 +49,10 @@ struct RoomLookupParams {
   double depth_tol_mm = 30;
   double weight_power = 2.0;        // FuseParams::weight_power
   float remembered_weight = 0.5f;   // view_warp.cpp's kRoomLayerWeight
+  // Each camera's own surface: the point moved along the view ray onto the camera's room depth (this many
+  // steps, each taking the depth around the projected position as if the surface faced the camera), as the
+  // forward warp draws each camera from its own depth; 0: the view's depth as it is.
+  int refine_steps = 0;
 };
 
 struct RoomLookupStats {
@@ -53,7 +63,8 @@ struct RoomLookupStats {
 
 // Writes into `color` (the view, CV_8UC3) the looked-up colour of every pixel where `mask` (CV_8UC1) is
 // non-zero and `view_depth` (CV_16UC1 mm along the view's axis) is known and some camera sees the point;
-// other pixels are left alone. `replaced` (optional, CV_8UC1): 255 where written. `virt` has no distortion.
+// other pixels are left alone. `replaced` (optional, CV_8UC1): how many cameras saw each pixel written (0: not
+// written). `virt` has no distortion.
 RoomLookupStats room_lookup(const std::vector<RoomLookupSource>& sources, const CameraCalib& virt,
                             const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupParams& params,
                             cv::Mat* color, cv::Mat* replaced = nullptr);
