@@ -22,6 +22,7 @@
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/vva/room_lookup.h>
+#include <gst/vclassroom/vva/room_lookup_fast.h>
 #include <gst/vclassroom/datasets/middlebury.h>
 #include <gst/vclassroom/vda/plane_refine.h>
 #include <gst/vclassroom/core/view_offset.h>
@@ -353,6 +354,7 @@ struct MaskedScore {  // squared errors pooled over the pixels of a mask
 struct LookupVariant {
   const char* name;
   RoomLookupParams params;
+  int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification
   Stats psnr, ssim, npsnr, nssim;
   MaskedScore room_today, room_lookup, nroom_today, nroom_lookup;  // over the candidates: today's colour / looked up
   MaskedScore one_today, one_lookup, two_today, two_lookup;  // Table I, the pixels one / several cameras saw
@@ -361,9 +363,18 @@ struct LookupVariant {
 
 std::vector<LookupVariant> lookup_variants() {
   auto v = [](const char* name, RoomSampling s, RoomWeights w) {
-    LookupVariant l{name, RoomLookupParams(), {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}};
+    LookupVariant l{name, RoomLookupParams(), 0, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}};
     l.params.sampling = s;
     l.params.weights = w;
+    return l;
+  };
+  auto steps = [](LookupVariant l, int n) {
+    l.params.refine_steps = n;
+    return l;
+  };
+  auto fast = [](LookupVariant l, int kind) {
+    l.params.refine_steps = 2;
+    l.fast = kind;
     return l;
   };
   auto refined = [](LookupVariant l) {
@@ -380,6 +391,15 @@ std::vector<LookupVariant> lookup_variants() {
           refined(v("lookup: strict cells, viewfuse, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Fuse)),
           refined(v("lookup: strict cells, equal, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal)),
           v("lookup: strict cells, viewfuse", RoomSampling::BilinearStrict, RoomWeights::Fuse),
+          steps(v("lookup: strict cells, equal, own surface 1", RoomSampling::BilinearStrict, RoomWeights::Equal), 1),
+          steps(v("lookup: strict, viewfuse w/o magn., own surface 1", RoomSampling::BilinearStrict,
+                  RoomWeights::FuseNoStretch), 1),
+          steps(v("lookup: strict, viewfuse w/o magn., own surface 2", RoomSampling::BilinearStrict,
+                  RoomWeights::FuseNoStretch), 2),
+          steps(v("lookup: strict cells, equal, own surface 3", RoomSampling::BilinearStrict, RoomWeights::Equal), 3),
+          fast(v("fast loop: strict, equal, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal), 1),
+          fast(v("fast loop: strict, viewfuse w/o magn., own surf. 2", RoomSampling::BilinearStrict,
+                 RoomWeights::FuseNoStretch), 2),
           v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
           refined(v("lookup: bilinear all 4, viewfuse, own surface 2", RoomSampling::BilinearAll, RoomWeights::Fuse)),
           refined(v("lookup: bilinear all 4, equal, own surface 2", RoomSampling::BilinearAll, RoomWeights::Equal))};
@@ -430,7 +450,20 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
   for (LookupVariant& l : variants) {
     cv::Mat color = fused.color.clone();
     cv::Mat seen;
-    const RoomLookupStats st = room_lookup(sources, virt, fused.depth, mask, l.params, &color, &seen);
+    RoomLookupStats st;
+    if (l.fast) {
+      std::vector<RoomTexture> tex(sources.size());
+      std::vector<const RoomTexture*> ptrs;
+      for (size_t i = 0; i < sources.size(); ++i) pack_room_texture(sources[i], &tex[i]), ptrs.push_back(&tex[i]);
+      RoomLookupFastParams fp;
+      fp.refine_steps = l.params.refine_steps;
+      fp.equal_weights = l.fast == 1;
+      st.candidates = cv::countNonZero(mask & (fused.depth != 0));
+      st.replaced = room_lookup_fast(ptrs, virt, fused.depth, mask, fp, &color);
+      seen = cv::Mat::zeros(mask.size(), CV_8UC1);  // not counted by the fast loop
+    } else {
+      st = room_lookup(sources, virt, fused.depth, mask, l.params, &color, &seen);
+    }
     if (const char* dump = std::getenv("VCLASSROOM_LOOKUP_DUMP"); dump && !novel && &l == &variants.back()) {
       // Scratch: where the lookup loses or gains against today (grey 128 = equal; brighter = lookup worse).
       cv::Mat et, el, diff;
@@ -576,6 +609,10 @@ void eval_classroom(const Options& opt) {
   std::vector<HoleFillHistory> histories(configs.size() * (1 + novel.size()));
   cv::Mat last_synth, last_real;
   std::vector<LookupVariant> lookups = opt.room_lookup ? lookup_variants() : std::vector<LookupVariant>();
+  if (const char* only = std::getenv("VCLASSROOM_LOOKUP_ONLY"))  // scratch: the variants whose name holds it
+    lookups.erase(std::remove_if(lookups.begin(), lookups.end(),
+                                 [&](const LookupVariant& l) { return !std::strstr(l.name, only); }),
+                  lookups.end());
   std::vector<RoomLookupSource> lookup_sources;
   vclassroom_tools::Progress progress("synthetic classroom frames", opt.frames);
   for (int f = 0; f < opt.frames; ++f) {

@@ -1,0 +1,261 @@
+// The backward room lookup as a tight loop (room_lookup_fast.h). Each step is a loop over a whole view row
+// with no branch, so the compiler vectorises it (gathers for the source's 2x2), built per SIMD level.
+#include <gst/vclassroom/vva/room_lookup_fast.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <gst/vclassroom/core/simd.h>
+
+namespace vclassroom {
+
+void pack_room_texture(const RoomLookupSource& s, RoomTexture* out) {
+  CV_Assert(!s.camera.has_distortion());
+  const int W = s.color.cols, H = s.color.rows;
+  out->camera = s.camera;
+  out->width = W, out->height = H;
+  out->depth.resize(size_t(W) * H);
+  out->color.resize(size_t(W) * H);
+  out->scale.resize(size_t(W) * H);
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* d = s.depth.ptr<uint16_t>(y);
+    const uint8_t* c = s.color.ptr<uint8_t>(y);
+    const uint8_t* m = s.remembered.empty() ? nullptr : s.remembered.ptr<uint8_t>(y);
+    for (int x = 0; x < W; ++x) {
+      const size_t i = size_t(y) * W + x;
+      out->depth[i] = float(d[x]);
+      out->color[i] = uint32_t(c[3 * x]) | uint32_t(c[3 * x + 1]) << 8 | uint32_t(c[3 * x + 2]) << 16;
+      out->scale[i] = m && m[x] ? 0.5f : 1.0f;
+    }
+  }
+}
+
+namespace {
+
+// One camera for one view: view pixel (x, y) at view depth z (mm) lands at camera pixel h / h.z with
+// h = z * (b + x * s) + t, h.z the camera's depth (mm); its centre in view coordinates (m).
+struct LookupCamera {
+  float b[3], s[3], t[3];
+  float centre[3];
+  const float* depth;
+  const uint32_t* color;
+  const float* scale;
+  int W, H;
+};
+
+// Per view row and camera: where each pixel lands, and what the camera makes of it.
+struct RowScratch {
+  std::vector<float> z, u, v, zc, m2, r, g, bl, w, strict;
+  void resize(int n) {
+    for (auto* a : {&z, &u, &v, &zc, &m2, &r, &g, &bl, &w, &strict}) a->resize(size_t(n));
+  }
+};
+
+struct Tolerance {
+  float mm, ratio;
+};
+
+VCLASSROOM_SIMD_INLINE float agree(float a, float b, Tolerance tol) {
+  const float lo = a < b ? a : b, d = a > b ? a - b : b - a, rel = tol.ratio * lo;
+  return ((b > 0.0f) & (d <= (tol.mm > rel ? tol.mm : rel))) ? 1.0f : 0.0f;
+}
+
+// Every pixel of the row projected at its depth z.
+VCLASSROOM_SIMD_CLONES
+void project_row(int n, const LookupCamera& c, const float* __restrict z, float* __restrict u, float* __restrict v,
+                 float* __restrict zc, float* __restrict m2) {
+  for (int x = 0; x < n; ++x) {
+    const float fx = float(x);
+    const float a0 = c.b[0] + fx * c.s[0], a1 = c.b[1] + fx * c.s[1], a2 = c.b[2] + fx * c.s[2];
+    const float h0 = z[x] * a0 + c.t[0], h1 = z[x] * a1 + c.t[1], h2 = z[x] * a2 + c.t[2];
+    const float ih = 1.0f / (h2 > 1.0f ? h2 : 1.0f);
+    u[x] = h0 * ih;
+    v[x] = h1 * ih;
+    zc[x] = h2;
+    m2[x] = a2;
+  }
+}
+
+// Where (u, v) lies in the camera's 2x2 of pixels: the top-left's index and the bilinear fractions; 0 in
+// `inside` where it lies outside the image or behind the camera.
+struct Cell {
+  int i;
+  float fx, fy, inside;
+};
+VCLASSROOM_SIMD_INLINE Cell cell_of(const LookupCamera& c, float u, float v, float zc) {
+  const float inside = ((u >= -0.5f) & (v >= -0.5f) & (u <= float(c.W) - 0.5f) & (v <= float(c.H) - 0.5f) &
+                        (zc >= 50.0f)) ? 1.0f : 0.0f;
+  const float uc = std::clamp(u, 0.0f, float(c.W) - 1.001f), vc = std::clamp(v, 0.0f, float(c.H) - 1.001f);
+  const int ix = int(uc), iy = int(vc);
+  return {iy * c.W + ix, uc - float(ix), vc - float(iy), inside};
+}
+
+// One step onto the camera's own surface: the depth of its 2x2 that agrees with the point (bilinear), and
+// the point moved along the view ray to it when it stays the view's surface.
+VCLASSROOM_SIMD_CLONES
+void refine_row(int n, const LookupCamera& c, Tolerance tol, const float* __restrict z, float* __restrict u,
+                float* __restrict v, float* __restrict zc, const float* __restrict m2, float* __restrict zr) {
+  const float* __restrict D = c.depth;
+  for (int x = 0; x < n; ++x) {
+    const Cell k = cell_of(c, u[x], v[x], zc[x]);
+    const float d00 = D[k.i], d01 = D[k.i + 1], d10 = D[k.i + c.W], d11 = D[k.i + c.W + 1];
+    const float w00 = (1 - k.fx) * (1 - k.fy) * agree(zc[x], d00, tol), w01 = k.fx * (1 - k.fy) * agree(zc[x], d01, tol);
+    const float w10 = (1 - k.fx) * k.fy * agree(zc[x], d10, tol), w11 = k.fx * k.fy * agree(zc[x], d11, tol);
+    const float sw = w00 + w01 + w10 + w11;
+    const float d = (w00 * d00 + w01 * d01 + w10 * d10 + w11 * d11) / (sw > 1e-6f ? sw : 1.0f);
+    const float zn = (d - c.t[2]) / (m2[x] != 0.0f ? m2[x] : 1.0f);
+    const bool take = (k.inside > 0.0f) & (sw > 1e-6f) & (agree(zn, z[x], tol) > 0.0f);
+    zr[x] = take ? zn : z[x];
+  }
+}
+
+// The camera's colour at each position: bilinear over the 2x2 members that agree with the point, its weight
+// (0: not seen) and whether the whole 2x2 agrees (strict: the warp's cell coverage).
+VCLASSROOM_SIMD_CLONES
+void sample_row(int n, const LookupCamera& c, Tolerance tol, const float* __restrict u, const float* __restrict v,
+                const float* __restrict zc, float* __restrict r, float* __restrict g, float* __restrict bl,
+                float* __restrict w, float* __restrict strict) {
+  const float* __restrict D = c.depth;
+  const uint32_t* __restrict C = c.color;
+  for (int x = 0; x < n; ++x) {
+    const Cell k = cell_of(c, u[x], v[x], zc[x]);
+    const int i01 = k.i + 1, i10 = k.i + c.W, i11 = k.i + c.W + 1;
+    const float a00 = agree(zc[x], D[k.i], tol), a01 = agree(zc[x], D[i01], tol), a10 = agree(zc[x], D[i10], tol),
+                a11 = agree(zc[x], D[i11], tol);
+    const float b00 = (1 - k.fx) * (1 - k.fy), b01 = k.fx * (1 - k.fy), b10 = (1 - k.fx) * k.fy, b11 = k.fx * k.fy;
+    const float w00 = b00 * a00, w01 = b01 * a01, w10 = b10 * a10, w11 = b11 * a11;
+    const float sw = w00 + w01 + w10 + w11, isw = 1.0f / (sw > 1e-6f ? sw : 1.0f);
+    const uint32_t c00 = C[k.i], c01 = C[i01], c10 = C[i10], c11 = C[i11];
+    r[x] = (w00 * float(c00 & 255) + w01 * float(c01 & 255) + w10 * float(c10 & 255) + w11 * float(c11 & 255)) * isw;
+    g[x] = (w00 * float((c00 >> 8) & 255) + w01 * float((c01 >> 8) & 255) + w10 * float((c10 >> 8) & 255) +
+            w11 * float((c11 >> 8) & 255)) * isw;
+    bl[x] = (w00 * float(c00 >> 16) + w01 * float(c01 >> 16) + w10 * float(c10 >> 16) + w11 * float(c11 >> 16)) * isw;
+    // A neighbour more than kEdge (a cell's reach past its centre towards an edge) away from the position
+    // that does not agree: the position lies beyond the surface's cells.
+    const float fxm = 1 - k.fx, fym = 1 - k.fy;
+    const bool out00 = (a00 == 0.0f) & ((fxm < fym ? fxm : fym) > 0.02f);
+    const bool out01 = (a01 == 0.0f) & ((k.fx < fym ? k.fx : fym) > 0.02f);
+    const bool out10 = (a10 == 0.0f) & ((fxm < k.fy ? fxm : k.fy) > 0.02f);
+    const bool out11 = (a11 == 0.0f) & ((k.fx < k.fy ? k.fx : k.fy) > 0.02f);
+    const bool seen = (k.inside > 0.0f) & (sw > 1e-6f);
+    w[x] = seen ? 1.0f : 0.0f;
+    strict[x] = (seen & !(out00 | out01 | out10 | out11)) ? 1.0f : 0.0f;
+  }
+}
+
+// The warp's quality for each seen point (cos^8 of the ray angle x distance ratio x the layer's scale, as a
+// byte), squared: viewfuse's weight without the magnification term.
+VCLASSROOM_SIMD_CLONES
+void weigh_row(int n, const LookupCamera& c, float y, const float* __restrict z, const float* __restrict u,
+               const float* __restrict v, const float* __restrict zc, float ifx, float ify, float vcx, float vcy,
+               float* __restrict w) {
+  for (int x = 0; x < n; ++x) {
+    const float zm = z[x] * 0.001f;
+    const float px = (float(x) - vcx) * ifx * zm, py = (y - vcy) * ify * zm, pz = zm;
+    const float dx = px - c.centre[0], dy = py - c.centre[1], dz = pz - c.centre[2];
+    const float p2 = px * px + py * py + pz * pz, d2 = dx * dx + dy * dy + dz * dz + 1e-12f;
+    const float cs = (px * dx + py * dy + pz * dz) / std::sqrt(p2 * d2);
+    const float c2 = cs * cs, c4 = c2 * c2, c8 = c4 * c4;
+    const float nearer = std::sqrt(std::min(1.0f, p2 / d2));
+    const Cell k = cell_of(c, u[x], v[x], zc[x]);
+    const float q = std::max(0.02f, c8) * nearer * c.scale[k.i];
+    const float byte = std::clamp(float(int(q * 255.0f + 0.5f)), 1.0f, 255.0f) * (1.0f / 255.0f);
+    w[x] *= byte * byte + 1e-6f;
+  }
+}
+
+// The cameras blended where the row's pixel is a candidate: those whose whole 2x2 agrees when there are
+// any, else every camera that sees the point; written where one does. Returns the pixels written.
+VCLASSROOM_SIMD_CLONES
+void any_strict_row(int n, const float* __restrict w, const float* __restrict strict, float* __restrict any) {
+  for (int x = 0; x < n; ++x) any[x] = (w[x] > 0.0f) & (strict[x] > 0.0f) ? 1.0f : any[x];
+}
+
+VCLASSROOM_SIMD_CLONES
+void add_row(int n, const float* __restrict any, const RowScratch& s, float* __restrict r, float* __restrict g,
+             float* __restrict b, float* __restrict sw) {
+  const float *__restrict w = s.w.data(), *__restrict st = s.strict.data(), *__restrict sr = s.r.data(),
+              *__restrict sg = s.g.data(), *__restrict sb = s.bl.data();
+  for (int x = 0; x < n; ++x) {
+    const float wt = any[x] > 0.0f ? w[x] * st[x] : w[x];
+    r[x] += wt * sr[x];
+    g[x] += wt * sg[x];
+    b[x] += wt * sb[x];
+    sw[x] += wt;
+  }
+}
+
+long blend_row(int n, int nc, RowScratch& acc, const std::vector<RowScratch>& cams, uint8_t* out) {
+  float *any = acc.m2.data(), *r = acc.r.data(), *g = acc.g.data(), *b = acc.bl.data(), *sw = acc.w.data();
+  std::fill_n(any, n, 0.0f), std::fill_n(r, n, 0.0f), std::fill_n(g, n, 0.0f), std::fill_n(b, n, 0.0f);
+  std::fill_n(sw, n, 0.0f);
+  for (int k = 0; k < nc; ++k) any_strict_row(n, cams[size_t(k)].w.data(), cams[size_t(k)].strict.data(), any);
+  for (int k = 0; k < nc; ++k) add_row(n, any, cams[size_t(k)], r, g, b, sw);
+  long written = 0;
+  for (int x = 0; x < n; ++x) {
+    if (!(sw[x] > 0.0f) || acc.z[x] == 0.0f) continue;  // not a candidate: its z of 0 projects nowhere useful
+    const float i = 1.0f / sw[x];
+    out[3 * x] = uint8_t(std::min(255.0f, r[x] * i + 0.5f));
+    out[3 * x + 1] = uint8_t(std::min(255.0f, g[x] * i + 0.5f));
+    out[3 * x + 2] = uint8_t(std::min(255.0f, b[x] * i + 0.5f));
+    ++written;
+  }
+  return written;
+}
+
+LookupCamera lookup_camera(const RoomTexture& t, const CameraCalib& virt, int y) {
+  const CameraCalib& cam = t.camera;
+  const Eigen::Isometry3d T = cam.cam_to_rig.inverse() * virt.cam_to_rig;  // view -> camera
+  Eigen::Matrix3d Kv_inv = virt.K().inverse();
+  const Eigen::Matrix3d M = cam.K() * T.linear() * Kv_inv;
+  const Eigen::Vector3d tt = cam.K() * T.translation() * 1000.0;
+  const Eigen::Vector3d b = M * Eigen::Vector3d(0, y, 1), s = M.col(0);
+  const Eigen::Vector3d centre = T.inverse().translation();
+  LookupCamera c{};
+  for (int k = 0; k < 3; ++k) {
+    c.b[k] = float(b[k]), c.s[k] = float(s[k]), c.t[k] = float(tt[k]), c.centre[k] = float(centre[k]);
+  }
+  c.depth = t.depth.data(), c.color = t.color.data(), c.scale = t.scale.data();
+  c.W = t.width, c.H = t.height;
+  return c;
+}
+
+}  // namespace
+
+long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
+                      const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& p,
+                      cv::Mat* color) {
+  CV_Assert(view_depth.type() == CV_16UC1 && mask.type() == CV_8UC1 && color->type() == CV_8UC3);
+  const int VW = view_depth.cols, VH = view_depth.rows, nc = int(cameras.size());
+  const Tolerance tol{float(p.depth_tol_mm), float(p.depth_tol_ratio)};
+  static thread_local std::vector<RowScratch> cam_rows;
+  static thread_local RowScratch row;
+  cam_rows.resize(size_t(nc));
+  for (auto& s : cam_rows) s.resize(VW);
+  row.resize(VW);
+  long written = 0;
+  for (int y = 0; y < VH; ++y) {
+    const uint16_t* d = view_depth.ptr<uint16_t>(y);
+    const uint8_t* m = mask.ptr<uint8_t>(y);
+    float* z = row.z.data();
+    for (int x = 0; x < VW; ++x) z[x] = m[x] ? float(d[x]) : 0.0f;
+    for (int k = 0; k < nc; ++k) {
+      const LookupCamera c = lookup_camera(*cameras[size_t(k)], virt, y);
+      RowScratch& s = cam_rows[size_t(k)];
+      project_row(VW, c, z, s.u.data(), s.v.data(), s.zc.data(), s.m2.data());
+      for (int step = 0; step < p.refine_steps; ++step) {
+        refine_row(VW, c, tol, z, s.u.data(), s.v.data(), s.zc.data(), s.m2.data(), s.z.data());
+        project_row(VW, c, s.z.data(), s.u.data(), s.v.data(), s.zc.data(), s.m2.data());
+      }
+      sample_row(VW, c, tol, s.u.data(), s.v.data(), s.zc.data(), s.r.data(), s.g.data(), s.bl.data(), s.w.data(),
+                 s.strict.data());
+      if (!p.equal_weights)
+        weigh_row(VW, c, float(y), p.refine_steps ? s.z.data() : z, s.u.data(), s.v.data(), s.zc.data(),
+                  float(1 / virt.fx), float(1 / virt.fy), float(virt.cx), float(virt.cy), s.w.data());
+    }
+    written += blend_row(VW, nc, row, cam_rows, color->ptr<uint8_t>(y));
+  }
+  return written;
+}
+
+}  // namespace vclassroom

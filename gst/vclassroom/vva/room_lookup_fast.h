@@ -1,0 +1,40 @@
+// Experiment (issue 31, branch wip/room-lookup): the backward room lookup of room_lookup.h as a tight loop,
+// to count what it costs per view. Per camera frame (no pose): the room's depth and colour packed for the
+// lookup. Per view: for each camera a 3x3 map of view pixel x depth to camera pixel, and per view row a few
+// loops over whole rows, written so the compiler vectorises them (gathers for the 2x2 around each position).
+// Strict cell coverage, each camera's own surface (refine steps), equal weights or the warp's cos^8 x
+// distance. GStreamer-free.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/core/rig.h>
+#include <gst/vclassroom/vva/room_lookup.h>
+
+namespace vclassroom {
+
+// A camera's room as the fast lookup reads it, made once per camera frame.
+struct RoomTexture {
+  CameraCalib camera;  // no distortion
+  int width = 0, height = 0;
+  std::vector<float> depth;     // mm, 0 where the camera does not show the room
+  std::vector<uint32_t> color;  // 0x00bbggrr
+  std::vector<float> scale;     // the warp's weight scale (1, or the room layer's 0.5)
+};
+void pack_room_texture(const RoomLookupSource& source, RoomTexture* out);
+
+struct RoomLookupFastParams {
+  int refine_steps = 2;
+  bool equal_weights = true;  // false: cos^8 of the ray angle x distance ratio, ^2 (viewfuse w/o magnification)
+  double depth_tol_ratio = 0.03, depth_tol_mm = 30;
+};
+
+// As room_lookup() with BilinearStrict sampling. Returns the pixels written.
+long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
+                      const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& params,
+                      cv::Mat* color);
+
+}  // namespace vclassroom
