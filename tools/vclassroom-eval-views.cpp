@@ -356,6 +356,9 @@ struct LookupVariant {
   const char* name;
   RoomLookupParams params;
   int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification
+  // Table I only: the view's depth is V-DA's prior depth of camera 0 (the model rendered at the view's pose,
+  // what a mesh of the room rasterised per view would give) where it has one; novel poses keep the fused.
+  bool model_depth = false;
   Stats psnr, ssim, npsnr, nssim;
   MaskedScore room_today, room_lookup, nroom_today, nroom_lookup;  // over the candidates: today's colour / looked up
   MaskedScore one_today, one_lookup, two_today, two_lookup;  // Table I, the pixels one / several cameras saw
@@ -364,13 +367,17 @@ struct LookupVariant {
 
 std::vector<LookupVariant> lookup_variants() {
   auto v = [](const char* name, RoomSampling s, RoomWeights w) {
-    LookupVariant l{name, RoomLookupParams(), 0, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}};
+    LookupVariant l{name, RoomLookupParams(), 0, false, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}};
     l.params.sampling = s;
     l.params.weights = w;
     return l;
   };
   auto steps = [](LookupVariant l, int n) {
     l.params.refine_steps = n;
+    return l;
+  };
+  auto model = [](LookupVariant l) {
+    l.model_depth = true;
     return l;
   };
   auto fast = [](LookupVariant l, int kind) {
@@ -401,6 +408,9 @@ std::vector<LookupVariant> lookup_variants() {
           fast(v("fast loop: strict, equal, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal), 1),
           fast(v("fast loop: strict, viewfuse w/o magn., own surf. 2", RoomSampling::BilinearStrict,
                  RoomWeights::FuseNoStretch), 2),
+          model(steps(fast(v("fast, equal, model depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0)),
+          model(fast(v("fast, equal, model depth, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal), 1)),
+          steps(fast(v("fast, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0),
           v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
           refined(v("lookup: bilinear all 4, viewfuse, own surface 2", RoomSampling::BilinearAll, RoomWeights::Fuse)),
           refined(v("lookup: bilinear all 4, equal, own surface 2", RoomSampling::BilinearAll, RoomWeights::Equal))};
@@ -446,9 +456,15 @@ std::vector<RoomLookupSource> room_lookup_sources(const std::vector<CameraCalib>
 
 // Scores every variant on one fused view of `virt` against `real`.
 void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomLookupSource>& sources,
-                   const CameraCalib& virt, const FusedView& fused, const cv::Mat& real, bool novel) {
+                   const CameraCalib& virt, const FusedView& fused, const cv::Mat& real, bool novel,
+                   const cv::Mat& model_depth = cv::Mat()) {
   cv::Mat mask = (fused.label == 0) & (fused.filled == 0) & (fused.depth != 0);
   for (LookupVariant& l : variants) {
+    cv::Mat view_depth = fused.depth;
+    if (l.model_depth && !model_depth.empty()) {
+      view_depth = fused.depth.clone();
+      model_depth.copyTo(view_depth, model_depth != 0);
+    }
     cv::Mat color = fused.color.clone();
     cv::Mat seen;
     RoomLookupStats st;
@@ -460,11 +476,11 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
       fp.refine_steps = l.params.refine_steps;
       fp.equal_weights = l.fast == 1;
       st.candidates = cv::countNonZero(mask & (fused.depth != 0));
-      room_lookup_fast(ptrs, virt, fused.depth, mask, fp, &color);
+      room_lookup_fast(ptrs, virt, view_depth, mask, fp, &color);
       st.replaced = st.candidates;  // not counted by the fast loop
       seen = cv::Mat::zeros(mask.size(), CV_8UC1);  // not counted by the fast loop
     } else {
-      st = room_lookup(sources, virt, fused.depth, mask, l.params, &color, &seen);
+      st = room_lookup(sources, virt, view_depth, mask, l.params, &color, &seen);
     }
     if (const char* dump = std::getenv("VCLASSROOM_LOOKUP_DUMP"); dump && !novel && &l == &variants.back()) {
       // Scratch: where the lookup loses or gains against today (grey 128 = equal; brighter = lookup worse).
@@ -704,7 +720,7 @@ void eval_classroom(const Options& opt) {
         filled_holes.add(fused.color, imgs[0].color, fused.filled, cv::Rect(0, 0, fused.color.cols, fused.color.rows));
         if (opt.room_lookup) {
           lookup_sources = room_lookup_sources(sources, in, src_priors, src_labels, room_layers, wp);
-          score_lookups(lookups, lookup_sources, target, fused, imgs[0].color, false);
+          score_lookups(lookups, lookup_sources, target, fused, imgs[0].color, false, priors[0]);
         }
         if (const char* bench = std::getenv("VCLASSROOM_LOOKUP_BENCH"))  // "STEPS" or "STEPS,fuse"
           bench_lookup(all, imgs, priors, labels, room_layers, wp, fused, std::atoi(bench),
