@@ -24,6 +24,7 @@
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/vva/room_lookup.h>
 #include <gst/vclassroom/vva/room_lookup_fast.h>
+#include <gst/vclassroom/vva/room_mesh.h>
 #include <gst/vclassroom/datasets/middlebury.h>
 #include <gst/vclassroom/vda/plane_refine.h>
 #include <gst/vclassroom/core/view_offset.h>
@@ -359,6 +360,7 @@ struct LookupVariant {
   // Table I only: the view's depth is V-DA's prior depth of camera 0 (the model rendered at the view's pose,
   // what a mesh of the room rasterised per view would give) where it has one; novel poses keep the fused.
   bool model_depth = false;
+  double mesh_ratio = 0, mesh_min_mm = 0;  // > 0: that prior as a quadtree mesh of this tolerance gives it
   Stats psnr, ssim, npsnr, nssim;
   MaskedScore room_today, room_lookup, nroom_today, nroom_lookup;  // over the candidates: today's colour / looked up
   MaskedScore one_today, one_lookup, two_today, two_lookup;  // Table I, the pixels one / several cameras saw
@@ -367,13 +369,18 @@ struct LookupVariant {
 
 std::vector<LookupVariant> lookup_variants() {
   auto v = [](const char* name, RoomSampling s, RoomWeights w) {
-    LookupVariant l{name, RoomLookupParams(), 0, false, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}};
+    LookupVariant l{name, RoomLookupParams(), 0, false, 0, 0, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}};
     l.params.sampling = s;
     l.params.weights = w;
     return l;
   };
   auto steps = [](LookupVariant l, int n) {
     l.params.refine_steps = n;
+    return l;
+  };
+  auto mesh = [](LookupVariant l, double ratio, double min_mm) {
+    l.model_depth = true;
+    l.mesh_ratio = ratio, l.mesh_min_mm = min_mm;
     return l;
   };
   auto model = [](LookupVariant l) {
@@ -410,6 +417,10 @@ std::vector<LookupVariant> lookup_variants() {
                  RoomWeights::FuseNoStretch), 2),
           model(steps(fast(v("fast, equal, model depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0)),
           model(fast(v("fast, equal, model depth, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal), 1)),
+          mesh(steps(fast(v("fast, equal, model mesh 0.25 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0), 0.0025, 3),
+          mesh(steps(fast(v("fast, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0), 0.01, 10),
+          mesh(steps(fast(v("fast, equal, model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 1), 0.01, 10),
+          mesh(steps(fast(v("fast, equal, model mesh 3 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 1), 0.03, 30),
           steps(fast(v("fast, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0),
           v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
           refined(v("lookup: bilinear all 4, viewfuse, own surface 2", RoomSampling::BilinearAll, RoomWeights::Fuse)),
@@ -463,7 +474,13 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
     cv::Mat view_depth = fused.depth;
     if (l.model_depth && !model_depth.empty()) {
       view_depth = fused.depth.clone();
-      model_depth.copyTo(view_depth, model_depth != 0);
+      static std::map<double, cv::Mat> meshes;  // the prior does not change: one mesh per tolerance
+      cv::Mat& meshed = meshes[l.mesh_ratio];
+      if (meshed.empty()) {
+        if (l.mesh_ratio > 0) room_mesh(model_depth, l.mesh_ratio, l.mesh_min_mm, 5, &meshed);
+        else meshed = model_depth;
+      }
+      meshed.copyTo(view_depth, meshed != 0);
     }
     cv::Mat color = fused.color.clone();
     cv::Mat seen;
