@@ -356,7 +356,7 @@ struct MaskedScore {  // squared errors pooled over the pixels of a mask
 struct LookupVariant {
   const char* name;
   RoomLookupParams params;
-  int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification
+  int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification, 3: best only
   // Table I only: the view's depth is V-DA's prior depth of camera 0 (the model rendered at the view's pose,
   // what a mesh of the room rasterised per view would give) where it has one; novel poses keep the fused.
   bool model_depth = false;
@@ -421,6 +421,9 @@ std::vector<LookupVariant> lookup_variants() {
           mesh(steps(fast(v("fast, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0), 0.01, 10),
           mesh(steps(fast(v("fast, equal, model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 1), 0.01, 10),
           mesh(steps(fast(v("fast, equal, model mesh 3 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 1), 0.03, 30),
+          mesh(steps(fast(v("fast, best camera, model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 3), 1), 0.01, 10),
+          mesh(steps(fast(v("fast, viewfuse w/o magn., model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 2), 1), 0.01, 10),
+          steps(fast(v("fast, best camera, fused depth, 2 steps", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 3), 2),
           steps(fast(v("fast, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0),
           v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
           refined(v("lookup: bilinear all 4, viewfuse, own surface 2", RoomSampling::BilinearAll, RoomWeights::Fuse)),
@@ -492,6 +495,7 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
       RoomLookupFastParams fp;
       fp.refine_steps = l.params.refine_steps;
       fp.equal_weights = l.fast == 1;
+      fp.best_only = l.fast == 3;
       st.candidates = cv::countNonZero(mask & (fused.depth != 0));
       room_lookup_fast(ptrs, virt, view_depth, mask, fp, &color);
       st.replaced = st.candidates;  // not counted by the fast loop

@@ -202,11 +202,28 @@ void store_row(int n, const float* __restrict z, const float* __restrict r, cons
   }
 }
 
-long blend_row(int n, int nc, RowScratch& acc, const std::vector<RowScratch>& cams, uint8_t* out) {
+// best_only: each camera's weight kept where it is the best so far of the cameras that count (ties: the
+// first), zeroed in the others.
+void keep_best(int n, int nc, const float* any, std::vector<RowScratch>& cams) {
+  for (int x = 0; x < n; ++x) {
+    int best = -1;
+    float wb = 0;
+    for (int k = 0; k < nc; ++k) {
+      const RowScratch& s = cams[size_t(k)];
+      const float w = any[x] > 0.0f ? s.w[size_t(x)] * s.strict[size_t(x)] : s.w[size_t(x)];
+      if (w > wb) wb = w, best = k;
+    }
+    for (int k = 0; k < nc; ++k)
+      if (k != best) cams[size_t(k)].w[size_t(x)] = 0;
+  }
+}
+
+long blend_row(int n, int nc, RowScratch& acc, std::vector<RowScratch>& cams, uint8_t* out, bool best_only) {
   float *any = acc.m2.data(), *r = acc.r.data(), *g = acc.g.data(), *b = acc.bl.data(), *sw = acc.w.data();
   std::fill_n(any, n, 0.0f), std::fill_n(r, n, 0.0f), std::fill_n(g, n, 0.0f), std::fill_n(b, n, 0.0f);
   std::fill_n(sw, n, 0.0f);
   for (int k = 0; k < nc; ++k) any_strict_row(n, cams[size_t(k)].w.data(), cams[size_t(k)].strict.data(), any);
+  if (best_only) keep_best(n, nc, any, cams);
   for (int k = 0; k < nc; ++k) add_row(n, any, cams[size_t(k)], r, g, b, sw);
   store_row(n, acc.z.data(), r, g, b, sw, out);
   return 0;  // counted by the caller, outside the timed loop
@@ -266,7 +283,7 @@ long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const Came
         weigh_row(VW, c, float(y), p.refine_steps ? s.z.data() : z, s.u.data(), s.v.data(), s.zc.data(),
                   float(1 / virt.fx), float(1 / virt.fy), float(virt.cx), float(virt.cy), s.w.data());
     }
-    blend_row(VW, nc, row, cam_rows, color->ptr<uint8_t>(y));
+    blend_row(VW, nc, row, cam_rows, color->ptr<uint8_t>(y), p.best_only);
   }
   return 0;
 }

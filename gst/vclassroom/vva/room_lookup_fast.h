@@ -30,6 +30,9 @@ struct RoomLookupFastParams {
   int refine_steps = 2;
   bool equal_weights = true;  // false: cos^8 of the ray angle x distance ratio, ^2 (viewfuse w/o magnification)
   double depth_tol_ratio = 0.03, depth_tol_mm = 30;
+  // Only the best camera per pixel (the highest weight; with equal_weights the warp's cos^8 x distance then
+  // picks it): one colour sample per view pixel instead of one per camera.
+  bool best_only = false;
 };
 
 // As room_lookup() with BilinearStrict sampling. Returns 0 (the pixels written are not counted).
