@@ -423,6 +423,9 @@ std::vector<LookupVariant> lookup_variants() {
           mesh(steps(fast(v("fast, equal, model mesh 3 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 1), 0.03, 30),
           mesh(steps(fast(v("fast, best camera, model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 3), 1), 0.01, 10),
           mesh(steps(fast(v("fast, viewfuse w/o magn., model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 2), 1), 0.01, 10),
+          mesh(steps(fast(v("packed SSE2, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 4), 0), 0.01, 10),
+          mesh(steps(fast(v("packed SSE2, equal, model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 4), 1), 0.01, 10),
+          steps(fast(v("packed SSE2, equal, fused depth, 2 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 4), 2),
           steps(fast(v("fast, best camera, fused depth, 2 steps", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 3), 2),
           steps(fast(v("fast, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0),
           v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
@@ -496,6 +499,8 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
       fp.refine_steps = l.params.refine_steps;
       fp.equal_weights = l.fast == 1;
       fp.best_only = l.fast == 3;
+      fp.packed = l.fast == 4;
+      fp.equal_weights = fp.equal_weights || fp.packed;
       st.candidates = cv::countNonZero(mask & (fused.depth != 0));
       room_lookup_fast(ptrs, virt, view_depth, mask, fp, &color);
       st.replaced = st.candidates;  // not counted by the fast loop
@@ -560,6 +565,7 @@ void bench_lookup(const std::vector<CameraCalib>& all, const std::vector<RgbdIma
   RoomLookupFastParams p;
   p.refine_steps = steps;
   p.equal_weights = equal;
+  p.packed = std::getenv("VCLASSROOM_LOOKUP_PACKED") != nullptr;
   std::vector<double> ms;
   const int reps = std::getenv("VCLASSROOM_LOOKUP_REPS") ? std::atoi(std::getenv("VCLASSROOM_LOOKUP_REPS")) : 1;
   for (int r = 0; r < reps; ++r) {

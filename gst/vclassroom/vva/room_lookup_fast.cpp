@@ -8,6 +8,8 @@
 
 #include <gst/vclassroom/core/simd.h>
 
+#include <emmintrin.h>
+
 namespace vclassroom {
 
 void pack_room_texture(const RoomLookupSource& s, RoomTexture* out) {
@@ -18,6 +20,7 @@ void pack_room_texture(const RoomLookupSource& s, RoomTexture* out) {
   out->depth.resize(size_t(W) * H);
   out->color.resize(size_t(W) * H);
   out->scale.resize(size_t(W) * H);
+  out->packed.resize(size_t(W) * H);
   for (int y = 0; y < H; ++y) {
     const uint16_t* d = s.depth.ptr<uint16_t>(y);
     const uint8_t* c = s.color.ptr<uint8_t>(y);
@@ -27,6 +30,8 @@ void pack_room_texture(const RoomLookupSource& s, RoomTexture* out) {
       out->depth[i] = float(d[x]);
       out->color[i] = uint32_t(c[3 * x]) | uint32_t(c[3 * x + 1]) << 8 | uint32_t(c[3 * x + 2]) << 16;
       out->scale[i] = m && m[x] ? 0.5f : 1.0f;
+      out->packed[i] = uint64_t(d[x]) | uint64_t(c[3 * x]) << 16 | uint64_t(c[3 * x + 1]) << 32 |
+                       uint64_t(c[3 * x + 2]) << 48;
     }
   }
 }
@@ -186,6 +191,74 @@ void add_row(int n, const float* __restrict any, const RowScratch& s, float* __r
   }
 }
 
+// The packed sampler's set-up, vectorised: the 2x2's first record, its four bilinear weights in 1/256 (0
+// where the position lies outside the image or behind the camera) and the depth range that agrees (lo, and
+// the range's width, 16 bits each).
+VCLASSROOM_SIMD_CLONES
+void cells_row(int n, const LookupCamera& c, Tolerance tol, const float* __restrict u, const float* __restrict v,
+               const float* __restrict zc, int32_t* __restrict idx, uint16_t* __restrict wq,
+               uint32_t* __restrict lohi) {
+  for (int x = 0; x < n; ++x) {
+    const Cell k = cell_of(c, u[x], v[x], zc[x]);
+    const int fx = int(k.fx * 16.0f + 0.5f), fy = int(k.fy * 16.0f + 0.5f);
+    const int on = k.inside > 0.0f ? 1 : 0;
+    idx[x] = k.i;
+    wq[4 * x] = uint16_t((16 - fx) * (16 - fy) * on);
+    wq[4 * x + 1] = uint16_t(fx * (16 - fy) * on);
+    wq[4 * x + 2] = uint16_t((16 - fx) * fy * on);
+    wq[4 * x + 3] = uint16_t(fx * fy * on);
+    const float z = zc[x], t = tol.ratio * z, half = tol.mm > t ? tol.mm : t;
+    const float lo = std::clamp(z - half, 1.0f, 65535.0f), hi = std::clamp(z + half, 1.0f, 65535.0f);
+    lohi[x] = uint32_t(lo) | uint32_t(hi - lo) << 16;
+  }
+}
+
+// Per position, the sums over the 2x2 members whose depth agrees: weight, weight x r, g, b (16-bit lanes;
+// a weight of 256 in all: the whole 2x2 agrees, the strict coverage).
+VCLASSROOM_SIMD_CLONES
+void sample_packed_row(int n, const uint64_t* __restrict rec, int W, const int32_t* __restrict idx,
+                       const uint16_t* __restrict wq, const uint32_t* __restrict lohi, uint16_t* __restrict out) {
+  const __m128i zero = _mm_setzero_si128(), rgb = _mm_set_epi16(-1, -1, -1, 0, -1, -1, -1, 0),
+                one = _mm_set_epi16(0, 0, 0, 1, 0, 0, 0, 1);
+  for (int x = 0; x < n; ++x) {
+    const __m128i top = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rec + idx[x]));
+    const __m128i bot = _mm_loadu_si128(reinterpret_cast<const __m128i*>(rec + idx[x] + W));
+    const __m128i lh = _mm_set1_epi32(int(lohi[x]));
+    const __m128i lo = _mm_shuffle_epi32(_mm_shufflelo_epi16(lh, 0x00), 0x00);
+    const __m128i width = _mm_shuffle_epi32(_mm_shufflelo_epi16(lh, 0x55), 0x00);
+    __m128i okt = _mm_cmpeq_epi16(_mm_subs_epu16(_mm_sub_epi16(top, lo), width), zero);
+    __m128i okb = _mm_cmpeq_epi16(_mm_subs_epu16(_mm_sub_epi16(bot, lo), width), zero);
+    okt = _mm_shufflehi_epi16(_mm_shufflelo_epi16(okt, 0x00), 0x00);  // each pixel's depth test to its lanes
+    okb = _mm_shufflehi_epi16(_mm_shufflelo_epi16(okb, 0x00), 0x00);
+    const __m128i w = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(wq + 4 * x));
+    const __m128i w2 = _mm_unpacklo_epi16(w, w);
+    const __m128i wt = _mm_unpacklo_epi32(w2, w2), wb = _mm_unpackhi_epi32(w2, w2);
+    const __m128i rt = _mm_or_si128(_mm_and_si128(top, rgb), one), rb = _mm_or_si128(_mm_and_si128(bot, rgb), one);
+    __m128i sum = _mm_add_epi16(_mm_mullo_epi16(rt, _mm_and_si128(wt, okt)), _mm_mullo_epi16(rb, _mm_and_si128(wb, okb)));
+    sum = _mm_add_epi16(sum, _mm_srli_si128(sum, 8));
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(out + 4 * x), sum);
+  }
+}
+
+VCLASSROOM_SIMD_CLONES
+void any_strict_packed_row(int n, const uint16_t* __restrict s, float* __restrict any) {
+  for (int x = 0; x < n; ++x) any[x] = s[4 * x] == 256 ? 1.0f : any[x];
+}
+
+VCLASSROOM_SIMD_CLONES
+void add_packed_row(int n, const float* __restrict any, const uint16_t* __restrict s, float* __restrict r,
+                    float* __restrict g, float* __restrict b, float* __restrict sw) {
+  for (int x = 0; x < n; ++x) {
+    const float w = float(s[4 * x]);
+    const bool take = any[x] > 0.0f ? w == 256.0f : w > 0.0f;
+    const float k = take ? 1.0f / (w > 0.0f ? w : 1.0f) : 0.0f;
+    r[x] += k * float(s[4 * x + 1]);
+    g[x] += k * float(s[4 * x + 2]);
+    b[x] += k * float(s[4 * x + 3]);
+    sw[x] += take ? 1.0f : 0.0f;
+  }
+}
+
 // The blended colour where a camera saw the candidate pixel, the view's colour elsewhere (a select: the
 // loop vectorises).
 VCLASSROOM_SIMD_CLONES
@@ -229,6 +302,15 @@ long blend_row(int n, int nc, RowScratch& acc, std::vector<RowScratch>& cams, ui
   return 0;  // counted by the caller, outside the timed loop
 }
 
+void blend_packed_row(int n, int nc, RowScratch& acc, const std::vector<std::vector<uint16_t>>& sums, uint8_t* out) {
+  float *any = acc.m2.data(), *r = acc.r.data(), *g = acc.g.data(), *b = acc.bl.data(), *sw = acc.w.data();
+  std::fill_n(any, n, 0.0f), std::fill_n(r, n, 0.0f), std::fill_n(g, n, 0.0f), std::fill_n(b, n, 0.0f);
+  std::fill_n(sw, n, 0.0f);
+  for (int k = 0; k < nc; ++k) any_strict_packed_row(n, sums[size_t(k)].data(), any);
+  for (int k = 0; k < nc; ++k) add_packed_row(n, any, sums[size_t(k)].data(), r, g, b, sw);
+  store_row(n, acc.z.data(), r, g, b, sw, out);
+}
+
 // The camera for row 0; row y adds y * dy to b.
 LookupCamera lookup_camera(const RoomTexture& t, const CameraCalib& virt, float dy[3]) {
   const CameraCalib& cam = t.camera;
@@ -257,6 +339,13 @@ long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const Came
   const Tolerance tol{float(p.depth_tol_mm), float(p.depth_tol_ratio)};
   static thread_local std::vector<RowScratch> cam_rows;
   static thread_local RowScratch row;
+  static thread_local std::vector<int32_t> idx;
+  static thread_local std::vector<uint16_t> wq;
+  static thread_local std::vector<uint32_t> lohi;
+  static thread_local std::vector<std::vector<uint16_t>> sums;
+  idx.resize(size_t(VW)), wq.resize(4 * size_t(VW)), lohi.resize(size_t(VW));
+  sums.resize(size_t(nc));
+  for (auto& v : sums) v.resize(4 * size_t(VW));
   cam_rows.resize(size_t(nc));
   for (auto& s : cam_rows) s.resize(VW);
   row.resize(VW);
@@ -277,13 +366,20 @@ long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const Came
         refine_row(VW, c, tol, z, s.u.data(), s.v.data(), s.zc.data(), s.m2.data(), s.z.data());
         project_row(VW, c, s.z.data(), s.u.data(), s.v.data(), s.zc.data(), s.m2.data());
       }
+      if (p.packed) {
+        cells_row(VW, c, tol, s.u.data(), s.v.data(), s.zc.data(), idx.data(), wq.data(), lohi.data());
+        sample_packed_row(VW, cameras[size_t(k)]->packed.data(), c.W, idx.data(), wq.data(), lohi.data(),
+                          sums[size_t(k)].data());
+        continue;
+      }
       sample_row(VW, c, tol, s.u.data(), s.v.data(), s.zc.data(), s.r.data(), s.g.data(), s.bl.data(), s.w.data(),
                  s.strict.data());
       if (!p.equal_weights)
         weigh_row(VW, c, float(y), p.refine_steps ? s.z.data() : z, s.u.data(), s.v.data(), s.zc.data(),
                   float(1 / virt.fx), float(1 / virt.fy), float(virt.cx), float(virt.cy), s.w.data());
     }
-    blend_row(VW, nc, row, cam_rows, color->ptr<uint8_t>(y), p.best_only);
+    if (p.packed) blend_packed_row(VW, nc, row, sums, color->ptr<uint8_t>(y));
+    else blend_row(VW, nc, row, cam_rows, color->ptr<uint8_t>(y), p.best_only);
   }
   return 0;
 }

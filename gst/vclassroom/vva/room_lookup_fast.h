@@ -23,6 +23,7 @@ struct RoomTexture {
   std::vector<float> depth;     // mm, 0 where the camera does not show the room
   std::vector<uint32_t> color;  // 0x00bbggrr
   std::vector<float> scale;     // the warp's weight scale (1, or the room layer's 0.5)
+  std::vector<uint64_t> packed;  // per pixel four 16-bit lanes: depth (mm), r, g, b (the packed sampler's)
 };
 void pack_room_texture(const RoomLookupSource& source, RoomTexture* out);
 
@@ -33,6 +34,9 @@ struct RoomLookupFastParams {
   // Only the best camera per pixel (the highest weight; with equal_weights the warp's cos^8 x distance then
   // picks it): one colour sample per view pixel instead of one per camera.
   bool best_only = false;
+  // The 2x2 sampled from the packed records with SSE2, bilinear weights in 1/16 px, equal weights only: the
+  // hand-written form of the sample, to count what it saves.
+  bool packed = false;
 };
 
 // As room_lookup() with BilinearStrict sampling. Returns 0 (the pixels written are not counted).
