@@ -356,7 +356,7 @@ struct MaskedScore {  // squared errors pooled over the pixels of a mask
 struct LookupVariant {
   const char* name;
   RoomLookupParams params;
-  int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification, 3: best only
+  int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification, 3: best only, 4: packed SSE2, 5: AVX2
   // Table I only: the view's depth is V-DA's prior depth of camera 0 (the model rendered at the view's pose,
   // what a mesh of the room rasterised per view would give) where it has one; novel poses keep the fused.
   bool model_depth = false;
@@ -428,6 +428,8 @@ std::vector<LookupVariant> lookup_variants() {
           steps(fast(v("packed SSE2, equal, fused depth, 2 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 4), 2),
           steps(fast(v("fast, best camera, fused depth, 2 steps", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 3), 2),
           steps(fast(v("fast, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0),
+          steps(fast(v("AVX2, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 5), 0),
+          mesh(steps(fast(v("AVX2, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 5), 0), 0.01, 10),
           v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
           refined(v("lookup: bilinear all 4, viewfuse, own surface 2", RoomSampling::BilinearAll, RoomWeights::Fuse)),
           refined(v("lookup: bilinear all 4, equal, own surface 2", RoomSampling::BilinearAll, RoomWeights::Equal))};
@@ -500,7 +502,8 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
       fp.equal_weights = l.fast == 1;
       fp.best_only = l.fast == 3;
       fp.packed = l.fast == 4;
-      fp.equal_weights = fp.equal_weights || fp.packed;
+      fp.avx2 = l.fast == 5;
+      fp.equal_weights = fp.equal_weights || fp.packed || fp.avx2;
       st.candidates = cv::countNonZero(mask & (fused.depth != 0));
       room_lookup_fast(ptrs, virt, view_depth, mask, fp, &color);
       st.replaced = st.candidates;  // not counted by the fast loop
@@ -566,6 +569,28 @@ void bench_lookup(const std::vector<CameraCalib>& all, const std::vector<RgbdIma
   p.refine_steps = steps;
   p.equal_weights = equal;
   p.packed = std::getenv("VCLASSROOM_LOOKUP_PACKED") != nullptr;
+  p.avx2 = std::getenv("VCLASSROOM_LOOKUP_AVX2") != nullptr;
+  if (std::getenv("VCLASSROOM_LOOKUP_CMP")) {  // scratch: this form against room_lookup_fast's float loop
+    cv::Mat ref = fused.color.clone(), got = fused.color.clone(), d;
+    RoomLookupFastParams q = p;
+    q.avx2 = false, q.packed = false;
+    room_lookup_fast(ptrs, all[0], fused.depth, mask, q, &ref);
+    room_lookup_fast(ptrs, all[0], fused.depth, mask, p, &got);
+    cv::absdiff(ref, got, d);
+    d = d.reshape(1);
+    double mx = 0;
+    cv::minMaxLoc(d, nullptr, &mx);
+    for (int i = 0, shown = 0; i < int(d.total()) && shown < 12; ++i)
+      if (d.at<uint8_t>(i) > 1) {
+        const int px = i / 3, x = px % ref.cols, y = px / ref.cols;
+        const cv::Vec3b a = ref.at<cv::Vec3b>(y, x), b = got.at<cv::Vec3b>(y, x);
+        std::printf("cmp: (%d, %d) ref %d %d %d got %d %d %d z %d\n", x, y, a[0], a[1], a[2], b[0], b[1], b[2],
+                    fused.depth.at<uint16_t>(y, x));
+        ++shown, i = 3 * px + 2;
+      }
+    std::printf("cmp: max |diff| %.0f, values > 1: %d, > 0: %d of %d\n", mx, cv::countNonZero(d > 1),
+                cv::countNonZero(d > 0), int(d.total()));
+  }
   std::vector<double> ms;
   const int reps = std::getenv("VCLASSROOM_LOOKUP_REPS") ? std::atoi(std::getenv("VCLASSROOM_LOOKUP_REPS")) : 1;
   for (int r = 0; r < reps; ++r) {

@@ -335,6 +335,9 @@ long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const Came
                       const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& p,
                       cv::Mat* color) {
   CV_Assert(view_depth.type() == CV_16UC1 && mask.type() == CV_8UC1 && color->type() == CV_8UC3);
+  if (p.avx2 && p.refine_steps == 0 && p.equal_weights && !p.best_only && !p.packed &&
+      room_lookup_avx2(cameras, virt, view_depth, mask, p, color))
+    return 0;
   const int VW = view_depth.cols, VH = view_depth.rows, nc = int(cameras.size());
   const Tolerance tol{float(p.depth_tol_mm), float(p.depth_tol_ratio)};
   static thread_local std::vector<RowScratch> cam_rows;

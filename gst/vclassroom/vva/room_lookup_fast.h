@@ -23,7 +23,7 @@ struct RoomTexture {
   std::vector<float> depth;     // mm, 0 where the camera does not show the room
   std::vector<uint32_t> color;  // 0x00bbggrr
   std::vector<float> scale;     // the warp's weight scale (1, or the room layer's 0.5)
-  std::vector<uint64_t> packed;  // per pixel four 16-bit lanes: depth (mm), r, g, b (the packed sampler's)
+  std::vector<uint64_t> packed;  // per pixel four 16-bit lanes: depth (mm), r, g, b (the packed samplers')
 };
 void pack_room_texture(const RoomLookupSource& source, RoomTexture* out);
 
@@ -37,10 +37,19 @@ struct RoomLookupFastParams {
   // The 2x2 sampled from the packed records with SSE2, bilinear weights in 1/16 px, equal weights only: the
   // hand-written form of the sample, to count what it saves.
   bool packed = false;
+  // 0 steps, equal weights, strict: the hand-written AVX2 loop (room_lookup_avx2.cpp) where the CPU has AVX2
+  // and FMA, this loop elsewhere.
+  bool avx2 = false;
 };
 
 // As room_lookup() with BilinearStrict sampling. Returns 0 (the pixels written are not counted).
 long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
+                      const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& params,
+                      cv::Mat* color);
+
+// The AVX2 form (params: 0 steps, equal weights; the tolerance is read). False, nothing done, where the CPU
+// lacks AVX2 + FMA or the view's width is not a multiple of 8.
+bool room_lookup_avx2(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
                       const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& params,
                       cv::Mat* color);
 
