@@ -62,7 +62,8 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
   const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), half = _mm256_set1_ps(0.5f),
                mhalf = _mm256_set1_ps(-0.5f), near = _mm256_set1_ps(50.0f), q15 = _mm256_set1_ps(32767.0f),
                mm = _mm256_set1_ps(tol_mm), k1 = _mm256_set1_ps(1.0f / (1.0f + tol_ratio)),
-               k2 = _mm256_set1_ps(1.0f + tol_ratio), c255 = _mm256_set1_ps(255.0f);
+               k2 = _mm256_set1_ps(1.0f + tol_ratio), c255 = _mm256_set1_ps(255.0f),
+               eps = _mm256_set1_ps(1.0f / 65536.0f);
   const __m256i ONE = _mm256_set1_epi16(32767), TH = _mm256_set1_epi16(655), Z = _mm256_setzero_si256();
   const __m256i pick = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1, 0, 1, 2, 4, 5, 6, 8,
                                         9, 10, 12, 13, 14, -1, -1, -1, -1);
@@ -83,7 +84,7 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
       if (_mm_testz_si128(z16, z16)) continue;  // no candidate in these 8
       const __m256 z = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(z16));
       const __m256 xv = _mm256_add_ps(_mm256_set1_ps(float(x0)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
-      __m256 sr = zero, sg = zero, sb = zero, sn = zero, ar = zero, ag = zero, ab = zero, an = zero;
+      __m256 sr = zero, sg = zero, sb = zero, sn = zero;
       for (int k = 0; k < nc; ++k) {
         const CamV& c = cams[k];
         const __m256 a0 = _mm256_fmadd_ps(xv, c.s[0], c.b[0]), a1 = _mm256_fmadd_ps(xv, c.s[1], c.b[1]),
@@ -114,13 +115,17 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
         const __m256i X0 = _mm256_sub_epi16(ONE, FX), Y = _mm256_blend_epi32(_mm256_sub_epi16(ONE, FY), FY, 0xF0);
         const __m256i W0 = _mm256_mulhrs_epi16(X0, Y), W1 = _mm256_mulhrs_epi16(FX, Y);
         // The 2x2s: per pixel [t00 t01 | t10 t11], 4 x 16 bits each, transposed to (texel, channel) x pixel.
-        const uint64_t* R = c.rec;
-        const long W = c.W;
+        // The indices through memory (one store, then a load per pixel that addresses both rows), not
+        // extracted lane by lane as the compiler would.
+        __asm__("" : "+m"(*reinterpret_cast<int32_t(*)[8]>(ii)));
+        const uint64_t *R = c.rec, *RW = c.rec + c.W;
         __m256i p[8];
-        for (int j = 0; j < 8; ++j)
+        for (int j = 0; j < 8; ++j) {
+          const long i = ii[j];
           p[j] = _mm256_inserti128_si256(
-              _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(R + ii[j]))),
-              _mm_loadu_si128(reinterpret_cast<const __m128i*>(R + ii[j] + W)), 1);
+              _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(R + i))),
+              _mm_loadu_si128(reinterpret_cast<const __m128i*>(RW + i)), 1);
+        }
         const __m256i a_0 = _mm256_unpacklo_epi16(p[0], p[1]), a_1 = _mm256_unpackhi_epi16(p[0], p[1]),
                       a_2 = _mm256_unpacklo_epi16(p[2], p[3]), a_3 = _mm256_unpackhi_epi16(p[2], p[3]),
                       a_4 = _mm256_unpacklo_epi16(p[4], p[5]), a_5 = _mm256_unpackhi_epi16(p[4], p[5]),
@@ -151,23 +156,22 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
             _mm_add_epi16(_mm256_castsi256_si128(SW), _mm256_extracti128_si256(SW, 1))));
         const __m256 seen = _mm256_and_ps(in, _mm256_cmp_ps(fw, zero, _CMP_GT_OQ));
         const __m256 strict = _mm256_andnot_ps(out32, seen);
-        const __m256 iw = _mm256_div_ps(one, _mm256_max_ps(fw, one));
-        const __m256 cr = _mm256_mul_ps(fr, iw), cg = _mm256_mul_ps(fg, iw), cb = _mm256_mul_ps(fb, iw);
-        sr = _mm256_add_ps(sr, _mm256_and_ps(cr, strict)), sg = _mm256_add_ps(sg, _mm256_and_ps(cg, strict));
-        sb = _mm256_add_ps(sb, _mm256_and_ps(cb, strict)), sn = _mm256_add_ps(sn, _mm256_and_ps(one, strict));
-        ar = _mm256_add_ps(ar, _mm256_and_ps(cr, seen)), ag = _mm256_add_ps(ag, _mm256_and_ps(cg, seen));
-        ab = _mm256_add_ps(ab, _mm256_and_ps(cb, seen)), an = _mm256_add_ps(an, _mm256_and_ps(one, seen));
+        // The camera's weight: 1 where strict, 2^-16 where it only sees the point (so the strict cameras
+        // decide where there are any, within 0.01 grey levels), divided by its bilinear sum.
+        const __m256 wt = _mm256_blendv_ps(_mm256_and_ps(seen, eps), one, strict);
+        const __m256 kw = _mm256_div_ps(wt, _mm256_max_ps(fw, one));
+        sr = _mm256_fmadd_ps(fr, kw, sr), sg = _mm256_fmadd_ps(fg, kw, sg), sb = _mm256_fmadd_ps(fb, kw, sb);
+        sn = _mm256_add_ps(sn, wt);
       }
-      // The strict cameras where there are any, else those that see the point; written where one does.
-      const __m256 use = _mm256_cmp_ps(sn, zero, _CMP_GT_OQ);
-      const __m256 n = _mm256_blendv_ps(an, sn, use);
+      // Written where a camera sees the point.
+      const __m256 n = sn;
       const __m256 write = _mm256_and_ps(_mm256_cmp_ps(n, zero, _CMP_GT_OQ), _mm256_cmp_ps(z, zero, _CMP_NEQ_OQ));
       const int wm = _mm256_movemask_ps(write);
       if (!wm) continue;
-      const __m256 in_ = _mm256_div_ps(one, _mm256_max_ps(n, one));
-      const __m256i r = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_blendv_ps(ar, sr, use), in_, half))),
-                    g = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_blendv_ps(ag, sg, use), in_, half))),
-                    b = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_blendv_ps(ab, sb, use), in_, half)));
+      const __m256 in_ = _mm256_div_ps(one, _mm256_max_ps(n, eps));
+      const __m256i r = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sr, in_, half))),
+                    g = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sg, in_, half))),
+                    b = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sb, in_, half)));
       const __m256i rgb = _mm256_or_si256(r, _mm256_or_si256(_mm256_slli_epi32(g, 8), _mm256_slli_epi32(b, 16)));
       uint8_t* o = out + 3 * x0;
       if (wm == 0xFF) {
