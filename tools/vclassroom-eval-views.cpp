@@ -356,7 +356,7 @@ struct MaskedScore {  // squared errors pooled over the pixels of a mask
 struct LookupVariant {
   const char* name;
   RoomLookupParams params;
-  int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification, 3: best only, 4: packed SSE2, 5: AVX2
+  int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification, 3: best only, 4: packed SSE2, 5: AVX2, 6: AVX2 gathers
   // Table I only: the view's depth is V-DA's prior depth of camera 0 (the model rendered at the view's pose,
   // what a mesh of the room rasterised per view would give) where it has one; novel poses keep the fused.
   bool model_depth = false;
@@ -430,6 +430,8 @@ std::vector<LookupVariant> lookup_variants() {
           steps(fast(v("fast, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0),
           steps(fast(v("AVX2, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 5), 0),
           mesh(steps(fast(v("AVX2, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 5), 0), 0.01, 10),
+          steps(fast(v("AVX2 gathers, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 6), 0),
+          mesh(steps(fast(v("AVX2 gathers, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 6), 0), 0.01, 10),
           v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
           refined(v("lookup: bilinear all 4, viewfuse, own surface 2", RoomSampling::BilinearAll, RoomWeights::Fuse)),
           refined(v("lookup: bilinear all 4, equal, own surface 2", RoomSampling::BilinearAll, RoomWeights::Equal))};
@@ -502,7 +504,8 @@ void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomL
       fp.equal_weights = l.fast == 1;
       fp.best_only = l.fast == 3;
       fp.packed = l.fast == 4;
-      fp.avx2 = l.fast == 5;
+      fp.avx2 = l.fast == 5 || l.fast == 6;
+      fp.avx2_gather = l.fast == 6;
       fp.equal_weights = fp.equal_weights || fp.packed || fp.avx2;
       st.candidates = cv::countNonZero(mask & (fused.depth != 0));
       room_lookup_fast(ptrs, virt, view_depth, mask, fp, &color);
@@ -570,6 +573,7 @@ void bench_lookup(const std::vector<CameraCalib>& all, const std::vector<RgbdIma
   p.equal_weights = equal;
   p.packed = std::getenv("VCLASSROOM_LOOKUP_PACKED") != nullptr;
   p.avx2 = std::getenv("VCLASSROOM_LOOKUP_AVX2") != nullptr;
+  p.avx2_gather = p.avx2 && std::string(std::getenv("VCLASSROOM_LOOKUP_AVX2")) == "gather";
   if (std::getenv("VCLASSROOM_LOOKUP_CMP")) {  // scratch: this form against room_lookup_fast's float loop
     cv::Mat ref = fused.color.clone(), got = fused.color.clone(), d;
     RoomLookupFastParams q = p;

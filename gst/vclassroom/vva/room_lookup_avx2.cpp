@@ -25,13 +25,15 @@ struct CamV {
   __m256 b[3], s[3], t[3];
   __m256 umax, vmax, uclamp, vclamp, wf;
   const uint64_t* rec;
-  long W;
+  const uint16_t* planes;
+  long W, plane;
 };
 
 // The same in plain floats (row 0; row y adds y * dy to b), made outside the AVX2 code.
 struct CamF {
   float b[3], s[3], t[3], dy[3];
   const uint64_t* rec;
+  const uint16_t* planes;
   int W, H;
 };
 
@@ -45,6 +47,16 @@ VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256 weighted_sum(__m256
       _mm256_add_epi32(_mm256_permute2x128_si256(l, h, 0x20), _mm256_permute2x128_si256(l, h, 0x31)));
 }
 
+// Per pixel sum of c x w over a 2x2 of one 16-bit plane: each row's pair by one 32-bit gather, madd with the
+// row's weights (pairs), 8 pixels as floats.
+VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256 gathered_sum(const uint16_t* plane, long W, __m256i idx,
+                                                                        __m256i wt, __m256i wb) {
+  const __m256i t = _mm256_i32gather_epi32(reinterpret_cast<const int*>(plane), idx, 2),
+                b = _mm256_i32gather_epi32(reinterpret_cast<const int*>(plane + W), idx, 2);
+  return _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_madd_epi16(t, wt), _mm256_madd_epi16(b, wb)));
+}
+
+template <bool kGather>
 VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& view_depth, const cv::Mat& mask,
                                  float tol_mm, float tol_ratio, cv::Mat* color) {
   const int VW = view_depth.cols, VH = view_depth.rows, nc = int(cf.size());
@@ -57,7 +69,7 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
     c.umax = _mm256_set1_ps(float(f.W) - 0.5f), c.vmax = _mm256_set1_ps(float(f.H) - 0.5f);
     c.uclamp = _mm256_set1_ps(float(f.W) - 1.001f), c.vclamp = _mm256_set1_ps(float(f.H) - 1.001f);
     c.wf = _mm256_set1_ps(float(f.W));
-    c.rec = f.rec, c.W = f.W;
+    c.rec = f.rec, c.planes = f.planes, c.W = f.W, c.plane = long(f.W) * f.H;
   }
   const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), half = _mm256_set1_ps(0.5f),
                mhalf = _mm256_set1_ps(-0.5f), near = _mm256_set1_ps(50.0f), q15 = _mm256_set1_ps(32767.0f),
@@ -101,16 +113,42 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
                      vc = _mm256_min_ps(_mm256_max_ps(v, zero), c.vclamp);
         const __m256 fu = _mm256_round_ps(uc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC),
                      fv = _mm256_round_ps(vc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC);
-        _mm256_store_si256(reinterpret_cast<__m256i*>(ii), _mm256_cvttps_epi32(_mm256_fmadd_ps(fv, c.wf, fu)));
+        const __m256i idx = _mm256_cvttps_epi32(_mm256_fmadd_ps(fv, c.wf, fu));
         // The depths that agree with h2: lo .. lo + width (integer mm), agree() of room_lookup_fast solved for d.
         const __m256 lo = _mm256_min_ps(_mm256_sub_ps(h2, mm), _mm256_mul_ps(h2, k1)),
                      hi = _mm256_max_ps(_mm256_add_ps(h2, mm), _mm256_mul_ps(h2, k2));
         const __m256i loi = _mm256_cvttps_epi32(_mm256_round_ps(lo, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
         const __m256i lw = _mm256_packus_epi32(loi, _mm256_sub_epi32(_mm256_cvttps_epi32(hi), loi));
-        const __m256i LO = _mm256_permute4x64_epi64(lw, 0x88), WD = _mm256_permute4x64_epi64(lw, 0xDD);
-        // Bilinear fractions in Q15, each pixel in lane p (top row) and p + 8 (bottom row).
+        // Bilinear fractions in Q15.
         const __m256i fq = _mm256_packus_epi32(_mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(uc, fu), q15)),
                                                _mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(vc, fv), q15)));
+        __m256 fr, fg, fb, fw, strict_keep;
+        if constexpr (kGather) {
+          // Planar 16-bit texture: one 32-bit gather fetches a row's pair of one channel for each pixel, in
+          // pixel order (no transpose). Lanes: per pixel (left, right) 16 bits each.
+          const __m256i LO2 = _mm256_unpacklo_epi16(lw, lw), WD2 = _mm256_unpackhi_epi16(lw, lw);
+          const __m256i nq = _mm256_sub_epi16(ONE, fq);
+          const __m256i XP = _mm256_unpacklo_epi16(nq, fq), YT = _mm256_unpackhi_epi16(nq, nq),
+                        YB = _mm256_unpackhi_epi16(fq, fq);
+          const int* P = reinterpret_cast<const int*>(c.planes);
+          const int* PW = reinterpret_cast<const int*>(c.planes + c.W);
+          const long N = c.plane;  // one plane, in 16-bit elements
+          const __m256i Dt = _mm256_i32gather_epi32(P, idx, 2), Db = _mm256_i32gather_epi32(PW, idx, 2);
+          const __m256i okt = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(Dt, LO2), WD2), Z),
+                        okb = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(Db, LO2), WD2), Z);
+          const __m256i out =
+              _mm256_or_si256(_mm256_andnot_si256(okt, _mm256_cmpgt_epi16(_mm256_min_epi16(XP, YT), TH)),
+                              _mm256_andnot_si256(okb, _mm256_cmpgt_epi16(_mm256_min_epi16(XP, YB), TH)));
+          strict_keep = _mm256_castsi256_ps(_mm256_cmpeq_epi32(out, Z));
+          const __m256i wt = _mm256_and_si256(_mm256_mulhrs_epi16(XP, YT), okt),
+                        wb = _mm256_and_si256(_mm256_mulhrs_epi16(XP, YB), okb);
+          const __m256i ones = _mm256_set1_epi16(1);
+          fw = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_madd_epi16(wt, ones), _mm256_madd_epi16(wb, ones)));
+          fr = gathered_sum(c.planes + N, c.W, idx, wt, wb), fg = gathered_sum(c.planes + 2 * N, c.W, idx, wt, wb);
+          fb = gathered_sum(c.planes + 3 * N, c.W, idx, wt, wb);
+        } else {
+        _mm256_store_si256(reinterpret_cast<__m256i*>(ii), idx);
+        const __m256i LO = _mm256_permute4x64_epi64(lw, 0x88), WD = _mm256_permute4x64_epi64(lw, 0xDD);
         const __m256i FX = _mm256_permute4x64_epi64(fq, 0x88), FY = _mm256_permute4x64_epi64(fq, 0xDD);
         const __m256i X0 = _mm256_sub_epi16(ONE, FX), Y = _mm256_blend_epi32(_mm256_sub_epi16(ONE, FY), FY, 0xF0);
         const __m256i W0 = _mm256_mulhrs_epi16(X0, Y), W1 = _mm256_mulhrs_epi16(FX, Y);
@@ -143,19 +181,20 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
         // Strict: no member that disagrees lies more than 1/50 px (either way) from the position's corner.
         const __m256i out = _mm256_or_si256(_mm256_andnot_si256(ok0, _mm256_cmpgt_epi16(_mm256_min_epi16(X0, Y), TH)),
                                             _mm256_andnot_si256(ok1, _mm256_cmpgt_epi16(_mm256_min_epi16(FX, Y), TH)));
-        const __m256 out32 = _mm256_castsi256_ps(_mm256_cvtepi16_epi32(
+        strict_keep = _mm256_castsi256_ps(_mm256_cvtepi16_epi32(  // here: where a member is out
             _mm_or_si128(_mm256_castsi256_si128(out), _mm256_extracti128_si256(out, 1))));
         const __m256i w0 = _mm256_and_si256(W0, ok0), w1 = _mm256_and_si256(W1, ok1);
         // Colour x weight summed exactly in 32 bits: t0 and t1 of a row paired for _mm256_madd_epi16 (lanes:
         // pixels 0-3 top | 0-3 bottom, and 4-7), then the rows added.
         const __m256i SW = _mm256_add_epi16(w0, w1);
         const __m256i wl = _mm256_unpacklo_epi16(w0, w1), wh = _mm256_unpackhi_epi16(w0, w1);
-        const __m256 fr = weighted_sum(R0, R1, wl, wh), fg = weighted_sum(G0, G1, wl, wh),
-                     fb = weighted_sum(B0, B1, wl, wh);
-        const __m256 fw = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(
+        fr = weighted_sum(R0, R1, wl, wh), fg = weighted_sum(G0, G1, wl, wh);
+        fb = weighted_sum(B0, B1, wl, wh);
+        fw = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(
             _mm_add_epi16(_mm256_castsi256_si128(SW), _mm256_extracti128_si256(SW, 1))));
+        }
         const __m256 seen = _mm256_and_ps(in, _mm256_cmp_ps(fw, zero, _CMP_GT_OQ));
-        const __m256 strict = _mm256_andnot_ps(out32, seen);
+        const __m256 strict = kGather ? _mm256_and_ps(strict_keep, seen) : _mm256_andnot_ps(strict_keep, seen);
         // The camera's weight: 1 where strict, 2^-16 where it only sees the point (so the strict cameras
         // decide where there are any, within 0.01 grey levels), divided by its bilinear sum.
         const __m256 wt = _mm256_blendv_ps(_mm256_and_ps(seen, eps), one, strict);
@@ -208,9 +247,10 @@ bool room_lookup_avx2(const std::vector<const RoomTexture*>& cameras, const Came
     CamF& c = cams[size_t(k)];
     for (int j = 0; j < 3; ++j)
       c.b[j] = float(b[j]), c.s[j] = float(s[j]), c.t[j] = float(tt[j]), c.dy[j] = float(M(j, 1));
-    c.rec = t.packed.data(), c.W = t.width, c.H = t.height;
+    c.rec = t.packed.data(), c.planes = t.planes.data(), c.W = t.width, c.H = t.height;
   }
-  lookup_avx2(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color);
+  if (p.avx2_gather) lookup_avx2<true>(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color);
+  else lookup_avx2<false>(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color);
   return true;
 }
 

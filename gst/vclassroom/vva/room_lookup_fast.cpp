@@ -21,6 +21,7 @@ void pack_room_texture(const RoomLookupSource& s, RoomTexture* out) {
   out->color.resize(size_t(W) * H);
   out->scale.resize(size_t(W) * H);
   out->packed.resize(size_t(W) * H);
+  out->planes.resize(4 * size_t(W) * H);
   for (int y = 0; y < H; ++y) {
     const uint16_t* d = s.depth.ptr<uint16_t>(y);
     const uint8_t* c = s.color.ptr<uint8_t>(y);
@@ -30,6 +31,9 @@ void pack_room_texture(const RoomLookupSource& s, RoomTexture* out) {
       out->depth[i] = float(d[x]);
       out->color[i] = uint32_t(c[3 * x]) | uint32_t(c[3 * x + 1]) << 8 | uint32_t(c[3 * x + 2]) << 16;
       out->scale[i] = m && m[x] ? 0.5f : 1.0f;
+      const size_t N = size_t(W) * H;
+      out->planes[i] = d[x], out->planes[N + i] = c[3 * x], out->planes[2 * N + i] = c[3 * x + 1];
+      out->planes[3 * N + i] = c[3 * x + 2];
       out->packed[i] = uint64_t(d[x]) | uint64_t(c[3 * x]) << 16 | uint64_t(c[3 * x + 1]) << 32 |
                        uint64_t(c[3 * x + 2]) << 48;
     }

@@ -23,6 +23,7 @@ struct RoomTexture {
   std::vector<float> depth;     // mm, 0 where the camera does not show the room
   std::vector<uint32_t> color;  // 0x00bbggrr
   std::vector<float> scale;     // the warp's weight scale (1, or the room layer's 0.5)
+  std::vector<uint16_t> planes;  // depth (mm), r, g, b as four planes of W x H (the AVX2 gathers')
   std::vector<uint64_t> packed;  // per pixel four 16-bit lanes: depth (mm), r, g, b (the packed samplers')
 };
 void pack_room_texture(const RoomLookupSource& source, RoomTexture* out);
@@ -40,6 +41,7 @@ struct RoomLookupFastParams {
   // 0 steps, equal weights, strict: the hand-written AVX2 loop (room_lookup_avx2.cpp) where the CPU has AVX2
   // and FMA, this loop elsewhere.
   bool avx2 = false;
+  bool avx2_gather = false;  // with avx2: the 2x2 by 32-bit hardware gathers from the planes, no transpose
 };
 
 // As room_lookup() with BilinearStrict sampling. Returns 0 (the pixels written are not counted).
