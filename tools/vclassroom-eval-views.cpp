@@ -25,6 +25,7 @@
 #include <gst/vclassroom/vva/room_lookup.h>
 #include <gst/vclassroom/vva/room_lookup_fast.h>
 #include <gst/vclassroom/vva/room_mesh.h>
+#include <gst/vclassroom/vva/room_raster.h>
 #include <gst/vclassroom/datasets/middlebury.h>
 #include <gst/vclassroom/vda/plane_refine.h>
 #include <gst/vclassroom/core/view_offset.h>
@@ -65,6 +66,8 @@ struct Options {
   // classroom, experiment (issue 31): also score the full system with the room's colour looked up backward
   // per view pixel (room_lookup.h), in several variants.
   bool room_lookup = false;
+  // classroom, experiment (issue 31, wip/room-view): also score the view made as proposed for a 12 ms view.
+  bool room_view = false;
 };
 
 FuseParams fuse_params(const Options& opt) {
@@ -630,6 +633,69 @@ void print_lookups(const std::vector<LookupVariant>& variants, const Stats& psnr
               100 * l.by_one / std::max(1.0, l.replaced));
 }
 
+// Experiment (issue 31, wip/room-view): the view made as proposed for a 12 ms view. The room's depth at the
+// view rasterised from a quadtree mesh of each source's static depth (room_mesh, room_raster); the room's
+// colour looked up backward from the sources at that depth (room_lookup: strict cells, equal weights, no
+// steps, as the AVX2 loop); the learners alone warped forward from each source (WarpParams::learners_only);
+// the room view and the learners' views fused and filled as viewfuse fuses cameras.
+struct RoomViewPath {
+  const char* name;
+  double ratio, min_mm;
+  std::vector<RoomMesh> meshes;
+  std::vector<ViewWarper> warpers = std::vector<ViewWarper>(2);
+  Stats psnr, ssim, npsnr, nssim;
+  std::vector<HoleFillHistory> histories;
+  double raster_share = 0, room_share = 0, learner_share = 0;  // of the view's pixels, summed over views
+  long views = 0;
+};
+
+void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams, const std::vector<RgbdImages>& in,
+                          const std::vector<cv::Mat>& priors, const std::vector<cv::Mat>& labels,
+                          const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms, const CameraCalib& virt,
+                          const WarpParams& wp, const FuseParams& fp, FusedView* out, HoleFillHistory* history) {
+  if (p.meshes.empty()) {
+    p.meshes.resize(cams.size());
+    for (size_t i = 0; i < cams.size(); ++i) room_mesh(priors[i], p.ratio, p.min_mm, 5, nullptr, &cams[i], &p.meshes[i]);
+  }
+  RoomRaster raster;
+  raster.begin(virt);
+  for (const RoomMesh& m : p.meshes) raster.draw(m);
+  cv::Mat view_depth;
+  raster.depth(&view_depth);
+  const std::vector<RoomLookupSource> sources = room_lookup_sources(cams, in, priors, labels, rooms, wp);
+  RoomLookupParams lp;
+  lp.sampling = RoomSampling::BilinearStrict;
+  lp.weights = RoomWeights::Equal;
+  lp.refine_steps = 0;
+  WarpedView room;
+  room.color = cv::Mat::zeros(view_depth.size(), CV_8UC3);
+  cv::Mat replaced;
+  room_lookup(sources, virt, view_depth, view_depth != 0, lp, &room.color, &replaced);
+  room.depth = cv::Mat::zeros(view_depth.size(), CV_16UC1);
+  view_depth.copyTo(room.depth, replaced != 0);
+  room.label = cv::Mat::zeros(view_depth.size(), CV_8UC1);
+  room.weight = cv::Mat::zeros(view_depth.size(), CV_8UC1);
+  room.weight.setTo(255, replaced != 0);
+  std::vector<WarpedView> learners(cams.size());
+  std::vector<const WarpedView*> ptrs{&room};
+  WarpParams only = wp;
+  only.learners_only = true;
+  for (size_t i = 0; i < cams.size(); ++i) {
+    WarpSource src;
+    src.color = in[i].color;
+    src.depth = in[i].depth;
+    src.label = labels[i];
+    src.static_depth = priors[i];
+    p.warpers[i].warp(cams[i], src, virt, only, &learners[i]);
+    ptrs.push_back(&learners[i]);
+    p.learner_share += double(cv::countNonZero(learners[i].depth)) / double(view_depth.total());
+  }
+  p.raster_share += double(cv::countNonZero(view_depth)) / double(view_depth.total());
+  p.room_share += double(cv::countNonZero(room.depth)) / double(view_depth.total());
+  ++p.views;
+  fuse_views(ptrs, fp, out, history);
+}
+
 void eval_classroom(const Options& opt) {
   const FuseParams fp = fuse_params(opt);
   const Rig rig = default_classroom_rig();
@@ -718,6 +784,13 @@ void eval_classroom(const Options& opt) {
                                  [&](const LookupVariant& l) { return !std::strstr(l.name, only); }),
                   lookups.end());
   std::vector<RoomLookupSource> lookup_sources;
+  std::vector<RoomViewPath> room_views;
+  if (opt.room_view) {
+    room_views.push_back(RoomViewPath{"room view: meshes at max(10 mm, 1 %)", 0.01, 10});
+    room_views.push_back(RoomViewPath{"room view: meshes at max(3 mm, 0.25 %)", 0.0025, 3});
+    for (RoomViewPath& p : room_views) p.histories.resize(1 + novel.size());
+  }
+  FusedView room_fused;
   vclassroom_tools::Progress progress("synthetic classroom frames", opt.frames);
   for (int f = 0; f < opt.frames; ++f) {
     progress.step(f + 1);
@@ -774,6 +847,21 @@ void eval_classroom(const Options& opt) {
         if (cv::countNonZero(unseen) > 0) hole_psnr.add(psnr_rgb_masked(fused.color, imgs[0].color, unseen));
         hole_share += double(cv::countNonZero(unseen)) / double(unseen.total()) / opt.frames;
         filled_holes.add(fused.color, imgs[0].color, fused.filled, cv::Rect(0, 0, fused.color.cols, fused.color.rows));
+        for (RoomViewPath& p : room_views) {
+          synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, target, wp, fp, &room_fused,
+                               &p.histories[0]);
+          p.psnr.add(psnr_rgb(room_fused.color, imgs[0].color));
+          p.ssim.add(ssim_luma(room_fused.color, imgs[0].color));
+          if (const char* dump = std::getenv("VCLASSROOM_ROOM_VIEW_DUMP"); dump && f == opt.frames - 1 && &p == &room_views[0]) {
+            cv::Mat bgr;
+            cv::cvtColor(room_fused.color, bgr, cv::COLOR_RGB2BGR);
+            cv::imwrite(std::string(dump) + "/room-view.png", bgr);
+            cv::cvtColor(fused.color, bgr, cv::COLOR_RGB2BGR);
+            cv::imwrite(std::string(dump) + "/today.png", bgr);
+            cv::cvtColor(imgs[0].color, bgr, cv::COLOR_RGB2BGR);
+            cv::imwrite(std::string(dump) + "/real.png", bgr);
+          }
+        }
         if (opt.room_lookup) {
           lookup_sources = room_lookup_sources(sources, in, src_priors, src_labels, room_layers, wp);
           score_lookups(lookups, lookup_sources, target, fused, imgs[0].color, false, priors[0]);
@@ -794,6 +882,13 @@ void eval_classroom(const Options& opt) {
         synthesize(sources, in, src_priors, src_labels, configs[c], novel[k], wp, fp, warpers, room_layers, &fused,
                    &histories[c * (1 + novel.size()) + 1 + k]);
         if (c == 0 && opt.room_lookup) score_lookups(lookups, lookup_sources, novel[k], fused, gt.color, true);
+        if (c == 0)
+          for (RoomViewPath& p : room_views) {
+            synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, novel[k], wp, fp, &room_fused,
+                                 &p.histories[1 + k]);
+            p.npsnr.add(psnr_rgb(room_fused.color, gt.color));
+            p.nssim.add(ssim_luma(room_fused.color, gt.color));
+          }
         npsnr[c].add(psnr_rgb(fused.color, gt.color));
         nssim[c].add(ssim_luma(fused.color, gt.color));
         if (c == 0 && k == 1 && f == opt.frames - 1 && !opt.images.empty())
@@ -832,6 +927,15 @@ void eval_classroom(const Options& opt) {
     std::printf("%-52s | %7.2f %6.2f %6.2f | %11.2f %6.2f %6.2f\n", configs[c].name, npsnr[c].avg(), npsnr[c].max(),
                 npsnr[c].min(), 100 * nssim[c].avg(), 100 * nssim[c].max(), 100 * nssim[c].min());
   print_lookups(lookups, psnr[0], ssim[0], npsnr[0], nssim[0]);
+  for (const RoomViewPath& p : room_views)
+    std::printf("%-52s | Table I PSNR %.3f (full system %.3f) SSIMx100 %.2f (%.2f) | novel poses PSNR %.3f (%.3f) "
+                "SSIMx100 %.2f (%.2f) | mesh %zu + %zu triangles; per view: raster %.1f %%, room seen %.1f %%, "
+                "learners %.1f %% of the pixels (summed over sources)\n",
+                p.name, p.psnr.avg(), psnr[0].avg(), 100 * p.ssim.avg(), 100 * ssim[0].avg(), p.npsnr.avg(),
+                npsnr[0].avg(), 100 * p.nssim.avg(), 100 * nssim[0].avg(),
+                p.meshes.empty() ? size_t(0) : p.meshes[0].triangles(),
+                p.meshes.size() < 2 ? size_t(0) : p.meshes[1].triangles(), 100 * p.raster_share / p.views,
+                100 * p.room_share / p.views, 100 * p.learner_share / p.views);
   std::printf("learnerseg against the ground-truth labels (IoU avg/min over frames):\n");
   for (int i = 0; i < 3; ++i)
     std::printf("  camera %d: foreground IoU %.3f / %.3f, per-learner IoU %.3f / %.3f\n", i, iou[i].avg(),
@@ -858,7 +962,7 @@ int main(int argc, char** argv) {
   Options opt;
   g_autofree gchar *shared = nullptr, *images = nullptr, *only = nullptr, *size = nullptr, *priors_dir = nullptr,
         *model = nullptr, *dataset = nullptr, *sources = nullptr, *rig = nullptr, *out = nullptr, *fill = nullptr;
-  gboolean mesh = FALSE, room_lookup = FALSE;
+  gboolean mesh = FALSE, room_lookup = FALSE, room_view = FALSE;
   opt.frames = 0;  // told apart from "not given" below
   const GOptionEntry entries[] = {
       {"shared", 0, 0, G_OPTION_ARG_FILENAME, &shared,
@@ -891,6 +995,10 @@ int main(int argc, char** argv) {
       {"room-lookup", 0, 0, G_OPTION_ARG_NONE, &room_lookup,
        "classroom, experiment (issue 31): also score the full system with each seen room pixel's colour looked up "
        "backward from the cameras (room_lookup.h), in several variants",
+       nullptr},
+      {"room-view", 0, 0, G_OPTION_ARG_NONE, &room_view,
+       "classroom, experiment (issue 31, wip/room-view): also score the view made from a rasterised room, its colour "
+       "looked up backward, and the learners warped alone",
        nullptr},
       {"model", 0, 0, G_OPTION_ARG_FILENAME, &model,
        "V-DA's static model (vclassroom-build-model --synthetic, 960x540): the static layer is its prior depth "
@@ -928,6 +1036,7 @@ int main(int argc, char** argv) {
   opt.only = vclassroom_tools::text_of(only);
   opt.mesh = mesh;
   opt.room_lookup = room_lookup;
+  opt.room_view = room_view;
   opt.write_priors = vclassroom_tools::text_of(priors_dir);
   opt.model = vclassroom_tools::text_of(model);
   if (size) vclassroom_tools::parse_size_or_exit("--size", size, &opt.width, &opt.height);

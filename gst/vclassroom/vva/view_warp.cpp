@@ -1056,6 +1056,11 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
               size_t(std::min(kTileSize, H - int(ty) * kTileSize));
     warped_share_ = double(kept) / double(n);
   }
+  if (prm.learners_only) {
+    draw_learner_layer(f, in, depth, label, prm);
+    unpack_view(f, prm, out);
+    return;
+  }
   splat_layer(f,
               Layer{depth, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false,
                     cull ? &view_columns_ : nullptr},
@@ -1486,6 +1491,28 @@ void ViewWarper::draw_room_layer(const Frame& f, const WarpSource& in, const War
                 Layer{src_depth_.data(), src_label_.data(),
                       ColorSampler{in.room_color.data, in.room_color.step, W - 1, H - 1}, row_begin, row_end,
                       kRoomLayerWeight, true},
+                prm);
+}
+
+// Experiment (issue 31): the learners' pixels alone, as a sparse layer over their spans.
+void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth,
+                                    const uint8_t* label, const WarpParams& prm) {
+  const int W = f.W, H = f.H;
+  const size_t n = size_t(W) * H;
+  learner_depth_.resize(n);
+  int row_begin = H, row_end = 0;
+  for (int v = 0; v < H; ++v) {
+    const uint16_t* d = depth + size_t(v) * W;
+    const uint8_t* l = label + size_t(v) * W;
+    uint16_t* o = &learner_depth_[size_t(v) * W];
+    uint16_t any = 0;
+    for (int u = 0; u < W; ++u) o[u] = l[u] ? d[u] : 0, any |= o[u];
+    if (any) row_begin = std::min(row_begin, v), row_end = v + 1;
+  }
+  if (row_begin < row_end)
+    splat_layer(f,
+                Layer{learner_depth_.data(), label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, row_begin,
+                      row_end, 1.0f, true},
                 prm);
 }
 

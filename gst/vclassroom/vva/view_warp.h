@@ -87,6 +87,9 @@ struct WarpParams {
   // (tiles of view_cull.h) are not projected, linked or set up; the view is
   // the same pixel for pixel (false: every column, the reference).
   bool cull_outside_view = true;
+  // Experiment (issue 31, wip/room-view): only the learners' pixels (label non-zero) are drawn, as a sparse
+  // layer over their spans; the room comes from elsewhere (the room view: room_raster + room_lookup).
+  bool learners_only = false;
 };
 
 // The source warped to the virtual view: all images have the virtual camera's size.
@@ -156,6 +159,8 @@ class ViewWarper {
                         const int32_t* skip);
   void splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v, int j_begin, int j_end);
   void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
+  void draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth, const uint8_t* label,
+                          const WarpParams& params);
   void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
   // The cell warp's rows in pairs over every column, or only over the columns that can land in the view.
   void splat_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
@@ -178,6 +183,7 @@ class ViewWarper {
   // longest unbroken mesh edge (px), vertex weight.
   std::vector<float> px_, py_, pz_, plim_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
+  std::vector<uint16_t> learner_depth_;  // experiment: draw_learner_layer's depth
   std::vector<uint16_t> step_tmp_;   // src_depth_ smoothed along the rows
   std::vector<uint8_t> step_code_;   // what lies between neighbours (steps, edges), along rows, then columns
   std::vector<uint8_t> step_chunk_;  // per row and chunk of columns: a step across the column there
