@@ -265,7 +265,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       Camera& c = cams[i];
       const size_t k = size_t(f) % c.color.size();
       c.seg.segment(c.color[k], c.depth[k], &c.label);
-      prepared[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, wp);
+      prepared[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, only);
       sources.push_back(FramePreparer::source_of(*prepared[i], c.color[k], c.depth[k], c.label));
     }
     double t1 = thread_cpu_ms();

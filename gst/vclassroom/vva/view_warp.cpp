@@ -595,12 +595,38 @@ void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __rest
 
 // Closes the cracks find_cracks marks: the pixel takes the mean of the two
 // pixels of the surface around it.
-void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vector<uint8_t>* scratch) {
+// Experiment (WarpParams::learners_only): the depth where the label is non-zero.
+VCLASSROOM_SIMD_CLONES
+void learner_depth_of(size_t n, const uint16_t* depth, const uint8_t* label, uint16_t* out) {
+  for (size_t i = 0; i < n; ++i) out[i] = label[i] ? depth[i] : 0;
+}
+
+VCLASSROOM_SIMD_CLONES
+bool any_nonzero(size_t n, const uint16_t* d) {
+  uint16_t any = 0;
+  for (size_t i = 0; i < n; ++i) any |= d[i];
+  return any != 0;
+}
+
+// Whether all n records are empty.
+VCLASSROOM_SIMD_CLONES
+bool all_empty(size_t n, const uint64_t* records) {
+  uint64_t differ = 0;
+  for (size_t i = 0; i < n; ++i) differ |= records[i] ^ kEmptyRecord;
+  return differ == 0;
+}
+
+// `row_empty` (optional, per row): rows known to hold no depth; a row with its neighbours empty has no crack.
+void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vector<uint8_t>* scratch,
+                  const std::vector<uint8_t>* row_empty = nullptr) {
   const int W = out->depth.cols, H = out->depth.rows;
   if (W < 3 || H < 3) return;
   scratch->resize(size_t(W));
   uint8_t* const code = scratch->data();
   for (int y = 0; y < H; ++y) {
+    if (row_empty && (*row_empty)[size_t(y)] && (y == 0 || (*row_empty)[size_t(y) - 1]) &&
+        (y + 1 == H || (*row_empty)[size_t(y) + 1]))
+      continue;
     uint16_t* const d = out->depth.ptr<uint16_t>(y);
     // The first and last rows have cracks across the row only: their own
     // row stands in for the missing one, which finds none across the column.
@@ -608,6 +634,14 @@ void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vec
     const uint16_t* below = y + 1 < H ? out->depth.ptr<uint16_t>(y + 1) : d;
     find_cracks(W - 2, above + 1, d + 1, below + 1, ratio_q16, min_mm, code + 1);
     for (int x = 1; x + 1 < W; ++x) {
+      if (x + 8 < W) {  // most of a row holds no crack: 8 codes at a time
+        uint64_t eight;
+        std::memcpy(&eight, code + x, 8);
+        if (!eight) {
+          x += 7;
+          continue;
+        }
+      }
       if (!code[x]) continue;
       const bool across_row = code[x] == 1;
       const int y0 = across_row ? y : y - 1, y1 = across_row ? y : y + 1;
@@ -839,6 +873,10 @@ void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const War
   out->label.swap(src_label_);
   out->tile_nearest.swap(tile_nearest_);
   out->tile_farthest.swap(tile_farthest_);
+  if (prm.learners_only) {
+    out->learner_depth.resize(out->depth.size());
+    learner_depth_of(out->depth.size(), out->depth.data(), out->label.data(), out->learner_depth.data());
+  }
 }
 
 void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, const PreparedSource& prepared,
@@ -859,7 +897,9 @@ void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, con
     tile_depth_ranges(src.width, src.height, prepared.depth.data(), &tile_nearest_, &tile_farthest_);
     nearest = &tile_nearest_, farthest = &tile_farthest_;
   }
+  prepared_learner_depth_ = prepared.learner_depth.size() == n ? prepared.learner_depth.data() : nullptr;
   warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), *nearest, *farthest, virt, prm, out);
+  prepared_learner_depth_ = nullptr;
 }
 
 void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
@@ -1499,19 +1539,18 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
                                     const uint8_t* label, const WarpParams& prm) {
   const int W = f.W, H = f.H;
   const size_t n = size_t(W) * H;
-  learner_depth_.resize(n);
-  int row_begin = H, row_end = 0;
-  for (int v = 0; v < H; ++v) {
-    const uint16_t* d = depth + size_t(v) * W;
-    const uint8_t* l = label + size_t(v) * W;
-    uint16_t* o = &learner_depth_[size_t(v) * W];
-    uint16_t any = 0;
-    for (int u = 0; u < W; ++u) o[u] = l[u] ? d[u] : 0, any |= o[u];
-    if (any) row_begin = std::min(row_begin, v), row_end = v + 1;
+  const uint16_t* learners = prepared_learner_depth_;
+  if (!learners) {
+    learner_depth_.resize(n);
+    learner_depth_of(n, depth, label, learner_depth_.data());
+    learners = learner_depth_.data();
   }
+  int row_begin = H, row_end = 0;
+  for (int v = 0; v < H; ++v)
+    if (any_nonzero(size_t(W), learners + size_t(v) * W)) row_begin = std::min(row_begin, v), row_end = v + 1;
   if (row_begin < row_end)
     splat_layer(f,
-                Layer{learner_depth_.data(), label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, row_begin,
+                Layer{learners, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, row_begin,
                       row_end, 1.0f, true},
                 prm);
 }
@@ -1529,15 +1568,27 @@ void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* 
   const bool continuous = out->color.isContinuous() && out->depth.isContinuous() && out->label.isContinuous() &&
                           out->weight.isContinuous();
   const int band = continuous ? 32 : 1;
+  row_empty_.assign(size_t(VH), 0);
   for (int y = 0; y < VH; y += band) {
     const int rows = std::min(band, VH - y);
+    const uint64_t* records = zbuf_.data() + size_t(y) * VW;
+    if (all_empty(size_t(rows) * VW, records)) {  // nothing drawn in these rows (a sparse layer's view)
+      for (int r = y; r < y + rows; ++r) {
+        std::memset(out->color.ptr<uint8_t>(r), 0, size_t(VW) * 3);
+        std::memset(out->depth.ptr<uint16_t>(r), 0, size_t(VW) * 2);
+        std::memset(out->label.ptr<uint8_t>(r), 0, size_t(VW));
+        std::memset(out->weight.ptr<uint8_t>(r), 0, size_t(VW));
+        row_empty_[size_t(r)] = 1;
+      }
+      continue;
+    }
     unpack_samples(rows * VW, f.zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
                    out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
     std::fill_n(zbuf_.data() + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
   }
   if (prm.close_cracks) {
     close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),
-                 tolerance_min_mm(prm.edge_min_mm), &crack_code_);
+                 tolerance_min_mm(prm.edge_min_mm), &crack_code_, &row_empty_);
   }
 }
 

@@ -108,6 +108,9 @@ struct PreparedSource {
   std::vector<uint8_t> label;   // the labels likewise; width * height + 1 (a zero after the last)
   // Per tile of view_cull.h, the nearest and farthest depth (mm) of `depth`; empty: found when warped.
   std::vector<uint16_t> tile_nearest, tile_farthest;
+  // Experiment (WarpParams::learners_only): the depth where the label is non-zero, 0 elsewhere; empty: made
+  // when warped.
+  std::vector<uint16_t> learner_depth;
 };
 
 // Keeps per-source precomputation (pixel rays) and scratch buffers between
@@ -184,10 +187,12 @@ class ViewWarper {
   std::vector<float> px_, py_, pz_, plim_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint16_t> learner_depth_;  // experiment: draw_learner_layer's depth
+  const uint16_t* prepared_learner_depth_ = nullptr;  // experiment: the prepared one, for this warp
   std::vector<uint16_t> step_tmp_;   // src_depth_ smoothed along the rows
   std::vector<uint8_t> step_code_;   // what lies between neighbours (steps, edges), along rows, then columns
   std::vector<uint8_t> step_chunk_;  // per row and chunk of columns: a step across the column there
   std::vector<uint8_t> crack_code_;  // one virtual row's cracks (close_cracks)
+  std::vector<uint8_t> row_empty_;   // per virtual row: nothing drawn (unpack_view)
   std::vector<uint8_t> src_label_;
   std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
   cv::Mat nearest_around_;                 // edge_to_near: per source pixel, the nearest depth in its 3x3, less 1
