@@ -238,7 +238,8 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
     room_mesh(cams[i].prior, mesh_ratio, mesh_min_mm, 5, nullptr, &cams[i].calib, &meshes[i]);
     triangles += meshes[i].triangles();
   }
-  const FuseParams fp;
+  FuseParams fp;
+  fp.first_is_base = true;
   WarpParams only = wp;
   only.learners_only = true;
   RoomLookupFastParams lp;

@@ -691,9 +691,15 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
     p.learner_share += double(cv::countNonZero(learners[i].depth)) / double(view_depth.total());
   }
   p.raster_share += double(cv::countNonZero(view_depth)) / double(view_depth.total());
+  if (const char* dump = std::getenv("VCLASSROOM_ROOM_VIEW_DUMP")) {
+    cv::imwrite(std::string(dump) + "/raster.png", (view_depth != 0));
+    cv::imwrite(std::string(dump) + "/room-seen.png", (replaced != 0));
+  }
   p.room_share += double(cv::countNonZero(room.depth)) / double(view_depth.total());
   ++p.views;
-  fuse_views(ptrs, fp, out, history);
+  FuseParams base = fp;
+  base.first_is_base = true;
+  fuse_views(ptrs, base, out, history);
 }
 
 void eval_classroom(const Options& opt) {
