@@ -646,6 +646,7 @@ struct RoomViewPath {
   Stats psnr, ssim, npsnr, nssim;
   std::vector<HoleFillHistory> histories;
   double raster_share = 0, room_share = 0, learner_share = 0;  // of the view's pixels, summed over views
+  double filled_share = 0;
   long views = 0;
 };
 
@@ -656,6 +657,31 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
   if (p.meshes.empty()) {
     p.meshes.resize(cams.size());
     for (size_t i = 0; i < cams.size(); ++i) room_mesh(priors[i], p.ratio, p.min_mm, 5, nullptr, &cams[i], &p.meshes[i]);
+  }
+  if (const char* dump = std::getenv("VCLASSROOM_ROOM_VIEW_DUMP")) {  // scratch: camera 1's mesh seen by itself
+    RoomRaster own;
+    own.begin(cams[0]);
+    own.draw(p.meshes[0]);
+    cv::Mat d;
+    own.depth(&d);
+    cv::imwrite(std::string(dump) + "/own-mesh.png", d != 0);
+    cv::imwrite(std::string(dump) + "/own-prior.png", priors[0] != 0);
+    RoomRaster one;
+    one.begin(virt);
+    one.draw(p.meshes[0]);
+    one.depth(&d);
+    ViewWarper w;
+    WarpSource src;
+    src.color = in[0].color;
+    src.depth = in[0].depth;
+    src.static_depth = priors[0];
+    WarpedView today;
+    w.warp(cams[0], src, virt, wp, &today);  // no labels: the static depth everywhere
+    cv::Mat both(d.size(), CV_8UC3, cv::Scalar(0, 0, 0));
+    both.setTo(cv::Scalar(255, 255, 255), (d != 0) & (today.depth != 0));
+    both.setTo(cv::Scalar(0, 0, 255), (d == 0) & (today.depth != 0));  // red: the warp only
+    both.setTo(cv::Scalar(255, 0, 0), (d != 0) & (today.depth == 0));  // blue: the mesh only
+    cv::imwrite(std::string(dump) + "/mesh-vs-warp.png", both);
   }
   RoomRaster raster;
   raster.begin(virt);
@@ -700,6 +726,7 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
   FuseParams base = fp;
   base.first_is_base = true;
   fuse_views(ptrs, base, out, history);
+  p.filled_share += double(cv::countNonZero(out->filled)) / double(out->filled.total());
 }
 
 void eval_classroom(const Options& opt) {
@@ -864,6 +891,11 @@ void eval_classroom(const Options& opt) {
             cv::imwrite(std::string(dump) + "/room-view.png", bgr);
             cv::cvtColor(fused.color, bgr, cv::COLOR_RGB2BGR);
             cv::imwrite(std::string(dump) + "/today.png", bgr);
+            cv::Mat both(fused.filled.size(), CV_8UC3, cv::Scalar(255, 255, 255));
+            both.setTo(cv::Scalar(0, 0, 0), (fused.filled != 0) & (room_fused.filled != 0));
+            both.setTo(cv::Scalar(0, 0, 255), (fused.filled == 0) & (room_fused.filled != 0));  // red: room view only
+            both.setTo(cv::Scalar(255, 0, 0), (fused.filled != 0) & (room_fused.filled == 0));  // blue: today only
+            cv::imwrite(std::string(dump) + "/filled-vs.png", both);
             cv::cvtColor(imgs[0].color, bgr, cv::COLOR_RGB2BGR);
             cv::imwrite(std::string(dump) + "/real.png", bgr);
           }
@@ -936,12 +968,12 @@ void eval_classroom(const Options& opt) {
   for (const RoomViewPath& p : room_views)
     std::printf("%-52s | Table I PSNR %.3f (full system %.3f) SSIMx100 %.2f (%.2f) | novel poses PSNR %.3f (%.3f) "
                 "SSIMx100 %.2f (%.2f) | mesh %zu + %zu triangles; per view: raster %.1f %%, room seen %.1f %%, "
-                "learners %.1f %% of the pixels (summed over sources)\n",
+                "learners %.1f %% of the pixels (summed over sources), filled %.1f %%\n",
                 p.name, p.psnr.avg(), psnr[0].avg(), 100 * p.ssim.avg(), 100 * ssim[0].avg(), p.npsnr.avg(),
                 npsnr[0].avg(), 100 * p.nssim.avg(), 100 * nssim[0].avg(),
                 p.meshes.empty() ? size_t(0) : p.meshes[0].triangles(),
                 p.meshes.size() < 2 ? size_t(0) : p.meshes[1].triangles(), 100 * p.raster_share / p.views,
-                100 * p.room_share / p.views, 100 * p.learner_share / p.views);
+                100 * p.room_share / p.views, 100 * p.learner_share / p.views, 100 * p.filled_share / p.views);
   std::printf("learnerseg against the ground-truth labels (IoU avg/min over frames):\n");
   for (int i = 0; i < 3; ++i)
     std::printf("  camera %d: foreground IoU %.3f / %.3f, per-learner IoU %.3f / %.3f\n", i, iou[i].avg(),

@@ -31,18 +31,23 @@ bool planar_tile(const cv::Mat& d, int x0, int y0, int s, double ratio, double m
   return true;
 }
 
-bool one_surface(const cv::Mat& d, int x0, int y0) {
+// A pixel quad: 0 no surface (a corner without depth, or a step beyond kSlantedRatio), 1 one surface, 2 a
+// step the view decides on (RoomMesh::slanted).
+constexpr double kSlantedRatio = 1.3;
+int one_surface(const cv::Mat& d, int x0, int y0) {
   int lo = 65535, hi = 0;
   for (int k = 0; k < 4; ++k) {
     const int z = d.at<uint16_t>(y0 + (k >> 1), x0 + (k & 1));
-    if (z == 0) return false;
+    if (z == 0) return 0;
     lo = std::min(lo, z), hi = std::max(hi, z);
   }
-  return hi - lo <= std::max(15.0, 0.03 * lo);
+  if (hi - lo <= std::max(15.0, 0.03 * lo)) return 1;
+  return hi <= kSlantedRatio * lo ? 2 : 0;
 }
 
 struct Leaf {
   int x0, y0, level;
+  bool slanted = false;
 };
 
 struct Quadtree {
@@ -56,11 +61,13 @@ struct Quadtree {
     const int s = 1 << level;
     if (x0 >= d.cols - 1 || y0 >= d.rows - 1) return;
     if (level == 0) {
-      if (one_surface(d, x0, y0)) {
+      const int kind = one_surface(d, x0, y0);
+      if (kind == 1) {
         ++count.tiles[0];
         if (leaves) leaves->push_back({x0, y0, 0});
       } else {
         ++count.dropped;
+        if (kind == 2 && leaves) leaves->push_back({x0, y0, 0, true});
       }
       return;
     }
@@ -85,6 +92,7 @@ void emit_mesh(const cv::Mat& d, const std::vector<Leaf>& leaves, const CameraCa
   const int W = d.cols;
   std::vector<int32_t> vid(d.total(), -1);
   mesh->x.clear(), mesh->y.clear(), mesh->z.clear(), mesh->index.clear();
+  mesh->slanted.clear(), mesh->slanted_pixel_m.clear();
   const Eigen::Matrix3d R = cam.cam_to_rig.linear();
   const Eigen::Vector3d t = cam.cam_to_rig.translation();
   auto add_vertex = [&](int x, int y) {
@@ -121,6 +129,16 @@ void emit_mesh(const cv::Mat& d, const std::vector<Leaf>& leaves, const CameraCa
         if (at(x, y1) >= 0) ring.push_back(uint32_t(at(x, y1)));
       for (int y = y1; y > y0; --y)
         if (at(x0, y) >= 0) ring.push_back(uint32_t(at(x0, y)));
+    }
+    if (l.slanted) {
+      const uint32_t a = uint32_t(at(x0, y0)), b = uint32_t(at(x1, y0)), c = uint32_t(at(x1, y1)),
+                     e = uint32_t(at(x0, y1));
+      for (uint32_t v : {a, b, c, a, c, e}) mesh->slanted.push_back(v);
+      int lo = 65535;
+      for (int k = 0; k < 4; ++k) lo = std::min(lo, int(d.at<uint16_t>(y0 + (k >> 1), x0 + (k & 1))));
+      const float pixel_m = float(lo * 1e-3 / cam.fx);
+      mesh->slanted_pixel_m.push_back(pixel_m), mesh->slanted_pixel_m.push_back(pixel_m);
+      continue;
     }
     if (ring.size() <= 4) {
       const uint32_t a = uint32_t(at(x0, y0)), b = uint32_t(at(x1, y0)), c = uint32_t(at(x1, y1)),

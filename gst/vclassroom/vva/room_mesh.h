@@ -35,6 +35,13 @@ struct RoomMeshCount {
 struct RoomMesh {
   std::vector<float> x, y, z;
   std::vector<uint32_t> index;
+  // Pixel quads across a depth step of the camera (beyond max(15 mm, 3 %), within kSlantedRatio): a slanted
+  // surface, or an edge. As the warp links such neighbours when the view does not tear them apart, the
+  // rasteriser draws these triangles only where no edge of theirs grows, in the view, beyond its length at
+  // the camera plus a pixel: three indices each, and per triangle the camera's size of a pixel there
+  // (metres per pixel at unit focal length: the nearest corner's depth / fx).
+  std::vector<uint32_t> slanted;
+  std::vector<float> slanted_pixel_m;
   size_t vertices() const { return x.size(); }
   size_t triangles() const { return index.size() / 3; }
 };

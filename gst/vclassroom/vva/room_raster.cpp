@@ -157,6 +157,27 @@ void room_raster_depth(size_t n, const float* inv, uint16_t* out) {
   }
 }
 
+// The slanted pixel quads (RoomMesh::slanted) whose edges the view does not stretch beyond their length at
+// the camera plus a pixel (the warp's link across a step: max_gap_px), as triangles to draw.
+void keep_untorn(const RoomMesh& mesh, const int32_t* sx, const int32_t* sy, const float* w, float fx,
+                 std::vector<uint32_t>* kept) {
+  kept->clear();
+  const size_t nt = mesh.slanted.size() / 3;
+  for (size_t t = 0; t < nt; ++t) {
+    const uint32_t i[3] = {mesh.slanted[3 * t], mesh.slanted[3 * t + 1], mesh.slanted[3 * t + 2]};
+    const float w_near = std::max(w[i[0]], std::max(w[i[1]], w[i[2]]));
+    if (!(w[i[0]] > 0 && w[i[1]] > 0 && w[i[2]] > 0)) continue;
+    // A pixel of the camera there, in the view (1/16 px), its diagonal, plus one pixel.
+    const float limit = (fx * mesh.slanted_pixel_m[t] * w_near * 1.4143f + 1.0f) * float(kOne);
+    bool torn = false;
+    for (int k = 0; k < 3 && !torn; ++k) {
+      const float dx = float(sx[i[k]] - sx[i[(k + 1) % 3]]), dy = float(sy[i[k]] - sy[i[(k + 1) % 3]]);
+      torn = dx * dx + dy * dy > limit * limit;
+    }
+    if (!torn) kept->insert(kept->end(), i, i + 3);
+  }
+}
+
 }  // namespace
 
 void RoomRaster::begin(const CameraCalib& view, double near_m) {
@@ -185,6 +206,12 @@ void RoomRaster::draw(const RoomMesh& mesh, cv::Mat* coverage) {
                                   height_, inv_.ptr<float>(), coverage->ptr<uint8_t>(), coverage->step1(), &stats);
   } else {
     room_raster_triangles(mesh.index.data(), mesh.triangles(), sx_.data(), sy_.data(), w_.data(), width_, height_,
+                          inv_.ptr<float>(), &stats);
+  }
+  if (!mesh.slanted.empty() && !coverage) {
+    keep_untorn(mesh, sx_.data(), sy_.data(), w_.data(), fx_, &kept_);
+    stats.triangles += long(kept_.size() / 3);
+    room_raster_triangles(kept_.data(), kept_.size() / 3, sx_.data(), sy_.data(), w_.data(), width_, height_,
                           inv_.ptr<float>(), &stats);
   }
 }

@@ -50,6 +50,7 @@ class RoomRaster {
   cv::Mat inv_;
   std::vector<int32_t> sx_, sy_;  // vertices on screen, 1/16 px
   std::vector<float> w_;          // 1/z, 0: dropped
+  std::vector<uint32_t> kept_;    // the slanted triangles drawn in this view
 };
 
 }  // namespace vclassroom

@@ -596,9 +596,16 @@ void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __rest
 // Closes the cracks find_cracks marks: the pixel takes the mean of the two
 // pixels of the surface around it.
 // Experiment (WarpParams::learners_only): the depth where the label is non-zero.
+// Also the room's pixels without a static depth (`static_depth`, may be null): the room's meshes are made from
+// it and lack them, so they go forward with the learners.
 VCLASSROOM_SIMD_CLONES
-void learner_depth_of(size_t n, const uint16_t* depth, const uint8_t* label, uint16_t* out) {
-  for (size_t i = 0; i < n; ++i) out[i] = label[i] ? depth[i] : 0;
+void learner_depth_of(size_t n, const uint16_t* depth, const uint8_t* label, const uint16_t* static_depth,
+                      uint16_t* out) {
+  if (!static_depth) {
+    for (size_t i = 0; i < n; ++i) out[i] = label[i] ? depth[i] : 0;
+    return;
+  }
+  for (size_t i = 0; i < n; ++i) out[i] = label[i] || !static_depth[i] ? depth[i] : 0;
 }
 
 VCLASSROOM_SIMD_CLONES
@@ -875,7 +882,10 @@ void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const War
   out->tile_farthest.swap(tile_farthest_);
   if (prm.learners_only) {
     out->learner_depth.resize(out->depth.size());
-    learner_depth_of(out->depth.size(), out->depth.data(), out->label.data(), out->learner_depth.data());
+    const bool whole = !in.static_depth.empty() && in.static_depth.isContinuous() &&
+                       in.static_depth.total() == out->depth.size() && in.static_depth.type() == CV_16UC1;
+    learner_depth_of(out->depth.size(), out->depth.data(), out->label.data(),
+                     whole ? in.static_depth.ptr<uint16_t>() : nullptr, out->learner_depth.data());
   }
 }
 
@@ -1542,7 +1552,9 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
   const uint16_t* learners = prepared_learner_depth_;
   if (!learners) {
     learner_depth_.resize(n);
-    learner_depth_of(n, depth, label, learner_depth_.data());
+    const bool whole = !in.static_depth.empty() && in.static_depth.isContinuous() && in.static_depth.total() == n &&
+                       in.static_depth.type() == CV_16UC1;
+    learner_depth_of(n, depth, label, whole ? in.static_depth.ptr<uint16_t>() : nullptr, learner_depth_.data());
     learners = learner_depth_.data();
   }
   int row_begin = H, row_end = 0;
