@@ -309,8 +309,9 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       cv::compare(room.depth, 0, mask, cv::CMP_NE);
       room.color.create(room.depth.size(), CV_8UC3);
       room.color.setTo(0);
-      room_lookup_fast(texture_ptrs, virt, room.depth, mask, lp, &room.color);
-      room.weight = mask;  // 255 where the raster drew (the AVX2 loop does not say which pixels no camera saw)
+      if (!room_lookup_avx2(texture_ptrs, virt, room.depth, mask, lp, &room.color, &room.weight))
+        vclassroom_tools::usage_error("--room-view needs AVX2 and FMA");
+      room.depth.setTo(0, room.weight == 0);  // what no camera sees there is a hole
       room.label.create(room.depth.size(), CV_8UC1);
       room.label.setTo(0);
       const double t_lookup = thread_cpu_ms();

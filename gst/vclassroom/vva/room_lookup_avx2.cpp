@@ -58,7 +58,7 @@ VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256 gathered_sum(const 
 
 template <bool kGather>
 VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& view_depth, const cv::Mat& mask,
-                                 float tol_mm, float tol_ratio, cv::Mat* color) {
+                                 float tol_mm, float tol_ratio, cv::Mat* color, cv::Mat* written) {
   const int VW = view_depth.cols, VH = view_depth.rows, nc = int(cf.size());
   CV_Assert(nc <= 8);
   CamV cams[8];  // on the stack: 32-byte aligned (the vector allocator here is not)
@@ -88,6 +88,7 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
     const uint16_t* drow = view_depth.ptr<uint16_t>(y);
     const uint8_t* mrow = mask.ptr<uint8_t>(y);
     uint8_t* out = color->ptr<uint8_t>(y);
+    uint8_t* out_written = written ? written->ptr<uint8_t>(y) : nullptr;
     int x0 = 0;
     for (; x0 + 8 <= VW; x0 += 8) {
       const __m128i d16 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(drow + x0));
@@ -206,6 +207,9 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
       const __m256 n = sn;
       const __m256 write = _mm256_and_ps(_mm256_cmp_ps(n, zero, _CMP_GT_OQ), _mm256_cmp_ps(z, zero, _CMP_NEQ_OQ));
       const int wm = _mm256_movemask_ps(write);
+      if (out_written) {
+        for (int j = 0; j < 8; ++j) out_written[x0 + j] = uint8_t((wm >> j & 1) * 255);
+      }
       if (!wm) continue;
       const __m256 in_ = _mm256_div_ps(one, _mm256_max_ps(n, eps));
       const __m256i r = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sr, in_, half))),
@@ -233,7 +237,7 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
 }  // namespace
 
 bool room_lookup_avx2(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt, const cv::Mat& view_depth,
-                      const cv::Mat& mask, const RoomLookupFastParams& p, cv::Mat* color) {
+                      const cv::Mat& mask, const RoomLookupFastParams& p, cv::Mat* color, cv::Mat* written) {
   if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma") || view_depth.cols % 8 != 0) return false;
   const int nc = int(cameras.size());
   std::vector<CamF> cams(static_cast<size_t>(nc));
@@ -249,14 +253,17 @@ bool room_lookup_avx2(const std::vector<const RoomTexture*>& cameras, const Came
       c.b[j] = float(b[j]), c.s[j] = float(s[j]), c.t[j] = float(tt[j]), c.dy[j] = float(M(j, 1));
     c.rec = t.packed.data(), c.planes = t.planes.data(), c.W = t.width, c.H = t.height;
   }
-  if (p.avx2_gather) lookup_avx2<true>(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color);
-  else lookup_avx2<false>(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color);
+  if (written) written->create(view_depth.size(), CV_8UC1);
+  if (p.avx2_gather)
+    lookup_avx2<true>(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color, written);
+  else
+    lookup_avx2<false>(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color, written);
   return true;
 }
 
 #else
 bool room_lookup_avx2(const std::vector<const RoomTexture*>&, const CameraCalib&, const cv::Mat&, const cv::Mat&,
-                      const RoomLookupFastParams&, cv::Mat*) {
+                      const RoomLookupFastParams&, cv::Mat*, cv::Mat*) {
   return false;
 }
 #endif

@@ -51,8 +51,9 @@ long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const Came
 
 // The AVX2 form (params: 0 steps, equal weights; the tolerance is read). False, nothing done, where the CPU
 // lacks AVX2 + FMA or the view's width is not a multiple of 8.
+// `written` (optional): CV_8UC1, 255 where a colour was written, 0 elsewhere.
 bool room_lookup_avx2(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
                       const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& params,
-                      cv::Mat* color);
+                      cv::Mat* color, cv::Mat* written = nullptr);
 
 }  // namespace vclassroom
