@@ -14,6 +14,7 @@ constexpr int kSub = 4;                // sub-pixel bits of the screen coordinat
 constexpr int kOne = 1 << kSub;
 constexpr int32_t kLarge = 1024 << kSub;  // boxes below this on each side: 32-bit edge functions
 constexpr float kFar = float(1 << 26);    // |screen coordinate| (1/16 px) beyond this: dropped as near
+constexpr int kLanes = RoomRaster::kSlack;  // pixels per group of the row loop
 
 // Vertices (rig frame) to the view's screen, 1/16 px, and 1/z (0 where dropped).
 VCLASSROOM_SIMD_CLONES
@@ -34,18 +35,30 @@ void room_raster_project(size_t n, const float* x, const float* y, const float* 
   }
 }
 
-// One row of a triangle's box: e0..e2 the biased edge functions at its first pixel, s0..s2 their steps per
-// pixel, w and dw 1/z there and its step.
+// GCC's vector extensions: 8 lanes, lowered to what each clone's target has (2 x SSE2, AVX2, AVX-512).
+typedef int32_t VecI __attribute__((vector_size(4 * kLanes)));
+typedef float VecF __attribute__((vector_size(4 * kLanes)));
+
+// One row of a triangle's box, n pixels, in whole groups of kLanes (the buffers' rows have kLanes pixels of
+// slack at their end): e0..e2 the biased edge functions at its first pixel, s0..s2 their steps per pixel, w
+// and dw 1/z there and its step.
 template <bool kCount>
 VCLASSROOM_SIMD_INLINE void raster_row(float* zr, uint8_t* cr, int n, int32_t e0, int32_t e1, int32_t e2, int32_t s0,
                                        int32_t s1, int32_t s2, float w, float dw) {
-  for (int i = 0; i < n; ++i) {
-    const int32_t a = e0 + s0 * i, b = e1 + s1 * i, c = e2 + s2 * i;
-    const float wi = w + dw * float(i);
-    const bool in = (a | b | c) >= 0;
-    if (kCount) cr[i] = uint8_t(cr[i] + (in ? 1 : 0));
-    const float old = zr[i];
-    zr[i] = in && wi > old ? wi : old;
+  const VecI iota = {0, 1, 2, 3, 4, 5, 6, 7};
+  VecI a = e0 + s0 * iota, b = e1 + s1 * iota, c = e2 + s2 * iota, i = iota;
+  VecF wi = w + dw * __builtin_convertvector(iota, VecF);
+  const int32_t t0 = s0 * kLanes, t1 = s1 * kLanes, t2 = s2 * kLanes;
+  const float dwl = dw * kLanes;
+  for (int i0 = 0; i0 < n; i0 += kLanes) {
+    const VecI in = ((a | b | c) >= 0) & (i < n);
+    VecF old;
+    __builtin_memcpy(&old, zr + i0, sizeof old);
+    const VecF nw = (in & (wi > old)) ? wi : old;
+    __builtin_memcpy(zr + i0, &nw, sizeof nw);
+    if (kCount)
+      for (int j = 0; j < kLanes; ++j) cr[i0 + j] = uint8_t(cr[i0 + j] + (in[j] ? 1 : 0));
+    a += t0, b += t1, c += t2, i += kLanes, wi += dwl;
   }
 }
 
@@ -64,14 +77,36 @@ VCLASSROOM_SIMD_INLINE Edge edge(int64_t px, int64_t py, int64_t qx, int64_t qy)
   return e;
 }
 
+// A triangle whose screen box is 1024 px or more on a side (rare: a large tile close to the view): 64-bit edge
+// functions and a double plane, one pixel at a time. Vertices in order of positive area.
+__attribute__((noinline)) void raster_large(int32_t x0, int32_t y0, int32_t x1, int32_t y1, int32_t x2, int32_t y2,
+                                            double w0, double w1, double w2, int xs, int xe, int ys, int ye,
+                                            float* inv, size_t stride, uint8_t* cov) {
+  const int64_t area = int64_t(x1 - x0) * (y2 - y0) - int64_t(y1 - y0) * (x2 - x0);
+  const Edge e0 = edge(x1, y1, x2, y2), e1 = edge(x2, y2, x0, y0), e2 = edge(x0, y0, x1, y1);
+  const double ia = 1.0 / double(area);
+  for (int y = ys; y <= ye; ++y) {
+    float* zr = inv + size_t(y) * stride;
+    for (int x = xs; x <= xe; ++x) {
+      const int64_t qx = int64_t(x) << kSub, qy = int64_t(y) << kSub;
+      const int64_t f0 = e0.a * qx + e0.b * qy + e0.c, f1 = e1.a * qx + e1.b * qy + e1.c,
+                    f2 = e2.a * qx + e2.b * qy + e2.c;
+      if (f0 + e0.bias < 0 || f1 + e1.bias < 0 || f2 + e2.bias < 0) continue;
+      if (cov) ++cov[size_t(y) * stride + x];
+      const float wi = float((double(f0) * w0 + double(f1) * w1 + double(f2) * w2) * ia);
+      if (wi > zr[x]) zr[x] = wi;
+    }
+  }
+}
+
 template <bool kCount>
 VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, const int32_t* sx, const int32_t* sy,
-                                             const float* wv, int W, int H, float* inv, uint8_t* cov,
-                                             size_t cov_step, RoomRasterStats* st) {
+                                             const float* wv, int W, int H, float* inv, size_t stride, uint8_t* cov,
+                                             RoomRasterStats* st) {
   long near = 0, empty = 0, drawn = 0, large = 0, box = 0;
   for (size_t t = 0; t < nt; ++t) {
     const uint32_t i0 = idx[3 * t], i1 = idx[3 * t + 1], i2 = idx[3 * t + 2];
-    double w0 = wv[i0], w1 = wv[i1], w2 = wv[i2];
+    float w0 = wv[i0], w1 = wv[i1], w2 = wv[i2];
     if (!(w0 > 0 && w1 > 0 && w2 > 0)) {
       ++near;
       continue;
@@ -85,7 +120,23 @@ VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, con
       ++empty;
       continue;
     }
-    int64_t area = int64_t(x1 - x0) * (y2 - y0) - int64_t(y1 - y0) * (x2 - x0);
+    if (maxx - minx >= kLarge || maxy - miny >= kLarge) {
+      const int64_t area = int64_t(x1 - x0) * (y2 - y0) - int64_t(y1 - y0) * (x2 - x0);
+      if (area == 0) {
+        ++empty;
+        continue;
+      }
+      ++large, ++drawn;
+      box += long(xe - xs + 1) * (ye - ys + 1);
+      if (area > 0) raster_large(x0, y0, x1, y1, x2, y2, w0, w1, w2, xs, xe, ys, ye, inv, stride, kCount ? cov : nullptr);
+      else raster_large(x0, y0, x2, y2, x1, y1, w0, w2, w1, xs, xe, ys, ye, inv, stride, kCount ? cov : nullptr);
+      continue;
+    }
+    // Relative to the box's first pixel centre: every term below is under 2^29 in magnitude (the box is under
+    // 2^14 sixteenths on a side, and so is any vertex's distance from a point of it).
+    const int32_t ox = xs << kSub, oy = ys << kSub;
+    x0 -= ox, x1 -= ox, x2 -= ox, y0 -= oy, y1 -= oy, y2 -= oy;
+    int32_t area = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
     if (area == 0) {
       ++empty;
       continue;
@@ -96,41 +147,27 @@ VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, con
     }
     ++drawn;
     box += long(xe - xs + 1) * (ye - ys + 1);
-    // Edge k is opposite vertex k: its function is vertex k's barycentric weight times the area.
-    const Edge e0 = edge(x1, y1, x2, y2), e1 = edge(x2, y2, x0, y0), e2 = edge(x0, y0, x1, y1);
-    const double ia = 1.0 / double(area);
-    const double ga = (double(e0.a) * w0 + double(e1.a) * w1 + double(e2.a) * w2) * ia * kOne;  // per pixel in x
-    const double gb = (double(e0.b) * w0 + double(e1.b) * w1 + double(e2.b) * w2) * ia * kOne;  // per pixel in y
-    const int64_t px = int64_t(xs) << kSub, py = int64_t(ys) << kSub;
-    const int64_t f0 = e0.a * px + e0.b * py + e0.c, f1 = e1.a * px + e1.b * py + e1.c,
-                  f2 = e2.a * px + e2.b * py + e2.c;
-    const double wstart = (double(f0) * w0 + double(f1) * w1 + double(f2) * w2) * ia;
+    // Edge k is opposite vertex k, from P to Q: a = P.y - Q.y, b = Q.x - P.x, its value at the box's first
+    // centre -(a P.x + b P.y); it is vertex k's barycentric weight times the area.
+    const int32_t a0 = y1 - y2, b0 = x2 - x1, a1 = y2 - y0, b1 = x0 - x2, a2 = y0 - y1, b2 = x1 - x0;
+    const int32_t f0 = -(a0 * x1 + b0 * y1), f1 = -(a1 * x2 + b1 * y2), f2 = -(a2 * x0 + b2 * y0);
+    // The fill rule: a centre exactly on an edge (value 0) belongs to the triangle whose (a, b) is "positive";
+    // the neighbour across the edge has (-a, -b).
+    const int32_t r0 = f0 - int32_t(!(a0 > 0 || (a0 == 0 && b0 > 0))), r1 = f1 - int32_t(!(a1 > 0 || (a1 == 0 && b1 > 0))),
+                  r2 = f2 - int32_t(!(a2 > 0 || (a2 == 0 && b2 > 0)));
+    // 1/z = w2 + E0 (w0 - w2) / area + E1 (w1 - w2) / area.
+    const float ia = 1.0f / float(area), d0 = (w0 - w2) * ia, d1 = (w1 - w2) * ia;
+    const float ga = (float(a0) * d0 + float(a1) * d1) * kOne, gb = (float(b0) * d0 + float(b1) * d1) * kOne;
+    const float wstart = w2 + (float(f0) * d0 + float(f1) * d1);
     const int n = xe - xs + 1;
-    if (maxx - minx < kLarge && maxy - miny < kLarge) {
-      // |E| <= 2 * box width * box height < 2^31 anywhere in the box.
-      int32_t r0 = int32_t(f0 + e0.bias), r1 = int32_t(f1 + e1.bias), r2 = int32_t(f2 + e2.bias);
-      const int32_t s0 = int32_t(e0.a << kSub), s1 = int32_t(e1.a << kSub), s2 = int32_t(e2.a << kSub);
-      const int32_t t0 = int32_t(e0.b << kSub), t1 = int32_t(e1.b << kSub), t2 = int32_t(e2.b << kSub);
-      for (int y = ys; y <= ye; ++y) {
-        raster_row<kCount>(inv + size_t(y) * W + xs, kCount ? cov + size_t(y) * cov_step + xs : nullptr, n, r0, r1,
-                           r2, s0, s1, s2, float(wstart + gb * (y - ys)), float(ga));
-        r0 += t0, r1 += t1, r2 += t2;
-      }
-    } else {
-      ++large;
-      for (int y = ys; y <= ye; ++y) {
-        float* zr = inv + size_t(y) * W;
-        const double wr = wstart + gb * (y - ys);
-        for (int x = xs; x <= xe; ++x) {
-          const int64_t qx = int64_t(x) << kSub, qy = int64_t(y) << kSub;
-          const bool in = e0.a * qx + e0.b * qy + e0.c + e0.bias >= 0 && e1.a * qx + e1.b * qy + e1.c + e1.bias >= 0 &&
-                          e2.a * qx + e2.b * qy + e2.c + e2.bias >= 0;
-          if (!in) continue;
-          if (kCount) ++cov[size_t(y) * cov_step + x];
-          const float wi = float(wr + ga * (x - xs));
-          if (wi > zr[x]) zr[x] = wi;
-        }
-      }
+    int32_t e0 = r0, e1 = r1, e2 = r2;
+    float* zr = inv + size_t(ys) * stride + xs;
+    uint8_t* cr = kCount ? cov + size_t(ys) * stride + xs : nullptr;
+    for (int y = 0; y <= ye - ys; ++y) {
+      raster_row<kCount>(zr, cr, n, e0, e1, e2, a0 * kOne, a1 * kOne, a2 * kOne, wstart + gb * float(y), ga);
+      e0 += b0 * kOne, e1 += b1 * kOne, e2 += b2 * kOne;
+      zr += stride;
+      if (kCount) cr += stride;
     }
   }
   st->near += near, st->empty += empty, st->drawn += drawn, st->large += large, st->box_pixels += box;
@@ -138,14 +175,15 @@ VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, con
 
 VCLASSROOM_SIMD_CLONES
 void room_raster_triangles(const uint32_t* idx, size_t nt, const int32_t* sx, const int32_t* sy, const float* wv,
-                           int W, int H, float* inv, RoomRasterStats* st) {
-  raster_triangles<false>(idx, nt, sx, sy, wv, W, H, inv, nullptr, 0, st);
+                           int W, int H, float* inv, size_t stride, RoomRasterStats* st) {
+  raster_triangles<false>(idx, nt, sx, sy, wv, W, H, inv, stride, nullptr, st);
 }
 
+VCLASSROOM_SIMD_CLONES
 void room_raster_triangles_counted(const uint32_t* idx, size_t nt, const int32_t* sx, const int32_t* sy,
-                                   const float* wv, int W, int H, float* inv, uint8_t* cov, size_t cov_step,
+                                   const float* wv, int W, int H, float* inv, size_t stride, uint8_t* cov,
                                    RoomRasterStats* st) {
-  raster_triangles<true>(idx, nt, sx, sy, wv, W, H, inv, cov, cov_step, st);
+  raster_triangles<true>(idx, nt, sx, sy, wv, W, H, inv, stride, cov, st);
 }
 
 VCLASSROOM_SIMD_CLONES
@@ -167,8 +205,9 @@ void RoomRaster::begin(const CameraCalib& view, double near_m) {
     m_[4 * r + 3] = float(T.translation()(r));
   }
   fx_ = float(view.fx), fy_ = float(view.fy), cx_ = float(view.cx), cy_ = float(view.cy), near_ = float(near_m);
-  inv_.create(height_, width_, CV_32FC1);
-  inv_.setTo(0);
+  buf_.create(height_, width_ + kSlack, CV_32FC1);
+  buf_.setTo(0);
+  inv_ = buf_.colRange(0, width_);
   stats = {};
 }
 
@@ -178,21 +217,22 @@ void RoomRaster::draw(const RoomMesh& mesh, cv::Mat* coverage) {
   room_raster_project(n, mesh.x.data(), mesh.y.data(), mesh.z.data(), m_, fx_, fy_, cx_, cy_, near_, sx_.data(),
                       sy_.data(), w_.data());
   stats.triangles += long(mesh.triangles());
-  CV_Assert(inv_.isContinuous());
+  const size_t stride = buf_.step1();
   if (coverage) {
     CV_Assert(coverage->type() == CV_8UC1 && coverage->cols == width_ && coverage->rows == height_);
+    cv::Mat cov(height_, int(stride), CV_8UC1, cv::Scalar(0));
     room_raster_triangles_counted(mesh.index.data(), mesh.triangles(), sx_.data(), sy_.data(), w_.data(), width_,
-                                  height_, inv_.ptr<float>(), coverage->ptr<uint8_t>(), coverage->step1(), &stats);
+                                  height_, buf_.ptr<float>(), stride, cov.ptr<uint8_t>(), &stats);
+    *coverage += cov.colRange(0, width_);
   } else {
     room_raster_triangles(mesh.index.data(), mesh.triangles(), sx_.data(), sy_.data(), w_.data(), width_, height_,
-                          inv_.ptr<float>(), &stats);
+                          buf_.ptr<float>(), stride, &stats);
   }
 }
 
 void RoomRaster::depth(cv::Mat* out) const {
   out->create(height_, width_, CV_16UC1);
-  CV_Assert(out->isContinuous());
-  room_raster_depth(inv_.total(), inv_.ptr<float>(), out->ptr<uint16_t>());
+  for (int y = 0; y < height_; ++y) room_raster_depth(size_t(width_), inv_.ptr<float>(y), out->ptr<uint16_t>(y));
 }
 
 }  // namespace vclassroom
