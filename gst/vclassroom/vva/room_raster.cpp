@@ -16,6 +16,11 @@ constexpr int32_t kLarge = 1024 << kSub;  // boxes below this on each side: 32-b
 constexpr float kFar = float(1 << 26);    // |screen coordinate| (1/16 px) beyond this: dropped as near
 constexpr int kLanes = RoomRaster::kSlack;  // pixels per group of the row loop
 
+// GCC's vector extensions: 8 lanes, lowered to what each clone's target has (2 x SSE2, AVX2, AVX-512).
+typedef int32_t VecI __attribute__((vector_size(4 * kLanes)));
+typedef float VecF __attribute__((vector_size(4 * kLanes)));
+constexpr VecI kIota = {0, 1, 2, 3, 4, 5, 6, 7};
+
 // Vertices (rig frame) to the view's screen, 1/16 px, and 1/z (0 where dropped).
 VCLASSROOM_SIMD_CLONES
 void room_raster_project(size_t n, const float* x, const float* y, const float* z, const float* m, float fx, float fy,
@@ -35,21 +40,14 @@ void room_raster_project(size_t n, const float* x, const float* y, const float* 
   }
 }
 
-// GCC's vector extensions: 8 lanes, lowered to what each clone's target has (2 x SSE2, AVX2, AVX-512).
-typedef int32_t VecI __attribute__((vector_size(4 * kLanes)));
-typedef float VecF __attribute__((vector_size(4 * kLanes)));
 
 // One row of a triangle's box, n pixels, in whole groups of kLanes (the buffers' rows have kLanes pixels of
-// slack at their end): e0..e2 the biased edge functions at its first pixel, s0..s2 their steps per pixel, w
-// and dw 1/z there and its step.
+// slack at their end): a, b, c the biased edge functions at its first kLanes pixels, s0..s2 their steps per
+// group, wi 1/z there and dwl its step.
 template <bool kCount>
-VCLASSROOM_SIMD_INLINE void raster_row(float* zr, uint8_t* cr, int n, int32_t e0, int32_t e1, int32_t e2, int32_t s0,
-                                       int32_t s1, int32_t s2, float w, float dw) {
-  const VecI iota = {0, 1, 2, 3, 4, 5, 6, 7};
-  VecI a = e0 + s0 * iota, b = e1 + s1 * iota, c = e2 + s2 * iota, i = iota;
-  VecF wi = w + dw * __builtin_convertvector(iota, VecF);
-  const int32_t t0 = s0 * kLanes, t1 = s1 * kLanes, t2 = s2 * kLanes;
-  const float dwl = dw * kLanes;
+VCLASSROOM_SIMD_INLINE void raster_row(float* zr, uint8_t* cr, int n, VecI a, VecI b, VecI c, int32_t s0, int32_t s1,
+                                       int32_t s2, VecF wi, float dwl) {
+  VecI i = kIota;
   for (int i0 = 0; i0 < n; i0 += kLanes) {
     const VecI in = ((a | b | c) >= 0) & (i < n);
     VecF old;
@@ -58,7 +56,7 @@ VCLASSROOM_SIMD_INLINE void raster_row(float* zr, uint8_t* cr, int n, int32_t e0
     __builtin_memcpy(zr + i0, &nw, sizeof nw);
     if (kCount)
       for (int j = 0; j < kLanes; ++j) cr[i0 + j] = uint8_t(cr[i0 + j] + (in[j] ? 1 : 0));
-    a += t0, b += t1, c += t2, i += kLanes, wi += dwl;
+    a += s0, b += s1, c += s2, i += kLanes, wi += dwl;
   }
 }
 
@@ -159,12 +157,17 @@ VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, con
     const float ia = 1.0f / float(area), d0 = (w0 - w2) * ia, d1 = (w1 - w2) * ia;
     const float ga = (float(a0) * d0 + float(a1) * d1) * kOne, gb = (float(b0) * d0 + float(b1) * d1) * kOne;
     const float wstart = w2 + (float(f0) * d0 + float(f1) * d1);
-    const int n = xe - xs + 1;
-    int32_t e0 = r0, e1 = r1, e2 = r2;
+    const int n = xe - xs + 1, rows = ye - ys + 1;
+    // (A scalar loop for boxes 1-2 px wide ran 10 % fewer instructions, but no faster.)
     float* zr = inv + size_t(ys) * stride + xs;
     uint8_t* cr = kCount ? cov + size_t(ys) * stride + xs : nullptr;
-    for (int y = 0; y <= ye - ys; ++y) {
-      raster_row<kCount>(zr, cr, n, e0, e1, e2, a0 * kOne, a1 * kOne, a2 * kOne, wstart + gb * float(y), ga);
+    // Per row the first kLanes pixels: the row's start plus these.
+    const VecI sa0 = (a0 * kOne) * kIota, sa1 = (a1 * kOne) * kIota, sa2 = (a2 * kOne) * kIota;
+    const VecF sw = ga * __builtin_convertvector(kIota, VecF);
+    int32_t e0 = r0, e1 = r1, e2 = r2;
+    for (int y = 0; y < rows; ++y) {
+      raster_row<kCount>(zr, cr, n, e0 + sa0, e1 + sa1, e2 + sa2, a0 * kOne * kLanes, a1 * kOne * kLanes,
+                         a2 * kOne * kLanes, (wstart + gb * float(y)) + sw, ga * kLanes);
       e0 += b0 * kOne, e1 += b1 * kOne, e2 += b2 * kOne;
       zr += stride;
       if (kCount) cr += stride;
