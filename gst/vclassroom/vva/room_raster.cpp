@@ -97,80 +97,130 @@ __attribute__((noinline)) void raster_large(int32_t x0, int32_t y0, int32_t x1, 
   }
 }
 
+// The set-up of a batch of triangles, one array per value, so that it runs in vector lanes across triangles.
+constexpr int kBatch = 128;
+struct alignas(32) Batch {
+  int32_t x0[kBatch], y0[kBatch], x1[kBatch], y1[kBatch], x2[kBatch], y2[kBatch];
+  float w0[kBatch], w1[kBatch], w2[kBatch];
+  // Set up: kind (0 nothing to draw, 1 drawn here, 2 the 64-bit loop, 3 at the near plane), the box (first
+  // pixel, width, rows), the biased edge functions at its first centre, their coefficients, the 1/z plane.
+  int32_t kind[kBatch], xs[kBatch], ys[kBatch], n[kBatch], rows[kBatch];
+  int32_t r0[kBatch], r1[kBatch], r2[kBatch], a0[kBatch], a1[kBatch], a2[kBatch], b0[kBatch], b1[kBatch], b2[kBatch];
+  float ga[kBatch], gb[kBatch], ws[kBatch];
+};
+
+// Products in uint32_t (wrapping) where a lane's triangle may be one that is not drawn here; for the ones
+// that are, every value is under 2^29 in magnitude (the box is under 2^14 sixteenths on a side, and so is any
+// vertex's distance from a point of it).
+VCLASSROOM_SIMD_INLINE int32_t wrap(uint32_t v) { return int32_t(v); }
+
+VCLASSROOM_SIMD_INLINE void setup_batch(Batch& b, int m, int W, int H) {
+  for (int j = 0; j < m; ++j) {
+    const float w0 = b.w0[j], w1 = b.w1[j], w2 = b.w2[j];
+    const int32_t x0 = b.x0[j], y0 = b.y0[j], x1 = b.x1[j], y1 = b.y1[j], x2 = b.x2[j], y2 = b.y2[j];
+    const int32_t minx = std::min(x0, std::min(x1, x2)), maxx = std::max(x0, std::max(x1, x2));
+    const int32_t miny = std::min(y0, std::min(y1, y2)), maxy = std::max(y0, std::max(y1, y2));
+    const int32_t xs = std::max((minx + kOne - 1) >> kSub, 0), xe = std::min(maxx >> kSub, W - 1);
+    const int32_t ys = std::max((miny + kOne - 1) >> kSub, 0), ye = std::min(maxy >> kSub, H - 1);
+    const uint32_t ox = uint32_t(xs) << kSub, oy = uint32_t(ys) << kSub;
+    // Relative to the box's first pixel centre.
+    const uint32_t X0 = uint32_t(x0) - ox, Y0 = uint32_t(y0) - oy;
+    uint32_t X1 = uint32_t(x1) - ox, Y1 = uint32_t(y1) - oy, X2 = uint32_t(x2) - ox, Y2 = uint32_t(y2) - oy;
+    int32_t area = wrap((X1 - X0) * (Y2 - Y0) - (Y1 - Y0) * (X2 - X0));
+    const bool neg = area < 0;
+    const uint32_t tx = X1, ty = Y1;
+    X1 = neg ? X2 : X1, Y1 = neg ? Y2 : Y1, X2 = neg ? tx : X2, Y2 = neg ? ty : Y2;
+    const float v1 = neg ? w2 : w1, v2 = neg ? w1 : w2;
+    area = neg ? wrap(0u - uint32_t(area)) : area;
+    // Edge k is opposite vertex k, from P to Q: a = P.y - Q.y, b = Q.x - P.x, its value at the box's first
+    // centre -(a P.x + b P.y); it is vertex k's barycentric weight times the area.
+    const int32_t a0 = wrap(Y1 - Y2), b0 = wrap(X2 - X1), a1 = wrap(Y2 - Y0), b1 = wrap(X0 - X2), a2 = wrap(Y0 - Y1),
+                  b2 = wrap(X1 - X0);
+    const int32_t f0 = wrap(0u - (uint32_t(a0) * X1 + uint32_t(b0) * Y1)),
+                  f1 = wrap(0u - (uint32_t(a1) * X2 + uint32_t(b1) * Y2)),
+                  f2 = wrap(0u - (uint32_t(a2) * X0 + uint32_t(b2) * Y0));
+    // The fill rule: a centre exactly on an edge (value 0) belongs to the triangle whose (a, b) is "positive";
+    // the neighbour across the edge has (-a, -b).
+    b.r0[j] = f0 - (int32_t((a0 > 0) | ((a0 == 0) & (b0 > 0))) ^ 1);
+    b.r1[j] = f1 - (int32_t((a1 > 0) | ((a1 == 0) & (b1 > 0))) ^ 1);
+    b.r2[j] = f2 - (int32_t((a2 > 0) | ((a2 == 0) & (b2 > 0))) ^ 1);
+    b.a0[j] = a0 * kOne, b.a1[j] = a1 * kOne, b.a2[j] = a2 * kOne;
+    b.b0[j] = b0 * kOne, b.b1[j] = b1 * kOne, b.b2[j] = b2 * kOne;
+    // 1/z = v2 + E0 (w0 - v2) / area + E1 (v1 - v2) / area (inf or NaN where area is 0: not drawn).
+    const float ia = 1.0f / float(area), d0 = (w0 - v2) * ia, d1 = (v1 - v2) * ia;
+    b.ga[j] = (float(a0) * d0 + float(a1) * d1) * kOne;
+    b.gb[j] = (float(b0) * d0 + float(b1) * d1) * kOne;
+    b.ws[j] = v2 + (float(f0) * d0 + float(f1) * d1);
+    b.xs[j] = xs, b.ys[j] = ys, b.n[j] = xe - xs + 1, b.rows[j] = ye - ys + 1;
+    const int32_t front = int32_t(w0 > 0) & int32_t(w1 > 0) & int32_t(w2 > 0),
+                  some = int32_t(xs <= xe) & int32_t(ys <= ye),
+                  small = int32_t(maxx - minx < kLarge) & int32_t(maxy - miny < kLarge), flat = int32_t(area == 0);
+    const int32_t k1 = (small & (flat ^ 1)) | ((small ^ 1) << 1);  // 1 drawn here, 2 the 64-bit loop, 0 flat
+    const int32_t k2 = some ? k1 : 0;
+    b.kind[j] = front ? k2 : 3;
+  }
+}
+
 template <bool kCount>
 VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, const int32_t* sx, const int32_t* sy,
                                              const float* wv, int W, int H, float* inv, size_t stride, uint8_t* cov,
                                              RoomRasterStats* st) {
   long near = 0, empty = 0, drawn = 0, large = 0, box = 0;
-  for (size_t t = 0; t < nt; ++t) {
-    const uint32_t i0 = idx[3 * t], i1 = idx[3 * t + 1], i2 = idx[3 * t + 2];
-    float w0 = wv[i0], w1 = wv[i1], w2 = wv[i2];
-    if (!(w0 > 0 && w1 > 0 && w2 > 0)) {
-      ++near;
-      continue;
+  Batch b;
+  for (size_t t0 = 0; t0 < nt; t0 += kBatch) {
+    const int m = int(std::min<size_t>(kBatch, nt - t0));
+    for (int j = 0; j < m; ++j) {
+      const uint32_t* v = idx + 3 * (t0 + size_t(j));
+      b.x0[j] = sx[v[0]], b.y0[j] = sy[v[0]], b.w0[j] = wv[v[0]];
+      b.x1[j] = sx[v[1]], b.y1[j] = sy[v[1]], b.w1[j] = wv[v[1]];
+      b.x2[j] = sx[v[2]], b.y2[j] = sy[v[2]], b.w2[j] = wv[v[2]];
     }
-    int32_t x0 = sx[i0], y0 = sy[i0], x1 = sx[i1], y1 = sy[i1], x2 = sx[i2], y2 = sy[i2];
-    const int32_t minx = std::min(x0, std::min(x1, x2)), maxx = std::max(x0, std::max(x1, x2));
-    const int32_t miny = std::min(y0, std::min(y1, y2)), maxy = std::max(y0, std::max(y1, y2));
-    const int xs = std::max((minx + kOne - 1) >> kSub, 0), xe = std::min(maxx >> kSub, W - 1);
-    const int ys = std::max((miny + kOne - 1) >> kSub, 0), ye = std::min(maxy >> kSub, H - 1);
-    if (xs > xe || ys > ye) {
-      ++empty;
-      continue;
-    }
-    if (maxx - minx >= kLarge || maxy - miny >= kLarge) {
-      const int64_t area = int64_t(x1 - x0) * (y2 - y0) - int64_t(y1 - y0) * (x2 - x0);
-      if (area == 0) {
-        ++empty;
+    setup_batch(b, m, W, H);
+    for (int j = 0; j < m; ++j) {
+      const int kind = b.kind[j];
+      if (kind != 1) {
+        if (kind == 3) {
+          ++near;
+        } else if (kind == 0) {
+          ++empty;
+        } else {
+          const int32_t x0 = b.x0[j], y0 = b.y0[j], x1 = b.x1[j], y1 = b.y1[j], x2 = b.x2[j], y2 = b.y2[j];
+          const int64_t area = int64_t(x1 - x0) * (y2 - y0) - int64_t(y1 - y0) * (x2 - x0);
+          if (area == 0) {
+            ++empty;
+            continue;
+          }
+          ++large, ++drawn;
+          const int xs = b.xs[j], ys = b.ys[j], xe = xs + b.n[j] - 1, ye = ys + b.rows[j] - 1;
+          box += long(b.n[j]) * b.rows[j];
+          if (area > 0)
+            raster_large(x0, y0, x1, y1, x2, y2, b.w0[j], b.w1[j], b.w2[j], xs, xe, ys, ye, inv, stride,
+                         kCount ? cov : nullptr);
+          else
+            raster_large(x0, y0, x2, y2, x1, y1, b.w0[j], b.w2[j], b.w1[j], xs, xe, ys, ye, inv, stride,
+                         kCount ? cov : nullptr);
+        }
         continue;
       }
-      ++large, ++drawn;
-      box += long(xe - xs + 1) * (ye - ys + 1);
-      if (area > 0) raster_large(x0, y0, x1, y1, x2, y2, w0, w1, w2, xs, xe, ys, ye, inv, stride, kCount ? cov : nullptr);
-      else raster_large(x0, y0, x2, y2, x1, y1, w0, w2, w1, xs, xe, ys, ye, inv, stride, kCount ? cov : nullptr);
-      continue;
-    }
-    // Relative to the box's first pixel centre: every term below is under 2^29 in magnitude (the box is under
-    // 2^14 sixteenths on a side, and so is any vertex's distance from a point of it).
-    const int32_t ox = xs << kSub, oy = ys << kSub;
-    x0 -= ox, x1 -= ox, x2 -= ox, y0 -= oy, y1 -= oy, y2 -= oy;
-    int32_t area = (x1 - x0) * (y2 - y0) - (y1 - y0) * (x2 - x0);
-    if (area == 0) {
-      ++empty;
-      continue;
-    }
-    if (area < 0) {
-      std::swap(x1, x2), std::swap(y1, y2), std::swap(w1, w2);
-      area = -area;
-    }
-    ++drawn;
-    box += long(xe - xs + 1) * (ye - ys + 1);
-    // Edge k is opposite vertex k, from P to Q: a = P.y - Q.y, b = Q.x - P.x, its value at the box's first
-    // centre -(a P.x + b P.y); it is vertex k's barycentric weight times the area.
-    const int32_t a0 = y1 - y2, b0 = x2 - x1, a1 = y2 - y0, b1 = x0 - x2, a2 = y0 - y1, b2 = x1 - x0;
-    const int32_t f0 = -(a0 * x1 + b0 * y1), f1 = -(a1 * x2 + b1 * y2), f2 = -(a2 * x0 + b2 * y0);
-    // The fill rule: a centre exactly on an edge (value 0) belongs to the triangle whose (a, b) is "positive";
-    // the neighbour across the edge has (-a, -b).
-    const int32_t r0 = f0 - int32_t(!(a0 > 0 || (a0 == 0 && b0 > 0))), r1 = f1 - int32_t(!(a1 > 0 || (a1 == 0 && b1 > 0))),
-                  r2 = f2 - int32_t(!(a2 > 0 || (a2 == 0 && b2 > 0)));
-    // 1/z = w2 + E0 (w0 - w2) / area + E1 (w1 - w2) / area.
-    const float ia = 1.0f / float(area), d0 = (w0 - w2) * ia, d1 = (w1 - w2) * ia;
-    const float ga = (float(a0) * d0 + float(a1) * d1) * kOne, gb = (float(b0) * d0 + float(b1) * d1) * kOne;
-    const float wstart = w2 + (float(f0) * d0 + float(f1) * d1);
-    const int n = xe - xs + 1, rows = ye - ys + 1;
-    // (A scalar loop for boxes 1-2 px wide ran 10 % fewer instructions, but no faster.)
-    float* zr = inv + size_t(ys) * stride + xs;
-    uint8_t* cr = kCount ? cov + size_t(ys) * stride + xs : nullptr;
-    // Per row the first kLanes pixels: the row's start plus these.
-    const VecI sa0 = (a0 * kOne) * kIota, sa1 = (a1 * kOne) * kIota, sa2 = (a2 * kOne) * kIota;
-    const VecF sw = ga * __builtin_convertvector(kIota, VecF);
-    int32_t e0 = r0, e1 = r1, e2 = r2;
-    for (int y = 0; y < rows; ++y) {
-      raster_row<kCount>(zr, cr, n, e0 + sa0, e1 + sa1, e2 + sa2, a0 * kOne * kLanes, a1 * kOne * kLanes,
-                         a2 * kOne * kLanes, (wstart + gb * float(y)) + sw, ga * kLanes);
-      e0 += b0 * kOne, e1 += b1 * kOne, e2 += b2 * kOne;
-      zr += stride;
-      if (kCount) cr += stride;
+      ++drawn;
+      const int n = b.n[j], rows = b.rows[j];
+      box += long(n) * rows;
+      float* zr = inv + size_t(b.ys[j]) * stride + b.xs[j];
+      uint8_t* cr = kCount ? cov + size_t(b.ys[j]) * stride + b.xs[j] : nullptr;
+      const int32_t s0 = b.a0[j], s1 = b.a1[j], s2 = b.a2[j], t0r = b.b0[j], t1r = b.b1[j], t2r = b.b2[j];
+      const float ga = b.ga[j], gb = b.gb[j];
+      // Per row the first kLanes pixels: the row's start plus these.
+      const VecI sa0 = s0 * kIota, sa1 = s1 * kIota, sa2 = s2 * kIota;
+      const VecF sw = ga * __builtin_convertvector(kIota, VecF);
+      int32_t e0 = b.r0[j], e1 = b.r1[j], e2 = b.r2[j];
+      float wr = b.ws[j];
+      for (int y = 0; y < rows; ++y) {
+        raster_row<kCount>(zr, cr, n, e0 + sa0, e1 + sa1, e2 + sa2, s0 * kLanes, s1 * kLanes, s2 * kLanes, wr + sw,
+                           ga * kLanes);
+        e0 += t0r, e1 += t1r, e2 += t2r, wr = b.ws[j] + gb * float(y + 1);
+        zr += stride;
+        if (kCount) cr += stride;
+      }
     }
   }
   st->near += near, st->empty += empty, st->drawn += drawn, st->large += large, st->box_pixels += box;
