@@ -123,6 +123,20 @@ TEST(RoomRaster, TheNearerTriangleWins) {
     EXPECT_EQ(out.at<uint16_t>(10, int(std::lround(view.cx + view.fx * 0.5))), 2000);
     EXPECT_EQ(out.at<uint16_t>(47, 2), 0);
   }
+  // A triangle whose screen box spans 1024 px or more (the 64-bit loop) behind both: it fills the rest.
+  const uint32_t base = uint32_t(mesh.x.size());
+  for (const auto& p : {std::pair<double, double>{-40, -20}, {40, -20}, {0, 40}})
+    mesh.x.push_back(float(p.first)), mesh.y.push_back(float(p.second)), mesh.z.push_back(4.0f);
+  mesh.index.insert(mesh.index.end(), {base, base + 2, base + 1});
+  RoomRaster r;
+  r.begin(view);
+  r.draw(mesh);
+  cv::Mat out;
+  r.depth(&out);
+  EXPECT_EQ(r.stats.large, 1);
+  EXPECT_EQ(out.at<uint16_t>(47, 2), 4000);
+  EXPECT_EQ(out.at<uint16_t>(24, 32), 2000);
+  EXPECT_EQ(out.at<uint16_t>(10, int(std::lround(view.cx + view.fx * -0.5))), 3000);
 }
 
 TEST(RoomRaster, ATiledPlaneIsDrawnWithoutCracksOrOverlaps) {

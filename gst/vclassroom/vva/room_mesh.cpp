@@ -31,23 +31,21 @@ bool planar_tile(const cv::Mat& d, int x0, int y0, int s, double ratio, double m
   return true;
 }
 
-// A pixel quad: 0 no surface (a corner without depth, or a step beyond kSlantedRatio), 1 one surface, 2 a
-// step the view decides on (RoomMesh::slanted).
-constexpr double kSlantedRatio = 1.3;
-int one_surface(const cv::Mat& d, int x0, int y0) {
+// The tile's grid (s + 1 points a side) has depth everywhere and spans no edge: max - min within
+// max(15 mm, 3 %).
+bool one_surface(const cv::Mat& d, int x0, int y0, int s = 1) {
   int lo = 65535, hi = 0;
-  for (int k = 0; k < 4; ++k) {
-    const int z = d.at<uint16_t>(y0 + (k >> 1), x0 + (k & 1));
-    if (z == 0) return 0;
-    lo = std::min(lo, z), hi = std::max(hi, z);
-  }
-  if (hi - lo <= std::max(15.0, 0.03 * lo)) return 1;
-  return hi <= kSlantedRatio * lo ? 2 : 0;
+  for (int y = y0; y <= y0 + s; ++y)
+    for (int x = x0; x <= x0 + s; ++x) {
+      const int z = d.at<uint16_t>(y, x);
+      if (z == 0) return false;
+      lo = std::min(lo, z), hi = std::max(hi, z);
+    }
+  return hi - lo <= std::max(15.0, 0.03 * lo);
 }
 
 struct Leaf {
   int x0, y0, level;
-  bool slanted = false;
 };
 
 struct Quadtree {
@@ -56,18 +54,17 @@ struct Quadtree {
   cv::Mat* planar;
   RoomMeshCount count;
   std::vector<Leaf>* leaves;  // optional: every leaf that is drawn
+  int floor_level = 0;        // tiles of this level that span no edge are leaves even when not planar
 
   void split(int x0, int y0, int level) {
     const int s = 1 << level;
     if (x0 >= d.cols - 1 || y0 >= d.rows - 1) return;
     if (level == 0) {
-      const int kind = one_surface(d, x0, y0);
-      if (kind == 1) {
+      if (one_surface(d, x0, y0)) {
         ++count.tiles[0];
         if (leaves) leaves->push_back({x0, y0, 0});
       } else {
         ++count.dropped;
-        if (kind == 2 && leaves) leaves->push_back({x0, y0, 0, true});
       }
       return;
     }
@@ -82,6 +79,11 @@ struct Quadtree {
                 cv::saturate_cast<uint16_t>(1000.0 / p.dot(Eigen::Vector3d(x - x0, y - y0, 1)));
       return;
     }
+    if (level == floor_level && x0 + s <= d.cols - 1 && y0 + s <= d.rows - 1 && one_surface(d, x0, y0, s)) {
+      ++count.tiles[level];
+      if (leaves) leaves->push_back({x0, y0, level});
+      return;
+    }
     const int h = s / 2;
     for (int k = 0; k < 4; ++k) split(x0 + (k & 1) * h, y0 + (k >> 1) * h, level - 1);
   }
@@ -92,7 +94,6 @@ void emit_mesh(const cv::Mat& d, const std::vector<Leaf>& leaves, const CameraCa
   const int W = d.cols;
   std::vector<int32_t> vid(d.total(), -1);
   mesh->x.clear(), mesh->y.clear(), mesh->z.clear(), mesh->index.clear();
-  mesh->slanted.clear(), mesh->slanted_pixel_m.clear();
   const Eigen::Matrix3d R = cam.cam_to_rig.linear();
   const Eigen::Vector3d t = cam.cam_to_rig.translation();
   auto add_vertex = [&](int x, int y) {
@@ -130,36 +131,43 @@ void emit_mesh(const cv::Mat& d, const std::vector<Leaf>& leaves, const CameraCa
       for (int y = y1; y > y0; --y)
         if (at(x0, y) >= 0) ring.push_back(uint32_t(at(x0, y)));
     }
-    if (l.slanted) {
-      const uint32_t a = uint32_t(at(x0, y0)), b = uint32_t(at(x1, y0)), c = uint32_t(at(x1, y1)),
-                     e = uint32_t(at(x0, y1));
-      for (uint32_t v : {a, b, c, a, c, e}) mesh->slanted.push_back(v);
-      int lo = 65535;
-      for (int k = 0; k < 4; ++k) lo = std::min(lo, int(d.at<uint16_t>(y0 + (k >> 1), x0 + (k & 1))));
-      const float pixel_m = float(lo * 1e-3 / cam.fx);
-      mesh->slanted_pixel_m.push_back(pixel_m), mesh->slanted_pixel_m.push_back(pixel_m);
-      continue;
-    }
     if (ring.size() <= 4) {
       const uint32_t a = uint32_t(at(x0, y0)), b = uint32_t(at(x1, y0)), c = uint32_t(at(x1, y1)),
                      e = uint32_t(at(x0, y1));
       tri(a, b, c), tri(a, c, e);
       continue;
     }
+    // A corner whose two sides hold no other vertex sees the whole border: a fan from it (2 + k triangles);
+    // else a fan from the centre pixel (4 + k).
+    const int32_t corners[4] = {at(x0, y0), at(x1, y0), at(x1, y1), at(x0, y1)};
+    size_t cpos[4], k = 0;
+    for (size_t i = 0; i < ring.size() && k < 4; ++i)
+      if (int32_t(ring[i]) == corners[k]) cpos[k++] = i;
+    const size_t n = ring.size();
+    int from = -1;
+    for (int c = 0; c < 4 && from < 0; ++c) {
+      const size_t before = (cpos[c] + n - cpos[(c + 3) % 4]) % n, after = (cpos[(c + 1) % 4] + n - cpos[c]) % n;
+      if (before == 1 && after == 1) from = c;
+    }
+    if (from >= 0) {
+      const size_t o = cpos[from];
+      for (size_t i = 1; i + 1 < n; ++i) tri(ring[o], ring[(o + i) % n], ring[(o + i + 1) % n]);
+      continue;
+    }
     const uint32_t centre = uint32_t(add_vertex(x0 + s / 2, y0 + s / 2));
-    for (size_t k = 0; k < ring.size(); ++k) tri(centre, ring[k], ring[(k + 1) % ring.size()]);
+    for (size_t i = 0; i < n; ++i) tri(centre, ring[i], ring[(i + 1) % n]);
   }
 }
 
 }  // namespace
 
 RoomMeshCount room_mesh(const cv::Mat& depth, double ratio, double min_mm, int top, cv::Mat* planar,
-                        const CameraCalib* cam, RoomMesh* mesh) {
+                        const CameraCalib* cam, RoomMesh* mesh, int floor_level) {
   CV_Assert(depth.type() == CV_16UC1 && top >= 0 && top < 8);
   CV_Assert(!mesh || cam);
   if (planar) depth.copyTo(*planar);
   std::vector<Leaf> leaves;
-  Quadtree q{depth, ratio, min_mm, planar, {}, mesh ? &leaves : nullptr};
+  Quadtree q{depth, ratio, min_mm, planar, {}, mesh ? &leaves : nullptr, floor_level};
   const int s = 1 << top;
   for (int y = 0; y < depth.rows - 1; y += s)
     for (int x = 0; x < depth.cols - 1; x += s) q.split(x, y, top);

@@ -6,9 +6,10 @@
 //
 // The triangles themselves (RoomMesh, optional): the vertices are the grid points the leaves' corners stand on,
 // each at the prior's depth there, shared by every leaf that has it as a corner. A leaf whose side holds a
-// smaller neighbour's corner (a T-junction) is drawn as a fan from its centre pixel through every vertex on its
-// border (4 + k triangles), so that neighbours share whole edges and a rasteriser with a fill rule leaves no
-// crack; a leaf without one is the quadtree's two triangles.
+// smaller neighbour's corner (a T-junction) is drawn as a fan through every vertex on its border, from a corner
+// whose two sides hold no other vertex (2 + k triangles for k such vertices), else from its centre pixel
+// (4 + k), so that neighbours share whole edges and a rasteriser with a fill rule leaves no crack; a leaf
+// without one is the quadtree's two triangles.
 #pragma once
 
 #include <cstdint>
@@ -35,13 +36,6 @@ struct RoomMeshCount {
 struct RoomMesh {
   std::vector<float> x, y, z;
   std::vector<uint32_t> index;
-  // Pixel quads across a depth step of the camera (beyond max(15 mm, 3 %), within kSlantedRatio): a slanted
-  // surface, or an edge. As the warp links such neighbours when the view does not tear them apart, the
-  // rasteriser draws these triangles only where no edge of theirs grows, in the view, beyond its length at
-  // the camera plus a pixel: three indices each, and per triangle the camera's size of a pixel there
-  // (metres per pixel at unit focal length: the nearest corner's depth / fx).
-  std::vector<uint32_t> slanted;
-  std::vector<float> slanted_pixel_m;
   size_t vertices() const { return x.size(); }
   size_t triangles() const { return index.size() / 3; }
 };
@@ -50,8 +44,10 @@ struct RoomMesh {
 // max(min_mm, ratio * z). `planar` (optional): the depth as the mesh gives it at each pixel centre (a tile's
 // plane inside it; the depth itself in single pixel quads). `mesh` (optional, with `cam`, the camera whose
 // depth it is): the triangles, vertices in the rig frame (cam.cam_to_rig); the counts are the quadtree's
-// either way (mesh->triangles() adds the fans' extra triangles).
+// either way (mesh->triangles() adds the fans' extra triangles). `floor_level` > 0: a tile of 1 << floor_level
+// px that is not planar but spans no depth edge (its grid within max(15 mm, 3 %)) is a leaf all the same, its
+// two triangles through its corners (coarser than the tolerance; the pixel quads stay at the edges).
 RoomMeshCount room_mesh(const cv::Mat& depth, double ratio, double min_mm, int top, cv::Mat* planar = nullptr,
-                        const CameraCalib* cam = nullptr, RoomMesh* mesh = nullptr);
+                        const CameraCalib* cam = nullptr, RoomMesh* mesh = nullptr, int floor_level = 0);
 
 }  // namespace vclassroom

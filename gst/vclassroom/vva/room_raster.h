@@ -42,15 +42,16 @@ class RoomRaster {
   // 1/z in 1/m, CV_32FC1 (0: nothing drawn).
   const cv::Mat& inverse_depth() const { return inv_; }
   RoomRasterStats stats;
+  // The row loop works in whole groups of this many pixels; the buffer's rows have as many of slack.
+  static constexpr int kSlack = 8;
 
  private:
   int width_ = 0, height_ = 0;
   float m_[12] = {};  // rig -> view, row-major 3x4
   float fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0, near_ = 0;
-  cv::Mat inv_;
+  cv::Mat buf_, inv_;  // inv_: buf_ without the slack
   std::vector<int32_t> sx_, sy_;  // vertices on screen, 1/16 px
   std::vector<float> w_;          // 1/z, 0: dropped
-  std::vector<uint32_t> kept_;    // the slanted triangles drawn in this view
 };
 
 }  // namespace vclassroom
