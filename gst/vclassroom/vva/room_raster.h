@@ -8,7 +8,8 @@
 // top-left style fill rule: a pixel centre exactly on an edge belongs to one side only, so triangles that share
 // an edge (the same two vertices) leave no crack and draw no pixel twice. A triangle with a vertex at or in
 // front of the near plane is dropped (not clipped). Triangles whose screen box is under 1024 px on each side
-// run the vectorised row loop (32-bit edge functions); larger ones a scalar 64-bit loop.
+// run the vectorised row loop (32-bit edge functions); larger ones a scalar 64-bit loop. The triangles'
+// set-up runs in batches, in vector lanes across triangles.
 #pragma once
 
 #include <cstdint>
