@@ -37,36 +37,6 @@ struct Variant {
   int scale = 1;  // 2: the depth rasterised at half the view's size, then enlarged (nearest)
 };
 
-// The triangles of `mesh` (camera k's) that no earlier camera j already sees: a triangle is left out when one
-// camera j sees all three of its vertices on its own mesh (within max(20 mm, 2 %) of its depth there).
-RoomMesh uncovered(const RoomMesh& mesh, const std::vector<std::pair<CameraCalib, cv::Mat>>& earlier) {
-  const size_t nv = mesh.vertices();
-  std::vector<uint8_t> seen(nv * earlier.size(), 0);
-  for (size_t j = 0; j < earlier.size(); ++j) {
-    const CameraCalib& c = earlier[j].first;
-    const cv::Mat& d = earlier[j].second;
-    const Eigen::Isometry3d to_cam = c.cam_to_rig.inverse();
-    for (size_t i = 0; i < nv; ++i) {
-      const Eigen::Vector3d p = to_cam * Eigen::Vector3d(mesh.x[i], mesh.y[i], mesh.z[i]);
-      if (p.z() <= 0.05) continue;
-      const int u = int(std::lround(c.cx + c.fx * p.x() / p.z())), v = int(std::lround(c.cy + c.fy * p.y() / p.z()));
-      if (u < 0 || v < 0 || u >= d.cols || v >= d.rows) continue;
-      const double z = d.at<uint16_t>(v, u), mm = 1000 * p.z();
-      seen[i * earlier.size() + j] = z > 0 && std::fabs(z - mm) <= std::max(20.0, 0.02 * mm);
-    }
-  }
-  RoomMesh out = mesh;
-  out.index.clear();
-  for (size_t t = 0; t < mesh.triangles(); ++t) {
-    const uint32_t* v = &mesh.index[3 * t];
-    bool covered = false;
-    for (size_t j = 0; j < earlier.size() && !covered; ++j)
-      covered = seen[v[0] * earlier.size() + j] && seen[v[1] * earlier.size() + j] && seen[v[2] * earlier.size() + j];
-    if (!covered) out.index.insert(out.index.end(), v, v + 3);
-  }
-  return out;
-}
-
 // One view's room depth: what is timed (callgrind: --toggle-collect='*room_view_depth*').
 __attribute__((noinline)) void room_view_depth(RoomRaster& r, const CameraCalib& view, const Variant& v,
                                                cv::Mat* small, cv::Mat* depth) {
@@ -125,7 +95,7 @@ void raster_bench(const StaticModel& m, int views, int rounds, bool reference, c
         cover.meshes.push_back(&mesh);
       } else {
         RoomMesh& rest = meshes[std::to_string(id) + tol + " uncovered"];
-        rest = uncovered(mesh, earlier);
+        rest = room_mesh_unseen_by(mesh, earlier);
         std::printf("  of which not seen by an earlier camera: %zu triangles\n", rest.triangles());
         cover.meshes.push_back(&rest);
       }

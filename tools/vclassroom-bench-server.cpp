@@ -236,6 +236,12 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
     preparers[i].set_memory(memory, empty_rooms[i]);
     if (cams[i].prior.empty()) vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
     room_mesh(cams[i].prior, mesh_ratio, mesh_min_mm, 5, nullptr, &cams[i].calib, &meshes[i]);
+  }
+  // Each camera's mesh without what an earlier camera's already holds: each surface drawn about once.
+  std::vector<std::pair<CameraCalib, cv::Mat>> earlier;
+  for (size_t i = 0; i < cams.size(); ++i) {
+    if (i > 0) meshes[i] = room_mesh_unseen_by(meshes[i], earlier);
+    earlier.emplace_back(cams[i].calib, cams[i].prior);
     triangles += meshes[i].triangles();
   }
   FuseParams fp;

@@ -641,6 +641,7 @@ void print_lookups(const std::vector<LookupVariant>& variants, const Stats& psnr
 struct RoomViewPath {
   const char* name;
   double ratio, min_mm;
+  bool union_mesh;  // each source's mesh without what an earlier source's holds (room_mesh_unseen_by)
   std::vector<RoomMesh> meshes;
   std::vector<ViewWarper> warpers = std::vector<ViewWarper>(2);
   Stats psnr, ssim, npsnr, nssim;
@@ -656,7 +657,12 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
                           const WarpParams& wp, const FuseParams& fp, FusedView* out, HoleFillHistory* history) {
   if (p.meshes.empty()) {
     p.meshes.resize(cams.size());
-    for (size_t i = 0; i < cams.size(); ++i) room_mesh(priors[i], p.ratio, p.min_mm, 5, nullptr, &cams[i], &p.meshes[i]);
+    std::vector<std::pair<CameraCalib, cv::Mat>> earlier;
+    for (size_t i = 0; i < cams.size(); ++i) {
+      room_mesh(priors[i], p.ratio, p.min_mm, 5, nullptr, &cams[i], &p.meshes[i]);
+      if (p.union_mesh && i > 0) p.meshes[i] = room_mesh_unseen_by(p.meshes[i], earlier);
+      earlier.emplace_back(cams[i], priors[i]);
+    }
   }
   if (const char* dump = std::getenv("VCLASSROOM_ROOM_VIEW_DUMP")) {  // scratch: camera 1's mesh seen by itself
     RoomRaster own;
@@ -819,8 +825,9 @@ void eval_classroom(const Options& opt) {
   std::vector<RoomLookupSource> lookup_sources;
   std::vector<RoomViewPath> room_views;
   if (opt.room_view) {
-    room_views.push_back(RoomViewPath{"room view: meshes at max(10 mm, 1 %)", 0.01, 10});
-    room_views.push_back(RoomViewPath{"room view: meshes at max(3 mm, 0.25 %)", 0.0025, 3});
+    room_views.push_back(RoomViewPath{"room view: meshes at max(10 mm, 1 %)", 0.01, 10, false});
+    room_views.push_back(RoomViewPath{"room view: one union mesh at max(10 mm, 1 %)", 0.01, 10, true});
+    room_views.push_back(RoomViewPath{"room view: meshes at max(3 mm, 0.25 %)", 0.0025, 3, false});
     for (RoomViewPath& p : room_views) p.histories.resize(1 + novel.size());
   }
   FusedView room_fused;

@@ -175,4 +175,34 @@ RoomMeshCount room_mesh(const cv::Mat& depth, double ratio, double min_mm, int t
   return q.count;
 }
 
+// The triangles of `mesh` (camera k's) that no earlier camera j already sees: a triangle is left out when one
+// camera j sees all three of its vertices on its own mesh (within max(20 mm, 2 %) of its depth there).
+RoomMesh room_mesh_unseen_by(const RoomMesh& mesh, const std::vector<std::pair<CameraCalib, cv::Mat>>& earlier) {
+  const size_t nv = mesh.vertices();
+  std::vector<uint8_t> seen(nv * earlier.size(), 0);
+  for (size_t j = 0; j < earlier.size(); ++j) {
+    const CameraCalib& c = earlier[j].first;
+    const cv::Mat& d = earlier[j].second;
+    const Eigen::Isometry3d to_cam = c.cam_to_rig.inverse();
+    for (size_t i = 0; i < nv; ++i) {
+      const Eigen::Vector3d p = to_cam * Eigen::Vector3d(mesh.x[i], mesh.y[i], mesh.z[i]);
+      if (p.z() <= 0.05) continue;
+      const int u = int(std::lround(c.cx + c.fx * p.x() / p.z())), v = int(std::lround(c.cy + c.fy * p.y() / p.z()));
+      if (u < 0 || v < 0 || u >= d.cols || v >= d.rows) continue;
+      const double z = d.at<uint16_t>(v, u), mm = 1000 * p.z();
+      seen[i * earlier.size() + j] = z > 0 && std::fabs(z - mm) <= std::max(20.0, 0.02 * mm);
+    }
+  }
+  RoomMesh out = mesh;
+  out.index.clear();
+  for (size_t t = 0; t < mesh.triangles(); ++t) {
+    const uint32_t* v = &mesh.index[3 * t];
+    bool covered = false;
+    for (size_t j = 0; j < earlier.size() && !covered; ++j)
+      covered = seen[v[0] * earlier.size() + j] && seen[v[1] * earlier.size() + j] && seen[v[2] * earlier.size() + j];
+    if (!covered) out.index.insert(out.index.end(), v, v + 3);
+  }
+  return out;
+}
+
 }  // namespace vclassroom

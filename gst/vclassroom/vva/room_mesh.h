@@ -13,6 +13,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -49,5 +50,10 @@ struct RoomMesh {
 // two triangles through its corners (coarser than the tolerance; the pixel quads stay at the edges).
 RoomMeshCount room_mesh(const cv::Mat& depth, double ratio, double min_mm, int top, cv::Mat* planar = nullptr,
                         const CameraCalib* cam = nullptr, RoomMesh* mesh = nullptr, int floor_level = 0);
+
+// The triangles of `mesh` (camera k's) that no earlier camera j already sees: a triangle is left out when one
+// camera j (its pose and its static depth) sees all three of its vertices on its own depth (within
+// max(20 mm, 2 %)). Pose-independent: made once with the meshes, so a view draws each surface about once.
+RoomMesh room_mesh_unseen_by(const RoomMesh& mesh, const std::vector<std::pair<CameraCalib, cv::Mat>>& earlier);
 
 }  // namespace vclassroom

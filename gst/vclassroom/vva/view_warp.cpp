@@ -1417,6 +1417,16 @@ void ViewWarper::splat_fine_cells(const Frame& f, const Layer& layer, const Cell
   const ptrdiff_t vw = f.VW;
   const ColorSampler col = layer.color;
   const float mu = f.max_u, mv = f.max_v;
+  if (track_box_) {  // a sparse layer's view: where its records can be (unpack_view reads only there)
+    const int32_t *const x1 = cells.x1, *const y1 = cells.y1;
+    for (int u = u_begin; u < u_end; ++u) {
+      const int32_t m = mask[u];
+      if (!m || skip[u >> 1]) continue;
+      const bool big = m == kBigCell;
+      box_x0_ = std::min(box_x0_, x0[u]), box_y0_ = std::min(box_y0_, y0[u]);
+      box_x1_ = std::max(box_x1_, big ? x1[u] : x0[u] + 1), box_y1_ = std::max(box_y1_, big ? y1[u] : y0[u] + 1);
+    }
+  }
   for (int u = u_begin; u < u_end; ++u) {
     const int32_t m = mask[u];
     if (!m || skip[u >> 1]) continue;
@@ -1560,11 +1570,36 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
   int row_begin = H, row_end = 0;
   for (int v = 0; v < H; ++v)
     if (any_nonzero(size_t(W), learners + size_t(v) * W)) row_begin = std::min(row_begin, v), row_end = v + 1;
+  track_box_ = true;
+  box_x0_ = f.VW, box_y0_ = f.VH, box_x1_ = -1, box_y1_ = -1;
   if (row_begin < row_end)
     splat_layer(f,
                 Layer{learners, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, row_begin,
                       row_end, 1.0f, true},
                 prm);
+}
+
+// unpack_view for a sparse layer whose records lie in box_*: the planes zero outside it, the records read and
+// emptied inside it only, the cracks looked for in its rows only (a row or column past it holds none).
+void ViewWarper::unpack_box(const Frame& f, const WarpParams& prm, WarpedView* out) {
+  const int VW = f.VW, VH = f.VH;
+  const int x0 = std::max(0, box_x0_), x1 = std::min(VW - 1, box_x1_);
+  const int y0 = std::max(0, box_y0_), y1 = std::min(VH - 1, box_y1_);
+  out->color.setTo(0), out->depth.setTo(0), out->label.setTo(0), out->weight.setTo(0);
+  if (x0 > x1 || y0 > y1) return;
+  const int n = x1 - x0 + 1;
+  for (int y = y0; y <= y1; ++y) {
+    Sample* records = f.zbuf + size_t(y) * VW + x0;
+    unpack_samples(n, records, out->color.ptr<uint8_t>(y) + 3 * x0, out->depth.ptr<uint16_t>(y) + x0,
+                   out->label.ptr<uint8_t>(y) + x0, out->weight.ptr<uint8_t>(y) + x0);
+    std::fill_n(zbuf_.data() + size_t(y) * VW + x0, size_t(n), kEmptyRecord);
+  }
+  if (prm.close_cracks) {
+    row_empty_.assign(size_t(VH), 1);
+    for (int y = y0; y <= y1; ++y) row_empty_[size_t(y)] = 0;
+    close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),
+                 tolerance_min_mm(prm.edge_min_mm), &crack_code_, &row_empty_);
+  }
 }
 
 // The z-buffer into the view's planes, and the cracks closed.
@@ -1579,6 +1614,11 @@ void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* 
   // each band's records emptied for the next frame while they are in cache.
   const bool continuous = out->color.isContinuous() && out->depth.isContinuous() && out->label.isContinuous() &&
                           out->weight.isContinuous();
+  if (track_box_) {  // a sparse layer: its records lie in the box, all else is empty
+    track_box_ = false;
+    unpack_box(f, prm, out);
+    return;
+  }
   const int band = continuous ? 32 : 1;
   row_empty_.assign(size_t(VH), 0);
   for (int y = 0; y < VH; y += band) {

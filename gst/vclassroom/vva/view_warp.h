@@ -164,6 +164,7 @@ class ViewWarper {
   void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
   void draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth, const uint8_t* label,
                           const WarpParams& params);
+  void unpack_box(const Frame& f, const WarpParams& params, WarpedView* out);
   void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
   // The cell warp's rows in pairs over every column, or only over the columns that can land in the view.
   void splat_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
@@ -188,6 +189,8 @@ class ViewWarper {
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint16_t> learner_depth_;  // experiment: draw_learner_layer's depth
   const uint16_t* prepared_learner_depth_ = nullptr;  // experiment: the prepared one, for this warp
+  bool track_box_ = false;  // experiment: splat_fine_cells keeps the box of the records it may write
+  int box_x0_ = 0, box_y0_ = 0, box_x1_ = -1, box_y1_ = -1;
   std::vector<uint16_t> step_tmp_;   // src_depth_ smoothed along the rows
   std::vector<uint8_t> step_code_;   // what lies between neighbours (steps, edges), along rows, then columns
   std::vector<uint8_t> step_chunk_;  // per row and chunk of columns: a step across the column there
