@@ -227,7 +227,7 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
 // equal weights, no steps), the learners alone warped from each camera, all fused and filled.
 void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame,
                     int frames, int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp,
-                    double mesh_ratio, double mesh_min_mm) {
+                    double mesh_ratio, double mesh_min_mm, bool union_mesh) {
   std::vector<FramePreparer> preparers(cams.size());
   std::vector<RoomMesh> meshes(cams.size());
   size_t triangles = 0;
@@ -237,10 +237,11 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
     if (cams[i].prior.empty()) vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
     room_mesh(cams[i].prior, mesh_ratio, mesh_min_mm, 5, nullptr, &cams[i].calib, &meshes[i]);
   }
-  // Each camera's mesh without what an earlier camera's already holds: each surface drawn about once.
+  // --room-union: each camera's mesh without what an earlier camera's already holds (each surface drawn about
+  // once; -0.07 dB on the novel poses, docs/vva.md).
   std::vector<std::pair<CameraCalib, cv::Mat>> earlier;
   for (size_t i = 0; i < cams.size(); ++i) {
-    if (i > 0) meshes[i] = room_mesh_unseen_by(meshes[i], earlier);
+    if (union_mesh && i > 0) meshes[i] = room_mesh_unseen_by(meshes[i], earlier);
     earlier.emplace_back(cams[i].calib, cams[i].prior);
     triangles += meshes[i].triangles();
   }
@@ -280,28 +281,8 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       // The room as the warp draws it: the prepared depth where the label is 0, the memory's room layer where a
       // learner hides it.
       const PreparedSource& ps = prepared[i]->source;
-      const WarpSource& src = sources[i];
-      const int W = ps.width, H = ps.height;
-      RoomLookupSource room_src;
-      room_src.camera = cams[i].calib;
-      room_src.color = src.color.clone();
-      room_src.depth = cv::Mat::zeros(H, W, CV_16UC1);
-      room_src.remembered = cv::Mat::zeros(H, W, CV_8UC1);
-      for (int y = 0; y < H; ++y) {
-        uint16_t* d = room_src.depth.ptr<uint16_t>(y);
-        const uint16_t* rd = src.room_depth.empty() ? nullptr : src.room_depth.ptr<uint16_t>(y);
-        for (int x = 0; x < W; ++x) {
-          const size_t at = size_t(y) * W + x;
-          if (ps.label[at] == 0 && ps.depth[at]) {
-            d[x] = ps.depth[at];
-          } else if (rd && rd[x]) {
-            d[x] = rd[x];
-            room_src.remembered.at<uint8_t>(y, x) = 255;
-            room_src.color.at<cv::Vec3b>(y, x) = src.room_color.at<cv::Vec3b>(y, x);
-          }
-        }
-      }
-      pack_room_texture(room_src, &textures[i]);
+      pack_room_records(cams[i].calib, ps.depth.data(), ps.label.data(), sources[i].color, sources[i].room_depth,
+                        sources[i].room_color, &textures[i]);
     }
     const double t2 = thread_cpu_ms();
     if (timed) camera_ms += t1 - t0, texture_ms += t2 - t1;
@@ -400,6 +381,7 @@ void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>&
 int main(int argc, char** argv) {
   int frames = 60, threads = 2, memory = -1, views = 0;  // memory -1: not given
   double yaw = 0, pitch = 0, room_view = 0;
+  gboolean room_union = FALSE;
   gboolean no_edge_to_near = FALSE, no_model = FALSE, fill_only = FALSE, no_view_cull = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
@@ -432,6 +414,8 @@ int main(int argc, char** argv) {
        "with --views, experiment (issue 31, wip/room-view): the views made from the room's meshes at this "
        "tolerance (1: max(10 mm, 1 %), 0.25: max(3 mm, 0.25 %)), the room looked up, the learners warped alone",
        "PERCENT"},
+      {"room-union", 0, 0, G_OPTION_ARG_NONE, &room_union,
+       "with --room-view: each camera's mesh without the triangles an earlier camera's mesh holds", nullptr},
       {"fill-only", 0, 0, G_OPTION_ARG_NONE, &fill_only,
        "only time the hole filling of viewfuse, its two methods (fill-method pyramid and rays) alternating on the "
        "same fused views, with --memory as given",
@@ -491,7 +475,7 @@ int main(int argc, char** argv) {
                 frames);
     if (room_view > 0)
       run_room_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp, room_view / 100,
-                     room_view >= 1 ? 10 : 3);
+                     room_view >= 1 ? 10 : 3, room_union);
     else
       run_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp);
     return 0;

@@ -12,6 +12,38 @@
 
 namespace vclassroom {
 
+namespace {
+
+// One row of pack_room_records: the room's depth and colour where the label is 0, the memory's room where a
+// learner hides it, else nothing (depth 0).
+VCLASSROOM_SIMD_CLONES
+void room_records_row(int n, const uint16_t* depth, const uint8_t* label, const uint8_t* color,
+                      const uint16_t* room_depth, const uint8_t* room_color, uint64_t* out) {
+  for (int x = 0; x < n; ++x) {
+    const bool seen = label[x] == 0 && depth[x] != 0;
+    const uint16_t rd = room_depth ? room_depth[x] : 0;
+    const uint16_t d = seen ? depth[x] : rd;
+    const uint8_t* c = seen || !room_color ? color + 3 * x : room_color + 3 * x;
+    out[x] = uint64_t(d) | uint64_t(c[0]) << 16 | uint64_t(c[1]) << 32 | uint64_t(c[2]) << 48;
+  }
+}
+
+}  // namespace
+
+void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const uint8_t* label, const cv::Mat& color,
+                       const cv::Mat& room_depth, const cv::Mat& room_color, RoomTexture* out) {
+  const int W = color.cols, H = color.rows;
+  CV_Assert(!camera.has_distortion() && color.type() == CV_8UC3);
+  const bool room = !room_depth.empty() && room_depth.size() == color.size() && room_color.size() == color.size();
+  out->camera = camera;
+  out->width = W, out->height = H;
+  out->packed.resize(size_t(W) * H);
+  for (int y = 0; y < H; ++y)
+    room_records_row(W, depth + size_t(y) * W, label + size_t(y) * W, color.ptr<uint8_t>(y),
+                     room ? room_depth.ptr<uint16_t>(y) : nullptr, room ? room_color.ptr<uint8_t>(y) : nullptr,
+                     out->packed.data() + size_t(y) * W);
+}
+
 void pack_room_texture(const RoomLookupSource& s, RoomTexture* out) {
   CV_Assert(!s.camera.has_distortion());
   const int W = s.color.cols, H = s.color.rows;

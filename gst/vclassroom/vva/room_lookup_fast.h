@@ -27,6 +27,10 @@ struct RoomTexture {
   std::vector<uint64_t> packed;  // per pixel four 16-bit lanes: depth (mm), r, g, b (the packed samplers')
 };
 void pack_room_texture(const RoomLookupSource& source, RoomTexture* out);
+// Only the packed records (what the AVX2 loop reads), straight from a prepared frame: its depth and labels
+// (width x height), the colour warped, and the background memory's room layer (may be empty).
+void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const uint8_t* label, const cv::Mat& color,
+                       const cv::Mat& room_depth, const cv::Mat& room_color, RoomTexture* out);
 
 struct RoomLookupFastParams {
   int refine_steps = 2;
