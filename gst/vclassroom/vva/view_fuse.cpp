@@ -295,7 +295,14 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
     }
     const int W = size.width;
     others.assign(size_t(W), 0);
-    for (int c = 1; c < k; ++c) mark_samples(W, rows[c].d, others.data());
+    for (int c = 1; c < k; ++c) {
+      const cv::Rect& b = views[size_t(c)]->box;
+      if (b.area() == 0) {
+        mark_samples(W, rows[c].d, others.data());
+      } else if (y >= b.y && y < b.y + b.height) {  // its samples lie in its box
+        mark_samples(b.width, rows[c].d + b.x, others.data() + b.x);
+      }
+    }
     // The base copied where it stands alone: depth 0 where it has none, as the blend gives.
     uint8_t* oc = out->color.ptr<uint8_t>(y);
     uint16_t* od = out->depth.ptr<uint16_t>(y);

@@ -1581,12 +1581,19 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
 
 // unpack_view for a sparse layer whose records lie in box_*: the planes zero outside it, the records read and
 // emptied inside it only, the cracks looked for in its rows only (a row or column past it holds none).
-void ViewWarper::unpack_box(const Frame& f, const WarpParams& prm, WarpedView* out) {
+void ViewWarper::unpack_box(const Frame& f, const WarpParams& prm, bool fresh, WarpedView* out) {
   const int VW = f.VW, VH = f.VH;
   const int x0 = std::max(0, box_x0_), x1 = std::min(VW - 1, box_x1_);
   const int y0 = std::max(0, box_y0_), y1 = std::min(VH - 1, box_y1_);
-  out->color.setTo(0), out->depth.setTo(0), out->label.setTo(0), out->weight.setTo(0);
-  if (x0 > x1 || y0 > y1) return;
+  // The planes are zero outside the last box they were given (when they kept their size): only that is cleared.
+  const cv::Rect whole(0, 0, VW, VH);
+  const cv::Rect old = out->box.area() > 0 && !fresh ? out->box & whole : whole;
+  out->color(old).setTo(0), out->depth(old).setTo(0), out->label(old).setTo(0), out->weight(old).setTo(0);
+  out->box = x0 > x1 || y0 > y1 ? cv::Rect(0, 0, 0, 0) : cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+  if (x0 > x1 || y0 > y1) {
+    out->box = cv::Rect(0, 0, 1, 1);  // an empty view: the box of one zero pixel
+    return;
+  }
   const int n = x1 - x0 + 1;
   for (int y = y0; y <= y1; ++y) {
     Sample* records = f.zbuf + size_t(y) * VW + x0;
@@ -1605,10 +1612,13 @@ void ViewWarper::unpack_box(const Frame& f, const WarpParams& prm, WarpedView* o
 // The z-buffer into the view's planes, and the cracks closed.
 void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* out) {
   const int VW = f.VW, VH = f.VH;
+  const void* before[4] = {out->color.data, out->depth.data, out->label.data, out->weight.data};
   out->color.create(VH, VW, CV_8UC3);
   out->depth.create(VH, VW, CV_16UC1);
   out->label.create(VH, VW, CV_8UC1);
   out->weight.create(VH, VW, CV_8UC1);
+  const bool fresh = before[0] != out->color.data || before[1] != out->depth.data || before[2] != out->label.data ||
+                     before[3] != out->weight.data;
   // In bands of rows where the planes have no row padding (a vector loop
   // per row would spend a good part of its time in the row's remainder);
   // each band's records emptied for the next frame while they are in cache.
@@ -1616,9 +1626,10 @@ void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* 
                           out->weight.isContinuous();
   if (track_box_) {  // a sparse layer: its records lie in the box, all else is empty
     track_box_ = false;
-    unpack_box(f, prm, out);
+    unpack_box(f, prm, fresh, out);
     return;
   }
+  out->box = cv::Rect();  // samples anywhere
   const int band = continuous ? 32 : 1;
   row_empty_.assign(size_t(VH), 0);
   for (int y = 0; y < VH; y += band) {

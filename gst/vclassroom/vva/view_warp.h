@@ -98,6 +98,8 @@ struct WarpedView {
   cv::Mat depth;   // CV_16UC1 mm along the virtual optical axis, 0 = hole
   cv::Mat label;   // CV_8UC1
   cv::Mat weight;  // CV_8UC1, 0 = hole, 1..255 quality (viewing angle, distance, stretch)
+  // Experiment (WarpParams::learners_only): every sample lies in this box; empty: anywhere.
+  cv::Rect box;
 };
 
 // What ViewWarper::prepare() makes of a source frame: the half of the warp
@@ -164,7 +166,7 @@ class ViewWarper {
   void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
   void draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth, const uint8_t* label,
                           const WarpParams& params);
-  void unpack_box(const Frame& f, const WarpParams& params, WarpedView* out);
+  void unpack_box(const Frame& f, const WarpParams& params, bool fresh, WarpedView* out);
   void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
   // The cell warp's rows in pairs over every column, or only over the columns that can land in the view.
   void splat_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
