@@ -624,13 +624,17 @@ bool all_empty(size_t n, const uint64_t* records) {
 }
 
 // `row_empty` (optional, per row): rows known to hold no depth; a row with its neighbours empty has no crack.
+// `box` (optional): all depth lies in it, so every crack does too (between two of its pixels).
 void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vector<uint8_t>* scratch,
-                  const std::vector<uint8_t>* row_empty = nullptr) {
+                  const std::vector<uint8_t>* row_empty = nullptr, const cv::Rect* box = nullptr) {
   const int W = out->depth.cols, H = out->depth.rows;
   if (W < 3 || H < 3) return;
-  scratch->resize(size_t(W));
+  scratch->assign(size_t(W), 0);
   uint8_t* const code = scratch->data();
-  for (int y = 0; y < H; ++y) {
+  const int cx0 = box ? std::max(1, box->x) : 1, cx1 = box ? std::min(W - 1, box->x + box->width) : W - 1;
+  const int ry0 = box ? std::max(0, box->y) : 0, ry1 = box ? std::min(H, box->y + box->height) : H;
+  if (cx0 >= cx1) return;
+  for (int y = ry0; y < ry1; ++y) {
     if (row_empty && (*row_empty)[size_t(y)] && (y == 0 || (*row_empty)[size_t(y) - 1]) &&
         (y + 1 == H || (*row_empty)[size_t(y) + 1]))
       continue;
@@ -639,8 +643,8 @@ void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vec
     // row stands in for the missing one, which finds none across the column.
     const uint16_t* above = y > 0 ? out->depth.ptr<uint16_t>(y - 1) : d;
     const uint16_t* below = y + 1 < H ? out->depth.ptr<uint16_t>(y + 1) : d;
-    find_cracks(W - 2, above + 1, d + 1, below + 1, ratio_q16, min_mm, code + 1);
-    for (int x = 1; x + 1 < W; ++x) {
+    find_cracks(cx1 - cx0, above + cx0, d + cx0, below + cx0, ratio_q16, min_mm, code + cx0);
+    for (int x = cx0; x < cx1; ++x) {
       if (x + 8 < W) {  // most of a row holds no crack: 8 codes at a time
         uint64_t eight;
         std::memcpy(&eight, code + x, 8);
@@ -1601,12 +1605,9 @@ void ViewWarper::unpack_box(const Frame& f, const WarpParams& prm, bool fresh, W
                    out->label.ptr<uint8_t>(y) + x0, out->weight.ptr<uint8_t>(y) + x0);
     std::fill_n(zbuf_.data() + size_t(y) * VW + x0, size_t(n), kEmptyRecord);
   }
-  if (prm.close_cracks) {
-    row_empty_.assign(size_t(VH), 1);
-    for (int y = y0; y <= y1; ++y) row_empty_[size_t(y)] = 0;
+  if (prm.close_cracks)
     close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),
-                 tolerance_min_mm(prm.edge_min_mm), &crack_code_, &row_empty_);
-  }
+                 tolerance_min_mm(prm.edge_min_mm), &crack_code_, nullptr, &out->box);
 }
 
 // The z-buffer into the view's planes, and the cracks closed.
