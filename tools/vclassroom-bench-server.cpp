@@ -253,6 +253,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
   lp.refine_steps = 0;
   lp.equal_weights = true;
   lp.avx2 = true;
+  lp.packed = true;  // the fallback without AVX2
   std::vector<std::vector<ViewWarper>> warpers(size_t(views), std::vector<ViewWarper>(cams.size()));
   std::vector<WarpedView> warped(cams.size());
   std::vector<RoomTexture> textures(cams.size());
@@ -296,8 +297,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       cv::compare(room.depth, 0, mask, cv::CMP_NE);
       room.color.create(room.depth.size(), CV_8UC3);
       room.color.setTo(0);
-      if (!room_lookup_avx2(texture_ptrs, virt, room.depth, mask, lp, &room.color, &room.weight))
-        vclassroom_tools::usage_error("--room-view needs AVX2 and FMA");
+      room_lookup_fast(texture_ptrs, virt, room.depth, mask, lp, &room.color, &room.weight);
       room.depth.setTo(0, room.weight == 0);  // what no camera sees there is a hole
       room.label.create(room.depth.size(), CV_8UC1);
       room.label.setTo(0);

@@ -299,7 +299,10 @@ void add_packed_row(int n, const float* __restrict any, const uint16_t* __restri
 // loop vectorises).
 VCLASSROOM_SIMD_CLONES
 void store_row(int n, const float* __restrict z, const float* __restrict r, const float* __restrict g,
-               const float* __restrict b, const float* __restrict sw, uint8_t* __restrict out) {
+               const float* __restrict b, const float* __restrict sw, uint8_t* __restrict out,
+               uint8_t* __restrict written = nullptr) {
+  if (written)
+    for (int x = 0; x < n; ++x) written[x] = uint8_t(((sw[x] > 0.0f) & (z[x] != 0.0f)) ? 255 : 0);
   for (int x = 0; x < n; ++x) {
     const bool take = (sw[x] > 0.0f) & (z[x] != 0.0f);  // z 0: not a candidate, projects nowhere useful
     const float i = 1.0f / (sw[x] > 0.0f ? sw[x] : 1.0f);
@@ -338,13 +341,14 @@ long blend_row(int n, int nc, RowScratch& acc, std::vector<RowScratch>& cams, ui
   return 0;  // counted by the caller, outside the timed loop
 }
 
-void blend_packed_row(int n, int nc, RowScratch& acc, const std::vector<std::vector<uint16_t>>& sums, uint8_t* out) {
+void blend_packed_row(int n, int nc, RowScratch& acc, const std::vector<std::vector<uint16_t>>& sums, uint8_t* out,
+                      uint8_t* written) {
   float *any = acc.m2.data(), *r = acc.r.data(), *g = acc.g.data(), *b = acc.bl.data(), *sw = acc.w.data();
   std::fill_n(any, n, 0.0f), std::fill_n(r, n, 0.0f), std::fill_n(g, n, 0.0f), std::fill_n(b, n, 0.0f);
   std::fill_n(sw, n, 0.0f);
   for (int k = 0; k < nc; ++k) any_strict_packed_row(n, sums[size_t(k)].data(), any);
   for (int k = 0; k < nc; ++k) add_packed_row(n, any, sums[size_t(k)].data(), r, g, b, sw);
-  store_row(n, acc.z.data(), r, g, b, sw, out);
+  store_row(n, acc.z.data(), r, g, b, sw, out, written);
 }
 
 // The camera for row 0; row y adds y * dy to b.
@@ -369,11 +373,14 @@ LookupCamera lookup_camera(const RoomTexture& t, const CameraCalib& virt, float 
 
 long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
                       const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& p,
-                      cv::Mat* color) {
+                      cv::Mat* color, cv::Mat* written) {
   CV_Assert(view_depth.type() == CV_16UC1 && mask.type() == CV_8UC1 && color->type() == CV_8UC3);
-  if (p.avx2 && p.refine_steps == 0 && p.equal_weights && !p.best_only && !p.packed &&
-      room_lookup_avx2(cameras, virt, view_depth, mask, p, color))
+  // With packed as well, the packed SSE2 loop is the fallback where the CPU lacks AVX2.
+  if (p.avx2 && p.refine_steps == 0 && p.equal_weights && !p.best_only &&
+      room_lookup_avx2(cameras, virt, view_depth, mask, p, color, written))
     return 0;
+  CV_Assert(!written || p.packed);  // the other loops do not say which pixels they wrote
+  if (written) written->create(view_depth.size(), CV_8UC1);
   const int VW = view_depth.cols, VH = view_depth.rows, nc = int(cameras.size());
   const Tolerance tol{float(p.depth_tol_mm), float(p.depth_tol_ratio)};
   static thread_local std::vector<RowScratch> cam_rows;
@@ -417,7 +424,7 @@ long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const Came
         weigh_row(VW, c, float(y), p.refine_steps ? s.z.data() : z, s.u.data(), s.v.data(), s.zc.data(),
                   float(1 / virt.fx), float(1 / virt.fy), float(virt.cx), float(virt.cy), s.w.data());
     }
-    if (p.packed) blend_packed_row(VW, nc, row, sums, color->ptr<uint8_t>(y));
+    if (p.packed) blend_packed_row(VW, nc, row, sums, color->ptr<uint8_t>(y), written ? written->ptr<uint8_t>(y) : nullptr);
     else blend_row(VW, nc, row, cam_rows, color->ptr<uint8_t>(y), p.best_only);
   }
   return 0;

@@ -49,9 +49,10 @@ struct RoomLookupFastParams {
 };
 
 // As room_lookup() with BilinearStrict sampling. Returns 0 (the pixels written are not counted).
+// `written` (optional; the AVX2 loop and the packed loop only): CV_8UC1, 255 where a colour was written.
 long room_lookup_fast(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
                       const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupFastParams& params,
-                      cv::Mat* color);
+                      cv::Mat* color, cv::Mat* written = nullptr);
 
 // The AVX2 form (params: 0 steps, equal weights; the tolerance is read). False, nothing done, where the CPU
 // lacks AVX2 + FMA or the view's width is not a multiple of 8.
