@@ -650,6 +650,7 @@ struct RoomViewPath {
   std::vector<HoleFillHistory> histories;
   double raster_share = 0, room_share = 0, learner_share = 0;  // of the view's pixels, summed over views
   double filled_share = 0;
+  HoleScore holes;  // Table I: what the fill made
   long views = 0;
 };
 
@@ -907,6 +908,8 @@ void eval_classroom(const Options& opt) {
           synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, target, wp, fp, &room_fused,
                                &p.histories[0]);
           p.psnr.add(psnr_rgb(room_fused.color, imgs[0].color));
+          p.holes.add(room_fused.color, imgs[0].color, room_fused.filled,
+                      cv::Rect(0, 0, room_fused.color.cols, room_fused.color.rows));
           p.ssim.add(ssim_luma(room_fused.color, imgs[0].color));
           if (const char* dump = std::getenv("VCLASSROOM_ROOM_VIEW_DUMP"); dump && f == opt.frames - 1 && &p == &room_views[0]) {
             cv::Mat bgr;
@@ -991,12 +994,13 @@ void eval_classroom(const Options& opt) {
   for (const RoomViewPath& p : room_views)
     std::printf("%-52s | Table I PSNR %.3f (full system %.3f) SSIMx100 %.2f (%.2f) | novel poses PSNR %.3f (%.3f) "
                 "SSIMx100 %.2f (%.2f) | mesh %zu + %zu triangles; per view: raster %.1f %%, room seen %.1f %%, "
-                "learners %.1f %% of the pixels (summed over sources), filled %.1f %%\n",
+                "learners %.1f %% of the pixels (summed over sources), filled %.1f %%; Table I %s\n",
                 p.name, p.psnr.avg(), psnr[0].avg(), 100 * p.ssim.avg(), 100 * ssim[0].avg(), p.npsnr.avg(),
                 npsnr[0].avg(), 100 * p.nssim.avg(), 100 * nssim[0].avg(),
                 p.meshes.empty() ? size_t(0) : p.meshes[0].triangles(),
                 p.meshes.size() < 2 ? size_t(0) : p.meshes[1].triangles(), 100 * p.raster_share / p.views,
-                100 * p.room_share / p.views, 100 * p.learner_share / p.views, 100 * p.filled_share / p.views);
+                100 * p.room_share / p.views, 100 * p.learner_share / p.views, 100 * p.filled_share / p.views,
+                p.holes.line().c_str());
   std::printf("learnerseg against the ground-truth labels (IoU avg/min over frames):\n");
   for (int i = 0; i < 3; ++i)
     std::printf("  camera %d: foreground IoU %.3f / %.3f, per-learner IoU %.3f / %.3f\n", i, iou[i].avg(),
