@@ -697,6 +697,23 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
   for (const RoomMesh& m : p.meshes) raster.draw(m);
   cv::Mat view_depth;
   raster.depth(&view_depth);
+  if (const char* strips = std::getenv("VCLASSROOM_ROOM_STRIPS")) {  // scratch: close gaps of up to N px
+    const int reach = std::atoi(strips);
+    for (int pass = 0; pass < 2; ++pass) {  // along rows, then columns
+      cv::Mat d = pass ? view_depth.t() : view_depth;
+      for (int y = 0; y < d.rows; ++y) {
+        uint16_t* r = d.ptr<uint16_t>(y);
+        for (int x = 1; x < d.cols; ++x) {
+          if (r[x] || !r[x - 1]) continue;
+          int e = x;
+          while (e < d.cols && !r[e]) ++e;
+          if (e < d.cols && e - x <= reach) std::fill(r + x, r + e, std::max(r[x - 1], r[e]));  // the farther side
+          x = e;
+        }
+      }
+      if (pass) view_depth = d.t();
+    }
+  }
   const std::vector<RoomLookupSource> sources = room_lookup_sources(cams, in, priors, labels, rooms, wp);
   RoomLookupParams lp;
   lp.sampling = RoomSampling::BilinearStrict;
