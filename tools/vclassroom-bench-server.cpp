@@ -19,6 +19,9 @@
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/vva/prepared_frame.h>
+#include <gst/vclassroom/vva/room_lookup_fast.h>
+#include <gst/vclassroom/vva/room_mesh.h>
+#include <gst/vclassroom/vva/room_raster.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/vva/view_fuse.h>
@@ -217,6 +220,115 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
               cams[0].calib.width, cams[0].calib.height, fused.color.cols, fused.color.rows);
 }
 
+// Experiment (issue 31, wip/room-view): the views made as proposed for a 12 ms view, timed by part. Once
+// (the prior does not change; untimed): a quadtree mesh of each camera's prior depth at max(10 mm, 1 %). Per
+// camera frame, after learnerseg and viewprep: the room's texture (its seen and remembered pixels, packed for
+// the lookup). Per view: the meshes rasterised, the room's colour looked up (the AVX2 loop: strict cells,
+// equal weights, no steps), the learners alone warped from each camera, all fused and filled.
+void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame,
+                    int frames, int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp,
+                    double mesh_ratio, double mesh_min_mm, bool union_mesh) {
+  std::vector<FramePreparer> preparers(cams.size());
+  std::vector<RoomMesh> meshes(cams.size());
+  size_t triangles = 0;
+  for (size_t i = 0; i < cams.size(); ++i) {
+    preparers[i].set_static_depth(cams[i].prior);
+    preparers[i].set_memory(memory, empty_rooms[i]);
+    if (cams[i].prior.empty()) vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
+    room_mesh(cams[i].prior, mesh_ratio, mesh_min_mm, 5, nullptr, &cams[i].calib, &meshes[i]);
+  }
+  // --room-union: each camera's mesh without what an earlier camera's already holds (each surface drawn about
+  // once; -0.07 dB on the novel poses, docs/vva.md).
+  std::vector<std::pair<CameraCalib, cv::Mat>> earlier;
+  for (size_t i = 0; i < cams.size(); ++i) {
+    if (union_mesh && i > 0) meshes[i] = room_mesh_unseen_by(meshes[i], earlier);
+    earlier.emplace_back(cams[i].calib, cams[i].prior);
+    triangles += meshes[i].triangles();
+  }
+  FuseParams fp;
+  fp.first_is_base = true;
+  WarpParams only = wp;
+  only.learners_only = true;
+  RoomLookupFastParams lp;
+  lp.refine_steps = 0;
+  lp.equal_weights = true;
+  lp.avx2 = true;
+  lp.packed = true;  // the fallback without AVX2
+  std::vector<std::vector<ViewWarper>> warpers(size_t(views), std::vector<ViewWarper>(cams.size()));
+  std::vector<WarpedView> warped(cams.size());
+  std::vector<RoomTexture> textures(cams.size());
+  std::vector<const RoomTexture*> texture_ptrs;
+  for (const RoomTexture& t : textures) texture_ptrs.push_back(&t);
+  RoomRaster raster;
+  WarpedView room;
+  FusedView fused;
+  cv::Mat mask;
+  double camera_ms = 0, texture_ms = 0, raster_ms = 0, lookup_ms = 0, learner_ms = 0, fuse_ms = 0;
+  const int warm_up = 3;
+  for (int f = 0; f < warm_up + frames; ++f) {
+    const bool timed = f >= warm_up;
+    double t0 = thread_cpu_ms();
+    std::vector<std::shared_ptr<PreparedFrame>> prepared(cams.size());
+    std::vector<WarpSource> sources;
+    for (size_t i = 0; i < cams.size(); ++i) {
+      Camera& c = cams[i];
+      const size_t k = size_t(f) % c.color.size();
+      c.seg.segment(c.color[k], c.depth[k], &c.label);
+      prepared[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, only);
+      sources.push_back(FramePreparer::source_of(*prepared[i], c.color[k], c.depth[k], c.label));
+    }
+    double t1 = thread_cpu_ms();
+    for (size_t i = 0; i < cams.size(); ++i) {
+      // The room as the warp draws it: the prepared depth where the label is 0, the memory's room layer where a
+      // learner hides it.
+      const PreparedSource& ps = prepared[i]->source;
+      pack_room_records(cams[i].calib, ps.depth.data(), ps.label.data(), sources[i].color, sources[i].room_depth,
+                        sources[i].room_color, &textures[i]);
+    }
+    const double t2 = thread_cpu_ms();
+    if (timed) camera_ms += t1 - t0, texture_ms += t2 - t1;
+    for (int v = 0; v < views; ++v) {
+      const CameraCalib virt = virt_at_frame(f, v);
+      t0 = thread_cpu_ms();
+      raster.begin(virt);
+      for (const RoomMesh& m : meshes) raster.draw(m);
+      raster.depth(&room.depth);
+      t1 = thread_cpu_ms();
+      cv::compare(room.depth, 0, mask, cv::CMP_NE);
+      room.color.create(room.depth.size(), CV_8UC3);
+      room.color.setTo(0);
+      room_lookup_fast(texture_ptrs, virt, room.depth, mask, lp, &room.color, &room.weight);
+      room.depth.setTo(0, room.weight == 0);  // what no camera sees there is a hole
+      room.label.create(room.depth.size(), CV_8UC1);
+      room.label.setTo(0);
+      const double t_lookup = thread_cpu_ms();
+      std::vector<const WarpedView*> inputs{&room};
+      for (size_t i = 0; i < cams.size(); ++i) {
+        warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, only, &warped[i]);
+        inputs.push_back(&warped[i]);
+      }
+      const double t_learners = thread_cpu_ms();
+      fuse_views(inputs, fp, &fused);
+      if (timed) {
+        raster_ms += t1 - t0;
+        lookup_ms += t_lookup - t1;
+        learner_ms += t_learners - t_lookup;
+        fuse_ms += thread_cpu_ms() - t_learners;
+      }
+    }
+  }
+  const double n = double(frames) * views;
+  std::printf("room view (experiment): meshes at max(%.0f mm, %.2f %%), %zu triangles for %zu cameras\n",
+              mesh_min_mm, 100 * mesh_ratio, triangles, cams.size());
+  std::printf("per camera frame: learnerseg + viewprep %.2f ms, room textures %.2f ms CPU for %zu cameras\n",
+              camera_ms / frames, texture_ms / frames, cams.size());
+  std::printf("per view frame: raster %.2f + lookup %.2f + learners %.2f + fuse %.2f ms\n", raster_ms / n,
+              lookup_ms / n, learner_ms / n, fuse_ms / n);
+  std::printf("per view frame: %.1f ms CPU (%d views, %zu cameras %dx%d -> %dx%d)\n",
+              (raster_ms + lookup_ms + learner_ms + fuse_ms) / n, views, cams.size(), cams[0].calib.width,
+              cams[0].calib.height, fused.color.cols, fused.color.rows);
+}
+
 // The hole filling alone (issue 35), both methods on the same fused views, alternating frame by frame so
 // that the machine's drift hits both alike: each frame's cameras are segmented and warped (not timed), fused
 // without the fill, and then the fill of each method is timed on a copy of that view (thread CPU time; the
@@ -268,7 +380,8 @@ void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>&
 
 int main(int argc, char** argv) {
   int frames = 60, threads = 2, memory = -1, views = 0;  // memory -1: not given
-  double yaw = 0, pitch = 0;
+  double yaw = 0, pitch = 0, room_view = 0;
+  gboolean room_union = FALSE;
   gboolean no_edge_to_near = FALSE, no_model = FALSE, fill_only = FALSE, no_view_cull = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
@@ -297,6 +410,12 @@ int main(int argc, char** argv) {
        "level above cameras tilted 20 degrees down, as the browser page's scripted headset in "
        "vclassroom-measure-lecturers, whose view is then a third unseen (default 0)",
        "DEG"},
+      {"room-view", 0, 0, G_OPTION_ARG_DOUBLE, &room_view,
+       "with --views, experiment (issue 31, wip/room-view): the views made from the room's meshes at this "
+       "tolerance (1: max(10 mm, 1 %), 0.25: max(3 mm, 0.25 %)), the room looked up, the learners warped alone",
+       "PERCENT"},
+      {"room-union", 0, 0, G_OPTION_ARG_NONE, &room_union,
+       "with --room-view: each camera's mesh without the triangles an earlier camera's mesh holds", nullptr},
       {"fill-only", 0, 0, G_OPTION_ARG_NONE, &fill_only,
        "only time the hole filling of viewfuse, its two methods (fill-method pyramid and rays) alternating on the "
        "same fused views, with --memory as given",
@@ -354,7 +473,11 @@ int main(int argc, char** argv) {
     };
     std::printf("V-VA views, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, 1 thread\n",
                 frames);
-    run_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp);
+    if (room_view > 0)
+      run_room_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp, room_view / 100,
+                     room_view >= 1 ? 10 : 3, room_union);
+    else
+      run_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp);
     return 0;
   }
   std::printf("V-VA server stages, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, %d thread(s)\n",

@@ -249,6 +249,25 @@ void fade_unseen(const UnseenDistance& u, cv::Mat& color, double start, double l
   }
 }
 
+// first_is_base: 1 where the row `d` has a sample.
+VCLASSROOM_SIMD_CLONES
+void mark_samples(int n, const uint16_t* d, uint8_t* marks) {
+  for (int i = 0; i < n; ++i) marks[i] |= uint8_t(d[i] != 0);
+}
+
+// The end of the run of `value` (0 or 1) in marks[x..n) that starts at x, 8 marks at a time where it can.
+int run_end(const uint8_t* marks, int x, int n, uint8_t value) {
+  const uint64_t all = value ? 0x0101010101010101ull : 0;
+  while (x + 8 <= n) {
+    uint64_t eight;
+    std::memcpy(&eight, marks + x, 8);
+    if (eight != all) break;
+    x += 8;
+  }
+  while (x < n && marks[x] == value) ++x;
+  return x;
+}
+
 }  // namespace
 
 void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams& prm, FusedView* out,
@@ -270,13 +289,47 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   static thread_local BlendScratch scratch;
   scratch.resize(size.width);
   std::vector<ViewRow> rows(views.size());
+  std::vector<uint8_t> others;  // first_is_base: per column, whether another view has a sample
+  std::vector<ViewRow> span_rows(views.size());
   for (int y = 0; y < size.height; ++y) {
     for (int c = 0; c < k; ++c)
       rows[c] = ViewRow{views[c]->color.ptr<uint8_t>(y), views[c]->depth.ptr<uint16_t>(y),
                         views[c]->label.empty() ? scratch.zeros.data() : views[c]->label.ptr<uint8_t>(y),
                         views[c]->weight.ptr<uint8_t>(y)};
-    blend_row(size.width, k, rows.data(), wlut, tol_mm, tol_ratio, scratch, out->color.ptr<uint8_t>(y),
-              out->depth.ptr<uint16_t>(y), out->label.ptr<uint8_t>(y));
+    if (!prm.first_is_base || k < 2) {
+      blend_row(size.width, k, rows.data(), wlut, tol_mm, tol_ratio, scratch, out->color.ptr<uint8_t>(y),
+                out->depth.ptr<uint16_t>(y), out->label.ptr<uint8_t>(y));
+      continue;
+    }
+    const int W = size.width;
+    others.assign(size_t(W), 0);
+    for (int c = 1; c < k; ++c) {
+      const cv::Rect& b = views[size_t(c)]->box;
+      if (b.area() == 0) {
+        mark_samples(W, rows[c].d, others.data());
+      } else if (y >= b.y && y < b.y + b.height) {  // its samples lie in its box
+        mark_samples(b.width, rows[c].d + b.x, others.data() + b.x);
+      }
+    }
+    // The base copied where it stands alone: depth 0 where it has none, as the blend gives.
+    uint8_t* oc = out->color.ptr<uint8_t>(y);
+    uint16_t* od = out->depth.ptr<uint16_t>(y);
+    uint8_t* ol = out->label.ptr<uint8_t>(y);
+    for (int x = 0; x < W;) {
+      if (!others[size_t(x)]) {
+        const int e = run_end(others.data(), x, W, 0);
+        std::memcpy(oc + 3 * x, rows[0].c + 3 * x, size_t(e - x) * 3);
+        std::memcpy(od + x, rows[0].d + x, size_t(e - x) * 2);
+        std::memcpy(ol + x, rows[0].l + x, size_t(e - x));
+        x = e;
+        continue;
+      }
+      const int e = run_end(others.data(), x, W, 1);
+      for (int c = 0; c < k; ++c)
+        span_rows[size_t(c)] = ViewRow{rows[c].c + 3 * x, rows[c].d + x, rows[c].l + x, rows[c].w + x};
+      blend_row(e - x, k, span_rows.data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x);
+      x = e;
+    }
   }
   // Reused like the other planes: a fresh 0.5 MB each frame costs page faults.
   out->filled.create(size, CV_8UC1);

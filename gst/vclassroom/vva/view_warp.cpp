@@ -595,19 +595,64 @@ void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __rest
 
 // Closes the cracks find_cracks marks: the pixel takes the mean of the two
 // pixels of the surface around it.
-void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vector<uint8_t>* scratch) {
+// Experiment (WarpParams::learners_only): the depth where the label is non-zero.
+// Also the room's pixels without a static depth (`static_depth`, may be null): the room's meshes are made from
+// it and lack them, so they go forward with the learners.
+VCLASSROOM_SIMD_CLONES
+void learner_depth_of(size_t n, const uint16_t* depth, const uint8_t* label, const uint16_t* static_depth,
+                      uint16_t* out) {
+  if (!static_depth) {
+    for (size_t i = 0; i < n; ++i) out[i] = label[i] ? depth[i] : 0;
+    return;
+  }
+  for (size_t i = 0; i < n; ++i) out[i] = label[i] || !static_depth[i] ? depth[i] : 0;
+}
+
+VCLASSROOM_SIMD_CLONES
+bool any_nonzero(size_t n, const uint16_t* d) {
+  uint16_t any = 0;
+  for (size_t i = 0; i < n; ++i) any |= d[i];
+  return any != 0;
+}
+
+// Whether all n records are empty.
+VCLASSROOM_SIMD_CLONES
+bool all_empty(size_t n, const uint64_t* records) {
+  uint64_t differ = 0;
+  for (size_t i = 0; i < n; ++i) differ |= records[i] ^ kEmptyRecord;
+  return differ == 0;
+}
+
+// `row_empty` (optional, per row): rows known to hold no depth; a row with its neighbours empty has no crack.
+// `box` (optional): all depth lies in it, so every crack does too (between two of its pixels).
+void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vector<uint8_t>* scratch,
+                  const std::vector<uint8_t>* row_empty = nullptr, const cv::Rect* box = nullptr) {
   const int W = out->depth.cols, H = out->depth.rows;
   if (W < 3 || H < 3) return;
-  scratch->resize(size_t(W));
+  scratch->assign(size_t(W), 0);
   uint8_t* const code = scratch->data();
-  for (int y = 0; y < H; ++y) {
+  const int cx0 = box ? std::max(1, box->x) : 1, cx1 = box ? std::min(W - 1, box->x + box->width) : W - 1;
+  const int ry0 = box ? std::max(0, box->y) : 0, ry1 = box ? std::min(H, box->y + box->height) : H;
+  if (cx0 >= cx1) return;
+  for (int y = ry0; y < ry1; ++y) {
+    if (row_empty && (*row_empty)[size_t(y)] && (y == 0 || (*row_empty)[size_t(y) - 1]) &&
+        (y + 1 == H || (*row_empty)[size_t(y) + 1]))
+      continue;
     uint16_t* const d = out->depth.ptr<uint16_t>(y);
     // The first and last rows have cracks across the row only: their own
     // row stands in for the missing one, which finds none across the column.
     const uint16_t* above = y > 0 ? out->depth.ptr<uint16_t>(y - 1) : d;
     const uint16_t* below = y + 1 < H ? out->depth.ptr<uint16_t>(y + 1) : d;
-    find_cracks(W - 2, above + 1, d + 1, below + 1, ratio_q16, min_mm, code + 1);
-    for (int x = 1; x + 1 < W; ++x) {
+    find_cracks(cx1 - cx0, above + cx0, d + cx0, below + cx0, ratio_q16, min_mm, code + cx0);
+    for (int x = cx0; x < cx1; ++x) {
+      if (x + 8 < W) {  // most of a row holds no crack: 8 codes at a time
+        uint64_t eight;
+        std::memcpy(&eight, code + x, 8);
+        if (!eight) {
+          x += 7;
+          continue;
+        }
+      }
       if (!code[x]) continue;
       const bool across_row = code[x] == 1;
       const int y0 = across_row ? y : y - 1, y1 = across_row ? y : y + 1;
@@ -839,6 +884,13 @@ void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const War
   out->label.swap(src_label_);
   out->tile_nearest.swap(tile_nearest_);
   out->tile_farthest.swap(tile_farthest_);
+  if (prm.learners_only) {
+    out->learner_depth.resize(out->depth.size());
+    const bool whole = !in.static_depth.empty() && in.static_depth.isContinuous() &&
+                       in.static_depth.total() == out->depth.size() && in.static_depth.type() == CV_16UC1;
+    learner_depth_of(out->depth.size(), out->depth.data(), out->label.data(),
+                     whole ? in.static_depth.ptr<uint16_t>() : nullptr, out->learner_depth.data());
+  }
 }
 
 void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, const PreparedSource& prepared,
@@ -859,7 +911,9 @@ void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, con
     tile_depth_ranges(src.width, src.height, prepared.depth.data(), &tile_nearest_, &tile_farthest_);
     nearest = &tile_nearest_, farthest = &tile_farthest_;
   }
+  prepared_learner_depth_ = prepared.learner_depth.size() == n ? prepared.learner_depth.data() : nullptr;
   warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), *nearest, *farthest, virt, prm, out);
+  prepared_learner_depth_ = nullptr;
 }
 
 void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
@@ -1055,6 +1109,11 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
       kept += size_t(view_columns_[ty].second - view_columns_[ty].first) *
               size_t(std::min(kTileSize, H - int(ty) * kTileSize));
     warped_share_ = double(kept) / double(n);
+  }
+  if (prm.learners_only) {
+    draw_learner_layer(f, in, depth, label, prm);
+    unpack_view(f, prm, out);
+    return;
   }
   splat_layer(f,
               Layer{depth, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false,
@@ -1362,6 +1421,16 @@ void ViewWarper::splat_fine_cells(const Frame& f, const Layer& layer, const Cell
   const ptrdiff_t vw = f.VW;
   const ColorSampler col = layer.color;
   const float mu = f.max_u, mv = f.max_v;
+  if (track_box_) {  // a sparse layer's view: where its records can be (unpack_view reads only there)
+    const int32_t *const x1 = cells.x1, *const y1 = cells.y1;
+    for (int u = u_begin; u < u_end; ++u) {
+      const int32_t m = mask[u];
+      if (!m || skip[u >> 1]) continue;
+      const bool big = m == kBigCell;
+      box_x0_ = std::min(box_x0_, x0[u]), box_y0_ = std::min(box_y0_, y0[u]);
+      box_x1_ = std::max(box_x1_, big ? x1[u] : x0[u] + 1), box_y1_ = std::max(box_y1_, big ? y1[u] : y0[u] + 1);
+    }
+  }
   for (int u = u_begin; u < u_end; ++u) {
     const int32_t m = mask[u];
     if (!m || skip[u >> 1]) continue;
@@ -1489,28 +1558,101 @@ void ViewWarper::draw_room_layer(const Frame& f, const WarpSource& in, const War
                 prm);
 }
 
+// Experiment (issue 31): the learners' pixels alone, as a sparse layer over their spans.
+void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth,
+                                    const uint8_t* label, const WarpParams& prm) {
+  const int W = f.W, H = f.H;
+  const size_t n = size_t(W) * H;
+  const uint16_t* learners = prepared_learner_depth_;
+  if (!learners) {
+    learner_depth_.resize(n);
+    const bool whole = !in.static_depth.empty() && in.static_depth.isContinuous() && in.static_depth.total() == n &&
+                       in.static_depth.type() == CV_16UC1;
+    learner_depth_of(n, depth, label, whole ? in.static_depth.ptr<uint16_t>() : nullptr, learner_depth_.data());
+    learners = learner_depth_.data();
+  }
+  int row_begin = H, row_end = 0;
+  for (int v = 0; v < H; ++v)
+    if (any_nonzero(size_t(W), learners + size_t(v) * W)) row_begin = std::min(row_begin, v), row_end = v + 1;
+  track_box_ = true;
+  box_x0_ = f.VW, box_y0_ = f.VH, box_x1_ = -1, box_y1_ = -1;
+  if (row_begin < row_end)
+    splat_layer(f,
+                Layer{learners, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, row_begin,
+                      row_end, 1.0f, true},
+                prm);
+}
+
+// unpack_view for a sparse layer whose records lie in box_*: the planes zero outside it, the records read and
+// emptied inside it only, the cracks looked for in its rows only (a row or column past it holds none).
+void ViewWarper::unpack_box(const Frame& f, const WarpParams& prm, bool fresh, WarpedView* out) {
+  const int VW = f.VW, VH = f.VH;
+  const int x0 = std::max(0, box_x0_), x1 = std::min(VW - 1, box_x1_);
+  const int y0 = std::max(0, box_y0_), y1 = std::min(VH - 1, box_y1_);
+  // The planes are zero outside the last box they were given (when they kept their size): only that is cleared.
+  const cv::Rect whole(0, 0, VW, VH);
+  const cv::Rect old = out->box.area() > 0 && !fresh ? out->box & whole : whole;
+  out->color(old).setTo(0), out->depth(old).setTo(0), out->label(old).setTo(0), out->weight(old).setTo(0);
+  out->box = x0 > x1 || y0 > y1 ? cv::Rect(0, 0, 0, 0) : cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
+  if (x0 > x1 || y0 > y1) {
+    out->box = cv::Rect(0, 0, 1, 1);  // an empty view: the box of one zero pixel
+    return;
+  }
+  const int n = x1 - x0 + 1;
+  for (int y = y0; y <= y1; ++y) {
+    Sample* records = f.zbuf + size_t(y) * VW + x0;
+    unpack_samples(n, records, out->color.ptr<uint8_t>(y) + 3 * x0, out->depth.ptr<uint16_t>(y) + x0,
+                   out->label.ptr<uint8_t>(y) + x0, out->weight.ptr<uint8_t>(y) + x0);
+    std::fill_n(zbuf_.data() + size_t(y) * VW + x0, size_t(n), kEmptyRecord);
+  }
+  if (prm.close_cracks)
+    close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),
+                 tolerance_min_mm(prm.edge_min_mm), &crack_code_, nullptr, &out->box);
+}
+
 // The z-buffer into the view's planes, and the cracks closed.
 void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* out) {
   const int VW = f.VW, VH = f.VH;
+  const void* before[4] = {out->color.data, out->depth.data, out->label.data, out->weight.data};
   out->color.create(VH, VW, CV_8UC3);
   out->depth.create(VH, VW, CV_16UC1);
   out->label.create(VH, VW, CV_8UC1);
   out->weight.create(VH, VW, CV_8UC1);
+  const bool fresh = before[0] != out->color.data || before[1] != out->depth.data || before[2] != out->label.data ||
+                     before[3] != out->weight.data;
   // In bands of rows where the planes have no row padding (a vector loop
   // per row would spend a good part of its time in the row's remainder);
   // each band's records emptied for the next frame while they are in cache.
   const bool continuous = out->color.isContinuous() && out->depth.isContinuous() && out->label.isContinuous() &&
                           out->weight.isContinuous();
+  if (track_box_) {  // a sparse layer: its records lie in the box, all else is empty
+    track_box_ = false;
+    unpack_box(f, prm, fresh, out);
+    return;
+  }
+  out->box = cv::Rect();  // samples anywhere
   const int band = continuous ? 32 : 1;
+  row_empty_.assign(size_t(VH), 0);
   for (int y = 0; y < VH; y += band) {
     const int rows = std::min(band, VH - y);
+    const uint64_t* records = zbuf_.data() + size_t(y) * VW;
+    if (all_empty(size_t(rows) * VW, records)) {  // nothing drawn in these rows (a sparse layer's view)
+      for (int r = y; r < y + rows; ++r) {
+        std::memset(out->color.ptr<uint8_t>(r), 0, size_t(VW) * 3);
+        std::memset(out->depth.ptr<uint16_t>(r), 0, size_t(VW) * 2);
+        std::memset(out->label.ptr<uint8_t>(r), 0, size_t(VW));
+        std::memset(out->weight.ptr<uint8_t>(r), 0, size_t(VW));
+        row_empty_[size_t(r)] = 1;
+      }
+      continue;
+    }
     unpack_samples(rows * VW, f.zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
                    out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
     std::fill_n(zbuf_.data() + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
   }
   if (prm.close_cracks) {
     close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),
-                 tolerance_min_mm(prm.edge_min_mm), &crack_code_);
+                 tolerance_min_mm(prm.edge_min_mm), &crack_code_, &row_empty_);
   }
 }
 

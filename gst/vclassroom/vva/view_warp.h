@@ -87,6 +87,9 @@ struct WarpParams {
   // (tiles of view_cull.h) are not projected, linked or set up; the view is
   // the same pixel for pixel (false: every column, the reference).
   bool cull_outside_view = true;
+  // Experiment (issue 31, wip/room-view): only the learners' pixels (label non-zero) are drawn, as a sparse
+  // layer over their spans; the room comes from elsewhere (the room view: room_raster + room_lookup).
+  bool learners_only = false;
 };
 
 // The source warped to the virtual view: all images have the virtual camera's size.
@@ -95,6 +98,8 @@ struct WarpedView {
   cv::Mat depth;   // CV_16UC1 mm along the virtual optical axis, 0 = hole
   cv::Mat label;   // CV_8UC1
   cv::Mat weight;  // CV_8UC1, 0 = hole, 1..255 quality (viewing angle, distance, stretch)
+  // Experiment (WarpParams::learners_only): every sample lies in this box; empty: anywhere.
+  cv::Rect box;
 };
 
 // What ViewWarper::prepare() makes of a source frame: the half of the warp
@@ -105,6 +110,9 @@ struct PreparedSource {
   std::vector<uint8_t> label;   // the labels likewise; width * height + 1 (a zero after the last)
   // Per tile of view_cull.h, the nearest and farthest depth (mm) of `depth`; empty: found when warped.
   std::vector<uint16_t> tile_nearest, tile_farthest;
+  // Experiment (WarpParams::learners_only): the depth where the label is non-zero, 0 elsewhere; empty: made
+  // when warped.
+  std::vector<uint16_t> learner_depth;
 };
 
 // Keeps per-source precomputation (pixel rays) and scratch buffers between
@@ -156,6 +164,9 @@ class ViewWarper {
                         const int32_t* skip);
   void splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v, int j_begin, int j_end);
   void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
+  void draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth, const uint8_t* label,
+                          const WarpParams& params);
+  void unpack_box(const Frame& f, const WarpParams& params, bool fresh, WarpedView* out);
   void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
   // The cell warp's rows in pairs over every column, or only over the columns that can land in the view.
   void splat_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
@@ -178,10 +189,15 @@ class ViewWarper {
   // longest unbroken mesh edge (px), vertex weight.
   std::vector<float> px_, py_, pz_, plim_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
+  std::vector<uint16_t> learner_depth_;  // experiment: draw_learner_layer's depth
+  const uint16_t* prepared_learner_depth_ = nullptr;  // experiment: the prepared one, for this warp
+  bool track_box_ = false;  // experiment: splat_fine_cells keeps the box of the records it may write
+  int box_x0_ = 0, box_y0_ = 0, box_x1_ = -1, box_y1_ = -1;
   std::vector<uint16_t> step_tmp_;   // src_depth_ smoothed along the rows
   std::vector<uint8_t> step_code_;   // what lies between neighbours (steps, edges), along rows, then columns
   std::vector<uint8_t> step_chunk_;  // per row and chunk of columns: a step across the column there
   std::vector<uint8_t> crack_code_;  // one virtual row's cracks (close_cracks)
+  std::vector<uint8_t> row_empty_;   // per virtual row: nothing drawn (unpack_view)
   std::vector<uint8_t> src_label_;
   std::vector<uint8_t> edge_code_, drop_;  // depth edges, far-side pixels dropped
   cv::Mat nearest_around_;                 // edge_to_near: per source pixel, the nearest depth in its 3x3, less 1

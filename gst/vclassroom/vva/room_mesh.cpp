@@ -1,0 +1,208 @@
+#include <gst/vclassroom/vva/room_mesh.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+namespace vclassroom {
+
+namespace {
+
+// The plane (1/z in 1/m = p . (x - x0, y - y0, 1)) of the tile's grid, if every pixel lies on it within tol.
+bool planar_tile(const cv::Mat& d, int x0, int y0, int s, double ratio, double min_mm, Eigen::Vector3d* plane) {
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (int y = y0; y <= y0 + s; ++y)
+    for (int x = x0; x <= x0 + s; ++x) {
+      const int z = d.at<uint16_t>(y, x);
+      if (z == 0) return false;
+      const Eigen::Vector3d r(x - x0, y - y0, 1);
+      A += r * r.transpose();
+      b += r * (1000.0 / z);
+    }
+  const Eigen::Vector3d p = A.ldlt().solve(b);
+  for (int y = y0; y <= y0 + s; ++y)
+    for (int x = x0; x <= x0 + s; ++x) {
+      const double z = d.at<uint16_t>(y, x), inv = p.dot(Eigen::Vector3d(x - x0, y - y0, 1));
+      if (inv <= 0 || std::fabs(1000.0 / inv - z) > std::max(min_mm, ratio * z)) return false;
+    }
+  *plane = p;
+  return true;
+}
+
+// The tile's grid (s + 1 points a side) has depth everywhere and spans no edge: max - min within
+// max(15 mm, 3 %).
+bool one_surface(const cv::Mat& d, int x0, int y0, int s = 1) {
+  int lo = 65535, hi = 0;
+  for (int y = y0; y <= y0 + s; ++y)
+    for (int x = x0; x <= x0 + s; ++x) {
+      const int z = d.at<uint16_t>(y, x);
+      if (z == 0) return false;
+      lo = std::min(lo, z), hi = std::max(hi, z);
+    }
+  return hi - lo <= std::max(15.0, 0.03 * lo);
+}
+
+struct Leaf {
+  int x0, y0, level;
+};
+
+struct Quadtree {
+  const cv::Mat& d;
+  double ratio, min_mm;
+  cv::Mat* planar;
+  RoomMeshCount count;
+  std::vector<Leaf>* leaves;  // optional: every leaf that is drawn
+  int floor_level = 0;        // tiles of this level that span no edge are leaves even when not planar
+
+  void split(int x0, int y0, int level) {
+    const int s = 1 << level;
+    if (x0 >= d.cols - 1 || y0 >= d.rows - 1) return;
+    if (level == 0) {
+      if (one_surface(d, x0, y0)) {
+        ++count.tiles[0];
+        if (leaves) leaves->push_back({x0, y0, 0});
+      } else {
+        ++count.dropped;
+      }
+      return;
+    }
+    Eigen::Vector3d p;
+    if (x0 + s <= d.cols - 1 && y0 + s <= d.rows - 1 && planar_tile(d, x0, y0, s, ratio, min_mm, &p)) {
+      ++count.tiles[level];
+      if (leaves) leaves->push_back({x0, y0, level});
+      if (planar)
+        for (int y = y0; y <= y0 + s; ++y)
+          for (int x = x0; x <= x0 + s; ++x)
+            planar->at<uint16_t>(y, x) =
+                cv::saturate_cast<uint16_t>(1000.0 / p.dot(Eigen::Vector3d(x - x0, y - y0, 1)));
+      return;
+    }
+    if (level == floor_level && x0 + s <= d.cols - 1 && y0 + s <= d.rows - 1 && one_surface(d, x0, y0, s)) {
+      ++count.tiles[level];
+      if (leaves) leaves->push_back({x0, y0, level});
+      return;
+    }
+    const int h = s / 2;
+    for (int k = 0; k < 4; ++k) split(x0 + (k & 1) * h, y0 + (k >> 1) * h, level - 1);
+  }
+};
+
+// The leaves' triangles: a vertex per grid point that is a leaf's corner (and per fan centre).
+void emit_mesh(const cv::Mat& d, const std::vector<Leaf>& leaves, const CameraCalib& cam, RoomMesh* mesh) {
+  const int W = d.cols;
+  std::vector<int32_t> vid(d.total(), -1);
+  mesh->x.clear(), mesh->y.clear(), mesh->z.clear(), mesh->index.clear();
+  const Eigen::Matrix3d R = cam.cam_to_rig.linear();
+  const Eigen::Vector3d t = cam.cam_to_rig.translation();
+  auto add_vertex = [&](int x, int y) {
+    const double z = d.at<uint16_t>(y, x) * 1e-3;
+    const Eigen::Vector2d n = cam.has_distortion() ? cam.normalized(x, y)
+                                                   : Eigen::Vector2d((x - cam.cx) / cam.fx, (y - cam.cy) / cam.fy);
+    const Eigen::Vector3d p = R * Eigen::Vector3d(n.x() * z, n.y() * z, z) + t;
+    mesh->x.push_back(float(p.x())), mesh->y.push_back(float(p.y())), mesh->z.push_back(float(p.z()));
+    return int32_t(mesh->x.size() - 1);
+  };
+  auto corner = [&](int x, int y) {
+    int32_t& v = vid[size_t(y) * W + x];
+    if (v < 0) v = add_vertex(x, y);
+    return v;
+  };
+  for (const Leaf& l : leaves) {
+    const int s = 1 << l.level;
+    corner(l.x0, l.y0), corner(l.x0 + s, l.y0), corner(l.x0, l.y0 + s), corner(l.x0 + s, l.y0 + s);
+  }
+  auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
+    mesh->index.push_back(a), mesh->index.push_back(b), mesh->index.push_back(c);
+  };
+  std::vector<uint32_t> ring;
+  for (const Leaf& l : leaves) {
+    const int s = 1 << l.level, x0 = l.x0, y0 = l.y0, x1 = x0 + s, y1 = y0 + s;
+    auto at = [&](int x, int y) { return vid[size_t(y) * W + x]; };
+    ring.clear();
+    if (s > 1) {  // the border clockwise from the top left corner, the vertices on it
+      for (int x = x0; x < x1; ++x)
+        if (at(x, y0) >= 0) ring.push_back(uint32_t(at(x, y0)));
+      for (int y = y0; y < y1; ++y)
+        if (at(x1, y) >= 0) ring.push_back(uint32_t(at(x1, y)));
+      for (int x = x1; x > x0; --x)
+        if (at(x, y1) >= 0) ring.push_back(uint32_t(at(x, y1)));
+      for (int y = y1; y > y0; --y)
+        if (at(x0, y) >= 0) ring.push_back(uint32_t(at(x0, y)));
+    }
+    if (ring.size() <= 4) {
+      const uint32_t a = uint32_t(at(x0, y0)), b = uint32_t(at(x1, y0)), c = uint32_t(at(x1, y1)),
+                     e = uint32_t(at(x0, y1));
+      tri(a, b, c), tri(a, c, e);
+      continue;
+    }
+    // A corner whose two sides hold no other vertex sees the whole border: a fan from it (2 + k triangles);
+    // else a fan from the centre pixel (4 + k).
+    const int32_t corners[4] = {at(x0, y0), at(x1, y0), at(x1, y1), at(x0, y1)};
+    size_t cpos[4], k = 0;
+    for (size_t i = 0; i < ring.size() && k < 4; ++i)
+      if (int32_t(ring[i]) == corners[k]) cpos[k++] = i;
+    const size_t n = ring.size();
+    int from = -1;
+    for (int c = 0; c < 4 && from < 0; ++c) {
+      const size_t before = (cpos[c] + n - cpos[(c + 3) % 4]) % n, after = (cpos[(c + 1) % 4] + n - cpos[c]) % n;
+      if (before == 1 && after == 1) from = c;
+    }
+    if (from >= 0) {
+      const size_t o = cpos[from];
+      for (size_t i = 1; i + 1 < n; ++i) tri(ring[o], ring[(o + i) % n], ring[(o + i + 1) % n]);
+      continue;
+    }
+    const uint32_t centre = uint32_t(add_vertex(x0 + s / 2, y0 + s / 2));
+    for (size_t i = 0; i < n; ++i) tri(centre, ring[i], ring[(i + 1) % n]);
+  }
+}
+
+}  // namespace
+
+RoomMeshCount room_mesh(const cv::Mat& depth, double ratio, double min_mm, int top, cv::Mat* planar,
+                        const CameraCalib* cam, RoomMesh* mesh, int floor_level) {
+  CV_Assert(depth.type() == CV_16UC1 && top >= 0 && top < 8);
+  CV_Assert(!mesh || cam);
+  if (planar) depth.copyTo(*planar);
+  std::vector<Leaf> leaves;
+  Quadtree q{depth, ratio, min_mm, planar, {}, mesh ? &leaves : nullptr, floor_level};
+  const int s = 1 << top;
+  for (int y = 0; y < depth.rows - 1; y += s)
+    for (int x = 0; x < depth.cols - 1; x += s) q.split(x, y, top);
+  if (mesh) emit_mesh(depth, leaves, *cam, mesh);
+  return q.count;
+}
+
+// The triangles of `mesh` (camera k's) that no earlier camera j already sees: a triangle is left out when one
+// camera j sees all three of its vertices on its own mesh (within max(20 mm, 2 %) of its depth there).
+RoomMesh room_mesh_unseen_by(const RoomMesh& mesh, const std::vector<std::pair<CameraCalib, cv::Mat>>& earlier) {
+  const size_t nv = mesh.vertices();
+  std::vector<uint8_t> seen(nv * earlier.size(), 0);
+  for (size_t j = 0; j < earlier.size(); ++j) {
+    const CameraCalib& c = earlier[j].first;
+    const cv::Mat& d = earlier[j].second;
+    const Eigen::Isometry3d to_cam = c.cam_to_rig.inverse();
+    for (size_t i = 0; i < nv; ++i) {
+      const Eigen::Vector3d p = to_cam * Eigen::Vector3d(mesh.x[i], mesh.y[i], mesh.z[i]);
+      if (p.z() <= 0.05) continue;
+      const int u = int(std::lround(c.cx + c.fx * p.x() / p.z())), v = int(std::lround(c.cy + c.fy * p.y() / p.z()));
+      if (u < 0 || v < 0 || u >= d.cols || v >= d.rows) continue;
+      const double z = d.at<uint16_t>(v, u), mm = 1000 * p.z();
+      seen[i * earlier.size() + j] = z > 0 && std::fabs(z - mm) <= std::max(20.0, 0.02 * mm);
+    }
+  }
+  RoomMesh out = mesh;
+  out.index.clear();
+  for (size_t t = 0; t < mesh.triangles(); ++t) {
+    const uint32_t* v = &mesh.index[3 * t];
+    bool covered = false;
+    for (size_t j = 0; j < earlier.size() && !covered; ++j)
+      covered = seen[v[0] * earlier.size() + j] && seen[v[1] * earlier.size() + j] && seen[v[2] * earlier.size() + j];
+    if (!covered) out.index.insert(out.index.end(), v, v + 3);
+  }
+  return out;
+}
+
+}  // namespace vclassroom

@@ -1,0 +1,58 @@
+// Experiment (issue 31, wip/room-lookup): the room's depth at a view by rasterising meshes of the room
+// (room_mesh.h) into it, so that the backward lookup (room_lookup*.h) has a depth per view pixel without
+// splatting every camera pixel. GStreamer-free.
+//
+// Depth only: per view pixel the nearest triangle's depth, 1/z interpolated linearly in screen space
+// (perspective-correct for a pinhole view). Vertices are snapped to 1/16 px and the edge functions are exact
+// integers, sampled at the pixel centres (integer coordinates, as CameraCalib::project gives them), with a
+// top-left style fill rule: a pixel centre exactly on an edge belongs to one side only, so triangles that share
+// an edge (the same two vertices) leave no crack and draw no pixel twice. A triangle with a vertex at or in
+// front of the near plane is dropped (not clipped). Triangles whose screen box is under 1024 px on each side
+// run the vectorised row loop (32-bit edge functions); larger ones a scalar 64-bit loop. The triangles'
+// set-up runs in batches, in vector lanes across triangles.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/core/rig.h>
+#include <gst/vclassroom/vva/room_mesh.h>
+
+namespace vclassroom {
+
+struct RoomRasterStats {
+  long triangles = 0;    // given
+  long near = 0;         // dropped: a vertex at or in front of the near plane (or projected absurdly far)
+  long empty = 0;        // no pixel centre in its box on screen (or degenerate)
+  long drawn = 0;        // reached the pixel loop
+  long large = 0;        // of which through the 64-bit loop
+  long box_pixels = 0;   // pixels of the boxes scanned
+};
+
+class RoomRaster {
+ public:
+  // Starts a view: a pinhole camera (distortion ignored), its cam_to_rig the pose; nothing drawn.
+  void begin(const CameraCalib& view, double near_m = 0.05);
+  // Draws a mesh whose vertices are in the rig frame, nearest wins. `coverage` (tests; CV_8UC1 of the view's
+  // size): + 1 at every pixel a triangle covers, whatever its depth.
+  void draw(const RoomMesh& mesh, cv::Mat* coverage = nullptr);
+  // The view's depth so far, CV_16UC1 mm (0: nothing drawn there).
+  void depth(cv::Mat* out) const;
+  // 1/z in 1/m, CV_32FC1 (0: nothing drawn).
+  const cv::Mat& inverse_depth() const { return inv_; }
+  RoomRasterStats stats;
+  // The row loop works in whole groups of this many pixels; the buffer's rows have as many of slack.
+  static constexpr int kSlack = 8;
+
+ private:
+  int width_ = 0, height_ = 0;
+  float m_[12] = {};  // rig -> view, row-major 3x4
+  float fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0, near_ = 0;
+  cv::Mat buf_, inv_;  // inv_: buf_ without the slack
+  std::vector<int32_t> sx_, sy_;  // vertices on screen, 1/16 px
+  std::vector<float> w_;          // 1/z, 0: dropped
+};
+
+}  // namespace vclassroom
