@@ -85,6 +85,7 @@ GstPadProbeReturn count_frame(GstPad*, GstPadProbeInfo*, gpointer data) {
 
 int main(int argc, char** argv) {
   int frames = 300, learners = 6, cameras = 3, runs = 3, memory = 0;
+  gboolean room_view = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames per run (default 300, at least 40)", "N"},
       {"runs", 0, 0, G_OPTION_ARG_INT, &runs, "runs, each printed, then the median (default 3)", "R"},
@@ -93,6 +94,8 @@ int main(int argc, char** argv) {
       {"memory", 0, 0, G_OPTION_ARG_INT, &memory,
        "viewwarp background-memory=N with the empty room as its empty-room, as server.sh runs it (default 0: off)",
        "N"},
+      {"room-view", 0, 0, G_OPTION_ARG_NONE, &room_view,
+       "viewfuse room-view=true: the room drawn from the cameras' meshes, the learners alone warped", nullptr},
       {}};
   vclassroom_tools::parse_command_line(
       &argc, &argv, "",
@@ -160,7 +163,8 @@ int main(int argc, char** argv) {
     int frames = 0;
   };
   auto run_once = [&](RunFigures* fig) -> int {
-    std::string desc = "viewfuse name=fuse pose-trace=" + trace + " ! fakesink name=out sync=false";
+    std::string desc = "viewfuse name=fuse pose-trace=" + trace + (room_view ? " room-view=true" : "") +
+                       " ! fakesink name=out sync=false";
     for (int k = 0; k < cameras; ++k)
       desc += " appsrc name=src" + std::to_string(k) + " format=time max-buffers=2 ! learnerseg prior-depth=" +
               priors[size_t(k)] + " ! viewwarp prior-depth=" + priors[size_t(k)] +

@@ -19,9 +19,7 @@
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
 #include <gst/vclassroom/vva/prepared_frame.h>
-#include <gst/vclassroom/vva/room_lookup_fast.h>
-#include <gst/vclassroom/vva/room_mesh.h>
-#include <gst/vclassroom/vva/room_raster.h>
+#include <gst/vclassroom/vva/room_view.h>
 #include <gst/vclassroom/core/pose.h>
 #include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/vva/view_fuse.h>
@@ -220,50 +218,30 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
               cams[0].calib.width, cams[0].calib.height, fused.color.cols, fused.color.rows);
 }
 
-// Experiment (issue 31, wip/room-view): the views made as proposed for a 12 ms view, timed by part. Once
-// (the prior does not change; untimed): a quadtree mesh of each camera's prior depth at max(10 mm, 1 %). Per
-// camera frame, after learnerseg and viewprep: the room's texture (its seen and remembered pixels, packed for
-// the lookup). Per view: the meshes rasterised, the room's colour looked up (the AVX2 loop: strict cells,
-// equal weights, no steps), the learners alone warped from each camera, all fused and filled.
+// The views as viewfuse room-view=true makes them (docs/vva.md, "How a view is made"), timed by part. Per
+// camera frame: learnerseg, viewprep (FramePreparer, which also gives the learners' and the room's edges'
+// depth) and the room's packed records (PreparedFrame::room_texture, made by the first view that asks). Per
+// view: the room rasterised from the cameras' meshes and looked up (RoomViewRenderer), the learners and the
+// room's edges warped forward from each camera, all fused and filled. The meshes are made once, untimed.
 void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame,
-                    int frames, int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp,
-                    double mesh_ratio, double mesh_min_mm, bool union_mesh) {
+                    int frames, int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp) {
   std::vector<FramePreparer> preparers(cams.size());
-  std::vector<RoomMesh> meshes(cams.size());
-  size_t triangles = 0;
   for (size_t i = 0; i < cams.size(); ++i) {
+    if (cams[i].prior.empty()) vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
     preparers[i].set_static_depth(cams[i].prior);
     preparers[i].set_memory(memory, empty_rooms[i]);
-    if (cams[i].prior.empty()) vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
-    room_mesh(cams[i].prior, mesh_ratio, mesh_min_mm, 5, nullptr, &cams[i].calib, &meshes[i]);
-  }
-  // --room-union: each camera's mesh without what an earlier camera's already holds (each surface drawn about
-  // once; -0.07 dB on the novel poses, docs/vva.md).
-  std::vector<std::pair<CameraCalib, cv::Mat>> earlier;
-  for (size_t i = 0; i < cams.size(); ++i) {
-    if (union_mesh && i > 0) meshes[i] = room_mesh_unseen_by(meshes[i], earlier);
-    earlier.emplace_back(cams[i].calib, cams[i].prior);
-    triangles += meshes[i].triangles();
   }
   FuseParams fp;
   fp.first_is_base = true;
   WarpParams only = wp;
   only.learners_only = true;
-  RoomLookupFastParams lp;
-  lp.refine_steps = 0;
-  lp.equal_weights = true;
-  lp.avx2 = true;
-  lp.packed = true;  // the fallback without AVX2
   std::vector<std::vector<ViewWarper>> warpers(size_t(views), std::vector<ViewWarper>(cams.size()));
   std::vector<WarpedView> warped(cams.size());
-  std::vector<RoomTexture> textures(cams.size());
-  std::vector<const RoomTexture*> texture_ptrs;
-  for (const RoomTexture& t : textures) texture_ptrs.push_back(&t);
-  RoomRaster raster;
+  RoomViewRenderer renderer;
   WarpedView room;
   FusedView fused;
-  cv::Mat mask;
-  double camera_ms = 0, texture_ms = 0, raster_ms = 0, lookup_ms = 0, learner_ms = 0, fuse_ms = 0;
+  double camera_ms = 0, texture_ms = 0, room_ms = 0, learner_ms = 0, fuse_ms = 0;
+  size_t triangles = 0;
   const int warm_up = 3;
   for (int f = 0; f < warm_up + frames; ++f) {
     const bool timed = f >= warm_up;
@@ -274,34 +252,23 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       Camera& c = cams[i];
       const size_t k = size_t(f) % c.color.size();
       c.seg.segment(c.color[k], c.depth[k], &c.label);
-      prepared[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, only);
+      prepared[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, wp);
       sources.push_back(FramePreparer::source_of(*prepared[i], c.color[k], c.depth[k], c.label));
     }
+    if (f == 0)  // the meshes, once: untimed
+      for (const auto& p : prepared) triangles += p->room_shape->mesh().triangles();
     double t1 = thread_cpu_ms();
-    for (size_t i = 0; i < cams.size(); ++i) {
-      // The room as the warp draws it: the prepared depth where the label is 0, the memory's room layer where a
-      // learner hides it.
-      const PreparedSource& ps = prepared[i]->source;
-      pack_room_records(cams[i].calib, ps.depth.data(), ps.label.data(), sources[i].color, sources[i].room_depth,
-                        sources[i].room_color, &textures[i]);
-    }
+    std::vector<RoomCamera> room_cams;
+    for (size_t i = 0; i < cams.size(); ++i)
+      room_cams.push_back(RoomCamera{&prepared[i]->room_shape->mesh(),
+                                     &prepared[i]->room_texture(cams[i].color[size_t(f) % cams[i].color.size()])});
     const double t2 = thread_cpu_ms();
     if (timed) camera_ms += t1 - t0, texture_ms += t2 - t1;
     for (int v = 0; v < views; ++v) {
       const CameraCalib virt = virt_at_frame(f, v);
       t0 = thread_cpu_ms();
-      raster.begin(virt);
-      for (const RoomMesh& m : meshes) raster.draw(m);
-      raster.depth(&room.depth);
+      renderer.render(room_cams, virt, &room);
       t1 = thread_cpu_ms();
-      cv::compare(room.depth, 0, mask, cv::CMP_NE);
-      room.color.create(room.depth.size(), CV_8UC3);
-      room.color.setTo(0);
-      room_lookup_fast(texture_ptrs, virt, room.depth, mask, lp, &room.color, &room.weight);
-      room.depth.setTo(0, room.weight == 0);  // what no camera sees there is a hole
-      room.label.create(room.depth.size(), CV_8UC1);
-      room.label.setTo(0);
-      const double t_lookup = thread_cpu_ms();
       std::vector<const WarpedView*> inputs{&room};
       for (size_t i = 0; i < cams.size(); ++i) {
         warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, only, &warped[i]);
@@ -310,23 +277,21 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       const double t_learners = thread_cpu_ms();
       fuse_views(inputs, fp, &fused);
       if (timed) {
-        raster_ms += t1 - t0;
-        lookup_ms += t_lookup - t1;
-        learner_ms += t_learners - t_lookup;
+        room_ms += t1 - t0;
+        learner_ms += t_learners - t1;
         fuse_ms += thread_cpu_ms() - t_learners;
       }
     }
   }
   const double n = double(frames) * views;
-  std::printf("room view (experiment): meshes at max(%.0f mm, %.2f %%), %zu triangles for %zu cameras\n",
-              mesh_min_mm, 100 * mesh_ratio, triangles, cams.size());
-  std::printf("per camera frame: learnerseg + viewprep %.2f ms, room textures %.2f ms CPU for %zu cameras\n",
+  std::printf("room view: meshes of %zu triangles for %zu cameras\n", triangles, cams.size());
+  std::printf("per camera frame: learnerseg + viewprep %.2f ms, room records %.2f ms CPU for %zu cameras\n",
               camera_ms / frames, texture_ms / frames, cams.size());
-  std::printf("per view frame: raster %.2f + lookup %.2f + learners %.2f + fuse %.2f ms\n", raster_ms / n,
-              lookup_ms / n, learner_ms / n, fuse_ms / n);
+  std::printf("per view frame: room (raster + lookup) %.2f + learners and edges %.2f + fuse %.2f ms\n", room_ms / n,
+              learner_ms / n, fuse_ms / n);
   std::printf("per view frame: %.1f ms CPU (%d views, %zu cameras %dx%d -> %dx%d)\n",
-              (raster_ms + lookup_ms + learner_ms + fuse_ms) / n, views, cams.size(), cams[0].calib.width,
-              cams[0].calib.height, fused.color.cols, fused.color.rows);
+              (room_ms + learner_ms + fuse_ms) / n, views, cams.size(), cams[0].calib.width, cams[0].calib.height,
+              fused.color.cols, fused.color.rows);
 }
 
 // The hole filling alone (issue 35), both methods on the same fused views, alternating frame by frame so
@@ -380,8 +345,8 @@ void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>&
 
 int main(int argc, char** argv) {
   int frames = 60, threads = 2, memory = -1, views = 0;  // memory -1: not given
-  double yaw = 0, pitch = 0, room_view = 0;
-  gboolean room_union = FALSE;
+  double yaw = 0, pitch = 0;
+  gboolean room_view = FALSE;
   gboolean no_edge_to_near = FALSE, no_model = FALSE, fill_only = FALSE, no_view_cull = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
@@ -410,12 +375,10 @@ int main(int argc, char** argv) {
        "level above cameras tilted 20 degrees down, as the browser page's scripted headset in "
        "vclassroom-measure-lecturers, whose view is then a third unseen (default 0)",
        "DEG"},
-      {"room-view", 0, 0, G_OPTION_ARG_DOUBLE, &room_view,
-       "with --views, experiment (issue 31, wip/room-view): the views made from the room's meshes at this "
-       "tolerance (1: max(10 mm, 1 %), 0.25: max(3 mm, 0.25 %)), the room looked up, the learners warped alone",
-       "PERCENT"},
-      {"room-union", 0, 0, G_OPTION_ARG_NONE, &room_union,
-       "with --room-view: each camera's mesh without the triangles an earlier camera's mesh holds", nullptr},
+      {"room-view", 0, 0, G_OPTION_ARG_NONE, &room_view,
+       "with --views: the views as viewfuse room-view=true makes them (the room rasterised from meshes and looked "
+       "up, the learners and the room's edges warped alone), timed by part",
+       nullptr},
       {"fill-only", 0, 0, G_OPTION_ARG_NONE, &fill_only,
        "only time the hole filling of viewfuse, its two methods (fill-method pyramid and rays) alternating on the "
        "same fused views, with --memory as given",
@@ -473,9 +436,8 @@ int main(int argc, char** argv) {
     };
     std::printf("V-VA views, 960x540 RGB-D input, synthetic classroom with sensor model, %d frames, 1 thread\n",
                 frames);
-    if (room_view > 0)
-      run_room_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp, room_view / 100,
-                     room_view >= 1 ? 10 : 3, room_union);
+    if (room_view)
+      run_room_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp);
     else
       run_views(cams, view_at, frames, views, memory_given ? memory : 8, empty_rooms, warp);
     return 0;

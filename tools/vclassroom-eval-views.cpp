@@ -22,10 +22,7 @@
 #include <gst/vclassroom/core/image_metrics.h>
 #include <gst/vclassroom/vva/background_memory.h>
 #include <gst/vclassroom/vva/learner_seg.h>
-#include <gst/vclassroom/vva/room_lookup.h>
-#include <gst/vclassroom/vva/room_lookup_fast.h>
-#include <gst/vclassroom/vva/room_mesh.h>
-#include <gst/vclassroom/vva/room_raster.h>
+#include <gst/vclassroom/vva/room_view.h>
 #include <gst/vclassroom/datasets/middlebury.h>
 #include <gst/vclassroom/vda/plane_refine.h>
 #include <gst/vclassroom/core/view_offset.h>
@@ -63,10 +60,7 @@ struct Options {
   int crop_right = 0;
   int dataset_frames = 0;  // 0: every frame
   std::string out;
-  // classroom, experiment (issue 31): also score the full system with the room's colour looked up backward
-  // per view pixel (room_lookup.h), in several variants.
-  bool room_lookup = false;
-  // classroom, experiment (issue 31, wip/room-view): also score the view made as proposed for a 12 ms view.
+  // classroom: also score the view as viewfuse room-view=true makes it (synthesize_room_view).
   bool room_view = false;
 };
 
@@ -343,314 +337,18 @@ void synthesize(const std::vector<CameraCalib>& cams, const std::vector<RgbdImag
   fuse_views(ptrs, fp, out, fill_history);
 }
 
-// Experiment (issue 31, wip/room-lookup): the full system's view with the colour of every seen room pixel
-// (label 0, not filled) replaced by the backward lookup's (room_lookup.h).
-struct MaskedScore {  // squared errors pooled over the pixels of a mask
-  double se = 0, values = 0;
-  void add(const cv::Mat& synth, const cv::Mat& real, const cv::Mat& mask) {
-    const int n = cv::countNonZero(mask);
-    if (n == 0) return;
-    se += cv::norm(synth, real, cv::NORM_L2SQR, mask);
-    values += 3.0 * n;
-  }
-  double psnr() const { return values == 0 ? NAN : 10 * std::log10(255.0 * 255.0 * values / se); }
-};
-
-struct LookupVariant {
-  const char* name;
-  RoomLookupParams params;
-  int fast = 0;  // 1: room_lookup_fast with equal weights, 2: with viewfuse's w/o magnification, 3: best only, 4: packed SSE2, 5: AVX2, 6: AVX2 gathers
-  // Table I only: the view's depth is V-DA's prior depth of camera 0 (the model rendered at the view's pose,
-  // what a mesh of the room rasterised per view would give) where it has one; novel poses keep the fused.
-  bool model_depth = false;
-  double mesh_ratio = 0, mesh_min_mm = 0;  // > 0: that prior as a quadtree mesh of this tolerance gives it
-  Stats psnr, ssim, npsnr, nssim;
-  MaskedScore room_today, room_lookup, nroom_today, nroom_lookup;  // over the candidates: today's colour / looked up
-  MaskedScore one_today, one_lookup, two_today, two_lookup;  // Table I, the pixels one / several cameras saw
-  double candidates = 0, replaced = 0, by_one = 0, pixels = 0;
-};
-
-std::vector<LookupVariant> lookup_variants() {
-  auto v = [](const char* name, RoomSampling s, RoomWeights w) {
-    LookupVariant l{name, RoomLookupParams(), 0, false, 0, 0, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}, {}};
-    l.params.sampling = s;
-    l.params.weights = w;
-    return l;
-  };
-  auto steps = [](LookupVariant l, int n) {
-    l.params.refine_steps = n;
-    return l;
-  };
-  auto mesh = [](LookupVariant l, double ratio, double min_mm) {
-    l.model_depth = true;
-    l.mesh_ratio = ratio, l.mesh_min_mm = min_mm;
-    return l;
-  };
-  auto model = [](LookupVariant l) {
-    l.model_depth = true;
-    return l;
-  };
-  auto fast = [](LookupVariant l, int kind) {
-    l.params.refine_steps = 2;
-    l.fast = kind;
-    return l;
-  };
-  auto refined = [](LookupVariant l) {
-    l.params.refine_steps = 2;
-    return l;
-  };
-  return {v("lookup: bilinear, weights as viewfuse", RoomSampling::Bilinear, RoomWeights::Fuse),
-          v("lookup: nearest, weights as viewfuse", RoomSampling::Nearest, RoomWeights::Fuse),
-          v("lookup: bilinear, viewfuse w/o magnification", RoomSampling::Bilinear, RoomWeights::FuseNoStretch),
-          v("lookup: bilinear, ray angle only (cos^8)", RoomSampling::Bilinear, RoomWeights::Angle),
-          v("lookup: bilinear, equal weights", RoomSampling::Bilinear, RoomWeights::Equal),
-          refined(v("lookup: bilinear, viewfuse, own surface 2 steps", RoomSampling::Bilinear, RoomWeights::Fuse)),
-          refined(v("lookup: bilinear, equal, own surface 2 steps", RoomSampling::Bilinear, RoomWeights::Equal)),
-          refined(v("lookup: strict cells, viewfuse, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Fuse)),
-          refined(v("lookup: strict cells, equal, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal)),
-          v("lookup: strict cells, viewfuse", RoomSampling::BilinearStrict, RoomWeights::Fuse),
-          steps(v("lookup: strict cells, equal, own surface 1", RoomSampling::BilinearStrict, RoomWeights::Equal), 1),
-          steps(v("lookup: strict, viewfuse w/o magn., own surface 1", RoomSampling::BilinearStrict,
-                  RoomWeights::FuseNoStretch), 1),
-          steps(v("lookup: strict, viewfuse w/o magn., own surface 2", RoomSampling::BilinearStrict,
-                  RoomWeights::FuseNoStretch), 2),
-          steps(v("lookup: strict cells, equal, own surface 3", RoomSampling::BilinearStrict, RoomWeights::Equal), 3),
-          fast(v("fast loop: strict, equal, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal), 1),
-          fast(v("fast loop: strict, viewfuse w/o magn., own surf. 2", RoomSampling::BilinearStrict,
-                 RoomWeights::FuseNoStretch), 2),
-          model(steps(fast(v("fast, equal, model depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0)),
-          model(fast(v("fast, equal, model depth, own surface 2", RoomSampling::BilinearStrict, RoomWeights::Equal), 1)),
-          mesh(steps(fast(v("fast, equal, model mesh 0.25 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0), 0.0025, 3),
-          mesh(steps(fast(v("fast, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0), 0.01, 10),
-          mesh(steps(fast(v("fast, equal, model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 1), 0.01, 10),
-          mesh(steps(fast(v("fast, equal, model mesh 3 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 1), 0.03, 30),
-          mesh(steps(fast(v("fast, best camera, model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 3), 1), 0.01, 10),
-          mesh(steps(fast(v("fast, viewfuse w/o magn., model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 2), 1), 0.01, 10),
-          mesh(steps(fast(v("packed SSE2, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 4), 0), 0.01, 10),
-          mesh(steps(fast(v("packed SSE2, equal, model mesh 1 %, 1 step", RoomSampling::BilinearStrict, RoomWeights::Equal), 4), 1), 0.01, 10),
-          steps(fast(v("packed SSE2, equal, fused depth, 2 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 4), 2),
-          steps(fast(v("fast, best camera, fused depth, 2 steps", RoomSampling::BilinearStrict, RoomWeights::FuseNoStretch), 3), 2),
-          steps(fast(v("fast, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 1), 0),
-          steps(fast(v("AVX2, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 5), 0),
-          mesh(steps(fast(v("AVX2, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 5), 0), 0.01, 10),
-          steps(fast(v("AVX2 gathers, equal, fused depth, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 6), 0),
-          mesh(steps(fast(v("AVX2 gathers, equal, model mesh 1 %, 0 steps", RoomSampling::BilinearStrict, RoomWeights::Equal), 6), 0), 0.01, 10),
-          v("lookup: bilinear all 4, viewfuse", RoomSampling::BilinearAll, RoomWeights::Fuse),
-          refined(v("lookup: bilinear all 4, viewfuse, own surface 2", RoomSampling::BilinearAll, RoomWeights::Fuse)),
-          refined(v("lookup: bilinear all 4, equal, own surface 2", RoomSampling::BilinearAll, RoomWeights::Equal))};
-}
-
-// Each source as the full system's warp draws its room: the prepared depth and colour where the label is
-// 0, the background memory's room layer (its depth and remembered colour) where a learner hides it.
-std::vector<RoomLookupSource> room_lookup_sources(const std::vector<CameraCalib>& cams, const std::vector<RgbdImages>& in,
-                                                  const std::vector<cv::Mat>& priors, const std::vector<cv::Mat>& labels,
-                                                  const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms,
-                                                  const WarpParams& wp) {
-  std::vector<RoomLookupSource> out(cams.size());
-  ViewWarper warper;
-  for (size_t i = 0; i < cams.size(); ++i) {
-    WarpSource src;
-    src.color = in[i].color;
-    src.depth = in[i].depth;
-    src.label = labels[i];
-    src.static_depth = priors[i];
-    if (rooms) src.room_color = (*rooms)[i].first, src.room_depth = (*rooms)[i].second;
-    PreparedSource prep;
-    warper.prepare(cams[i], src, wp, &prep);
-    const int W = cams[i].width, H = cams[i].height;
-    RoomLookupSource& s = out[i];
-    s.camera = cams[i];
-    s.color = src.color.clone();
-    s.depth = cv::Mat::zeros(H, W, CV_16UC1);
-    s.remembered = cv::Mat::zeros(H, W, CV_8UC1);
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x) {
-        const size_t k = size_t(y) * W + x;
-        if (prep.label[k] == 0 && prep.depth[k]) {
-          s.depth.at<uint16_t>(y, x) = prep.depth[k];
-        } else if (!src.room_depth.empty() && src.room_depth.at<uint16_t>(y, x)) {
-          s.depth.at<uint16_t>(y, x) = src.room_depth.at<uint16_t>(y, x);
-          s.remembered.at<uint8_t>(y, x) = 255;
-          s.color.at<cv::Vec3b>(y, x) = src.room_color.at<cv::Vec3b>(y, x);
-        }
-      }
-  }
-  return out;
-}
-
-// Scores every variant on one fused view of `virt` against `real`.
-void score_lookups(std::vector<LookupVariant>& variants, const std::vector<RoomLookupSource>& sources,
-                   const CameraCalib& virt, const FusedView& fused, const cv::Mat& real, bool novel,
-                   const cv::Mat& model_depth = cv::Mat()) {
-  cv::Mat mask = (fused.label == 0) & (fused.filled == 0) & (fused.depth != 0);
-  for (LookupVariant& l : variants) {
-    cv::Mat view_depth = fused.depth;
-    if (l.model_depth && !model_depth.empty()) {
-      view_depth = fused.depth.clone();
-      static std::map<double, cv::Mat> meshes;  // the prior does not change: one mesh per tolerance
-      cv::Mat& meshed = meshes[l.mesh_ratio];
-      if (meshed.empty()) {
-        if (l.mesh_ratio > 0) room_mesh(model_depth, l.mesh_ratio, l.mesh_min_mm, 5, &meshed);
-        else meshed = model_depth;
-      }
-      meshed.copyTo(view_depth, meshed != 0);
-    }
-    cv::Mat color = fused.color.clone();
-    cv::Mat seen;
-    RoomLookupStats st;
-    if (l.fast) {
-      std::vector<RoomTexture> tex(sources.size());
-      std::vector<const RoomTexture*> ptrs;
-      for (size_t i = 0; i < sources.size(); ++i) pack_room_texture(sources[i], &tex[i]), ptrs.push_back(&tex[i]);
-      RoomLookupFastParams fp;
-      fp.refine_steps = l.params.refine_steps;
-      fp.equal_weights = l.fast == 1;
-      fp.best_only = l.fast == 3;
-      fp.packed = l.fast == 4;
-      fp.avx2 = l.fast == 5 || l.fast == 6;
-      fp.avx2_gather = l.fast == 6;
-      fp.equal_weights = fp.equal_weights || fp.packed || fp.avx2;
-      st.candidates = cv::countNonZero(mask & (fused.depth != 0));
-      room_lookup_fast(ptrs, virt, view_depth, mask, fp, &color);
-      st.replaced = st.candidates;  // not counted by the fast loop
-      seen = cv::Mat::zeros(mask.size(), CV_8UC1);  // not counted by the fast loop
-    } else {
-      st = room_lookup(sources, virt, view_depth, mask, l.params, &color, &seen);
-    }
-    if (const char* dump = std::getenv("VCLASSROOM_LOOKUP_DUMP"); dump && !novel && &l == &variants.back()) {
-      // Scratch: where the lookup loses or gains against today (grey 128 = equal; brighter = lookup worse).
-      cv::Mat et, el, diff;
-      cv::absdiff(fused.color, real, et);
-      cv::absdiff(color, real, el);
-      cv::cvtColor(et, et, cv::COLOR_RGB2GRAY);
-      cv::cvtColor(el, el, cv::COLOR_RGB2GRAY);
-      el.convertTo(el, CV_16S);
-      et.convertTo(et, CV_16S);
-      cv::Mat d16 = (el - et) * 4 + 128;
-      d16.convertTo(diff, CV_8U);
-      cv::Mat bgr;
-      cv::imwrite(std::string(dump) + "/diff.png", diff);
-      cv::cvtColor(fused.color, bgr, cv::COLOR_RGB2BGR);
-      cv::imwrite(std::string(dump) + "/today.png", bgr);
-      cv::cvtColor(color, bgr, cv::COLOR_RGB2BGR);
-      cv::imwrite(std::string(dump) + "/lookup.png", bgr);
-      cv::cvtColor(real, bgr, cv::COLOR_RGB2BGR);
-      cv::imwrite(std::string(dump) + "/real.png", bgr);
-      cv::imwrite(std::string(dump) + "/seen.png", seen * 100);
-    }
-    (novel ? l.npsnr : l.psnr).add(psnr_rgb(color, real));
-    (novel ? l.nssim : l.ssim).add(ssim_luma(color, real));
-    (novel ? l.nroom_today : l.room_today).add(fused.color, real, mask);
-    (novel ? l.nroom_lookup : l.room_lookup).add(color, real, mask);
-    if (!novel) {
-      const cv::Mat one = seen == 1, two = seen >= 2;
-      l.one_today.add(fused.color, real, one);
-      l.one_lookup.add(color, real, one);
-      l.two_today.add(fused.color, real, two);
-      l.two_lookup.add(color, real, two);
-      l.candidates += double(st.candidates);
-      l.replaced += double(st.replaced);
-      l.by_one += double(st.by_one);
-      l.pixels += double(mask.total());
-    }
-  }
-}
-
-// Scratch for callgrind (VCLASSROOM_LOOKUP_BENCH): the fast lookup of the full system's room pixels at camera
-// 0's pose from all three cameras (camera 0 too: the three-camera case of vclassroom-bench-server), once per
-// frame, its textures packed first.
-void bench_lookup(const std::vector<CameraCalib>& all, const std::vector<RgbdImages>& imgs,
-                  const std::vector<cv::Mat>& priors, const std::vector<cv::Mat>& labels,
-                  const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms, const WarpParams& wp, const FusedView& fused,
-                  int steps, bool equal) {
-  std::vector<std::pair<cv::Mat, cv::Mat>> rooms3(3);
-  if (rooms) rooms3[1] = (*rooms)[0], rooms3[2] = (*rooms)[1];
-  const std::vector<RoomLookupSource> src = room_lookup_sources(all, imgs, priors, labels, &rooms3, wp);
-  std::vector<RoomTexture> tex(3);
-  std::vector<const RoomTexture*> ptrs;
-  for (size_t i = 0; i < 3; ++i) pack_room_texture(src[i], &tex[i]), ptrs.push_back(&tex[i]);
-  const cv::Mat mask = (fused.label == 0) & (fused.filled == 0) & (fused.depth != 0);
-  cv::Mat color = fused.color.clone();
-  RoomLookupFastParams p;
-  p.refine_steps = steps;
-  p.equal_weights = equal;
-  p.packed = std::getenv("VCLASSROOM_LOOKUP_PACKED") != nullptr;
-  p.avx2 = std::getenv("VCLASSROOM_LOOKUP_AVX2") != nullptr;
-  p.avx2_gather = p.avx2 && std::string(std::getenv("VCLASSROOM_LOOKUP_AVX2")) == "gather";
-  if (std::getenv("VCLASSROOM_LOOKUP_CMP")) {  // scratch: this form against room_lookup_fast's float loop
-    cv::Mat ref = fused.color.clone(), got = fused.color.clone(), d;
-    RoomLookupFastParams q = p;
-    q.avx2 = false, q.packed = false;
-    room_lookup_fast(ptrs, all[0], fused.depth, mask, q, &ref);
-    room_lookup_fast(ptrs, all[0], fused.depth, mask, p, &got);
-    cv::absdiff(ref, got, d);
-    d = d.reshape(1);
-    double mx = 0;
-    cv::minMaxLoc(d, nullptr, &mx);
-    for (int i = 0, shown = 0; i < int(d.total()) && shown < 12; ++i)
-      if (d.at<uint8_t>(i) > 1) {
-        const int px = i / 3, x = px % ref.cols, y = px / ref.cols;
-        const cv::Vec3b a = ref.at<cv::Vec3b>(y, x), b = got.at<cv::Vec3b>(y, x);
-        std::printf("cmp: (%d, %d) ref %d %d %d got %d %d %d z %d\n", x, y, a[0], a[1], a[2], b[0], b[1], b[2],
-                    fused.depth.at<uint16_t>(y, x));
-        ++shown, i = 3 * px + 2;
-      }
-    std::printf("cmp: max |diff| %.0f, values > 1: %d, > 0: %d of %d\n", mx, cv::countNonZero(d > 1),
-                cv::countNonZero(d > 0), int(d.total()));
-  }
-  std::vector<double> ms;
-  const int reps = std::getenv("VCLASSROOM_LOOKUP_REPS") ? std::atoi(std::getenv("VCLASSROOM_LOOKUP_REPS")) : 1;
-  for (int r = 0; r < reps; ++r) {
-    const auto t0 = std::chrono::steady_clock::now();
-    room_lookup_fast(ptrs, all[0], fused.depth, mask, p, &color);
-    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-  }
-  std::sort(ms.begin(), ms.end());
-  std::printf("bench: %d candidates, 3 cameras, %d steps, %s weights: %d runs, min %.2f median %.2f ms\n",
-              cv::countNonZero(mask), steps, equal ? "equal" : "viewfuse", reps, ms.front(), ms[ms.size() / 2]);
-}
-
-void print_lookups(const std::vector<LookupVariant>& variants, const Stats& psnr, const Stats& ssim,
-                   const Stats& npsnr, const Stats& nssim) {
-  if (variants.empty()) return;
-  std::printf("\nRoom lookup (experiment, issue 31): the full system's seen room pixels (label 0, not filled) "
-              "recoloured by backward lookup\n");
-  std::printf("%-46s | Table I PSNR  SSIMx100 | novel PSNR  SSIMx100 | room px: today -> lookup (Table I; novel)\n",
-              "variant");
-  std::printf("%-46s | %7.3f %9.2f | %7.3f %9.2f |\n", "today (full system)", psnr.avg(), 100 * ssim.avg(),
-              npsnr.avg(), 100 * nssim.avg());
-  for (const LookupVariant& l : variants)
-    std::printf("%-46s | %7.3f %9.2f | %7.3f %9.2f | %6.2f -> %6.2f; %6.2f -> %6.2f\n", l.name, l.psnr.avg(),
-                100 * l.ssim.avg(), l.npsnr.avg(), 100 * l.nssim.avg(), l.room_today.psnr(), l.room_lookup.psnr(),
-                l.nroom_today.psnr(), l.nroom_lookup.psnr());
-  std::printf("%-46s | room px seen by one camera: today -> lookup | by two or more\n", "variant (Table I)");
-  for (const LookupVariant& l : variants)
-    std::printf("%-46s | %6.2f -> %6.2f | %6.2f -> %6.2f\n", l.name, l.one_today.psnr(), l.one_lookup.psnr(),
-                l.two_today.psnr(), l.two_lookup.psnr());
-  const LookupVariant& l = variants[0];
-  std::printf("Table I: candidates %.1f %% of the view, of them %.2f %% looked up (%.1f %% from one camera only)\n",
-              100 * l.candidates / l.pixels, 100 * l.replaced / std::max(1.0, l.candidates),
-              100 * l.by_one / std::max(1.0, l.replaced));
-}
-
-// Experiment (issue 31, wip/room-view): the view made as proposed for a 12 ms view. The room's depth at the
-// view rasterised from a quadtree mesh of each source's static depth (room_mesh, room_raster); the room's
-// colour looked up backward from the sources at that depth (room_lookup: strict cells, equal weights, no
-// steps, as the AVX2 loop); the learners alone warped forward from each source (WarpParams::learners_only);
-// the room view and the learners' views fused and filled as viewfuse fuses cameras.
+// The view as viewfuse room-view=true makes it (docs/vva.md, "How a view is made"): the room rasterised from
+// each source's mesh of its static depth and looked up backward in the sources (RoomViewRenderer), the
+// learners and the room's edges warped forward from each source (WarpParams::learners_only), fused with the
+// room as the base.
 struct RoomViewPath {
-  const char* name;
-  double ratio, min_mm;
-  bool union_mesh;  // each source's mesh without what an earlier source's holds (room_mesh_unseen_by)
-  bool avx2 = false;  // the hand-written lookup (as the bench) instead of the reference
-  bool sse2 = false;  // with avx2: its fallback, the packed SSE2 loop
-  std::vector<RoomMesh> meshes;
+  std::vector<std::shared_ptr<RoomShape>> shapes;
   std::vector<ViewWarper> warpers = std::vector<ViewWarper>(2);
+  RoomViewRenderer renderer;
   Stats psnr, ssim, npsnr, nssim;
   std::vector<HoleFillHistory> histories;
-  double raster_share = 0, room_share = 0, learner_share = 0;  // of the view's pixels, summed over views
-  double filled_share = 0;
   HoleScore holes;  // Table I: what the fill made
+  double filled_share = 0;
   long views = 0;
 };
 
@@ -658,89 +356,12 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
                           const std::vector<cv::Mat>& priors, const std::vector<cv::Mat>& labels,
                           const std::vector<std::pair<cv::Mat, cv::Mat>>* rooms, const CameraCalib& virt,
                           const WarpParams& wp, const FuseParams& fp, FusedView* out, HoleFillHistory* history) {
-  if (p.meshes.empty()) {
-    p.meshes.resize(cams.size());
-    std::vector<std::pair<CameraCalib, cv::Mat>> earlier;
-    for (size_t i = 0; i < cams.size(); ++i) {
-      room_mesh(priors[i], p.ratio, p.min_mm, 5, nullptr, &cams[i], &p.meshes[i]);
-      if (p.union_mesh && i > 0) p.meshes[i] = room_mesh_unseen_by(p.meshes[i], earlier);
-      earlier.emplace_back(cams[i], priors[i]);
-    }
-  }
-  if (const char* dump = std::getenv("VCLASSROOM_ROOM_VIEW_DUMP")) {  // scratch: camera 1's mesh seen by itself
-    RoomRaster own;
-    own.begin(cams[0]);
-    own.draw(p.meshes[0]);
-    cv::Mat d;
-    own.depth(&d);
-    cv::imwrite(std::string(dump) + "/own-mesh.png", d != 0);
-    cv::imwrite(std::string(dump) + "/own-prior.png", priors[0] != 0);
-    RoomRaster one;
-    one.begin(virt);
-    one.draw(p.meshes[0]);
-    one.depth(&d);
-    ViewWarper w;
-    WarpSource src;
-    src.color = in[0].color;
-    src.depth = in[0].depth;
-    src.static_depth = priors[0];
-    WarpedView today;
-    w.warp(cams[0], src, virt, wp, &today);  // no labels: the static depth everywhere
-    cv::Mat both(d.size(), CV_8UC3, cv::Scalar(0, 0, 0));
-    both.setTo(cv::Scalar(255, 255, 255), (d != 0) & (today.depth != 0));
-    both.setTo(cv::Scalar(0, 0, 255), (d == 0) & (today.depth != 0));  // red: the warp only
-    both.setTo(cv::Scalar(255, 0, 0), (d != 0) & (today.depth == 0));  // blue: the mesh only
-    cv::imwrite(std::string(dump) + "/mesh-vs-warp.png", both);
-  }
-  RoomRaster raster;
-  raster.begin(virt);
-  for (const RoomMesh& m : p.meshes) raster.draw(m);
-  cv::Mat view_depth;
-  raster.depth(&view_depth);
-  if (const char* strips = std::getenv("VCLASSROOM_ROOM_STRIPS")) {  // scratch: close gaps of up to N px
-    const int reach = std::atoi(strips);
-    for (int pass = 0; pass < 2; ++pass) {  // along rows, then columns
-      cv::Mat d = pass ? view_depth.t() : view_depth;
-      for (int y = 0; y < d.rows; ++y) {
-        uint16_t* r = d.ptr<uint16_t>(y);
-        for (int x = 1; x < d.cols; ++x) {
-          if (r[x] || !r[x - 1]) continue;
-          int e = x;
-          while (e < d.cols && !r[e]) ++e;
-          if (e < d.cols && e - x <= reach) std::fill(r + x, r + e, std::max(r[x - 1], r[e]));  // the farther side
-          x = e;
-        }
-      }
-      if (pass) view_depth = d.t();
-    }
-  }
-  const std::vector<RoomLookupSource> sources = room_lookup_sources(cams, in, priors, labels, rooms, wp);
-  RoomLookupParams lp;
-  lp.sampling = RoomSampling::BilinearStrict;
-  lp.weights = RoomWeights::Equal;
-  lp.refine_steps = 0;
-  WarpedView room;
-  room.color = cv::Mat::zeros(view_depth.size(), CV_8UC3);
-  cv::Mat replaced;
-  if (p.avx2) {  // the loop the bench times
-    std::vector<RoomTexture> tex(sources.size());
-    std::vector<const RoomTexture*> ptrs;
-    for (size_t i = 0; i < sources.size(); ++i) pack_room_texture(sources[i], &tex[i]), ptrs.push_back(&tex[i]);
-    RoomLookupFastParams fp_avx2;
-    fp_avx2.refine_steps = 0;
-    fp_avx2.equal_weights = true;
-    fp_avx2.avx2 = !p.sse2;
-    fp_avx2.packed = true;  // the fallback without AVX2
-    room_lookup_fast(ptrs, virt, view_depth, view_depth != 0, fp_avx2, &room.color, &replaced);
-  } else {
-    room_lookup(sources, virt, view_depth, view_depth != 0, lp, &room.color, &replaced);
-  }
-  room.depth = cv::Mat::zeros(view_depth.size(), CV_16UC1);
-  view_depth.copyTo(room.depth, replaced != 0);
-  room.label = cv::Mat::zeros(view_depth.size(), CV_8UC1);
-  room.weight = cv::Mat::zeros(view_depth.size(), CV_8UC1);
-  room.weight.setTo(255, replaced != 0);
+  if (p.shapes.empty())
+    for (size_t i = 0; i < cams.size(); ++i) p.shapes.push_back(std::make_shared<RoomShape>(cams[i], priors[i]));
+  std::vector<RoomTexture> textures(cams.size());
+  std::vector<RoomCamera> room_cams;
   std::vector<WarpedView> learners(cams.size());
+  WarpedView room;
   std::vector<const WarpedView*> ptrs{&room};
   WarpParams only = wp;
   only.learners_only = true;
@@ -750,16 +371,14 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
     src.depth = in[i].depth;
     src.label = labels[i];
     src.static_depth = priors[i];
+    if (rooms) src.room_color = (*rooms)[i].first, src.room_depth = (*rooms)[i].second;
+    pack_room_records(cams[i], priors[i].ptr<uint16_t>(), labels[i].ptr<uint8_t>(), src.color, src.room_depth,
+                      src.room_color, &textures[i]);
+    room_cams.push_back(RoomCamera{&p.shapes[i]->mesh(), &textures[i]});
     p.warpers[i].warp(cams[i], src, virt, only, &learners[i]);
     ptrs.push_back(&learners[i]);
-    p.learner_share += double(cv::countNonZero(learners[i].depth)) / double(view_depth.total());
   }
-  p.raster_share += double(cv::countNonZero(view_depth)) / double(view_depth.total());
-  if (const char* dump = std::getenv("VCLASSROOM_ROOM_VIEW_DUMP")) {
-    cv::imwrite(std::string(dump) + "/raster.png", (view_depth != 0));
-    cv::imwrite(std::string(dump) + "/room-seen.png", (replaced != 0));
-  }
-  p.room_share += double(cv::countNonZero(room.depth)) / double(view_depth.total());
+  p.renderer.render(room_cams, virt, &room);
   ++p.views;
   FuseParams base = fp;
   base.first_is_base = true;
@@ -849,21 +468,14 @@ void eval_classroom(const Options& opt) {
   // that stays: it keeps its fill's history from frame to frame (HoleFillHistory), the others' never reach it.
   std::vector<HoleFillHistory> histories(configs.size() * (1 + novel.size()));
   cv::Mat last_synth, last_real;
-  std::vector<LookupVariant> lookups = opt.room_lookup ? lookup_variants() : std::vector<LookupVariant>();
-  if (const char* only = std::getenv("VCLASSROOM_LOOKUP_ONLY"))  // scratch: the variants whose name holds it
-    lookups.erase(std::remove_if(lookups.begin(), lookups.end(),
-                                 [&](const LookupVariant& l) { return !std::strstr(l.name, only); }),
-                  lookups.end());
-  std::vector<RoomLookupSource> lookup_sources;
-  std::vector<RoomViewPath> room_views;
-  if (opt.room_view) {
-    room_views.push_back(RoomViewPath{"room view: meshes at max(10 mm, 1 %)", 0.01, 10, false});
-    room_views.push_back(RoomViewPath{"room view: one union mesh at max(10 mm, 1 %)", 0.01, 10, true});
-    room_views.push_back(RoomViewPath{"room view: meshes at 1 %, the AVX2 lookup", 0.01, 10, false, true});
-    room_views.push_back(RoomViewPath{"room view: meshes at 1 %, the SSE2 fallback", 0.01, 10, false, true, true});
-    room_views.push_back(RoomViewPath{"room view: meshes at max(3 mm, 0.25 %)", 0.0025, 3, false});
-    for (RoomViewPath& p : room_views) p.histories.resize(1 + novel.size());
-  }
+  RoomViewPath room_view;
+  const bool room_views = opt.room_view;
+  room_view.histories.resize(1 + novel.size());
+  // The sources' own places, where a lecturer standing at a camera sees (with camera 0's lens): today's view and
+  // the room view against the truth, each frame on its own (no fill history).
+  const std::vector<CameraCalib> own{virtual_camera(target, all[1].cam_to_rig, NAN),
+                                     virtual_camera(target, all[2].cam_to_rig, NAN)};
+  Stats own_psnr, own_room_psnr;
   FusedView room_fused;
   vclassroom_tools::Progress progress("synthetic classroom frames", opt.frames);
   for (int f = 0; f < opt.frames; ++f) {
@@ -921,35 +533,24 @@ void eval_classroom(const Options& opt) {
         if (cv::countNonZero(unseen) > 0) hole_psnr.add(psnr_rgb_masked(fused.color, imgs[0].color, unseen));
         hole_share += double(cv::countNonZero(unseen)) / double(unseen.total()) / opt.frames;
         filled_holes.add(fused.color, imgs[0].color, fused.filled, cv::Rect(0, 0, fused.color.cols, fused.color.rows));
-        for (RoomViewPath& p : room_views) {
+        if (room_views) {
+          RoomViewPath& p = room_view;
           synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, target, wp, fp, &room_fused,
                                &p.histories[0]);
           p.psnr.add(psnr_rgb(room_fused.color, imgs[0].color));
           p.holes.add(room_fused.color, imgs[0].color, room_fused.filled,
                       cv::Rect(0, 0, room_fused.color.cols, room_fused.color.rows));
           p.ssim.add(ssim_luma(room_fused.color, imgs[0].color));
-          if (const char* dump = std::getenv("VCLASSROOM_ROOM_VIEW_DUMP"); dump && f == opt.frames - 1 && &p == &room_views[0]) {
-            cv::Mat bgr;
-            cv::cvtColor(room_fused.color, bgr, cv::COLOR_RGB2BGR);
-            cv::imwrite(std::string(dump) + "/room-view.png", bgr);
-            cv::cvtColor(fused.color, bgr, cv::COLOR_RGB2BGR);
-            cv::imwrite(std::string(dump) + "/today.png", bgr);
-            cv::Mat both(fused.filled.size(), CV_8UC3, cv::Scalar(255, 255, 255));
-            both.setTo(cv::Scalar(0, 0, 0), (fused.filled != 0) & (room_fused.filled != 0));
-            both.setTo(cv::Scalar(0, 0, 255), (fused.filled == 0) & (room_fused.filled != 0));  // red: room view only
-            both.setTo(cv::Scalar(255, 0, 0), (fused.filled != 0) & (room_fused.filled == 0));  // blue: today only
-            cv::imwrite(std::string(dump) + "/filled-vs.png", both);
-            cv::cvtColor(imgs[0].color, bgr, cv::COLOR_RGB2BGR);
-            cv::imwrite(std::string(dump) + "/real.png", bgr);
+          FusedView at_source;
+          for (const CameraCalib& o : own) {
+            RenderOutput gt;
+            renderer.render(room, t, o, &gt);
+            synthesize(sources, in, src_priors, src_labels, configs[c], o, wp, fp, warpers, room_layers, &at_source);
+            own_psnr.add(psnr_rgb(at_source.color, gt.color));
+            synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, o, wp, fp, &at_source, nullptr);
+            own_room_psnr.add(psnr_rgb(at_source.color, gt.color));
           }
         }
-        if (opt.room_lookup) {
-          lookup_sources = room_lookup_sources(sources, in, src_priors, src_labels, room_layers, wp);
-          score_lookups(lookups, lookup_sources, target, fused, imgs[0].color, false, priors[0]);
-        }
-        if (const char* bench = std::getenv("VCLASSROOM_LOOKUP_BENCH"))  // "STEPS" or "STEPS,fuse"
-          bench_lookup(all, imgs, priors, labels, room_layers, wp, fused, std::atoi(bench),
-                       !std::strstr(bench, "fuse"));
       }
       psnr[c].add(psnr_rgb(fused.color, imgs[0].color));
       ssim[c].add(ssim_luma(fused.color, imgs[0].color));
@@ -962,14 +563,13 @@ void eval_classroom(const Options& opt) {
         renderer.render(room, t, novel[k], &gt);
         synthesize(sources, in, src_priors, src_labels, configs[c], novel[k], wp, fp, warpers, room_layers, &fused,
                    &histories[c * (1 + novel.size()) + 1 + k]);
-        if (c == 0 && opt.room_lookup) score_lookups(lookups, lookup_sources, novel[k], fused, gt.color, true);
-        if (c == 0)
-          for (RoomViewPath& p : room_views) {
-            synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, novel[k], wp, fp, &room_fused,
-                                 &p.histories[1 + k]);
-            p.npsnr.add(psnr_rgb(room_fused.color, gt.color));
-            p.nssim.add(ssim_luma(room_fused.color, gt.color));
-          }
+        if (c == 0 && room_views) {
+          RoomViewPath& p = room_view;
+          synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, novel[k], wp, fp, &room_fused,
+                               &p.histories[1 + k]);
+          p.npsnr.add(psnr_rgb(room_fused.color, gt.color));
+          p.nssim.add(ssim_luma(room_fused.color, gt.color));
+        }
         npsnr[c].add(psnr_rgb(fused.color, gt.color));
         nssim[c].add(ssim_luma(fused.color, gt.color));
         if (c == 0 && k == 1 && f == opt.frames - 1 && !opt.images.empty())
@@ -1007,17 +607,16 @@ void eval_classroom(const Options& opt) {
   for (size_t c = 0; c < configs.size(); ++c)
     std::printf("%-52s | %7.2f %6.2f %6.2f | %11.2f %6.2f %6.2f\n", configs[c].name, npsnr[c].avg(), npsnr[c].max(),
                 npsnr[c].min(), 100 * nssim[c].avg(), 100 * nssim[c].max(), 100 * nssim[c].min());
-  print_lookups(lookups, psnr[0], ssim[0], npsnr[0], nssim[0]);
-  for (const RoomViewPath& p : room_views)
+  if (room_views) {
+    const RoomViewPath& p = room_view;
     std::printf("%-52s | Table I PSNR %.3f (full system %.3f) SSIMx100 %.2f (%.2f) | novel poses PSNR %.3f (%.3f) "
-                "SSIMx100 %.2f (%.2f) | mesh %zu + %zu triangles; per view: raster %.1f %%, room seen %.1f %%, "
-                "learners %.1f %% of the pixels (summed over sources), filled %.1f %%; Table I %s\n",
-                p.name, p.psnr.avg(), psnr[0].avg(), 100 * p.ssim.avg(), 100 * ssim[0].avg(), p.npsnr.avg(),
-                npsnr[0].avg(), 100 * p.nssim.avg(), 100 * nssim[0].avg(),
-                p.meshes.empty() ? size_t(0) : p.meshes[0].triangles(),
-                p.meshes.size() < 2 ? size_t(0) : p.meshes[1].triangles(), 100 * p.raster_share / p.views,
-                100 * p.room_share / p.views, 100 * p.learner_share / p.views, 100 * p.filled_share / p.views,
+                "SSIMx100 %.2f (%.2f) | at the sources' places PSNR %.3f (%.3f) | filled %.1f %% of the pixels; "
+                "Table I %s\n",
+                "room view (viewfuse room-view=true)", p.psnr.avg(), psnr[0].avg(), 100 * p.ssim.avg(),
+                100 * ssim[0].avg(), p.npsnr.avg(), npsnr[0].avg(), 100 * p.nssim.avg(), 100 * nssim[0].avg(),
+                own_room_psnr.avg(), own_psnr.avg(), 100 * p.filled_share / std::max(1L, p.views),
                 p.holes.line().c_str());
+  }
   std::printf("learnerseg against the ground-truth labels (IoU avg/min over frames):\n");
   for (int i = 0; i < 3; ++i)
     std::printf("  camera %d: foreground IoU %.3f / %.3f, per-learner IoU %.3f / %.3f\n", i, iou[i].avg(),
@@ -1044,7 +643,7 @@ int main(int argc, char** argv) {
   Options opt;
   g_autofree gchar *shared = nullptr, *images = nullptr, *only = nullptr, *size = nullptr, *priors_dir = nullptr,
         *model = nullptr, *dataset = nullptr, *sources = nullptr, *rig = nullptr, *out = nullptr, *fill = nullptr;
-  gboolean mesh = FALSE, room_lookup = FALSE, room_view = FALSE;
+  gboolean mesh = FALSE, room_view = FALSE;
   opt.frames = 0;  // told apart from "not given" below
   const GOptionEntry entries[] = {
       {"shared", 0, 0, G_OPTION_ARG_FILENAME, &shared,
@@ -1074,13 +673,9 @@ int main(int argc, char** argv) {
        "PX"},
       {"mesh", 0, 0, G_OPTION_ARG_NONE, &mesh,
        "warp with the triangle mesh rasteriser (reference) instead of the cell splat", nullptr},
-      {"room-lookup", 0, 0, G_OPTION_ARG_NONE, &room_lookup,
-       "classroom, experiment (issue 31): also score the full system with each seen room pixel's colour looked up "
-       "backward from the cameras (room_lookup.h), in several variants",
-       nullptr},
       {"room-view", 0, 0, G_OPTION_ARG_NONE, &room_view,
-       "classroom, experiment (issue 31, wip/room-view): also score the view made from a rasterised room, its colour "
-       "looked up backward, and the learners warped alone",
+       "classroom: also score the full system's view as viewfuse room-view=true makes it (the room rasterised from "
+       "meshes and looked up backward, the learners warped alone), and both views at the sources' own places",
        nullptr},
       {"model", 0, 0, G_OPTION_ARG_FILENAME, &model,
        "V-DA's static model (vclassroom-build-model --synthetic, 960x540): the static layer is its prior depth "
@@ -1117,7 +712,6 @@ int main(int argc, char** argv) {
   opt.images = vclassroom_tools::text_of(images);
   opt.only = vclassroom_tools::text_of(only);
   opt.mesh = mesh;
-  opt.room_lookup = room_lookup;
   opt.room_view = room_view;
   opt.write_priors = vclassroom_tools::text_of(priors_dir);
   opt.model = vclassroom_tools::text_of(model);

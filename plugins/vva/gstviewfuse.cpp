@@ -65,6 +65,8 @@ static gboolean gst_view_fuse_sink_query(GstAggregator* agg, GstAggregatorPad* p
   ViewFuseState* st = GST_VIEW_FUSE(agg)->st;
   const GstStructure* s = GST_QUERY_TYPE(query) == GST_QUERY_CUSTOM ? gst_query_get_structure(query) : nullptr;
   if (s && gst_structure_has_name(s, kWarpStartQueryName)) {
+    gst_structure_set(gst_query_writable_structure(query), "room-view", G_TYPE_BOOLEAN, gboolean(st->room_view.load()),
+                      nullptr);
     guint64 frame = GST_CLOCK_TIME_NONE;
     gst_structure_get_uint64(s, "running-time", &frame);
     if (st->live) {

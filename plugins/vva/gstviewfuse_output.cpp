@@ -7,6 +7,7 @@
 #include <memory>
 
 #include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/vva/prepared_frame.h>
 
 #include "gstviewfuse_state.h"
 
@@ -88,6 +89,23 @@ GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, GstCloc
   return gst_aggregator_finish_buffer(agg, out);
 }
 
+// The room of the cameras whose viewwarp warped only the learners (their RoomViewPart), into st->room; false
+// when there is none to draw. A part warped for another view than the others' (another size) is left out.
+bool draw_room(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomViewPart>>& parts, cv::Size size) {
+  if (parts.empty()) return false;
+  ViewFuseState* st = self->st;
+  std::vector<RoomCamera> cameras;
+  for (const auto& p : parts)
+    if (p->view.width == size.width && p->view.height == size.height)
+      cameras.push_back(RoomCamera{&p->frame->room_shape->mesh(), p->texture});
+  if (cameras.empty()) return false;
+  // Every camera's learners were warped for the pose of the round (viewfuse fuses only frames of one pose
+  // window): the first part's view stands for all.
+  GST_LOG_OBJECT(self, "the room of %zu camera(s) drawn", cameras.size());
+  st->room_renderer.render(cameras, parts.front()->view, &st->room);
+  return true;
+}
+
 // Maps the frames to fuse, fuses them and sends the picture (stamped as output_stamp() says).
 GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPad*>& pads,
                                    const std::vector<GstBuffer*>& bufs, const std::vector<RgbdInfo>& infos,
@@ -99,6 +117,7 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
   std::vector<std::unique_ptr<RgbdFrame>> frames;
   std::vector<FrameStamp> stamps;
   std::vector<size_t> fused;  // the index of each of them among the pads
+  std::vector<std::shared_ptr<const RoomViewPart>> room_parts;  // the cameras whose room is drawn here
   for (size_t i = 0; i < pads.size(); ++i) {
     if (round.verdicts[i] != FrameVerdict::kFuse) continue;
     auto f = std::make_unique<RgbdFrame>();
@@ -110,7 +129,11 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
                           (nullptr));
       continue;
     }
-    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight)};
+    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight), cv::Rect()};
+    if (std::shared_ptr<const RoomViewPart> part = buffer_get_room_view_part(bufs[i])) {
+      views[i].box = part->box;
+      room_parts.push_back(std::move(part));
+    }
     ptrs.push_back(&views[i]);
     frames.push_back(std::move(f));
     stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
@@ -125,7 +148,12 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
   if (!same_rendered_view(pose, st->fill_pose)) st->fill_history.clear();  // another view: nothing to keep
   st->fill_pose = pose;
   try {
-    fuse_views(ptrs, params, &st->fused, &st->fill_history);
+    FuseParams fuse = params;
+    if (draw_room(self, room_parts, ptrs.front()->depth.size())) {
+      ptrs.insert(ptrs.begin(), &st->room);  // the room first, the learners over it
+      fuse.first_is_base = true;
+    }
+    fuse_views(ptrs, fuse, &st->fused, &st->fill_history);
   } catch (const cv::Exception& e) {
     GST_ELEMENT_ERROR(self, STREAM, FAILED, ("fusion failed: %s", e.what()), (nullptr));
     st->have_fused = false;

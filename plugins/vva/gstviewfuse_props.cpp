@@ -24,7 +24,8 @@ enum {
   PROP_POSES_CLAMPED,
   PROP_UNSEEN_SHARE,
   PROP_STATS_INTERVAL,
-  PROP_WARP_SYNC
+  PROP_WARP_SYNC,
+  PROP_ROOM_VIEW
 };
 
 // viewfuse's fill-method values (hole_fill.h: HoleFillMethod).
@@ -119,6 +120,12 @@ void view_fuse_install_properties(GObjectClass* klass) {
                           0, WarpStartParams::kLongestWaitNs, guint64(WarpStartParams().max_wait_ns),
                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
+      klass, PROP_ROOM_VIEW,
+      g_param_spec_boolean("room-view", "Room view",
+                           "Draw the room from every camera's mesh and packed room, the viewwarps upstream warping "
+                           "only the learners (cameras with prior-depth; docs/vva.md)",
+                           FALSE, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+  g_object_class_install_property(
       klass, PROP_FRAMES_FUSED,
       g_param_spec_uint64("frames-fused", "Frames fused",
                           "Output frames produced since start", 0, G_MAXUINT64, 0,
@@ -166,6 +173,9 @@ void view_fuse_set_property(GObject* object, guint prop_id, const GValue* value,
       st->warp_start.set_params(w);
       break;
     }
+    case PROP_ROOM_VIEW:
+      st->room_view = g_value_get_boolean(value);
+      break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);
   }
@@ -217,6 +227,9 @@ void view_fuse_get_property(GObject* object, guint prop_id, GValue* value, GPara
       break;
     case PROP_WARP_SYNC:
       g_value_set_uint64(value, guint64(st->warp_start.params().max_wait_ns));
+      break;
+    case PROP_ROOM_VIEW:
+      g_value_set_boolean(value, st->room_view);
       break;
     default:
       G_OBJECT_WARN_INVALID_PROPERTY_ID(object, prop_id, pspec);

@@ -18,6 +18,7 @@
 #include <gst/vclassroom/vva/camera_liveness.h>
 #include <gst/vclassroom/vva/fuse_inputs.h>
 #include <gst/vclassroom/vva/navigation.h>
+#include <gst/vclassroom/vva/room_view.h>
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/warp_start.h>
 
@@ -40,6 +41,8 @@ struct ViewFuseState {
   double unseen_share = 0;  // of the last picture
   guint stats_interval = 0;  // frames between vclassroom-view-stats messages; 0: none
   FuseParams params;
+  // The room drawn here (room_view.h), the viewwarps asked to warp only the learners (their warp-start query).
+  std::atomic<bool> room_view{false};
   std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
   // Which pads are left out, lost, stale (the decisions of each round).
   FuseInputs inputs;
@@ -56,6 +59,8 @@ struct ViewFuseState {
   GstVideoInfo out_info{};
   bool have_out = false;
   FusedView fused;
+  RoomViewRenderer room_renderer;
+  WarpedView room;  // the room's view of the last round
   // The fill of the last picture, kept while the pose it was rendered for stays (same_rendered_view).
   HoleFillHistory fill_history;
   WarpedPose fill_pose;

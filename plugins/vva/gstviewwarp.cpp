@@ -38,6 +38,7 @@
 #include <gst/vclassroom/core/limits.h>
 #include <gst/vclassroom/core/pose_event.h>
 #include <gst/vclassroom/core/pose_meta.h>
+#include <gst/vclassroom/vva/room_view.h>
 #include <gst/vclassroom/vva/warp_start.h>
 #include <gst/vclassroom/vva/virtual_view.h>
 
@@ -183,8 +184,9 @@ static std::shared_ptr<const PreparedFrame> prepared_frame(GstViewWarp* self, Gs
 }
 
 // The pose the frame shows: asked for at the last moment, after the pose-independent work, so that this work
-// is not part of the pose's latency.
-static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf) {
+// is not part of the pose's latency. `room_view`: whether the viewfuse downstream draws the room itself
+// (its room-view), so that this element warps only the learners.
+static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf, bool* room_view) {
   GstBaseTransform* trans = GST_BASE_TRANSFORM(self);
   const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
                                        ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
@@ -193,8 +195,11 @@ static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf) {
   // that all read the same newest pose below.
   GstQuery* warp_start = gst_query_new_custom(
       GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
-  gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start);
+  gboolean fuse_draws_room = FALSE;
+  if (gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start))
+    gst_structure_get_boolean(gst_query_get_structure(warp_start), "room-view", &fuse_draws_room);
   gst_query_unref(warp_start);
+  *room_view = fuse_draws_room;
   return view_warp_frame_pose(self->st, running_time);
 }
 
@@ -222,8 +227,11 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   return rgbd_filter_guard(filter, [&] {
     const std::shared_ptr<const PreparedFrame> prepared = prepared_frame(self, inbuf, in, params, memory_frames);
     const WarpSource src = FramePreparer::source_of(*prepared, in.color(), in.depth(), in.label());
-    const Pose pose = frame_pose(self, inbuf);
+    bool room_view = false;
+    const Pose pose = frame_pose(self, inbuf, &room_view);
     const CameraCalib virt = virtual_camera(out_info.camera, pose.cam_to_rig(), pose.fov_deg);
+    // The room drawn by viewfuse from every camera's mesh and packed room; here only the learners.
+    params.learners_only = room_view && prepared->room_shape && room_view_fits(virt);
     GST_LOG_OBJECT(self,
                    "pose seq %" G_GUINT64_FORMAT " at (%.3f, %.3f, %.3f); source camera %d at (%.3f, %.3f, %.3f)",
                    pose.seq, pose.position.x(), pose.position.y(), pose.position.z(), in_info.camera.id,
@@ -234,7 +242,16 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     st->warped.depth = out.depth();
     st->warped.label = out.label();
     st->warped.weight = out.plane(Plane::Weight);
+    st->warped.box = cv::Rect();  // a new buffer: the learners' view clears it all, not only its last box
     st->warper.warp_prepared(in_info.camera, src, prepared->source, virt, params, &st->warped);
+    if (params.learners_only) {
+      auto part = std::make_shared<RoomViewPart>();
+      part->frame = prepared;
+      part->texture = &prepared->room_texture(in.color());
+      part->view = virt;
+      part->box = st->warped.box;
+      buffer_add_room_view_part(outbuf, std::move(part));
+    }
     buffer_add_pose_meta(outbuf, pose.seq, pose.viewer_time_ns, rendered_pose_of(pose), pose.session);
     return GST_FLOW_OK;
   });

@@ -22,6 +22,36 @@ cv::Mat load_empty_room(const std::string& path) {
   return rgb;
 }
 
+namespace {
+
+// Whether a room mesh made for camera `a` stands where it stands for `b`.
+bool same_place(const CameraCalib& a, const CameraCalib& b) {
+  return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx &&
+         a.cy == b.cy && a.cam_to_rig.matrix() == b.cam_to_rig.matrix();
+}
+
+}  // namespace
+
+const RoomTexture& PreparedFrame::room_texture(const cv::Mat& frame_color) const {
+  std::lock_guard<std::mutex> g(texture_lock_);
+  if (!texture_made_) {
+    if (!room_shape) throw Error("camera " + std::to_string(camera.id) + "'s frame has no room to pack");
+    // The room at the depth its mesh has (the static depth, not the warp's prepared layer, whose edges are
+    // moved) where no learner is, the background memory's room layer where one hides it.
+    const cv::Mat& room = room_shape->static_depth();
+    CV_Assert(room.isContinuous());
+    pack_room_records(camera, room.ptr<uint16_t>(), source.label.data(), color.empty() ? frame_color : color,
+                      room_depth, room_color, &texture_);
+    texture_made_ = true;
+  }
+  return texture_;
+}
+
+void FramePreparer::set_static_depth(const cv::Mat& depth) {
+  if (depth.data != static_depth_.data) room_shape_.reset();
+  static_depth_ = depth;
+}
+
 void FramePreparer::set_memory(int frames, const cv::Mat& empty_room) {
   if (frames == memory_frames_ && empty_room.data == empty_room_.data) return;  // the same: the memory goes on
   memory_frames_ = frames;
@@ -60,9 +90,20 @@ std::shared_ptr<PreparedFrame> FramePreparer::prepare(const CameraCalib& camera,
     out->room_color.release();
     out->room_depth.release();
   }
-  warper_.prepare(camera, src, params, &out->source);
+  const bool room = !static_depth_.empty() && static_depth_.size() == color.size() && room_view_fits(camera);
+  if (!room) {
+    room_shape_.reset();
+  } else if (!room_shape_ || !same_place(room_shape_->camera(), camera)) {
+    room_shape_ = std::make_shared<RoomShape>(camera, static_depth_);
+  }
+  WarpParams prepared_params = params;
+  prepared_params.learners_only = room;  // the learners' depth too, for a view that draws the room apart
+  warper_.prepare(camera, src, prepared_params, &out->source);
   out->edge_to_near = params.edge_to_near;
   out->boundary_px = params.boundary_px;
+  out->camera = camera;
+  out->room_shape = room_shape_;
+  out->texture_made_ = false;
   return out;
 }
 
@@ -79,63 +120,109 @@ WarpSource FramePreparer::source_of(const PreparedFrame& prepared, const cv::Mat
 
 namespace {
 
-gboolean prepared_frame_meta_init(GstMeta* meta, gpointer, GstBuffer*) {
-  reinterpret_cast<PreparedFrameMeta*>(meta)->frame = nullptr;
+// A meta that holds a std::shared_ptr<const T>, shared by every copy of its buffer: the prepared frame and
+// the room view's part.
+template <typename Meta>
+gboolean shared_meta_init(GstMeta* meta, gpointer, GstBuffer*) {
+  reinterpret_cast<Meta*>(meta)->part = nullptr;
   return TRUE;
 }
 
-void prepared_frame_meta_free(GstMeta* meta, GstBuffer*) {
-  auto* m = reinterpret_cast<PreparedFrameMeta*>(meta);
-  delete m->frame;
-  m->frame = nullptr;
+template <typename Meta>
+void shared_meta_free(GstMeta* meta, GstBuffer*) {
+  auto* m = reinterpret_cast<Meta*>(meta);
+  delete m->part;
+  m->part = nullptr;
 }
 
-// A copy of the buffer shares the prepared frame; other transforms (a scaled or converted frame) drop it.
-gboolean prepared_frame_meta_transform(GstBuffer* dest, GstMeta* meta, GstBuffer*, GQuark type, gpointer data) {
-  auto* m = reinterpret_cast<PreparedFrameMeta*>(meta);
-  if (!GST_META_TRANSFORM_IS_COPY(type) || !m->frame) return TRUE;
+template <typename Meta>
+Meta* shared_meta_of(GstBuffer* buf, GType api) {
+  return reinterpret_cast<Meta*>(gst_buffer_get_meta(buf, api));
+}
+
+template <typename Meta, typename T>
+void shared_meta_set(GstBuffer* buf, GType api, const GstMetaInfo* info, std::shared_ptr<const T> value) {
+  auto* m = shared_meta_of<Meta>(buf, api);
+  if (!m) m = reinterpret_cast<Meta*>(gst_buffer_add_meta(buf, info, nullptr));
+  if (!m) return;
+  delete m->part;
+  m->part = new std::shared_ptr<const T>(std::move(value));
+}
+
+// A copy of the buffer shares the value; other transforms (a scaled or converted frame) drop it.
+template <typename Meta, typename T>
+gboolean shared_meta_transform(GstBuffer* dest, GstMeta* meta, GstBuffer*, GQuark type, gpointer data) {
+  auto* m = reinterpret_cast<Meta*>(meta);
+  if (!GST_META_TRANSFORM_IS_COPY(type) || !m->part) return TRUE;
   const auto* copy = static_cast<const GstMetaTransformCopy*>(data);
   if (copy->region) return TRUE;  // a part of the buffer: not the frame that was prepared
-  buffer_add_prepared_frame(dest, *m->frame);
+  shared_meta_set<Meta, T>(dest, meta->info->api, meta->info, *m->part);
   return TRUE;
+}
+
+// A tag of its own: elements that make a new frame out of this one (viewwarp itself, a scaler) do not copy
+// it, as GstBaseTransform copies only untagged metas by default.
+GType register_frame_content_api(const char* name) {
+  static const gchar* tags[] = {"vclassroom-frame-content", nullptr};
+  return gst_meta_api_type_register(name, tags);
 }
 
 }  // namespace
 
 GType prepared_frame_meta_api_get_type() {
   static GType type = 0;
-  // A tag of its own: elements that make a new frame out of this one (viewwarp itself, a scaler) do not
-  // copy it, as GstBaseTransform copies only untagged metas by default.
-  static const gchar* tags[] = {"vclassroom-frame-content", nullptr};
-  if (g_once_init_enter(&type)) {
-    GType t = gst_meta_api_type_register("VClassroomPreparedFrameMetaAPI", tags);
-    g_once_init_leave(&type, t);
-  }
+  if (g_once_init_enter(&type)) g_once_init_leave(&type, register_frame_content_api("VClassroomPreparedFrameMetaAPI"));
   return type;
 }
 
 const GstMetaInfo* prepared_frame_meta_get_info() {
   static const GstMetaInfo* info = nullptr;
   if (g_once_init_enter(&info)) {
-    const GstMetaInfo* mi =
-        gst_meta_register(prepared_frame_meta_api_get_type(), "VClassroomPreparedFrameMeta", sizeof(PreparedFrameMeta),
-                          prepared_frame_meta_init, prepared_frame_meta_free, prepared_frame_meta_transform);
+    const GstMetaInfo* mi = gst_meta_register(
+        prepared_frame_meta_api_get_type(), "VClassroomPreparedFrameMeta", sizeof(PreparedFrameMeta),
+        shared_meta_init<PreparedFrameMeta>, shared_meta_free<PreparedFrameMeta>,
+        shared_meta_transform<PreparedFrameMeta, PreparedFrame>);
     g_once_init_leave(&info, mi);
   }
   return info;
 }
 
 void buffer_add_prepared_frame(GstBuffer* buf, std::shared_ptr<const PreparedFrame> frame) {
-  auto* m = reinterpret_cast<PreparedFrameMeta*>(gst_buffer_get_meta(buf, prepared_frame_meta_api_get_type()));
-  if (!m) m = reinterpret_cast<PreparedFrameMeta*>(gst_buffer_add_meta(buf, prepared_frame_meta_get_info(), nullptr));
-  if (!m) return;
-  delete m->frame;
-  m->frame = new std::shared_ptr<const PreparedFrame>(std::move(frame));
+  shared_meta_set<PreparedFrameMeta>(buf, prepared_frame_meta_api_get_type(), prepared_frame_meta_get_info(),
+                                     std::move(frame));
 }
 
 std::shared_ptr<const PreparedFrame> buffer_get_prepared_frame(GstBuffer* buf) {
-  auto* m = reinterpret_cast<PreparedFrameMeta*>(gst_buffer_get_meta(buf, prepared_frame_meta_api_get_type()));
-  return m && m->frame ? *m->frame : nullptr;
+  auto* m = shared_meta_of<PreparedFrameMeta>(buf, prepared_frame_meta_api_get_type());
+  return m && m->part ? *m->part : nullptr;
+}
+
+GType room_view_part_meta_api_get_type() {
+  static GType type = 0;
+  if (g_once_init_enter(&type)) g_once_init_leave(&type, register_frame_content_api("VClassroomRoomViewPartMetaAPI"));
+  return type;
+}
+
+const GstMetaInfo* room_view_part_meta_get_info() {
+  static const GstMetaInfo* info = nullptr;
+  if (g_once_init_enter(&info)) {
+    const GstMetaInfo* mi = gst_meta_register(
+        room_view_part_meta_api_get_type(), "VClassroomRoomViewPartMeta", sizeof(RoomViewPartMeta),
+        shared_meta_init<RoomViewPartMeta>, shared_meta_free<RoomViewPartMeta>,
+        shared_meta_transform<RoomViewPartMeta, RoomViewPart>);
+    g_once_init_leave(&info, mi);
+  }
+  return info;
+}
+
+void buffer_add_room_view_part(GstBuffer* buf, std::shared_ptr<const RoomViewPart> part) {
+  shared_meta_set<RoomViewPartMeta>(buf, room_view_part_meta_api_get_type(), room_view_part_meta_get_info(),
+                                    std::move(part));
+}
+
+std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf) {
+  auto* m = shared_meta_of<RoomViewPartMeta>(buf, room_view_part_meta_api_get_type());
+  return m && m->part ? *m->part : nullptr;
 }
 
 }  // namespace vclassroom

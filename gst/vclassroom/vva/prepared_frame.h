@@ -8,6 +8,7 @@
 #pragma once
 
 #include <memory>
+#include <mutex>
 #include <string>
 
 #include <gst/gst.h>
@@ -15,6 +16,7 @@
 
 #include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/vva/background_memory.h>
+#include <gst/vclassroom/vva/room_view.h>
 #include <gst/vclassroom/vva/view_warp.h>
 
 namespace vclassroom {
@@ -28,13 +30,27 @@ struct PreparedFrame {
   // What it was prepared with: a viewwarp warping with other settings prepares the frame itself.
   bool edge_to_near = true;
   int boundary_px = 0;
+  CameraCalib camera;
+  // The camera's room as a mesh (room_view.h), shared by every frame of one static depth; null without a
+  // static depth or where the camera is not pinhole. With it, `source` holds the learners' depth too
+  // (PreparedSource::learner_depth), and a view may draw this frame as room and learners apart.
+  std::shared_ptr<const RoomShape> room_shape;
+  // The frame's room packed for the lookup, made by the first view that asks (any thread; once per frame).
+  // Only with room_shape; `frame_color` is the colour of the frame prepared (as for source_of).
+  const RoomTexture& room_texture(const cv::Mat& frame_color) const;
+
+ private:
+  friend class FramePreparer;
+  mutable std::mutex texture_lock_;
+  mutable bool texture_made_ = false;
+  mutable RoomTexture texture_;
 };
 
 // What viewwarp does to a camera frame before it reads the pose, for one camera.
 class FramePreparer {
  public:
   // The static layer's depth (CV_16UC1 mm, the camera's size; empty: none).
-  void set_static_depth(const cv::Mat& depth) { static_depth_ = depth; }
+  void set_static_depth(const cv::Mat& depth);
   // The background memory's length in frames (0: off) and the empty room it
   // starts from (RGB; empty: it learns the room as it sees it; one of
   // another size than the frames is not used). A change starts the memory
@@ -54,6 +70,7 @@ class FramePreparer {
 
  private:
   cv::Mat static_depth_, empty_room_;
+  std::shared_ptr<const RoomShape> room_shape_;  // of static_depth_, made at the first frame that fits it
   int memory_frames_ = 0;
   bool memory_fresh_ = true;  // set_memory() since the last frame: the memory starts again
   BackgroundMemory memory_;
@@ -71,7 +88,7 @@ cv::Mat load_empty_room(const std::string& path);
 // The meta viewprep adds: a reference to the prepared frame, shared by every buffer that copies it.
 struct PreparedFrameMeta {
   GstMeta meta;
-  std::shared_ptr<const PreparedFrame>* frame;  // owned by the meta
+  std::shared_ptr<const PreparedFrame>* part;  // owned by the meta
 };
 
 GType prepared_frame_meta_api_get_type();
@@ -80,5 +97,23 @@ const GstMetaInfo* prepared_frame_meta_get_info();
 void buffer_add_prepared_frame(GstBuffer* buf, std::shared_ptr<const PreparedFrame> frame);
 // The buffer's prepared frame, or nullptr.
 std::shared_ptr<const PreparedFrame> buffer_get_prepared_frame(GstBuffer* buf);
+
+// What a viewwarp that warped only a camera's learners (WarpParams::learners_only) leaves to viewfuse: the
+// camera's prepared frame, whose room viewfuse draws with the other cameras' (room_view.h), and the view it
+// was warped for. A meta on the warped frame.
+struct RoomViewPart {
+  std::shared_ptr<const PreparedFrame> frame;
+  const RoomTexture* texture = nullptr;  // frame->room_texture(), made by the viewwarp
+  CameraCalib view;
+  cv::Rect box;  // WarpedView::box of the learners' view
+};
+struct RoomViewPartMeta {
+  GstMeta meta;
+  std::shared_ptr<const RoomViewPart>* part;  // owned by the meta
+};
+GType room_view_part_meta_api_get_type();
+const GstMetaInfo* room_view_part_meta_get_info();
+void buffer_add_room_view_part(GstBuffer* buf, std::shared_ptr<const RoomViewPart> part);
+std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf);
 
 }  // namespace vclassroom

@@ -1,213 +1,171 @@
-// The reference form of the backward room lookup (room_lookup.h): clear before fast, per pixel in float.
 #include <gst/vclassroom/vva/room_lookup.h>
 
 #include <algorithm>
 #include <cmath>
+#include <string>
+
+#include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/core/simd.h>
 
 namespace vclassroom {
 
 namespace {
 
-// One camera's look at one view pixel.
-struct Look {
-  float su = 0, sv = 0;  // source position (px)
-  float quality = 0;     // the warp's per-point quality before the magnification term (0: not seen)
-  bool strict = false;   // every neighbour of the 2x2 agrees (the warp's cell coverage)
-  float rgb[3] = {0, 0, 0};
-};
-
-struct CameraGeometry {
-  Eigen::Matrix3f r;  // view -> camera
-  Eigen::Vector3f t;
-  Eigen::Vector3f centre;  // the camera's centre in view coordinates
-};
-
-CameraGeometry geometry_of(const CameraCalib& cam, const CameraCalib& virt) {
-  const Eigen::Isometry3d T = cam.cam_to_rig.inverse() * virt.cam_to_rig;
-  return {T.linear().cast<float>(), T.translation().cast<float>(), T.inverse().translation().cast<float>()};
-}
-
-bool agrees(float z_mm, int d_mm, const RoomLookupParams& p) {
-  if (d_mm == 0) return false;
-  const float nearer = std::min(z_mm, float(d_mm));
-  const float tol = std::max(float(p.depth_tol_mm), float(p.depth_tol_ratio) * nearer);
-  return std::fabs(z_mm - float(d_mm)) <= tol;
-}
-
-// The colour at (u, v) from the neighbours whose depth agrees with z_mm; false when none does.
-bool sample(const RoomLookupSource& s, float u, float v, float z_mm, const RoomLookupParams& p, Look* look,
-            bool* remembered) {
-  const int W = s.color.cols, H = s.color.rows;
-  u = std::clamp(u, 0.0f, float(W - 1));
-  v = std::clamp(v, 0.0f, float(H - 1));
-  if (p.sampling == RoomSampling::Nearest) {
-    const int x = int(u + 0.5f), y = int(v + 0.5f);
-    if (!agrees(z_mm, s.depth.at<uint16_t>(y, x), p)) return false;
-    const cv::Vec3b c = s.color.at<cv::Vec3b>(y, x);
-    for (int k = 0; k < 3; ++k) look->rgb[k] = c[k];
-    *remembered = !s.remembered.empty() && s.remembered.at<uint8_t>(y, x);
-    return true;
+// One row of pack_room_records: the room's depth and colour where the label is 0, the memory's room where a
+// learner hides it, else nothing (depth 0).
+VCLASSROOM_SIMD_CLONES
+void room_records_row(int n, const uint16_t* depth, const uint8_t* label, const uint8_t* color,
+                      const uint16_t* room_depth, const uint8_t* room_color, uint64_t* out) {
+  for (int x = 0; x < n; ++x) {
+    const bool seen = label[x] == 0 && depth[x] != 0;
+    const uint16_t rd = room_depth ? room_depth[x] : 0;
+    const uint16_t d = seen ? depth[x] : rd;
+    const uint8_t* c = seen || !room_color ? color + 3 * x : room_color + 3 * x;
+    out[x] = uint64_t(d) | uint64_t(c[0]) << 16 | uint64_t(c[1]) << 32 | uint64_t(c[2]) << 48;
   }
-  const int x0 = std::min(int(u), W - 1), y0 = std::min(int(v), H - 1);
-  const int x1 = std::min(x0 + 1, W - 1), y1 = std::min(y0 + 1, H - 1);
-  const float fx = u - float(x0), fy = v - float(y0);
-  const int xs[4] = {x0, x1, x0, x1}, ys[4] = {y0, y0, y1, y1};
-  const float ws[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
-  float sum = 0, acc[3] = {0, 0, 0}, mem = 0;
-  constexpr float kEdge = 0.02f;  // view_warp.cpp: how far a cell reaches past its centre towards a depth edge
-  const float reach[4] = {std::min(1 - fx, 1 - fy), std::min(fx, 1 - fy), std::min(1 - fx, fy), std::min(fx, fy)};
-  look->strict = true;
-  for (int k = 0; k < 4; ++k) {
-    const bool ok = agrees(z_mm, s.depth.at<uint16_t>(ys[k], xs[k]), p);
-    if (!ok && reach[k] > kEdge) look->strict = false;
-    if (ws[k] <= 0 || !ok) continue;
-    const cv::Vec3b c = s.color.at<cv::Vec3b>(ys[k], xs[k]);
-    for (int ch = 0; ch < 3; ++ch) acc[ch] += ws[k] * float(c[ch]);
-    sum += ws[k];
-    if (!s.remembered.empty() && s.remembered.at<uint8_t>(ys[k], xs[k])) mem += ws[k];
-  }
-  if (sum <= 1e-6f) return false;
-  if (p.sampling == RoomSampling::BilinearAll) {
-    sum = 1.0f, acc[0] = acc[1] = acc[2] = 0;
-    for (int k = 0; k < 4; ++k) {
-      const cv::Vec3b c = s.color.at<cv::Vec3b>(ys[k], xs[k]);
-      for (int ch = 0; ch < 3; ++ch) acc[ch] += ws[k] * float(c[ch]);
-    }
-  }
-  for (int ch = 0; ch < 3; ++ch) look->rgb[ch] = acc[ch] / sum;
-  *remembered = mem > 0.5f * sum;
-  return true;
-}
-
-// The camera's room depth (mm) at (u, v) from the neighbours that agree with z_mm, bilinear; 0 when none does.
-float surface_depth(const RoomLookupSource& s, float u, float v, float z_mm, const RoomLookupParams& p) {
-  const int W = s.depth.cols, H = s.depth.rows;
-  u = std::clamp(u, 0.0f, float(W - 1));
-  v = std::clamp(v, 0.0f, float(H - 1));
-  const int x0 = std::min(int(u), W - 1), y0 = std::min(int(v), H - 1);
-  const int x1 = std::min(x0 + 1, W - 1), y1 = std::min(y0 + 1, H - 1);
-  const float fx = u - float(x0), fy = v - float(y0);
-  const int xs[4] = {x0, x1, x0, x1}, ys[4] = {y0, y0, y1, y1};
-  const float ws[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
-  float sum = 0, acc = 0;
-  for (int k = 0; k < 4; ++k) {
-    const int d = s.depth.at<uint16_t>(ys[k], xs[k]);
-    if (ws[k] <= 0 || !agrees(z_mm, d, p)) continue;
-    acc += ws[k] * float(d);
-    sum += ws[k];
-  }
-  return sum > 1e-6f ? acc / sum : 0.0f;
-}
-
-// Camera `s` looking at every candidate pixel of the view: where it lands, whether it sees the point, and
-// its quality there.
-void look_from(const RoomLookupSource& s, const CameraCalib& virt, const cv::Mat& view_depth, const cv::Mat& mask,
-               const RoomLookupParams& p, std::vector<Look>* looks) {
-  const CameraGeometry g = geometry_of(s.camera, virt);
-  const int VW = view_depth.cols, VH = view_depth.rows;
-  const float ifx = float(1 / virt.fx), ify = float(1 / virt.fy), vcx = float(virt.cx), vcy = float(virt.cy);
-  const bool distorted = s.camera.has_distortion();
-  looks->assign(size_t(VW) * VH, Look());
-  for (int y = 0; y < VH; ++y)
-    for (int x = 0; x < VW; ++x) {
-      const int z_mm = view_depth.at<uint16_t>(y, x);
-      if (!mask.at<uint8_t>(y, x) || z_mm == 0) continue;
-      const Eigen::Vector3f ray((float(x) - vcx) * ifx, (float(y) - vcy) * ify, 1.0f);
-      Eigen::Vector3f P = ray * (float(z_mm) * 0.001f), q;
-      float u = 0, v = 0;
-      bool inside = false;
-      for (int step = 0; step <= p.refine_steps; ++step) {
-        if (step > 0) {  // onto the camera's own surface: q.z = its depth, along the view ray
-          const float d = surface_depth(s, u, v, q.z() * 1000.0f, p), a = g.r.row(2).dot(ray);
-          if (d == 0 || std::fabs(a) < 1e-3f) break;
-          const float z = (d * 0.001f - g.t.z()) / a;
-          if (!agrees(z * 1000.0f, z_mm, p)) break;  // not the view's surface any more
-          P = ray * z;
-        }
-        q = g.r * P + g.t;
-        if (q.z() < 0.05f) break;
-        if (distorted) {
-          const auto uv = s.camera.project(q.cast<double>());
-          if (!uv) break;
-          u = float(uv->x()), v = float(uv->y());
-        } else {
-          u = float(s.camera.fx) * q.x() / q.z() + float(s.camera.cx);
-          v = float(s.camera.fy) * q.y() / q.z() + float(s.camera.cy);
-        }
-        inside = u >= -0.5f && v >= -0.5f && u <= float(s.camera.width) - 0.5f && v <= float(s.camera.height) - 0.5f;
-        if (!inside) break;
-      }
-      if (!inside) continue;
-      Look& look = (*looks)[size_t(y) * VW + x];
-      bool remembered = false;
-      if (!sample(s, u, v, q.z() * 1000.0f, p, &look, &remembered)) continue;
-      look.su = u, look.sv = v;
-      const Eigen::Vector3f d = P - g.centre;
-      const float c = P.dot(d) / (P.norm() * d.norm()), c2 = c * c, c4 = c2 * c2, c8 = c4 * c4;
-      const float nearer = p.weights == RoomWeights::Angle ? 1.0f : std::min(1.0f, P.norm() / d.norm());
-      look.quality = std::max(0.02f, c8) * nearer * (remembered ? p.remembered_weight : 1.0f);
-      if (p.weights == RoomWeights::Equal) look.quality = 1.0f;
-    }
-}
-
-// How many view pixels one source pixel covers at (x, y), from the source positions of its neighbours in the
-// view (seen by the same camera); 1 where none is.
-float magnification(const std::vector<Look>& looks, int VW, int VH, int x, int y) {
-  const Look& o = looks[size_t(y) * VW + x];
-  const int xn = x + 1 < VW && looks[size_t(y) * VW + x + 1].quality > 0 ? x + 1
-                 : x > 0 && looks[size_t(y) * VW + x - 1].quality > 0 ? x - 1 : -1;
-  const int yn = y + 1 < VH && looks[size_t(y + 1) * VW + x].quality > 0 ? y + 1
-                 : y > 0 && looks[size_t(y - 1) * VW + x].quality > 0 ? y - 1 : -1;
-  if (xn < 0 || yn < 0) return 1.0f;
-  const Look &a = looks[size_t(y) * VW + xn], &b = looks[size_t(yn) * VW + x];
-  const float sx = float(xn - x), sy = float(yn - y);
-  const float dudx = (a.su - o.su) * sx, dvdx = (a.sv - o.sv) * sx, dudy = (b.su - o.su) * sy,
-              dvdy = (b.sv - o.sv) * sy;
-  const float det = std::fabs(dudx * dvdy - dudy * dvdx);  // source px^2 per view px^2
-  return det > 1e-6f ? 1.0f / det : 1e6f;
 }
 
 }  // namespace
 
-RoomLookupStats room_lookup(const std::vector<RoomLookupSource>& sources, const CameraCalib& virt,
-                            const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupParams& p,
-                            cv::Mat* color, cv::Mat* replaced) {
-  CV_Assert(view_depth.type() == CV_16UC1 && mask.type() == CV_8UC1 && color->type() == CV_8UC3);
-  CV_Assert(mask.size() == view_depth.size() && color->size() == view_depth.size());
-  const int VW = view_depth.cols, VH = view_depth.rows;
-  std::vector<std::vector<Look>> looks(sources.size());
-  for (size_t i = 0; i < sources.size(); ++i) look_from(sources[i], virt, view_depth, mask, p, &looks[i]);
-  if (replaced) replaced->create(view_depth.size(), CV_8UC1), replaced->setTo(0);
-  RoomLookupStats st;
-  for (int y = 0; y < VH; ++y)
-    for (int x = 0; x < VW; ++x) {
-      if (!mask.at<uint8_t>(y, x) || !view_depth.at<uint16_t>(y, x)) continue;
-      ++st.candidates;
-      float sum = 0, acc[3] = {0, 0, 0};
-      int seen = 0;
-      bool any_strict = false;
-      if (p.sampling == RoomSampling::BilinearStrict)
-        for (size_t i = 0; i < sources.size(); ++i)
-          any_strict |= looks[i][size_t(y) * VW + x].quality > 0 && looks[i][size_t(y) * VW + x].strict;
-      for (size_t i = 0; i < sources.size(); ++i) {
-        const Look& l = looks[i][size_t(y) * VW + x];
-        if (l.quality <= 0 || (any_strict && !l.strict)) continue;
-        float q = l.quality;
-        if (p.weights == RoomWeights::Fuse) q /= std::sqrt(std::max(magnification(looks[i], VW, VH, x, y), 1.0f));
-        const float byte = std::clamp(std::floor(q * 255.0f + 0.5f), 1.0f, 255.0f);  // the warp's weight byte
-        const float w = float(std::pow(byte / 255.0, p.weight_power)) + 1e-6f;
-        for (int ch = 0; ch < 3; ++ch) acc[ch] += w * l.rgb[ch];
-        sum += w;
-        ++seen;
-      }
-      if (seen == 0) continue;
-      ++st.replaced;
-      st.by_one += seen == 1;
-      cv::Vec3b& out = color->at<cv::Vec3b>(y, x);
-      for (int ch = 0; ch < 3; ++ch) out[ch] = cv::saturate_cast<uint8_t>(acc[ch] / sum);
-      if (replaced) replaced->at<uint8_t>(y, x) = uint8_t(seen);
+void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const uint8_t* label, const cv::Mat& color,
+                       const cv::Mat& room_depth, const cv::Mat& room_color, RoomTexture* out) {
+  const int W = camera.width, H = camera.height;
+  if (camera.has_distortion() || color.type() != CV_8UC3 || color.cols != W || color.rows != H)
+    throw Error("camera " + std::to_string(camera.id) + "'s room cannot be packed: not pinhole, or its colour is " +
+                "not RGB of its size");
+  const bool room = room_depth.type() == CV_16UC1 && room_depth.size() == color.size() &&
+                    room_color.type() == CV_8UC3 && room_color.size() == color.size();
+  out->camera = camera;
+  out->width = W, out->height = H;
+  out->packed.resize(size_t(W) * H);
+  for (int y = 0; y < H; ++y)
+    room_records_row(W, depth + size_t(y) * W, label + size_t(y) * W, color.ptr<uint8_t>(y),
+                     room ? room_depth.ptr<uint16_t>(y) : nullptr, room ? room_color.ptr<uint8_t>(y) : nullptr,
+                     out->packed.data() + size_t(y) * W);
+}
+
+namespace room_lookup_detail {
+
+std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
+                                         const RoomLookupParams& params) {
+  std::vector<LookupCamera> out;
+  const double sigma2 = params.place_sigma_m * params.place_sigma_m;
+  for (const RoomTexture* t : cameras) {
+    const CameraCalib& cam = t->camera;
+    const Eigen::Isometry3d T = cam.cam_to_rig.inverse() * virt.cam_to_rig;  // view -> camera
+    const Eigen::Matrix3d M = cam.K() * T.linear() * virt.K().inverse();
+    const Eigen::Vector3d tt = cam.K() * T.translation() * 1000.0;
+    const Eigen::Vector3d b = M * Eigen::Vector3d(0, 0, 1), s = M.col(0);
+    LookupCamera c{};
+    for (int j = 0; j < 3; ++j)
+      c.b[j] = float(b[j]), c.s[j] = float(s[j]), c.t[j] = float(tt[j]), c.dy[j] = float(M(j, 1));
+    c.cx = float(cam.cx), c.cy = float(cam.cy), c.ifx = float(1 / cam.fx), c.ify = float(1 / cam.fy);
+    const double d2 = (cam.center_in_rig() - virt.center_in_rig()).squaredNorm();
+    c.base2 = float(d2 * 1e6);
+    c.place = sigma2 > 0 ? float(sigma2 / (d2 + sigma2)) : 1.0f;
+    c.rec = t->packed.data(), c.W = t->width, c.H = t->height;
+    out.push_back(c);
+  }
+  return out;
+}
+
+LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params) {
+  return LookupView{float(virt.cx), float(virt.cy), float(1 / virt.fx), float(1 / virt.fy), float(params.depth_tol_mm),
+                    float(params.depth_tol_ratio)};
+}
+
+namespace {
+
+constexpr int kOne = 32767;        // 1 in the bilinear weights' Q15
+constexpr int kStrictReach = 655;  // a fiftieth of a pixel in Q15
+constexpr float kOnlySeen = 1.0f / 65536;
+
+inline int mulhrs(int a, int b) { return (a * b + 16384) >> 15; }
+
+// One camera's view of the point at view pixel (x, y), depth z (mm): its bilinear colour sums over the
+// members that agree (`sum`, exact integers, and their weight `fw`), and its weight in the blend (0: it does
+// not see the point).
+float camera_sample(const LookupCamera& c, const LookupView& v, float x, float y, float z, float view_dist2,
+                    int sum[3], int* fw) {
+  const float a0 = c.b[0] + y * c.dy[0] + x * c.s[0], a1 = c.b[1] + y * c.dy[1] + x * c.s[1],
+              a2 = c.b[2] + y * c.dy[2] + x * c.s[2];
+  const float h0 = z * a0 + c.t[0], h1 = z * a1 + c.t[1], h2 = z * a2 + c.t[2];
+  const float ih = 1.0f / std::max(h2, 1.0f);
+  const float u = h0 * ih, w = h1 * ih;
+  if (!(u >= -0.5f && w >= -0.5f && u <= float(c.W) - 0.5f && w <= float(c.H) - 0.5f && h2 >= 50.0f)) return 0;
+  const float uc = std::clamp(u, 0.0f, float(c.W) - 1.001f), vc = std::clamp(w, 0.0f, float(c.H) - 1.001f);
+  const int iu = int(uc), iv = int(vc);
+  const uint64_t* top = c.rec + size_t(iv) * c.W + iu;
+  const uint64_t* const members[4] = {top, top + 1, top + c.W, top + c.W + 1};
+  // The depths that agree: lo .. lo + width (integer mm), as 16-bit lanes hold them.
+  const float lo = std::min(h2 - v.tol_mm, h2 / (1.0f + v.tol_ratio)), hi = std::max(h2 + v.tol_mm, h2 * (1.0f + v.tol_ratio));
+  const int lo_i = int(std::ceil(lo));
+  const int lo16 = std::clamp(lo_i, 0, 65535), width = std::clamp(int(hi) - lo_i, 0, 65535);
+  const int fx = int(std::lrint((uc - float(iu)) * float(kOne))), fy = int(std::lrint((vc - float(iv)) * float(kOne)));
+  const int xw[4] = {kOne - fx, fx, kOne - fx, fx}, yw[4] = {kOne - fy, kOne - fy, fy, fy};
+  bool out = false;
+  *fw = 0;
+  sum[0] = sum[1] = sum[2] = 0;
+  for (int m = 0; m < 4; ++m) {
+    const uint64_t r = *members[m];
+    const bool ok = ((int(r & 0xffff) - lo16) & 0xffff) <= width;
+    out |= !ok && std::min(xw[m], yw[m]) > kStrictReach;
+    if (!ok) continue;
+    const int wm = mulhrs(xw[m], yw[m]);
+    *fw += wm;
+    for (int ch = 0; ch < 3; ++ch) sum[ch] += wm * int((r >> (16 * (ch + 1))) & 0xffff);
+  }
+  if (*fw <= 0) return 0;
+  // The angle at the point in the triangle view - camera - point: cos = (a^2 + c^2 - b^2) / 2ac.
+  const float du = (u - c.cx) * c.ifx, dv = (w - c.cy) * c.ify;
+  const float cam_dist2 = h2 * h2 * (1.0f + du * du + dv * dv);
+  const float iac = 1.0f / std::sqrt(std::max(view_dist2 * cam_dist2, 1.0f));
+  const float cs = (view_dist2 + cam_dist2 - c.base2) * iac * 0.5f;
+  const float cs2 = cs * cs, cs4 = cs2 * cs2, cs8 = cs4 * cs4;
+  const float q = std::max(cs8, 0.02f) * std::min(1.0f, view_dist2 * iac);
+  return (out ? kOnlySeen : 1.0f) * c.place * q * q;
+}
+
+}  // namespace
+
+void lookup_row_portable(const std::vector<LookupCamera>& cams, const LookupView& view, int y, int x_begin,
+                         int x_end, const uint16_t* depth_row, uint8_t* color_row, uint8_t* written_row) {
+  const float ry = (float(y) - view.cy) * view.ify;
+  for (int x = x_begin; x < x_end; ++x) {
+    written_row[x] = 0;
+    const float z = float(depth_row[x]);
+    if (z == 0) continue;
+    const float rx = (float(x) - view.cx) * view.ifx;
+    const float view_dist2 = z * z * (1.0f + rx * rx + ry * ry);
+    float acc[3] = {0, 0, 0}, n = 0;
+    for (const LookupCamera& c : cams) {
+      int sum[3], fw;
+      const float wt = camera_sample(c, view, float(x), float(y), z, view_dist2, sum, &fw);
+      if (wt <= 0) continue;
+      const float k = wt / float(std::max(fw, 1));
+      for (int ch = 0; ch < 3; ++ch) acc[ch] += float(sum[ch]) * k;
+      n += wt;
     }
-  return st;
+    if (n <= 0) continue;
+    for (int ch = 0; ch < 3; ++ch) color_row[3 * x + ch] = uint8_t(std::min(255.0f, acc[ch] / n + 0.5f));
+    written_row[x] = 255;
+  }
+}
+
+}  // namespace room_lookup_detail
+
+void room_lookup(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt, const cv::Mat& view_depth,
+                 const RoomLookupParams& params, cv::Mat* color, cv::Mat* written) {
+  using namespace room_lookup_detail;
+  CV_Assert(view_depth.type() == CV_16UC1 && !virt.has_distortion());
+  if (color->size() != view_depth.size() || color->type() != CV_8UC3) color->create(view_depth.size(), CV_8UC3);
+  written->create(view_depth.size(), CV_8UC1);
+  const std::vector<LookupCamera> cams = lookup_cameras(cameras, virt, params);
+  const LookupView view = lookup_view(virt, params);
+  if (lookup_avx2(cams, view, view_depth, color, written)) return;
+  for (int y = 0; y < view_depth.rows; ++y)
+    lookup_row_portable(cams, view, y, 0, view_depth.cols, view_depth.ptr<uint16_t>(y), color->ptr<uint8_t>(y),
+                        written->ptr<uint8_t>(y));
 }
 
 }  // namespace vclassroom

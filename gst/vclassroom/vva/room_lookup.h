@@ -1,11 +1,22 @@
-// Experiment (issue 31, branch wip/room-lookup): the room's colour blended per VIEW pixel by backward lookup.
-// For each view pixel whose visible surface is the room, its 3-D point (the view's depth along its ray) is
-// projected into every camera; the cameras whose room depth there agrees with the point (viewfuse's
-// tolerance) see it, their colour is sampled at the projected position and blended with weights formed as
-// the warp and viewfuse form them. One resampling per camera, as the forward warp's; no splat.
+// The room's colour at a view, looked up backward (docs/vva.md, "How a view is made"): each view pixel whose
+// room depth is known (room_raster.h) is a point in the room; it is projected into every camera, and the
+// cameras whose room depth there agrees with the point see it. Each such camera's colour is sampled bilinearly
+// over the members of the 2x2 around the projected position that agree, and the cameras are blended.
 // GStreamer-free.
+//
+// Which cameras, and how much each:
+// - A camera sees the point strictly when no member of its 2x2 that disagrees lies more than a fiftieth of a
+//   pixel from the position: the coverage of the forward warp's cells, which end at their pixel centre towards
+//   a depth edge. Where some camera sees the point strictly, the others that only see it count 2^-16 as much.
+// - Each camera is weighed as the forward warp weighs its samples and viewfuse blends them: cos^8 of the angle
+//   between the view's ray and the camera's (at least 0.02), times how much nearer the view is (at most 1),
+//   squared.
+// - ... and by where the view stands: sigma^2 / (d^2 + sigma^2) for a camera d metres from the view's centre.
+//   A view at a camera's own place is that camera's own picture (the others, seen through the room's mesh, are
+//   a pixel off where the mesh is), and a view between cameras blends them as the angles say.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -14,59 +25,64 @@
 
 namespace vclassroom {
 
-// One camera as the lookup reads it: the colour the warp draws the room from and the depth it draws it at.
-struct RoomLookupSource {
-  CameraCalib camera;
-  cv::Mat color;       // CV_8UC3 RGB
-  cv::Mat depth;       // CV_16UC1 mm along the camera's axis; 0 where the camera does not show the room
-  cv::Mat remembered;  // CV_8UC1, non-zero where the colour is the background memory's (the warp's room layer,
-                       // weighted by kRoomLayerWeight); may be empty
+// A camera's room as the lookup reads it, made once per camera frame: per pixel one record of four 16-bit
+// lanes, depth (mm, 0: the camera does not show the room there), r, g, b.
+struct RoomTexture {
+  CameraCalib camera;  // pinhole
+  int width = 0, height = 0;
+  std::vector<uint64_t> packed;
 };
 
-enum class RoomSampling {
-  Nearest,   // the nearest source pixel, if its depth agrees
-  Bilinear,  // the 2x2 around the position, each neighbour whose depth agrees, bilinear weights renormalised
-  // As Bilinear, but a camera counts only where every neighbour of the 2x2 around the position (those more
-  // than a fiftieth of a pixel away from it) agrees: the coverage of the warp's cells, which end at their
-  // pixel centre towards a depth edge; where no camera covers a pixel so, the cameras as with Bilinear.
-  BilinearStrict,
-  BilinearAll,  // seen when a neighbour of the 2x2 agrees; the colour bilinear over all four, as the warp's
-                // sampler takes it (across a depth edge too: the cameras' own images mix the two sides there)
-};
-
-enum class RoomWeights {
-  Fuse,           // as the warp and viewfuse: cos^8 of the ray angle x distance ratio / sqrt(magnification),
-                  // a byte, then ^weight_power
-  FuseNoStretch,  // the same without the magnification term (no neighbours needed: the tight loop's choice)
-  Angle,          // cos^8 of the angle between the view ray and the camera ray alone, ^weight_power
-  Equal,          // every camera that sees the point alike
-};
+// The records of a camera frame: the room's `depth` (width x height, mm) where `label` (likewise) is 0, with
+// the frame's `color` (RGB); where a learner hides the room, the background memory's room layer (`room_depth`,
+// `room_color`; may be empty: nothing there). Throws Error for a camera with distortion or images of another
+// size than the camera's.
+void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const uint8_t* label, const cv::Mat& color,
+                       const cv::Mat& room_depth, const cv::Mat& room_color, RoomTexture* out);
 
 struct RoomLookupParams {
-  RoomSampling sampling = RoomSampling::Bilinear;
-  RoomWeights weights = RoomWeights::Fuse;
-  double depth_tol_ratio = 0.03;  // FuseParams' visibility tolerance
-  double depth_tol_mm = 30;
-  double weight_power = 2.0;        // FuseParams::weight_power
-  float remembered_weight = 0.5f;   // view_warp.cpp's kRoomLayerWeight
-  // Each camera's own surface: the point moved along the view ray onto the camera's room depth (this many
-  // steps, each taking the depth around the projected position as if the surface faced the camera), as the
-  // forward warp draws each camera from its own depth; 0: the view's depth as it is.
-  int refine_steps = 0;
+  // A camera's depth agrees with the point within max(depth_tol_mm, depth_tol_ratio x depth) (viewfuse's).
+  double depth_tol_ratio = 0.03, depth_tol_mm = 30;
+  // The view's place in the weights (metres; 0: the angles alone).
+  double place_sigma_m = 0.2;
 };
 
-struct RoomLookupStats {
-  long candidates = 0;  // masked pixels with a depth
-  long replaced = 0;    // of those, seen by at least one camera and written
-  long by_one = 0;      // written from one camera only
-};
+// Writes into `color` (the view's size, CV_8UC3 RGB; made when it is not) the looked-up colour of every
+// pixel where `view_depth` (CV_16UC1 mm along the view's axis) is known and some camera sees the point; other
+// pixels are left alone. `written` (CV_8UC1, made): 255 where a colour was written, 0 elsewhere. `virt` is
+// pinhole. With AVX2 and FMA, 8 view pixels at a time; elsewhere (and for the last pixels of a row whose width
+// is not a multiple of 8) pixel by pixel, giving the same colours within a grey level.
+void room_lookup(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt, const cv::Mat& view_depth,
+                 const RoomLookupParams& params, cv::Mat* color, cv::Mat* written);
 
-// Writes into `color` (the view, CV_8UC3) the looked-up colour of every pixel where `mask` (CV_8UC1) is
-// non-zero and `view_depth` (CV_16UC1 mm along the view's axis) is known and some camera sees the point;
-// other pixels are left alone. `replaced` (optional, CV_8UC1): how many cameras saw each pixel written (0: not
-// written). `virt` has no distortion.
-RoomLookupStats room_lookup(const std::vector<RoomLookupSource>& sources, const CameraCalib& virt,
-                            const cv::Mat& view_depth, const cv::Mat& mask, const RoomLookupParams& params,
-                            cv::Mat* color, cv::Mat* replaced = nullptr);
+namespace room_lookup_detail {
+
+// One camera for one view: view pixel (x, y) at view depth z (mm) lands at camera pixel h / h.z with
+// h = z * (b + y * dy + x * s) + t, h.z its depth in the camera (mm); what the weights need.
+struct LookupCamera {
+  float b[3], s[3], t[3], dy[3];
+  float cx, cy, ifx, ify;  // the camera's pinhole
+  float base2;             // its centre's squared distance from the view's (mm^2)
+  float place;             // the view's place weight for it
+  const uint64_t* rec;
+  int W, H;
+};
+struct LookupView {
+  float cx, cy, ifx, ify;  // the view's pinhole
+  float tol_mm, tol_ratio;
+};
+std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
+                                         const RoomLookupParams& params);
+LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params);
+
+// Pixels [x_begin, x_end) of row y, one by one (the reference and the fallback).
+void lookup_row_portable(const std::vector<LookupCamera>& cams, const LookupView& view, int y, int x_begin,
+                         int x_end, const uint16_t* depth_row, uint8_t* color_row, uint8_t* written_row);
+// The whole view 8 pixels at a time (the rest of each row by lookup_row_portable). False, nothing done, where
+// the CPU lacks AVX2 and FMA.
+bool lookup_avx2(const std::vector<LookupCamera>& cams, const LookupView& view, const cv::Mat& view_depth,
+                 cv::Mat* color, cv::Mat* written);
+
+}  // namespace room_lookup_detail
 
 }  // namespace vclassroom

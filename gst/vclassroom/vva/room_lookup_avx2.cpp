@@ -1,40 +1,31 @@
-// The backward room lookup by hand with AVX2 (issue 31 spike): strict cell coverage, equal weights, no refine
-// steps, the view's depth given -- room_lookup_fast's loop for that variant, 8 view pixels per iteration:
-// the projection in 8 float lanes, the 2x2 fetched as two 128-bit loads of the packed records (16-bit depth,
-// r, g, b), transposed to 16-bit lanes (top row | bottom row), the depth test, strict coverage and bilinear
-// weights in 16-bit lanes (Q15, _mm256_mulhrs_epi16), colour x weight summed exactly (_mm256_madd_epi16),
-// each camera's colour divided once in float, the cameras blended in float accumulators. Groups of 8 with no candidate are skipped.
-#include <gst/vclassroom/vva/room_lookup_fast.h>
+// room_lookup() 8 view pixels at a time with AVX2 and FMA: the projection in 8 float lanes; the 2x2 around
+// each position fetched as two 128-bit loads of the packed records (16-bit depth, r, g, b) and transposed to
+// 16-bit lanes (top row | bottom row); the depth test, the strict coverage and the bilinear weights in 16-bit
+// lanes (Q15, _mm256_mulhrs_epi16); colour x weight summed exactly (_mm256_madd_epi16); each camera's colour
+// divided once in float and the cameras blended in float accumulators. Groups of 8 with no depth are skipped.
+// It computes what lookup_row_portable() computes (room_lookup.cpp), in that order; the weights' square root
+// is the CPU's approximate one.
+#include <gst/vclassroom/vva/room_lookup.h>
 
-#include <array>
 #include <cstring>
-#include <vector>
 
 #include <immintrin.h>
 
 namespace vclassroom {
+namespace room_lookup_detail {
 
 #if defined(__GNUC__) && defined(__x86_64__)
 #define VCLASSROOM_AVX2 __attribute__((target("avx2,fma")))
 
 namespace {
 
-// One camera for one view row: camera pixel h / h.z of view pixel x at depth z with h = z * (b + x * s) + t;
-// each constant broadcast once so the loop reads it as a memory operand.
+// One camera for one view row, each constant broadcast once so that the loop reads it as a memory operand.
 struct CamV {
   __m256 b[3], s[3], t[3];
   __m256 umax, vmax, uclamp, vclamp, wf;
+  __m256 ccx, ccy, cifx, cify, base2, place;
   const uint64_t* rec;
-  const uint16_t* planes;
-  long W, plane;
-};
-
-// The same in plain floats (row 0; row y adds y * dy to b), made outside the AVX2 code.
-struct CamF {
-  float b[3], s[3], t[3], dy[3];
-  const uint64_t* rec;
-  const uint16_t* planes;
-  int W, H;
+  long W;
 };
 
 // Per pixel sum of c x w over a 2x2 (c0, c1: the left and right members, top row | bottom row; wl, wh: the
@@ -47,35 +38,45 @@ VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256 weighted_sum(__m256
       _mm256_add_epi32(_mm256_permute2x128_si256(l, h, 0x20), _mm256_permute2x128_si256(l, h, 0x31)));
 }
 
-// Per pixel sum of c x w over a 2x2 of one 16-bit plane: each row's pair by one 32-bit gather, madd with the
-// row's weights (pairs), 8 pixels as floats.
-VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256 gathered_sum(const uint16_t* plane, long W, __m256i idx,
-                                                                        __m256i wt, __m256i wb) {
-  const __m256i t = _mm256_i32gather_epi32(reinterpret_cast<const int*>(plane), idx, 2),
-                b = _mm256_i32gather_epi32(reinterpret_cast<const int*>(plane + W), idx, 2);
-  return _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_madd_epi16(t, wt), _mm256_madd_epi16(b, wb)));
+// A camera's weight for 8 points (view_dist2: their squared distance from the view, mm^2; h2: their depth in the
+// camera; u, v: where they land in it), as camera_sample() in room_lookup.cpp: the angle's and the distance's
+// term, squared, times the view's place weight.
+VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256 camera_weight(const CamV& c, __m256 view_dist2, __m256 h2,
+                                                                         __m256 u, __m256 v) {
+  const __m256 one = _mm256_set1_ps(1.0f), du = _mm256_mul_ps(_mm256_sub_ps(u, c.ccx), c.cifx),
+               dv = _mm256_mul_ps(_mm256_sub_ps(v, c.ccy), c.cify);
+  const __m256 cam_dist2 = _mm256_mul_ps(_mm256_mul_ps(h2, h2), _mm256_fmadd_ps(du, du, _mm256_fmadd_ps(dv, dv, one)));
+  const __m256 iac = _mm256_rsqrt_ps(_mm256_max_ps(_mm256_mul_ps(view_dist2, cam_dist2), one));
+  const __m256 cs = _mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(_mm256_add_ps(view_dist2, cam_dist2), c.base2), iac),
+                                  _mm256_set1_ps(0.5f));
+  const __m256 cs2 = _mm256_mul_ps(cs, cs), cs4 = _mm256_mul_ps(cs2, cs2), cs8 = _mm256_mul_ps(cs4, cs4);
+  const __m256 nearer = _mm256_min_ps(one, _mm256_mul_ps(view_dist2, iac));
+  const __m256 q = _mm256_mul_ps(_mm256_max_ps(cs8, _mm256_set1_ps(0.02f)), nearer);
+  return _mm256_mul_ps(c.place, _mm256_mul_ps(q, q));
 }
 
-template <bool kGather>
-VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& view_depth, const cv::Mat& mask,
-                                 float tol_mm, float tol_ratio, cv::Mat* color, cv::Mat* written) {
+VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const LookupView& view,
+                                 const cv::Mat& view_depth, cv::Mat* color, cv::Mat* written) {
   const int VW = view_depth.cols, VH = view_depth.rows, nc = int(cf.size());
   CV_Assert(nc <= 8);
   CamV cams[8];  // on the stack: 32-byte aligned (the vector allocator here is not)
   for (int k = 0; k < nc; ++k) {
-    const CamF& f = cf[size_t(k)];
+    const LookupCamera& f = cf[size_t(k)];
     CamV& c = cams[k];
     for (int j = 0; j < 3; ++j) c.s[j] = _mm256_set1_ps(f.s[j]), c.t[j] = _mm256_set1_ps(f.t[j]);
     c.umax = _mm256_set1_ps(float(f.W) - 0.5f), c.vmax = _mm256_set1_ps(float(f.H) - 0.5f);
     c.uclamp = _mm256_set1_ps(float(f.W) - 1.001f), c.vclamp = _mm256_set1_ps(float(f.H) - 1.001f);
     c.wf = _mm256_set1_ps(float(f.W));
-    c.rec = f.rec, c.planes = f.planes, c.W = f.W, c.plane = long(f.W) * f.H;
+    c.ccx = _mm256_set1_ps(f.cx), c.ccy = _mm256_set1_ps(f.cy), c.cifx = _mm256_set1_ps(f.ifx);
+    c.cify = _mm256_set1_ps(f.ify), c.base2 = _mm256_set1_ps(f.base2), c.place = _mm256_set1_ps(f.place);
+    c.rec = f.rec, c.W = f.W;
   }
   const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), half = _mm256_set1_ps(0.5f),
                mhalf = _mm256_set1_ps(-0.5f), near = _mm256_set1_ps(50.0f), q15 = _mm256_set1_ps(32767.0f),
-               mm = _mm256_set1_ps(tol_mm), k1 = _mm256_set1_ps(1.0f / (1.0f + tol_ratio)),
-               k2 = _mm256_set1_ps(1.0f + tol_ratio), c255 = _mm256_set1_ps(255.0f),
-               eps = _mm256_set1_ps(1.0f / 65536.0f);
+               mm = _mm256_set1_ps(view.tol_mm), k1 = _mm256_set1_ps(1.0f / (1.0f + view.tol_ratio)),
+               k2 = _mm256_set1_ps(1.0f + view.tol_ratio), c255 = _mm256_set1_ps(255.0f),
+               only_seen = _mm256_set1_ps(1.0f / 65536.0f), tiny = _mm256_set1_ps(1e-30f),
+               vcx = _mm256_set1_ps(view.cx), vifx = _mm256_set1_ps(view.ifx);
   const __m256i ONE = _mm256_set1_epi16(32767), TH = _mm256_set1_epi16(655), Z = _mm256_setzero_si256();
   const __m256i pick = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1, 0, 1, 2, 4, 5, 6, 8,
                                         9, 10, 12, 13, 14, -1, -1, -1, -1);
@@ -85,18 +86,22 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
     for (int k = 0; k < nc; ++k)
       for (int j = 0; j < 3; ++j)
         cams[k].b[j] = _mm256_set1_ps(cf[size_t(k)].b[j] + float(y) * cf[size_t(k)].dy[j]);
+    const float ry = (float(y) - view.cy) * view.ify;
+    const __m256 ray_y2 = _mm256_set1_ps(1.0f + ry * ry);  // 1 + the view ray's y^2 (z = 1)
     const uint16_t* drow = view_depth.ptr<uint16_t>(y);
-    const uint8_t* mrow = mask.ptr<uint8_t>(y);
     uint8_t* out = color->ptr<uint8_t>(y);
-    uint8_t* out_written = written ? written->ptr<uint8_t>(y) : nullptr;
+    uint8_t* out_written = written->ptr<uint8_t>(y);
     int x0 = 0;
     for (; x0 + 8 <= VW; x0 += 8) {
-      const __m128i d16 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(drow + x0));
-      const __m128i m16 = _mm_cvtepu8_epi16(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(mrow + x0)));
-      const __m128i z16 = _mm_andnot_si128(_mm_cmpeq_epi16(m16, _mm_setzero_si128()), d16);
-      if (_mm_testz_si128(z16, z16)) continue;  // no candidate in these 8
+      const __m128i z16 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(drow + x0));
+      if (_mm_testz_si128(z16, z16)) {  // no depth in these 8
+        std::memset(out_written + x0, 0, 8);
+        continue;
+      }
       const __m256 z = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(z16));
       const __m256 xv = _mm256_add_ps(_mm256_set1_ps(float(x0)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
+      const __m256 rx = _mm256_mul_ps(_mm256_sub_ps(xv, vcx), vifx);
+      const __m256 view_dist2 = _mm256_mul_ps(_mm256_mul_ps(z, z), _mm256_fmadd_ps(rx, rx, ray_y2));
       __m256 sr = zero, sg = zero, sb = zero, sn = zero;
       for (int k = 0; k < nc; ++k) {
         const CamV& c = cams[k];
@@ -115,7 +120,7 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
         const __m256 fu = _mm256_round_ps(uc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC),
                      fv = _mm256_round_ps(vc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC);
         const __m256i idx = _mm256_cvttps_epi32(_mm256_fmadd_ps(fv, c.wf, fu));
-        // The depths that agree with h2: lo .. lo + width (integer mm), agree() of room_lookup_fast solved for d.
+        // The depths that agree with h2: lo .. lo + width (integer mm).
         const __m256 lo = _mm256_min_ps(_mm256_sub_ps(h2, mm), _mm256_mul_ps(h2, k1)),
                      hi = _mm256_max_ps(_mm256_add_ps(h2, mm), _mm256_mul_ps(h2, k2));
         const __m256i loi = _mm256_cvttps_epi32(_mm256_round_ps(lo, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
@@ -123,31 +128,6 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
         // Bilinear fractions in Q15.
         const __m256i fq = _mm256_packus_epi32(_mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(uc, fu), q15)),
                                                _mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(vc, fv), q15)));
-        __m256 fr, fg, fb, fw, strict_keep;
-        if constexpr (kGather) {
-          // Planar 16-bit texture: one 32-bit gather fetches a row's pair of one channel for each pixel, in
-          // pixel order (no transpose). Lanes: per pixel (left, right) 16 bits each.
-          const __m256i LO2 = _mm256_unpacklo_epi16(lw, lw), WD2 = _mm256_unpackhi_epi16(lw, lw);
-          const __m256i nq = _mm256_sub_epi16(ONE, fq);
-          const __m256i XP = _mm256_unpacklo_epi16(nq, fq), YT = _mm256_unpackhi_epi16(nq, nq),
-                        YB = _mm256_unpackhi_epi16(fq, fq);
-          const int* P = reinterpret_cast<const int*>(c.planes);
-          const int* PW = reinterpret_cast<const int*>(c.planes + c.W);
-          const long N = c.plane;  // one plane, in 16-bit elements
-          const __m256i Dt = _mm256_i32gather_epi32(P, idx, 2), Db = _mm256_i32gather_epi32(PW, idx, 2);
-          const __m256i okt = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(Dt, LO2), WD2), Z),
-                        okb = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(Db, LO2), WD2), Z);
-          const __m256i out =
-              _mm256_or_si256(_mm256_andnot_si256(okt, _mm256_cmpgt_epi16(_mm256_min_epi16(XP, YT), TH)),
-                              _mm256_andnot_si256(okb, _mm256_cmpgt_epi16(_mm256_min_epi16(XP, YB), TH)));
-          strict_keep = _mm256_castsi256_ps(_mm256_cmpeq_epi32(out, Z));
-          const __m256i wt = _mm256_and_si256(_mm256_mulhrs_epi16(XP, YT), okt),
-                        wb = _mm256_and_si256(_mm256_mulhrs_epi16(XP, YB), okb);
-          const __m256i ones = _mm256_set1_epi16(1);
-          fw = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_madd_epi16(wt, ones), _mm256_madd_epi16(wb, ones)));
-          fr = gathered_sum(c.planes + N, c.W, idx, wt, wb), fg = gathered_sum(c.planes + 2 * N, c.W, idx, wt, wb);
-          fb = gathered_sum(c.planes + 3 * N, c.W, idx, wt, wb);
-        } else {
         _mm256_store_si256(reinterpret_cast<__m256i*>(ii), idx);
         const __m256i LO = _mm256_permute4x64_epi64(lw, 0x88), WD = _mm256_permute4x64_epi64(lw, 0xDD);
         const __m256i FX = _mm256_permute4x64_epi64(fq, 0x88), FY = _mm256_permute4x64_epi64(fq, 0xDD);
@@ -182,36 +162,33 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
         // Strict: no member that disagrees lies more than 1/50 px (either way) from the position's corner.
         const __m256i out = _mm256_or_si256(_mm256_andnot_si256(ok0, _mm256_cmpgt_epi16(_mm256_min_epi16(X0, Y), TH)),
                                             _mm256_andnot_si256(ok1, _mm256_cmpgt_epi16(_mm256_min_epi16(FX, Y), TH)));
-        strict_keep = _mm256_castsi256_ps(_mm256_cvtepi16_epi32(  // here: where a member is out
+        const __m256 strict_keep = _mm256_castsi256_ps(_mm256_cvtepi16_epi32(  // here: where a member is out
             _mm_or_si128(_mm256_castsi256_si128(out), _mm256_extracti128_si256(out, 1))));
         const __m256i w0 = _mm256_and_si256(W0, ok0), w1 = _mm256_and_si256(W1, ok1);
         // Colour x weight summed exactly in 32 bits: t0 and t1 of a row paired for _mm256_madd_epi16 (lanes:
         // pixels 0-3 top | 0-3 bottom, and 4-7), then the rows added.
         const __m256i SW = _mm256_add_epi16(w0, w1);
         const __m256i wl = _mm256_unpacklo_epi16(w0, w1), wh = _mm256_unpackhi_epi16(w0, w1);
-        fr = weighted_sum(R0, R1, wl, wh), fg = weighted_sum(G0, G1, wl, wh);
-        fb = weighted_sum(B0, B1, wl, wh);
-        fw = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(
+        const __m256 fr = weighted_sum(R0, R1, wl, wh), fg = weighted_sum(G0, G1, wl, wh),
+                     fb = weighted_sum(B0, B1, wl, wh);
+        const __m256 fw = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(
             _mm_add_epi16(_mm256_castsi256_si128(SW), _mm256_extracti128_si256(SW, 1))));
-        }
         const __m256 seen = _mm256_and_ps(in, _mm256_cmp_ps(fw, zero, _CMP_GT_OQ));
-        const __m256 strict = kGather ? _mm256_and_ps(strict_keep, seen) : _mm256_andnot_ps(strict_keep, seen);
-        // The camera's weight: 1 where strict, 2^-16 where it only sees the point (so the strict cameras
-        // decide where there are any, within 0.01 grey levels), divided by its bilinear sum.
-        const __m256 wt = _mm256_blendv_ps(_mm256_and_ps(seen, eps), one, strict);
+        const __m256 strict = _mm256_andnot_ps(strict_keep, seen);
+        // The camera's weight where it sees the point strictly, 2^-16 of it where it only sees it (so the strict
+        // cameras decide where there are any); its colour sums divided by their bilinear weight.
+        const __m256 wt = _mm256_mul_ps(_mm256_blendv_ps(_mm256_and_ps(seen, only_seen), one, strict),
+                                        camera_weight(c, view_dist2, h2, u, v));
         const __m256 kw = _mm256_div_ps(wt, _mm256_max_ps(fw, one));
         sr = _mm256_fmadd_ps(fr, kw, sr), sg = _mm256_fmadd_ps(fg, kw, sg), sb = _mm256_fmadd_ps(fb, kw, sb);
         sn = _mm256_add_ps(sn, wt);
       }
       // Written where a camera sees the point.
-      const __m256 n = sn;
-      const __m256 write = _mm256_and_ps(_mm256_cmp_ps(n, zero, _CMP_GT_OQ), _mm256_cmp_ps(z, zero, _CMP_NEQ_OQ));
+      const __m256 write = _mm256_and_ps(_mm256_cmp_ps(sn, zero, _CMP_GT_OQ), _mm256_cmp_ps(z, zero, _CMP_NEQ_OQ));
       const int wm = _mm256_movemask_ps(write);
-      if (out_written) {
-        for (int j = 0; j < 8; ++j) out_written[x0 + j] = uint8_t((wm >> j & 1) * 255);
-      }
+      for (int j = 0; j < 8; ++j) out_written[x0 + j] = uint8_t((wm >> j & 1) * 255);
       if (!wm) continue;
-      const __m256 in_ = _mm256_div_ps(one, _mm256_max_ps(n, eps));
+      const __m256 in_ = _mm256_div_ps(one, _mm256_max_ps(sn, tiny));
       const __m256i r = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sr, in_, half))),
                     g = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sg, in_, half))),
                     b = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sb, in_, half)));
@@ -230,42 +207,24 @@ VCLASSROOM_AVX2 void lookup_avx2(const std::vector<CamF>& cf, const cv::Mat& vie
           if (wm >> j & 1) std::memcpy(o + 3 * j, &px[j], 3);
       }
     }
-    CV_Assert(x0 == VW);  // the caller passes widths in multiples of 8
+    lookup_row_portable(cf, view, y, x0, VW, drow, out, out_written);  // the row's last pixels
   }
 }
 
 }  // namespace
 
-bool room_lookup_avx2(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt, const cv::Mat& view_depth,
-                      const cv::Mat& mask, const RoomLookupFastParams& p, cv::Mat* color, cv::Mat* written) {
-  if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma") || view_depth.cols % 8 != 0) return false;
-  const int nc = int(cameras.size());
-  std::vector<CamF> cams(static_cast<size_t>(nc));
-  for (int k = 0; k < nc; ++k) {
-    const RoomTexture& t = *cameras[size_t(k)];
-    const CameraCalib& cam = t.camera;
-    const Eigen::Isometry3d T = cam.cam_to_rig.inverse() * virt.cam_to_rig;  // view -> camera
-    const Eigen::Matrix3d M = cam.K() * T.linear() * virt.K().inverse();
-    const Eigen::Vector3d tt = cam.K() * T.translation() * 1000.0;
-    const Eigen::Vector3d b = M * Eigen::Vector3d(0, 0, 1), s = M.col(0);
-    CamF& c = cams[size_t(k)];
-    for (int j = 0; j < 3; ++j)
-      c.b[j] = float(b[j]), c.s[j] = float(s[j]), c.t[j] = float(tt[j]), c.dy[j] = float(M(j, 1));
-    c.rec = t.packed.data(), c.planes = t.planes.data(), c.W = t.width, c.H = t.height;
-  }
-  if (written) written->create(view_depth.size(), CV_8UC1);
-  if (p.avx2_gather)
-    lookup_avx2<true>(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color, written);
-  else
-    lookup_avx2<false>(cams, view_depth, mask, float(p.depth_tol_mm), float(p.depth_tol_ratio), color, written);
+bool lookup_avx2(const std::vector<LookupCamera>& cams, const LookupView& view, const cv::Mat& view_depth,
+                 cv::Mat* color, cv::Mat* written) {
+  if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma") || cams.size() > 8) return false;
+  lookup_rows(cams, view, view_depth, color, written);
   return true;
 }
 
 #else
-bool room_lookup_avx2(const std::vector<const RoomTexture*>&, const CameraCalib&, const cv::Mat&, const cv::Mat&,
-                      const RoomLookupFastParams&, cv::Mat*, cv::Mat*) {
+bool lookup_avx2(const std::vector<LookupCamera>&, const LookupView&, const cv::Mat&, cv::Mat*, cv::Mat*) {
   return false;
 }
 #endif
 
+}  // namespace room_lookup_detail
 }  // namespace vclassroom

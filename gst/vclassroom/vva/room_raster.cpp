@@ -61,8 +61,7 @@ VCLASSROOM_SIMD_INLINE void raster_row(float* zr, uint8_t* cr, int n, VecI a, Ve
 }
 
 struct Edge {
-  int64_t a, b, c;  // E(p) = a * p.x + b * p.y + c, 1/16 px units; >= 0 inside (with the fill rule's bias)
-  int64_t bias;     // 0 or -1: a centre exactly on the edge belongs to this triangle or the other
+  int64_t a, b, c;  // E(p) = a * p.x + b * p.y + c, 1/16 px units; >= 0 inside, a centre on the edge too
 };
 
 VCLASSROOM_SIMD_INLINE Edge edge(int64_t px, int64_t py, int64_t qx, int64_t qy) {
@@ -70,8 +69,6 @@ VCLASSROOM_SIMD_INLINE Edge edge(int64_t px, int64_t py, int64_t qx, int64_t qy)
   e.a = py - qy;
   e.b = qx - px;
   e.c = -(e.a * px + e.b * py);
-  // The reverse edge has (-a, -b): exactly one of the two owns the centres on it.
-  e.bias = (e.a > 0 || (e.a == 0 && e.b > 0)) ? 0 : -1;
   return e;
 }
 
@@ -89,7 +86,7 @@ __attribute__((noinline)) void raster_large(int32_t x0, int32_t y0, int32_t x1, 
       const int64_t qx = int64_t(x) << kSub, qy = int64_t(y) << kSub;
       const int64_t f0 = e0.a * qx + e0.b * qy + e0.c, f1 = e1.a * qx + e1.b * qy + e1.c,
                     f2 = e2.a * qx + e2.b * qy + e2.c;
-      if (f0 + e0.bias < 0 || f1 + e1.bias < 0 || f2 + e2.bias < 0) continue;
+      if (f0 < 0 || f1 < 0 || f2 < 0) continue;
       if (cov) ++cov[size_t(y) * stride + x];
       const float wi = float((double(f0) * w0 + double(f1) * w1 + double(f2) * w2) * ia);
       if (wi > zr[x]) zr[x] = wi;
@@ -139,11 +136,9 @@ VCLASSROOM_SIMD_INLINE void setup_batch(Batch& b, int m, int W, int H) {
     const int32_t f0 = wrap(0u - (uint32_t(a0) * X1 + uint32_t(b0) * Y1)),
                   f1 = wrap(0u - (uint32_t(a1) * X2 + uint32_t(b1) * Y2)),
                   f2 = wrap(0u - (uint32_t(a2) * X0 + uint32_t(b2) * Y0));
-    // The fill rule: a centre exactly on an edge (value 0) belongs to the triangle whose (a, b) is "positive";
-    // the neighbour across the edge has (-a, -b).
-    b.r0[j] = f0 - (int32_t((a0 > 0) | ((a0 == 0) & (b0 > 0))) ^ 1);
-    b.r1[j] = f1 - (int32_t((a1 > 0) | ((a1 == 0) & (b1 > 0))) ^ 1);
-    b.r2[j] = f2 - (int32_t((a2 > 0) | ((a2 == 0) & (b2 > 0))) ^ 1);
+    // A centre exactly on an edge (value 0) is inside: both triangles that share the edge draw it (at one
+    // depth), and a mesh's own border, which a view from the mesh's camera sees through pixel centres, is drawn.
+    b.r0[j] = f0, b.r1[j] = f1, b.r2[j] = f2;
     b.a0[j] = a0 * kOne, b.a1[j] = a1 * kOne, b.a2[j] = a2 * kOne;
     b.b0[j] = b0 * kOne, b.b1[j] = b1 * kOne, b.b2[j] = b2 * kOne;
     // 1/z = v2 + E0 (w0 - v2) / area + E1 (v1 - v2) / area (inf or NaN where area is 0: not drawn).

@@ -1,15 +1,15 @@
-// Experiment (issue 31, wip/room-lookup): the room's depth at a view by rasterising meshes of the room
-// (room_mesh.h) into it, so that the backward lookup (room_lookup*.h) has a depth per view pixel without
-// splatting every camera pixel. GStreamer-free.
+// The room's depth at a view by rasterising meshes of the room (room_mesh.h) into it, so that the backward
+// lookup (room_lookup.h) has a depth per view pixel without splatting every camera pixel. GStreamer-free.
 //
 // Depth only: per view pixel the nearest triangle's depth, 1/z interpolated linearly in screen space
 // (perspective-correct for a pinhole view). Vertices are snapped to 1/16 px and the edge functions are exact
-// integers, sampled at the pixel centres (integer coordinates, as CameraCalib::project gives them), with a
-// top-left style fill rule: a pixel centre exactly on an edge belongs to one side only, so triangles that share
-// an edge (the same two vertices) leave no crack and draw no pixel twice. A triangle with a vertex at or in
-// front of the near plane is dropped (not clipped). Triangles whose screen box is under 1024 px on each side
-// run the vectorised row loop (32-bit edge functions); larger ones a scalar 64-bit loop. The triangles'
-// set-up runs in batches, in vector lanes across triangles.
+// integers, sampled at the pixel centres (integer coordinates, as CameraCalib::project gives them). A pixel
+// centre exactly on an edge is inside: triangles that share an edge (the same two vertices) leave no crack (the
+// centres on it drawn by both, at one depth), and a mesh seen from its own camera, whose pixel centres are its
+// vertices, is drawn to its border, a surface's last pixels before a depth edge included. A triangle with a
+// vertex at or in front of the near plane is dropped (not clipped). Triangles whose screen box is under 1024 px
+// on each side run the vectorised row loop (32-bit edge functions); larger ones a scalar 64-bit loop. The
+// triangles' set-up runs in batches, in vector lanes across triangles.
 #pragma once
 
 #include <cstdint>

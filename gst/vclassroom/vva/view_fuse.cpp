@@ -142,6 +142,37 @@ void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_m
   store_row(W, s.r.data(), s.g.data(), s.b.data(), s.z.data(), s.lab.data(), oc, od, ol);
 }
 
+// FuseParams::first_is_base: blend_row with rows[0] the room. The room lies behind the learners everywhere (it
+// is the empty room's), so where a learner stands within the tolerance of the room (on a chair, against a
+// desk or the wall) the room's colour would blend into the learner's: there the room only hides what lies
+// behind it, and the learners' and the other samples within the tolerance make the colour.
+VCLASSROOM_SIMD_INLINE void learner_within(int W, const uint16_t* __restrict d, const uint8_t* __restrict w,
+                                     const uint8_t* __restrict l, const float* __restrict limit,
+                                     float* __restrict base_weight) {
+  for (int x = 0; x < W; ++x)
+    base_weight[x] = (l[x] != 0) & (d[x] != 0) & (w[x] != 0) & (float(d[x]) <= limit[x]) ? 0.0f : base_weight[x];
+}
+
+VCLASSROOM_SIMD_CLONES
+void blend_row_over_base(int W, int k, const ViewRow* rows, const float* wlut, float tol_mm, float tol_ratio,
+                         BlendScratch& s, uint8_t* oc, uint16_t* od, uint8_t* ol) {
+  int* zmin = s.zmin.data();
+  for (int x = 0; x < W; ++x) zmin[x] = 65536;
+  for (int c = 0; c < k; ++c) nearest_of(W, rows[c].d, rows[c].w, zmin);
+  start_row(W, zmin, tol_mm, tol_ratio, s.limit.data(), s.acc0.data(), s.acc1.data(), s.acc2.data(), s.zsum.data(),
+            s.wsum.data(), s.wbest.data(), s.lab.data());
+  for (int c = k - 1; c >= 0; --c) {  // the base last: its weight known once the others are seen
+    weights_of(W, rows[c].w, wlut, s.weight.data());
+    if (c == 0)
+      for (int o = 1; o < k; ++o) learner_within(W, rows[o].d, rows[o].w, rows[o].l, s.limit.data(), s.weight.data());
+    add_view(W, rows[c].c, rows[c].d, rows[c].l, s.weight.data(), s.limit.data(), s.acc0.data(), s.acc1.data(),
+             s.acc2.data(), s.zsum.data(), s.wsum.data(), s.wbest.data(), s.lab.data());
+  }
+  finish_row(W, zmin, s.acc0.data(), s.acc1.data(), s.acc2.data(), s.zsum.data(), s.wsum.data(), s.r.data(), s.g.data(),
+             s.b.data(), s.z.data());
+  store_row(W, s.r.data(), s.g.data(), s.b.data(), s.z.data(), s.lab.data(), oc, od, ol);
+}
+
 // The fade of the fill towards a neutral grey with the distance to the nearest seen pixel: untouched up to
 // `start` px, grey from `start + length` px on.
 //
@@ -327,7 +358,7 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
       const int e = run_end(others.data(), x, W, 1);
       for (int c = 0; c < k; ++c)
         span_rows[size_t(c)] = ViewRow{rows[c].c + 3 * x, rows[c].d + x, rows[c].l + x, rows[c].w + x};
-      blend_row(e - x, k, span_rows.data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x);
+      blend_row_over_base(e - x, k, span_rows.data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x);
       x = e;
     }
   }

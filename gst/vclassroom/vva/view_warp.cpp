@@ -595,17 +595,51 @@ void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __rest
 
 // Closes the cracks find_cracks marks: the pixel takes the mean of the two
 // pixels of the surface around it.
-// Experiment (WarpParams::learners_only): the depth where the label is non-zero.
-// Also the room's pixels without a static depth (`static_depth`, may be null): the room's meshes are made from
-// it and lack them, so they go forward with the learners.
+// WarpParams::learners_only: what goes forward is the learners (label non-zero) and the room's pixels that
+// the room's meshes (room_mesh.h, made from the static depth) do not draw: those without a static depth, and
+// those in no pixel quad of the mesh (a quad across a step of the static depth, beyond max(15 mm, 3 %), is
+// dropped: a surface one pixel thin is left out); and the room's pixels beside a learner, so that the cracks
+// between a learner and the room around it close as in the full warp. One row; `above` and `below` are the
+// neighbouring rows of the static depth and the labels (the row itself at the image's border).
+struct ForwardRows {
+  const uint16_t *above, *stat, *below;
+  const uint8_t *label_above, *label, *label_below;
+};
+
+// Whether the pixel quad of depths a, b, c, d is one surface: all known, max - min within max(15 mm, 3 % of
+// the nearest) (room_mesh.cpp's one_surface).
+VCLASSROOM_SIMD_INLINE bool one_surface(int a, int b, int c, int d) {
+  const int lo = std::min(std::min(a, b), std::min(c, d)), hi = std::max(std::max(a, b), std::max(c, d));
+  return (lo > 0) & (100 * (hi - lo) <= std::max(1500, 3 * lo));
+}
+
 VCLASSROOM_SIMD_CLONES
-void learner_depth_of(size_t n, const uint16_t* depth, const uint8_t* label, const uint16_t* static_depth,
+void forward_row(int n, const uint16_t* depth, const ForwardRows& r, uint16_t* out) {
+  for (int x = 0; x < n; ++x) {
+    const int l = x > 0 ? x - 1 : x, rt = x + 1 < n ? x + 1 : x;
+    const int s = r.stat[x], up = r.above[x], down = r.below[x];
+    // The four quads the pixel is a corner of (at the border, the row or column itself stands in: a quad of
+    // two pixels, as good a test).
+    const bool in_mesh = one_surface(r.above[l], up, r.stat[l], s) | one_surface(up, r.above[rt], s, r.stat[rt]) |
+                         one_surface(r.stat[l], s, r.below[l], down) | one_surface(s, r.stat[rt], down, r.below[rt]);
+    const bool learner_near = (r.label[l] | r.label[x] | r.label[rt] | r.label_above[x] | r.label_below[x]) != 0;
+    out[x] = learner_near || !in_mesh ? depth[x] : 0;
+  }
+}
+
+void learner_depth_of(int W, int H, const uint16_t* depth, const uint8_t* label, const uint16_t* static_depth,
                       uint16_t* out) {
   if (!static_depth) {
-    for (size_t i = 0; i < n; ++i) out[i] = label[i] ? depth[i] : 0;
+    for (size_t i = 0, n = size_t(W) * H; i < n; ++i) out[i] = label[i] ? depth[i] : 0;
     return;
   }
-  for (size_t i = 0; i < n; ++i) out[i] = label[i] || !static_depth[i] ? depth[i] : 0;
+  for (int y = 0; y < H; ++y) {
+    const size_t o = size_t(y) * W;
+    const ptrdiff_t up = y > 0 ? -W : 0, down = y + 1 < H ? W : 0;
+    const ForwardRows rows{static_depth + o + up, static_depth + o, static_depth + o + down,
+                           label + o + up, label + o, label + o + down};
+    forward_row(W, depth + o, rows, out + o);
+  }
 }
 
 VCLASSROOM_SIMD_CLONES
@@ -888,7 +922,7 @@ void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const War
     out->learner_depth.resize(out->depth.size());
     const bool whole = !in.static_depth.empty() && in.static_depth.isContinuous() &&
                        in.static_depth.total() == out->depth.size() && in.static_depth.type() == CV_16UC1;
-    learner_depth_of(out->depth.size(), out->depth.data(), out->label.data(),
+    learner_depth_of(src.width, src.height, out->depth.data(), out->label.data(),
                      whole ? in.static_depth.ptr<uint16_t>() : nullptr, out->learner_depth.data());
   }
 }
@@ -1568,7 +1602,7 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
     learner_depth_.resize(n);
     const bool whole = !in.static_depth.empty() && in.static_depth.isContinuous() && in.static_depth.total() == n &&
                        in.static_depth.type() == CV_16UC1;
-    learner_depth_of(n, depth, label, whole ? in.static_depth.ptr<uint16_t>() : nullptr, learner_depth_.data());
+    learner_depth_of(W, H, depth, label, whole ? in.static_depth.ptr<uint16_t>() : nullptr, learner_depth_.data());
     learners = learner_depth_.data();
   }
   int row_begin = H, row_end = 0;

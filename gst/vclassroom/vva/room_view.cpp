@@ -1,0 +1,83 @@
+#include <gst/vclassroom/vva/room_view.h>
+
+#include <algorithm>
+
+#include <gst/vclassroom/core/error.h>
+
+namespace vclassroom {
+
+namespace {
+// The mesh's tolerance (docs/vva.md, "The room view"): max(10 mm, 1 %) of the depth, tiles of 32 px at most.
+constexpr double kMeshRatio = 0.01, kMeshMinMm = 10;
+constexpr int kMeshTopLevel = 5;
+// The gaps the meshes leave between a surface and the one behind it: a mesh ends at its last pixel centres,
+// so at a depth edge its pixel quad is dropped and the view shows a strip of up to a pixel or two where the
+// forward warp's cells (half a pixel past each centre) leave none. Gaps of up to kStripPx along a row or a
+// column are closed with the farther side's depth: what a camera sees there is the surface behind.
+constexpr int kStripPx = 2;
+
+void close_strips_along_rows(cv::Mat& depth) {
+  for (int y = 0; y < depth.rows; ++y) {
+    uint16_t* r = depth.ptr<uint16_t>(y);
+    for (int x = 1; x < depth.cols; ++x) {
+      if (r[x] || !r[x - 1]) continue;
+      int e = x;
+      while (e < depth.cols && e - x <= kStripPx && !r[e]) ++e;
+      if (e < depth.cols && r[e] && e - x <= kStripPx) std::fill(r + x, r + e, std::max(r[x - 1], r[e]));
+      x = e;
+    }
+  }
+}
+
+void close_strips_along_columns(cv::Mat& depth) {
+  static_assert(kStripPx == 2, "the column pass looks two rows ahead");
+  for (int y = 1; y + 1 < depth.rows; ++y) {
+    const uint16_t* above = depth.ptr<uint16_t>(y - 1);
+    uint16_t* here = depth.ptr<uint16_t>(y);
+    uint16_t* below = depth.ptr<uint16_t>(y + 1);
+    const uint16_t* two_below = y + 2 < depth.rows ? depth.ptr<uint16_t>(y + 2) : nullptr;
+    for (int x = 0; x < depth.cols; ++x) {
+      if (here[x] || !above[x]) continue;
+      if (below[x]) {
+        here[x] = std::max(above[x], below[x]);
+      } else if (two_below && two_below[x]) {
+        here[x] = below[x] = std::max(above[x], two_below[x]);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+bool room_view_fits(const CameraCalib& camera) { return !camera.has_distortion(); }
+
+RoomShape::RoomShape(const CameraCalib& camera, const cv::Mat& static_depth) : camera_(camera), depth_(static_depth) {
+  if (depth_.type() != CV_16UC1 || depth_.cols != camera.width || depth_.rows != camera.height)
+    throw Error("the room's static depth is not a 16-bit image of camera " + std::to_string(camera.id) + "'s size");
+}
+
+const RoomMesh& RoomShape::mesh() const {
+  std::call_once(made_, [this] { room_mesh(depth_, kMeshRatio, kMeshMinMm, kMeshTopLevel, nullptr, &camera_, &mesh_); });
+  return mesh_;
+}
+
+void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const CameraCalib& view, WarpedView* out) {
+  raster_.begin(view);
+  textures_.clear();
+  for (const RoomCamera& c : cameras) {
+    raster_.draw(*c.mesh);
+    textures_.push_back(c.texture);
+  }
+  raster_.depth(&out->depth);
+  close_strips_along_rows(out->depth);
+  close_strips_along_columns(out->depth);
+  room_lookup(textures_, view, out->depth, RoomLookupParams(), &out->color, &out->weight);
+  cv::compare(out->weight, 0, unseen_, cv::CMP_EQ);
+  out->depth.setTo(0, unseen_);  // what no camera sees there is a hole
+  out->color.setTo(0, unseen_);
+  out->label.create(out->depth.size(), CV_8UC1);
+  out->label.setTo(0);
+  out->box = cv::Rect();
+}
+
+}  // namespace vclassroom

@@ -1,0 +1,65 @@
+// The room's part of a lecturer's view (docs/vva.md, "How a view is made"): most of a classroom does not move
+// and V-DA models it, so a view need not splat every camera pixel again. Each camera's static depth becomes
+// a mesh once (room_mesh.h); per camera frame its room (the seen static pixels, the background memory's room
+// behind the learners) is packed once for the lookup (room_lookup.h); per view the meshes are
+// rasterised at the pose (room_raster.h) and every view pixel's colour is looked up backward in every camera
+// that sees that point. The learners alone are then warped forward (WarpParams::learners_only) and fused on
+// top (FuseParams::first_is_base). GStreamer-free.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include <gst/vclassroom/core/rig.h>
+#include <gst/vclassroom/vva/room_lookup.h>
+#include <gst/vclassroom/vva/room_mesh.h>
+#include <gst/vclassroom/vva/room_raster.h>
+#include <gst/vclassroom/vva/view_warp.h>
+
+namespace vclassroom {
+
+// Whether a camera's room can be drawn this way: the lookup and the rasteriser are pinhole only.
+bool room_view_fits(const CameraCalib& camera);
+
+// A camera's static depth as a mesh in the rig frame, made at the first mesh() (any thread; once). The
+// mesh's tolerance is max(10 mm, 1 %) of the depth, 32 px tiles at most (docs/vva.md: 0.25 % gains 0.06 dB
+// on Table I for about twice the triangles).
+class RoomShape {
+ public:
+  // `static_depth`: CV_16UC1 mm of the camera's size (kept, not copied: it does not change).
+  RoomShape(const CameraCalib& camera, const cv::Mat& static_depth);
+  const RoomMesh& mesh() const;
+  const CameraCalib& camera() const { return camera_; }
+  const cv::Mat& static_depth() const { return depth_; }
+
+ private:
+  CameraCalib camera_;
+  cv::Mat depth_;
+  mutable std::once_flag made_;
+  mutable RoomMesh mesh_;
+};
+
+// One camera as a view's room reads it: its mesh and this frame's packed room.
+struct RoomCamera {
+  const RoomMesh* mesh = nullptr;
+  const RoomTexture* texture = nullptr;
+};
+
+// Renders the room at a view; keeps its buffers between views.
+class RoomViewRenderer {
+ public:
+  // `out` gets the view's size: depth (0 where no mesh lies or no camera sees the surface), the colour
+  // blended from every camera that sees it (black elsewhere), label 0, weight 255 where seen. `view` is
+  // pinhole (room_view_fits).
+  void render(const std::vector<RoomCamera>& cameras, const CameraCalib& view, WarpedView* out);
+
+ private:
+  RoomRaster raster_;
+  std::vector<const RoomTexture*> textures_;
+  cv::Mat unseen_;
+};
+
+}  // namespace vclassroom
