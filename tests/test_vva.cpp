@@ -1385,3 +1385,46 @@ TEST(ViewTurns, ATurnHeldTooLongIsTakenAndAGoneOrStoppedViewNeverWaits) {
   turns.begin(6, 60);
   EXPECT_EQ(turns.holder(), 5u);
 }
+
+// viewfuse room-view: the room (the first view, the empty room's, behind the learners everywhere) and the
+// warped learners. A learner within the depth tolerance of the room (on a chair, against the wall) keeps its
+// own colour, untinted by the room's; a learner behind the room's surface is hidden by it; the room's own
+// pixels warped forward (its edges) blend with the looked-up room as any two cameras' samples do.
+TEST(ViewFuse, OverTheRoomALearnerNearItKeepsItsColourAndOneBehindItIsHidden) {
+  const int W = 16, H = 2;
+  WarpedView room{cv::Mat(H, W, CV_8UC3, cv::Scalar(200, 0, 0)), cv::Mat(H, W, CV_16UC1, cv::Scalar(3000)),
+                  cv::Mat::zeros(H, W, CV_8UC1), cv::Mat(H, W, CV_8UC1, cv::Scalar(255)), cv::Rect()};
+  WarpedView forward{cv::Mat::zeros(H, W, CV_8UC3), cv::Mat::zeros(H, W, CV_16UC1), cv::Mat::zeros(H, W, CV_8UC1),
+                     cv::Mat::zeros(H, W, CV_8UC1), cv::Rect()};
+  const cv::Range near_learner(0, 4), far_learner(4, 8), room_edge(8, 12);
+  forward.color.colRange(near_learner).setTo(cv::Scalar(0, 0, 200));
+  forward.depth.colRange(near_learner).setTo(3020);  // within 3 % of the room
+  forward.label.colRange(near_learner).setTo(1);
+  forward.color.colRange(far_learner).setTo(cv::Scalar(0, 0, 200));
+  forward.depth.colRange(far_learner).setTo(3500);
+  forward.label.colRange(far_learner).setTo(1);
+  forward.color.colRange(room_edge).setTo(cv::Scalar(0, 200, 0));
+  forward.depth.colRange(room_edge).setTo(3010);
+  forward.weight.colRange(0, 12).setTo(200);
+  FuseParams params;
+  params.first_is_base = true;
+  params.fill_holes = false;
+  FusedView out;
+  fuse_views({&room, &forward}, params, &out);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const cv::Vec3b c = out.color.at<cv::Vec3b>(y, x);
+      if (x < 4) {
+        EXPECT_EQ(c, cv::Vec3b(0, 0, 200)) << x;
+      } else if (x < 8 || x >= 12) {
+        EXPECT_EQ(c, cv::Vec3b(200, 0, 0)) << x;
+      } else {
+        EXPECT_GT(c[0], 50) << x;
+        EXPECT_GT(c[1], 50) << x;
+      }
+    }
+  // Without the room as the base (the blend of any views) the near learner takes some of the room's colour.
+  params.first_is_base = false;
+  fuse_views({&room, &forward}, params, &out);
+  EXPECT_GT(out.color.at<cv::Vec3b>(0, 0)[0], 50);
+}

@@ -858,3 +858,105 @@ TEST(ViewFuseElement, AHoleBesideABrightObjectIsFilledFromTheWallBehind) {
   seen.setTo(cv::Scalar(0, 0, 0), scene.hole);
   EXPECT_TRUE(vctest::same_image(seen, scene.color));
 }
+
+namespace {
+
+// A buffer probe that counts the warped frames carrying a room view part (viewwarp warped only the learners).
+GstPadProbeReturn count_room_parts(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* counts = static_cast<std::pair<int, int>*>(data);
+  ++counts->second;
+  if (buffer_get_room_view_part(GST_PAD_PROBE_INFO_BUFFER(info))) ++counts->first;
+  return GST_PAD_PROBE_OK;
+}
+
+}  // namespace
+
+// Three cameras into one view through the elements, with viewfuse room-view on and off. On: the viewwarps of
+// the cameras with prior-depth warp only their learners and pass their frame's room to viewfuse, which draws
+// the room from every such camera's mesh; camera 2, without prior-depth, is warped whole as before. Both ways
+// give the view of the pose each picture names, as good as each other against the truth there (within 0.5 dB
+// a picture; the sensor's noise is on), at camera 0's place and walking away from it.
+TEST(ViewFuseElement, WithRoomViewTheFuseDrawsTheRoomAndTheWarpsOnlyTheLearners) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const Rig small = load_rig(rig);
+  const Classroom empty(ClassroomConfig{1, 0, 2.0}), room(ClassroomConfig{1, 3, 2.0});
+  std::vector<std::string> priors;
+  for (int k = 0; k < 2; ++k) {
+    priors.push_back(dir / ("prior-cam" + std::to_string(k) + ".png"));
+    cv::imwrite(priors.back(), render(empty, 0.0, small.camera(k)).depth);
+  }
+  std::vector<PoseSample> trace;
+  for (int i = 0; i < 8; ++i) {
+    PoseSample p;
+    p.t = i / 30.0;
+    p.pose = sliders_to_pose(Sliders{50.0 - 2 * i, 50, 50, 50.0 + i, 50, 50}, small.camera(0));
+    trace.push_back(p);
+  }
+  save_pose_trace(trace, dir / "walk.csv");
+  // Each picture's PSNR against the truth at the pose it names and its time; the frames that carried a room
+  // view part out of camera 0's and camera 2's viewwarp, of all.
+  auto run = [&](bool room_view, std::pair<int, int>* parts0, std::pair<int, int>* parts2) {
+    std::string desc = "viewfuse name=f pose-trace=" + (dir / "walk.csv") + " room-view=" +
+                       (room_view ? "true" : "false") + " ! appsink name=out sync=false max-buffers=8";
+    for (int k = 0; k < 3; ++k) {
+      const std::string prior = k < 2 ? " prior-depth=" + priors[size_t(k)] : "";
+      desc += " rgbdtestsrc rig=" + rig + " camera-id=" + std::to_string(k) + " learners=3 seed=1 num-buffers=8" +
+              " ! learnerseg" + prior + " ! viewwarp name=w" + std::to_string(k) + " rig=" + rig + prior +
+              " ! queue ! f.cam_" + std::to_string(k);
+    }
+    GError* err = nullptr;
+    GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+    EXPECT_EQ(err, nullptr) << (err ? err->message : "");
+    std::vector<double> scores;
+    if (err || !pipe) {
+      g_clear_error(&err);
+      if (pipe) gst_object_unref(pipe);
+      return scores;
+    }
+    for (auto [name, counts] : {std::pair{"w0", parts0}, std::pair{"w2", parts2}}) {
+      GstElement* w = gst_bin_get_by_name(GST_BIN(pipe), name);
+      GstPad* src = gst_element_get_static_pad(w, "src");
+      gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_BUFFER, count_room_parts, counts, nullptr);
+      gst_object_unref(src);
+      gst_object_unref(w);
+    }
+    GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+    gst_element_set_state(pipe, GST_STATE_PLAYING);
+    for (int i = 0; i < 8; ++i) {
+      GstSample* sample = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 30 * GST_SECOND);
+      EXPECT_NE(sample, nullptr) << "picture " << i;
+      if (!sample) break;
+      GstBuffer* b = gst_sample_get_buffer(sample);
+      const PoseMeta* meta = buffer_get_pose_meta(b);
+      EXPECT_TRUE(meta && meta->rendered.known) << "picture " << i << " names no pose";
+      GstMapInfo map;
+      if (meta && meta->rendered.known && gst_buffer_map(b, &map, GST_MAP_READ)) {
+        GstVideoInfo vi;
+        gst_video_info_from_caps(&vi, gst_sample_get_caps(sample));
+        const cv::Mat picture(90, 160, CV_8UC3, map.data, size_t(GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0)));
+        const CameraCalib view = virtual_camera(small.camera(0), pose_of(meta->rendered).cam_to_rig(), NAN);
+        const double t = double(GST_BUFFER_PTS(b)) / GST_SECOND;
+        scores.push_back(psnr_rgb(picture, render(room, t, view).color));
+        gst_buffer_unmap(b, &map);
+      }
+      gst_sample_unref(sample);
+    }
+    gst_element_set_state(pipe, GST_STATE_NULL);
+    gst_object_unref(sink);
+    gst_object_unref(pipe);
+    return scores;
+  };
+  std::pair<int, int> whole0{0, 0}, whole2{0, 0}, room0{0, 0}, room2{0, 0};
+  const std::vector<double> whole = run(false, &whole0, &whole2), by_room = run(true, &room0, &room2);
+  ASSERT_EQ(whole.size(), 8u);
+  ASSERT_EQ(by_room.size(), 8u);
+  EXPECT_EQ(whole0.first, 0) << "room-view off: every camera warped whole";
+  EXPECT_EQ(room0.first, room0.second) << "room-view on: camera 0 (prior-depth) warps its learners only";
+  EXPECT_GE(room0.second, 8);
+  EXPECT_EQ(room2.first, 0) << "camera 2 has no prior-depth: warped whole";
+  for (size_t i = 0; i < whole.size(); ++i) {
+    EXPECT_GT(whole[i], 18.0) << "picture " << i << ": not the view of the pose it names";
+    EXPECT_GT(by_room[i], whole[i] - 0.5) << "picture " << i;
+  }
+}
