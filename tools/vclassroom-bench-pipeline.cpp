@@ -85,7 +85,7 @@ GstPadProbeReturn count_frame(GstPad*, GstPadProbeInfo*, gpointer data) {
 
 int main(int argc, char** argv) {
   int frames = 300, learners = 6, cameras = 3, runs = 3, memory = 0;
-  gboolean room_view = FALSE;
+  gchar* room_view = nullptr;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames per run (default 300, at least 40)", "N"},
       {"runs", 0, 0, G_OPTION_ARG_INT, &runs, "runs, each printed, then the median (default 3)", "R"},
@@ -94,8 +94,10 @@ int main(int argc, char** argv) {
       {"memory", 0, 0, G_OPTION_ARG_INT, &memory,
        "viewwarp background-memory=N with the empty room as its empty-room, as server.sh runs it (default 0: off)",
        "N"},
-      {"room-view", 0, 0, G_OPTION_ARG_NONE, &room_view,
-       "viewfuse room-view=true: the room drawn from the cameras' meshes, the learners alone warped", nullptr},
+      {"room-view", 0, 0, G_OPTION_ARG_STRING, &room_view,
+       "viewfuse room-view: on (the default: the room drawn from the cameras' meshes, the learners warped alone) "
+       "or off (every camera warped whole)",
+       "on|off"},
       {}};
   vclassroom_tools::parse_command_line(
       &argc, &argv, "",
@@ -103,6 +105,8 @@ int main(int argc, char** argv) {
       "the virtual view following a lecturer's walk (a new pose every frame). Needs the plugins: run it inside\n"
       "`meson devenv -C build` or after `meson install`.",
       entries, gst_init_get_option_group());
+  const std::string room_choice = room_view ? room_view : "on";
+  if (room_choice != "on" && room_choice != "off") vclassroom_tools::usage_error("--room-view must be on or off");
   if (frames < 40 || runs < 1 || learners < 0 || cameras < 1 || cameras > 3 || memory < 0)
     vclassroom_tools::usage_error(
         "--frames must be at least 40, --runs at least 1, --cameras 1 to 3, --memory at least 0");
@@ -163,7 +167,7 @@ int main(int argc, char** argv) {
     int frames = 0;
   };
   auto run_once = [&](RunFigures* fig) -> int {
-    std::string desc = "viewfuse name=fuse pose-trace=" + trace + (room_view ? " room-view=true" : "") +
+    std::string desc = "viewfuse name=fuse pose-trace=" + trace + " room-view=" + (room_choice == "on" ? "true" : "false") +
                        " ! fakesink name=out sync=false";
     for (int k = 0; k < cameras; ++k)
       desc += " appsrc name=src" + std::to_string(k) + " format=time max-buffers=2 ! learnerseg prior-depth=" +
@@ -235,8 +239,9 @@ int main(int argc, char** argv) {
     if (rc == 0) figs.push_back(f);
   }
   std::sort(figs.begin(), figs.end(), [](const RunFigures& a, const RunFigures& b) { return a.fps < b.fps; });
-  std::printf("%d camera(s) 960x540 -> learnerseg -> viewwarp -> viewfuse 960x540, %d learners, %d frames per run\n",
-              cameras, learners, frames);
+  std::printf("%d camera(s) 960x540 -> learnerseg -> viewwarp -> viewfuse 960x540 (room-view %s), %d learners, "
+              "%d frames per run\n",
+              cameras, room_choice.c_str(), learners, frames);
   for (const RunFigures& f : figs)
     std::printf("  run: %.1f fps, CPU %.1f ms per output frame (%.0f%% of one core)\n", f.fps, f.cpu_ms,
                 100 * f.cores);

@@ -46,7 +46,10 @@ int main(int argc, char** argv) {
   gint frames = 300, memory = 0, precision = 2;
   gchar* out_dir = nullptr;
   gchar* fill = nullptr;
+  gchar* room_view = nullptr;
   const GOptionEntry entries[] = {
+      {"room-view", 0, 0, G_OPTION_ARG_STRING, &room_view,
+       "viewfuse room-view: on (the default: the room from its meshes, the learners warped alone) or off", "on|off"},
       {"fill", 0, 0, G_OPTION_ARG_STRING, &fill,
        "viewfuse fill-method: pyramid (the default) or rays (the fill before issue 35)", "METHOD"},
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "Frames at 30 fps (default 300)", "N"},
@@ -64,6 +67,8 @@ int main(int argc, char** argv) {
   if (precision < 0 || precision > 6) usage_error("--precision must be 0 to 6");
   const std::string fill_method = fill ? fill : "pyramid";
   if (fill_method != "pyramid" && fill_method != "rays") usage_error("--fill must be pyramid or rays");
+  const std::string room_choice = room_view ? room_view : "on";
+  if (room_choice != "on" && room_choice != "off") usage_error("--room-view must be on or off");
   const Rig rig = default_classroom_rig();
   // A novel view between the centre and the right camera, a little forward and turned.
   Pose pose = offset_to_pose(ViewOffset{0.3, 0.05, 0.4, 8, 2, 0}, rig.camera(0));
@@ -78,7 +83,8 @@ int main(int argc, char** argv) {
   ClassroomConfig empty;
   empty.learners = 0;
   const Classroom empty_room(empty);
-  std::string desc = "viewfuse name=fuse fill-method=" + fill_method + " ! videoconvert ! video/x-raw,format=RGB ! appsink name=out sync=false";
+  std::string desc = "viewfuse name=fuse fill-method=" + fill_method + " room-view=" + (room_choice == "on" ? "true" : "false") +
+                     " ! videoconvert ! video/x-raw,format=RGB ! appsink name=out sync=false";
   for (int k = 0; k < 3; ++k) {
     const std::string prior = tmp + "/prior" + std::to_string(k) + ".png";
     cv::imwrite(prior, render(empty_room, 0.0, rig.camera(k)).depth);

@@ -15,6 +15,12 @@
  * vclassroom-camera-status message) and named on the picture, and the cameras' warps start together
  * (`warp-sync`, docs/lecturer.md). `stats-interval` posts vclassroom-view-stats messages.
  *
+ * `room-view` (on by default) draws the room here: a viewwarp with `prior-depth` then warps only its camera's
+ * learners (and what the room's mesh does not draw) and passes its frame's room along with the picture, and
+ * this element rasterises every such camera's mesh of its static depth at the view and looks its colour up in
+ * the cameras, the learners fused over it (docs/vva.md, "How a view is made"). Cameras without `prior-depth`
+ * are warped whole, as with `room-view=false`.
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc camera-id=0 num-buffers=30 ! learnerseg ! viewwarp ! queue ! f.cam_0 rgbdtestsrc camera-id=2 num-buffers=30 ! learnerseg ! viewwarp ! queue ! f.cam_2 viewfuse name=f ! videoconvert ! fakesink

@@ -31,6 +31,9 @@ namespace vclassroom {
 // Live and without any input, the fuse thread wakes this often to notice lost
 // cameras and to keep the lecturer's picture saying so; otherwise it sleeps.
 constexpr GstClockTime kIdleWake = 100 * GST_MSECOND;
+// viewfuse room-view's default: on (docs/vva.md, "How a view is made": the same quality or better for 0.6 of
+// the CPU per view).
+constexpr bool kRoomViewByDefault = true;
 
 struct ViewFuseState {
   std::mutex lock;  // guards the properties, pad_info and inputs
@@ -42,7 +45,7 @@ struct ViewFuseState {
   guint stats_interval = 0;  // frames between vclassroom-view-stats messages; 0: none
   FuseParams params;
   // The room drawn here (room_view.h), the viewwarps asked to warp only the learners (their warp-start query).
-  std::atomic<bool> room_view{false};
+  std::atomic<bool> room_view{kRoomViewByDefault};
   std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
   // Which pads are left out, lost, stale (the decisions of each round).
   FuseInputs inputs;

@@ -21,6 +21,10 @@
  * changes by more than the camera's noise, and with `prior-depth` draws the room behind the learners as last
  * seen; `empty-room` (V-DA's model: prior-color/cam<ID>.png) is where that memory starts (docs/vva.md).
  *
+ * With `prior-depth`, feeding a viewfuse whose `room-view` is on (the default), the warp draws only the
+ * learners and what the room's mesh does not draw, and each buffer carries the camera's room (a
+ * RoomViewPart meta) for viewfuse to draw at the view (docs/vva.md, "How a view is made").
+ *
  * ## Example launch line
  * |[
  * gst-launch-1.0 rgbdtestsrc camera-id=1 num-buffers=30 ! learnerseg ! viewwarp width=320 height=180 ! rgbddemux name=d d.color ! videoconvert ! fakesink
