@@ -252,7 +252,9 @@ TEST(RoomView, TheRoomDrawnFromMeshesAndTheLearnersWarpedAloneMakeTheFullWarpsVi
     fuse_views({&room_part, &learners[0], &learners[1], &learners[2]}, base, &by_room);
     const double psnr_today = psnr_rgb(today.color, truth.color), psnr_room = psnr_rgb(by_room.color, truth.color);
     EXPECT_GT(psnr_room, psnr_today - 0.3) << format_sliders(s) << ": today " << psnr_today;
-    if (s[0] == 50 && s[3] == 50) EXPECT_GT(psnr_room, psnr_today + 1) << "at camera 0's place";
+    if (s[0] == 50 && s[3] == 50) {
+      EXPECT_GT(psnr_room, psnr_today + 1) << "at camera 0's place";
+    }
     EXPECT_EQ(cv::countNonZero((room_part.weight != 0) & (room_part.depth == 0)), 0) << "seen without a depth";
     const cv::Mat learner_pixels = truth.label != 0;
     ASSERT_GT(cv::countNonZero(learner_pixels), 500) << "the learners should be in view";
@@ -303,7 +305,7 @@ TEST(RoomLookup, TheVectorLoopGivesThePixelLoopsPicture) {
   if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma"))
     GTEST_SKIP() << "this CPU has no AVX2 and FMA: the pixel loop is the only one";
   using namespace room_lookup_detail;
-  for (const auto [w, h] : {std::pair{320, 180}, std::pair{317, 180}}) {
+  for (const auto& [w, h] : {std::pair{320, 180}, std::pair{317, 180}}) {
     const LookupScene scene(w, h);
     const CameraCalib view = virtual_camera(scene.cams[0], sliders_to_pose(Sliders{40, 50, 55, 55, 50, 50},
                                                                            scene.cams[0]).cam_to_rig(), NAN);
@@ -311,7 +313,7 @@ TEST(RoomLookup, TheVectorLoopGivesThePixelLoopsPicture) {
     cv::Mat fast, fast_written;
     room_lookup(scene.all(), view, depth, RoomLookupParams(), &fast, &fast_written);
     const std::vector<LookupCamera> cams = lookup_cameras(scene.all(), view, RoomLookupParams());
-    const LookupView lv = lookup_view(view, RoomLookupParams());
+    const LookupView lv = lookup_view(view, RoomLookupParams(), cams);
     cv::Mat slow(depth.size(), CV_8UC3, cv::Scalar::all(0)), slow_written(depth.size(), CV_8UC1);
     for (int y = 0; y < depth.rows; ++y)
       lookup_row_portable(cams, lv, y, 0, depth.cols, depth.ptr<uint16_t>(y), slow.ptr<uint8_t>(y),

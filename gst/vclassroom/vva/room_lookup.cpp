@@ -46,6 +46,10 @@ void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const u
 
 namespace room_lookup_detail {
 
+namespace {
+constexpr float kFarPlace = 0.15f;  // a camera's place weight, relative to the nearest's, skipped under
+}  // namespace
+
 std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
                                          const RoomLookupParams& params) {
   std::vector<LookupCamera> out;
@@ -66,12 +70,18 @@ std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& 
     c.rec = t->packed.data(), c.W = t->width, c.H = t->height;
     out.push_back(c);
   }
+  std::stable_sort(out.begin(), out.end(), [](const LookupCamera& a, const LookupCamera& b) { return a.place > b.place; });
   return out;
 }
 
-LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params) {
-  return LookupView{float(virt.cx), float(virt.cy), float(1 / virt.fx), float(1 / virt.fy), float(params.depth_tol_mm),
-                    float(params.depth_tol_ratio)};
+LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params,
+                       const std::vector<LookupCamera>& cameras) {
+  int enough = int(cameras.size());
+  while (enough > 1 && cameras[size_t(enough) - 1].place < kFarPlace * cameras[0].place) --enough;
+  return LookupView{float(virt.cx),           float(virt.cy),
+                    float(1 / virt.fx),       float(1 / virt.fy),
+                    float(params.depth_tol_mm), float(params.depth_tol_ratio),
+                    enough};
 }
 
 namespace {
@@ -86,7 +96,8 @@ inline int mulhrs(int a, int b) { return (a * b + 16384) >> 15; }
 // members that agree (`sum`, exact integers, and their weight `fw`), and its weight in the blend (0: it does
 // not see the point).
 float camera_sample(const LookupCamera& c, const LookupView& v, float x, float y, float z, float view_dist2,
-                    int sum[3], int* fw) {
+                    int sum[3], int* fw, bool* strict) {
+  *strict = false;
   const float a0 = c.b[0] + y * c.dy[0] + x * c.s[0], a1 = c.b[1] + y * c.dy[1] + x * c.s[1],
               a2 = c.b[2] + y * c.dy[2] + x * c.s[2];
   const float h0 = z * a0 + c.t[0], h1 = z * a1 + c.t[1], h2 = z * a2 + c.t[2];
@@ -123,6 +134,7 @@ float camera_sample(const LookupCamera& c, const LookupView& v, float x, float y
   const float cs = (view_dist2 + cam_dist2 - c.base2) * iac * 0.5f;
   const float cs2 = cs * cs, cs4 = cs2 * cs2, cs8 = cs4 * cs4;
   const float q = std::max(cs8, 0.02f) * std::min(1.0f, view_dist2 * iac);
+  *strict = !out;
   return (out ? kOnlySeen : 1.0f) * c.place * q * q;
 }
 
@@ -138,12 +150,16 @@ void lookup_row_portable(const std::vector<LookupCamera>& cams, const LookupView
     const float rx = (float(x) - view.cx) * view.ifx;
     const float view_dist2 = z * z * (1.0f + rx * rx + ry * ry);
     float acc[3] = {0, 0, 0}, n = 0;
-    for (const LookupCamera& c : cams) {
+    bool seen_strictly = false;
+    for (size_t k = 0; k < cams.size(); ++k) {
+      if (int(k) >= view.enough && seen_strictly) break;
       int sum[3], fw;
-      const float wt = camera_sample(c, view, float(x), float(y), z, view_dist2, sum, &fw);
+      bool strict;
+      const float wt = camera_sample(cams[k], view, float(x), float(y), z, view_dist2, sum, &fw, &strict);
+      seen_strictly |= strict;
       if (wt <= 0) continue;
-      const float k = wt / float(std::max(fw, 1));
-      for (int ch = 0; ch < 3; ++ch) acc[ch] += float(sum[ch]) * k;
+      const float per_weight = wt / float(std::max(fw, 1));
+      for (int ch = 0; ch < 3; ++ch) acc[ch] += float(sum[ch]) * per_weight;
       n += wt;
     }
     if (n <= 0) continue;
@@ -161,7 +177,7 @@ void room_lookup(const std::vector<const RoomTexture*>& cameras, const CameraCal
   if (color->size() != view_depth.size() || color->type() != CV_8UC3) color->create(view_depth.size(), CV_8UC3);
   written->create(view_depth.size(), CV_8UC1);
   const std::vector<LookupCamera> cams = lookup_cameras(cameras, virt, params);
-  const LookupView view = lookup_view(virt, params);
+  const LookupView view = lookup_view(virt, params, cams);
   if (lookup_avx2(cams, view, view_depth, color, written)) return;
   for (int y = 0; y < view_depth.rows; ++y)
     lookup_row_portable(cams, view, y, 0, view_depth.cols, view_depth.ptr<uint16_t>(y), color->ptr<uint8_t>(y),

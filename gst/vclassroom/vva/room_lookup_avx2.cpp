@@ -102,8 +102,11 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
       const __m256 xv = _mm256_add_ps(_mm256_set1_ps(float(x0)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
       const __m256 rx = _mm256_mul_ps(_mm256_sub_ps(xv, vcx), vifx);
       const __m256 view_dist2 = _mm256_mul_ps(_mm256_mul_ps(z, z), _mm256_fmadd_ps(rx, rx, ray_y2));
-      __m256 sr = zero, sg = zero, sb = zero, sn = zero;
+      __m256 sr = zero, sg = zero, sb = zero, sn = zero, seen_strictly = zero;
+      const __m256 wanted = _mm256_cmp_ps(z, zero, _CMP_NEQ_OQ);
       for (int k = 0; k < nc; ++k) {
+        // The far cameras: not where a nearer one sees the point strictly (lookup_row_portable likewise).
+        if (k >= view.enough && !_mm256_movemask_ps(_mm256_andnot_ps(seen_strictly, wanted))) break;
         const CamV& c = cams[k];
         const __m256 a0 = _mm256_fmadd_ps(xv, c.s[0], c.b[0]), a1 = _mm256_fmadd_ps(xv, c.s[1], c.b[1]),
                      a2 = _mm256_fmadd_ps(xv, c.s[2], c.b[2]);
@@ -177,8 +180,10 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
         const __m256 strict = _mm256_andnot_ps(strict_keep, seen);
         // The camera's weight where it sees the point strictly, 2^-16 of it where it only sees it (so the strict
         // cameras decide where there are any); its colour sums divided by their bilinear weight.
-        const __m256 wt = _mm256_mul_ps(_mm256_blendv_ps(_mm256_and_ps(seen, only_seen), one, strict),
-                                        camera_weight(c, view_dist2, h2, u, v));
+        __m256 wt = _mm256_mul_ps(_mm256_blendv_ps(_mm256_and_ps(seen, only_seen), one, strict),
+                                  camera_weight(c, view_dist2, h2, u, v));
+        if (k >= view.enough) wt = _mm256_andnot_ps(seen_strictly, wt);
+        seen_strictly = _mm256_or_ps(seen_strictly, strict);
         const __m256 kw = _mm256_div_ps(wt, _mm256_max_ps(fw, one));
         sr = _mm256_fmadd_ps(fr, kw, sr), sg = _mm256_fmadd_ps(fg, kw, sg), sb = _mm256_fmadd_ps(fb, kw, sb);
         sn = _mm256_add_ps(sn, wt);

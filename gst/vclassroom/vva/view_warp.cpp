@@ -599,30 +599,37 @@ void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __rest
 // the room's meshes (room_mesh.h, made from the static depth) do not draw: those without a static depth, and
 // those in no pixel quad of the mesh (a quad across a step of the static depth, beyond max(15 mm, 3 %), is
 // dropped: a surface one pixel thin is left out); and the room's pixels beside a learner, so that the cracks
-// between a learner and the room around it close as in the full warp. One row; `above` and `below` are the
-// neighbouring rows of the static depth and the labels (the row itself at the image's border).
-struct ForwardRows {
-  const uint16_t *above, *stat, *below;
-  const uint8_t *label_above, *label, *label_below;
-};
-
-// Whether the pixel quad of depths a, b, c, d is one surface: all known, max - min within max(15 mm, 3 % of
-// the nearest) (room_mesh.cpp's one_surface).
-VCLASSROOM_SIMD_INLINE bool one_surface(int a, int b, int c, int d) {
-  const int lo = std::min(std::min(a, b), std::min(c, d)), hi = std::max(std::max(a, b), std::max(c, d));
-  return (lo > 0) & (100 * (hi - lo) <= std::max(1500, 3 * lo));
+// between a learner and the room around it close as in the full warp.
+//
+// Per pixel quad of the rows `top` and `bottom` (quad x: columns x and x + 1; n - 1 of them), 1 where it is
+// one surface: all four depths known, max - min within max(15 mm, 3 % of the nearest) (room_mesh.cpp's
+// one_surface, in integers: 100 (max - min) <= max(1500, 3 min)).
+VCLASSROOM_SIMD_CLONES
+void quads_of(int n, const uint16_t* __restrict top, const uint16_t* __restrict bottom, uint8_t* __restrict out) {
+  for (int x = 0; x + 1 < n; ++x) {
+    const int a = top[x], b = top[x + 1], c = bottom[x], d = bottom[x + 1];
+    const int lo = std::min(std::min(a, b), std::min(c, d)), hi = std::max(std::max(a, b), std::max(c, d));
+    out[x] = uint8_t((lo > 0) & (100 * (hi - lo) <= std::max(1500, 3 * lo)));
+  }
 }
 
+// One row of what goes forward: the pixel quads with the row above (`up`) and below (`down`) as quads_of
+// gives them, each with a readable 0 before the first and at the last; the labels of the row and of the rows
+// above and below (the row itself at the image's border).
 VCLASSROOM_SIMD_CLONES
-void forward_row(int n, const uint16_t* depth, const ForwardRows& r, uint16_t* out) {
-  for (int x = 0; x < n; ++x) {
-    const int l = x > 0 ? x - 1 : x, rt = x + 1 < n ? x + 1 : x;
-    const int s = r.stat[x], up = r.above[x], down = r.below[x];
-    // The four quads the pixel is a corner of (at the border, the row or column itself stands in: a quad of
-    // two pixels, as good a test).
-    const bool in_mesh = one_surface(r.above[l], up, r.stat[l], s) | one_surface(up, r.above[rt], s, r.stat[rt]) |
-                         one_surface(r.stat[l], s, r.below[l], down) | one_surface(s, r.stat[rt], down, r.below[rt]);
-    const bool learner_near = (r.label[l] | r.label[x] | r.label[rt] | r.label_above[x] | r.label_below[x]) != 0;
+void forward_row(int n, const uint16_t* __restrict depth, const uint8_t* __restrict up,
+                 const uint8_t* __restrict down, const uint8_t* __restrict label_above,
+                 const uint8_t* __restrict label, const uint8_t* __restrict label_below, uint16_t* __restrict out) {
+  for (int x = 1; x + 1 < n; ++x) {
+    const bool in_mesh = (up[x - 1] | up[x] | down[x - 1] | down[x]) != 0;
+    const bool learner_near = (label[x - 1] | label[x] | label[x + 1] | label_above[x] | label_below[x]) != 0;
+    out[x] = learner_near || !in_mesh ? depth[x] : 0;
+  }
+  for (const int x : {0, n - 1}) {  // the first and last pixel: a neighbour beyond the border is none
+    if (x < 0) continue;
+    const bool in_mesh = (up[x - 1] | up[x] | down[x - 1] | down[x]) != 0;
+    const int left = x > 0 ? label[x - 1] : 0, right = x + 1 < n ? label[x + 1] : 0;
+    const bool learner_near = (left | label[x] | right | label_above[x] | label_below[x]) != 0;
     out[x] = learner_near || !in_mesh ? depth[x] : 0;
   }
 }
@@ -633,12 +640,17 @@ void learner_depth_of(int W, int H, const uint16_t* depth, const uint8_t* label,
     for (size_t i = 0, n = size_t(W) * H; i < n; ++i) out[i] = label[i] ? depth[i] : 0;
     return;
   }
+  // The quads with the row above and below; index 0 and W stay 0 (no quad beyond the image's border).
+  static thread_local std::vector<uint8_t> up, down;
+  up.assign(size_t(W) + 1, 0), down.assign(size_t(W) + 1, 0);
   for (int y = 0; y < H; ++y) {
     const size_t o = size_t(y) * W;
-    const ptrdiff_t up = y > 0 ? -W : 0, down = y + 1 < H ? W : 0;
-    const ForwardRows rows{static_depth + o + up, static_depth + o, static_depth + o + down,
-                           label + o + up, label + o, label + o + down};
-    forward_row(W, depth + o, rows, out + o);
+    if (y + 1 < H) quads_of(W, static_depth + o, static_depth + o + W, down.data() + 1);
+    else std::fill(down.begin(), down.end(), 0);
+    const uint8_t* label_above = y > 0 ? label + o - W : label + o;
+    const uint8_t* label_below = y + 1 < H ? label + o + W : label + o;
+    forward_row(W, depth + o, up.data() + 1, down.data() + 1, label_above, label + o, label_below, out + o);
+    up.swap(down);
   }
 }
 
