@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string>
 
+#include <opencv2/core/utility.hpp>
+
 #include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/simd.h>
 
@@ -48,6 +50,7 @@ namespace room_lookup_detail {
 
 namespace {
 constexpr float kFarPlace = 0.15f;  // a camera's place weight, relative to the nearest's, skipped under
+constexpr int kBands = 4;           // of rows, for the threads (a few more than this machine's cores, for balance)
 }  // namespace
 
 std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
@@ -178,10 +181,14 @@ void room_lookup(const std::vector<const RoomTexture*>& cameras, const CameraCal
   written->create(view_depth.size(), CV_8UC1);
   const std::vector<LookupCamera> cams = lookup_cameras(cameras, virt, params);
   const LookupView view = lookup_view(virt, params, cams);
-  if (lookup_avx2(cams, view, view_depth, color, written)) return;
-  for (int y = 0; y < view_depth.rows; ++y)
-    lookup_row_portable(cams, view, y, 0, view_depth.cols, view_depth.ptr<uint16_t>(y), color->ptr<uint8_t>(y),
-                        written->ptr<uint8_t>(y));
+  const int rows = view_depth.rows;
+  cv::parallel_for_(cv::Range(0, kBands), [&](const cv::Range& bands) {
+    const int y_begin = rows * bands.start / kBands, y_end = rows * bands.end / kBands;
+    if (lookup_avx2(cams, view, view_depth, y_begin, y_end, color, written)) return;
+    for (int y = y_begin; y < y_end; ++y)
+      lookup_row_portable(cams, view, y, 0, view_depth.cols, view_depth.ptr<uint16_t>(y), color->ptr<uint8_t>(y),
+                          written->ptr<uint8_t>(y));
+  });
 }
 
 }  // namespace vclassroom

@@ -87,10 +87,10 @@ LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params,
 // Pixels [x_begin, x_end) of row y, one by one (the reference and the fallback).
 void lookup_row_portable(const std::vector<LookupCamera>& cams, const LookupView& view, int y, int x_begin,
                          int x_end, const uint16_t* depth_row, uint8_t* color_row, uint8_t* written_row);
-// The whole view 8 pixels at a time (the rest of each row by lookup_row_portable). False, nothing done, where
-// the CPU lacks AVX2 and FMA.
+// Rows [y_begin, y_end) of the view 8 pixels at a time (the rest of each row by lookup_row_portable). False,
+// nothing done, where the CPU lacks AVX2 and FMA.
 bool lookup_avx2(const std::vector<LookupCamera>& cams, const LookupView& view, const cv::Mat& view_depth,
-                 cv::Mat* color, cv::Mat* written);
+                 int y_begin, int y_end, cv::Mat* color, cv::Mat* written);
 
 }  // namespace room_lookup_detail
 

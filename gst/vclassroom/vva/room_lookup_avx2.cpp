@@ -56,7 +56,7 @@ VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256 camera_weight(const
 }
 
 VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const LookupView& view,
-                                 const cv::Mat& view_depth, cv::Mat* color, cv::Mat* written) {
+                                 const cv::Mat& view_depth, int y_begin, int y_end, cv::Mat* color, cv::Mat* written) {
   const int VW = view_depth.cols, VH = view_depth.rows, nc = int(cf.size());
   CV_Assert(nc <= 8);
   CamV cams[8];  // on the stack: 32-byte aligned (the vector allocator here is not)
@@ -82,7 +82,7 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
                                         9, 10, 12, 13, 14, -1, -1, -1, -1);
   alignas(32) int32_t ii[8];
   alignas(32) uint32_t px[8];
-  for (int y = 0; y < VH; ++y) {
+  for (int y = y_begin; y < y_end; ++y) {
     for (int k = 0; k < nc; ++k)
       for (int j = 0; j < 3; ++j)
         cams[k].b[j] = _mm256_set1_ps(cf[size_t(k)].b[j] + float(y) * cf[size_t(k)].dy[j]);
@@ -219,14 +219,14 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
 }  // namespace
 
 bool lookup_avx2(const std::vector<LookupCamera>& cams, const LookupView& view, const cv::Mat& view_depth,
-                 cv::Mat* color, cv::Mat* written) {
+                 int y_begin, int y_end, cv::Mat* color, cv::Mat* written) {
   if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma") || cams.size() > 8) return false;
-  lookup_rows(cams, view, view_depth, color, written);
+  lookup_rows(cams, view, view_depth, y_begin, y_end, color, written);
   return true;
 }
 
 #else
-bool lookup_avx2(const std::vector<LookupCamera>&, const LookupView&, const cv::Mat&, cv::Mat*, cv::Mat*) {
+bool lookup_avx2(const std::vector<LookupCamera>&, const LookupView&, const cv::Mat&, int, int, cv::Mat*, cv::Mat*) {
   return false;
 }
 #endif
