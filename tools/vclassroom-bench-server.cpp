@@ -155,6 +155,20 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
   return r;
 }
 
+// The camera side of frame f, as learnerseg and viewprep run it: each camera's frame segmented and prepared.
+void prepare_frames(std::vector<Camera>& cams, std::vector<FramePreparer>& preparers, int f, const WarpParams& wp,
+                    std::vector<std::shared_ptr<PreparedFrame>>* prepared, std::vector<WarpSource>* sources) {
+  prepared->assign(cams.size(), nullptr);
+  sources->clear();
+  for (size_t i = 0; i < cams.size(); ++i) {
+    Camera& c = cams[i];
+    const size_t k = size_t(f) % c.color.size();
+    c.seg.segment(c.color[k], c.depth[k], &c.label);
+    (*prepared)[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, wp);
+    sources->push_back(FramePreparer::source_of(*(*prepared)[i], c.color[k], c.depth[k], c.label));
+  }
+}
+
 // Several lecturers, each with a view of their own, as whepviewsink renders them: every camera frame is
 // segmented and prepared once (viewprep: the background memory, the warp's half that does not depend on the
 // pose), then warped and fused once per view for that view's pose. Prints the camera side per frame and what
@@ -175,15 +189,9 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
   for (int f = 0; f < warm_up + frames; ++f) {
     const bool timed = f >= warm_up;
     double t0 = thread_cpu_ms();
-    std::vector<std::shared_ptr<PreparedFrame>> prepared(cams.size());
+    std::vector<std::shared_ptr<PreparedFrame>> prepared;
     std::vector<WarpSource> sources;
-    for (size_t i = 0; i < cams.size(); ++i) {
-      Camera& c = cams[i];
-      const size_t k = size_t(f) % c.color.size();
-      c.seg.segment(c.color[k], c.depth[k], &c.label);
-      prepared[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, wp);
-      sources.push_back(FramePreparer::source_of(*prepared[i], c.color[k], c.depth[k], c.label));
-    }
+    prepare_frames(cams, preparers, f, wp, &prepared, &sources);
     if (timed) camera_ms += thread_cpu_ms() - t0;
     for (int v = 0; v < views; ++v) {
       const CameraCalib virt = virt_at_frame(f, v);
@@ -246,15 +254,9 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
   for (int f = 0; f < warm_up + frames; ++f) {
     const bool timed = f >= warm_up;
     double t0 = thread_cpu_ms();
-    std::vector<std::shared_ptr<PreparedFrame>> prepared(cams.size());
+    std::vector<std::shared_ptr<PreparedFrame>> prepared;
     std::vector<WarpSource> sources;
-    for (size_t i = 0; i < cams.size(); ++i) {
-      Camera& c = cams[i];
-      const size_t k = size_t(f) % c.color.size();
-      c.seg.segment(c.color[k], c.depth[k], &c.label);
-      prepared[i] = preparers[i].prepare(c.calib, c.color[k], c.depth[k], c.label, wp);
-      sources.push_back(FramePreparer::source_of(*prepared[i], c.color[k], c.depth[k], c.label));
-    }
+    prepare_frames(cams, preparers, f, wp, &prepared, &sources);
     if (f == 0)  // the meshes, once: untimed
       for (const auto& p : prepared) triangles += p->room_shape->mesh().triangles();
     double t1 = thread_cpu_ms();

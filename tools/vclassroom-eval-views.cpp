@@ -548,23 +548,25 @@ void eval_classroom(const Options& opt) {
           p.holes.add(room_fused.color, imgs[0].color, room_fused.filled,
                       cv::Rect(0, 0, room_fused.color.cols, room_fused.color.rows));
           p.ssim.add(ssim_luma(room_fused.color, imgs[0].color));
-          FusedView at_source;
-          for (const CameraCalib& v : near_poses) {
-            RenderOutput gt;
-            renderer.render(room, t, v, &gt);
-            synthesize(all, imgs, priors, labels, configs[c], v, wp, fp, near_warpers, nullptr, &at_source);
-            near_psnr.add(psnr_rgb(at_source.color, gt.color));
-            synthesize_room_view(near_room, all, imgs, priors, labels, nullptr, v, wp, fp, &at_source, nullptr);
-            near_room_psnr.add(psnr_rgb(at_source.color, gt.color));
-          }
-          for (const CameraCalib& o : own) {
-            RenderOutput gt;
-            renderer.render(room, t, o, &gt);
-            synthesize(sources, in, src_priors, src_labels, configs[c], o, wp, fp, warpers, room_layers, &at_source);
-            own_psnr.add(psnr_rgb(at_source.color, gt.color));
-            synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, o, wp, fp, &at_source, nullptr);
-            own_room_psnr.add(psnr_rgb(at_source.color, gt.color));
-          }
+          // Today's view and the room view of these poses from these sources, each against the truth.
+          auto score_both = [&](const std::vector<CameraCalib>& poses, const std::vector<CameraCalib>& cams,
+                                const std::vector<RgbdImages>& images, const std::vector<cv::Mat>& static_depths,
+                                const std::vector<cv::Mat>& labelled, std::vector<ViewWarper>& warps,
+                                const std::vector<std::pair<cv::Mat, cv::Mat>>* layers, RoomViewPath& path,
+                                Stats* today, Stats* by_room) {
+            FusedView view;
+            for (const CameraCalib& v : poses) {
+              RenderOutput gt;
+              renderer.render(room, t, v, &gt);
+              synthesize(cams, images, static_depths, labelled, configs[c], v, wp, fp, warps, layers, &view);
+              today->add(psnr_rgb(view.color, gt.color));
+              synthesize_room_view(path, cams, images, static_depths, labelled, layers, v, wp, fp, &view, nullptr);
+              by_room->add(psnr_rgb(view.color, gt.color));
+            }
+          };
+          score_both(near_poses, all, imgs, priors, labels, near_warpers, nullptr, near_room, &near_psnr,
+                     &near_room_psnr);
+          score_both(own, sources, in, src_priors, src_labels, warpers, room_layers, p, &own_psnr, &own_room_psnr);
         }
       }
       psnr[c].add(psnr_rgb(fused.color, imgs[0].color));

@@ -122,107 +122,107 @@ namespace {
 
 // A meta that holds a std::shared_ptr<const T>, shared by every copy of its buffer: the prepared frame and
 // the room view's part.
-template <typename Meta>
+template <typename T>
+struct SharedPtrMeta {
+  GstMeta meta;
+  std::shared_ptr<const T>* value;  // owned by the meta
+};
+
+// Each kind's registered names.
+template <typename T>
+struct MetaNames;
+template <>
+struct MetaNames<PreparedFrame> {
+  static constexpr const char* api = "VClassroomPreparedFrameMetaAPI";
+  static constexpr const char* impl = "VClassroomPreparedFrameMeta";
+};
+template <>
+struct MetaNames<RoomViewPart> {
+  static constexpr const char* api = "VClassroomRoomViewPartMetaAPI";
+  static constexpr const char* impl = "VClassroomRoomViewPartMeta";
+};
+
+template <typename T>
 gboolean shared_meta_init(GstMeta* meta, gpointer, GstBuffer*) {
-  reinterpret_cast<Meta*>(meta)->part = nullptr;
+  reinterpret_cast<SharedPtrMeta<T>*>(meta)->value = nullptr;
   return TRUE;
 }
 
-template <typename Meta>
+template <typename T>
 void shared_meta_free(GstMeta* meta, GstBuffer*) {
-  auto* m = reinterpret_cast<Meta*>(meta);
-  delete m->part;
-  m->part = nullptr;
+  auto* m = reinterpret_cast<SharedPtrMeta<T>*>(meta);
+  delete m->value;
+  m->value = nullptr;
 }
 
-template <typename Meta>
-Meta* shared_meta_of(GstBuffer* buf, GType api) {
-  return reinterpret_cast<Meta*>(gst_buffer_get_meta(buf, api));
-}
-
-template <typename Meta, typename T>
-void shared_meta_set(GstBuffer* buf, GType api, const GstMetaInfo* info, std::shared_ptr<const T> value) {
-  auto* m = shared_meta_of<Meta>(buf, api);
-  if (!m) m = reinterpret_cast<Meta*>(gst_buffer_add_meta(buf, info, nullptr));
-  if (!m) return;
-  delete m->part;
-  m->part = new std::shared_ptr<const T>(std::move(value));
-}
+template <typename T>
+void shared_meta_set(GstBuffer* buf, std::shared_ptr<const T> value);
 
 // A copy of the buffer shares the value; other transforms (a scaled or converted frame) drop it.
-template <typename Meta, typename T>
+template <typename T>
 gboolean shared_meta_transform(GstBuffer* dest, GstMeta* meta, GstBuffer*, GQuark type, gpointer data) {
-  auto* m = reinterpret_cast<Meta*>(meta);
-  if (!GST_META_TRANSFORM_IS_COPY(type) || !m->part) return TRUE;
+  auto* m = reinterpret_cast<SharedPtrMeta<T>*>(meta);
+  if (!GST_META_TRANSFORM_IS_COPY(type) || !m->value) return TRUE;
   const auto* copy = static_cast<const GstMetaTransformCopy*>(data);
   if (copy->region) return TRUE;  // a part of the buffer: not the frame that was prepared
-  shared_meta_set<Meta, T>(dest, meta->info->api, meta->info, *m->part);
+  shared_meta_set<T>(dest, *m->value);
   return TRUE;
 }
 
 // A tag of its own: elements that make a new frame out of this one (viewwarp itself, a scaler) do not copy
 // it, as GstBaseTransform copies only untagged metas by default.
-GType register_frame_content_api(const char* name) {
-  static const gchar* tags[] = {"vclassroom-frame-content", nullptr};
-  return gst_meta_api_type_register(name, tags);
+template <typename T>
+GType shared_meta_api() {
+  static GType type = 0;
+  if (g_once_init_enter(&type)) {
+    static const gchar* tags[] = {"vclassroom-frame-content", nullptr};
+    g_once_init_leave(&type, gst_meta_api_type_register(MetaNames<T>::api, tags));
+  }
+  return type;
+}
+
+template <typename T>
+const GstMetaInfo* shared_meta_info() {
+  static const GstMetaInfo* info = nullptr;
+  if (g_once_init_enter(&info)) {
+    const GstMetaInfo* mi = gst_meta_register(shared_meta_api<T>(), MetaNames<T>::impl, sizeof(SharedPtrMeta<T>),
+                                              shared_meta_init<T>, shared_meta_free<T>, shared_meta_transform<T>);
+    g_once_init_leave(&info, mi);
+  }
+  return info;
+}
+
+template <typename T>
+void shared_meta_set(GstBuffer* buf, std::shared_ptr<const T> value) {
+  auto* m = reinterpret_cast<SharedPtrMeta<T>*>(gst_buffer_get_meta(buf, shared_meta_api<T>()));
+  if (!m) m = reinterpret_cast<SharedPtrMeta<T>*>(gst_buffer_add_meta(buf, shared_meta_info<T>(), nullptr));
+  if (!m) return;
+  delete m->value;
+  m->value = new std::shared_ptr<const T>(std::move(value));
+}
+
+template <typename T>
+std::shared_ptr<const T> shared_meta_get(GstBuffer* buf) {
+  auto* m = reinterpret_cast<SharedPtrMeta<T>*>(gst_buffer_get_meta(buf, shared_meta_api<T>()));
+  return m && m->value ? *m->value : nullptr;
 }
 
 }  // namespace
 
-GType prepared_frame_meta_api_get_type() {
-  static GType type = 0;
-  if (g_once_init_enter(&type)) g_once_init_leave(&type, register_frame_content_api("VClassroomPreparedFrameMetaAPI"));
-  return type;
-}
-
-const GstMetaInfo* prepared_frame_meta_get_info() {
-  static const GstMetaInfo* info = nullptr;
-  if (g_once_init_enter(&info)) {
-    const GstMetaInfo* mi = gst_meta_register(
-        prepared_frame_meta_api_get_type(), "VClassroomPreparedFrameMeta", sizeof(PreparedFrameMeta),
-        shared_meta_init<PreparedFrameMeta>, shared_meta_free<PreparedFrameMeta>,
-        shared_meta_transform<PreparedFrameMeta, PreparedFrame>);
-    g_once_init_leave(&info, mi);
-  }
-  return info;
-}
-
 void buffer_add_prepared_frame(GstBuffer* buf, std::shared_ptr<const PreparedFrame> frame) {
-  shared_meta_set<PreparedFrameMeta>(buf, prepared_frame_meta_api_get_type(), prepared_frame_meta_get_info(),
-                                     std::move(frame));
+  shared_meta_set<PreparedFrame>(buf, std::move(frame));
 }
 
 std::shared_ptr<const PreparedFrame> buffer_get_prepared_frame(GstBuffer* buf) {
-  auto* m = shared_meta_of<PreparedFrameMeta>(buf, prepared_frame_meta_api_get_type());
-  return m && m->part ? *m->part : nullptr;
-}
-
-GType room_view_part_meta_api_get_type() {
-  static GType type = 0;
-  if (g_once_init_enter(&type)) g_once_init_leave(&type, register_frame_content_api("VClassroomRoomViewPartMetaAPI"));
-  return type;
-}
-
-const GstMetaInfo* room_view_part_meta_get_info() {
-  static const GstMetaInfo* info = nullptr;
-  if (g_once_init_enter(&info)) {
-    const GstMetaInfo* mi = gst_meta_register(
-        room_view_part_meta_api_get_type(), "VClassroomRoomViewPartMeta", sizeof(RoomViewPartMeta),
-        shared_meta_init<RoomViewPartMeta>, shared_meta_free<RoomViewPartMeta>,
-        shared_meta_transform<RoomViewPartMeta, RoomViewPart>);
-    g_once_init_leave(&info, mi);
-  }
-  return info;
+  return shared_meta_get<PreparedFrame>(buf);
 }
 
 void buffer_add_room_view_part(GstBuffer* buf, std::shared_ptr<const RoomViewPart> part) {
-  shared_meta_set<RoomViewPartMeta>(buf, room_view_part_meta_api_get_type(), room_view_part_meta_get_info(),
-                                    std::move(part));
+  shared_meta_set<RoomViewPart>(buf, std::move(part));
 }
 
 std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf) {
-  auto* m = shared_meta_of<RoomViewPartMeta>(buf, room_view_part_meta_api_get_type());
-  return m && m->part ? *m->part : nullptr;
+  return shared_meta_get<RoomViewPart>(buf);
 }
 
 }  // namespace vclassroom

@@ -85,14 +85,8 @@ class FramePreparer {
 cv::Mat load_static_depth(const std::string& path);
 cv::Mat load_empty_room(const std::string& path);
 
-// The meta viewprep adds: a reference to the prepared frame, shared by every buffer that copies it.
-struct PreparedFrameMeta {
-  GstMeta meta;
-  std::shared_ptr<const PreparedFrame>* part;  // owned by the meta
-};
-
-GType prepared_frame_meta_api_get_type();
-const GstMetaInfo* prepared_frame_meta_get_info();
+// The prepared frame as a meta (viewprep adds it): shared by every buffer that copies it; a transform into
+// another frame (a scaler, viewwarp's output) drops it.
 // Adds (or replaces) the meta on a writable buffer.
 void buffer_add_prepared_frame(GstBuffer* buf, std::shared_ptr<const PreparedFrame> frame);
 // The buffer's prepared frame, or nullptr.
@@ -100,19 +94,13 @@ std::shared_ptr<const PreparedFrame> buffer_get_prepared_frame(GstBuffer* buf);
 
 // What a viewwarp that warped only a camera's learners (WarpParams::learners_only) leaves to viewfuse: the
 // camera's prepared frame, whose room viewfuse draws with the other cameras' (room_view.h), and the view it
-// was warped for. A meta on the warped frame.
+// was warped for. A meta on the warped frame, as the prepared frame's.
 struct RoomViewPart {
   std::shared_ptr<const PreparedFrame> frame;
   const RoomTexture* texture = nullptr;  // frame->room_texture(), made by the viewwarp
   CameraCalib view;
   cv::Rect box;  // WarpedView::box of the learners' view
 };
-struct RoomViewPartMeta {
-  GstMeta meta;
-  std::shared_ptr<const RoomViewPart>* part;  // owned by the meta
-};
-GType room_view_part_meta_api_get_type();
-const GstMetaInfo* room_view_part_meta_get_info();
 void buffer_add_room_view_part(GstBuffer* buf, std::shared_ptr<const RoomViewPart> part);
 std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf);
 
