@@ -42,6 +42,7 @@ const RoomTexture& PreparedFrame::room_texture(const cv::Mat& frame_color) const
     CV_Assert(room.isContinuous());
     pack_room_records(camera, room.ptr<uint16_t>(), source.label.data(), color.empty() ? frame_color : color,
                       room_depth, room_color, &texture_);
+    texture_.steady = !color.empty();  // the background memory's colour
     texture_made_ = true;
   }
   return texture_;

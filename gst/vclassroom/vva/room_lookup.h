@@ -35,6 +35,8 @@ struct RoomTexture {
   CameraCalib camera;  // pinhole
   int width = 0, height = 0;
   std::vector<uint64_t> packed;
+  // The colour is the background memory's, averaged over frames (not one frame's sensor noise).
+  bool steady = false;
 };
 
 // The records of a camera frame: the room's `depth` (width x height, mm) where `label` (likewise) is 0, with
@@ -47,7 +49,8 @@ void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const u
 struct RoomLookupParams {
   // A camera's depth agrees with the point within max(depth_tol_mm, depth_tol_ratio x depth) (viewfuse's).
   double depth_tol_ratio = 0.03, depth_tol_mm = 30;
-  // The view's place in the weights (metres; 0: the angles alone).
+  // The view's place in the weights (metres; 0: the angles alone). It sharpens a view near a camera but
+  // averages less of the cameras' noise: RoomViewRenderer uses it where every camera's colour is steady.
   double place_sigma_m = 0.2;
 };
 

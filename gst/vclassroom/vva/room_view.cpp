@@ -71,7 +71,12 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   raster_.depth(&out->depth);
   close_strips_along_rows(out->depth);
   close_strips_along_columns(out->depth);
-  room_lookup(textures_, view, out->depth, RoomLookupParams(), &out->color, &out->weight);
+  // The view's place sharpens the blend near a camera where the cameras' colour is the background memory's;
+  // without it the cameras' sensor noise wants averaging, by the angles alone (docs/vva.md, flicker).
+  RoomLookupParams lookup;
+  const bool steady = std::all_of(textures_.begin(), textures_.end(), [](const RoomTexture* t) { return t->steady; });
+  if (!steady) lookup.place_sigma_m = 0;
+  room_lookup(textures_, view, out->depth, lookup, &out->color, &out->weight);
   cv::compare(out->weight, 0, unseen_, cv::CMP_EQ);
   out->depth.setTo(0, unseen_);  // what no camera sees there is a hole
   out->color.setTo(0, unseen_);
