@@ -167,8 +167,8 @@ int main(int argc, char** argv) {
     int frames = 0;
   };
   auto run_once = [&](RunFigures* fig) -> int {
-    std::string desc = "viewfuse name=fuse pose-trace=" + trace + " room-view=" + (room_choice == "on" ? "true" : "false") +
-                       " ! fakesink name=out sync=false";
+    std::string desc = "viewfuse name=fuse pose-trace=" + trace +
+                       " room-view=" + (room_choice == "on" ? "true" : "false") + " ! fakesink name=out sync=false";
     for (int k = 0; k < cameras; ++k)
       desc += " appsrc name=src" + std::to_string(k) + " format=time max-buffers=2 ! learnerseg prior-depth=" +
               priors[size_t(k)] + " ! viewwarp prior-depth=" + priors[size_t(k)] +

@@ -1,6 +1,6 @@
-// Experiment (issue 31, wip/room-lookup): how many triangles a mesh of each camera's static depth (V-DA's
-// prior, which does not change) needs, so that the view's room depth could be rasterised once per view pixel
-// from it instead of being splatted from every source pixel. A quadtree over the prior: a tile (its grid of
+// Issue 31 (the room view's spike, docs/room-lookup-spike.md): how many triangles a mesh of each camera's
+// static depth (V-DA's prior, which does not change) needs, so that the view's room depth could be rasterised
+// once per view pixel from it instead of being splatted from every source pixel. A quadtree over the prior: a tile (its grid of
 // pixel centres, border included, so neighbours meet) is two triangles when its depth lies on one plane
 // (1/z linear in u and v, as a plane seen by a pinhole camera) within a tolerance; otherwise it splits, down
 // to single pixel quads (two triangles, as the warp's mesh; a quad across a depth edge is dropped).
@@ -173,7 +173,8 @@ void raster_bench(const StaticModel& m, int views, int rounds, bool reference, c
   const double px = double(views) * ref.width * ref.height;
   for (size_t k = 0; k < variants.size(); ++k) {
     const RoomRasterStats& s = stats[k];
-    std::printf("\n%s:\n  thread CPU per view: median %.2f ms (10 %%: %.2f, 90 %%: %.2f, min %.2f, max %.2f; %zu views)\n",
+    std::printf("\n%s:\n  thread CPU per view: median %.2f ms (10 %%: %.2f, 90 %%: %.2f, min %.2f, max %.2f; "
+                "%zu views)\n",
                 variants[k].name.c_str(), percentile(ms[k], 0.5), percentile(ms[k], 0.1), percentile(ms[k], 0.9),
                 percentile(ms[k], 0), percentile(ms[k], 1), ms[k].size());
     std::printf("  per view: %.0f triangles, %.0f dropped at the near plane, %.0f with no pixel centre, %.0f drawn "
@@ -206,12 +207,13 @@ int main(int argc, char** argv) {
        "pixel meshes", nullptr},
       {"views", 0, 0, G_OPTION_ARG_INT, &views, "with --raster: views (default 60)", "N"},
       {"rounds", 0, 0, G_OPTION_ARG_INT, &rounds, "with --raster: times each view this often (default 3)", "N"},
-      {"only", 0, 0, G_OPTION_ARG_STRING, &only, "with --raster: only the variant named TEXT, or those whose name holds it", "TEXT"},
+      {"only", 0, 0, G_OPTION_ARG_STRING, &only,
+       "with --raster: only the variant named TEXT, or those whose name holds it", "TEXT"},
       {"no-reference", 0, 0, G_OPTION_ARG_NONE, &no_reference,
        "with --raster: no comparison with the pixel meshes (for callgrind)", nullptr},
       {}};
   vclassroom_tools::parse_command_line(&argc, &argv, "",
-                                       "Experiment (issue 31): triangles of a quadtree mesh of each camera's prior "
+                                       "Issue 31: triangles of a quadtree mesh of each camera's prior "
                                        "depth, by tolerance.",
                                        entries);
   if (!model) vclassroom_tools::usage_error("--model DIR is needed");

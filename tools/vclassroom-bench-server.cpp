@@ -235,7 +235,8 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
                     int frames, int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp) {
   std::vector<FramePreparer> preparers(cams.size());
   for (size_t i = 0; i < cams.size(); ++i) {
-    if (cams[i].prior.empty()) vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
+    if (cams[i].prior.empty())
+      vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
     preparers[i].set_static_depth(cams[i].prior);
     preparers[i].set_memory(memory, empty_rooms[i]);
   }
@@ -269,7 +270,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
     for (int v = 0; v < views; ++v) {
       const CameraCalib virt = virt_at_frame(f, v);
       t0 = thread_cpu_ms();
-      renderer.render(room_cams, virt, &room);
+      renderer.render(room_cams, virt, RoomLookupParams(), &room);
       t1 = thread_cpu_ms();
       std::vector<const WarpedView*> inputs{&room};
       for (size_t i = 0; i < cams.size(); ++i) {

@@ -83,7 +83,8 @@ int main(int argc, char** argv) {
   ClassroomConfig empty;
   empty.learners = 0;
   const Classroom empty_room(empty);
-  std::string desc = "viewfuse name=fuse fill-method=" + fill_method + " room-view=" + (room_choice == "on" ? "true" : "false") +
+  std::string desc = "viewfuse name=fuse fill-method=" + fill_method +
+                     " room-view=" + (room_choice == "on" ? "true" : "false") +
                      " ! videoconvert ! video/x-raw,format=RGB ! appsink name=out sync=false";
   for (int k = 0; k < 3; ++k) {
     const std::string prior = tmp + "/prior" + std::to_string(k) + ".png";

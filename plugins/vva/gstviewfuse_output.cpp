@@ -89,20 +89,25 @@ GstFlowReturn push_picture(GstViewFuse* self, const std::string& banner, GstCloc
   return gst_aggregator_finish_buffer(agg, out);
 }
 
-// The room of the cameras whose viewwarp warped only the learners (their RoomViewPart), into st->room; false
-// when there is none to draw. A part warped for another view than the others' (another size) is left out.
-bool draw_room(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomViewPart>>& parts, cv::Size size) {
-  if (parts.empty()) return false;
+// The room of the cameras whose viewwarp warped only the learners (their RoomViewPart, one per fused frame or
+// null), into st->room, at the view of the frame the picture names (`named`, an index into `parts`; else the
+// first part's); false when there is none to draw. A part warped for a view of another size is left out.
+bool draw_room(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomViewPart>>& parts, int named,
+               cv::Size size, const FuseParams& params) {
   ViewFuseState* st = self->st;
   std::vector<RoomCamera> cameras;
-  for (const auto& p : parts)
-    if (p->view.width == size.width && p->view.height == size.height)
-      cameras.push_back(RoomCamera{&p->frame->room_shape->mesh(), p->texture});
+  const RoomViewPart* view_of = named >= 0 && parts[size_t(named)] ? parts[size_t(named)].get() : nullptr;
+  for (const auto& p : parts) {
+    if (!p || p->view.width != size.width || p->view.height != size.height) continue;
+    cameras.push_back(RoomCamera{&p->frame->room_shape->mesh(), p->texture});
+    if (!view_of) view_of = p.get();
+  }
   if (cameras.empty()) return false;
-  // Every camera's learners were warped for the pose of the round (viewfuse fuses only frames of one pose
-  // window): the first part's view stands for all.
   GST_LOG_OBJECT(self, "the room of %zu camera(s) drawn", cameras.size());
-  st->room_renderer.render(cameras, parts.front()->view, &st->room);
+  RoomLookupParams lookup;  // viewfuse's tolerance
+  lookup.depth_tol_mm = params.depth_tol_mm;
+  lookup.depth_tol_ratio = params.depth_tol_ratio;
+  st->room_renderer.render(cameras, view_of->view, lookup, &st->room);
   return true;
 }
 
@@ -117,7 +122,7 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
   std::vector<std::unique_ptr<RgbdFrame>> frames;
   std::vector<FrameStamp> stamps;
   std::vector<size_t> fused;  // the index of each of them among the pads
-  std::vector<std::shared_ptr<const RoomViewPart>> room_parts;  // the cameras whose room is drawn here
+  std::vector<std::shared_ptr<const RoomViewPart>> room_parts;  // per fused frame: its room to draw here, or null
   for (size_t i = 0; i < pads.size(); ++i) {
     if (round.verdicts[i] != FrameVerdict::kFuse) continue;
     auto f = std::make_unique<RgbdFrame>();
@@ -130,10 +135,8 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
       continue;
     }
     views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight), cv::Rect()};
-    if (std::shared_ptr<const RoomViewPart> part = buffer_get_room_view_part(bufs[i])) {
-      views[i].box = part->box;
-      room_parts.push_back(std::move(part));
-    }
+    room_parts.push_back(buffer_get_room_view_part(bufs[i]));
+    if (room_parts.back()) views[i].box = room_parts.back()->box;
     ptrs.push_back(&views[i]);
     frames.push_back(std::move(f));
     stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
@@ -149,7 +152,7 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
   st->fill_pose = pose;
   try {
     FuseParams fuse = params;
-    if (draw_room(self, room_parts, ptrs.front()->depth.size())) {
+    if (draw_room(self, room_parts, stamp.pose_from, ptrs.front()->depth.size(), params)) {
       ptrs.insert(ptrs.begin(), &st->room);  // the room first, the learners over it
       fuse.first_is_base = true;
     }

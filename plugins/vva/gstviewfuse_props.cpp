@@ -124,7 +124,8 @@ void view_fuse_install_properties(GObjectClass* klass) {
       g_param_spec_boolean("room-view", "Room view",
                            "Draw the room from every camera's mesh and packed room, the viewwarps upstream warping "
                            "only the learners (cameras with prior-depth; docs/vva.md)",
-                           kRoomViewByDefault, GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
+                           kRoomViewByDefault,
+                           GParamFlags(G_PARAM_READWRITE | G_PARAM_STATIC_STRINGS | GST_PARAM_MUTABLE_PLAYING)));
   g_object_class_install_property(
       klass, PROP_FRAMES_FUSED,
       g_param_spec_uint64("frames-fused", "Frames fused",

@@ -231,8 +231,15 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
   return rgbd_filter_guard(filter, [&] {
     const std::shared_ptr<const PreparedFrame> prepared = prepared_frame(self, inbuf, in, params, memory_frames);
     const WarpSource src = FramePreparer::source_of(*prepared, in.color(), in.depth(), in.label());
+    // The room's parts that do not depend on the pose, before it is read (not part of its latency), in this
+    // camera's thread: the frame's packed room and, once, the camera's mesh.
+    if (prepared->room_shape && st->room_view_last) {
+      prepared->room_texture(in.color());
+      prepared->room_shape->mesh();
+    }
     bool room_view = false;
     const Pose pose = frame_pose(self, inbuf, &room_view);
+    st->room_view_last = room_view;
     const CameraCalib virt = virtual_camera(out_info.camera, pose.cam_to_rig(), pose.fov_deg);
     // The room drawn by viewfuse from every camera's mesh and packed room; here only the learners.
     params.learners_only = room_view && prepared->room_shape && room_view_fits(virt);

@@ -50,6 +50,9 @@ struct ViewWarpState {
   FramePreparer preparer;   // the memory and the warp's first half, for frames viewprep did not prepare
   cv::Mat empty_room;       // empty-room, RGB: the memory's seed
   bool told_unprepared = false;  // the warning that a prepared frame's settings differ from ours
+  // The viewfuse downstream drew the room at the last frame (its warp-start answer): this frame's room is
+  // packed before the pose is read.
+  bool room_view_last = false;
 };
 
 // The element's properties: installed on its class, read and written under ViewWarpState::lock().

@@ -63,11 +63,19 @@ void FramePreparer::set_memory(int frames, const cv::Mat& empty_room) {
 std::shared_ptr<PreparedFrame> FramePreparer::prepare(const CameraCalib& camera, const cv::Mat& color,
                                                       const cv::Mat& depth, const cv::Mat& label,
                                                       const WarpParams& params) {
-  // The last frame's images are reused when nobody holds that frame any more. use_count() is a relaxed
-  // read: the fence orders the last holder's reads (another thread's) before the writes below.
-  if (!last_ || last_.use_count() > 1) last_ = std::make_shared<PreparedFrame>();
+  // A recent frame's images are reused when nobody holds that frame any more (the room view's warped frames
+  // hold theirs until viewfuse has drawn them: a few frames). use_count() is a relaxed read: the fence orders
+  // the last holder's reads (another thread's) before the writes below.
+  std::shared_ptr<PreparedFrame>* free_frame = nullptr;
+  for (auto& f : recent_)
+    if (f.use_count() == 1) free_frame = &f;
+  if (!free_frame) {
+    if (recent_.size() < kRecentFrames) recent_.emplace_back();
+    free_frame = &recent_[next_++ % recent_.size()];
+    *free_frame = std::make_shared<PreparedFrame>();
+  }
   std::atomic_thread_fence(std::memory_order_acquire);
-  std::shared_ptr<PreparedFrame> out = last_;
+  std::shared_ptr<PreparedFrame> out = *free_frame;
   WarpSource src;
   src.color = color;
   src.depth = depth;

@@ -10,6 +10,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include <gst/gst.h>
 #include <opencv2/core.hpp>
@@ -75,7 +76,9 @@ class FramePreparer {
   bool memory_fresh_ = true;  // set_memory() since the last frame: the memory starts again
   BackgroundMemory memory_;
   ViewWarper warper_;
-  std::shared_ptr<PreparedFrame> last_;
+  static constexpr size_t kRecentFrames = 4;
+  std::vector<std::shared_ptr<PreparedFrame>> recent_;  // reused once nobody else holds them
+  size_t next_ = 0;                                      // the one replaced when all are held
 };
 
 // The static layer's depth, a 16-bit PNG (mm), and the empty room's colour

@@ -73,18 +73,19 @@ std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& 
     c.rec = t->packed.data(), c.W = t->width, c.H = t->height;
     out.push_back(c);
   }
-  std::stable_sort(out.begin(), out.end(), [](const LookupCamera& a, const LookupCamera& b) { return a.place > b.place; });
+  std::stable_sort(out.begin(), out.end(),
+                   [](const LookupCamera& a, const LookupCamera& b) { return a.place > b.place; });
   return out;
 }
 
 LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params,
                        const std::vector<LookupCamera>& cameras) {
-  int enough = int(cameras.size());
-  while (enough > 1 && cameras[size_t(enough) - 1].place < kFarPlace * cameras[0].place) --enough;
+  int first_far = int(cameras.size());
+  while (first_far > 1 && cameras[size_t(first_far) - 1].place < kFarPlace * cameras[0].place) --first_far;
   return LookupView{float(virt.cx),           float(virt.cy),
                     float(1 / virt.fx),       float(1 / virt.fy),
                     float(params.depth_tol_mm), float(params.depth_tol_ratio),
-                    enough};
+                    first_far};
 }
 
 namespace {
@@ -101,9 +102,10 @@ inline int mulhrs(int a, int b) { return (a * b + 16384) >> 15; }
 float camera_sample(const LookupCamera& c, const LookupView& v, float x, float y, float z, float view_dist2,
                     int sum[3], int* fw, bool* strict) {
   *strict = false;
-  const float a0 = c.b[0] + y * c.dy[0] + x * c.s[0], a1 = c.b[1] + y * c.dy[1] + x * c.s[1],
-              a2 = c.b[2] + y * c.dy[2] + x * c.s[2];
-  const float h0 = z * a0 + c.t[0], h1 = z * a1 + c.t[1], h2 = z * a2 + c.t[2];
+  // In the AVX2 loop's operations and order (fused multiply-adds), so that both take the same depth decisions.
+  const float a0 = std::fma(x, c.s[0], c.b[0] + y * c.dy[0]), a1 = std::fma(x, c.s[1], c.b[1] + y * c.dy[1]),
+              a2 = std::fma(x, c.s[2], c.b[2] + y * c.dy[2]);
+  const float h0 = std::fma(z, a0, c.t[0]), h1 = std::fma(z, a1, c.t[1]), h2 = std::fma(z, a2, c.t[2]);
   const float ih = 1.0f / std::max(h2, 1.0f);
   const float u = h0 * ih, w = h1 * ih;
   if (!(u >= -0.5f && w >= -0.5f && u <= float(c.W) - 0.5f && w <= float(c.H) - 0.5f && h2 >= 50.0f)) return 0;
@@ -112,7 +114,8 @@ float camera_sample(const LookupCamera& c, const LookupView& v, float x, float y
   const uint64_t* top = c.rec + size_t(iv) * c.W + iu;
   const uint64_t* const members[4] = {top, top + 1, top + c.W, top + c.W + 1};
   // The depths that agree: lo .. lo + width (integer mm), as 16-bit lanes hold them.
-  const float lo = std::min(h2 - v.tol_mm, h2 / (1.0f + v.tol_ratio)), hi = std::max(h2 + v.tol_mm, h2 * (1.0f + v.tol_ratio));
+  const float lo = std::min(h2 - v.tol_mm, h2 * (1.0f / (1.0f + v.tol_ratio))),
+              hi = std::max(h2 + v.tol_mm, h2 * (1.0f + v.tol_ratio));
   const int lo_i = int(std::ceil(lo));
   const int lo16 = std::clamp(lo_i, 0, 65535), width = std::clamp(int(hi) - lo_i, 0, 65535);
   const int fx = int(std::lrint((uc - float(iu)) * float(kOne))), fy = int(std::lrint((vc - float(iv)) * float(kOne)));
@@ -155,7 +158,7 @@ void lookup_row_portable(const std::vector<LookupCamera>& cams, const LookupView
     float acc[3] = {0, 0, 0}, n = 0;
     bool seen_strictly = false;
     for (size_t k = 0; k < cams.size(); ++k) {
-      if (int(k) >= view.enough && seen_strictly) break;
+      if (int(k) >= view.first_far_camera && seen_strictly) break;
       int sum[3], fw;
       bool strict;
       const float wt = camera_sample(cams[k], view, float(x), float(y), z, view_dist2, sum, &fw, &strict);

@@ -5,9 +5,10 @@
 // GStreamer-free.
 //
 // Which cameras, and how much each:
-// - A camera sees the point strictly when no member of its 2x2 that disagrees lies more than a fiftieth of a
-//   pixel from the position: the coverage of the forward warp's cells, which end at their pixel centre towards
-//   a depth edge. Where some camera sees the point strictly, the others that only see it count 2^-16 as much.
+// - A camera sees the point strictly when the members of its 2x2 that disagree take no part in the bilinear
+//   sample: the position lies within a fiftieth of a pixel of the agreeing members' row or column (the
+//   coverage of the forward warp's cells, which end at their pixel centre towards a depth edge). Where some
+//   camera sees the point strictly, the others that only see it count 2^-16 as much.
 // - Each camera is weighed as the forward warp weighs its samples and viewfuse blends them: cos^8 of the angle
 //   between the view's ray and the camera's (at least 0.02), times how much nearer the view is (at most 1),
 //   squared.
@@ -79,7 +80,7 @@ struct LookupView {
   float tol_mm, tol_ratio;
   // The cameras (lookup_cameras' order: nearest first) from this one on are skipped where one before it sees
   // the point strictly.
-  int enough;
+  int first_far_camera;
 };
 // The cameras, nearest to the view first.
 std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,

@@ -106,7 +106,7 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
       const __m256 wanted = _mm256_cmp_ps(z, zero, _CMP_NEQ_OQ);
       for (int k = 0; k < nc; ++k) {
         // The far cameras: not where a nearer one sees the point strictly (lookup_row_portable likewise).
-        if (k >= view.enough && !_mm256_movemask_ps(_mm256_andnot_ps(seen_strictly, wanted))) break;
+        if (k >= view.first_far_camera && !_mm256_movemask_ps(_mm256_andnot_ps(seen_strictly, wanted))) break;
         const CamV& c = cams[k];
         const __m256 a0 = _mm256_fmadd_ps(xv, c.s[0], c.b[0]), a1 = _mm256_fmadd_ps(xv, c.s[1], c.b[1]),
                      a2 = _mm256_fmadd_ps(xv, c.s[2], c.b[2]);
@@ -162,7 +162,7 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
                       G1 = _mm256_unpacklo_epi64(b_3, b_7), B1 = _mm256_unpackhi_epi64(b_3, b_7);
         const __m256i ok0 = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(D0, LO), WD), Z),
                       ok1 = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(D1, LO), WD), Z);
-        // Strict: no member that disagrees lies more than 1/50 px (either way) from the position's corner.
+        // Strict: each member that disagrees has a bilinear weight factor of at most 1/50 (room_lookup.h).
         const __m256i out = _mm256_or_si256(_mm256_andnot_si256(ok0, _mm256_cmpgt_epi16(_mm256_min_epi16(X0, Y), TH)),
                                             _mm256_andnot_si256(ok1, _mm256_cmpgt_epi16(_mm256_min_epi16(FX, Y), TH)));
         const __m256 strict_keep = _mm256_castsi256_ps(_mm256_cvtepi16_epi32(  // here: where a member is out
@@ -180,9 +180,11 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
         const __m256 strict = _mm256_andnot_ps(strict_keep, seen);
         // The camera's weight where it sees the point strictly, 2^-16 of it where it only sees it (so the strict
         // cameras decide where there are any); its colour sums divided by their bilinear weight.
-        __m256 wt = _mm256_mul_ps(_mm256_blendv_ps(_mm256_and_ps(seen, only_seen), one, strict),
-                                  camera_weight(c, view_dist2, h2, u, v));
-        if (k >= view.enough) wt = _mm256_andnot_ps(seen_strictly, wt);
+        // Masked after the product: where the camera does not see the point its weight may be infinite (a point
+        // behind it), and 0 x inf is NaN.
+        __m256 wt = _mm256_and_ps(seen, _mm256_mul_ps(_mm256_blendv_ps(only_seen, one, strict),
+                                                      camera_weight(c, view_dist2, h2, u, v)));
+        if (k >= view.first_far_camera) wt = _mm256_andnot_ps(seen_strictly, wt);
         seen_strictly = _mm256_or_ps(seen_strictly, strict);
         const __m256 kw = _mm256_div_ps(wt, _mm256_max_ps(fw, one));
         sr = _mm256_fmadd_ps(fr, kw, sr), sg = _mm256_fmadd_ps(fg, kw, sg), sb = _mm256_fmadd_ps(fb, kw, sb);

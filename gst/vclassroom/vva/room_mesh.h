@@ -1,6 +1,6 @@
-// Experiment (issue 31, wip/room-lookup): a quadtree mesh of a camera's static depth (V-DA's prior, which
-// does not change): a tile (its grid of pixel centres, border included, so neighbours meet) is two triangles
-// when its depth lies on one plane (1/z linear in u and v, as a plane seen by a pinhole camera) within a
+// The room view's mesh (room_view.h): a quadtree mesh of a camera's static depth (V-DA's prior, which does
+// not change): a tile (its grid of pixel centres, border included, so neighbours meet) is two triangles when
+// its depth lies on one plane (1/z linear in u and v, as a plane seen by a pinhole camera) within a
 // tolerance; otherwise it splits, down to single pixel quads (two triangles, as the warp's mesh; a quad across
 // a depth edge, beyond max(15 mm, 3 %), is dropped). GStreamer-free.
 //

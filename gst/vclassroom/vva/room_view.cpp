@@ -49,7 +49,11 @@ void close_strips_along_columns(cv::Mat& depth) {
 
 }  // namespace
 
-bool room_view_fits(const CameraCalib& camera) { return !camera.has_distortion(); }
+bool room_view_fits(const CameraCalib& camera) {
+  // A 2x2 to sample, and pixel indices that float arithmetic (the AVX2 lookup's) gives exactly.
+  return !camera.has_distortion() && camera.width >= 2 && camera.height >= 2 &&
+         int64_t(camera.width) * camera.height < (int64_t(1) << 24);
+}
 
 RoomShape::RoomShape(const CameraCalib& camera, const cv::Mat& static_depth) : camera_(camera), depth_(static_depth) {
   if (depth_.type() != CV_16UC1 || depth_.cols != camera.width || depth_.rows != camera.height)
@@ -57,11 +61,13 @@ RoomShape::RoomShape(const CameraCalib& camera, const cv::Mat& static_depth) : c
 }
 
 const RoomMesh& RoomShape::mesh() const {
-  std::call_once(made_, [this] { room_mesh(depth_, kMeshRatio, kMeshMinMm, kMeshTopLevel, nullptr, &camera_, &mesh_); });
+  std::call_once(made_,
+                 [this] { room_mesh(depth_, kMeshRatio, kMeshMinMm, kMeshTopLevel, nullptr, &camera_, &mesh_); });
   return mesh_;
 }
 
-void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const CameraCalib& view, WarpedView* out) {
+void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const CameraCalib& view,
+                              const RoomLookupParams& params, WarpedView* out) {
   raster_.begin(view);
   textures_.clear();
   for (const RoomCamera& c : cameras) {
@@ -73,7 +79,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   close_strips_along_columns(out->depth);
   // The view's place sharpens the blend near a camera where the cameras' colour is the background memory's;
   // without it the cameras' sensor noise wants averaging, by the angles alone (docs/vva.md, flicker).
-  RoomLookupParams lookup;
+  RoomLookupParams lookup = params;
   const bool steady = std::all_of(textures_.begin(), textures_.end(), [](const RoomTexture* t) { return t->steady; });
   if (!steady) lookup.place_sigma_m = 0;
   room_lookup(textures_, view, out->depth, lookup, &out->color, &out->weight);

@@ -21,7 +21,8 @@
 
 namespace vclassroom {
 
-// Whether a camera's room can be drawn this way: the lookup and the rasteriser are pinhole only.
+// Whether a camera's room (or a view) can be drawn this way: the lookup and the rasteriser are pinhole only,
+// for images of 2 x 2 pixels to 16 M pixels.
 bool room_view_fits(const CameraCalib& camera);
 
 // A camera's static depth as a mesh in the rig frame, made at the first mesh() (any thread; once). The
@@ -53,8 +54,10 @@ class RoomViewRenderer {
  public:
   // `out` gets the view's size: depth (0 where no mesh lies or no camera sees the surface), the colour
   // blended from every camera that sees it (black elsewhere), label 0, weight 255 where seen. `view` is
-  // pinhole (room_view_fits).
-  void render(const std::vector<RoomCamera>& cameras, const CameraCalib& view, WarpedView* out);
+  // pinhole (room_view_fits). `lookup`: the depth tolerance (viewfuse's) and the place's sigma, used where
+  // every camera's colour is steady (RoomTexture::steady; else the angles alone).
+  void render(const std::vector<RoomCamera>& cameras, const CameraCalib& view, const RoomLookupParams& lookup,
+              WarpedView* out);
 
  private:
   RoomRaster raster_;

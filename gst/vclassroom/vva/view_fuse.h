@@ -21,9 +21,10 @@ struct FuseParams {
   double depth_tol_mm = 30;
   // Blending weight = (warp quality)^weight_power: > 1 favours the best camera.
   double weight_power = 2.0;
-  // Experiment (issue 31, wip/room-view): the first input is the room, seen nearly everywhere, and the others
-  // are sparse (the learners alone): the views are blended only over the column spans where one of the others
-  // has a sample; elsewhere the first is copied (the blend of one sample is that sample).
+  // The room view (room_view.h): the first input is the room, seen nearly everywhere, and the others are
+  // sparse (the learners and what the room's mesh does not draw): the views are blended only over the column
+  // spans where one of the others has a sample, elsewhere the first is copied (the blend of one sample is that
+  // sample); a learner within the tolerance of the room keeps its own colour.
   bool first_is_base = false;
   // Fill holes no camera covers from their background side (hole_fill.h), by the depth-aware pyramid or,
   // for comparison, along rows and columns (the fill before issue 35).

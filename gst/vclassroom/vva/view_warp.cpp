@@ -1156,7 +1156,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
               size_t(std::min(kTileSize, H - int(ty) * kTileSize));
     warped_share_ = double(kept) / double(n);
   }
-  if (prm.learners_only) {
+  if (prm.learners_only && !prm.mesh) {  // the mesh rasteriser draws whole frames only
     draw_learner_layer(f, in, depth, label, prm);
     unpack_view(f, prm, out);
     return;
@@ -1604,7 +1604,8 @@ void ViewWarper::draw_room_layer(const Frame& f, const WarpSource& in, const War
                 prm);
 }
 
-// Experiment (issue 31): the learners' pixels alone, as a sparse layer over their spans.
+// WarpParams::learners_only: the learners and what the room's mesh does not draw (learner_depth_of), as a
+// sparse layer over their spans.
 void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth,
                                     const uint8_t* label, const WarpParams& prm) {
   const int W = f.W, H = f.H;

@@ -87,8 +87,9 @@ struct WarpParams {
   // (tiles of view_cull.h) are not projected, linked or set up; the view is
   // the same pixel for pixel (false: every column, the reference).
   bool cull_outside_view = true;
-  // Experiment (issue 31, wip/room-view): only the learners' pixels (label non-zero) are drawn, as a sparse
-  // layer over their spans; the room comes from elsewhere (the room view: room_raster + room_lookup).
+  // The room view (room_view.h, docs/vva.md "How a view is made"): only the learners' pixels, the room's beside
+  // them and those the room's mesh does not draw are drawn, as a sparse layer over their spans; the rest of the
+  // room comes from the room's meshes and lookup. Cell warp only (with `mesh` everything is drawn).
   bool learners_only = false;
 };
 
@@ -98,7 +99,7 @@ struct WarpedView {
   cv::Mat depth;   // CV_16UC1 mm along the virtual optical axis, 0 = hole
   cv::Mat label;   // CV_8UC1
   cv::Mat weight;  // CV_8UC1, 0 = hole, 1..255 quality (viewing angle, distance, stretch)
-  // Experiment (WarpParams::learners_only): every sample lies in this box; empty: anywhere.
+  // WarpParams::learners_only: every sample lies in this box; empty: anywhere.
   cv::Rect box;
 };
 
@@ -110,8 +111,8 @@ struct PreparedSource {
   std::vector<uint8_t> label;   // the labels likewise; width * height + 1 (a zero after the last)
   // Per tile of view_cull.h, the nearest and farthest depth (mm) of `depth`; empty: found when warped.
   std::vector<uint16_t> tile_nearest, tile_farthest;
-  // Experiment (WarpParams::learners_only): the depth where the label is non-zero, 0 elsewhere; empty: made
-  // when warped.
+  // WarpParams::learners_only: the depth of what is drawn (the learners and the room's pixels beside them or
+  // not drawn by its mesh), 0 elsewhere; empty: made when warped.
   std::vector<uint16_t> learner_depth;
 };
 
@@ -189,9 +190,9 @@ class ViewWarper {
   // longest unbroken mesh edge (px), vertex weight.
   std::vector<float> px_, py_, pz_, plim_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
-  std::vector<uint16_t> learner_depth_;  // experiment: draw_learner_layer's depth
-  const uint16_t* prepared_learner_depth_ = nullptr;  // experiment: the prepared one, for this warp
-  bool track_box_ = false;  // experiment: splat_fine_cells keeps the box of the records it may write
+  std::vector<uint16_t> learner_depth_;  // learners_only: draw_learner_layer's depth
+  const uint16_t* prepared_learner_depth_ = nullptr;  // learners_only: the prepared one, for this warp
+  bool track_box_ = false;  // learners_only: splat_fine_cells keeps the box of the records it may write
   int box_x0_ = 0, box_y0_ = 0, box_x1_ = -1, box_y1_ = -1;
   std::vector<uint16_t> step_tmp_;   // src_depth_ smoothed along the rows
   std::vector<uint8_t> step_code_;   // what lies between neighbours (steps, edges), along rows, then columns
