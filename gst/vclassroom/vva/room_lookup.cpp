@@ -50,7 +50,7 @@ namespace room_lookup_detail {
 
 namespace {
 constexpr float kFarPlace = 0.15f;  // a camera's place weight, relative to the nearest's, skipped under
-constexpr int kBands = 4;           // of rows, for the threads (a few more than this machine's cores, for balance)
+constexpr int kBands = 4;           // of rows, for the threads: a few per core of a small machine, for balance
 }  // namespace
 
 std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,

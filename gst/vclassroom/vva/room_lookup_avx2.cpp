@@ -55,9 +55,66 @@ VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256 camera_weight(const
   return _mm256_mul_ps(c.place, _mm256_mul_ps(q, q));
 }
 
+// A camera's 2x2 around 8 positions: the records from the indices in `ii` (stored, 32-byte aligned) and the row
+// below, `lw` the depths that agree (lo | width, 16-bit lanes), `fq` the bilinear fractions in Q15 (u | v).
+struct Sample8 {
+  __m256 r, g, b;     // colour x bilinear weight over the members that agree
+  __m256 w;           // their bilinear weight
+  __m256 not_strict;  // all bits where a member that disagrees takes part in the sample
+};
+
+VCLASSROOM_AVX2 inline __attribute__((always_inline)) Sample8 sample_2x2(const CamV& c, int32_t* ii, __m256i lw,
+                                                                       __m256i fq) {
+  const __m256i ONE = _mm256_set1_epi16(32767), TH = _mm256_set1_epi16(655), Z = _mm256_setzero_si256();
+  const __m256i LO = _mm256_permute4x64_epi64(lw, 0x88), WD = _mm256_permute4x64_epi64(lw, 0xDD);
+  const __m256i FX = _mm256_permute4x64_epi64(fq, 0x88), FY = _mm256_permute4x64_epi64(fq, 0xDD);
+  const __m256i X0 = _mm256_sub_epi16(ONE, FX), Y = _mm256_blend_epi32(_mm256_sub_epi16(ONE, FY), FY, 0xF0);
+  const __m256i W0 = _mm256_mulhrs_epi16(X0, Y), W1 = _mm256_mulhrs_epi16(FX, Y);
+  // The 2x2s: per pixel [t00 t01 | t10 t11], 4 x 16 bits each, transposed to (texel, channel) x pixel.
+  // The indices through memory (one store, then a load per pixel that addresses both rows), not
+  // extracted lane by lane as the compiler would.
+  __asm__("" : "+m"(*reinterpret_cast<int32_t(*)[8]>(ii)));
+  const uint64_t *R = c.rec, *RW = c.rec + c.W;
+  __m256i p[8];
+  for (int j = 0; j < 8; ++j) {
+    const long i = ii[j];
+    p[j] = _mm256_inserti128_si256(
+        _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(R + i))),
+        _mm_loadu_si128(reinterpret_cast<const __m128i*>(RW + i)), 1);
+  }
+  const __m256i a_0 = _mm256_unpacklo_epi16(p[0], p[1]), a_1 = _mm256_unpackhi_epi16(p[0], p[1]),
+                a_2 = _mm256_unpacklo_epi16(p[2], p[3]), a_3 = _mm256_unpackhi_epi16(p[2], p[3]),
+                a_4 = _mm256_unpacklo_epi16(p[4], p[5]), a_5 = _mm256_unpackhi_epi16(p[4], p[5]),
+                a_6 = _mm256_unpacklo_epi16(p[6], p[7]), a_7 = _mm256_unpackhi_epi16(p[6], p[7]);
+  const __m256i b_0 = _mm256_unpacklo_epi32(a_0, a_2), b_1 = _mm256_unpackhi_epi32(a_0, a_2),
+                b_2 = _mm256_unpacklo_epi32(a_1, a_3), b_3 = _mm256_unpackhi_epi32(a_1, a_3),
+                b_4 = _mm256_unpacklo_epi32(a_4, a_6), b_5 = _mm256_unpackhi_epi32(a_4, a_6),
+                b_6 = _mm256_unpacklo_epi32(a_5, a_7), b_7 = _mm256_unpackhi_epi32(a_5, a_7);
+  const __m256i D0 = _mm256_unpacklo_epi64(b_0, b_4), R0 = _mm256_unpackhi_epi64(b_0, b_4),
+                G0 = _mm256_unpacklo_epi64(b_1, b_5), B0 = _mm256_unpackhi_epi64(b_1, b_5),
+                D1 = _mm256_unpacklo_epi64(b_2, b_6), R1 = _mm256_unpackhi_epi64(b_2, b_6),
+                G1 = _mm256_unpacklo_epi64(b_3, b_7), B1 = _mm256_unpackhi_epi64(b_3, b_7);
+  const __m256i ok0 = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(D0, LO), WD), Z),
+                ok1 = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(D1, LO), WD), Z);
+  // Strict: each member that disagrees has a bilinear weight factor of at most 1/50 (room_lookup.h).
+  const __m256i out = _mm256_or_si256(_mm256_andnot_si256(ok0, _mm256_cmpgt_epi16(_mm256_min_epi16(X0, Y), TH)),
+                                      _mm256_andnot_si256(ok1, _mm256_cmpgt_epi16(_mm256_min_epi16(FX, Y), TH)));
+  const __m256 not_strict = _mm256_castsi256_ps(_mm256_cvtepi16_epi32(
+      _mm_or_si128(_mm256_castsi256_si128(out), _mm256_extracti128_si256(out, 1))));
+  const __m256i w0 = _mm256_and_si256(W0, ok0), w1 = _mm256_and_si256(W1, ok1);
+  // Colour x weight summed exactly in 32 bits: t0 and t1 of a row paired for _mm256_madd_epi16 (lanes:
+  // pixels 0-3 top | 0-3 bottom, and 4-7), then the rows added.
+  const __m256i SW = _mm256_add_epi16(w0, w1);
+  const __m256i wl = _mm256_unpacklo_epi16(w0, w1), wh = _mm256_unpackhi_epi16(w0, w1);
+  const __m256 fw = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(
+      _mm_add_epi16(_mm256_castsi256_si128(SW), _mm256_extracti128_si256(SW, 1))));
+  return Sample8{weighted_sum(R0, R1, wl, wh), weighted_sum(G0, G1, wl, wh), weighted_sum(B0, B1, wl, wh), fw,
+                 not_strict};
+}
+
 VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const LookupView& view,
                                  const cv::Mat& view_depth, int y_begin, int y_end, cv::Mat* color, cv::Mat* written) {
-  const int VW = view_depth.cols, VH = view_depth.rows, nc = int(cf.size());
+  const int VW = view_depth.cols, nc = int(cf.size());
   CV_Assert(nc <= 8);
   CamV cams[8];  // on the stack: 32-byte aligned (the vector allocator here is not)
   for (int k = 0; k < nc; ++k) {
@@ -77,7 +134,6 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
                k2 = _mm256_set1_ps(1.0f + view.tol_ratio), c255 = _mm256_set1_ps(255.0f),
                only_seen = _mm256_set1_ps(1.0f / 65536.0f), tiny = _mm256_set1_ps(1e-30f),
                vcx = _mm256_set1_ps(view.cx), vifx = _mm256_set1_ps(view.ifx);
-  const __m256i ONE = _mm256_set1_epi16(32767), TH = _mm256_set1_epi16(655), Z = _mm256_setzero_si256();
   const __m256i pick = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1, 0, 1, 2, 4, 5, 6, 8,
                                         9, 10, 12, 13, 14, -1, -1, -1, -1);
   alignas(32) int32_t ii[8];
@@ -132,50 +188,8 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
         const __m256i fq = _mm256_packus_epi32(_mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(uc, fu), q15)),
                                                _mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(vc, fv), q15)));
         _mm256_store_si256(reinterpret_cast<__m256i*>(ii), idx);
-        const __m256i LO = _mm256_permute4x64_epi64(lw, 0x88), WD = _mm256_permute4x64_epi64(lw, 0xDD);
-        const __m256i FX = _mm256_permute4x64_epi64(fq, 0x88), FY = _mm256_permute4x64_epi64(fq, 0xDD);
-        const __m256i X0 = _mm256_sub_epi16(ONE, FX), Y = _mm256_blend_epi32(_mm256_sub_epi16(ONE, FY), FY, 0xF0);
-        const __m256i W0 = _mm256_mulhrs_epi16(X0, Y), W1 = _mm256_mulhrs_epi16(FX, Y);
-        // The 2x2s: per pixel [t00 t01 | t10 t11], 4 x 16 bits each, transposed to (texel, channel) x pixel.
-        // The indices through memory (one store, then a load per pixel that addresses both rows), not
-        // extracted lane by lane as the compiler would.
-        __asm__("" : "+m"(*reinterpret_cast<int32_t(*)[8]>(ii)));
-        const uint64_t *R = c.rec, *RW = c.rec + c.W;
-        __m256i p[8];
-        for (int j = 0; j < 8; ++j) {
-          const long i = ii[j];
-          p[j] = _mm256_inserti128_si256(
-              _mm256_castsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(R + i))),
-              _mm_loadu_si128(reinterpret_cast<const __m128i*>(RW + i)), 1);
-        }
-        const __m256i a_0 = _mm256_unpacklo_epi16(p[0], p[1]), a_1 = _mm256_unpackhi_epi16(p[0], p[1]),
-                      a_2 = _mm256_unpacklo_epi16(p[2], p[3]), a_3 = _mm256_unpackhi_epi16(p[2], p[3]),
-                      a_4 = _mm256_unpacklo_epi16(p[4], p[5]), a_5 = _mm256_unpackhi_epi16(p[4], p[5]),
-                      a_6 = _mm256_unpacklo_epi16(p[6], p[7]), a_7 = _mm256_unpackhi_epi16(p[6], p[7]);
-        const __m256i b_0 = _mm256_unpacklo_epi32(a_0, a_2), b_1 = _mm256_unpackhi_epi32(a_0, a_2),
-                      b_2 = _mm256_unpacklo_epi32(a_1, a_3), b_3 = _mm256_unpackhi_epi32(a_1, a_3),
-                      b_4 = _mm256_unpacklo_epi32(a_4, a_6), b_5 = _mm256_unpackhi_epi32(a_4, a_6),
-                      b_6 = _mm256_unpacklo_epi32(a_5, a_7), b_7 = _mm256_unpackhi_epi32(a_5, a_7);
-        const __m256i D0 = _mm256_unpacklo_epi64(b_0, b_4), R0 = _mm256_unpackhi_epi64(b_0, b_4),
-                      G0 = _mm256_unpacklo_epi64(b_1, b_5), B0 = _mm256_unpackhi_epi64(b_1, b_5),
-                      D1 = _mm256_unpacklo_epi64(b_2, b_6), R1 = _mm256_unpackhi_epi64(b_2, b_6),
-                      G1 = _mm256_unpacklo_epi64(b_3, b_7), B1 = _mm256_unpackhi_epi64(b_3, b_7);
-        const __m256i ok0 = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(D0, LO), WD), Z),
-                      ok1 = _mm256_cmpeq_epi16(_mm256_subs_epu16(_mm256_sub_epi16(D1, LO), WD), Z);
-        // Strict: each member that disagrees has a bilinear weight factor of at most 1/50 (room_lookup.h).
-        const __m256i out = _mm256_or_si256(_mm256_andnot_si256(ok0, _mm256_cmpgt_epi16(_mm256_min_epi16(X0, Y), TH)),
-                                            _mm256_andnot_si256(ok1, _mm256_cmpgt_epi16(_mm256_min_epi16(FX, Y), TH)));
-        const __m256 strict_keep = _mm256_castsi256_ps(_mm256_cvtepi16_epi32(  // here: where a member is out
-            _mm_or_si128(_mm256_castsi256_si128(out), _mm256_extracti128_si256(out, 1))));
-        const __m256i w0 = _mm256_and_si256(W0, ok0), w1 = _mm256_and_si256(W1, ok1);
-        // Colour x weight summed exactly in 32 bits: t0 and t1 of a row paired for _mm256_madd_epi16 (lanes:
-        // pixels 0-3 top | 0-3 bottom, and 4-7), then the rows added.
-        const __m256i SW = _mm256_add_epi16(w0, w1);
-        const __m256i wl = _mm256_unpacklo_epi16(w0, w1), wh = _mm256_unpackhi_epi16(w0, w1);
-        const __m256 fr = weighted_sum(R0, R1, wl, wh), fg = weighted_sum(G0, G1, wl, wh),
-                     fb = weighted_sum(B0, B1, wl, wh);
-        const __m256 fw = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(
-            _mm_add_epi16(_mm256_castsi256_si128(SW), _mm256_extracti128_si256(SW, 1))));
+        const Sample8 sample = sample_2x2(c, ii, lw, fq);
+        const __m256 fr = sample.r, fg = sample.g, fb = sample.b, fw = sample.w, strict_keep = sample.not_strict;
         const __m256 seen = _mm256_and_ps(in, _mm256_cmp_ps(fw, zero, _CMP_GT_OQ));
         const __m256 strict = _mm256_andnot_ps(strict_keep, seen);
         // The camera's weight where it sees the point strictly, 2^-16 of it where it only sees it (so the strict

@@ -299,6 +299,41 @@ int run_end(const uint8_t* marks, int x, int n, uint8_t value) {
   return x;
 }
 
+// FuseParams::first_is_base, one output row: the base (rows[0]) copied where no other view has a sample
+// (depth 0 where it has none, as the blend gives), blend_row_over_base over the column spans where one has.
+// A view with a box has its samples only there. `others`, `span_rows`: scratch.
+void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& views, const ViewRow* rows,
+                        const float* wlut, float tol_mm, float tol_ratio, BlendScratch& scratch,
+                        std::vector<uint8_t>* others, std::vector<ViewRow>* span_rows, uint8_t* oc, uint16_t* od,
+                        uint8_t* ol) {
+  const int k = int(views.size());
+  others->assign(size_t(W), 0);
+  uint8_t* const marks = others->data();
+  for (int c = 1; c < k; ++c) {
+    const cv::Rect& b = views[size_t(c)]->box;
+    if (b.area() == 0) {
+      mark_samples(W, rows[c].d, marks);
+    } else if (y >= b.y && y < b.y + b.height) {
+      mark_samples(b.width, rows[c].d + b.x, marks + b.x);
+    }
+  }
+  for (int x = 0; x < W;) {
+    if (!marks[x]) {
+      const int e = run_end(marks, x, W, 0);
+      std::memcpy(oc + 3 * x, rows[0].c + 3 * x, size_t(e - x) * 3);
+      std::memcpy(od + x, rows[0].d + x, size_t(e - x) * 2);
+      std::memcpy(ol + x, rows[0].l + x, size_t(e - x));
+      x = e;
+      continue;
+    }
+    const int e = run_end(marks, x, W, 1);
+    for (int c = 0; c < k; ++c)
+      (*span_rows)[size_t(c)] = ViewRow{rows[c].c + 3 * x, rows[c].d + x, rows[c].l + x, rows[c].w + x};
+    blend_row_over_base(e - x, k, span_rows->data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x);
+    x = e;
+  }
+}
+
 }  // namespace
 
 void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams& prm, FusedView* out,
@@ -332,35 +367,8 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
                 out->depth.ptr<uint16_t>(y), out->label.ptr<uint8_t>(y));
       continue;
     }
-    const int W = size.width;
-    others.assign(size_t(W), 0);
-    for (int c = 1; c < k; ++c) {
-      const cv::Rect& b = views[size_t(c)]->box;
-      if (b.area() == 0) {
-        mark_samples(W, rows[c].d, others.data());
-      } else if (y >= b.y && y < b.y + b.height) {  // its samples lie in its box
-        mark_samples(b.width, rows[c].d + b.x, others.data() + b.x);
-      }
-    }
-    // The base copied where it stands alone: depth 0 where it has none, as the blend gives.
-    uint8_t* oc = out->color.ptr<uint8_t>(y);
-    uint16_t* od = out->depth.ptr<uint16_t>(y);
-    uint8_t* ol = out->label.ptr<uint8_t>(y);
-    for (int x = 0; x < W;) {
-      if (!others[size_t(x)]) {
-        const int e = run_end(others.data(), x, W, 0);
-        std::memcpy(oc + 3 * x, rows[0].c + 3 * x, size_t(e - x) * 3);
-        std::memcpy(od + x, rows[0].d + x, size_t(e - x) * 2);
-        std::memcpy(ol + x, rows[0].l + x, size_t(e - x));
-        x = e;
-        continue;
-      }
-      const int e = run_end(others.data(), x, W, 1);
-      for (int c = 0; c < k; ++c)
-        span_rows[size_t(c)] = ViewRow{rows[c].c + 3 * x, rows[c].d + x, rows[c].l + x, rows[c].w + x};
-      blend_row_over_base(e - x, k, span_rows.data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x);
-      x = e;
-    }
+    fuse_row_over_base(size.width, y, views, rows.data(), wlut, tol_mm, tol_ratio, scratch, &others, &span_rows,
+                       out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y), out->label.ptr<uint8_t>(y));
   }
   // Reused like the other planes: a fresh 0.5 MB each frame costs page faults.
   out->filled.create(size, CV_8UC1);
