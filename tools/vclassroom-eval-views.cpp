@@ -480,8 +480,8 @@ void eval_classroom(const Options& opt) {
   const std::vector<CameraCalib> own{virtual_camera(target, all[1].cam_to_rig, NAN),
                                      virtual_camera(target, all[2].cam_to_rig, NAN)};
   Stats own_psnr, own_room_psnr;
-  // A lecturer near camera 0 with all three cameras as sources (as the live flow): camera 0's place and the
-  // novel poses, today's view and the room view against the truth (no memory: camera 0 has none here).
+  // A lecturer near camera 0 with all three cameras as sources (as the live flow, each through the background
+  // memory): camera 0's place and the novel poses, today's view and the room view against the truth.
   RoomViewPath near_room;
   std::vector<ViewWarper> near_warpers(3);
   std::vector<CameraCalib> near_poses{target};
@@ -495,6 +495,8 @@ void eval_classroom(const Options& opt) {
     std::vector<RgbdImages> imgs(3);
     std::vector<cv::Mat> labels(3), truth(3), raw_depth(3);
     std::vector<std::pair<cv::Mat, cv::Mat>> rooms(2);  // the sources' remembered room behind the learners
+    std::vector<std::pair<cv::Mat, cv::Mat>> all_rooms(3);  // likewise for cameras 0, 1 and 2
+    cv::Mat camera0_remembered;
     for (int i = 0; i < 3; ++i) {
       RenderOutput r;
       renderer.render(room, t, all[i], &r);
@@ -508,14 +510,17 @@ void eval_classroom(const Options& opt) {
       }
       truth[i] = r.label.clone();
       seg[i].segment(imgs[i].color, imgs[i].depth, &labels[i]);
-      if (opt.memory > 0 && i > 0) {  // the sources, as viewwarp background-memory=N shows them
+      // The cameras as viewwarp background-memory=N shows them: the sources for Table I, and all three for a
+      // lecturer near camera 0 (camera 0's own colour stays Table I's truth).
+      if (opt.memory > 0) {
         cv::Mat remembered;
         memories[i].update(imgs[i].color, labels[i], &remembered);
-        imgs[i].color = remembered;
-      }
-      if (opt.memory > 0 && i > 0) {
-        rooms[i - 1].first.release();  // not shared with the last frame's layer
-        memories[i].room_behind_learners(labels[i], priors[i], &rooms[i - 1].first, &rooms[i - 1].second);
+        if (i > 0) imgs[i].color = remembered;
+        else camera0_remembered = remembered;
+        all_rooms[size_t(i)].first.release();  // not shared with the last frame's layer
+        memories[i].room_behind_learners(labels[i], priors[i], &all_rooms[size_t(i)].first,
+                                         &all_rooms[size_t(i)].second);
+        if (i > 0) rooms[i - 1] = all_rooms[size_t(i)];
       }
       const SegScore sc = score_segmentation(labels[i], truth[i]);
       iou[i].add(sc.fg_iou);
@@ -568,8 +573,10 @@ void eval_classroom(const Options& opt) {
               by_room->add(psnr_rgb(view.color, gt.color));
             }
           };
-          score_both(near_poses, all, imgs, priors, labels, near_warpers, nullptr, near_room, &near_psnr,
-                     &near_room_psnr);
+          std::vector<RgbdImages> near_imgs = imgs;
+          if (!camera0_remembered.empty()) near_imgs[0].color = camera0_remembered;
+          score_both(near_poses, all, near_imgs, priors, labels, near_warpers, opt.memory > 0 ? &all_rooms : nullptr,
+                     near_room, &near_psnr, &near_room_psnr);
           score_both(own, sources, in, src_priors, src_labels, warpers, room_layers, p, &own_psnr, &own_room_psnr);
         }
       }

@@ -46,17 +46,21 @@ void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const u
                      out->packed.data() + size_t(y) * W);
 }
 
+float room_place_weight(const CameraCalib& camera, const CameraCalib& view, double sigma_m) {
+  const double sigma2 = sigma_m * sigma_m;
+  if (sigma2 <= 0) return 1.0f;
+  return float(sigma2 / ((camera.center_in_rig() - view.center_in_rig()).squaredNorm() + sigma2));
+}
+
 namespace room_lookup_detail {
 
 namespace {
-constexpr float kFarPlace = 0.15f;  // a camera's place weight, relative to the nearest's, skipped under
 constexpr int kBands = 4;           // of rows, for the threads: a few per core of a small machine, for balance
 }  // namespace
 
 std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt,
                                          const RoomLookupParams& params) {
   std::vector<LookupCamera> out;
-  const double sigma2 = params.place_sigma_m * params.place_sigma_m;
   for (const RoomTexture* t : cameras) {
     const CameraCalib& cam = t->camera;
     const Eigen::Isometry3d T = cam.cam_to_rig.inverse() * virt.cam_to_rig;  // view -> camera
@@ -67,9 +71,8 @@ std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& 
     for (int j = 0; j < 3; ++j)
       c.b[j] = float(b[j]), c.s[j] = float(s[j]), c.t[j] = float(tt[j]), c.dy[j] = float(M(j, 1));
     c.cx = float(cam.cx), c.cy = float(cam.cy), c.ifx = float(1 / cam.fx), c.ify = float(1 / cam.fy);
-    const double d2 = (cam.center_in_rig() - virt.center_in_rig()).squaredNorm();
-    c.base2 = float(d2 * 1e6);
-    c.place = sigma2 > 0 ? float(sigma2 / (d2 + sigma2)) : 1.0f;
+    c.base2 = float((cam.center_in_rig() - virt.center_in_rig()).squaredNorm() * 1e6);
+    c.place = room_place_weight(cam, virt, params.place_sigma_m);
     c.rec = t->packed.data(), c.W = t->width, c.H = t->height;
     out.push_back(c);
   }
@@ -81,7 +84,7 @@ std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& 
 LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params,
                        const std::vector<LookupCamera>& cameras) {
   int first_far = int(cameras.size());
-  while (first_far > 1 && cameras[size_t(first_far) - 1].place < kFarPlace * cameras[0].place) --first_far;
+  while (first_far > 1 && cameras[size_t(first_far) - 1].place < kRoomFarPlace * cameras[0].place) --first_far;
   return LookupView{float(virt.cx),           float(virt.cy),
                     float(1 / virt.fx),       float(1 / virt.fy),
                     float(params.depth_tol_mm), float(params.depth_tol_ratio),

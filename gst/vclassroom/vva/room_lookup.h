@@ -63,6 +63,13 @@ struct RoomLookupParams {
 void room_lookup(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt, const cv::Mat& view_depth,
                  const RoomLookupParams& params, cv::Mat* color, cv::Mat* written);
 
+// A camera's weight for where the view stands: sigma^2 / (d^2 + sigma^2), d the distance between their
+// centres (metres); 1 with sigma 0.
+float room_place_weight(const CameraCalib& camera, const CameraCalib& view, double sigma_m);
+// A camera under this share of the nearest camera's place weight is far: looked at only where no nearer camera
+// sees the point strictly.
+constexpr float kRoomFarPlace = 0.15f;
+
 namespace room_lookup_detail {
 
 // One camera for one view: view pixel (x, y) at view depth z (mm) lands at camera pixel h / h.z with

@@ -68,20 +68,37 @@ const RoomMesh& RoomShape::mesh() const {
 
 void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const CameraCalib& view,
                               const RoomLookupParams& params, WarpedView* out) {
-  raster_.begin(view);
   textures_.clear();
-  for (const RoomCamera& c : cameras) {
-    raster_.draw(*c.mesh);
-    textures_.push_back(c.texture);
-  }
-  raster_.depth(&out->depth);
-  close_strips_along_rows(out->depth);
-  close_strips_along_columns(out->depth);
+  for (const RoomCamera& c : cameras) textures_.push_back(c.texture);
   // The view's place sharpens the blend near a camera where the cameras' colour is the background memory's;
   // without it the cameras' sensor noise wants averaging, by the angles alone (docs/vva.md, flicker).
   RoomLookupParams lookup = params;
-  const bool steady = std::all_of(textures_.begin(), textures_.end(), [](const RoomTexture* t) { return t->steady; });
+  const bool steady =
+      std::all_of(textures_.begin(), textures_.end(), [](const RoomTexture* t) { return t->steady; });
   if (!steady) lookup.place_sigma_m = 0;
+  std::vector<float> place;
+  for (const RoomCamera& c : cameras)
+    place.push_back(room_place_weight(c.texture->camera, view, lookup.place_sigma_m));
+  const float nearest = place.empty() ? 0.0f : *std::max_element(place.begin(), place.end());
+  // A far camera's mesh only where the near ones leave a hole: near a camera its own mesh holds what the view
+  // sees, and a far mesh's depth (a pixel off from this viewpoint) would stand in front of it in places (near
+  // camera 0 from all three cameras: 26.4 dB against 25.9 with every mesh in one z-buffer, vclassroom-eval-views
+  // --room-view).
+  raster_.begin(view);
+  far_raster_.begin(view);
+  bool any_far = false;
+  for (size_t k = 0; k < cameras.size(); ++k) {
+    const bool far = place[k] < kRoomFarPlace * nearest;
+    (far ? far_raster_ : raster_).draw(*cameras[k].mesh);
+    any_far |= far;
+  }
+  raster_.depth(&out->depth);
+  if (any_far) {
+    far_raster_.depth(&far_depth_);
+    far_depth_.copyTo(out->depth, out->depth == 0);
+  }
+  close_strips_along_rows(out->depth);
+  close_strips_along_columns(out->depth);
   room_lookup(textures_, view, out->depth, lookup, &out->color, &out->weight);
   cv::compare(out->weight, 0, unseen_, cv::CMP_EQ);
   out->depth.setTo(0, unseen_);  // what no camera sees there is a hole

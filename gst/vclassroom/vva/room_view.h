@@ -60,7 +60,8 @@ class RoomViewRenderer {
               WarpedView* out);
 
  private:
-  RoomRaster raster_;
+  RoomRaster raster_, far_raster_;  // the near cameras' meshes, the far ones' (drawn where the near leave holes)
+  cv::Mat far_depth_;
   std::vector<const RoomTexture*> textures_;
   cv::Mat unseen_;
 };
