@@ -7,13 +7,15 @@
 namespace vclassroom {
 
 namespace {
-// The mesh's tolerance (docs/vva.md, "The room view"): max(10 mm, 1 %) of the depth, tiles of 32 px at most.
+// The mesh's tolerance (docs/vva.md, "How a view is made"): max(10 mm, 1 %) of the depth, tiles of 32 px at
+// most.
 constexpr double kMeshRatio = 0.01, kMeshMinMm = 10;
 constexpr int kMeshTopLevel = 5;
-// The gaps the meshes leave between a surface and the one behind it: a mesh ends at its last pixel centres,
-// so at a depth edge its pixel quad is dropped and the view shows a strip of up to a pixel or two where the
-// forward warp's cells (half a pixel past each centre) leave none. Gaps of up to kStripPx along a row or a
-// column are closed with the farther side's depth: what a camera sees there is the surface behind.
+// The gaps the meshes leave between a surface and the one behind it: a mesh ends at its last pixel centres
+// (the pixel quad across a depth edge is dropped), so a view off the camera's place shows a strip of up to a
+// pixel or two there, where the forward warp's cells (half a pixel past each centre) leave none. Gaps of up to
+// kStripPx along a row or a column are closed with the farther side's depth: what a camera sees there is the
+// surface behind.
 constexpr int kStripPx = 2;
 
 void close_strips_along_rows(cv::Mat& depth) {
