@@ -3,8 +3,8 @@
 // a mesh once (room_mesh.h); per camera frame its room (the seen static pixels, the background memory's room
 // behind the learners) is packed once for the lookup (room_lookup.h); per view the meshes are
 // rasterised at the pose (room_raster.h) and every view pixel's colour is looked up backward in every camera
-// that sees that point. The learners alone are then warped forward (WarpParams::learners_only) and fused on
-// top (FuseParams::first_is_base). GStreamer-free.
+// that sees that point. The learners (and the room's pixels its mesh does not draw) are then warped forward
+// (WarpParams::learners_only) and fused on top (FuseParams::first_is_base). GStreamer-free.
 #pragma once
 
 #include <memory>
@@ -26,8 +26,8 @@ namespace vclassroom {
 bool room_view_fits(const CameraCalib& camera);
 
 // A camera's static depth as a mesh in the rig frame, made at the first mesh() (any thread; once). The
-// mesh's tolerance is max(10 mm, 1 %) of the depth, 32 px tiles at most (docs/vva.md: 0.25 % gains 0.06 dB
-// on Table I for about twice the triangles).
+// mesh's tolerance is max(10 mm, 1 %) of the depth, 32 px tiles at most (in the prototype, 0.25 % gained
+// 0.06 dB on Table I for about twice the triangles: docs/vva.md).
 class RoomShape {
  public:
   // `static_depth`: CV_16UC1 mm of the camera's size (kept, not copied: it does not change).
