@@ -155,6 +155,15 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
   return r;
 }
 
+// Each camera's viewprep: the empty room's depth as its static layer, the background memory from the empty room.
+void set_up_preparers(const std::vector<Camera>& cams, int memory, const std::vector<cv::Mat>& empty_rooms,
+                      std::vector<FramePreparer>* preparers) {
+  for (size_t i = 0; i < cams.size(); ++i) {
+    (*preparers)[i].set_static_depth(cams[i].prior);
+    (*preparers)[i].set_memory(memory, empty_rooms[i]);
+  }
+}
+
 // The camera side of frame f, as learnerseg and viewprep run it: each camera's frame segmented and prepared.
 void prepare_frames(std::vector<Camera>& cams, std::vector<FramePreparer>& preparers, int f, const WarpParams& wp,
                     std::vector<std::shared_ptr<PreparedFrame>>* prepared, std::vector<WarpSource>* sources) {
@@ -176,10 +185,7 @@ void prepare_frames(std::vector<Camera>& cams, std::vector<FramePreparer>& prepa
 void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame, int frames,
                int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp) {
   std::vector<FramePreparer> preparers(cams.size());
-  for (size_t i = 0; i < cams.size(); ++i) {
-    preparers[i].set_static_depth(cams[i].prior);
-    preparers[i].set_memory(memory, empty_rooms[i]);
-  }
+  set_up_preparers(cams, memory, empty_rooms, &preparers);
   const FuseParams fp;  // viewfuse's
   std::vector<std::vector<ViewWarper>> warpers(size_t(views), std::vector<ViewWarper>(cams.size()));
   std::vector<WarpedView> warped(cams.size());
@@ -233,13 +239,10 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
 // room's edges warped forward from each camera, all fused and filled. The meshes are made once, untimed.
 void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame,
                     int frames, int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp) {
+  for (const Camera& c : cams)
+    if (c.prior.empty()) vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
   std::vector<FramePreparer> preparers(cams.size());
-  for (size_t i = 0; i < cams.size(); ++i) {
-    if (cams[i].prior.empty())
-      vclassroom_tools::usage_error("--room-view needs the empty room's depth (no --no-model)");
-    preparers[i].set_static_depth(cams[i].prior);
-    preparers[i].set_memory(memory, empty_rooms[i]);
-  }
+  set_up_preparers(cams, memory, empty_rooms, &preparers);
   FuseParams fp;
   fp.first_is_base = true;
   WarpParams only = wp;

@@ -118,34 +118,10 @@ VCLASSROOM_SIMD_INLINE void store_row(int W, const int* __restrict r, const int*
   }
 }
 
-// One output row: the nearest sample's z-buffer test, then every view's
-// sample within the tolerance blended by weight. The views are added in the
-// same order and with the same float operations per pixel as a loop over the
-// views of each pixel would (a view that does not count adds exactly 0), so
-// the result does not depend on the vector width. `wlut` holds each weight
-// code's blending weight, 0 for code 0 (no sample).
-VCLASSROOM_SIMD_CLONES
-void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_mm, float tol_ratio, BlendScratch& s,
-               uint8_t* oc, uint16_t* od, uint8_t* ol) {
-  int* zmin = s.zmin.data();
-  for (int x = 0; x < W; ++x) zmin[x] = 65536;
-  for (int c = 0; c < k; ++c) nearest_of(W, rows[c].d, rows[c].w, zmin);
-  start_row(W, zmin, tol_mm, tol_ratio, s.limit.data(), s.acc0.data(), s.acc1.data(), s.acc2.data(), s.zsum.data(),
-            s.wsum.data(), s.wbest.data(), s.lab.data());
-  for (int c = 0; c < k; ++c) {
-    weights_of(W, rows[c].w, wlut, s.weight.data());
-    add_view(W, rows[c].c, rows[c].d, rows[c].l, s.weight.data(), s.limit.data(), s.acc0.data(), s.acc1.data(),
-             s.acc2.data(), s.zsum.data(), s.wsum.data(), s.wbest.data(), s.lab.data());
-  }
-  finish_row(W, zmin, s.acc0.data(), s.acc1.data(), s.acc2.data(), s.zsum.data(), s.wsum.data(), s.r.data(), s.g.data(),
-             s.b.data(), s.z.data());
-  store_row(W, s.r.data(), s.g.data(), s.b.data(), s.z.data(), s.lab.data(), oc, od, ol);
-}
-
-// FuseParams::first_is_base: blend_row with rows[0] the room. The room lies behind the learners everywhere (it
-// is the empty room's), so where a learner stands within the tolerance of the room (on a chair, against a
-// desk or the wall) the room's colour would blend into the learner's: there the room only hides what lies
-// behind it, and the learners' and the other samples within the tolerance make the colour.
+// FuseParams::first_is_base: rows[0] is the room, which lies behind the learners everywhere (it is the empty
+// room's), so where a learner stands within the tolerance of the room (on a chair, against a desk or the
+// wall) the room's colour would blend into the learner's: there the room only hides what lies behind it, and
+// the learners' and the other samples within the tolerance make the colour.
 VCLASSROOM_SIMD_INLINE void learner_within(int W, const uint16_t* __restrict d, const uint8_t* __restrict w,
                                      const uint8_t* __restrict l, const float* __restrict limit,
                                      float* __restrict base_weight) {
@@ -153,17 +129,25 @@ VCLASSROOM_SIMD_INLINE void learner_within(int W, const uint16_t* __restrict d, 
     base_weight[x] = (l[x] != 0) & (d[x] != 0) & (w[x] != 0) & (float(d[x]) <= limit[x]) ? 0.0f : base_weight[x];
 }
 
+// One output row: the nearest sample's z-buffer test, then every view's
+// sample within the tolerance blended by weight. The views are added in the
+// same order and with the same float operations per pixel as a loop over the
+// views of each pixel would (a view that does not count adds exactly 0), so
+// the result does not depend on the vector width. `wlut` holds each weight
+// code's blending weight, 0 for code 0 (no sample). `over_base`: rows[0] is the
+// room (learner_within), added last, once the others' samples are known.
 VCLASSROOM_SIMD_CLONES
-void blend_row_over_base(int W, int k, const ViewRow* rows, const float* wlut, float tol_mm, float tol_ratio,
-                         BlendScratch& s, uint8_t* oc, uint16_t* od, uint8_t* ol) {
+void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_mm, float tol_ratio, BlendScratch& s,
+               uint8_t* oc, uint16_t* od, uint8_t* ol, bool over_base = false) {
   int* zmin = s.zmin.data();
   for (int x = 0; x < W; ++x) zmin[x] = 65536;
   for (int c = 0; c < k; ++c) nearest_of(W, rows[c].d, rows[c].w, zmin);
   start_row(W, zmin, tol_mm, tol_ratio, s.limit.data(), s.acc0.data(), s.acc1.data(), s.acc2.data(), s.zsum.data(),
             s.wsum.data(), s.wbest.data(), s.lab.data());
-  for (int c = k - 1; c >= 0; --c) {  // the base last: its weight known once the others are seen
+  for (int i = 0; i < k; ++i) {
+    const int c = over_base ? k - 1 - i : i;
     weights_of(W, rows[c].w, wlut, s.weight.data());
-    if (c == 0)
+    if (over_base && c == 0)
       for (int o = 1; o < k; ++o) learner_within(W, rows[o].d, rows[o].w, rows[o].l, s.limit.data(), s.weight.data());
     add_view(W, rows[c].c, rows[c].d, rows[c].l, s.weight.data(), s.limit.data(), s.acc0.data(), s.acc1.data(),
              s.acc2.data(), s.zsum.data(), s.wsum.data(), s.wbest.data(), s.lab.data());
@@ -300,7 +284,7 @@ int run_end(const uint8_t* marks, int x, int n, uint8_t value) {
 }
 
 // FuseParams::first_is_base, one output row: the base (rows[0]) copied where no other view has a sample
-// (depth 0 where it has none, as the blend gives), blend_row_over_base over the column spans where one has.
+// (depth 0 where it has none, as the blend gives), blend_row over it over the column spans where one has.
 // A view with a box has its samples only there. `others`, `span_rows`: scratch.
 void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& views, const ViewRow* rows,
                         const float* wlut, float tol_mm, float tol_ratio, BlendScratch& scratch,
@@ -329,7 +313,7 @@ void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& view
     const int e = run_end(marks, x, W, 1);
     for (int c = 0; c < k; ++c)
       (*span_rows)[size_t(c)] = ViewRow{rows[c].c + 3 * x, rows[c].d + x, rows[c].l + x, rows[c].w + x};
-    blend_row_over_base(e - x, k, span_rows->data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x);
+    blend_row(e - x, k, span_rows->data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x, true);
     x = e;
   }
 }
