@@ -875,7 +875,7 @@ GstPadProbeReturn count_room_parts(GstPad*, GstPadProbeInfo* info, gpointer data
 // the cameras with prior-depth warp only their learners and pass their frame's room to viewfuse, which draws
 // the room from every such camera's mesh; camera 2, without prior-depth, is warped whole as before. Both ways
 // give the view of the pose each picture names, against the truth there (the sensor's noise on), at camera
-// 0's place and walking away from it; the room view within 2 dB of the warp a picture (below).
+// 0's place and walking away from it; the room view within 0.5 dB of the warp a picture, 0.25 on average.
 TEST(ViewFuseElement, WithRoomViewTheFuseDrawsTheRoomAndTheWarpsOnlyTheLearners) {
   vctest::TempDir dir;
   const std::string rig = small_classroom_rig(dir);
@@ -958,14 +958,14 @@ TEST(ViewFuseElement, WithRoomViewTheFuseDrawsTheRoomAndTheWarpsOnlyTheLearners)
   EXPECT_EQ(room0.first, room0.second) << "room-view on: camera 0 (prior-depth) warps its learners only";
   EXPECT_GE(room0.second, 8);
   EXPECT_EQ(room2.first, 0) << "camera 2 has no prior-depth: warped whole";
-  // At this size (160x90, the sensor's noise, no background memory) the room view is 0.8-1.7 dB under the warp
-  // 4-28 cm from camera 0, 1.1 on average (2026-11-28; the RoomView test holds 0.3 dB at 320x180, the eval
-  // gains at 960x540): a gap issue 31 still has, held here from growing.
+  // At this size (160x90, the sensor's noise, no background memory) the room view was 0.8-1.7 dB under the warp
+  // 4-28 cm from camera 0 while its meshes ended at their last pixel centres; drawn to their edges (RoomMesh::
+  // edge_begin) it is 0.15 dB under to 0.04 over, 0.05 under on average (2026-11-28).
   double whole_sum = 0, room_sum = 0;
   for (size_t i = 0; i < whole.size(); ++i) {
     EXPECT_GT(whole[i], 18.0) << "picture " << i << ": not the view of the pose it names";
-    EXPECT_GT(by_room[i], whole[i] - 2.0) << "picture " << i;
+    EXPECT_GT(by_room[i], whole[i] - 0.5) << "picture " << i;
     whole_sum += whole[i], room_sum += by_room[i];
   }
-  EXPECT_GT(room_sum / double(by_room.size()), whole_sum / double(whole.size()) - 1.5);
+  EXPECT_GT(room_sum / double(by_room.size()), whole_sum / double(whole.size()) - 0.25);
 }

@@ -1,8 +1,11 @@
 // The room view's mesh (room_view.h): a quadtree mesh of a camera's static depth (V-DA's prior, which does
 // not change): a tile (its grid of pixel centres, border included, so neighbours meet) is two triangles when
 // its depth lies on one plane (1/z linear in u and v, as a plane seen by a pinhole camera) within a
-// tolerance; otherwise it splits, down to single pixel quads (two triangles, as the warp's mesh; a quad across
-// a depth edge, beyond max(15 mm, 3 %), is dropped). GStreamer-free.
+// tolerance; otherwise it splits, down to single pixel quads (two triangles, as the warp's mesh). A pixel quad
+// across a depth edge (beyond max(15 mm, 3 %)) or beside a pixel without depth is drawn in parts, after all the
+// leaves (RoomMesh::edge_begin): each surface to the middle of the quad's sides and its centre, the part of the
+// quad nearest its pixels, so that a surface ends where the camera saw its edge, half a pixel past its last
+// pixel centre. GStreamer-free.
 //
 // The triangles themselves (RoomMesh, optional): the vertices are the grid points the leaves' corners stand on,
 // each at the prior's depth there, shared by every leaf that has it as a corner. A leaf whose side holds a
@@ -37,6 +40,9 @@ struct RoomMeshCount {
 struct RoomMesh {
   std::vector<float> x, y, z;
   std::vector<uint32_t> index;
+  // The triangles before this one are the leaves'; those from it on, the edge quads' parts (room_mesh; a mesh
+  // made otherwise has none). Likewise the vertices: those from edge_vertex_begin on are the parts' alone.
+  size_t edge_begin = SIZE_MAX, edge_vertex_begin = SIZE_MAX;
   size_t vertices() const { return x.size(); }
   size_t triangles() const { return index.size() / 3; }
 };

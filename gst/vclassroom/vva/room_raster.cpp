@@ -259,21 +259,22 @@ void RoomRaster::begin(const CameraCalib& view, double near_m) {
   stats = {};
 }
 
-void RoomRaster::draw(const RoomMesh& mesh, cv::Mat* coverage) {
-  const size_t n = mesh.vertices();
+void RoomRaster::draw(const RoomMesh& mesh, bool edges, cv::Mat* coverage) {
+  const size_t n = edges ? mesh.vertices() : std::min(mesh.edge_vertex_begin, mesh.vertices());
+  const size_t triangles = edges ? mesh.triangles() : std::min(mesh.edge_begin, mesh.triangles());
   sx_.resize(n), sy_.resize(n), w_.resize(n);
   room_raster_project(n, mesh.x.data(), mesh.y.data(), mesh.z.data(), m_, fx_, fy_, cx_, cy_, near_, sx_.data(),
                       sy_.data(), w_.data());
-  stats.triangles += long(mesh.triangles());
+  stats.triangles += long(triangles);
   const size_t stride = buf_.step1();
   if (coverage) {
     CV_Assert(coverage->type() == CV_8UC1 && coverage->cols == width_ && coverage->rows == height_);
     cv::Mat cov(height_, int(stride), CV_8UC1, cv::Scalar(0));
-    room_raster_triangles_counted(mesh.index.data(), mesh.triangles(), sx_.data(), sy_.data(), w_.data(), width_,
+    room_raster_triangles_counted(mesh.index.data(), triangles, sx_.data(), sy_.data(), w_.data(), width_,
                                   height_, buf_.ptr<float>(), stride, cov.ptr<uint8_t>(), &stats);
     *coverage += cov.colRange(0, width_);
   } else {
-    room_raster_triangles(mesh.index.data(), mesh.triangles(), sx_.data(), sy_.data(), w_.data(), width_, height_,
+    room_raster_triangles(mesh.index.data(), triangles, sx_.data(), sy_.data(), w_.data(), width_, height_,
                           buf_.ptr<float>(), stride, &stats);
   }
 }

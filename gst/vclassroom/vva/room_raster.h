@@ -37,7 +37,8 @@ class RoomRaster {
   void begin(const CameraCalib& view, double near_m = 0.05);
   // Draws a mesh whose vertices are in the rig frame, nearest wins. `coverage` (tests; CV_8UC1 of the view's
   // size): + 1 at every pixel a triangle covers, whatever its depth.
-  void draw(const RoomMesh& mesh, cv::Mat* coverage = nullptr);
+  // `edges` false: the leaves' triangles alone, not the edge quads' parts (RoomMesh::edge_begin).
+  void draw(const RoomMesh& mesh, bool edges = true, cv::Mat* coverage = nullptr);
   // The view's depth so far, CV_16UC1 mm (0: nothing drawn there).
   void depth(cv::Mat* out) const;
   // 1/z in 1/m, CV_32FC1 (0: nothing drawn).
