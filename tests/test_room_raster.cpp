@@ -286,7 +286,7 @@ TEST(RoomView, TheRoomDrawnFromMeshesAndTheLearnersWarpedAloneMakeTheFullWarpsVi
       ViewWarper().warp_prepared(cams[k], src, prepared[k]->source, virt, WarpParams(), &full[k]);
       ViewWarper().warp_prepared(cams[k], src, prepared[k]->source, virt, learners_only, &learners[k]);
       room_cams.push_back(RoomCamera{&prepared[k]->room_shape->mesh(), &prepared[k]->room_texture(frames[k].color)});
-      // The learners and the room's edges (at this small size a good part of the picture) go forward.
+      // Only the learners and the room's pixels beside them go forward.
       EXPECT_LT(cv::countNonZero(learners[k].depth), cv::countNonZero(full[k].depth) / 2) << format_sliders(s);
     }
     renderer.render(room_cams, virt, RoomLookupParams(), &room_part);

@@ -233,10 +233,10 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
 }
 
 // The views as viewfuse room-view=true makes them (docs/vva.md, "How a view is made"), timed by part. Per
-// camera frame: learnerseg, viewprep (FramePreparer, which also gives the learners' and the room's edges'
-// depth) and the room's packed records (PreparedFrame::room_texture, made by the first view that asks). Per
-// view: the room rasterised from the cameras' meshes and looked up (RoomViewRenderer), the learners and the
-// room's edges warped forward from each camera, all fused and filled. The meshes are made once, untimed.
+// camera frame: learnerseg, viewprep (FramePreparer, which also gives the depth of what goes forward) and the
+// room's packed records (PreparedFrame::room_texture, made by the first view that asks). Per view: the room
+// rasterised from the cameras' meshes and looked up (RoomViewRenderer), the learners and the room's pixels
+// beside them warped forward from each camera, all fused and filled. The meshes are made once, untimed.
 void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame,
                     int frames, int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp) {
   for (const Camera& c : cams)
@@ -293,7 +293,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
   std::printf("room view: meshes of %zu triangles for %zu cameras\n", triangles, cams.size());
   std::printf("per camera frame: learnerseg + viewprep %.2f ms, room records %.2f ms CPU for %zu cameras\n",
               camera_ms / frames, texture_ms / frames, cams.size());
-  std::printf("per view frame: room (raster + lookup) %.2f + learners and edges %.2f + fuse %.2f ms\n", room_ms / n,
+  std::printf("per view frame: room (raster + lookup) %.2f + learners %.2f + fuse %.2f ms\n", room_ms / n,
               learner_ms / n, fuse_ms / n);
   std::printf("per view frame: %.1f ms CPU (%d views, %zu cameras %dx%d -> %dx%d)\n",
               (room_ms + learner_ms + fuse_ms) / n, views, cams.size(), cams[0].calib.width, cams[0].calib.height,
@@ -383,7 +383,7 @@ int main(int argc, char** argv) {
        "DEG"},
       {"room-view", 0, 0, G_OPTION_ARG_NONE, &room_view,
        "with --views: the views as viewfuse room-view=true makes them (the room rasterised from meshes and looked "
-       "up, the learners and the room's edges warped alone), timed by part",
+       "up, the learners and the room's pixels beside them warped alone), timed by part",
        nullptr},
       {"fill-only", 0, 0, G_OPTION_ARG_NONE, &fill_only,
        "only time the hole filling of viewfuse, its two methods (fill-method pyramid and rays) alternating on the "

@@ -593,44 +593,28 @@ void find_cracks(int n, const uint16_t* __restrict above, const uint16_t* __rest
   }
 }
 
-// Closes the cracks find_cracks marks: the pixel takes the mean of the two
-// pixels of the surface around it.
-// WarpParams::learners_only: what goes forward is the learners (label non-zero) and the room's pixels that
-// the room's meshes (room_mesh.h, made from the static depth) do not draw: those without a static depth, and
-// those in no pixel quad of the mesh (a quad across a step of the static depth, beyond max(15 mm, 3 %), is
-// dropped: a surface one pixel thin is left out); and the room's pixels beside a learner, so that the cracks
-// between a learner and the room around it close as in the full warp.
+// WarpParams::learners_only: what goes forward is the learners (label non-zero), the room's pixels beside a
+// learner, so that the cracks between a learner and the room around it close as in the full warp, and the
+// pixels without a static depth, which the room's meshes (room_mesh.h) cannot draw. A surface one pixel thin
+// (no pixel quad of the mesh holds it) is left to the mesh of the camera nearest the view (its edge quads'
+// parts): warped forward from every camera, each camera's cell a pixel off from the others' at the view, it
+// stood in front of the room around it (Table I 25.038 against 25.133 without, near camera 0 26.534 against
+// 26.790, vclassroom-eval-views --room-view, 2026-11-28).
 //
-// Per pixel quad of the rows `top` and `bottom` (quad x: columns x and x + 1; n - 1 of them), 1 where it is
-// one surface: all four depths known, max - min within max(15 mm, 3 % of the nearest) (room_mesh.cpp's
-// one_surface, in integers: 100 (max - min) <= max(1500, 3 min)).
+// One row: its labels and those of the rows above and below (the row itself at the image's border).
 VCLASSROOM_SIMD_CLONES
-void quads_of(int n, const uint16_t* __restrict top, const uint16_t* __restrict bottom, uint8_t* __restrict out) {
-  for (int x = 0; x + 1 < n; ++x) {
-    const int a = top[x], b = top[x + 1], c = bottom[x], d = bottom[x + 1];
-    const int lo = std::min(std::min(a, b), std::min(c, d)), hi = std::max(std::max(a, b), std::max(c, d));
-    out[x] = uint8_t((lo > 0) & (100 * (hi - lo) <= std::max(1500, 3 * lo)));
-  }
-}
-
-// One row of what goes forward: the pixel quads with the row above (`up`) and below (`down`) as quads_of
-// gives them, each with a readable 0 before the first and at the last; the labels of the row and of the rows
-// above and below (the row itself at the image's border).
-VCLASSROOM_SIMD_CLONES
-void forward_row(int n, const uint16_t* __restrict depth, const uint8_t* __restrict up,
-                 const uint8_t* __restrict down, const uint8_t* __restrict label_above,
-                 const uint8_t* __restrict label, const uint8_t* __restrict label_below, uint16_t* __restrict out) {
+void forward_row(int n, const uint16_t* __restrict depth, const uint16_t* __restrict static_depth,
+                 const uint8_t* __restrict label_above, const uint8_t* __restrict label,
+                 const uint8_t* __restrict label_below, uint16_t* __restrict out) {
   for (int x = 1; x + 1 < n; ++x) {
-    const bool in_mesh = (up[x - 1] | up[x] | down[x - 1] | down[x]) != 0;
     const bool learner_near = (label[x - 1] | label[x] | label[x + 1] | label_above[x] | label_below[x]) != 0;
-    out[x] = learner_near || !in_mesh ? depth[x] : 0;
+    out[x] = learner_near || static_depth[x] == 0 ? depth[x] : 0;
   }
   for (const int x : {0, n - 1}) {  // the first and last pixel: a neighbour beyond the border is none
     if (x < 0) continue;
-    const bool in_mesh = (up[x - 1] | up[x] | down[x - 1] | down[x]) != 0;
     const int left = x > 0 ? label[x - 1] : 0, right = x + 1 < n ? label[x + 1] : 0;
     const bool learner_near = (left | label[x] | right | label_above[x] | label_below[x]) != 0;
-    out[x] = learner_near || !in_mesh ? depth[x] : 0;
+    out[x] = learner_near || static_depth[x] == 0 ? depth[x] : 0;
   }
 }
 
@@ -640,17 +624,11 @@ void learner_depth_of(int W, int H, const uint16_t* depth, const uint8_t* label,
     for (size_t i = 0, n = size_t(W) * H; i < n; ++i) out[i] = label[i] ? depth[i] : 0;
     return;
   }
-  // The quads with the row above and below; index 0 and W stay 0 (no quad beyond the image's border).
-  static thread_local std::vector<uint8_t> up, down;
-  up.assign(size_t(W) + 1, 0), down.assign(size_t(W) + 1, 0);
   for (int y = 0; y < H; ++y) {
     const size_t o = size_t(y) * W;
-    if (y + 1 < H) quads_of(W, static_depth + o, static_depth + o + W, down.data() + 1);
-    else std::fill(down.begin(), down.end(), 0);
     const uint8_t* label_above = y > 0 ? label + o - W : label + o;
     const uint8_t* label_below = y + 1 < H ? label + o + W : label + o;
-    forward_row(W, depth + o, up.data() + 1, down.data() + 1, label_above, label + o, label_below, out + o);
-    up.swap(down);
+    forward_row(W, depth + o, static_depth + o, label_above, label + o, label_below, out + o);
   }
 }
 
@@ -669,6 +647,8 @@ bool all_empty(size_t n, const uint64_t* records) {
   return differ == 0;
 }
 
+// Closes the cracks find_cracks marks: the pixel takes the mean of the two
+// pixels of the surface around it.
 // `row_empty` (optional, per row): rows known to hold no depth; a row with its neighbours empty has no crack.
 // `box` (optional): all depth lies in it, so every crack does too (between two of its pixels).
 void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vector<uint8_t>* scratch,

@@ -88,8 +88,8 @@ struct WarpParams {
   // the same pixel for pixel (false: every column, the reference).
   bool cull_outside_view = true;
   // The room view (room_view.h, docs/vva.md "How a view is made"): only the learners' pixels, the room's beside
-  // them and those the room's mesh does not draw are drawn, as a sparse layer over their spans; the rest of the
-  // room comes from the room's meshes and lookup. Cell warp only (with `mesh` everything is drawn).
+  // them and those without a static depth are drawn, as a sparse layer over their spans; the rest of the room
+  // comes from the room's meshes and lookup. Cell warp only (with `mesh` everything is drawn).
   bool learners_only = false;
 };
 
@@ -111,8 +111,8 @@ struct PreparedSource {
   std::vector<uint8_t> label;   // the labels likewise; width * height + 1 (a zero after the last)
   // Per tile of view_cull.h, the nearest and farthest depth (mm) of `depth`; empty: found when warped.
   std::vector<uint16_t> tile_nearest, tile_farthest;
-  // WarpParams::learners_only: the depth of what is drawn (the learners and the room's pixels beside them or
-  // not drawn by its mesh), 0 elsewhere; empty: made when warped.
+  // WarpParams::learners_only: the depth of what is drawn (the learners, the room's pixels beside them and
+  // those without a static depth), 0 elsewhere; empty: made when warped.
   std::vector<uint16_t> learner_depth;
 };
 
