@@ -15,6 +15,8 @@ constexpr int kOne = 1 << kSub;
 constexpr int32_t kLarge = 1024 << kSub;  // boxes below this on each side: 32-bit edge functions
 constexpr float kFar = float(1 << 26);    // |screen coordinate| (1/16 px) beyond this: dropped as near
 constexpr int kLanes = RoomRaster::kSlack;  // pixels per group of the row loop
+constexpr int kTilePx = RoomRaster::kTilePx, kTileShift = 3;
+static_assert(kTilePx == 1 << kTileShift, "tiles of 8 px");
 
 // GCC's vector extensions: 8 lanes, lowered to what each clone's target has (2 x SSE2, AVX2, AVX-512).
 typedef int32_t VecI __attribute__((vector_size(4 * kLanes)));
@@ -156,11 +158,27 @@ VCLASSROOM_SIMD_INLINE void setup_batch(Batch& b, int m, int W, int H) {
   }
 }
 
+// Where a triangle may be skipped (RoomRaster::draw_where_empty): per tile of kTilePx, whether another raster
+// left a pixel of it empty; null: draw everything.
+struct TileMask {
+  const uint8_t* empty = nullptr;
+  int cols = 0;
+  // Whether the box (first pixel, width, rows) touches a tile with an empty pixel.
+  bool touches_empty(int xs, int ys, int n, int rows) const {
+    const int tx0 = xs >> kTileShift, tx1 = (xs + n - 1) >> kTileShift;
+    const int ty0 = ys >> kTileShift, ty1 = (ys + rows - 1) >> kTileShift;
+    for (int ty = ty0; ty <= ty1; ++ty)
+      for (int tx = tx0; tx <= tx1; ++tx)
+        if (empty[size_t(ty) * cols + tx]) return true;
+    return false;
+  }
+};
+
 template <bool kCount>
 VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, const int32_t* sx, const int32_t* sy,
                                              const float* wv, int W, int H, float* inv, size_t stride, uint8_t* cov,
-                                             RoomRasterStats* st) {
-  long near = 0, empty = 0, drawn = 0, large = 0, box = 0;
+                                             const TileMask& mask, RoomRasterStats* st) {
+  long near = 0, empty = 0, drawn = 0, large = 0, box = 0, skipped = 0;
   Batch b;
   for (size_t t0 = 0; t0 < nt; t0 += kBatch) {
     const int m = int(std::min<size_t>(kBatch, nt - t0));
@@ -173,6 +191,10 @@ VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, con
     setup_batch(b, m, W, H);
     for (int j = 0; j < m; ++j) {
       const int kind = b.kind[j];
+      if (mask.empty && (kind == 1 || kind == 2) && !mask.touches_empty(b.xs[j], b.ys[j], b.n[j], b.rows[j])) {
+        ++skipped;
+        continue;
+      }
       if (kind != 1) {
         if (kind == 3) {
           ++near;
@@ -219,19 +241,20 @@ VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, con
     }
   }
   st->near += near, st->empty += empty, st->drawn += drawn, st->large += large, st->box_pixels += box;
+  st->skipped += skipped;
 }
 
 VCLASSROOM_SIMD_CLONES
 void room_raster_triangles(const uint32_t* idx, size_t nt, const int32_t* sx, const int32_t* sy, const float* wv,
-                           int W, int H, float* inv, size_t stride, RoomRasterStats* st) {
-  raster_triangles<false>(idx, nt, sx, sy, wv, W, H, inv, stride, nullptr, st);
+                           int W, int H, float* inv, size_t stride, const TileMask& mask, RoomRasterStats* st) {
+  raster_triangles<false>(idx, nt, sx, sy, wv, W, H, inv, stride, nullptr, mask, st);
 }
 
 VCLASSROOM_SIMD_CLONES
 void room_raster_triangles_counted(const uint32_t* idx, size_t nt, const int32_t* sx, const int32_t* sy,
                                    const float* wv, int W, int H, float* inv, size_t stride, uint8_t* cov,
                                    RoomRasterStats* st) {
-  raster_triangles<true>(idx, nt, sx, sy, wv, W, H, inv, stride, cov, st);
+  raster_triangles<true>(idx, nt, sx, sy, wv, W, H, inv, stride, cov, TileMask{}, st);
 }
 
 VCLASSROOM_SIMD_CLONES
@@ -259,7 +282,26 @@ void RoomRaster::begin(const CameraCalib& view, double near_m) {
   stats = {};
 }
 
-void RoomRaster::draw(const RoomMesh& mesh, bool edges, cv::Mat* coverage) {
+void RoomRaster::draw(const RoomMesh& mesh, bool edges, cv::Mat* coverage) { draw_masked(mesh, edges, coverage, {}); }
+
+void RoomRaster::draw_where_empty(const RoomMesh& mesh, const std::vector<uint8_t>& empty_tiles) {
+  const int cols = (width_ + kTilePx - 1) / kTilePx, rows = (height_ + kTilePx - 1) / kTilePx;
+  CV_Assert(empty_tiles.size() == size_t(cols) * rows);
+  draw_masked(mesh, false, nullptr, empty_tiles);
+}
+
+void RoomRaster::empty_tiles(std::vector<uint8_t>* out) const {
+  const int cols = (width_ + kTilePx - 1) / kTilePx, rows = (height_ + kTilePx - 1) / kTilePx;
+  out->assign(size_t(cols) * rows, 0);
+  for (int y = 0; y < height_; ++y) {
+    const float* r = inv_.ptr<float>(y);
+    uint8_t* t = out->data() + size_t(y >> kTileShift) * cols;
+    for (int x = 0; x < width_; ++x) t[x >> kTileShift] |= uint8_t(r[x] == 0);
+  }
+}
+
+void RoomRaster::draw_masked(const RoomMesh& mesh, bool edges, cv::Mat* coverage,
+                             const std::vector<uint8_t>& empty_tiles) {
   const size_t n = edges ? mesh.vertices() : std::min(mesh.edge_vertex_begin, mesh.vertices());
   const size_t triangles = edges ? mesh.triangles() : std::min(mesh.edge_begin, mesh.triangles());
   sx_.resize(n), sy_.resize(n), w_.resize(n);
@@ -274,8 +316,9 @@ void RoomRaster::draw(const RoomMesh& mesh, bool edges, cv::Mat* coverage) {
                                   height_, buf_.ptr<float>(), stride, cov.ptr<uint8_t>(), &stats);
     *coverage += cov.colRange(0, width_);
   } else {
+    const TileMask mask{empty_tiles.empty() ? nullptr : empty_tiles.data(), (width_ + kTilePx - 1) / kTilePx};
     room_raster_triangles(mesh.index.data(), triangles, sx_.data(), sy_.data(), w_.data(), width_, height_,
-                          buf_.ptr<float>(), stride, &stats);
+                          buf_.ptr<float>(), stride, mask, &stats);
   }
 }
 

@@ -29,6 +29,7 @@ struct RoomRasterStats {
   long drawn = 0;        // reached the pixel loop
   long large = 0;        // of which through the 64-bit loop
   long box_pixels = 0;   // pixels of the boxes scanned
+  long skipped = 0;      // draw_where_empty: no empty tile under its box
 };
 
 class RoomRaster {
@@ -39,6 +40,12 @@ class RoomRaster {
   // size): + 1 at every pixel a triangle covers, whatever its depth.
   // `edges` false: the leaves' triangles alone, not the edge quads' parts (RoomMesh::edge_begin).
   void draw(const RoomMesh& mesh, bool edges = true, cv::Mat* coverage = nullptr);
+  // As draw (the leaves alone), but only the triangles whose box on screen touches a tile that `empty_tiles`
+  // (from another raster of the same view, empty_tiles()) marks: where that raster left a pixel empty. The
+  // triangles drawn are drawn whole; the caller takes from this raster only what the other left empty.
+  void draw_where_empty(const RoomMesh& mesh, const std::vector<uint8_t>& empty_tiles);
+  // Per tile of kTilePx x kTilePx pixels (rows of tiles, left to right), 1 where a pixel is still empty.
+  void empty_tiles(std::vector<uint8_t>* out) const;
   // The view's depth so far, CV_16UC1 mm (0: nothing drawn there).
   void depth(cv::Mat* out) const;
   // 1/z in 1/m, CV_32FC1 (0: nothing drawn).
@@ -46,8 +53,10 @@ class RoomRaster {
   RoomRasterStats stats;
   // The row loop works in whole groups of this many pixels; the buffer's rows have as many of slack.
   static constexpr int kSlack = 8;
+  static constexpr int kTilePx = 8;
 
  private:
+  void draw_masked(const RoomMesh& mesh, bool edges, cv::Mat* coverage, const std::vector<uint8_t>& empty_tiles);
   int width_ = 0, height_ = 0;
   float m_[12] = {};  // rig -> view, row-major 3x4
   float fx_ = 0, fy_ = 0, cx_ = 0, cy_ = 0, near_ = 0;
