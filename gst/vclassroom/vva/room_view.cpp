@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include <gst/vclassroom/core/error.h>
+#include <gst/vclassroom/core/simd.h>
 
 namespace vclassroom {
 
@@ -36,35 +37,52 @@ size_t closest_camera(const std::vector<RoomCamera>& cameras, const CameraCalib&
   return closest;
 }
 
+// The first x in [x, n) with r[x] == 0, or n: 16 pixels at a time while they hold none (most of a row).
+VCLASSROOM_SIMD_INLINE int next_empty(const uint16_t* r, int x, int n) {
+  while (x + 16 <= n) {
+    int empty = 0;
+    for (int i = 0; i < 16; ++i) empty |= int(r[x + i] == 0);
+    if (empty) break;
+    x += 16;
+  }
+  while (x < n && r[x]) ++x;
+  return x;
+}
+
+VCLASSROOM_SIMD_CLONES
 void close_strips_along_rows(cv::Mat& depth) {
+  const int cols = depth.cols;
   for (int y = 0; y < depth.rows; ++y) {
     uint16_t* r = depth.ptr<uint16_t>(y);
-    for (int x = 1; x < depth.cols; ++x) {
-      if (r[x] || !r[x - 1]) continue;
+    for (int x = next_empty(r, 1, cols); x < cols; x = next_empty(r, x + 1, cols)) {
+      if (!r[x - 1]) continue;
       int e = x;
-      while (e < depth.cols && e - x <= kStripPx && !r[e]) ++e;
-      if (e < depth.cols && r[e] && e - x <= kStripPx) std::fill(r + x, r + e, std::max(r[x - 1], r[e]));
+      while (e < cols && e - x <= kStripPx && !r[e]) ++e;
+      if (e < cols && r[e] && e - x <= kStripPx) std::fill(r + x, r + e, std::max(r[x - 1], r[e]));
       x = e;
     }
   }
 }
 
+// One row of the column pass, the row above already closed: an empty pixel below a depth takes the farther of
+// the two around it; with the pixel below empty too and the one below that not, both take the farther of those.
+VCLASSROOM_SIMD_CLONES
+void close_column_gaps(int n, const uint16_t* __restrict above, uint16_t* __restrict here, uint16_t* __restrict below,
+                       const uint16_t* __restrict two_below) {
+  for (int x = 0; x < n; ++x) {
+    const uint16_t a = above[x], h = here[x], b = below[x], c = two_below ? two_below[x] : uint16_t(0);
+    const bool gap = h == 0 && a != 0, one = gap && b != 0, two = gap && b == 0 && c != 0;
+    const uint16_t across_one = std::max(a, b), across_two = std::max(a, c);
+    here[x] = one ? across_one : two ? across_two : h;
+    below[x] = two ? across_two : b;
+  }
+}
+
 void close_strips_along_columns(cv::Mat& depth) {
   static_assert(kStripPx == 2, "the column pass looks two rows ahead");
-  for (int y = 1; y + 1 < depth.rows; ++y) {
-    const uint16_t* above = depth.ptr<uint16_t>(y - 1);
-    uint16_t* here = depth.ptr<uint16_t>(y);
-    uint16_t* below = depth.ptr<uint16_t>(y + 1);
-    const uint16_t* two_below = y + 2 < depth.rows ? depth.ptr<uint16_t>(y + 2) : nullptr;
-    for (int x = 0; x < depth.cols; ++x) {
-      if (here[x] || !above[x]) continue;
-      if (below[x]) {
-        here[x] = std::max(above[x], below[x]);
-      } else if (two_below && two_below[x]) {
-        here[x] = below[x] = std::max(above[x], two_below[x]);
-      }
-    }
-  }
+  for (int y = 1; y + 1 < depth.rows; ++y)
+    close_column_gaps(depth.cols, depth.ptr<uint16_t>(y - 1), depth.ptr<uint16_t>(y), depth.ptr<uint16_t>(y + 1),
+                      y + 2 < depth.rows ? depth.ptr<uint16_t>(y + 2) : nullptr);
 }
 
 void empty_tiles_of(const cv::Mat& depth, std::vector<uint8_t>* out) {
