@@ -27,6 +27,7 @@
 #include <gst/vclassroom/core/view_offset.h>
 #include <gst/vclassroom/core/pose_trace.h>
 
+#include "cpu_clock.h"
 #include "tool_options.h"
 #include "tool_support.h"
 
@@ -63,21 +64,15 @@ struct Counter {
   double cpu_first = 0, cpu_last = 0;
 };
 
-double process_cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
 GstPadProbeReturn count_frame(GstPad*, GstPadProbeInfo*, gpointer data) {
   Counter* c = static_cast<Counter*>(data);
   const int n = ++c->frames;
   if (n == c->warmup) {
     c->first = Clock::now();
-    c->cpu_first = process_cpu_ms();
+    c->cpu_first = vclassroom_tools::process_cpu_ms();
   }
   c->last = Clock::now();
-  c->cpu_last = process_cpu_ms();
+  c->cpu_last = vclassroom_tools::process_cpu_ms();
   return GST_PAD_PROBE_OK;
 }
 

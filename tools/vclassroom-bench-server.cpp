@@ -48,6 +48,7 @@ double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
+using vclassroom_tools::process_cpu_ms;
 using vclassroom_tools::thread_cpu_ms;
 
 struct Result {
@@ -182,6 +183,8 @@ void prepare_frames(std::vector<Camera>& cams, std::vector<FramePreparer>& prepa
 // segmented and prepared once (viewprep: the background memory, the warp's half that does not depend on the
 // pose), then warped and fused once per view for that view's pose. Prints the camera side per frame and what
 // one view frame costs: everything that depends on the lecturer's pose (warps, fuse with its fill and fade).
+// The views' CPU is the process's: the room view's lookup and OpenCV's filters run on OpenCV's threads too
+// (the calling thread's clock alone, used until 2026-11-28, left out up to half of the lookup).
 void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame, int frames,
                int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp) {
   std::vector<FramePreparer> preparers(cams.size());
@@ -194,23 +197,23 @@ void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, i
   const int warm_up = 3;
   for (int f = 0; f < warm_up + frames; ++f) {
     const bool timed = f >= warm_up;
-    double t0 = thread_cpu_ms();
+    double t0 = process_cpu_ms();
     std::vector<std::shared_ptr<PreparedFrame>> prepared;
     std::vector<WarpSource> sources;
     prepare_frames(cams, preparers, f, wp, &prepared, &sources);
-    if (timed) camera_ms += thread_cpu_ms() - t0;
+    if (timed) camera_ms += process_cpu_ms() - t0;
     for (int v = 0; v < views; ++v) {
       const CameraCalib virt = virt_at_frame(f, v);
-      t0 = thread_cpu_ms();
+      t0 = process_cpu_ms();
       for (size_t i = 0; i < cams.size(); ++i)
         warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, wp, &warped[i]);
-      const double t1 = thread_cpu_ms();
+      const double t1 = process_cpu_ms();
       std::vector<const WarpedView*> inputs;
       for (auto& w : warped) inputs.push_back(&w);
       fuse_views(inputs, fp, &fused);
       if (timed) {
         warp_ms += t1 - t0;
-        fuse_ms += thread_cpu_ms() - t1;
+        fuse_ms += process_cpu_ms() - t1;
         for (size_t i = 0; i < cams.size(); ++i) {  // not timed
           share += warpers[size_t(v)][i].warped_share();
           drawn += double(cv::countNonZero(warped[i].depth)) / double(warped[i].depth.total());
@@ -257,35 +260,35 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
   const int warm_up = 3;
   for (int f = 0; f < warm_up + frames; ++f) {
     const bool timed = f >= warm_up;
-    double t0 = thread_cpu_ms();
+    double t0 = process_cpu_ms();
     std::vector<std::shared_ptr<PreparedFrame>> prepared;
     std::vector<WarpSource> sources;
     prepare_frames(cams, preparers, f, wp, &prepared, &sources);
     if (f == 0)  // the meshes, once: untimed
       for (const auto& p : prepared) triangles += p->room_shape->mesh().triangles();
-    double t1 = thread_cpu_ms();
+    double t1 = process_cpu_ms();
     std::vector<RoomCamera> room_cams;
     for (size_t i = 0; i < cams.size(); ++i)
       room_cams.push_back(RoomCamera{&prepared[i]->room_shape->mesh(),
                                      &prepared[i]->room_texture(cams[i].color[size_t(f) % cams[i].color.size()])});
-    const double t2 = thread_cpu_ms();
+    const double t2 = process_cpu_ms();
     if (timed) camera_ms += t1 - t0, texture_ms += t2 - t1;
     for (int v = 0; v < views; ++v) {
       const CameraCalib virt = virt_at_frame(f, v);
-      t0 = thread_cpu_ms();
+      t0 = process_cpu_ms();
       renderer.render(room_cams, virt, RoomLookupParams(), &room);
-      t1 = thread_cpu_ms();
+      t1 = process_cpu_ms();
       std::vector<const WarpedView*> inputs{&room};
       for (size_t i = 0; i < cams.size(); ++i) {
         warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, only, &warped[i]);
         inputs.push_back(&warped[i]);
       }
-      const double t_learners = thread_cpu_ms();
+      const double t_learners = process_cpu_ms();
       fuse_views(inputs, fp, &fused);
       if (timed) {
         room_ms += t1 - t0;
         learner_ms += t_learners - t1;
-        fuse_ms += thread_cpu_ms() - t_learners;
+        fuse_ms += process_cpu_ms() - t_learners;
       }
     }
   }
@@ -336,9 +339,9 @@ void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>&
       mask.setTo(0);
       HoleFillParams p = hole_fill_params(FuseParams());
       p.method = methods[m];
-      const double t0 = thread_cpu_ms();
+      const double t0 = process_cpu_ms();
       fill_holes(color, fused.depth, p, mask, nullptr, m == 0 ? &history : nullptr);
-      if (f >= warm_up) fill_ms[m] += thread_cpu_ms() - t0;
+      if (f >= warm_up) fill_ms[m] += process_cpu_ms() - t0;
     }
   }
   std::printf("hole fill alone, 960x540 view, %d frames, holes %.2f %% of the view%s: pyramid (default) %.3f ms, "
