@@ -178,7 +178,7 @@ TEST(RoomRaster, ATiledPlaneIsDrawnWithoutCracksToItsBorder) {
     RoomRaster r;
     r.begin(view);
     cv::Mat coverage(view.height, view.width, CV_8UC1, cv::Scalar(0));
-    r.draw(mesh, true, &coverage);
+    r.draw(mesh, &coverage);
     long inside = 0, holes = 0;
     for (int v = 0; v < view.height; ++v)
       for (int u = 0; u < view.width; ++u) {
@@ -200,7 +200,7 @@ TEST(RoomRaster, ATiledPlaneIsDrawnWithoutCracksToItsBorder) {
   RoomRaster own;
   own.begin(src);
   cv::Mat coverage(src.height, src.width, CV_8UC1, cv::Scalar(0));
-  own.draw(mesh, true, &coverage);
+  own.draw(mesh, &coverage);
   EXPECT_EQ(cv::countNonZero(coverage), src.width * src.height);
 }
 
@@ -223,7 +223,8 @@ TEST(RoomMesh, ASurfaceEndsHalfAPixelPastItsLastPixelCentre) {
   auto box_extent = [&](bool edges, int* columns, int* rows) {
     RoomRaster r;
     r.begin(shifted);
-    r.draw(mesh, edges);
+    if (edges) r.draw(mesh);
+    else r.draw_leaves(mesh);
     cv::Mat out;
     r.depth(&out);
     *columns = cv::countNonZero(out.row(13) == 2000);
@@ -234,19 +235,71 @@ TEST(RoomMesh, ASurfaceEndsHalfAPixelPastItsLastPixelCentre) {
   const cv::Mat with_edges = box_extent(true, &columns, &rows);
   EXPECT_EQ(columns, 10);
   EXPECT_EQ(rows, 10);
-  EXPECT_EQ(with_edges.at<uint16_t>(13, 11), 2000);  // camera column 10.6: the box's left edge is at 10.1
-  EXPECT_EQ(with_edges.at<uint16_t>(13, 20), 2000);  // 19.4 < the right edge at 20.1
-  EXPECT_EQ(with_edges.at<uint16_t>(13, 21), 4000);
+  EXPECT_EQ(with_edges.at<uint16_t>(13, 11), 2000);  // camera column 10.4: the box's left edge is at 9.5
+  EXPECT_EQ(with_edges.at<uint16_t>(13, 20), 2000);  // 19.4 < its right edge at 19.5
+  EXPECT_EQ(with_edges.at<uint16_t>(13, 21), 4000);  // 20.4: the wall
   EXPECT_EQ(with_edges.at<uint16_t>(25, 31), 4000);  // 30.4, 24.4: the wall's part of a quad with no depth at 30, 25
   EXPECT_EQ(with_edges.at<uint16_t>(26, 31), 0);     // 30.4, 25.4: that pixel's own part
   box_extent(false, &columns, &rows);
   EXPECT_EQ(columns, 9);
   EXPECT_EQ(rows, 9);
+  // From the camera's own place every pixel is drawn at its own depth, edges and all, but the one without depth.
+  RoomRaster own;
+  own.begin(src);
+  own.draw(mesh);
+  cv::Mat drawn;
+  own.depth(&drawn);
+  cv::Mat off;
+  cv::absdiff(drawn, depth, off);
+  EXPECT_EQ(cv::countNonZero(off > 1), 0);
+  EXPECT_EQ(drawn.at<uint16_t>(25, 30), 0);
+}
+
+// A far camera's mesh where the near ones left holes (RoomRaster::draw_where_empty): its triangles over tiles
+// without a hole are not drawn, those over one are drawn whole, one reaching past the image's border too.
+TEST(RoomRaster, AFarMeshIsDrawnOnlyWhereTheNearOnesLeftAHole) {
+  const CameraCalib view = pinhole(64, 48, 50, Eigen::Isometry3d::Identity());
+  auto at_depth = [&](double u, double v, double z) {  // a rig point seen at (u, v), z metres away
+    return Eigen::Vector3d((u - view.cx) / view.fx * z, (v - view.cy) / view.fy * z, z);
+  };
+  auto triangle = [&](RoomMesh* m, std::initializer_list<std::pair<double, double>> uv, double z) {
+    const uint32_t base = uint32_t(m->vertices());
+    for (const auto& [u, v] : uv) {
+      const Eigen::Vector3d p = at_depth(u, v, z);
+      m->x.push_back(float(p.x())), m->y.push_back(float(p.y())), m->z.push_back(float(p.z()));
+    }
+    m->index.insert(m->index.end(), {base, base + 1, base + 2});
+  };
+  RoomMesh near_mesh, far_mesh;
+  triangle(&near_mesh, {{-10, -10}, {40, -10}, {-10, 60}}, 2.0);  // the near mesh: the left part of the view
+  triangle(&near_mesh, {{40, -10}, {40, 60}, {-10, 60}}, 2.0);
+  triangle(&far_mesh, {{2, 2}, {20, 2}, {2, 20}}, 3.0);    // over the near mesh
+  triangle(&far_mesh, {{50, 10}, {80, 10}, {50, 40}}, 3.0);  // over the hole, past the right border
+  RoomRaster near, far;
+  near.begin(view);
+  near.draw(near_mesh);
+  cv::Mat near_depth;
+  near.depth(&near_depth);
+  const int cols = (64 + RoomRaster::kTilePx - 1) / RoomRaster::kTilePx, rows = (48 + RoomRaster::kTilePx - 1) /
+                                                                                  RoomRaster::kTilePx;
+  std::vector<uint8_t> empty(size_t(cols) * rows, 0);
+  for (int y = 0; y < 48; ++y)
+    for (int x = 0; x < 64; ++x)
+      if (near_depth.at<uint16_t>(y, x) == 0) empty[size_t(y / RoomRaster::kTilePx) * cols + x / RoomRaster::kTilePx] = 1;
+  far.begin(view);
+  far.draw_where_empty(far_mesh, empty);
+  cv::Mat far_depth;
+  far.depth(&far_depth);
+  EXPECT_EQ(far.stats.skipped, 1);
+  EXPECT_EQ(far_depth.at<uint16_t>(5, 5), 0) << "the triangle over the near mesh is not drawn";
+  EXPECT_EQ(far_depth.at<uint16_t>(20, 60), 3000) << "the one over the hole is, to the border";
+  EXPECT_EQ(near_depth.at<uint16_t>(5, 5), 2000);
+  EXPECT_EQ(near_depth.at<uint16_t>(20, 60), 0);
 }
 
 // The view made as viewfuse's room-view makes it: the room from three cameras' meshes of the empty room's
-// depth, its colour looked up in their frames, the learners and the room's edges warped forward and fused over
-// it. Against the truth at poses around camera 0 it is as good as the full forward warp of every camera (within
+// depth, its colour looked up in their frames, the learners and the room's pixels beside them warped forward
+// and fused over it. Against the truth at poses around camera 0 it is as good as the full forward warp of every camera (within
 // 0.3 dB, the learners' pixels within 0.7), and at camera 0's own place better (there the room is camera 0's
 // own picture: the cameras' colour is the background memory's, so the view's place is weighed), while the
 // forward warps hold well under half of the pixels.

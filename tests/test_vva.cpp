@@ -191,6 +191,35 @@ TEST(ViewWarp, AReusedWarperGivesWhatAFreshOneGives) {
   }
 }
 
+// With the room view, what goes forward from a camera (WarpParams::learners_only) is its learners, the room's
+// pixels beside them and those without a static depth; not a surface one pixel thin, which each camera's cells
+// drew a pixel off from the others' (the nearest camera's mesh draws it: RoomMesh's edge parts).
+TEST(ViewWarp, WhatGoesForwardBesideTheRoomIsTheLearnersAndWhatTheRoomHasNoDepthFor) {
+  CameraCalib cam;
+  cam.width = 40, cam.height = 30, cam.fx = cam.fy = 40, cam.cx = 19.5, cam.cy = 14.5;
+  cv::Mat color(30, 40, CV_8UC3, cv::Scalar(120, 120, 120)), depth(30, 40, CV_16UC1, cv::Scalar(4000));
+  cv::Mat label(30, 40, CV_8UC1, cv::Scalar(0));
+  depth.col(20).setTo(2000);  // a chair's leg before the wall, one pixel wide
+  cv::Mat static_depth = depth.clone();
+  static_depth.at<uint16_t>(5, 5) = 0;  // the room's model has no depth here
+  depth(cv::Rect(30, 10, 4, 4)).setTo(3000);
+  label(cv::Rect(30, 10, 4, 4)).setTo(1);  // a learner
+  WarpParams learners_only;
+  learners_only.learners_only = true;
+  PreparedSource prepared;
+  ViewWarper().prepare(cam, WarpSource{color, depth, label, static_depth}, learners_only, &prepared);
+  ASSERT_EQ(prepared.learner_depth.size(), size_t(40 * 30));
+  auto forward = [&](int x, int y) { return prepared.learner_depth[size_t(y) * 40 + x] != 0; };
+  EXPECT_TRUE(forward(31, 11)) << "the learner";
+  EXPECT_TRUE(forward(29, 11)) << "the room beside the learner";
+  EXPECT_TRUE(forward(5, 5)) << "no static depth";
+  EXPECT_FALSE(forward(20, 20)) << "the thin leg: the room's mesh draws it";
+  EXPECT_FALSE(forward(10, 20)) << "the wall";
+  int forwarded = 0;
+  for (uint16_t d : prepared.learner_depth) forwarded += d != 0;
+  EXPECT_LT(forwarded, 40) << "the learner's 16 pixels, the 16 around it, the one without static depth";
+}
+
 TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeForAnyWarperAndAnyNumberOfViews) {
   // viewwarp prepares the source before it reads the pose, then warps it for the pose.
   const Classroom room(ClassroomConfig{2, 5, 2.0});

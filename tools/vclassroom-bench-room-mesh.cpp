@@ -3,7 +3,8 @@
 // once per view pixel from it instead of being splatted from every source pixel. A quadtree over the prior: a tile (its grid of
 // pixel centres, border included, so neighbours meet) is two triangles when its depth lies on one plane
 // (1/z linear in u and v, as a plane seen by a pinhole camera) within a tolerance; otherwise it splits, down
-// to single pixel quads (two triangles, as the warp's mesh; a quad across a depth edge is dropped).
+// to single pixel quads (two triangles, as the warp's mesh; a quad across a depth edge is drawn in parts
+// after the leaves, counted as dropped: room_mesh.h).
 //
 // --raster: the meshes rasterised into 960x540 views (room_raster.h) along a walk around camera 0 (as
 // vclassroom-bench-server --views walks), timed (thread CPU per view) and compared with the cameras'
@@ -236,7 +237,7 @@ int main(int argc, char** argv) {
         covered += c.tiles[l] << (2 * l);
         by += " " + std::to_string(1 << l) + "px:" + std::to_string(c.tiles[l]);
       }
-      std::printf("  tolerance max(%.0f mm, %.2f %%): %ld triangles (%.1f per 100 px), pixel quads dropped %ld;"
+      std::printf("  tolerance max(%.0f mm, %.2f %%): %ld triangles (%.1f per 100 px), pixel quads across an edge %ld;"
                   " tiles%s; %.1f %% of the quads in tiles of 8 px or more\n",
                   min_mm, 100 * ratio, tris, 100.0 * tris / pixels, c.dropped, by.c_str(),
                   100.0 * double(covered - c.tiles[0] - 4 * c.tiles[1] - 16 * c.tiles[2]) / double(covered));

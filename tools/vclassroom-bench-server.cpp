@@ -57,12 +57,6 @@ struct Result {
   double cpu_ms = 0;  // process CPU time per frame: what the work costs whatever the load
 };
 
-double cpu_ms_now() {
-  timespec ts;
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
 // The rig's cameras `ids`, each with `recorded` frames of `room` (sensor model on) to play in a loop, the
 // empty room's depth as their static layer (with `model`) and a background memory of `memory` frames
 // seeded with the empty room (memory > 0); each camera's view of the empty room into `empty_rooms`.
@@ -126,7 +120,7 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
     warp_ms[i] += thread_cpu_ms() - t0;
   };
   const auto start = Clock::now();
-  const double cpu0 = cpu_ms_now();
+  const double cpu0 = process_cpu_ms();
   for (int f = 0; f < frames; ++f) {
     const CameraCalib virt = virt_at_frame(f);
     if (threads <= 1) {
@@ -146,7 +140,7 @@ Result run(std::vector<Camera>& cams, const std::function<CameraCalib(int)>& vir
     r.fuse_ms += thread_cpu_ms() - t0;
   }
   r.total_ms = ms_since(start) / frames;
-  r.cpu_ms = (cpu_ms_now() - cpu0) / frames;
+  r.cpu_ms = (process_cpu_ms() - cpu0) / frames;
   for (size_t i = 0; i < cams.size(); ++i) {
     r.seg_ms += seg_ms[i] / frames;
     r.memory_ms += memory_ms[i] / frames;
@@ -339,9 +333,9 @@ void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>&
       mask.setTo(0);
       HoleFillParams p = hole_fill_params(FuseParams());
       p.method = methods[m];
-      const double t0 = process_cpu_ms();
+      const double t0 = thread_cpu_ms();
       fill_holes(color, fused.depth, p, mask, nullptr, m == 0 ? &history : nullptr);
-      if (f >= warm_up) fill_ms[m] += process_cpu_ms() - t0;
+      if (f >= warm_up) fill_ms[m] += thread_cpu_ms() - t0;
     }
   }
   std::printf("hole fill alone, 960x540 view, %d frames, holes %.2f %% of the view%s: pyramid (default) %.3f ms, "

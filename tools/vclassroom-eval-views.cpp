@@ -339,8 +339,8 @@ void synthesize(const std::vector<CameraCalib>& cams, const std::vector<RgbdImag
 
 // The view as viewfuse room-view=true makes it (docs/vva.md, "How a view is made"): the room rasterised from
 // each source's mesh of its static depth and looked up backward in the sources (RoomViewRenderer), the
-// learners and the room's edges warped forward from each source (WarpParams::learners_only), fused with the
-// room as the base.
+// learners and the room's pixels beside them warped forward from each source (WarpParams::learners_only),
+// fused with the room as the base.
 struct RoomViewPath {
   std::vector<std::shared_ptr<RoomShape>> shapes;
   std::vector<ViewWarper> warpers = std::vector<ViewWarper>(3);

@@ -267,12 +267,14 @@ RoomMesh room_mesh_unseen_by(const RoomMesh& mesh, const std::vector<std::pair<C
   RoomMesh out = mesh;
   out.index.clear();
   for (size_t t = 0; t < mesh.triangles(); ++t) {
+    if (t == mesh.edge_begin) out.edge_begin = out.triangles();  // the edge parts still come last
     const uint32_t* v = &mesh.index[3 * t];
     bool covered = false;
     for (size_t j = 0; j < earlier.size() && !covered; ++j)
       covered = seen[v[0] * earlier.size() + j] && seen[v[1] * earlier.size() + j] && seen[v[2] * earlier.size() + j];
     if (!covered) out.index.insert(out.index.end(), v, v + 3);
   }
+  if (mesh.edge_begin >= mesh.triangles()) out.edge_begin = std::min(mesh.edge_begin, out.triangles());
   return out;
 }
 

@@ -12,7 +12,9 @@
 // smaller neighbour's corner (a T-junction) is drawn as a fan through every vertex on its border, from a corner
 // whose two sides hold no other vertex (2 + k triangles for k such vertices), else from its centre pixel
 // (4 + k), so that neighbours share whole edges and a rasteriser with a fill rule leaves no crack; a leaf
-// without one is the quadtree's two triangles.
+// without one is the quadtree's two triangles. The corners of the edge quads are vertices too (on a leaf's
+// side, in its fan); their parts add vertices at the middles of their sides and their centres, after all
+// others (RoomMesh::edge_vertex_begin).
 #pragma once
 
 #include <cstdint>
@@ -27,7 +29,7 @@ namespace vclassroom {
 
 struct RoomMeshCount {
   long tiles[8] = {0};  // leaves by level (size 1 << level px)
-  long dropped = 0;     // pixel quads across an edge or without depth
+  long dropped = 0;     // pixel quads across an edge or without depth (with a mesh: drawn in parts)
   long triangles() const {
     long t = 0;
     for (long n : tiles) t += 2 * n;
@@ -51,7 +53,7 @@ struct RoomMesh {
 // max(min_mm, ratio * z). `planar` (optional): the depth as the mesh gives it at each pixel centre (a tile's
 // plane inside it; the depth itself in single pixel quads). `mesh` (optional, with `cam`, the camera whose
 // depth it is): the triangles, vertices in the rig frame (cam.cam_to_rig); the counts are the quadtree's
-// either way (mesh->triangles() adds the fans' extra triangles). `floor_level` > 0: a tile of 1 << floor_level
+// either way (mesh->triangles() adds the fans' extra triangles and the edge quads' parts). `floor_level` > 0: a tile of 1 << floor_level
 // px that is not planar but spans no depth edge (its grid within max(15 mm, 3 %)) is a leaf all the same, its
 // two triangles through its corners (coarser than the tolerance; the pixel quads stay at the edges).
 RoomMeshCount room_mesh(const cv::Mat& depth, double ratio, double min_mm, int top, cv::Mat* planar = nullptr,

@@ -282,22 +282,14 @@ void RoomRaster::begin(const CameraCalib& view, double near_m) {
   stats = {};
 }
 
-void RoomRaster::draw(const RoomMesh& mesh, bool edges, cv::Mat* coverage) { draw_masked(mesh, edges, coverage, {}); }
+void RoomRaster::draw(const RoomMesh& mesh, cv::Mat* coverage) { draw_masked(mesh, true, coverage, {}); }
+
+void RoomRaster::draw_leaves(const RoomMesh& mesh) { draw_masked(mesh, false, nullptr, {}); }
 
 void RoomRaster::draw_where_empty(const RoomMesh& mesh, const std::vector<uint8_t>& empty_tiles) {
   const int cols = (width_ + kTilePx - 1) / kTilePx, rows = (height_ + kTilePx - 1) / kTilePx;
   CV_Assert(empty_tiles.size() == size_t(cols) * rows);
   draw_masked(mesh, false, nullptr, empty_tiles);
-}
-
-void RoomRaster::empty_tiles(std::vector<uint8_t>* out) const {
-  const int cols = (width_ + kTilePx - 1) / kTilePx, rows = (height_ + kTilePx - 1) / kTilePx;
-  out->assign(size_t(cols) * rows, 0);
-  for (int y = 0; y < height_; ++y) {
-    const float* r = inv_.ptr<float>(y);
-    uint8_t* t = out->data() + size_t(y >> kTileShift) * cols;
-    for (int x = 0; x < width_; ++x) t[x >> kTileShift] |= uint8_t(r[x] == 0);
-  }
 }
 
 void RoomRaster::draw_masked(const RoomMesh& mesh, bool edges, cv::Mat* coverage,

@@ -38,14 +38,14 @@ class RoomRaster {
   void begin(const CameraCalib& view, double near_m = 0.05);
   // Draws a mesh whose vertices are in the rig frame, nearest wins. `coverage` (tests; CV_8UC1 of the view's
   // size): + 1 at every pixel a triangle covers, whatever its depth.
-  // `edges` false: the leaves' triangles alone, not the edge quads' parts (RoomMesh::edge_begin).
-  void draw(const RoomMesh& mesh, bool edges = true, cv::Mat* coverage = nullptr);
-  // As draw (the leaves alone), but only the triangles whose box on screen touches a tile that `empty_tiles`
-  // (from another raster of the same view, empty_tiles()) marks: where that raster left a pixel empty. The
-  // triangles drawn are drawn whole; the caller takes from this raster only what the other left empty.
+  void draw(const RoomMesh& mesh, cv::Mat* coverage = nullptr);
+  // The leaves' triangles alone, not the edge quads' parts (RoomMesh::edge_begin).
+  void draw_leaves(const RoomMesh& mesh);
+  // As draw_leaves, but only the triangles whose box on screen touches a tile that `empty_tiles` marks: per
+  // tile of kTilePx x kTilePx pixels of the view (rows of tiles, left to right), 1 where another drawing of it
+  // left a pixel empty. The triangles drawn are drawn whole; the caller takes from this raster only what the
+  // other left empty.
   void draw_where_empty(const RoomMesh& mesh, const std::vector<uint8_t>& empty_tiles);
-  // Per tile of kTilePx x kTilePx pixels (rows of tiles, left to right), 1 where a pixel is still empty.
-  void empty_tiles(std::vector<uint8_t>* out) const;
   // The view's depth so far, CV_16UC1 mm (0: nothing drawn there).
   void depth(cv::Mat* out) const;
   // 1/z in 1/m, CV_32FC1 (0: nothing drawn).

@@ -19,11 +19,12 @@ constexpr int kMeshTopLevel = 5;
 // memory, 27.7 dB against 29.8 without them); the nearest one's from 0.8 m away (Table I) cost 0.10 dB, from
 // 0.5-1 m (the novel poses) 0.02 (vclassroom-eval-views --room-view, 2026-11-28).
 constexpr double kEdgeReachM = 0.5;
-// The gaps the meshes leave between a surface and the one behind it: without the edge quads' parts a mesh ends
-// at its last pixel centres (and the nearest camera's, with them, half a pixel further), so a view off the
-// camera's place shows a strip of up to a pixel or two there, where the forward warp's cells (half a pixel past
-// each centre) leave none. Gaps of up to kStripPx along a row or a column are closed with the farther side's depth: what a
-// camera sees there is the surface behind.
+// The gaps the meshes leave between a surface and the one behind it: without the edge quads' parts a mesh
+// ends at its last pixel centres (and the nearest camera's, with them, half a pixel further), so a view off
+// the camera's place shows a strip of up to a pixel or two there, where the forward warp's cells (half a
+// pixel past each centre) leave none. Gaps of up to kStripPx along a row or a column are closed with the
+// farther side's depth: what a camera sees there is the surface behind. The near meshes' gaps are closed
+// before the far meshes fill their holes, so that those are holes a far camera can see into, not these seams.
 constexpr int kStripPx = 2;
 
 double distance(const RoomTexture& camera, const CameraCalib& view) {
@@ -141,8 +142,8 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
       far.push_back(k);
       continue;
     }
-    const bool edges = k == closest && distance(*cameras[k].texture, view) < kEdgeReachM;
-    raster_.draw(*cameras[k].mesh, edges);
+    if (k == closest && distance(*cameras[k].texture, view) < kEdgeReachM) raster_.draw(*cameras[k].mesh);
+    else raster_.draw_leaves(*cameras[k].mesh);
   }
   raster_.depth(&out->depth);
   close_strips_along_rows(out->depth);

@@ -61,7 +61,7 @@ class RoomViewRenderer {
 
  private:
   RoomRaster raster_, far_raster_;  // the near cameras' meshes, the far ones' (drawn where the near leave holes)
-  std::vector<uint8_t> empty_tiles_;  // the near ones' tiles with a hole (RoomRaster::empty_tiles)
+  std::vector<uint8_t> empty_tiles_;  // the near ones' tiles with a hole (RoomRaster::draw_where_empty)
   cv::Mat far_depth_;
   std::vector<const RoomTexture*> textures_;
   cv::Mat unseen_;
