@@ -280,12 +280,12 @@ TEST(RoomRaster, AFarMeshIsDrawnOnlyWhereTheNearOnesLeftAHole) {
   near.draw(near_mesh);
   cv::Mat near_depth;
   near.depth(&near_depth);
-  const int cols = (64 + RoomRaster::kTilePx - 1) / RoomRaster::kTilePx, rows = (48 + RoomRaster::kTilePx - 1) /
-                                                                                  RoomRaster::kTilePx;
+  constexpr int kTile = RoomRaster::kTilePx;
+  const int cols = (64 + kTile - 1) / kTile, rows = (48 + kTile - 1) / kTile;
   std::vector<uint8_t> empty(size_t(cols) * rows, 0);
   for (int y = 0; y < 48; ++y)
     for (int x = 0; x < 64; ++x)
-      if (near_depth.at<uint16_t>(y, x) == 0) empty[size_t(y / RoomRaster::kTilePx) * cols + x / RoomRaster::kTilePx] = 1;
+      if (near_depth.at<uint16_t>(y, x) == 0) empty[size_t(y / kTile) * cols + x / kTile] = 1;
   far.begin(view);
   far.draw_where_empty(far_mesh, empty);
   cv::Mat far_depth;
@@ -299,10 +299,10 @@ TEST(RoomRaster, AFarMeshIsDrawnOnlyWhereTheNearOnesLeftAHole) {
 
 // The view made as viewfuse's room-view makes it: the room from three cameras' meshes of the empty room's
 // depth, its colour looked up in their frames, the learners and the room's pixels beside them warped forward
-// and fused over it. Against the truth at poses around camera 0 it is as good as the full forward warp of every camera (within
-// 0.3 dB, the learners' pixels within 0.7), and at camera 0's own place better (there the room is camera 0's
-// own picture: the cameras' colour is the background memory's, so the view's place is weighed), while the
-// forward warps hold well under half of the pixels.
+// and fused over it. Against the truth at poses around camera 0 it is as good as the full forward warp of
+// every camera (within 0.3 dB, the learners' pixels within 0.7), and at camera 0's own place better (there the
+// room is camera 0's own picture: the cameras' colour is the background memory's, so the view's place is
+// weighed), while the forward warps hold well under half of the pixels.
 TEST(RoomView, TheRoomDrawnFromMeshesAndTheLearnersWarpedAloneMakeTheFullWarpsView) {
   const Classroom room(ClassroomConfig{2, 5, 2.0});
   const Classroom empty(ClassroomConfig{2, 0, 2.0});

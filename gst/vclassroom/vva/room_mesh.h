@@ -53,9 +53,10 @@ struct RoomMesh {
 // max(min_mm, ratio * z). `planar` (optional): the depth as the mesh gives it at each pixel centre (a tile's
 // plane inside it; the depth itself in single pixel quads). `mesh` (optional, with `cam`, the camera whose
 // depth it is): the triangles, vertices in the rig frame (cam.cam_to_rig); the counts are the quadtree's
-// either way (mesh->triangles() adds the fans' extra triangles and the edge quads' parts). `floor_level` > 0: a tile of 1 << floor_level
-// px that is not planar but spans no depth edge (its grid within max(15 mm, 3 %)) is a leaf all the same, its
-// two triangles through its corners (coarser than the tolerance; the pixel quads stay at the edges).
+// either way (mesh->triangles() adds the fans' extra triangles and the edge quads' parts). `floor_level` > 0:
+// a tile of 1 << floor_level px that is not planar but spans no depth edge (its grid within max(15 mm, 3 %))
+// is a leaf all the same, its two triangles through its corners (coarser than the tolerance; the pixel quads
+// stay at the edges).
 RoomMeshCount room_mesh(const cv::Mat& depth, double ratio, double min_mm, int top, cv::Mat* planar = nullptr,
                         const CameraCalib* cam = nullptr, RoomMesh* mesh = nullptr, int floor_level = 0);
 
