@@ -177,8 +177,9 @@ void prepare_frames(std::vector<Camera>& cams, std::vector<FramePreparer>& prepa
 // segmented and prepared once (viewprep: the background memory, the warp's half that does not depend on the
 // pose), then warped and fused once per view for that view's pose. Prints the camera side per frame and what
 // one view frame costs: everything that depends on the lecturer's pose (warps, fuse with its fill and fade).
-// The views' CPU is the process's: the room view's lookup and OpenCV's filters run on OpenCV's threads too
-// (the calling thread's clock alone, used until 2026-11-28, left out up to half of the lookup).
+// The views' CPU is the process's, so that it would count OpenCV's threads too (the room view's lookup runs in
+// bands through cv::parallel_for_); this tool runs OpenCV on one thread (main), so it gives what the calling
+// thread's clock gave before 2026-11-28, within the noise.
 void run_views(std::vector<Camera>& cams, const std::function<CameraCalib(int, int)>& virt_at_frame, int frames,
                int views, int memory, const std::vector<cv::Mat>& empty_rooms, const WarpParams& wp) {
   std::vector<FramePreparer> preparers(cams.size());
