@@ -16,14 +16,23 @@ namespace {
 // One row of pack_room_records: the room's depth and colour where the label is 0, the memory's room where a
 // learner hides it, else nothing (depth 0).
 VCLASSROOM_SIMD_CLONES
-void room_records_row(int n, const uint16_t* depth, const uint8_t* label, const uint8_t* color,
-                      const uint16_t* room_depth, const uint8_t* room_color, uint64_t* out) {
+void room_records_row(int n, const uint16_t* __restrict depth, const uint8_t* __restrict label,
+                      const uint8_t* __restrict color, const uint16_t* __restrict room_depth,
+                      const uint8_t* __restrict room_color, uint64_t* __restrict out) {
+  if (!room_depth || !room_color) {
+    for (int x = 0; x < n; ++x) {
+      const uint64_t d = label[x] == 0 ? depth[x] : 0;
+      out[x] = d | uint64_t(color[3 * x]) << 16 | uint64_t(color[3 * x + 1]) << 32 | uint64_t(color[3 * x + 2]) << 48;
+    }
+    return;
+  }
+  // Each channel chosen on its own, not through a pointer per pixel, so that the loop is vector code.
   for (int x = 0; x < n; ++x) {
     const bool seen = label[x] == 0 && depth[x] != 0;
-    const uint16_t rd = room_depth ? room_depth[x] : 0;
-    const uint16_t d = seen ? depth[x] : rd;
-    const uint8_t* c = seen || !room_color ? color + 3 * x : room_color + 3 * x;
-    out[x] = uint64_t(d) | uint64_t(c[0]) << 16 | uint64_t(c[1]) << 32 | uint64_t(c[2]) << 48;
+    const uint64_t d = seen ? depth[x] : room_depth[x];
+    const uint64_t r = seen ? color[3 * x] : room_color[3 * x], g = seen ? color[3 * x + 1] : room_color[3 * x + 1],
+                   b = seen ? color[3 * x + 2] : room_color[3 * x + 2];
+    out[x] = d | r << 16 | g << 32 | b << 48;
   }
 }
 
