@@ -271,7 +271,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
     for (int v = 0; v < views; ++v) {
       const CameraCalib virt = virt_at_frame(f, v);
       t0 = process_cpu_ms();
-      renderer.render(room_cams, virt, RoomLookupParams(), &room);
+      renderer.render(room_cams, virt, room_lookup_params(fp), &room);
       t1 = process_cpu_ms();
       std::vector<const WarpedView*> inputs{&room};
       for (size_t i = 0; i < cams.size(); ++i) {

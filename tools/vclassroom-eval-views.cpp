@@ -379,10 +379,7 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
     p.warpers[i].warp(cams[i], src, virt, only, &learners[i]);
     ptrs.push_back(&learners[i]);
   }
-  RoomLookupParams lookup;  // viewfuse's tolerance
-  lookup.depth_tol_mm = fp.depth_tol_mm;
-  lookup.depth_tol_ratio = fp.depth_tol_ratio;
-  p.renderer.render(room_cams, virt, lookup, &room);
+  p.renderer.render(room_cams, virt, room_lookup_params(fp), &room);
   ++p.views;
   FuseParams base = fp;
   base.first_is_base = true;

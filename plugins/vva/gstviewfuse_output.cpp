@@ -104,10 +104,7 @@ bool draw_room(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomVi
   }
   if (cameras.empty()) return false;
   GST_LOG_OBJECT(self, "the room of %zu camera(s) drawn", cameras.size());
-  RoomLookupParams lookup;  // viewfuse's tolerance
-  lookup.depth_tol_mm = params.depth_tol_mm;
-  lookup.depth_tol_ratio = params.depth_tol_ratio;
-  st->room_renderer.render(cameras, view_of->view, lookup, &st->room);
+  st->room_renderer.render(cameras, view_of->view, room_lookup_params(params), &st->room);
   return true;
 }
 

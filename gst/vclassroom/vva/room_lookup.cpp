@@ -93,7 +93,7 @@ std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& 
 LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params,
                        const std::vector<LookupCamera>& cameras) {
   int first_far = int(cameras.size());
-  while (first_far > 1 && cameras[size_t(first_far) - 1].place < kRoomFarPlace * cameras[0].place) --first_far;
+  while (first_far > 1 && room_camera_is_far(cameras[size_t(first_far) - 1].place, cameras[0].place)) --first_far;
   return LookupView{float(virt.cx),           float(virt.cy),
                     float(1 / virt.fx),       float(1 / virt.fy),
                     float(params.depth_tol_mm), float(params.depth_tol_ratio),

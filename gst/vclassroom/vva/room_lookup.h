@@ -67,8 +67,9 @@ void room_lookup(const std::vector<const RoomTexture*>& cameras, const CameraCal
 // centres (metres); 1 with sigma 0.
 float room_place_weight(const CameraCalib& camera, const CameraCalib& view, double sigma_m);
 // A camera under this share of the nearest camera's place weight is far: looked at only where no nearer camera
-// sees the point strictly.
+// sees the point strictly, and its mesh drawn only where the near ones leave a hole (room_view.h).
 constexpr float kRoomFarPlace = 0.15f;
+inline bool room_camera_is_far(float place, float nearest_place) { return place < kRoomFarPlace * nearest_place; }
 
 namespace room_lookup_detail {
 

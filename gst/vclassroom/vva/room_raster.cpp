@@ -17,6 +17,7 @@ constexpr float kFar = float(1 << 26);    // |screen coordinate| (1/16 px) beyon
 constexpr int kLanes = RoomRaster::kSlack;  // pixels per group of the row loop
 constexpr int kTilePx = RoomRaster::kTilePx, kTileShift = 3;
 static_assert(kTilePx == 1 << kTileShift, "tiles of 8 px");
+int tile_cols(int pixels) { return (pixels + kTilePx - 1) / kTilePx; }  // tiles across (or down) that many
 
 // GCC's vector extensions: 8 lanes, lowered to what each clone's target has (2 x SSE2, AVX2, AVX-512).
 typedef int32_t VecI __attribute__((vector_size(4 * kLanes)));
@@ -287,9 +288,19 @@ void RoomRaster::draw(const RoomMesh& mesh, cv::Mat* coverage) { draw_masked(mes
 void RoomRaster::draw_leaves(const RoomMesh& mesh) { draw_masked(mesh, false, nullptr, {}); }
 
 void RoomRaster::draw_where_empty(const RoomMesh& mesh, const std::vector<uint8_t>& empty_tiles) {
-  const int cols = (width_ + kTilePx - 1) / kTilePx, rows = (height_ + kTilePx - 1) / kTilePx;
-  CV_Assert(empty_tiles.size() == size_t(cols) * rows);
+  CV_Assert(empty_tiles.size() == size_t(tile_cols(width_)) * tile_cols(height_));
   draw_masked(mesh, false, nullptr, empty_tiles);
+}
+
+void RoomRaster::empty_tiles(const cv::Mat& depth, std::vector<uint8_t>* out) {
+  CV_Assert(depth.type() == CV_16UC1);
+  const int cols = tile_cols(depth.cols);
+  out->assign(size_t(cols) * tile_cols(depth.rows), 0);
+  for (int y = 0; y < depth.rows; ++y) {
+    const uint16_t* r = depth.ptr<uint16_t>(y);
+    uint8_t* t = out->data() + size_t(y >> kTileShift) * cols;
+    for (int x = 0; x < depth.cols; ++x) t[x >> kTileShift] |= uint8_t(r[x] == 0);
+  }
 }
 
 void RoomRaster::draw_masked(const RoomMesh& mesh, bool edges, cv::Mat* coverage,
@@ -308,7 +319,7 @@ void RoomRaster::draw_masked(const RoomMesh& mesh, bool edges, cv::Mat* coverage
                                   height_, buf_.ptr<float>(), stride, cov.ptr<uint8_t>(), &stats);
     *coverage += cov.colRange(0, width_);
   } else {
-    const TileMask mask{empty_tiles.empty() ? nullptr : empty_tiles.data(), (width_ + kTilePx - 1) / kTilePx};
+    const TileMask mask{empty_tiles.empty() ? nullptr : empty_tiles.data(), tile_cols(width_)};
     room_raster_triangles(mesh.index.data(), triangles, sx_.data(), sy_.data(), w_.data(), width_, height_,
                           buf_.ptr<float>(), stride, mask, &stats);
   }

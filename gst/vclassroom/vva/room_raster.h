@@ -46,6 +46,8 @@ class RoomRaster {
   // left a pixel empty. The triangles drawn are drawn whole; the caller takes from this raster only what the
   // other left empty.
   void draw_where_empty(const RoomMesh& mesh, const std::vector<uint8_t>& empty_tiles);
+  // Those tiles of a view's depth (CV_16UC1): 1 where a pixel is 0.
+  static void empty_tiles(const cv::Mat& depth, std::vector<uint8_t>* out);
   // The view's depth so far, CV_16UC1 mm (0: nothing drawn there).
   void depth(cv::Mat* out) const;
   // 1/z in 1/m, CV_32FC1 (0: nothing drawn).

@@ -86,18 +86,14 @@ void close_strips_along_columns(cv::Mat& depth) {
                       y + 2 < depth.rows ? depth.ptr<uint16_t>(y + 2) : nullptr);
 }
 
-void empty_tiles_of(const cv::Mat& depth, std::vector<uint8_t>* out) {
-  constexpr int kTile = RoomRaster::kTilePx;
-  const int cols = (depth.cols + kTile - 1) / kTile, rows = (depth.rows + kTile - 1) / kTile;
-  out->assign(size_t(cols) * rows, 0);
-  for (int y = 0; y < depth.rows; ++y) {
-    const uint16_t* r = depth.ptr<uint16_t>(y);
-    uint8_t* t = out->data() + size_t(y / kTile) * cols;
-    for (int x = 0; x < depth.cols; ++x) t[x / kTile] |= uint8_t(r[x] == 0);
-  }
-}
-
 }  // namespace
+
+RoomLookupParams room_lookup_params(const FuseParams& fuse) {
+  RoomLookupParams lookup;
+  lookup.depth_tol_mm = fuse.depth_tol_mm;
+  lookup.depth_tol_ratio = fuse.depth_tol_ratio;
+  return lookup;
+}
 
 bool room_view_fits(const CameraCalib& camera) {
   // A 2x2 to sample, and pixel indices that float arithmetic (the AVX2 lookup's) gives exactly.
@@ -138,7 +134,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   const size_t closest = closest_camera(cameras, view);
   std::vector<size_t> far;
   for (size_t k = 0; k < cameras.size(); ++k) {
-    if (place[k] < kRoomFarPlace * nearest) {
+    if (room_camera_is_far(place[k], nearest)) {
       far.push_back(k);
       continue;
     }
@@ -149,7 +145,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   close_strips_along_rows(out->depth);
   close_strips_along_columns(out->depth);
   if (!far.empty()) {
-    empty_tiles_of(out->depth, &empty_tiles_);
+    RoomRaster::empty_tiles(out->depth, &empty_tiles_);
     far_raster_.begin(view);
     for (size_t k : far) far_raster_.draw_where_empty(*cameras[k].mesh, empty_tiles_);
     far_raster_.depth(&far_depth_);

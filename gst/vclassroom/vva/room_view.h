@@ -17,6 +17,7 @@
 #include <gst/vclassroom/vva/room_lookup.h>
 #include <gst/vclassroom/vva/room_mesh.h>
 #include <gst/vclassroom/vva/room_raster.h>
+#include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/view_warp.h>
 
 namespace vclassroom {
@@ -48,6 +49,10 @@ struct RoomCamera {
   const RoomMesh* mesh = nullptr;
   const RoomTexture* texture = nullptr;
 };
+
+// The lookup's parameters for a view fused with `fuse`: its depth tolerance, so that the room's cameras agree
+// with a point as the fuse's samples agree with each other; the place's sigma the default.
+RoomLookupParams room_lookup_params(const FuseParams& fuse);
 
 // Renders the room at a view; keeps its buffers between views.
 class RoomViewRenderer {
