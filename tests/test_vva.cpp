@@ -249,6 +249,51 @@ TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeForAnyWarperAndAnyNumberOfViews) {
   EXPECT_THROW(view1.warp_prepared(cam, src, other_size, virt, WarpParams(), &out), cv::Exception);
 }
 
+// The learners' view (WarpParams::learners_only) is unpacked, cleared and fused over the tiles its cells mark
+// (SampleTiles), not over the whole view: warped again and again into the same planes, for poses that move the
+// learners about, it is the view a fresh warper gives into fresh planes, pixel for pixel; every sample lies in
+// its tiles, and the tiles hold much less than the box around the learners.
+TEST(ViewWarp, ALearnersViewWarpedIntoTheSamePlanesAgainIsTheFreshOneAndLiesInItsTiles) {
+  const Classroom room(ClassroomConfig{2, 6, 2.0});
+  const Classroom empty(ClassroomConfig{2, 0, 2.0});
+  const Rig rig = default_classroom_rig();
+  const CameraCalib cam = scale_camera(rig.camera(1), 320, 180);
+  const RenderOutput r = render(room, 1.5, cam);
+  const cv::Mat static_depth = render(empty, 0.0, cam).depth;
+  WarpParams params;
+  params.learners_only = true;
+  const WarpSource src{r.color, r.depth, r.label, static_depth};
+  PreparedSource prepared;
+  ViewWarper().prepare(cam, src, params, &prepared);
+  ViewWarper reused;
+  WarpedView out;
+  for (const Sliders& s : {Sliders{50, 50, 50, 50, 50, 50}, Sliders{20, 60, 40, 70, 50, 50},
+                           Sliders{80, 40, 60, 30, 45, 50}, Sliders{50, 50, 50, 50, 50, 50}}) {
+    const CameraCalib virt =
+        virtual_camera(cam, sliders_to_pose(s, rig.camera(0)).cam_to_rig(), NAN);
+    WarpedView fresh;
+    ViewWarper().warp_prepared(cam, src, prepared, virt, params, &fresh);
+    reused.warp_prepared(cam, src, prepared, virt, params, &out);
+    ASSERT_GT(cv::countNonZero(fresh.depth), 1000) << format_sliders(s) << ": the learners should be in view";
+    EXPECT_EQ(cv::norm(out.color, fresh.color, cv::NORM_INF), 0) << format_sliders(s);
+    EXPECT_EQ(cv::norm(out.depth, fresh.depth, cv::NORM_INF), 0) << format_sliders(s);
+    EXPECT_EQ(cv::norm(out.label, fresh.label, cv::NORM_INF), 0) << format_sliders(s);
+    EXPECT_EQ(cv::norm(out.weight, fresh.weight, cv::NORM_INF), 0) << format_sliders(s);
+    ASSERT_FALSE(out.tiles.anywhere());
+    ASSERT_TRUE(out.tiles.fit(virt.width, virt.height));
+    cv::Mat in_tiles(virt.height, virt.width, CV_8UC1, cv::Scalar(0));
+    for_each_tile_span(out.tiles, virt.height, [&](int y, int x0, int x1) { in_tiles.row(y).colRange(x0, x1) = 255; });
+    EXPECT_EQ(cv::countNonZero((out.weight != 0) & (in_tiles == 0)), 0) << format_sliders(s);
+    EXPECT_EQ(cv::countNonZero((out.depth != 0) & (in_tiles == 0)), 0) << format_sliders(s);
+    cv::Mat drawn;
+    cv::findNonZero(out.depth, drawn);
+    EXPECT_LT(cv::countNonZero(in_tiles), cv::boundingRect(drawn).area() * 3 / 4) << format_sliders(s);
+  }
+  // Tiles of another size are not taken for this view's.
+  EXPECT_FALSE(out.tiles.fit(cam.width, cam.height + SampleTiles::kPx));
+  EXPECT_FALSE(out.tiles.fit(cam.width / 2, cam.height));
+}
+
 TEST(ViewWarp, SkippingWhatCannotLandInTheViewChangesNoPixel) {
   // The warp spends its per-pixel work only on the source columns that can land in the view
   // (WarpParams::cull_outside_view): for views that see all, part or none of the camera, walking, turning and
@@ -1422,9 +1467,9 @@ TEST(ViewTurns, ATurnHeldTooLongIsTakenAndAGoneOrStoppedViewNeverWaits) {
 TEST(ViewFuse, OverTheRoomALearnerNearItKeepsItsColourAndOneBehindItIsHidden) {
   const int W = 16, H = 2;
   WarpedView room{cv::Mat(H, W, CV_8UC3, cv::Scalar(200, 0, 0)), cv::Mat(H, W, CV_16UC1, cv::Scalar(3000)),
-                  cv::Mat::zeros(H, W, CV_8UC1), cv::Mat(H, W, CV_8UC1, cv::Scalar(255)), cv::Rect()};
+                  cv::Mat::zeros(H, W, CV_8UC1), cv::Mat(H, W, CV_8UC1, cv::Scalar(255)), SampleTiles()};
   WarpedView forward{cv::Mat::zeros(H, W, CV_8UC3), cv::Mat::zeros(H, W, CV_16UC1), cv::Mat::zeros(H, W, CV_8UC1),
-                     cv::Mat::zeros(H, W, CV_8UC1), cv::Rect()};
+                     cv::Mat::zeros(H, W, CV_8UC1), SampleTiles()};
   const cv::Range near_learner(0, 4), far_learner(4, 8), room_edge(8, 12);
   forward.color.colRange(near_learner).setTo(cv::Scalar(0, 0, 200));
   forward.depth.colRange(near_learner).setTo(3020);  // within 3 % of the room

@@ -69,7 +69,7 @@ WarpedView pull_warped(GstHarness* h, GstBuffer* in) {
   gst_caps_unref(oc);
   RgbdFrame f;
   EXPECT_TRUE(f.map(out, oi, GST_MAP_READ, nullptr));
-  WarpedView v{f.color().clone(), f.depth().clone(), f.label().clone(), f.plane(Plane::Weight).clone(), cv::Rect()};
+  WarpedView v{f.color().clone(), f.depth().clone(), f.label().clone(), f.plane(Plane::Weight).clone(), SampleTiles()};
   f.unmap();
   gst_buffer_unref(out);
   return v;

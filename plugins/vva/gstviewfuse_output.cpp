@@ -131,9 +131,9 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
                           (nullptr));
       continue;
     }
-    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight), cv::Rect()};
+    views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight), SampleTiles()};
     room_parts.push_back(buffer_get_room_view_part(bufs[i]));
-    if (room_parts.back()) views[i].box = room_parts.back()->box;
+    if (room_parts.back()) views[i].tiles = room_parts.back()->tiles;
     ptrs.push_back(&views[i]);
     frames.push_back(std::move(f));
     stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});

@@ -253,14 +253,14 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     st->warped.depth = out.depth();
     st->warped.label = out.label();
     st->warped.weight = out.plane(Plane::Weight);
-    st->warped.box = cv::Rect();  // a new buffer: the learners' view clears it all, not only its last box
+    st->warped.tiles = SampleTiles();  // a new buffer: the learners' view clears it all, not only its last tiles
     st->warper.warp_prepared(in_info.camera, src, prepared->source, virt, params, &st->warped);
     if (params.learners_only) {
       auto part = std::make_shared<RoomViewPart>();
       part->frame = prepared;
       part->texture = &prepared->room_texture(in.color());
       part->view = virt;
-      part->box = st->warped.box;
+      part->tiles = st->warped.tiles;
       buffer_add_room_view_part(outbuf, std::move(part));
     }
     buffer_add_pose_meta(outbuf, pose.seq, pose.viewer_time_ns, rendered_pose_of(pose), pose.session);

@@ -102,7 +102,7 @@ struct RoomViewPart {
   std::shared_ptr<const PreparedFrame> frame;
   const RoomTexture* texture = nullptr;  // frame->room_texture(), made by the viewwarp
   CameraCalib view;
-  cv::Rect box;  // WarpedView::box of the learners' view
+  SampleTiles tiles;  // WarpedView::tiles of the learners' view
 };
 void buffer_add_room_view_part(GstBuffer* buf, std::shared_ptr<const RoomViewPart> part);
 std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf);

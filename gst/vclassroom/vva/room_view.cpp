@@ -159,7 +159,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   out->color.setTo(0, unseen_);
   out->label.create(out->depth.size(), CV_8UC1);
   out->label.setTo(0);
-  out->box = cv::Rect();
+  out->tiles = SampleTiles();
 }
 
 }  // namespace vclassroom

@@ -285,8 +285,9 @@ int run_end(const uint8_t* marks, int x, int n, uint8_t value) {
 
 // FuseParams::first_is_base, one output row: the base (rows[0]) copied where no other view has a sample
 // (depth 0 where it has none, as the blend gives), blend_row over it over the column spans where one has.
-// A view with a box has its samples only there. `others`, `span_rows`: scratch.
-void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& views, const ViewRow* rows,
+// A view with tiles (`tiled`: they fit the view) has its samples only there. `others`, `span_rows`: scratch.
+void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& views, const std::vector<bool>& tiled,
+                        const ViewRow* rows,
                         const float* wlut, float tol_mm, float tol_ratio, BlendScratch& scratch,
                         std::vector<uint8_t>* others, std::vector<ViewRow>* span_rows, uint8_t* oc, uint16_t* od,
                         uint8_t* ol) {
@@ -294,11 +295,15 @@ void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& view
   others->assign(size_t(W), 0);
   uint8_t* const marks = others->data();
   for (int c = 1; c < k; ++c) {
-    const cv::Rect& b = views[size_t(c)]->box;
-    if (b.area() == 0) {
+    const SampleTiles& tiles = views[size_t(c)]->tiles;
+    if (!tiled[size_t(c)]) {
       mark_samples(W, rows[c].d, marks);
-    } else if (y >= b.y && y < b.y + b.height) {
-      mark_samples(b.width, rows[c].d + b.x, marks + b.x);
+      continue;
+    }
+    const auto [first, end] = tiles.of_row(y);
+    for (int32_t i = first; i < end; ++i) {
+      const auto [x0, x1] = tiles.spans[size_t(i)];
+      mark_samples(x1 - x0, rows[c].d + x0, marks + x0);
     }
   }
   for (int x = 0; x < W;) {
@@ -341,6 +346,9 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   std::vector<ViewRow> rows(views.size());
   std::vector<uint8_t> others;  // first_is_base: per column, whether another view has a sample
   std::vector<ViewRow> span_rows(views.size());
+  std::vector<bool> tiled(views.size());
+  for (size_t c = 0; c < views.size(); ++c)
+    tiled[c] = !views[c]->tiles.anywhere() && views[c]->tiles.fit(size.width, size.height);
   for (int y = 0; y < size.height; ++y) {
     for (int c = 0; c < k; ++c)
       rows[c] = ViewRow{views[c]->color.ptr<uint8_t>(y), views[c]->depth.ptr<uint16_t>(y),
@@ -351,7 +359,7 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
                 out->depth.ptr<uint16_t>(y), out->label.ptr<uint8_t>(y));
       continue;
     }
-    fuse_row_over_base(size.width, y, views, rows.data(), wlut, tol_mm, tol_ratio, scratch, &others, &span_rows,
+    fuse_row_over_base(size.width, y, views, tiled, rows.data(), wlut, tol_mm, tol_ratio, scratch, &others, &span_rows,
                        out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y), out->label.ptr<uint8_t>(y));
   }
   // Reused like the other planes: a fresh 0.5 MB each frame costs page faults.

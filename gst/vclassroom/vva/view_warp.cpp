@@ -647,50 +647,61 @@ bool all_empty(size_t n, const uint64_t* records) {
   return differ == 0;
 }
 
-// Closes the cracks find_cracks marks: the pixel takes the mean of the two
-// pixels of the surface around it.
+// The cracks of row y's pixels [cx0, cx1) (1 <= cx0, cx1 <= width - 1) closed: each pixel find_cracks marks
+// takes the mean of the two pixels of the surface around it. `code`: scratch of the row's width.
+void close_row_cracks(WarpedView* out, int y, int cx0, int cx1, uint16_t ratio_q16, uint16_t min_mm,
+                      uint8_t* code) {
+  const int W = out->depth.cols, H = out->depth.rows;
+  uint16_t* const d = out->depth.ptr<uint16_t>(y);
+  // The first and last rows have cracks across the row only: their own
+  // row stands in for the missing one, which finds none across the column.
+  const uint16_t* above = y > 0 ? out->depth.ptr<uint16_t>(y - 1) : d;
+  const uint16_t* below = y + 1 < H ? out->depth.ptr<uint16_t>(y + 1) : d;
+  find_cracks(cx1 - cx0, above + cx0, d + cx0, below + cx0, ratio_q16, min_mm, code + cx0);
+  for (int x = cx0; x < cx1; ++x) {
+    if (x + 8 < W) {  // most of a row holds no crack: 8 codes at a time
+      uint64_t eight;
+      std::memcpy(&eight, code + x, 8);
+      if (!eight) {
+        x += 7;
+        continue;
+      }
+    }
+    if (!code[x]) continue;
+    const bool across_row = code[x] == 1;
+    const int y0 = across_row ? y : y - 1, y1 = across_row ? y : y + 1;
+    const int x0 = across_row ? x - 1 : x, x1 = across_row ? x + 1 : x;
+    d[x] = uint16_t((out->depth.at<uint16_t>(y0, x0) + out->depth.at<uint16_t>(y1, x1) + 1) / 2);
+    const cv::Vec3b c0 = out->color.at<cv::Vec3b>(y0, x0), c1 = out->color.at<cv::Vec3b>(y1, x1);
+    cv::Vec3b& c = out->color.at<cv::Vec3b>(y, x);
+    for (int ch = 0; ch < 3; ++ch) c[ch] = uint8_t((c0[ch] + c1[ch] + 1) / 2);
+    out->weight.at<uint8_t>(y, x) = std::min(out->weight.at<uint8_t>(y0, x0), out->weight.at<uint8_t>(y1, x1));
+    out->label.at<uint8_t>(y, x) = out->label.at<uint8_t>(y0, x0);
+  }
+}
+
+// Closes the cracks find_cracks marks, row by row.
 // `row_empty` (optional, per row): rows known to hold no depth; a row with its neighbours empty has no crack.
-// `box` (optional): all depth lies in it, so every crack does too (between two of its pixels).
+// `tiles` (optional): all depth lies in them, so every crack does too (it has a neighbour with depth in its
+// own tile, the tiles being 2 px or more on a side).
 void close_cracks(WarpedView* out, uint16_t ratio_q16, uint16_t min_mm, std::vector<uint8_t>* scratch,
-                  const std::vector<uint8_t>* row_empty = nullptr, const cv::Rect* box = nullptr) {
+                  const std::vector<uint8_t>* row_empty = nullptr, const SampleTiles* tiles = nullptr) {
   const int W = out->depth.cols, H = out->depth.rows;
   if (W < 3 || H < 3) return;
   scratch->assign(size_t(W), 0);
   uint8_t* const code = scratch->data();
-  const int cx0 = box ? std::max(1, box->x) : 1, cx1 = box ? std::min(W - 1, box->x + box->width) : W - 1;
-  const int ry0 = box ? std::max(0, box->y) : 0, ry1 = box ? std::min(H, box->y + box->height) : H;
-  if (cx0 >= cx1) return;
-  for (int y = ry0; y < ry1; ++y) {
+  if (tiles) {
+    for_each_tile_span(*tiles, H, [&](int y, int x0, int x1) {
+      const int cx0 = std::max(1, x0), cx1 = std::min(W - 1, x1);
+      if (cx0 < cx1) close_row_cracks(out, y, cx0, cx1, ratio_q16, min_mm, code);
+    });
+    return;
+  }
+  for (int y = 0; y < H; ++y) {
     if (row_empty && (*row_empty)[size_t(y)] && (y == 0 || (*row_empty)[size_t(y) - 1]) &&
         (y + 1 == H || (*row_empty)[size_t(y) + 1]))
       continue;
-    uint16_t* const d = out->depth.ptr<uint16_t>(y);
-    // The first and last rows have cracks across the row only: their own
-    // row stands in for the missing one, which finds none across the column.
-    const uint16_t* above = y > 0 ? out->depth.ptr<uint16_t>(y - 1) : d;
-    const uint16_t* below = y + 1 < H ? out->depth.ptr<uint16_t>(y + 1) : d;
-    find_cracks(cx1 - cx0, above + cx0, d + cx0, below + cx0, ratio_q16, min_mm, code + cx0);
-    for (int x = cx0; x < cx1; ++x) {
-      if (x + 8 < W) {  // most of a row holds no crack: 8 codes at a time
-        uint64_t eight;
-        std::memcpy(&eight, code + x, 8);
-        if (!eight) {
-          x += 7;
-          continue;
-        }
-      }
-      if (!code[x]) continue;
-      const bool across_row = code[x] == 1;
-      const int y0 = across_row ? y : y - 1, y1 = across_row ? y : y + 1;
-      const int x0 = across_row ? x - 1 : x, x1 = across_row ? x + 1 : x;
-      d[x] = uint16_t((out->depth.at<uint16_t>(y0, x0) + out->depth.at<uint16_t>(y1, x1) + 1) / 2);
-      const cv::Vec3b c0 = out->color.at<cv::Vec3b>(y0, x0), c1 = out->color.at<cv::Vec3b>(y1, x1);
-      cv::Vec3b& c = out->color.at<cv::Vec3b>(y, x);
-      for (int ch = 0; ch < 3; ++ch) c[ch] = uint8_t((c0[ch] + c1[ch] + 1) / 2);
-      out->weight.at<uint8_t>(y, x) =
-          std::min(out->weight.at<uint8_t>(y0, x0), out->weight.at<uint8_t>(y1, x1));
-      out->label.at<uint8_t>(y, x) = out->label.at<uint8_t>(y0, x0);
-    }
+    close_row_cracks(out, y, 1, W - 1, ratio_q16, min_mm, code);
   }
 }
 
@@ -1447,14 +1458,23 @@ void ViewWarper::splat_fine_cells(const Frame& f, const Layer& layer, const Cell
   const ptrdiff_t vw = f.VW;
   const ColorSampler col = layer.color;
   const float mu = f.max_u, mv = f.max_v;
-  if (track_box_) {  // a sparse layer's view: where its records can be (unpack_view reads only there)
+  if (track_tiles_) {  // a sparse layer's view: where its records can be (unpack_view reads only there)
     const int32_t *const x1 = cells.x1, *const y1 = cells.y1;
+    uint8_t* const marks = tile_marks_.data();
+    const int cols = tile_cols_;
+    constexpr int kShift = SampleTiles::kShift;
     for (int u = u_begin; u < u_end; ++u) {
       const int32_t m = mask[u];
       if (!m || skip[u >> 1]) continue;
-      const bool big = m == kBigCell;
-      box_x0_ = std::min(box_x0_, x0[u]), box_y0_ = std::min(box_y0_, y0[u]);
-      box_x1_ = std::max(box_x1_, big ? x1[u] : x0[u] + 1), box_y1_ = std::max(box_y1_, big ? y1[u] : y0[u] + 1);
+      if (m == kBigCell) {
+        for (int ty = y0[u] >> kShift; ty <= y1[u] >> kShift; ++ty)
+          std::fill(marks + ty * cols + (x0[u] >> kShift), marks + ty * cols + (x1[u] >> kShift) + 1, uint8_t(1));
+        continue;
+      }
+      // The cell's 2x2 of candidates: usually in one tile.
+      const int tx0 = x0[u] >> kShift, tx1 = (x0[u] + 1) >> kShift;
+      const int r0 = (y0[u] >> kShift) * cols, r1 = ((y0[u] + 1) >> kShift) * cols;
+      marks[r0 + tx0] = marks[r0 + tx1] = marks[r1 + tx0] = marks[r1 + tx1] = 1;
     }
   }
   for (int u = u_begin; u < u_end; ++u) {
@@ -1601,8 +1621,9 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
   int row_begin = H, row_end = 0;
   for (int v = 0; v < H; ++v)
     if (any_nonzero(size_t(W), learners + size_t(v) * W)) row_begin = std::min(row_begin, v), row_end = v + 1;
-  track_box_ = true;
-  box_x0_ = f.VW, box_y0_ = f.VH, box_x1_ = -1, box_y1_ = -1;
+  track_tiles_ = true;
+  tile_cols_ = (f.VW >> SampleTiles::kShift) + 1;
+  tile_marks_.assign(size_t(tile_cols_) * size_t((f.VH >> SampleTiles::kShift) + 1), 0);
   if (row_begin < row_end)
     splat_layer(f,
                 Layer{learners, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, row_begin,
@@ -1610,31 +1631,73 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
                 prm);
 }
 
-// unpack_view for a sparse layer whose records lie in box_*: the planes zero outside it, the records read and
-// emptied inside it only, the cracks looked for in its rows only (a row or column past it holds none).
-void ViewWarper::unpack_box(const Frame& f, const WarpParams& prm, bool fresh, WarpedView* out) {
+bool SampleTiles::fit(int width, int height) const {
+  if (width <= 0 || height <= 0 || row_first.size() != size_t((height + kPx - 1) / kPx) + 1 || row_first[0] != 0 ||
+      size_t(row_first.back()) != spans.size())
+    return false;
+  for (size_t t = 0; t + 1 < row_first.size(); ++t) {
+    if (row_first[t] > row_first[t + 1]) return false;
+    int end = 0;
+    for (int32_t i = row_first[t]; i < row_first[t + 1]; ++i) {
+      const auto [x0, x1] = spans[size_t(i)];
+      if (x0 < end || x1 <= x0 || x1 > width) return false;
+      end = x1;
+    }
+  }
+  return true;
+}
+
+// The tiles splat_fine_cells marked, as the spans of each row of tiles (SampleTiles); the marks cleared.
+void ViewWarper::take_marked_tiles(int VW, int VH, SampleTiles* tiles) {
+  constexpr int kPx = SampleTiles::kPx;
+  const int rows = (VH + kPx - 1) / kPx;  // a mark past the view's last row or column marks nothing there
+  tiles->row_first.assign(size_t(rows) + 1, 0);
+  tiles->spans.clear();
+  for (int ty = 0; ty < rows; ++ty) {
+    const uint8_t* m = tile_marks_.data() + size_t(ty) * tile_cols_;
+    tiles->row_first[size_t(ty)] = int32_t(tiles->spans.size());
+    for (int tx = 0; tx * kPx < VW;) {
+      if (!m[tx]) {
+        ++tx;
+        continue;
+      }
+      const int first = tx;
+      while (tx * kPx < VW && m[tx]) ++tx;
+      tiles->spans.emplace_back(first * kPx, std::min(VW, tx * kPx));
+    }
+  }
+  tiles->row_first[size_t(rows)] = int32_t(tiles->spans.size());
+  std::fill(tile_marks_.begin(), tile_marks_.end(), uint8_t(0));
+}
+
+// unpack_view for a sparse layer whose records lie in the marked tiles: the planes zeroed where the last tiles
+// were (everywhere for fresh planes), the records read and emptied in the new tiles only, the cracks looked
+// for there only (a crack lies between two pixels with depth, one of them in its own tile).
+void ViewWarper::unpack_tiles(const Frame& f, const WarpParams& prm, bool fresh, WarpedView* out) {
   const int VW = f.VW, VH = f.VH;
-  const int x0 = std::max(0, box_x0_), x1 = std::min(VW - 1, box_x1_);
-  const int y0 = std::max(0, box_y0_), y1 = std::min(VH - 1, box_y1_);
-  // The planes are zero outside the last box they were given (when they kept their size): only that is cleared.
-  const cv::Rect whole(0, 0, VW, VH);
-  const cv::Rect old = out->box.area() > 0 && !fresh ? out->box & whole : whole;
-  out->color(old).setTo(0), out->depth(old).setTo(0), out->label(old).setTo(0), out->weight(old).setTo(0);
-  out->box = x0 > x1 || y0 > y1 ? cv::Rect(0, 0, 0, 0) : cv::Rect(x0, y0, x1 - x0 + 1, y1 - y0 + 1);
-  if (x0 > x1 || y0 > y1) {
-    out->box = cv::Rect(0, 0, 1, 1);  // an empty view: the box of one zero pixel
-    return;
+  SampleTiles& tiles = out->tiles;
+  const size_t rows = size_t((VH + SampleTiles::kPx - 1) / SampleTiles::kPx);
+  if (fresh || tiles.anywhere() || tiles.row_first.size() != rows + 1) {
+    out->color.setTo(0), out->depth.setTo(0), out->label.setTo(0), out->weight.setTo(0);
+  } else {
+    for_each_tile_span(tiles, VH, [&](int y, int x0, int x1) {
+      std::memset(out->color.ptr<uint8_t>(y) + 3 * x0, 0, size_t(x1 - x0) * 3);
+      std::memset(out->depth.ptr<uint16_t>(y) + x0, 0, size_t(x1 - x0) * 2);
+      std::memset(out->label.ptr<uint8_t>(y) + x0, 0, size_t(x1 - x0));
+      std::memset(out->weight.ptr<uint8_t>(y) + x0, 0, size_t(x1 - x0));
+    });
   }
-  const int n = x1 - x0 + 1;
-  for (int y = y0; y <= y1; ++y) {
-    Sample* records = f.zbuf + size_t(y) * VW + x0;
-    unpack_samples(n, records, out->color.ptr<uint8_t>(y) + 3 * x0, out->depth.ptr<uint16_t>(y) + x0,
-                   out->label.ptr<uint8_t>(y) + x0, out->weight.ptr<uint8_t>(y) + x0);
+  take_marked_tiles(VW, VH, &tiles);
+  for_each_tile_span(tiles, VH, [&](int y, int x0, int x1) {
+    const int n = x1 - x0;
+    unpack_samples(n, f.zbuf + size_t(y) * VW + x0, out->color.ptr<uint8_t>(y) + 3 * x0,
+                   out->depth.ptr<uint16_t>(y) + x0, out->label.ptr<uint8_t>(y) + x0,
+                   out->weight.ptr<uint8_t>(y) + x0);
     std::fill_n(zbuf_.data() + size_t(y) * VW + x0, size_t(n), kEmptyRecord);
-  }
+  });
   if (prm.close_cracks)
     close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),
-                 tolerance_min_mm(prm.edge_min_mm), &crack_code_, nullptr, &out->box);
+                 tolerance_min_mm(prm.edge_min_mm), &crack_code_, nullptr, &tiles);
 }
 
 // The z-buffer into the view's planes, and the cracks closed.
@@ -1652,12 +1715,12 @@ void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* 
   // each band's records emptied for the next frame while they are in cache.
   const bool continuous = out->color.isContinuous() && out->depth.isContinuous() && out->label.isContinuous() &&
                           out->weight.isContinuous();
-  if (track_box_) {  // a sparse layer: its records lie in the box, all else is empty
-    track_box_ = false;
-    unpack_box(f, prm, fresh, out);
+  if (track_tiles_) {  // a sparse layer: its records lie in the marked tiles, all else is empty
+    track_tiles_ = false;
+    unpack_tiles(f, prm, fresh, out);
     return;
   }
-  out->box = cv::Rect();  // samples anywhere
+  out->tiles = SampleTiles();  // samples anywhere
   const int band = continuous ? 32 : 1;
   row_empty_.assign(size_t(VH), 0);
   for (int y = 0; y < VH; y += band) {

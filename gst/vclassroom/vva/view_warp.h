@@ -94,13 +94,42 @@ struct WarpParams {
 };
 
 // The source warped to the virtual view: all images have the virtual camera's size.
+// Where the samples of a sparse warped view may lie: the view in tiles of kPx x kPx pixels, and per row of
+// tiles the column spans of its marked tiles (neighbours joined). Learners spread over a room leave most of
+// their box empty (about 42 k pixels a camera in a box of 830 x 360 at 960 x 540): the view is unpacked,
+// cleared and fused over these spans only.
+struct SampleTiles {
+  static constexpr int kShift = 3, kPx = 1 << kShift;
+  // Per row of tiles, the index of its first span; one more entry at the end. Empty: samples anywhere.
+  std::vector<int32_t> row_first;
+  std::vector<std::pair<int, int>> spans;  // pixel columns [first, second)
+  bool anywhere() const { return row_first.empty(); }
+  // Whether these are tiles of a width x height view (a reader given them by another checks before of_row).
+  bool fit(int width, int height) const;
+  // The indices [first, second) in `spans` of pixel row y's spans (y within the view).
+  std::pair<int32_t, int32_t> of_row(int y) const {
+    const size_t t = size_t(y >> kShift);
+    return {row_first[t], row_first[t + 1]};
+  }
+};
+
+// Calls fn(y, x0, x1) for every span [x0, x1) of every pixel row y < height of `tiles` (not anywhere()), row
+// by row, left to right.
+template <typename Fn>
+void for_each_tile_span(const SampleTiles& tiles, int height, Fn&& fn) {
+  for (int y = 0; y < height; ++y) {
+    const auto [first, end] = tiles.of_row(y);
+    for (int32_t i = first; i < end; ++i) fn(y, tiles.spans[size_t(i)].first, tiles.spans[size_t(i)].second);
+  }
+}
+
 struct WarpedView {
   cv::Mat color;   // CV_8UC3 RGB, black where weight is 0
   cv::Mat depth;   // CV_16UC1 mm along the virtual optical axis, 0 = hole
   cv::Mat label;   // CV_8UC1
   cv::Mat weight;  // CV_8UC1, 0 = hole, 1..255 quality (viewing angle, distance, stretch)
-  // WarpParams::learners_only: every sample lies in this box; empty: anywhere.
-  cv::Rect box;
+  // WarpParams::learners_only: every sample lies in these tiles; anywhere() when they are not known.
+  SampleTiles tiles;
 };
 
 // What ViewWarper::prepare() makes of a source frame: the half of the warp
@@ -167,7 +196,8 @@ class ViewWarper {
   void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
   void draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth, const uint8_t* label,
                           const WarpParams& params);
-  void unpack_box(const Frame& f, const WarpParams& params, bool fresh, WarpedView* out);
+  void take_marked_tiles(int view_width, int view_height, SampleTiles* tiles);
+  void unpack_tiles(const Frame& f, const WarpParams& params, bool fresh, WarpedView* out);
   void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
   // The cell warp's rows in pairs over every column, or only over the columns that can land in the view.
   void splat_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
@@ -192,8 +222,11 @@ class ViewWarper {
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint16_t> learner_depth_;  // learners_only: draw_learner_layer's depth
   const uint16_t* prepared_learner_depth_ = nullptr;  // learners_only: the prepared one, for this warp
-  bool track_box_ = false;  // learners_only: splat_fine_cells keeps the box of the records it may write
-  int box_x0_ = 0, box_y0_ = 0, box_x1_ = -1, box_y1_ = -1;
+  // learners_only: splat_fine_cells marks the view's tiles (SampleTiles) its records may lie in; tile_cols_
+  // across, one more than the view needs each way (a cell's 2x2 may reach a pixel past the view's last).
+  bool track_tiles_ = false;
+  int tile_cols_ = 0;
+  std::vector<uint8_t> tile_marks_;
   std::vector<uint16_t> step_tmp_;   // src_depth_ smoothed along the rows
   std::vector<uint8_t> step_code_;   // what lies between neighbours (steps, edges), along rows, then columns
   std::vector<uint8_t> step_chunk_;  // per row and chunk of columns: a step across the column there
