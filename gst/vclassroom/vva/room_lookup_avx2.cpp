@@ -3,6 +3,7 @@
 // 16-bit lanes (top row | bottom row); the depth test, the strict coverage and the bilinear weights in 16-bit
 // lanes (Q15, _mm256_mulhrs_epi16); colour x weight summed exactly (_mm256_madd_epi16); each camera's colour
 // divided once in float and the cameras blended in float accumulators. Groups of 8 with no depth are skipped.
+// A row is taken camera by camera, each in two passes over its groups: the projections, then the samples.
 // It computes what lookup_row_portable() computes (room_lookup.cpp), in that order; the weights' square root
 // is the CPU's approximate one.
 #include <gst/vclassroom/vva/room_lookup.h>
@@ -63,7 +64,7 @@ struct Sample8 {
   __m256 not_strict;  // all bits where a member that disagrees takes part in the sample
 };
 
-VCLASSROOM_AVX2 inline __attribute__((always_inline)) Sample8 sample_2x2(const CamV& c, int32_t* ii, __m256i lw,
+VCLASSROOM_AVX2 inline __attribute__((always_inline)) Sample8 sample_2x2(const CamV& c, const int32_t* ii, __m256i lw,
                                                                        __m256i fq) {
   const __m256i ONE = _mm256_set1_epi16(32767), TH = _mm256_set1_epi16(655), Z = _mm256_setzero_si256();
   const __m256i LO = _mm256_permute4x64_epi64(lw, 0x88), WD = _mm256_permute4x64_epi64(lw, 0xDD);
@@ -71,9 +72,8 @@ VCLASSROOM_AVX2 inline __attribute__((always_inline)) Sample8 sample_2x2(const C
   const __m256i X0 = _mm256_sub_epi16(ONE, FX), Y = _mm256_blend_epi32(_mm256_sub_epi16(ONE, FY), FY, 0xF0);
   const __m256i W0 = _mm256_mulhrs_epi16(X0, Y), W1 = _mm256_mulhrs_epi16(FX, Y);
   // The 2x2s: per pixel [t00 t01 | t10 t11], 4 x 16 bits each, transposed to (texel, channel) x pixel.
-  // The indices through memory (one store, then a load per pixel that addresses both rows), not
-  // extracted lane by lane as the compiler would.
-  __asm__("" : "+m"(*reinterpret_cast<int32_t(*)[8]>(ii)));
+  // The indices from memory (project_groups stored them a pass before): a load per pixel that addresses both
+  // rows.
   const uint64_t *R = c.rec, *RW = c.rec + c.W;
   __m256i p[8];
   for (int j = 0; j < 8; ++j) {
@@ -112,11 +112,132 @@ VCLASSROOM_AVX2 inline __attribute__((always_inline)) Sample8 sample_2x2(const C
                  not_strict};
 }
 
+// One row's groups of 8 view pixels with a depth, and what the cameras added to each so far.
+struct alignas(32) RowGroup {
+  float z[8], view_dist2[8];
+  float sr[8], sg[8], sb[8], sn[8], seen_strictly[8];
+  int x0;
+  bool active;  // the camera at hand is looked at here (a far one only where no nearer one sees all strictly)
+};
+// What one camera's projection gave for a group: the 2x2's record indices, the depths that agree (lo | width),
+// the bilinear fractions (Q15, u | v), where the point lands in the camera and the camera's weight there.
+struct alignas(32) Projected {
+  int32_t idx[8];
+  __m256i lw, fq;
+  __m256 in, weight;
+};
+
+// The camera's projection of the active groups (the first pass over a row): their work is independent, so the
+// CPU overlaps the groups' divisions and conversions, where one group's chain from its depth to its records'
+// indices (a division, conversions, the indices through memory) held up its gathers.
+VCLASSROOM_AVX2 void project_groups(const CamV& c, const LookupView& view, const RowGroup* groups, int n,
+                                    Projected* out) {
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), mhalf = _mm256_set1_ps(-0.5f),
+               near = _mm256_set1_ps(50.0f), q15 = _mm256_set1_ps(32767.0f), mm = _mm256_set1_ps(view.tol_mm),
+               k1 = _mm256_set1_ps(1.0f / (1.0f + view.tol_ratio)), k2 = _mm256_set1_ps(1.0f + view.tol_ratio);
+  for (int g = 0; g < n; ++g) {
+    const RowGroup& rg = groups[g];
+    if (!rg.active) continue;
+    const __m256 z = _mm256_load_ps(rg.z), view_dist2 = _mm256_load_ps(rg.view_dist2);
+    const __m256 xv = _mm256_add_ps(_mm256_set1_ps(float(rg.x0)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
+    const __m256 a0 = _mm256_fmadd_ps(xv, c.s[0], c.b[0]), a1 = _mm256_fmadd_ps(xv, c.s[1], c.b[1]),
+                 a2 = _mm256_fmadd_ps(xv, c.s[2], c.b[2]);
+    const __m256 h0 = _mm256_fmadd_ps(z, a0, c.t[0]), h1 = _mm256_fmadd_ps(z, a1, c.t[1]),
+                 h2 = _mm256_fmadd_ps(z, a2, c.t[2]);
+    const __m256 ih = _mm256_div_ps(one, _mm256_max_ps(h2, one));
+    const __m256 u = _mm256_mul_ps(h0, ih), v = _mm256_mul_ps(h1, ih);
+    const __m256 in = _mm256_and_ps(
+        _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(u, mhalf, _CMP_GE_OQ), _mm256_cmp_ps(v, mhalf, _CMP_GE_OQ)),
+                      _mm256_and_ps(_mm256_cmp_ps(u, c.umax, _CMP_LE_OQ), _mm256_cmp_ps(v, c.vmax, _CMP_LE_OQ))),
+        _mm256_cmp_ps(h2, near, _CMP_GE_OQ));
+    const __m256 uc = _mm256_min_ps(_mm256_max_ps(u, zero), c.uclamp),
+                 vc = _mm256_min_ps(_mm256_max_ps(v, zero), c.vclamp);
+    const __m256 fu = _mm256_round_ps(uc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC),
+                 fv = _mm256_round_ps(vc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC);
+    Projected& p = out[g];
+    _mm256_store_si256(reinterpret_cast<__m256i*>(p.idx), _mm256_cvttps_epi32(_mm256_fmadd_ps(fv, c.wf, fu)));
+    // The depths that agree with h2: lo .. lo + width (integer mm).
+    const __m256 lo = _mm256_min_ps(_mm256_sub_ps(h2, mm), _mm256_mul_ps(h2, k1)),
+                 hi = _mm256_max_ps(_mm256_add_ps(h2, mm), _mm256_mul_ps(h2, k2));
+    const __m256i loi = _mm256_cvttps_epi32(_mm256_round_ps(lo, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
+    p.lw = _mm256_packus_epi32(loi, _mm256_sub_epi32(_mm256_cvttps_epi32(hi), loi));
+    // Bilinear fractions in Q15.
+    p.fq = _mm256_packus_epi32(_mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(uc, fu), q15)),
+                               _mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(vc, fv), q15)));
+    p.in = in;
+    p.weight = camera_weight(c, view_dist2, h2, u, v);
+  }
+}
+
+// The camera's samples of the active groups added to their sums (the second pass over a row).
+VCLASSROOM_AVX2 void add_samples(const CamV& c, bool far, RowGroup* groups, int n, Projected* projected) {
+  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), only_seen = _mm256_set1_ps(1.0f / 65536.0f);
+  for (int g = 0; g < n; ++g) {
+    RowGroup& rg = groups[g];
+    if (!rg.active) continue;
+    Projected& p = projected[g];
+    const Sample8 sample = sample_2x2(c, p.idx, p.lw, p.fq);
+    const __m256 fr = sample.r, fg = sample.g, fb = sample.b, fw = sample.w, strict_keep = sample.not_strict;
+    const __m256 seen = _mm256_and_ps(p.in, _mm256_cmp_ps(fw, zero, _CMP_GT_OQ));
+    const __m256 strict = _mm256_andnot_ps(strict_keep, seen);
+    // The camera's weight where it sees the point strictly, 2^-16 of it where it only sees it (so the strict
+    // cameras decide where there are any); its colour sums divided by their bilinear weight.
+    // Masked after the product: where the camera does not see the point its weight may be infinite (a point
+    // behind it), and 0 x inf is NaN.
+    __m256 wt = _mm256_and_ps(seen, _mm256_mul_ps(_mm256_blendv_ps(only_seen, one, strict), p.weight));
+    const __m256 seen_strictly = _mm256_load_ps(rg.seen_strictly);
+    if (far) wt = _mm256_andnot_ps(seen_strictly, wt);
+    _mm256_store_ps(rg.seen_strictly, _mm256_or_ps(seen_strictly, strict));
+    const __m256 kw = _mm256_div_ps(wt, _mm256_max_ps(fw, one));
+    _mm256_store_ps(rg.sr, _mm256_fmadd_ps(fr, kw, _mm256_load_ps(rg.sr)));
+    _mm256_store_ps(rg.sg, _mm256_fmadd_ps(fg, kw, _mm256_load_ps(rg.sg)));
+    _mm256_store_ps(rg.sb, _mm256_fmadd_ps(fb, kw, _mm256_load_ps(rg.sb)));
+    _mm256_store_ps(rg.sn, _mm256_add_ps(_mm256_load_ps(rg.sn), wt));
+  }
+}
+
+// The blended colour of a row's groups written where a camera sees the point.
+VCLASSROOM_AVX2 void write_groups(const RowGroup* groups, int n, uint8_t* out, uint8_t* out_written) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f),
+               c255 = _mm256_set1_ps(255.0f), tiny = _mm256_set1_ps(1e-30f);
+  const __m256i pick = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1, 0, 1, 2, 4, 5, 6, 8,
+                                        9, 10, 12, 13, 14, -1, -1, -1, -1);
+  alignas(32) uint32_t px[8];
+  for (int g = 0; g < n; ++g) {
+    const RowGroup& rg = groups[g];
+    const int x0 = rg.x0;
+    const __m256 sn = _mm256_load_ps(rg.sn);
+    const __m256 write =
+        _mm256_and_ps(_mm256_cmp_ps(sn, zero, _CMP_GT_OQ), _mm256_cmp_ps(_mm256_load_ps(rg.z), zero, _CMP_NEQ_OQ));
+    const int wm = _mm256_movemask_ps(write);
+    for (int j = 0; j < 8; ++j) out_written[x0 + j] = uint8_t((wm >> j & 1) * 255);
+    if (!wm) continue;
+    const __m256 in_ = _mm256_div_ps(one, _mm256_max_ps(sn, tiny));
+    const __m256i r = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_load_ps(rg.sr), in_, half))),
+                  g8 = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_load_ps(rg.sg), in_, half))),
+                  b = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_load_ps(rg.sb), in_, half)));
+    const __m256i rgb = _mm256_or_si256(r, _mm256_or_si256(_mm256_slli_epi32(g8, 8), _mm256_slli_epi32(b, 16)));
+    uint8_t* o = out + 3 * x0;
+    if (wm == 0xFF) {
+      const __m256i q = _mm256_shuffle_epi8(rgb, pick);
+      const __m128i hi = _mm256_extracti128_si256(q, 1);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(o), _mm256_castsi256_si128(q));  // 12 + 4 overwritten next
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(o + 12), hi);
+      const int last = _mm_extract_epi32(hi, 2);
+      std::memcpy(o + 20, &last, 4);
+    } else {
+      _mm256_store_si256(reinterpret_cast<__m256i*>(px), rgb);
+      for (int j = 0; j < 8; ++j)
+        if (wm >> j & 1) std::memcpy(o + 3 * j, &px[j], 3);
+    }
+  }
+}
+
 VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const LookupView& view,
                                  const cv::Mat& view_depth, int y_begin, int y_end, cv::Mat* color, cv::Mat* written) {
   const int VW = view_depth.cols, nc = int(cf.size());
   CV_Assert(nc <= 8);
-  CamV cams[8];  // on the stack: 32-byte aligned (the vector allocator here is not)
+  CamV cams[8];  // on the stack: 32-byte aligned
   for (int k = 0; k < nc; ++k) {
     const LookupCamera& f = cf[size_t(k)];
     CamV& c = cams[k];
@@ -128,16 +249,10 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
     c.cify = _mm256_set1_ps(f.ify), c.base2 = _mm256_set1_ps(f.base2), c.place = _mm256_set1_ps(f.place);
     c.rec = f.rec, c.W = f.W;
   }
-  const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), half = _mm256_set1_ps(0.5f),
-               mhalf = _mm256_set1_ps(-0.5f), near = _mm256_set1_ps(50.0f), q15 = _mm256_set1_ps(32767.0f),
-               mm = _mm256_set1_ps(view.tol_mm), k1 = _mm256_set1_ps(1.0f / (1.0f + view.tol_ratio)),
-               k2 = _mm256_set1_ps(1.0f + view.tol_ratio), c255 = _mm256_set1_ps(255.0f),
-               only_seen = _mm256_set1_ps(1.0f / 65536.0f), tiny = _mm256_set1_ps(1e-30f),
-               vcx = _mm256_set1_ps(view.cx), vifx = _mm256_set1_ps(view.ifx);
-  const __m256i pick = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1, 0, 1, 2, 4, 5, 6, 8,
-                                        9, 10, 12, 13, 14, -1, -1, -1, -1);
-  alignas(32) int32_t ii[8];
-  alignas(32) uint32_t px[8];
+  const __m256 zero = _mm256_setzero_ps(), vcx = _mm256_set1_ps(view.cx), vifx = _mm256_set1_ps(view.ifx);
+  // Over-aligned element types: C++17's allocator aligns them.
+  std::vector<RowGroup> groups(size_t(VW / 8));
+  std::vector<Projected> projected(groups.size());
   for (int y = y_begin; y < y_end; ++y) {
     for (int k = 0; k < nc; ++k)
       for (int j = 0; j < 3; ++j)
@@ -147,87 +262,39 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
     const uint16_t* drow = view_depth.ptr<uint16_t>(y);
     uint8_t* out = color->ptr<uint8_t>(y);
     uint8_t* out_written = written->ptr<uint8_t>(y);
-    int x0 = 0;
+    int n = 0, x0 = 0;
     for (; x0 + 8 <= VW; x0 += 8) {
       const __m128i z16 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(drow + x0));
       if (_mm_testz_si128(z16, z16)) {  // no depth in these 8
         std::memset(out_written + x0, 0, 8);
         continue;
       }
+      RowGroup& rg = groups[size_t(n++)];
       const __m256 z = _mm256_cvtepi32_ps(_mm256_cvtepu16_epi32(z16));
       const __m256 xv = _mm256_add_ps(_mm256_set1_ps(float(x0)), _mm256_setr_ps(0, 1, 2, 3, 4, 5, 6, 7));
       const __m256 rx = _mm256_mul_ps(_mm256_sub_ps(xv, vcx), vifx);
-      const __m256 view_dist2 = _mm256_mul_ps(_mm256_mul_ps(z, z), _mm256_fmadd_ps(rx, rx, ray_y2));
-      __m256 sr = zero, sg = zero, sb = zero, sn = zero, seen_strictly = zero;
-      const __m256 wanted = _mm256_cmp_ps(z, zero, _CMP_NEQ_OQ);
-      for (int k = 0; k < nc; ++k) {
-        // The far cameras: not where a nearer one sees the point strictly (lookup_row_portable likewise).
-        if (k >= view.first_far_camera && !_mm256_movemask_ps(_mm256_andnot_ps(seen_strictly, wanted))) break;
-        const CamV& c = cams[k];
-        const __m256 a0 = _mm256_fmadd_ps(xv, c.s[0], c.b[0]), a1 = _mm256_fmadd_ps(xv, c.s[1], c.b[1]),
-                     a2 = _mm256_fmadd_ps(xv, c.s[2], c.b[2]);
-        const __m256 h0 = _mm256_fmadd_ps(z, a0, c.t[0]), h1 = _mm256_fmadd_ps(z, a1, c.t[1]),
-                     h2 = _mm256_fmadd_ps(z, a2, c.t[2]);
-        const __m256 ih = _mm256_div_ps(one, _mm256_max_ps(h2, one));
-        const __m256 u = _mm256_mul_ps(h0, ih), v = _mm256_mul_ps(h1, ih);
-        const __m256 in = _mm256_and_ps(
-            _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(u, mhalf, _CMP_GE_OQ), _mm256_cmp_ps(v, mhalf, _CMP_GE_OQ)),
-                          _mm256_and_ps(_mm256_cmp_ps(u, c.umax, _CMP_LE_OQ), _mm256_cmp_ps(v, c.vmax, _CMP_LE_OQ))),
-            _mm256_cmp_ps(h2, near, _CMP_GE_OQ));
-        const __m256 uc = _mm256_min_ps(_mm256_max_ps(u, zero), c.uclamp),
-                     vc = _mm256_min_ps(_mm256_max_ps(v, zero), c.vclamp);
-        const __m256 fu = _mm256_round_ps(uc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC),
-                     fv = _mm256_round_ps(vc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC);
-        const __m256i idx = _mm256_cvttps_epi32(_mm256_fmadd_ps(fv, c.wf, fu));
-        // The depths that agree with h2: lo .. lo + width (integer mm).
-        const __m256 lo = _mm256_min_ps(_mm256_sub_ps(h2, mm), _mm256_mul_ps(h2, k1)),
-                     hi = _mm256_max_ps(_mm256_add_ps(h2, mm), _mm256_mul_ps(h2, k2));
-        const __m256i loi = _mm256_cvttps_epi32(_mm256_round_ps(lo, _MM_FROUND_TO_POS_INF | _MM_FROUND_NO_EXC));
-        const __m256i lw = _mm256_packus_epi32(loi, _mm256_sub_epi32(_mm256_cvttps_epi32(hi), loi));
-        // Bilinear fractions in Q15.
-        const __m256i fq = _mm256_packus_epi32(_mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(uc, fu), q15)),
-                                               _mm256_cvtps_epi32(_mm256_mul_ps(_mm256_sub_ps(vc, fv), q15)));
-        _mm256_store_si256(reinterpret_cast<__m256i*>(ii), idx);
-        const Sample8 sample = sample_2x2(c, ii, lw, fq);
-        const __m256 fr = sample.r, fg = sample.g, fb = sample.b, fw = sample.w, strict_keep = sample.not_strict;
-        const __m256 seen = _mm256_and_ps(in, _mm256_cmp_ps(fw, zero, _CMP_GT_OQ));
-        const __m256 strict = _mm256_andnot_ps(strict_keep, seen);
-        // The camera's weight where it sees the point strictly, 2^-16 of it where it only sees it (so the strict
-        // cameras decide where there are any); its colour sums divided by their bilinear weight.
-        // Masked after the product: where the camera does not see the point its weight may be infinite (a point
-        // behind it), and 0 x inf is NaN.
-        __m256 wt = _mm256_and_ps(seen, _mm256_mul_ps(_mm256_blendv_ps(only_seen, one, strict),
-                                                      camera_weight(c, view_dist2, h2, u, v)));
-        if (k >= view.first_far_camera) wt = _mm256_andnot_ps(seen_strictly, wt);
-        seen_strictly = _mm256_or_ps(seen_strictly, strict);
-        const __m256 kw = _mm256_div_ps(wt, _mm256_max_ps(fw, one));
-        sr = _mm256_fmadd_ps(fr, kw, sr), sg = _mm256_fmadd_ps(fg, kw, sg), sb = _mm256_fmadd_ps(fb, kw, sb);
-        sn = _mm256_add_ps(sn, wt);
-      }
-      // Written where a camera sees the point.
-      const __m256 write = _mm256_and_ps(_mm256_cmp_ps(sn, zero, _CMP_GT_OQ), _mm256_cmp_ps(z, zero, _CMP_NEQ_OQ));
-      const int wm = _mm256_movemask_ps(write);
-      for (int j = 0; j < 8; ++j) out_written[x0 + j] = uint8_t((wm >> j & 1) * 255);
-      if (!wm) continue;
-      const __m256 in_ = _mm256_div_ps(one, _mm256_max_ps(sn, tiny));
-      const __m256i r = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sr, in_, half))),
-                    g = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sg, in_, half))),
-                    b = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(sb, in_, half)));
-      const __m256i rgb = _mm256_or_si256(r, _mm256_or_si256(_mm256_slli_epi32(g, 8), _mm256_slli_epi32(b, 16)));
-      uint8_t* o = out + 3 * x0;
-      if (wm == 0xFF) {
-        const __m256i q = _mm256_shuffle_epi8(rgb, pick);
-        const __m128i hi = _mm256_extracti128_si256(q, 1);
-        _mm_storeu_si128(reinterpret_cast<__m128i*>(o), _mm256_castsi256_si128(q));  // 12 + 4 overwritten next
-        _mm_storel_epi64(reinterpret_cast<__m128i*>(o + 12), hi);
-        const int last = _mm_extract_epi32(hi, 2);
-        std::memcpy(o + 20, &last, 4);
-      } else {
-        _mm256_store_si256(reinterpret_cast<__m256i*>(px), rgb);
-        for (int j = 0; j < 8; ++j)
-          if (wm >> j & 1) std::memcpy(o + 3 * j, &px[j], 3);
-      }
+      _mm256_store_ps(rg.z, z);
+      _mm256_store_ps(rg.view_dist2, _mm256_mul_ps(_mm256_mul_ps(z, z), _mm256_fmadd_ps(rx, rx, ray_y2)));
+      for (float* sum : {rg.sr, rg.sg, rg.sb, rg.sn, rg.seen_strictly}) _mm256_store_ps(sum, zero);
+      rg.x0 = x0;
+      rg.active = true;
     }
+    for (int k = 0; k < nc; ++k) {
+      const bool far = k >= view.first_far_camera;
+      if (far) {  // a far camera: not where a nearer one sees every point strictly (lookup_row_portable likewise)
+        bool any = false;
+        for (int g = 0; g < n; ++g) {
+          RowGroup& rg = groups[size_t(g)];
+          const __m256 wanted = _mm256_cmp_ps(_mm256_load_ps(rg.z), zero, _CMP_NEQ_OQ);
+          rg.active = rg.active && _mm256_movemask_ps(_mm256_andnot_ps(_mm256_load_ps(rg.seen_strictly), wanted));
+          any = any || rg.active;
+        }
+        if (!any) break;
+      }
+      project_groups(cams[k], view, groups.data(), n, projected.data());
+      add_samples(cams[k], far, groups.data(), n, projected.data());
+    }
+    write_groups(groups.data(), n, out, out_written);
     lookup_row_portable(cf, view, y, x0, VW, drow, out, out_written);  // the row's last pixels
   }
 }
