@@ -38,30 +38,32 @@ size_t closest_camera(const std::vector<RoomCamera>& cameras, const CameraCalib&
   return closest;
 }
 
-// The first x in [x, n) with r[x] == 0, or n: 16 pixels at a time while they hold none (most of a row).
-VCLASSROOM_SIMD_INLINE int next_empty(const uint16_t* r, int x, int n) {
-  while (x + 16 <= n) {
-    int empty = 0;
-    for (int i = 0; i < 16; ++i) empty |= int(r[x + i] == 0);
-    if (empty) break;
-    x += 16;
+// One row of the row pass, from the row as drawn (`in`, readable two pixels before and after the row, zero
+// there): an empty pixel in a gap of one or two between depths takes the farther of the two around the gap.
+// A gap's ends are pixels as drawn (gaps of up to kStripPx lie between pixels with depth), so every pixel is
+// found from the drawn row alone, in vector lanes.
+VCLASSROOM_SIMD_CLONES
+void close_row_gaps(int n, const uint16_t* __restrict in, uint16_t* __restrict out) {
+  static_assert(kStripPx == 2, "the row pass looks two pixels either way");
+  for (int x = 0; x < n; ++x) {
+    const uint16_t c = in[x], l1 = in[x - 1], l2 = in[x - 2], r1 = in[x + 1], r2 = in[x + 2];
+    const bool empty = c == 0;
+    const bool one = empty & (l1 != 0) & (r1 != 0);                  // x alone
+    const bool first = empty & (l1 != 0) & (r1 == 0) & (r2 != 0);    // x and x + 1
+    const bool second = empty & (l2 != 0) & (l1 == 0) & (r1 != 0);  // x - 1 and x
+    const uint16_t across_one = std::max(l1, r1), across_first = std::max(l1, r2), across_second = std::max(l2, r1);
+    out[x] = one ? across_one : first ? across_first : second ? across_second : c;
   }
-  while (x < n && r[x]) ++x;
-  return x;
 }
 
-VCLASSROOM_SIMD_CLONES
-void close_strips_along_rows(cv::Mat& depth) {
+void close_strips_along_rows(cv::Mat& depth, std::vector<uint16_t>* scratch) {
   const int cols = depth.cols;
+  scratch->assign(size_t(cols) + 4, 0);
+  uint16_t* const drawn = scratch->data() + 2;
   for (int y = 0; y < depth.rows; ++y) {
     uint16_t* r = depth.ptr<uint16_t>(y);
-    for (int x = next_empty(r, 1, cols); x < cols; x = next_empty(r, x + 1, cols)) {
-      if (!r[x - 1]) continue;
-      int e = x;
-      while (e < cols && e - x <= kStripPx && !r[e]) ++e;
-      if (e < cols && r[e] && e - x <= kStripPx) std::fill(r + x, r + e, std::max(r[x - 1], r[e]));
-      x = e;
-    }
+    std::copy(r, r + cols, drawn);
+    close_row_gaps(cols, drawn, r);
   }
 }
 
@@ -142,7 +144,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
     else raster_.draw_leaves(*cameras[k].mesh);
   }
   raster_.depth(&out->depth);
-  close_strips_along_rows(out->depth);
+  close_strips_along_rows(out->depth, &row_scratch_);
   close_strips_along_columns(out->depth);
   if (!far.empty()) {
     RoomRaster::empty_tiles(out->depth, &empty_tiles_);
@@ -150,7 +152,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
     for (size_t k : far) far_raster_.draw_where_empty(*cameras[k].mesh, empty_tiles_);
     far_raster_.depth(&far_depth_);
     far_depth_.copyTo(out->depth, out->depth == 0);
-    close_strips_along_rows(out->depth);
+    close_strips_along_rows(out->depth, &row_scratch_);
     close_strips_along_columns(out->depth);
   }
   room_lookup(textures_, view, out->depth, lookup, &out->color, &out->weight);
