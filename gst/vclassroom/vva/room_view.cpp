@@ -88,6 +88,12 @@ void close_strips_along_columns(cv::Mat& depth) {
                       y + 2 < depth.rows ? depth.ptr<uint16_t>(y + 2) : nullptr);
 }
 
+// The far meshes' depth where the near ones left a pixel empty.
+VCLASSROOM_SIMD_CLONES
+void take_where_empty(int n, const uint16_t* __restrict far, uint16_t* __restrict depth) {
+  for (int x = 0; x < n; ++x) depth[x] = depth[x] ? depth[x] : far[x];
+}
+
 }  // namespace
 
 RoomLookupParams room_lookup_params(const FuseParams& fuse) {
@@ -151,7 +157,8 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
     far_raster_.begin(view);
     for (size_t k : far) far_raster_.draw_where_empty(*cameras[k].mesh, empty_tiles_);
     far_raster_.depth(&far_depth_);
-    far_depth_.copyTo(out->depth, out->depth == 0);
+    for (int y = 0; y < out->depth.rows; ++y)
+      take_where_empty(out->depth.cols, far_depth_.ptr<uint16_t>(y), out->depth.ptr<uint16_t>(y));
     close_strips_along_rows(out->depth, &row_scratch_);
     close_strips_along_columns(out->depth);
   }
