@@ -56,15 +56,20 @@ void close_row_gaps(int n, const uint16_t* __restrict in, uint16_t* __restrict o
   }
 }
 
-void close_strips_along_rows(cv::Mat& depth, std::vector<uint16_t>* scratch) {
-  const int cols = depth.cols;
-  scratch->assign(size_t(cols) + 4, 0);
-  uint16_t* const drawn = scratch->data() + 2;
-  for (int y = 0; y < depth.rows; ++y) {
-    uint16_t* r = depth.ptr<uint16_t>(y);
-    std::copy(r, r + cols, drawn);
-    close_row_gaps(cols, drawn, r);
+// The row pass from `drawn` (the depth as drawn, in columns 2 .. 2 + width of an image zero in the two columns
+// either side) into `depth`.
+void close_strips_along_rows(const cv::Mat& drawn, cv::Mat& depth) {
+  depth.create(drawn.rows, drawn.cols - 4, CV_16UC1);
+  for (int y = 0; y < depth.rows; ++y) close_row_gaps(depth.cols, drawn.ptr<uint16_t>(y) + 2, depth.ptr<uint16_t>(y));
+}
+
+// An image of the view's size with two zero columns either side (close_strips_along_rows), and its inside.
+cv::Mat padded_for_rows(int width, int height, cv::Mat* padded) {
+  if (padded->cols != width + 4 || padded->rows != height || padded->type() != CV_16UC1) {
+    padded->create(height, width + 4, CV_16UC1);
+    padded->setTo(0);
   }
+  return padded->colRange(2, width + 2);
 }
 
 // One row of the column pass, the row above already closed: an empty pixel below a depth takes the farther of
@@ -88,10 +93,11 @@ void close_strips_along_columns(cv::Mat& depth) {
                       y + 2 < depth.rows ? depth.ptr<uint16_t>(y + 2) : nullptr);
 }
 
-// The far meshes' depth where the near ones left a pixel empty.
+// The near meshes' depth, and the far ones' where it is empty.
 VCLASSROOM_SIMD_CLONES
-void take_where_empty(int n, const uint16_t* __restrict far, uint16_t* __restrict depth) {
-  for (int x = 0; x < n; ++x) depth[x] = depth[x] ? depth[x] : far[x];
+void take_where_empty(int n, const uint16_t* __restrict near, const uint16_t* __restrict far,
+                      uint16_t* __restrict out) {
+  for (int x = 0; x < n; ++x) out[x] = near[x] ? near[x] : far[x];
 }
 
 }  // namespace
@@ -149,8 +155,9 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
     if (k == closest && distance(*cameras[k].texture, view) < kEdgeReachM) raster_.draw(*cameras[k].mesh);
     else raster_.draw_leaves(*cameras[k].mesh);
   }
-  raster_.depth(&out->depth);
-  close_strips_along_rows(out->depth, &row_scratch_);
+  cv::Mat drawn = padded_for_rows(view.width, view.height, &drawn_);
+  raster_.depth(&drawn);
+  close_strips_along_rows(drawn_, out->depth);
   close_strips_along_columns(out->depth);
   if (!far.empty()) {
     RoomRaster::empty_tiles(out->depth, &empty_tiles_);
@@ -158,8 +165,9 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
     for (size_t k : far) far_raster_.draw_where_empty(*cameras[k].mesh, empty_tiles_);
     far_raster_.depth(&far_depth_);
     for (int y = 0; y < out->depth.rows; ++y)
-      take_where_empty(out->depth.cols, far_depth_.ptr<uint16_t>(y), out->depth.ptr<uint16_t>(y));
-    close_strips_along_rows(out->depth, &row_scratch_);
+      take_where_empty(out->depth.cols, out->depth.ptr<uint16_t>(y), far_depth_.ptr<uint16_t>(y),
+                       drawn.ptr<uint16_t>(y));
+    close_strips_along_rows(drawn_, out->depth);
     close_strips_along_columns(out->depth);
   }
   room_lookup(textures_, view, out->depth, lookup, &out->color, &out->weight);

@@ -70,7 +70,7 @@ class RoomViewRenderer {
   cv::Mat far_depth_;
   std::vector<const RoomTexture*> textures_;
   cv::Mat unseen_;
-  std::vector<uint16_t> row_scratch_;  // a row of depth as drawn, for closing the gaps along rows
+  cv::Mat drawn_;  // the depth as drawn, with two zero columns either side (for closing the gaps along rows)
 };
 
 }  // namespace vclassroom
