@@ -164,64 +164,83 @@ void blend_row(int W, int k, const ViewRow* rows, const float* wlut, float tol_m
 // and it is taken only where it can matter, with the very values the whole
 // frame's transform gives there: a pixel farther than `start` from everything
 // seen lies in a block of unseen pixels (kBlock px square: a seen pixel in
-// its block would be at most (kBlock - 1) * kDiagonal away), so only the box
-// around those blocks is faded; and the transform runs on that box grown by
+// its block would be at most (kBlock - 1) * kDiagonal away), so only the boxes
+// around those blocks are faded; and the transform runs on each box grown by
 // the farthest distance asked for, so every seen pixel nearer than that
 // to a pixel of the box is inside it (a chamfer path stays within the box of its
-// ends). A view with no such block skips the transform (a full-frame pass of
-// a few ms); one that turns from the room shows a band of them and gains less.
+// ends). The blocks are taken in parts, rows of blocks joined while their grown
+// boxes meet: a view whose unseen blocks lie along its top and in a corner (a
+// lecturer who looks a little up, off to one side) transforms two bands, not the
+// whole frame. A view with no such block skips the transform (a full-frame pass of
+// a few ms).
 constexpr double kStraight = 0.955, kDiagonal = 1.3693;  // cv::distanceTransform's DIST_L2 3x3 mask
 
-struct UnseenDistance {
+struct UnseenPart {
   cv::Rect blocks;  // where a pixel may be farther than the fade's start
   cv::Rect around;  // the transform's box
   cv::Mat distance;  // CV_32FC1 over `around`
 };
+using UnseenDistance = std::vector<UnseenPart>;
+
+// The transform of one part (its blocks set), exact up to `margin` px less one straight step.
+void measure_part(const cv::Mat& depth, int margin, UnseenPart* part) {
+  part->around = cv::Rect(part->blocks.x - margin, part->blocks.y - margin, part->blocks.width + 2 * margin,
+                          part->blocks.height + 2 * margin) &
+                 cv::Rect(0, 0, depth.cols, depth.rows);
+  // Kept between frames (a fresh image each frame costs page faults).
+  static thread_local cv::Mat holes;
+  cv::compare(depth(part->around), 0, holes, cv::CMP_EQ);
+  cv::distanceTransform(holes, part->distance, cv::DIST_L2, cv::DIST_MASK_3);
+}
 
 // The distances of UnseenDistance, exact up to `exact_to` px; false when no pixel is farther than `start`.
 bool measure_unseen(const cv::Mat& depth, double start, double exact_to, UnseenDistance* u) {
   constexpr int kBlock = 8;
   const int W = depth.cols, H = depth.rows;
+  const int margin = int(std::ceil(exact_to / kStraight)) + 1;
+  u->clear();
   if (start < (kBlock - 1) * kDiagonal) {
-    u->blocks = cv::Rect(0, 0, W, H);
-  } else {
-    int x0 = W, y0 = H, x1 = 0, y1 = 0;
-    std::vector<uint8_t> all_unseen(size_t((W + kBlock - 1) / kBlock));
-    for (int by = 0; by < H; by += kBlock) {
-      std::fill(all_unseen.begin(), all_unseen.end(), 1);
-      for (int y = by; y < std::min(H, by + kBlock); ++y) {
-        const uint16_t* d = depth.ptr<uint16_t>(y);
-        for (size_t b = 0; b < all_unseen.size(); ++b) {
-          if (!all_unseen[b]) continue;  // most blocks: settled by their first row
-          const int x_end = std::min(W, int(b + 1) * kBlock);
-          for (int x = int(b) * kBlock; x < x_end; ++x)
-            if (d[x]) {
-              all_unseen[b] = 0;
-              break;
-            }
-        }
-      }
+    u->push_back(UnseenPart{cv::Rect(0, 0, W, H), {}, {}});
+    measure_part(depth, margin, &u->back());
+    return true;
+  }
+  std::vector<uint8_t> all_unseen(size_t((W + kBlock - 1) / kBlock));
+  cv::Rect part;  // the blocks of the part being gathered
+  for (int by = 0; by < H; by += kBlock) {
+    std::fill(all_unseen.begin(), all_unseen.end(), 1);
+    for (int y = by; y < std::min(H, by + kBlock); ++y) {
+      const uint16_t* d = depth.ptr<uint16_t>(y);
       for (size_t b = 0; b < all_unseen.size(); ++b) {
-        if (!all_unseen[b]) continue;
-        x0 = std::min(x0, int(b) * kBlock);
-        x1 = std::max(x1, std::min(W, int(b + 1) * kBlock));
-        y0 = std::min(y0, by);
-        y1 = std::max(y1, std::min(H, by + kBlock));
+        if (!all_unseen[b]) continue;  // most blocks: settled by their first row
+        const int x_end = std::min(W, int(b + 1) * kBlock);
+        for (int x = int(b) * kBlock; x < x_end; ++x)
+          if (d[x]) {
+            all_unseen[b] = 0;
+            break;
+          }
       }
     }
-    if (x0 >= x1) return false;
-    u->blocks = cv::Rect(x0, y0, x1 - x0, y1 - y0);
+    int x0 = W, x1 = 0;
+    for (size_t b = 0; b < all_unseen.size(); ++b) {
+      if (!all_unseen[b]) continue;
+      x0 = std::min(x0, int(b) * kBlock);
+      x1 = std::max(x1, std::min(W, int(b + 1) * kBlock));
+    }
+    if (x0 >= x1) continue;
+    const cv::Rect row(x0, by, x1 - x0, std::min(H, by + kBlock) - by);
+    // Joined to the part when their boxes grown by the margin meet (their transforms would overlap).
+    const bool joins = part.area() > 0 && row.y - (part.y + part.height) < 2 * margin &&
+                       row.x < part.x + part.width + 2 * margin && part.x < row.x + row.width + 2 * margin;
+    if (joins) {
+      part |= row;
+      continue;
+    }
+    if (part.area() > 0) u->push_back(UnseenPart{part, {}, {}});
+    part = row;
   }
-  const int margin = int(std::ceil(exact_to / kStraight)) + 1;
-  u->around = cv::Rect(u->blocks.x - margin, u->blocks.y - margin, u->blocks.width + 2 * margin,
-                       u->blocks.height + 2 * margin) &
-              cv::Rect(0, 0, W, H);
-  // Kept between frames (a fresh image each frame costs page faults); u->distance shares it.
-  static thread_local cv::Mat holes, distance;
-  cv::compare(depth(u->around), 0, holes, cv::CMP_EQ);
-  cv::distanceTransform(holes, distance, cv::DIST_L2, cv::DIST_MASK_3);
-  u->distance = distance;
-  return true;
+  if (part.area() > 0) u->push_back(UnseenPart{part, {}, {}});
+  for (UnseenPart& p : *u) measure_part(depth, margin, &p);
+  return !u->empty();
 }
 
 // The holes farther than `beyond` from everything seen, set in `left` (zero elsewhere); how many.
@@ -229,15 +248,16 @@ int mark_far_holes(const UnseenDistance& u, double beyond, cv::Mat& left) {
   left.setTo(0);
   const float limit = float(beyond);
   int count = 0;
-  for (int y = u.blocks.y; y < u.blocks.y + u.blocks.height; ++y) {
-    const float* d = u.distance.ptr<float>(y - u.around.y) - u.around.x;
-    uint8_t* l = left.ptr<uint8_t>(y);
-    for (int x = u.blocks.x; x < u.blocks.x + u.blocks.width; ++x) {
-      const bool is_far = d[x] > limit;
-      l[x] = is_far ? 255 : 0;
-      count += is_far;
+  for (const UnseenPart& p : u)
+    for (int y = p.blocks.y; y < p.blocks.y + p.blocks.height; ++y) {
+      const float* d = p.distance.ptr<float>(y - p.around.y) - p.around.x;
+      uint8_t* l = left.ptr<uint8_t>(y);
+      for (int x = p.blocks.x; x < p.blocks.x + p.blocks.width; ++x) {
+        const bool is_far = d[x] > limit;
+        l[x] = is_far ? 255 : 0;
+        count += is_far;
+      }
     }
-  }
   return count;
 }
 
@@ -247,21 +267,22 @@ void fade_unseen(const UnseenDistance& u, cv::Mat& color, double start, double l
                  cv::Mat& filled) {
   constexpr float kNeutral = 96.0f;  // a dim grey, calm beside any picture
   const float s = float(start), inv_len = 1.0f / float(std::max(length, 1.0));
-  for (int y = u.blocks.y; y < u.blocks.y + u.blocks.height; ++y) {
-    const float* d = u.distance.ptr<float>(y - u.around.y) - u.around.x;
-    uint8_t* c = color.ptr<uint8_t>(y);
-    for (int x = u.blocks.x; x < u.blocks.x + u.blocks.width; ++x) {
-      if (d[x] <= s) continue;
-      float a = std::min(1.0f, (d[x] - s) * inv_len);
-      a = a * a * (3 - 2 * a);  // smoothstep: no visible ring where the fade starts
-      for (int k = 0; k < 3; ++k) c[3 * x + k] = uint8_t(float(c[3 * x + k]) * (1 - a) + kNeutral * a + 0.5f);
+  for (const UnseenPart& p : u)
+    for (int y = p.blocks.y; y < p.blocks.y + p.blocks.height; ++y) {
+      const float* d = p.distance.ptr<float>(y - p.around.y) - p.around.x;
+      uint8_t* c = color.ptr<uint8_t>(y);
+      for (int x = p.blocks.x; x < p.blocks.x + p.blocks.width; ++x) {
+        if (d[x] <= s) continue;
+        float a = std::min(1.0f, (d[x] - s) * inv_len);
+        a = a * a * (3 - 2 * a);  // smoothstep: no visible ring where the fade starts
+        for (int k = 0; k < 3; ++k) c[3 * x + k] = uint8_t(float(c[3 * x + k]) * (1 - a) + kNeutral * a + 0.5f);
+      }
+      if (left) {
+        const uint8_t* l = left->ptr<uint8_t>(y);
+        uint8_t* f = filled.ptr<uint8_t>(y);
+        for (int x = p.blocks.x; x < p.blocks.x + p.blocks.width; ++x) f[x] |= l[x];
+      }
     }
-    if (left) {
-      const uint8_t* l = left->ptr<uint8_t>(y);
-      uint8_t* f = filled.ptr<uint8_t>(y);
-      for (int x = u.blocks.x; x < u.blocks.x + u.blocks.width; ++x) f[x] |= l[x];
-    }
-  }
 }
 
 // first_is_base: 1 where the row `d` has a sample.
