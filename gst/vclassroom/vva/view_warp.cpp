@@ -1310,10 +1310,7 @@ void ViewWarper::splat_cells(const Frame& f, const Layer& layer, const WarpParam
   const int first_pair = std::max(0, layer.row_begin - 1) & ~1;
   const int end_pair = std::min(H, layer.row_end + 1);
   if (layer.sparse) {
-    for (int v = first_pair; v < end_pair; v += 2) {
-      drawn_spans(f, layer, v, &spans_);
-      if (!spans_.empty()) splat_pair_spans(f, layer, pass, v, spans_);
-    }
+    splat_sparse_pairs(f, layer, pass, first_pair, end_pair);
     return;
   }
   if (first_pair > 0) std::fill_n(links_row(W, first_pair - 1), W, 0u);
@@ -1419,24 +1416,70 @@ void ViewWarper::drawn_spans(const Frame& f, const Layer& layer, int v, std::vec
   }
 }
 
-// A row pair's cells drawn over column spans only: the rows above and below the pair and the columns
-// either side of each span projected and linked first (what the cells read), so that a layer drawn in
-// parts costs what its parts hold.
-void ViewWarper::splat_pair_spans(const Frame& f, const Layer& layer, const CellPass& pass, int v,
-                                  const std::vector<std::pair<int, int>>& spans) {
-  const int W = f.W, H = f.H;
-  const int r0 = std::max(0, v - 1), r1 = std::min(H, v + 3);
-  for (const auto& [a, b] : spans)
-    project_rows(f, layer, r0, r1, std::max(0, a - kSpanMargin), std::min(W, b + kSpanMargin));
-  for (const auto& [a, b] : spans)
-    for (int r = r0; r < std::min(H, v + 2); ++r)
-      link_row(f, layer, r, std::max(0, a - kSpanMargin), std::min(W, b + kSpanMargin));
-  if (pass.coarse && v + 1 < H) {
-    for (const auto& [a, b] : spans) splat_block_pair(f, layer, pass, v, a / 2, std::min(W / 2, (b + 1) / 2));
-    return;
+// The spans [first, second) of one pair or of two (either may be empty), each grown by kSpanMargin columns either
+// side within [0, width), overlapping ones joined: the columns a pair's cells read.
+void grown_union(const std::pair<int, int>* a, size_t na, const std::pair<int, int>* b, size_t nb, int width,
+                 std::vector<std::pair<int, int>>* out) {
+  out->clear();
+  size_t i = 0, j = 0;
+  while (i < na || j < nb) {
+    const bool take_a = j == nb || (i < na && a[i].first <= b[j].first);
+    const std::pair<int, int> s = take_a ? a[i++] : b[j++];
+    const int lo = std::max(0, s.first - kSpanMargin), hi = std::min(width, s.second + kSpanMargin);
+    if (!out->empty() && lo <= out->back().second) out->back().second = std::max(out->back().second, hi);
+    else out->emplace_back(lo, hi);
   }
-  for (int r = v; r < std::min(H, v + 2); ++r)
-    for (const auto& [a, b] : spans) splat_fine_cells(f, layer, pass, r, a, b, pass.no_blocks);
+}
+
+// A sparse layer's row pairs drawn over their column spans only, so that a layer drawn in parts costs what its
+// parts hold: every pair's spans found first, then each row projected and linked once, when the first pair
+// that reads it comes, over the columns of every pair that reads it (pair v reads the projections of rows
+// v - 1 .. v + 2 and the links of rows v - 1 .. v + 1, kSpanMargin columns either side of its spans).
+void ViewWarper::splat_sparse_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair,
+                                    int end_pair) {
+  const int W = f.W, H = f.H;
+  pair_first_.clear();
+  pair_spans_.clear();
+  for (int v = first_pair; v < end_pair; v += 2) {
+    pair_first_.push_back(pair_spans_.size());
+    drawn_spans(f, layer, v, &spans_);
+    pair_spans_.insert(pair_spans_.end(), spans_.begin(), spans_.end());
+  }
+  pair_first_.push_back(pair_spans_.size());
+  // Pair v's spans (none for a pair past the last).
+  auto spans_of = [&](int v) {
+    const size_t p = size_t((v - first_pair) / 2);
+    if (v < first_pair || v >= end_pair) return std::pair<const std::pair<int, int>*, size_t>{nullptr, 0};
+    return std::pair<const std::pair<int, int>*, size_t>{pair_spans_.data() + pair_first_[p],
+                                                         pair_first_[p + 1] - pair_first_[p]};
+  };
+  auto project = [&](int r, const std::vector<std::pair<int, int>>& columns) {
+    if (r >= 0 && r < H)
+      for (const auto& [a, b] : columns) project_rows(f, layer, r, r + 1, a, b);
+  };
+  auto link = [&](int r, const std::vector<std::pair<int, int>>& columns) {
+    if (r >= 0 && r < H)
+      for (const auto& [a, b] : columns) link_row(f, layer, r, a, b);
+  };
+  for (int v = first_pair; v < end_pair; v += 2) {
+    const auto [own, n_own] = spans_of(v);
+    const auto [next, n_next] = spans_of(v + 2);
+    grown_union(own, n_own, nullptr, 0, W, &own_columns_);
+    if (v == first_pair) {  // rows v - 1 and v: read by this pair alone
+      project(v - 1, own_columns_);
+      project(v, own_columns_);
+      link(v - 1, own_columns_);
+    }
+    // Rows v + 1 and v + 2: read by this pair and the next (row v + 1's links too).
+    grown_union(own, n_own, next, n_next, W, &shared_columns_);
+    project(v + 1, shared_columns_);
+    project(v + 2, shared_columns_);
+    link(v, own_columns_);
+    link(v + 1, shared_columns_);
+    if (n_own == 0) continue;
+    for (int r = v; r < std::min(H, v + 2); ++r)
+      for (size_t i = 0; i < n_own; ++i) splat_fine_cells(f, layer, pass, r, own[i].first, own[i].second, pass.no_blocks);
+  }
 }
 
 // The cells of pixels u_begin..u_end - 1 of row v, set up and splatted; pixels of blocks drawn as one cell

@@ -188,8 +188,7 @@ class ViewWarper {
   uint32_t* links_row(int width, int v);
   void link_row(const Frame& f, const Layer& layer, int v, int c0, int c1);
   static void drawn_spans(const Frame& f, const Layer& layer, int v, std::vector<std::pair<int, int>>* spans);
-  void splat_pair_spans(const Frame& f, const Layer& layer, const CellPass& pass, int v,
-                        const std::vector<std::pair<int, int>>& spans);
+  void splat_sparse_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
   void splat_fine_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v, int u_begin, int u_end,
                         const int32_t* skip);
   void splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v, int j_begin, int j_end);
@@ -255,6 +254,9 @@ class ViewWarper {
   std::vector<int32_t> no_blocks_;              // all zero: a row pair without block cells
   std::vector<std::pair<int, int>> fine_runs_;  // pixels [first, second) of a row pair without block cells
   std::vector<std::pair<int, int>> spans_;      // columns [first, second) of a row pair a sparse layer draws
+  std::vector<std::pair<int, int>> pair_spans_;  // a sparse layer's: every pair's spans, pair after pair
+  std::vector<size_t> pair_first_;               // each pair's first in pair_spans_, and their end
+  std::vector<std::pair<int, int>> own_columns_, shared_columns_;  // what a pair reads: its rows', the next pair's
 };
 
 // Convenience: one-shot warp.
