@@ -155,7 +155,15 @@ VCLASSROOM_AVX2 void project_groups(const CamV& c, const LookupView& view, const
     const __m256 fu = _mm256_round_ps(uc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC),
                  fv = _mm256_round_ps(vc, _MM_FROUND_TO_ZERO | _MM_FROUND_NO_EXC);
     Projected& p = out[g];
-    _mm256_store_si256(reinterpret_cast<__m256i*>(p.idx), _mm256_cvttps_epi32(_mm256_fmadd_ps(fv, c.wf, fu)));
+    const __m256i idx = _mm256_cvttps_epi32(_mm256_fmadd_ps(fv, c.wf, fu));
+    _mm256_store_si256(reinterpret_cast<__m256i*>(p.idx), idx);
+    // The records the samples will read, on their way to the cache while the rest of the row is projected: the
+    // first and last pixel's, both rows (a group's 2x2s lie along a few cache lines of each).
+    const long first = _mm256_cvtsi256_si32(idx), last = _mm_extract_epi32(_mm256_extracti128_si256(idx, 1), 3);
+    for (const long i : {first, last}) {
+      _mm_prefetch(reinterpret_cast<const char*>(c.rec + i), _MM_HINT_T0);
+      _mm_prefetch(reinterpret_cast<const char*>(c.rec + c.W + i), _MM_HINT_T0);
+    }
     // The depths that agree with h2: lo .. lo + width (integer mm).
     const __m256 lo = _mm256_min_ps(_mm256_sub_ps(h2, mm), _mm256_mul_ps(h2, k1)),
                  hi = _mm256_max_ps(_mm256_add_ps(h2, mm), _mm256_mul_ps(h2, k2));
