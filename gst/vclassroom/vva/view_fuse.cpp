@@ -336,7 +336,16 @@ void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& view
       x = e;
       continue;
     }
-    const int e = run_end(marks, x, W, 1);
+    // Gaps of up to kJoinPx between spans are blended with them, and a span is rounded up to whole vectors: the
+    // blend of a few pixels is mostly its loops' scalar remainders (a view's learners give a thousand spans of
+    // about 30 px), and where the base alone has a sample its blend is the base to the grey level (its colour x
+    // weight / weight rounds back to it; FuseParams::first_is_base: no sample where its weight is 0).
+    constexpr int kJoinPx = 16, kRoundPx = 16;
+    int e = run_end(marks, x, W, 1);
+    for (int gap_end = run_end(marks, e, W, 0); gap_end < W && gap_end - e <= kJoinPx;
+         gap_end = run_end(marks, e, W, 0))
+      e = run_end(marks, gap_end, W, 1);
+    e = std::min(W, x + (e - x + kRoundPx - 1) / kRoundPx * kRoundPx);
     for (int c = 0; c < k; ++c)
       (*span_rows)[size_t(c)] = ViewRow{rows[c].c + 3 * x, rows[c].d + x, rows[c].l + x, rows[c].w + x};
     blend_row(e - x, k, span_rows->data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x, true);

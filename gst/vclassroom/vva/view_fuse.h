@@ -24,7 +24,9 @@ struct FuseParams {
   // The room view (room_view.h): the first input is the room, seen nearly everywhere, and the others are
   // sparse (the learners and what the room's mesh does not draw): the views are blended only over the column
   // spans where one of the others has a sample, elsewhere the first is copied (the blend of one sample is that
-  // sample); a learner within the tolerance of the room keeps its own colour.
+  // sample); a learner within the tolerance of the room keeps its own colour. The first holds no sample where
+  // its weight is 0 (depth, colour and label 0 there), as RoomViewRenderer makes it: the blend of short gaps
+  // between the spans, taken with them, is then the copy.
   bool first_is_base = false;
   // Fill holes no camera covers from their background side (hole_fill.h), by the depth-aware pyramid or,
   // for comparison, along rows and columns (the fill before issue 35).
