@@ -264,7 +264,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
     double t1 = process_cpu_ms();
     std::vector<RoomCamera> room_cams;
     for (size_t i = 0; i < cams.size(); ++i)
-      room_cams.push_back(RoomCamera{&prepared[i]->room_shape->mesh(),
+      room_cams.push_back(RoomCamera{prepared[i]->room_shape.get(),
                                      &prepared[i]->room_texture(cams[i].color[size_t(f) % cams[i].color.size()])});
     const double t2 = process_cpu_ms();
     if (timed) camera_ms += t1 - t0, texture_ms += t2 - t1;

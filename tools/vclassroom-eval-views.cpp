@@ -375,7 +375,7 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
     pack_room_records(cams[i], priors[i].ptr<uint16_t>(), labels[i].ptr<uint8_t>(), src.color, src.room_depth,
                       src.room_color, &textures[i]);
     textures[i].steady = rooms != nullptr;  // the sources' colour through the background memory
-    room_cams.push_back(RoomCamera{&p.shapes[i]->mesh(), &textures[i]});
+    room_cams.push_back(RoomCamera{p.shapes[i].get(), &textures[i]});
     p.warpers[i].warp(cams[i], src, virt, only, &learners[i]);
     ptrs.push_back(&learners[i]);
   }

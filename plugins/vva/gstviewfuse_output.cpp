@@ -99,7 +99,7 @@ bool draw_room(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomVi
   const RoomViewPart* view_of = named >= 0 && parts[size_t(named)] ? parts[size_t(named)].get() : nullptr;
   for (const auto& p : parts) {
     if (!p || p->view.width != size.width || p->view.height != size.height) continue;
-    cameras.push_back(RoomCamera{&p->frame->room_shape->mesh(), p->texture});
+    cameras.push_back(RoomCamera{p->frame->room_shape.get(), p->texture});
     if (!view_of) view_of = p.get();
   }
   if (cameras.empty()) return false;

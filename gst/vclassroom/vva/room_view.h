@@ -7,6 +7,7 @@
 // (WarpParams::learners_only) and fused on top (FuseParams::first_is_base). GStreamer-free.
 #pragma once
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <vector>
@@ -36,17 +37,23 @@ class RoomShape {
   const RoomMesh& mesh() const;
   const CameraCalib& camera() const { return camera_; }
   const cv::Mat& static_depth() const { return depth_; }
+  // mesh() without the triangles one of `near` sees (room_mesh_unseen_by): what this camera adds to a view the
+  // near cameras' meshes draw, made the first time these cameras ask (any thread) and kept for a few sets.
+  std::shared_ptr<const RoomMesh> unseen_by(const std::vector<const RoomShape*>& near) const;
 
  private:
   CameraCalib camera_;
   cv::Mat depth_;
   mutable std::once_flag made_;
   mutable RoomMesh mesh_;
+  const uint64_t id_;  // unique to this shape (a later one at the same address is another)
+  mutable std::mutex unseen_lock_;
+  mutable std::map<std::vector<uint64_t>, std::shared_ptr<const RoomMesh>> unseen_;  // by the near shapes' ids
 };
 
-// One camera as a view's room reads it: its mesh and this frame's packed room.
+// One camera as a view's room reads it: its shape (the mesh) and this frame's packed room.
 struct RoomCamera {
-  const RoomMesh* mesh = nullptr;
+  const RoomShape* shape = nullptr;
   const RoomTexture* texture = nullptr;
 };
 
@@ -69,6 +76,7 @@ class RoomViewRenderer {
   std::vector<uint8_t> empty_tiles_;  // the near ones' tiles with a hole (RoomRaster::draw_where_empty)
   cv::Mat far_depth_;
   std::vector<const RoomTexture*> textures_;
+  std::vector<const RoomShape*> near_;  // the cameras whose meshes are drawn whole
   cv::Mat unseen_;
   cv::Mat drawn_;  // the depth as drawn, with two zero columns either side (for closing the gaps along rows)
 };
