@@ -169,7 +169,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   // camera 0 from all three cameras: 26.4 dB against 25.9 with every mesh in one z-buffer, vclassroom-eval-views
   // --room-view). Only its triangles over the near ones' holes are drawn (RoomRaster::draw_where_empty), and of
   // those only the ones no near camera sees (RoomShape::unseen_by): the holes lie on what the near cameras do not
-  // see. That leaves out about 2/3 of a far mesh's triangles, and the same figures to three decimals
+  // see. That leaves out half to three quarters of a far mesh's leaves, for the same figures to three decimals
   // (vclassroom-eval-views --room-view, 2026-11-28).
   raster_.begin(view);
   const size_t closest = closest_camera(cameras, view);
