@@ -1102,6 +1102,21 @@ struct ViewWarper::CellPass {
   bool coarse;
 };
 
+namespace {
+// The z-buffer of every warper on a thread: each warp leaves it empty, so the next one (another camera of the
+// same view, whose learners land in the same places) finds its lines in the cache, where a buffer per warper
+// (per camera and lecturer) had been out of it since that warper's last frame; and a server with several
+// lecturers keeps one buffer of 8 bytes per view pixel a thread, not one per camera and lecturer.
+struct ThreadZBuffer {
+  std::vector<uint64_t> records;
+  bool empty = true;  // false from a warp's first write to the end of its unpack
+};
+ThreadZBuffer& thread_zbuffer() {
+  static thread_local ThreadZBuffer zbuf;
+  return zbuf;
+}
+}  // namespace
+
 void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in, const uint16_t* depth,
                                     const uint8_t* label, const std::vector<uint16_t>& tile_nearest,
                                     const std::vector<uint16_t>& tile_farthest, const CameraCalib& virt,
@@ -1115,14 +1130,13 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
     std::fill_n(a->begin(), pad, 0.0f);
     std::fill_n(a->end() - ptrdiff_t(pad), pad, 0.0f);
   }
-  // The z-buffer is left empty by the last frame's unpack: only a new size
-  // needs a fill (one pass less over 8 bytes per virtual pixel).
-  if (zbuf_.size() != vn) {
-    zbuf_.resize(vn);
-    std::fill(zbuf_.begin(), zbuf_.end(), kEmptyRecord);
-  }
+  // The z-buffer is left empty by the last warp's unpack: only a new size (or a warp that did not get to its
+  // unpack) needs a fill, one pass less over 8 bytes per virtual pixel.
+  ThreadZBuffer& zbuf = thread_zbuffer();
+  if (zbuf.records.size() != vn || !zbuf.empty) zbuf.records.assign(vn, kEmptyRecord);
+  zbuf.empty = false;
   Frame f{W, H, VW, VH, px_.data() + pad, py_.data() + pad, pz_.data() + pad, pw_.data() + pad,
-          plim_.data() + pad, reinterpret_cast<Sample*>(zbuf_.data()), {}, float(W - 1), float(H - 1),
+          plim_.data() + pad, reinterpret_cast<Sample*>(zbuf.records.data()), {}, float(W - 1), float(H - 1),
           float(prm.edge_ratio), float(prm.edge_min_mm * 0.001), float(prm.max_stretch)};
   // Source -> virtual camera.
   const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * src.cam_to_rig;
@@ -1149,15 +1163,15 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   }
   if (prm.learners_only && !prm.mesh) {  // the mesh rasteriser draws whole frames only
     draw_learner_layer(f, in, depth, label, prm);
-    unpack_view(f, prm, out);
-    return;
+  } else {
+    splat_layer(f,
+                Layer{depth, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false,
+                      cull ? &view_columns_ : nullptr},
+                prm);
+    if (!in.room_depth.empty()) draw_room_layer(f, in, prm);
   }
-  splat_layer(f,
-              Layer{depth, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, 0, H, 1.0f, false,
-                    cull ? &view_columns_ : nullptr},
-              prm);
-  if (!in.room_depth.empty()) draw_room_layer(f, in, prm);
   unpack_view(f, prm, out);
+  zbuf.empty = true;
 }
 
 void ViewWarper::splat_layer(const Frame& f, const Layer& layer, const WarpParams& prm) {
@@ -1736,7 +1750,7 @@ void ViewWarper::unpack_tiles(const Frame& f, const WarpParams& prm, bool fresh,
     unpack_samples(n, f.zbuf + size_t(y) * VW + x0, out->color.ptr<uint8_t>(y) + 3 * x0,
                    out->depth.ptr<uint16_t>(y) + x0, out->label.ptr<uint8_t>(y) + x0,
                    out->weight.ptr<uint8_t>(y) + x0);
-    std::fill_n(zbuf_.data() + size_t(y) * VW + x0, size_t(n), kEmptyRecord);
+    std::fill_n(reinterpret_cast<uint64_t*>(f.zbuf) + size_t(y) * VW + x0, size_t(n), kEmptyRecord);
   });
   if (prm.close_cracks)
     close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),
@@ -1768,7 +1782,7 @@ void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* 
   row_empty_.assign(size_t(VH), 0);
   for (int y = 0; y < VH; y += band) {
     const int rows = std::min(band, VH - y);
-    const uint64_t* records = zbuf_.data() + size_t(y) * VW;
+    const uint64_t* records = reinterpret_cast<const uint64_t*>(f.zbuf) + size_t(y) * VW;
     if (all_empty(size_t(rows) * VW, records)) {  // nothing drawn in these rows (a sparse layer's view)
       for (int r = y; r < y + rows; ++r) {
         std::memset(out->color.ptr<uint8_t>(r), 0, size_t(VW) * 3);
@@ -1781,7 +1795,7 @@ void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* 
     }
     unpack_samples(rows * VW, f.zbuf + size_t(y) * VW, out->color.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y),
                    out->label.ptr<uint8_t>(y), out->weight.ptr<uint8_t>(y));
-    std::fill_n(zbuf_.data() + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
+    std::fill_n(reinterpret_cast<uint64_t*>(f.zbuf) + size_t(y) * VW, size_t(rows) * VW, kEmptyRecord);
   }
   if (prm.close_cracks) {
     close_cracks(out, tolerance_ratio_q16(std::max(prm.step_ratio, prm.edge_ratio)),

@@ -241,7 +241,6 @@ class ViewWarper {
   };
   std::vector<EdgeClaim> edge_claims_;     // edge_to_near: the far-side pixels that take the near side's depth
   std::vector<uint32_t> links_;            // three rows of link flags (same surface as right / below), a spare zero row
-  std::vector<uint64_t> zbuf_;             // per virtual pixel: z-buffer record (view_warp.cpp)
   // One source row of splat cells (view_warp.cpp, prepare_cells).
   std::vector<int32_t> cell_x0_, cell_y0_, cell_x1_, cell_y1_, cell_sides_;
   std::vector<float> cell_pos_;
