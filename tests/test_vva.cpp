@@ -1497,8 +1497,30 @@ TEST(ViewFuse, OverTheRoomALearnerNearItKeepsItsColourAndOneBehindItIsHidden) {
         EXPECT_GT(c[1], 50) << x;
       }
     }
+  // The room drawn into the picture's own planes (share_room_planes, as viewfuse draws it) fuses in place to the
+  // same picture, holes filled and all.
+  params.fill_holes = true;
+  FusedView copied, in_place;
+  room.depth.colRange(12, 14).setTo(0);  // a hole where nothing is seen
+  room.weight.colRange(12, 14).setTo(0);
+  room.color.colRange(12, 14).setTo(0);
+  fuse_views({&room, &forward}, params, &copied);
+  WarpedView shared;
+  share_room_planes(room.color.size(), &in_place, &shared);
+  room.color.copyTo(shared.color);
+  room.depth.copyTo(shared.depth);
+  room.label.copyTo(shared.label);
+  shared.weight = room.weight;
+  fuse_views({&shared, &forward}, params, &in_place);
+  EXPECT_EQ(in_place.color.data, shared.color.data) << "fused in the room's planes";
+  EXPECT_EQ(cv::norm(in_place.color, copied.color, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(in_place.depth, copied.depth, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(in_place.label, copied.label, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(in_place.filled, copied.filled, cv::NORM_INF), 0);
+  EXPECT_GT(cv::countNonZero(copied.filled), 0) << "the hole should be filled";
   // Without the room as the base (the blend of any views) the near learner takes some of the room's colour.
   params.first_is_base = false;
+  params.fill_holes = false;
   fuse_views({&room, &forward}, params, &out);
   EXPECT_GT(out.color.at<cv::Vec3b>(0, 0)[0], 50);
 }

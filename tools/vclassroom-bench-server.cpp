@@ -271,6 +271,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
     for (int v = 0; v < views; ++v) {
       const CameraCalib virt = virt_at_frame(f, v);
       t0 = process_cpu_ms();
+      share_room_planes(cv::Size(virt.width, virt.height), &fused, &room);  // fused in place, as viewfuse does
       renderer.render(room_cams, virt, room_lookup_params(fp), &room);
       t1 = process_cpu_ms();
       std::vector<const WarpedView*> inputs{&room};

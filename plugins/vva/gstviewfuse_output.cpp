@@ -104,6 +104,7 @@ bool draw_room(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomVi
   }
   if (cameras.empty()) return false;
   GST_LOG_OBJECT(self, "the room of %zu camera(s) drawn", cameras.size());
+  share_room_planes(size, &st->fused, &st->room);  // the room drawn into the picture, fused there in place
   st->room_renderer.render(cameras, view_of->view, room_lookup_params(params), &st->room);
   return true;
 }

@@ -313,6 +313,8 @@ void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& view
                         std::vector<uint8_t>* others, std::vector<ViewRow>* span_rows, uint8_t* oc, uint16_t* od,
                         uint8_t* ol) {
   const int k = int(views.size());
+  // The base rendered into the output's own planes (share_room_planes): what is not blended is there already.
+  const bool in_place = rows[0].c == oc && rows[0].d == od && rows[0].l == ol;
   others->assign(size_t(W), 0);
   uint8_t* const marks = others->data();
   for (int c = 1; c < k; ++c) {
@@ -330,6 +332,10 @@ void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& view
   for (int x = 0; x < W;) {
     if (!marks[x]) {
       const int e = run_end(marks, x, W, 0);
+      if (in_place) {
+        x = e;
+        continue;
+      }
       std::memcpy(oc + 3 * x, rows[0].c + 3 * x, size_t(e - x) * 3);
       std::memcpy(od + x, rows[0].d + x, size_t(e - x) * 2);
       std::memcpy(ol + x, rows[0].l + x, size_t(e - x));
@@ -421,6 +427,15 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   const bool made =
       leave && unseen < int(out->depth.total()) && (left_count == unseen || cv::countNonZero(out->filled) > 0);
   if (fade) fade_unseen(unseen_distance, out->color, start, length, made ? &left : nullptr, out->filled);
+}
+
+void share_room_planes(cv::Size size, FusedView* fused, WarpedView* room) {
+  fused->color.create(size, CV_8UC3);
+  fused->depth.create(size, CV_16UC1);
+  fused->label.create(size, CV_8UC1);
+  room->color = fused->color;
+  room->depth = fused->depth;
+  room->label = fused->label;
 }
 
 void fill_holes_from_background(cv::Mat& color, cv::Mat& depth, double background_ratio, int smooth_px,

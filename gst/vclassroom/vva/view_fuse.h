@@ -26,7 +26,8 @@ struct FuseParams {
   // spans where one of the others has a sample, elsewhere the first is copied (the blend of one sample is that
   // sample); a learner within the tolerance of the room keeps its own colour. The first holds no sample where
   // its weight is 0 (depth, colour and label 0 there), as RoomViewRenderer makes it: the blend of short gaps
-  // between the spans, taken with them, is then the copy.
+  // between the spans, taken with them, is then the copy. The first may have the output's own colour, depth
+  // and label planes (share_room_planes): then it is fused in place, not copied.
   bool first_is_base = false;
   // Fill holes no camera covers from their background side (hole_fill.h), by the depth-aware pyramid or,
   // for comparison, along rows and columns (the fill before issue 35).
@@ -73,6 +74,10 @@ struct FusedView {
 // cleared by it when the pose changes (HoleFillHistory): steady holes keep a steady fill.
 void fuse_views(const std::vector<const WarpedView*>& views, const FuseParams& params, FusedView* out,
                 HoleFillHistory* fill_history = nullptr);
+
+// Points `room`'s colour, depth and label at `fused`'s, made at `size` where they are not, so that the room is
+// rendered (RoomViewRenderer) into the picture fuse_views then makes of it in place (FuseParams::first_is_base).
+void share_room_planes(cv::Size size, FusedView* fused, WarpedView* room);
 
 // Fills every pixel of `color` where `depth` is 0 along rays (HoleFillMethod::Rays): from the nearest known
 // pixels along the row and column (both directions), keeping only those on
