@@ -232,6 +232,21 @@ VCLASSROOM_SIMD_INLINE void raster_triangles(const uint32_t* idx, size_t nt, con
       const VecF sw = ga * __builtin_convertvector(kIota, VecF);
       int32_t e0 = b.r0[j], e1 = b.r1[j], e2 = b.r2[j];
       float wr = b.ws[j];
+      if (!kCount && n <= kLanes) {  // one group a row (most triangles: a pixel or two): raster_row's, unrolled
+        const VecI within = kIota < n;
+        VecI a = e0 + sa0, bb = e1 + sa1, c = e2 + sa2;
+        for (int y = 0; y < rows; ++y) {
+          const VecI in = ((a | bb | c) >= 0) & within;
+          const VecF wi = wr + sw;
+          VecF old;
+          __builtin_memcpy(&old, zr, sizeof old);
+          const VecF nw = (in & (wi > old)) ? wi : old;
+          __builtin_memcpy(zr, &nw, sizeof nw);
+          a += t0r, bb += t1r, c += t2r, wr = b.ws[j] + gb * float(y + 1);
+          zr += stride;
+        }
+        continue;
+      }
       for (int y = 0; y < rows; ++y) {
         raster_row<kCount>(zr, cr, n, e0 + sa0, e1 + sa1, e2 + sa2, s0 * kLanes, s1 * kLanes, s2 * kLanes, wr + sw,
                            ga * kLanes);
