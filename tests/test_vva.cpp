@@ -251,8 +251,9 @@ TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeForAnyWarperAndAnyNumberOfViews) {
 
 // The learners' view (WarpParams::learners_only) is unpacked, cleared and fused over the tiles its cells mark
 // (SampleTiles), not over the whole view: warped again and again into the same planes, for poses that move the
-// learners about, it is the view a fresh warper gives into fresh planes, pixel for pixel; every sample lies in
-// its tiles, and the tiles hold much less than the box around the learners.
+// learners about, it is the view a fresh warper gives into fresh planes, pixel for pixel (and the one warp()
+// gives, which finds the learners' rows itself: SparseRows); every sample lies in its tiles, and the tiles hold
+// much less than the box around the learners.
 TEST(ViewWarp, ALearnersViewWarpedIntoTheSamePlanesAgainIsTheFreshOneAndLiesInItsTiles) {
   const Classroom room(ClassroomConfig{2, 6, 2.0});
   const Classroom empty(ClassroomConfig{2, 0, 2.0});
@@ -271,9 +272,13 @@ TEST(ViewWarp, ALearnersViewWarpedIntoTheSamePlanesAgainIsTheFreshOneAndLiesInIt
                            Sliders{80, 40, 60, 30, 45, 50}, Sliders{50, 50, 50, 50, 50, 50}}) {
     const CameraCalib virt =
         virtual_camera(cam, sliders_to_pose(s, rig.camera(0)).cam_to_rig(), NAN);
-    WarpedView fresh;
+    WarpedView fresh, unprepared;
     ViewWarper().warp_prepared(cam, src, prepared, virt, params, &fresh);
     reused.warp_prepared(cam, src, prepared, virt, params, &out);
+    // Warped whole, the learners' rows found as it warps rather than by prepare(): the same view.
+    ViewWarper().warp(cam, src, virt, params, &unprepared);
+    EXPECT_EQ(cv::norm(unprepared.color, fresh.color, cv::NORM_INF), 0) << format_sliders(s);
+    EXPECT_EQ(cv::norm(unprepared.depth, fresh.depth, cv::NORM_INF), 0) << format_sliders(s);
     ASSERT_GT(cv::countNonZero(fresh.depth), 1000) << format_sliders(s) << ": the learners should be in view";
     EXPECT_EQ(cv::norm(out.color, fresh.color, cv::NORM_INF), 0) << format_sliders(s);
     EXPECT_EQ(cv::norm(out.depth, fresh.depth, cv::NORM_INF), 0) << format_sliders(s);

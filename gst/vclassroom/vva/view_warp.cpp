@@ -927,6 +927,7 @@ void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const War
                        in.static_depth.total() == out->depth.size() && in.static_depth.type() == CV_16UC1;
     learner_depth_of(src.width, src.height, out->depth.data(), out->label.data(),
                      whole ? in.static_depth.ptr<uint16_t>() : nullptr, out->learner_depth.data());
+    find_sparse_rows(src.width, src.height, out->learner_depth.data(), &out->learner_rows);
   }
 }
 
@@ -949,8 +950,12 @@ void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, con
     nearest = &tile_nearest_, farthest = &tile_farthest_;
   }
   prepared_learner_depth_ = prepared.learner_depth.size() == n ? prepared.learner_depth.data() : nullptr;
+  prepared_learner_rows_ = prepared_learner_depth_ && prepared.learner_rows.fit(src.width, src.height)
+                               ? &prepared.learner_rows
+                               : nullptr;
   warp_prepared_here(src, in, prepared.depth.data(), prepared.label.data(), *nearest, *farthest, virt, prm, out);
   prepared_learner_depth_ = nullptr;
+  prepared_learner_rows_ = nullptr;
 }
 
 void ViewWarper::prepare_here(const CameraCalib& src, const WarpSource& in, const WarpParams& prm) {
@@ -1088,6 +1093,8 @@ struct ViewWarper::Layer {
   // Per row of tiles (view_cull.h), the columns that can land in the view: the others are skipped. Null:
   // every column is drawn.
   const std::vector<std::pair<int, int>>* columns = nullptr;
+  // A sparse layer's rows and spans (sparse: not null).
+  const SparseRows* rows = nullptr;
 };
 
 // What the cell warp of one layer keeps for every row: the cell and block rows, and where a block cell's
@@ -1320,13 +1327,13 @@ void ViewWarper::splat_cells(const Frame& f, const Layer& layer, const WarpParam
                 links_.data() + 3 * size_t(W + 2) + 1,
                 prm.coarse_cells && W >= 2 && !layer.sparse};
   for (int k = 0; k < kBlockCandidates; ++k) pass.block_offset[k] = ptrdiff_t(k / 3) * f.VW + k % 3;
+  if (layer.sparse) {
+    splat_sparse_pairs(f, layer, pass);
+    return;
+  }
   // Pairs of rows from an even one; the row above the first has no links.
   const int first_pair = std::max(0, layer.row_begin - 1) & ~1;
   const int end_pair = std::min(H, layer.row_end + 1);
-  if (layer.sparse) {
-    splat_sparse_pairs(f, layer, pass, first_pair, end_pair);
-    return;
-  }
   if (first_pair > 0) std::fill_n(links_row(W, first_pair - 1), W, 0u);
   if (layer.columns) splat_pairs_in_view(f, layer, pass, first_pair, end_pair);
   else splat_pairs(f, layer, pass, first_pair, end_pair);
@@ -1411,23 +1418,50 @@ void ViewWarper::link_row(const Frame& f, const Layer& layer, int v, int c0, int
                     out);
 }
 
-// The column spans [first, second) of the row pair (v, v + 1) where a sparse layer has pixels, joined where
-// the columns either side that the cells read would overlap.
-void ViewWarper::drawn_spans(const Frame& f, const Layer& layer, int v, std::vector<std::pair<int, int>>* spans) {
-  spans->clear();
-  const int W = f.W;
-  const uint16_t* d0 = &layer.depth[size_t(v) * W];
-  const uint16_t* d1 = v + 1 < f.H ? d0 + W : d0;
-  for (int u = 0; u < W;) {
-    if (!(d0[u] | d1[u])) {
-      ++u;
-      continue;
+void find_sparse_rows(int W, int H, const uint16_t* depth, SparseRows* out) {
+  out->row_begin = H, out->row_end = 0;
+  for (int v = 0; v < H; ++v)
+    if (any_nonzero(size_t(W), depth + size_t(v) * W)) out->row_begin = std::min(out->row_begin, v), out->row_end = v + 1;
+  out->pair_first.clear();
+  out->spans.clear();
+  if (out->row_begin >= out->row_end) out->row_begin = out->row_end = 0;
+  // The row above the first pair's first row has no pixels: a pair from there on reads all there is.
+  out->first_pair = std::max(0, out->row_begin - 1) & ~1;
+  out->end_pair = out->row_begin < out->row_end ? std::min(H, out->row_end + 1) : out->first_pair;
+  for (int v = out->first_pair; v < out->end_pair; v += 2) {
+    out->pair_first.push_back(out->spans.size());
+    const uint16_t* d0 = depth + size_t(v) * W;
+    const uint16_t* d1 = v + 1 < H ? d0 + W : d0;
+    const size_t first = out->spans.size();
+    for (int u = 0; u < W;) {
+      if (!(d0[u] | d1[u])) {
+        ++u;
+        continue;
+      }
+      const int u0 = u;
+      while (u < W && (d0[u] | d1[u])) ++u;
+      // Joined where the columns either side that the cells read would overlap.
+      if (out->spans.size() > first && u0 - out->spans.back().second <= 2 * kSpanMargin) out->spans.back().second = u;
+      else out->spans.emplace_back(u0, u);
     }
-    const int u0 = u;
-    while (u < W && (d0[u] | d1[u])) ++u;
-    if (!spans->empty() && u0 - spans->back().second <= 2 * kSpanMargin) spans->back().second = u;
-    else spans->emplace_back(u0, u);
   }
+  out->pair_first.push_back(out->spans.size());
+}
+
+bool SparseRows::fit(int width, int height) const {
+  if (row_begin < 0 || row_end > height || first_pair < 0 || (first_pair & 1) || end_pair > height ||
+      end_pair < first_pair || pair_first.size() != size_t((end_pair - first_pair + 1) / 2) + 1 ||
+      pair_first.front() != 0 || pair_first.back() != spans.size())
+    return false;
+  for (size_t p = 0; p + 1 < pair_first.size(); ++p) {
+    if (pair_first[p] > pair_first[p + 1]) return false;
+    int end = 0;
+    for (size_t i = pair_first[p]; i < pair_first[p + 1]; ++i) {
+      if (spans[i].first < end || spans[i].second <= spans[i].first || spans[i].second > width) return false;
+      end = spans[i].second;
+    }
+  }
+  return true;
 }
 
 // The spans [first, second) of one pair or of two (either may be empty), each grown by kSpanMargin columns either
@@ -1445,27 +1479,20 @@ void grown_union(const std::pair<int, int>* a, size_t na, const std::pair<int, i
   }
 }
 
-// A sparse layer's row pairs drawn over their column spans only, so that a layer drawn in parts costs what its
-// parts hold: every pair's spans found first, then each row projected and linked once, when the first pair
-// that reads it comes, over the columns of every pair that reads it (pair v reads the projections of rows
-// v - 1 .. v + 2 and the links of rows v - 1 .. v + 1, kSpanMargin columns either side of its spans).
-void ViewWarper::splat_sparse_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair,
-                                    int end_pair) {
+// A sparse layer's row pairs drawn over their column spans only (layer.rows), so that a layer drawn in parts
+// costs what its parts hold: each row projected and linked once, when the first pair that reads it comes, over
+// the columns of every pair that reads it (pair v reads the projections of rows v - 1 .. v + 2 and the links of
+// rows v - 1 .. v + 1, kSpanMargin columns either side of its spans).
+void ViewWarper::splat_sparse_pairs(const Frame& f, const Layer& layer, const CellPass& pass) {
   const int W = f.W, H = f.H;
-  pair_first_.clear();
-  pair_spans_.clear();
-  for (int v = first_pair; v < end_pair; v += 2) {
-    pair_first_.push_back(pair_spans_.size());
-    drawn_spans(f, layer, v, &spans_);
-    pair_spans_.insert(pair_spans_.end(), spans_.begin(), spans_.end());
-  }
-  pair_first_.push_back(pair_spans_.size());
+  const SparseRows& rows = *layer.rows;
+  const int first_pair = rows.first_pair, end_pair = rows.end_pair;
   // Pair v's spans (none for a pair past the last).
   auto spans_of = [&](int v) {
-    const size_t p = size_t((v - first_pair) / 2);
     if (v < first_pair || v >= end_pair) return std::pair<const std::pair<int, int>*, size_t>{nullptr, 0};
-    return std::pair<const std::pair<int, int>*, size_t>{pair_spans_.data() + pair_first_[p],
-                                                         pair_first_[p + 1] - pair_first_[p]};
+    const size_t p = size_t((v - first_pair) / 2);
+    return std::pair<const std::pair<int, int>*, size_t>{rows.spans.data() + rows.pair_first[p],
+                                                         rows.pair_first[p + 1] - rows.pair_first[p]};
   };
   auto project = [&](int r, const std::vector<std::pair<int, int>>& columns) {
     if (r >= 0 && r < H)
@@ -1644,20 +1671,14 @@ void ViewWarper::draw_room_layer(const Frame& f, const WarpSource& in, const War
   const size_t n = size_t(W) * H;
   src_depth_.resize(n);
   src_label_.assign(n + 1, 0);
-  int row_begin = H, row_end = 0;
-  for (int v = 0; v < H; ++v) {
-    const uint16_t* d = in.room_depth.ptr<uint16_t>(v);
-    std::memcpy(&src_depth_[size_t(v) * W], d, size_t(W) * sizeof(uint16_t));
-    if (std::any_of(d, d + W, [](uint16_t z) { return z != 0; })) {
-      row_begin = std::min(row_begin, v);
-      row_end = v + 1;
-    }
-  }
-  if (row_begin < row_end)
+  for (int v = 0; v < H; ++v)
+    std::memcpy(&src_depth_[size_t(v) * W], in.room_depth.ptr<uint16_t>(v), size_t(W) * sizeof(uint16_t));
+  find_sparse_rows(W, H, src_depth_.data(), &sparse_rows_);
+  if (sparse_rows_.row_begin < sparse_rows_.row_end)
     splat_layer(f,
                 Layer{src_depth_.data(), src_label_.data(),
-                      ColorSampler{in.room_color.data, in.room_color.step, W - 1, H - 1}, row_begin, row_end,
-                      kRoomLayerWeight, true},
+                      ColorSampler{in.room_color.data, in.room_color.step, W - 1, H - 1}, sparse_rows_.row_begin,
+                      sparse_rows_.row_end, kRoomLayerWeight, true, nullptr, &sparse_rows_},
                 prm);
 }
 
@@ -1675,16 +1696,18 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
     learner_depth_of(W, H, depth, label, whole ? in.static_depth.ptr<uint16_t>() : nullptr, learner_depth_.data());
     learners = learner_depth_.data();
   }
-  int row_begin = H, row_end = 0;
-  for (int v = 0; v < H; ++v)
-    if (any_nonzero(size_t(W), learners + size_t(v) * W)) row_begin = std::min(row_begin, v), row_end = v + 1;
+  const SparseRows* rows = prepared_learner_rows_;
+  if (!rows) {
+    find_sparse_rows(W, H, learners, &sparse_rows_);
+    rows = &sparse_rows_;
+  }
   track_tiles_ = true;
   tile_cols_ = (f.VW >> SampleTiles::kShift) + 1;
   tile_marks_.assign(size_t(tile_cols_) * size_t((f.VH >> SampleTiles::kShift) + 1), 0);
-  if (row_begin < row_end)
+  if (rows->row_begin < rows->row_end)
     splat_layer(f,
-                Layer{learners, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, row_begin,
-                      row_end, 1.0f, true},
+                Layer{learners, label, ColorSampler{in.color.data, in.color.step, W - 1, H - 1}, rows->row_begin,
+                      rows->row_end, 1.0f, true, nullptr, rows},
                 prm);
 }
 

@@ -132,6 +132,21 @@ struct WarpedView {
   SampleTiles tiles;
 };
 
+// Where a sparse layer's pixels lie (the learners' of WarpParams::learners_only, the room behind them): its
+// rows [row_begin, row_end) and, per pair of rows from an even one (the cell warp takes rows in pairs), the
+// column spans [first, second) where either row has a pixel, spans closer than what a cell reads either side of
+// them joined. It depends on the source alone: the learners' are found once per frame, by prepare().
+struct SparseRows {
+  int row_begin = 0, row_end = 0;
+  int first_pair = 0, end_pair = 0;  // the pairs' first rows: first_pair, first_pair + 2, ... < end_pair
+  std::vector<size_t> pair_first;    // per pair, its first span; one more at the end
+  std::vector<std::pair<int, int>> spans;
+  // Whether these are a width x height layer's (one entry a pair, spans ordered within [0, width)).
+  bool fit(int width, int height) const;
+};
+// The SparseRows of `depth` (width x height, 0 where the layer has no pixel).
+void find_sparse_rows(int width, int height, const uint16_t* depth, SparseRows* out);
+
 // What ViewWarper::prepare() makes of a source frame: the half of the warp
 // that does not depend on the virtual camera.
 struct PreparedSource {
@@ -143,6 +158,7 @@ struct PreparedSource {
   // WarpParams::learners_only: the depth of what is drawn (the learners, the room's pixels beside them and
   // those without a static depth), 0 elsewhere; empty: made when warped.
   std::vector<uint16_t> learner_depth;
+  SparseRows learner_rows;  // learners_only: where learner_depth has pixels
 };
 
 // Keeps per-source precomputation (pixel rays) and scratch buffers between
@@ -187,8 +203,7 @@ class ViewWarper {
   void project_rows(const Frame& f, const Layer& layer, int r0, int r1, int c0, int c1);
   uint32_t* links_row(int width, int v);
   void link_row(const Frame& f, const Layer& layer, int v, int c0, int c1);
-  static void drawn_spans(const Frame& f, const Layer& layer, int v, std::vector<std::pair<int, int>>* spans);
-  void splat_sparse_pairs(const Frame& f, const Layer& layer, const CellPass& pass, int first_pair, int end_pair);
+  void splat_sparse_pairs(const Frame& f, const Layer& layer, const CellPass& pass);
   void splat_fine_cells(const Frame& f, const Layer& layer, const CellPass& pass, int v, int u_begin, int u_end,
                         const int32_t* skip);
   void splat_block_pair(const Frame& f, const Layer& layer, const CellPass& pass, int v, int j_begin, int j_end);
@@ -221,6 +236,8 @@ class ViewWarper {
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint16_t> learner_depth_;  // learners_only: draw_learner_layer's depth
   const uint16_t* prepared_learner_depth_ = nullptr;  // learners_only: the prepared one, for this warp
+  const SparseRows* prepared_learner_rows_ = nullptr;  // and where it has pixels, when prepared
+  SparseRows sparse_rows_;                              // a sparse layer's, found when warped
   // learners_only: splat_fine_cells marks the view's tiles (SampleTiles) its records may lie in; tile_cols_
   // across, one more than the view needs each way (a cell's 2x2 may reach a pixel past the view's last).
   bool track_tiles_ = false;
@@ -252,9 +269,6 @@ class ViewWarper {
   std::vector<int32_t> block_fixed_;  // each candidate's source position, fixed point
   std::vector<int32_t> no_blocks_;              // all zero: a row pair without block cells
   std::vector<std::pair<int, int>> fine_runs_;  // pixels [first, second) of a row pair without block cells
-  std::vector<std::pair<int, int>> spans_;      // columns [first, second) of a row pair a sparse layer draws
-  std::vector<std::pair<int, int>> pair_spans_;  // a sparse layer's: every pair's spans, pair after pair
-  std::vector<size_t> pair_first_;               // each pair's first in pair_spans_, and their end
   std::vector<std::pair<int, int>> own_columns_, shared_columns_;  // what a pair reads: its rows', the next pair's
 };
 
