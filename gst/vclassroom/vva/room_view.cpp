@@ -186,6 +186,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   }
   cv::Mat drawn = padded_for_rows(view.width, view.height, &drawn_);
   raster_.depth(&drawn);
+  CV_Assert(drawn.data == drawn_.ptr<uint8_t>() + 2 * sizeof(uint16_t));  // drawn in place, not into a copy
   close_strips_along_rows(drawn_, out->depth);
   close_strips_along_columns(out->depth);
   if (!far.empty()) {

@@ -1421,7 +1421,10 @@ void ViewWarper::link_row(const Frame& f, const Layer& layer, int v, int c0, int
 void find_sparse_rows(int W, int H, const uint16_t* depth, SparseRows* out) {
   out->row_begin = H, out->row_end = 0;
   for (int v = 0; v < H; ++v)
-    if (any_nonzero(size_t(W), depth + size_t(v) * W)) out->row_begin = std::min(out->row_begin, v), out->row_end = v + 1;
+    if (any_nonzero(size_t(W), depth + size_t(v) * W)) {
+      out->row_begin = std::min(out->row_begin, v);
+      out->row_end = v + 1;
+    }
   out->pair_first.clear();
   out->spans.clear();
   if (out->row_begin >= out->row_end) out->row_begin = out->row_end = 0;
@@ -1464,6 +1467,7 @@ bool SparseRows::fit(int width, int height) const {
   return true;
 }
 
+namespace {
 // The spans [first, second) of one pair or of two (either may be empty), each grown by kSpanMargin columns either
 // side within [0, width), overlapping ones joined: the columns a pair's cells read.
 void grown_union(const std::pair<int, int>* a, size_t na, const std::pair<int, int>* b, size_t nb, int width,
@@ -1478,6 +1482,7 @@ void grown_union(const std::pair<int, int>* a, size_t na, const std::pair<int, i
     else out->emplace_back(lo, hi);
   }
 }
+}  // namespace
 
 // A sparse layer's row pairs drawn over their column spans only (layer.rows), so that a layer drawn in parts
 // costs what its parts hold: each row projected and linked once, when the first pair that reads it comes, over
@@ -1519,7 +1524,8 @@ void ViewWarper::splat_sparse_pairs(const Frame& f, const Layer& layer, const Ce
     link(v + 1, shared_columns_);
     if (n_own == 0) continue;
     for (int r = v; r < std::min(H, v + 2); ++r)
-      for (size_t i = 0; i < n_own; ++i) splat_fine_cells(f, layer, pass, r, own[i].first, own[i].second, pass.no_blocks);
+      for (size_t i = 0; i < n_own; ++i)
+        splat_fine_cells(f, layer, pass, r, own[i].first, own[i].second, pass.no_blocks);
   }
 }
 
@@ -1756,8 +1762,7 @@ void ViewWarper::take_marked_tiles(int VW, int VH, SampleTiles* tiles) {
 void ViewWarper::unpack_tiles(const Frame& f, const WarpParams& prm, bool fresh, WarpedView* out) {
   const int VW = f.VW, VH = f.VH;
   SampleTiles& tiles = out->tiles;
-  const size_t rows = size_t((VH + SampleTiles::kPx - 1) / SampleTiles::kPx);
-  if (fresh || tiles.anywhere() || tiles.row_first.size() != rows + 1) {
+  if (fresh || tiles.anywhere() || !tiles.fit(VW, VH)) {
     out->color.setTo(0), out->depth.setTo(0), out->label.setTo(0), out->weight.setTo(0);
   } else {
     for_each_tile_span(tiles, VH, [&](int y, int x0, int x1) {

@@ -93,7 +93,6 @@ struct WarpParams {
   bool learners_only = false;
 };
 
-// The source warped to the virtual view: all images have the virtual camera's size.
 // Where the samples of a sparse warped view may lie: the view in tiles of kPx x kPx pixels, and per row of
 // tiles the column spans of its marked tiles (neighbours joined). Learners spread over a room leave most of
 // their box empty (about 42 k pixels a camera in a box of 830 x 360 at 960 x 540): the view is unpacked,
@@ -123,6 +122,7 @@ void for_each_tile_span(const SampleTiles& tiles, int height, Fn&& fn) {
   }
 }
 
+// The source warped to the virtual view: all images have the virtual camera's size.
 struct WarpedView {
   cv::Mat color;   // CV_8UC3 RGB, black where weight is 0
   cv::Mat depth;   // CV_16UC1 mm along the virtual optical axis, 0 = hole
