@@ -299,6 +299,67 @@ TEST(ViewWarp, ALearnersViewWarpedIntoTheSamePlanesAgainIsTheFreshOneAndLiesInIt
   EXPECT_FALSE(out.tiles.fit(cam.width / 2, cam.height));
 }
 
+// A sparse layer is drawn over its rows' spans (SparseRows: each row projected and linked once, over the
+// columns of every pair that reads it), a full layer over whole rows: where every pixel is a learner and the
+// room has no depth, the learners' warp (all of the source as a sparse layer) is the full warp's view, pixel for
+// pixel, at poses that stretch, shrink and turn the source.
+TEST(ViewWarp, ALayerDrawnSparselyOverItsSpansIsTheOneDrawnWhole) {
+  const Classroom room(ClassroomConfig{2, 5, 2.0});
+  const Rig rig = default_classroom_rig();
+  const CameraCalib cam = scale_camera(rig.camera(1), 240, 135);
+  const RenderOutput r = render(room, 1.5, cam);
+  cv::Mat label(r.depth.size(), CV_8UC1, cv::Scalar(1));
+  label.setTo(0, r.depth == 0);
+  label.setTo(2, r.label != 0);  // two "learners", so that the labels' edges count as in the full warp
+  const WarpSource src{r.color, r.depth, label, cv::Mat()};
+  WarpParams whole;
+  whole.coarse_cells = false;  // a sparse layer has no 2x2 block cells
+  WarpParams sparse = whole;
+  sparse.learners_only = true;
+  for (const Sliders& s : {Sliders{35, 50, 50, 55, 50, 50}, Sliders{60, 40, 60, 40, 55, 50},
+                           Sliders{50, 55, 30, 60, 50, 50}}) {
+    const CameraCalib virt = virtual_camera(cam, sliders_to_pose(s, rig.camera(0)).cam_to_rig(), NAN);
+    WarpedView full, learners;
+    ViewWarper().warp(cam, src, virt, whole, &full);
+    ViewWarper().warp(cam, src, virt, sparse, &learners);
+    ASSERT_GT(cv::countNonZero(full.depth), 240 * 135 / 4) << format_sliders(s);
+    EXPECT_EQ(cv::norm(learners.color, full.color, cv::NORM_INF), 0) << format_sliders(s);
+    EXPECT_EQ(cv::norm(learners.depth, full.depth, cv::NORM_INF), 0) << format_sliders(s);
+    EXPECT_EQ(cv::norm(learners.label, full.label, cv::NORM_INF), 0) << format_sliders(s);
+    EXPECT_EQ(cv::norm(learners.weight, full.weight, cv::NORM_INF), 0) << format_sliders(s);
+  }
+}
+
+// The indices of spans an element passes on (SampleTiles in viewwarp's meta, SparseRows in a prepared frame) are
+// checked whole before a span is read: an index that goes back or past the spans, spans out of order or past
+// the width, are not taken.
+TEST(ViewWarp, MalformedSpanIndicesDoNotFit) {
+  SampleTiles tiles;
+  tiles.row_first = {0, 1, 2};  // a 16 x 16 view: two rows of tiles
+  tiles.spans = {{0, 8}, {8, 16}};
+  EXPECT_TRUE(tiles.fit(16, 16));
+  tiles.row_first = {0, 100, 2};
+  EXPECT_FALSE(tiles.fit(16, 16)) << "an index past the spans";
+  tiles.row_first = {0, 2, 1};
+  tiles.spans = {{0, 8}, {8, 16}};
+  EXPECT_FALSE(tiles.fit(16, 16)) << "an index that goes back";
+  tiles.row_first = {0, 2, 2};
+  tiles.spans = {{8, 16}, {0, 8}};
+  EXPECT_FALSE(tiles.fit(16, 16)) << "spans out of order";
+  tiles.spans = {{0, 8}, {8, 17}};
+  EXPECT_FALSE(tiles.fit(16, 16)) << "a span past the width";
+  SparseRows rows;
+  rows.row_begin = 1, rows.row_end = 3, rows.first_pair = 0, rows.end_pair = 4;
+  rows.pair_first = {0, 1, 2};
+  rows.spans = {{0, 4}, {2, 6}};
+  EXPECT_TRUE(rows.fit(8, 4));
+  rows.pair_first = {0, 100, 2};
+  EXPECT_FALSE(rows.fit(8, 4)) << "an index past the spans";
+  rows.pair_first = {0, 1, 2};
+  rows.first_pair = 1;
+  EXPECT_FALSE(rows.fit(8, 4)) << "pairs start on even rows";
+}
+
 TEST(ViewWarp, SkippingWhatCannotLandInTheViewChangesNoPixel) {
   // The warp spends its per-pixel work only on the source columns that can land in the view
   // (WarpParams::cull_outside_view): for views that see all, part or none of the camera, walking, turning and
@@ -1502,13 +1563,39 @@ TEST(ViewFuse, OverTheRoomALearnerNearItKeepsItsColourAndOneBehindItIsHidden) {
         EXPECT_GT(c[1], 50) << x;
       }
     }
-  // The room drawn into the picture's own planes (share_room_planes, as viewfuse draws it) fuses in place to the
-  // same picture, holes filled and all.
+  // Without the room as the base (the blend of any views) the near learner takes some of the room's colour.
+  params.first_is_base = false;
+  fuse_views({&room, &forward}, params, &out);
+  EXPECT_GT(out.color.at<cv::Vec3b>(0, 0)[0], 50);
+}
+
+// Over the room, the learners' samples are blended with it over their spans, short gaps between spans and a
+// span's rounding to whole vectors with them (where the room alone has a sample its blend is the room), and the
+// room is copied elsewhere, or left where it was drawn into the picture's own planes (share_room_planes, as
+// viewfuse draws it): the same picture every way, holes filled and all, as the blend of every pixel.
+TEST(ViewFuse, OverTheRoomTheSpansGapsAndRunsGiveThePictureOfABlendEverywhere) {
+  const int W = 200, H = 3;
+  cv::Mat noise(H, W, CV_8UC3);
+  cv::randu(noise, 0, 255);
+  WarpedView room{noise.clone(), cv::Mat(H, W, CV_16UC1, cv::Scalar(4000)), cv::Mat::zeros(H, W, CV_8UC1),
+                  cv::Mat(H, W, CV_8UC1, cv::Scalar(255)), SampleTiles()};
+  for (const cv::Range& hole : {cv::Range(100, 103), cv::Range(180, 184)}) {  // nothing seen there
+    room.depth.colRange(hole).setTo(0), room.weight.colRange(hole).setTo(0), room.color.colRange(hole).setTo(0);
+  }
+  WarpedView forward{cv::Mat::zeros(H, W, CV_8UC3), cv::Mat::zeros(H, W, CV_16UC1), cv::Mat::zeros(H, W, CV_8UC1),
+                     cv::Mat::zeros(H, W, CV_8UC1), SampleTiles()};
+  // Learners' runs 10 px apart (joined) and 40 px apart (not), one of 3 px (rounded up), a long empty stretch.
+  for (const cv::Range& run : {cv::Range(5, 20), cv::Range(30, 33), cv::Range(73, 90), cv::Range(150, 153)}) {
+    forward.color.colRange(run).setTo(cv::Scalar(0, 0, 200));
+    forward.depth.colRange(run).setTo(2000);
+    forward.label.colRange(run).setTo(1);
+    forward.weight.colRange(run).setTo(200);
+  }
+  FuseParams params;
+  FusedView everywhere;  // every pixel blended: the views fused without the room as their base's copy
+  params.first_is_base = true;
   params.fill_holes = true;
   FusedView copied, in_place;
-  room.depth.colRange(12, 14).setTo(0);  // a hole where nothing is seen
-  room.weight.colRange(12, 14).setTo(0);
-  room.color.colRange(12, 14).setTo(0);
   fuse_views({&room, &forward}, params, &copied);
   WarpedView shared;
   share_room_planes(room.color.size(), &in_place, &shared);
@@ -1522,10 +1609,17 @@ TEST(ViewFuse, OverTheRoomALearnerNearItKeepsItsColourAndOneBehindItIsHidden) {
   EXPECT_EQ(cv::norm(in_place.depth, copied.depth, cv::NORM_INF), 0);
   EXPECT_EQ(cv::norm(in_place.label, copied.label, cv::NORM_INF), 0);
   EXPECT_EQ(cv::norm(in_place.filled, copied.filled, cv::NORM_INF), 0);
-  EXPECT_GT(cv::countNonZero(copied.filled), 0) << "the hole should be filled";
-  // Without the room as the base (the blend of any views) the near learner takes some of the room's colour.
-  params.first_is_base = false;
-  params.fill_holes = false;
-  fuse_views({&room, &forward}, params, &out);
-  EXPECT_GT(out.color.at<cv::Vec3b>(0, 0)[0], 50);
+  EXPECT_GT(cv::countNonZero(copied.filled), 0) << "the holes should be filled";
+  // The blend of every pixel: a sample at every other pixel of a third view marks every column, far behind the
+  // room (hidden: it changes no pixel; none where the room has a hole).
+  WarpedView behind{cv::Mat::zeros(H, W, CV_8UC3), cv::Mat::zeros(H, W, CV_16UC1), cv::Mat::zeros(H, W, CV_8UC1),
+                    cv::Mat::zeros(H, W, CV_8UC1), SampleTiles()};
+  for (int x = 0; x < W; x += 2) {
+    if (room.depth.at<uint16_t>(0, x) == 0) continue;
+    behind.depth.col(x).setTo(60000), behind.weight.col(x).setTo(1), behind.label.col(x).setTo(3);
+  }
+  fuse_views({&room, &forward, &behind}, params, &everywhere);
+  EXPECT_EQ(cv::norm(everywhere.color, copied.color, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(everywhere.depth, copied.depth, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(everywhere.label, copied.label, cv::NORM_INF), 0);
 }

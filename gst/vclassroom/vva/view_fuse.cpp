@@ -182,15 +182,19 @@ struct UnseenPart {
 };
 using UnseenDistance = std::vector<UnseenPart>;
 
-// The transform of one part (its blocks set), exact up to `margin` px less one straight step.
-void measure_part(const cv::Mat& depth, int margin, UnseenPart* part) {
+// The transform of part `i` (its blocks set), exact up to `margin` px less one straight step.
+void measure_part(const cv::Mat& depth, int margin, size_t i, UnseenPart* part) {
   part->around = cv::Rect(part->blocks.x - margin, part->blocks.y - margin, part->blocks.width + 2 * margin,
                           part->blocks.height + 2 * margin) &
                  cv::Rect(0, 0, depth.cols, depth.rows);
-  // Kept between frames (a fresh image each frame costs page faults).
+  // Kept between frames, a distance image per part (a fresh image each frame costs page faults); the part's
+  // `distance` shares it.
   static thread_local cv::Mat holes;
+  static thread_local std::vector<cv::Mat> distances;
+  if (distances.size() <= i) distances.resize(i + 1);
   cv::compare(depth(part->around), 0, holes, cv::CMP_EQ);
-  cv::distanceTransform(holes, part->distance, cv::DIST_L2, cv::DIST_MASK_3);
+  cv::distanceTransform(holes, distances[i], cv::DIST_L2, cv::DIST_MASK_3);
+  part->distance = distances[i];
 }
 
 // The distances of UnseenDistance, exact up to `exact_to` px; false when no pixel is farther than `start`.
@@ -201,7 +205,7 @@ bool measure_unseen(const cv::Mat& depth, double start, double exact_to, UnseenD
   u->clear();
   if (start < (kBlock - 1) * kDiagonal) {
     u->push_back(UnseenPart{cv::Rect(0, 0, W, H), {}, {}});
-    measure_part(depth, margin, &u->back());
+    measure_part(depth, margin, 0, &u->back());
     return true;
   }
   std::vector<uint8_t> all_unseen(size_t((W + kBlock - 1) / kBlock));
@@ -239,7 +243,7 @@ bool measure_unseen(const cv::Mat& depth, double start, double exact_to, UnseenD
     part = row;
   }
   if (part.area() > 0) u->push_back(UnseenPart{part, {}, {}});
-  for (UnseenPart& p : *u) measure_part(depth, margin, &p);
+  for (size_t i = 0; i < u->size(); ++i) measure_part(depth, margin, i, &(*u)[i]);
   return !u->empty();
 }
 
@@ -308,13 +312,10 @@ int run_end(const uint8_t* marks, int x, int n, uint8_t value) {
 // (depth 0 where it has none, as the blend gives), blend_row over it over the column spans where one has.
 // A view with tiles (`tiled`: they fit the view) has its samples only there. `others`, `span_rows`: scratch.
 void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& views, const std::vector<bool>& tiled,
-                        const ViewRow* rows,
-                        const float* wlut, float tol_mm, float tol_ratio, BlendScratch& scratch,
+                        const ViewRow* rows, const float* wlut, float tol_mm, float tol_ratio, BlendScratch& scratch,
                         std::vector<uint8_t>* others, std::vector<ViewRow>* span_rows, uint8_t* oc, uint16_t* od,
                         uint8_t* ol) {
   const int k = int(views.size());
-  // The base rendered into the output's own planes (share_room_planes): what is not blended is there already.
-  const bool in_place = rows[0].c == oc && rows[0].d == od && rows[0].l == ol;
   others->assign(size_t(W), 0);
   uint8_t* const marks = others->data();
   for (int c = 1; c < k; ++c) {
@@ -332,13 +333,10 @@ void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& view
   for (int x = 0; x < W;) {
     if (!marks[x]) {
       const int e = run_end(marks, x, W, 0);
-      if (in_place) {
-        x = e;
-        continue;
-      }
-      std::memcpy(oc + 3 * x, rows[0].c + 3 * x, size_t(e - x) * 3);
-      std::memcpy(od + x, rows[0].d + x, size_t(e - x) * 2);
-      std::memcpy(ol + x, rows[0].l + x, size_t(e - x));
+      // A plane the base was rendered into (share_room_planes) holds it there already.
+      if (rows[0].c != oc) std::memcpy(oc + 3 * x, rows[0].c + 3 * x, size_t(e - x) * 3);
+      if (rows[0].d != od) std::memcpy(od + x, rows[0].d + x, size_t(e - x) * 2);
+      if (rows[0].l != ol) std::memcpy(ol + x, rows[0].l + x, size_t(e - x));
       x = e;
       continue;
     }

@@ -928,6 +928,9 @@ void ViewWarper::prepare(const CameraCalib& src, const WarpSource& in, const War
     learner_depth_of(src.width, src.height, out->depth.data(), out->label.data(),
                      whole ? in.static_depth.ptr<uint16_t>() : nullptr, out->learner_depth.data());
     find_sparse_rows(src.width, src.height, out->learner_depth.data(), &out->learner_rows);
+  } else {  // none of an earlier frame's, which this one may reuse
+    out->learner_depth.clear();
+    out->learner_rows = SparseRows();
   }
 }
 
@@ -1142,6 +1145,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   ThreadZBuffer& zbuf = thread_zbuffer();
   if (zbuf.records.size() != vn || !zbuf.empty) zbuf.records.assign(vn, kEmptyRecord);
   zbuf.empty = false;
+  track_tiles_ = false;  // set by draw_learner_layer alone (a warp that threw may have left it set)
   Frame f{W, H, VW, VH, px_.data() + pad, py_.data() + pad, pz_.data() + pad, pw_.data() + pad,
           plim_.data() + pad, reinterpret_cast<Sample*>(zbuf.records.data()), {}, float(W - 1), float(H - 1),
           float(prm.edge_ratio), float(prm.edge_min_mm * 0.001), float(prm.max_stretch)};
@@ -1418,6 +1422,27 @@ void ViewWarper::link_row(const Frame& f, const Layer& layer, int v, int c0, int
                     out);
 }
 
+namespace {
+// Whether `first` (one entry per row of spans, and one more) indexes `spans` from 0 to its end, never going
+// back, and each row's spans are ordered, apart and within [0, width): the index is checked whole before a span
+// is read.
+template <typename Index>
+bool spans_fit(const std::vector<Index>& first, const std::vector<std::pair<int, int>>& spans, int width) {
+  if (first.empty() || first.front() != 0 || size_t(first.back()) != spans.size()) return false;
+  for (size_t r = 0; r + 1 < first.size(); ++r)
+    if (first[r] > first[r + 1]) return false;
+  for (size_t r = 0; r + 1 < first.size(); ++r) {
+    int end = 0;
+    for (size_t i = size_t(first[r]); i < size_t(first[r + 1]); ++i) {
+      const auto [x0, x1] = spans[i];
+      if (x0 < end || x1 <= x0 || x1 > width) return false;
+      end = x1;
+    }
+  }
+  return true;
+}
+}  // namespace
+
 void find_sparse_rows(int W, int H, const uint16_t* depth, SparseRows* out) {
   out->row_begin = H, out->row_end = 0;
   for (int v = 0; v < H; ++v)
@@ -1452,19 +1477,9 @@ void find_sparse_rows(int W, int H, const uint16_t* depth, SparseRows* out) {
 }
 
 bool SparseRows::fit(int width, int height) const {
-  if (row_begin < 0 || row_end > height || first_pair < 0 || (first_pair & 1) || end_pair > height ||
-      end_pair < first_pair || pair_first.size() != size_t((end_pair - first_pair + 1) / 2) + 1 ||
-      pair_first.front() != 0 || pair_first.back() != spans.size())
-    return false;
-  for (size_t p = 0; p + 1 < pair_first.size(); ++p) {
-    if (pair_first[p] > pair_first[p + 1]) return false;
-    int end = 0;
-    for (size_t i = pair_first[p]; i < pair_first[p + 1]; ++i) {
-      if (spans[i].first < end || spans[i].second <= spans[i].first || spans[i].second > width) return false;
-      end = spans[i].second;
-    }
-  }
-  return true;
+  return row_begin >= 0 && row_end <= height && first_pair >= 0 && !(first_pair & 1) && end_pair <= height &&
+         end_pair >= first_pair && pair_first.size() == size_t((end_pair - first_pair + 1) / 2) + 1 &&
+         spans_fit(pair_first, spans, width);
 }
 
 namespace {
@@ -1717,23 +1732,13 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
                 prm);
 }
 
+
 bool SampleTiles::fit(int width, int height) const {
-  if (width <= 0 || height <= 0 || row_first.size() != size_t((height + kPx - 1) / kPx) + 1 || row_first[0] != 0 ||
-      size_t(row_first.back()) != spans.size())
-    return false;
-  for (size_t t = 0; t + 1 < row_first.size(); ++t) {
-    if (row_first[t] > row_first[t + 1]) return false;
-    int end = 0;
-    for (int32_t i = row_first[t]; i < row_first[t + 1]; ++i) {
-      const auto [x0, x1] = spans[size_t(i)];
-      if (x0 < end || x1 <= x0 || x1 > width) return false;
-      end = x1;
-    }
-  }
-  return true;
+  return width > 0 && height > 0 && row_first.size() == size_t((height + kPx - 1) / kPx) + 1 &&
+         spans_fit(row_first, spans, width);
 }
 
-// The tiles splat_fine_cells marked, as the spans of each row of tiles (SampleTiles); the marks cleared.
+// The tiles splat_fine_cells marked, as the spans of each row of tiles (SampleTiles).
 void ViewWarper::take_marked_tiles(int VW, int VH, SampleTiles* tiles) {
   constexpr int kPx = SampleTiles::kPx;
   const int rows = (VH + kPx - 1) / kPx;  // a mark past the view's last row or column marks nothing there
@@ -1753,7 +1758,6 @@ void ViewWarper::take_marked_tiles(int VW, int VH, SampleTiles* tiles) {
     }
   }
   tiles->row_first[size_t(rows)] = int32_t(tiles->spans.size());
-  std::fill(tile_marks_.begin(), tile_marks_.end(), uint8_t(0));
 }
 
 // unpack_view for a sparse layer whose records lie in the marked tiles: the planes zeroed where the last tiles
