@@ -1113,10 +1113,11 @@ struct ViewWarper::CellPass {
 };
 
 namespace {
-// The z-buffer of every warper on a thread: each warp leaves it empty, so the next one (another camera of the
-// same view, whose learners land in the same places) finds its lines in the cache, where a buffer per warper
-// (per camera and lecturer) had been out of it since that warper's last frame; and a server with several
-// lecturers keeps one buffer of 8 bytes per view pixel a thread, not one per camera and lecturer.
+// The z-buffer of every warper on a thread: each warp leaves it empty. Where one thread warps several cameras
+// (the bench, the eval), the next one (another camera of the same view, whose learners land in the same places)
+// finds its lines in the cache, where a buffer per warper had been out of it since that warper's last frame,
+// and the thread keeps one buffer of 8 bytes per view pixel, not one per camera and view. (In the elements
+// each viewwarp has a streaming thread of its own: one buffer a warp, as before.)
 struct ThreadZBuffer {
   std::vector<uint64_t> records;
   bool empty = true;  // false from a warp's first write to the end of its unpack
