@@ -330,6 +330,34 @@ TEST(ViewWarp, ALayerDrawnSparselyOverItsSpansIsTheOneDrawnWhole) {
   }
 }
 
+// Every warper on a thread shares one z-buffer, which each warp leaves empty: after learners' warps of several
+// sizes by other warpers (their records in tiles only), a full warp on the thread is the one a fresh thread
+// gives, pixel for pixel.
+TEST(ViewWarp, WarpersSharingAThreadsZBufferLeaveItEmpty) {
+  const Classroom room(ClassroomConfig{2, 6, 2.0});
+  const Classroom empty(ClassroomConfig{2, 0, 2.0});
+  const Rig rig = default_classroom_rig();
+  const CameraCalib cam = scale_camera(rig.camera(1), 240, 135);
+  const RenderOutput r = render(room, 1.5, cam);
+  const WarpSource learners_src{r.color, r.depth, r.label, render(empty, 0.0, cam).depth};
+  const WarpSource whole_src{r.color, r.depth, r.label, cv::Mat()};
+  const Pose pose = sliders_to_pose(Sliders{40, 50, 50, 55, 50, 50}, rig.camera(0));
+  const CameraCalib virt = virtual_camera(cam, pose.cam_to_rig(), NAN);
+  WarpParams learners;
+  learners.learners_only = true;
+  for (const CameraCalib& v : {virt, scale_camera(virt, 120, 68), virt}) {
+    WarpedView out;
+    ViewWarper().warp(cam, learners_src, v, learners, &out);
+  }
+  WarpedView here, elsewhere;
+  ViewWarper().warp(cam, whole_src, virt, WarpParams(), &here);
+  std::thread([&] { ViewWarper().warp(cam, whole_src, virt, WarpParams(), &elsewhere); }).join();
+  ASSERT_GT(cv::countNonZero(here.depth), 240 * 135 / 4);
+  EXPECT_EQ(cv::norm(here.color, elsewhere.color, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(here.depth, elsewhere.depth, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(here.weight, elsewhere.weight, cv::NORM_INF), 0);
+}
+
 // The indices of spans an element passes on (SampleTiles in viewwarp's meta, SparseRows in a prepared frame) are
 // checked whole before a span is read: an index that goes back or past the spans, spans out of order or past
 // the width, are not taken.
