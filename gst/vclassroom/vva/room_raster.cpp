@@ -296,7 +296,7 @@ void room_raster_depth(size_t n, const float* inv, uint16_t* out) {
 
 }  // namespace
 
-void RoomRaster::begin(const CameraCalib& view, double near_m) {
+void RoomRaster::set_view(const CameraCalib& view, double near_m) {
   width_ = view.width, height_ = view.height;
   const Eigen::Isometry3d T = view.cam_to_rig.inverse();
   for (int r = 0; r < 3; ++r) {
@@ -304,10 +304,46 @@ void RoomRaster::begin(const CameraCalib& view, double near_m) {
     m_[4 * r + 3] = float(T.translation()(r));
   }
   fx_ = float(view.fx), fy_ = float(view.fy), cx_ = float(view.cx), cy_ = float(view.cy), near_ = float(near_m);
+  stats = {};
+}
+
+void RoomRaster::begin(const CameraCalib& view, double near_m) {
+  set_view(view, near_m);
   buf_.create(height_, width_ + kSlack, CV_32FC1);
   buf_.setTo(0);
   inv_ = buf_.colRange(0, width_);
-  stats = {};
+}
+
+template <typename Fn>
+void RoomRaster::for_each_tile_run(const std::vector<uint8_t>& tiles, Fn&& fn) const {
+  const int cols = tile_cols(width_);
+  CV_Assert(tiles.size() == size_t(cols) * tile_cols(height_));
+  for (int ty = 0; ty * kTilePx < height_; ++ty) {
+    const uint8_t* t = tiles.data() + size_t(ty) * cols;
+    for (int tx = 0; tx < cols;) {
+      if (!t[tx]) {
+        ++tx;
+        continue;
+      }
+      const int first = tx;
+      while (tx < cols && t[tx]) ++tx;
+      for (int y = ty * kTilePx; y < std::min(height_, (ty + 1) * kTilePx); ++y)
+        fn(y, first * kTilePx, std::min(width_, tx * kTilePx));
+    }
+  }
+}
+
+void RoomRaster::begin_in_tiles(const CameraCalib& view, const std::vector<uint8_t>& tiles, double near_m) {
+  set_view(view, near_m);
+  if (buf_.rows != height_ || buf_.cols != width_ + kSlack || buf_.type() != CV_32FC1) {
+    buf_.create(height_, width_ + kSlack, CV_32FC1);
+    buf_.setTo(0);
+  } else {
+    for_each_tile_run(tiles, [&](int y, int x0, int x1) {
+      std::fill(buf_.ptr<float>(y) + x0, buf_.ptr<float>(y) + x1, 0.0f);
+    });
+  }
+  inv_ = buf_.colRange(0, width_);
 }
 
 void RoomRaster::draw(const RoomMesh& mesh, cv::Mat* coverage) { draw_masked(mesh, true, coverage, {}); }
@@ -352,6 +388,14 @@ void RoomRaster::draw_masked(const RoomMesh& mesh, bool edges, cv::Mat* coverage
 void RoomRaster::depth(cv::Mat* out) const {
   out->create(height_, width_, CV_16UC1);
   for (int y = 0; y < height_; ++y) room_raster_depth(size_t(width_), inv_.ptr<float>(y), out->ptr<uint16_t>(y));
+}
+
+void RoomRaster::depth_in_tiles(cv::Mat* out, const std::vector<uint8_t>& tiles) const {
+  if (out->rows != height_ || out->cols != width_ || out->type() != CV_16UC1)
+    *out = cv::Mat::zeros(height_, width_, CV_16UC1);
+  for_each_tile_run(tiles, [&](int y, int x0, int x1) {
+    room_raster_depth(size_t(x1 - x0), inv_.ptr<float>(y) + x0, out->ptr<uint16_t>(y) + x0);
+  });
 }
 
 }  // namespace vclassroom

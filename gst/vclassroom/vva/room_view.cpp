@@ -191,9 +191,10 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   close_strips_along_columns(out->depth);
   if (!far.empty()) {
     RoomRaster::empty_tiles(out->depth, &empty_tiles_);
-    far_raster_.begin(view);
+    // Read only where the near ones left a pixel empty: cleared and converted in those tiles only.
+    far_raster_.begin_in_tiles(view, empty_tiles_);
     for (size_t k : far) far_raster_.draw_where_empty(*cameras[k].shape->unseen_by(near_), empty_tiles_);
-    far_raster_.depth(&far_depth_);
+    far_raster_.depth_in_tiles(&far_depth_, empty_tiles_);
     for (int y = 0; y < out->depth.rows; ++y)
       take_where_empty(out->depth.cols, out->depth.ptr<uint16_t>(y), far_depth_.ptr<uint16_t>(y),
                        drawn.ptr<uint16_t>(y));
