@@ -254,13 +254,30 @@ TEST(ViewWarp, ThePreparedHalvesWarpAsTheWholeForAnyWarperAndAnyNumberOfViews) {
 // learners about, it is the view a fresh warper gives into fresh planes, pixel for pixel (and the one warp()
 // gives, which finds the learners' rows itself: SparseRows); every sample lies in its tiles, and the tiles hold
 // much less than the box around the learners.
+namespace {
+// Camera 1 of the default rig at `width` x `height` over a classroom of 6 learners: its frame and the empty
+// room's depth (what the room view's tests warp).
+struct LearnersFrame {
+  Rig rig = default_classroom_rig();
+  CameraCalib cam;
+  RenderOutput r;
+  cv::Mat static_depth;
+};
+LearnersFrame learners_frame(int width, int height) {
+  LearnersFrame f;
+  f.cam = scale_camera(f.rig.camera(1), width, height);
+  f.r = render(Classroom(ClassroomConfig{2, 6, 2.0}), 1.5, f.cam);
+  f.static_depth = render(Classroom(ClassroomConfig{2, 0, 2.0}), 0.0, f.cam).depth;
+  return f;
+}
+}  // namespace
+
 TEST(ViewWarp, ALearnersViewWarpedIntoTheSamePlanesAgainIsTheFreshOneAndLiesInItsTiles) {
-  const Classroom room(ClassroomConfig{2, 6, 2.0});
-  const Classroom empty(ClassroomConfig{2, 0, 2.0});
-  const Rig rig = default_classroom_rig();
-  const CameraCalib cam = scale_camera(rig.camera(1), 320, 180);
-  const RenderOutput r = render(room, 1.5, cam);
-  const cv::Mat static_depth = render(empty, 0.0, cam).depth;
+  const LearnersFrame frame = learners_frame(320, 180);
+  const Rig& rig = frame.rig;
+  const CameraCalib& cam = frame.cam;
+  const RenderOutput& r = frame.r;
+  const cv::Mat& static_depth = frame.static_depth;
   WarpParams params;
   params.learners_only = true;
   const WarpSource src{r.color, r.depth, r.label, static_depth};
@@ -334,12 +351,11 @@ TEST(ViewWarp, ALayerDrawnSparselyOverItsSpansIsTheOneDrawnWhole) {
 // sizes by other warpers (their records in tiles only), a full warp on the thread is the one a fresh thread
 // gives, pixel for pixel.
 TEST(ViewWarp, WarpersSharingAThreadsZBufferLeaveItEmpty) {
-  const Classroom room(ClassroomConfig{2, 6, 2.0});
-  const Classroom empty(ClassroomConfig{2, 0, 2.0});
-  const Rig rig = default_classroom_rig();
-  const CameraCalib cam = scale_camera(rig.camera(1), 240, 135);
-  const RenderOutput r = render(room, 1.5, cam);
-  const WarpSource learners_src{r.color, r.depth, r.label, render(empty, 0.0, cam).depth};
+  const LearnersFrame frame = learners_frame(240, 135);
+  const Rig& rig = frame.rig;
+  const CameraCalib& cam = frame.cam;
+  const RenderOutput& r = frame.r;
+  const WarpSource learners_src{r.color, r.depth, r.label, frame.static_depth};
   const WarpSource whole_src{r.color, r.depth, r.label, cv::Mat()};
   const Pose pose = sliders_to_pose(Sliders{40, 50, 50, 55, 50, 50}, rig.camera(0));
   const CameraCalib virt = virtual_camera(cam, pose.cam_to_rig(), NAN);
