@@ -314,32 +314,14 @@ void RoomRaster::begin(const CameraCalib& view, double near_m) {
   inv_ = buf_.colRange(0, width_);
 }
 
-template <typename Fn>
-void RoomRaster::for_each_tile_run(const std::vector<uint8_t>& tiles, Fn&& fn) const {
-  const int cols = tile_cols(width_);
-  CV_Assert(tiles.size() == size_t(cols) * tile_cols(height_));
-  for (int ty = 0; ty * kTilePx < height_; ++ty) {
-    const uint8_t* t = tiles.data() + size_t(ty) * cols;
-    for (int tx = 0; tx < cols;) {
-      if (!t[tx]) {
-        ++tx;
-        continue;
-      }
-      const int first = tx;
-      while (tx < cols && t[tx]) ++tx;
-      for (int y = ty * kTilePx; y < std::min(height_, (ty + 1) * kTilePx); ++y)
-        fn(y, first * kTilePx, std::min(width_, tx * kTilePx));
-    }
-  }
-}
-
-void RoomRaster::begin_in_tiles(const CameraCalib& view, const std::vector<uint8_t>& tiles, double near_m) {
+void RoomRaster::begin_in_tiles(const CameraCalib& view, const SampleTiles& tiles, double near_m) {
   set_view(view, near_m);
   if (buf_.rows != height_ || buf_.cols != width_ + kSlack || buf_.type() != CV_32FC1) {
     buf_.create(height_, width_ + kSlack, CV_32FC1);
     buf_.setTo(0);
   } else {
-    for_each_tile_run(tiles, [&](int y, int x0, int x1) {
+    CV_Assert(tiles.fit(width_, height_));
+    for_each_tile_span(tiles, height_, [&](int y, int x0, int x1) {
       std::fill(buf_.ptr<float>(y) + x0, buf_.ptr<float>(y) + x1, 0.0f);
     });
   }
@@ -390,10 +372,11 @@ void RoomRaster::depth(cv::Mat* out) const {
   for (int y = 0; y < height_; ++y) room_raster_depth(size_t(width_), inv_.ptr<float>(y), out->ptr<uint16_t>(y));
 }
 
-void RoomRaster::depth_in_tiles(cv::Mat* out, const std::vector<uint8_t>& tiles) const {
+void RoomRaster::depth_in_tiles(cv::Mat* out, const SampleTiles& tiles) const {
+  CV_Assert(tiles.fit(width_, height_));
   if (out->rows != height_ || out->cols != width_ || out->type() != CV_16UC1)
     *out = cv::Mat::zeros(height_, width_, CV_16UC1);
-  for_each_tile_run(tiles, [&](int y, int x0, int x1) {
+  for_each_tile_span(tiles, height_, [&](int y, int x0, int x1) {
     room_raster_depth(size_t(x1 - x0), inv_.ptr<float>(y) + x0, out->ptr<uint16_t>(y) + x0);
   });
 }

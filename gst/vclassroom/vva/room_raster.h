@@ -19,6 +19,7 @@
 
 #include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/vva/room_mesh.h>
+#include <gst/vclassroom/vva/sample_tiles.h>
 
 namespace vclassroom {
 
@@ -36,10 +37,9 @@ class RoomRaster {
  public:
   // Starts a view: a pinhole camera (distortion ignored), its cam_to_rig the pose; nothing drawn.
   void begin(const CameraCalib& view, double near_m = 0.05);
-  // As begin(), but nothing drawn only in the tiles `tiles` marks (empty_tiles' layout; elsewhere the buffer
-  // keeps an earlier view's values): for a caller that reads the depth there alone (depth_in_tiles), as
-  // draw_where_empty's does.
-  void begin_in_tiles(const CameraCalib& view, const std::vector<uint8_t>& tiles, double near_m = 0.05);
+  // As begin(), but nothing drawn only in `tiles` (elsewhere the buffer keeps an earlier view's values): for a
+  // caller that reads the depth there alone (depth_in_tiles), as draw_where_empty's does.
+  void begin_in_tiles(const CameraCalib& view, const SampleTiles& tiles, double near_m = 0.05);
   // Draws a mesh whose vertices are in the rig frame, nearest wins. `coverage` (tests; CV_8UC1 of the view's
   // size): + 1 at every pixel a triangle covers, whatever its depth.
   void draw(const RoomMesh& mesh, cv::Mat* coverage = nullptr);
@@ -54,20 +54,17 @@ class RoomRaster {
   static void empty_tiles(const cv::Mat& depth, std::vector<uint8_t>* out);
   // The view's depth so far, CV_16UC1 mm (0: nothing drawn there).
   void depth(cv::Mat* out) const;
-  // depth() in the tiles `tiles` marks only; `out`'s other pixels keep their values (0 where it is made).
-  void depth_in_tiles(cv::Mat* out, const std::vector<uint8_t>& tiles) const;
+  // depth() in `tiles` only; `out`'s other pixels keep their values (0 where it is made).
+  void depth_in_tiles(cv::Mat* out, const SampleTiles& tiles) const;
   // 1/z in 1/m, CV_32FC1 (0: nothing drawn).
   const cv::Mat& inverse_depth() const { return inv_; }
   RoomRasterStats stats;
   // The row loop works in whole groups of this many pixels; the buffer's rows have as many of slack.
   static constexpr int kSlack = 8;
-  static constexpr int kTilePx = 8;
+  static constexpr int kTilePx = SampleTiles::kPx;
 
  private:
   void set_view(const CameraCalib& view, double near_m);
-  // fn(y, x0, x1) for each row y of each run of tiles [x0, x1) `tiles` marks (pixels, within the view).
-  template <typename Fn>
-  void for_each_tile_run(const std::vector<uint8_t>& tiles, Fn&& fn) const;
   void draw_masked(const RoomMesh& mesh, bool edges, cv::Mat* coverage, const std::vector<uint8_t>& empty_tiles);
   int width_ = 0, height_ = 0;
   float m_[12] = {};  // rig -> view, row-major 3x4

@@ -192,9 +192,11 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   if (!far.empty()) {
     RoomRaster::empty_tiles(out->depth, &empty_tiles_);
     // Read only where the near ones left a pixel empty: cleared and converted in those tiles only.
-    far_raster_.begin_in_tiles(view, empty_tiles_);
+    constexpr int kTile = RoomRaster::kTilePx;  // empty_tiles' layout: rows of tiles, left to right
+    hole_tiles_.set_marked(empty_tiles_.data(), size_t((view.width + kTile - 1) / kTile), view.width, view.height);
+    far_raster_.begin_in_tiles(view, hole_tiles_);
     for (size_t k : far) far_raster_.draw_where_empty(*cameras[k].shape->unseen_by(near_), empty_tiles_);
-    far_raster_.depth_in_tiles(&far_depth_, empty_tiles_);
+    far_raster_.depth_in_tiles(&far_depth_, hole_tiles_);
     for (int y = 0; y < out->depth.rows; ++y)
       take_where_empty(out->depth.cols, out->depth.ptr<uint16_t>(y), far_depth_.ptr<uint16_t>(y),
                        drawn.ptr<uint16_t>(y));

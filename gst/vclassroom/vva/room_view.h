@@ -74,6 +74,7 @@ class RoomViewRenderer {
  private:
   RoomRaster raster_, far_raster_;  // the near cameras' meshes, the far ones' (drawn where the near leave holes)
   std::vector<uint8_t> empty_tiles_;  // the near ones' tiles with a hole (RoomRaster::draw_where_empty)
+  SampleTiles hole_tiles_;            // the same as spans, where the far raster is cleared and read
   cv::Mat far_depth_;
   std::vector<const RoomTexture*> textures_;
   std::vector<const RoomShape*> near_;  // the cameras whose meshes are drawn whole

@@ -1423,26 +1423,6 @@ void ViewWarper::link_row(const Frame& f, const Layer& layer, int v, int c0, int
                     out);
 }
 
-namespace {
-// Whether `first` (one entry per row of spans, and one more) indexes `spans` from 0 to its end, never going
-// back, and each row's spans are ordered, apart and within [0, width): the index is checked whole before a span
-// is read.
-template <typename Index>
-bool spans_fit(const std::vector<Index>& first, const std::vector<std::pair<int, int>>& spans, int width) {
-  if (first.empty() || first.front() != 0 || size_t(first.back()) != spans.size()) return false;
-  for (size_t r = 0; r + 1 < first.size(); ++r)
-    if (first[r] > first[r + 1]) return false;
-  for (size_t r = 0; r + 1 < first.size(); ++r) {
-    int end = 0;
-    for (size_t i = size_t(first[r]); i < size_t(first[r + 1]); ++i) {
-      const auto [x0, x1] = spans[i];
-      if (x0 < end || x1 <= x0 || x1 > width) return false;
-      end = x1;
-    }
-  }
-  return true;
-}
-}  // namespace
 
 void find_sparse_rows(int W, int H, const uint16_t* depth, SparseRows* out) {
   out->row_begin = H, out->row_end = 0;
@@ -1734,32 +1714,7 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
 }
 
 
-bool SampleTiles::fit(int width, int height) const {
-  return width > 0 && height > 0 && row_first.size() == size_t((height + kPx - 1) / kPx) + 1 &&
-         spans_fit(row_first, spans, width);
-}
 
-// The tiles splat_fine_cells marked, as the spans of each row of tiles (SampleTiles).
-void ViewWarper::take_marked_tiles(int VW, int VH, SampleTiles* tiles) {
-  constexpr int kPx = SampleTiles::kPx;
-  const int rows = (VH + kPx - 1) / kPx;  // a mark past the view's last row or column marks nothing there
-  tiles->row_first.assign(size_t(rows) + 1, 0);
-  tiles->spans.clear();
-  for (int ty = 0; ty < rows; ++ty) {
-    const uint8_t* m = tile_marks_.data() + size_t(ty) * tile_cols_;
-    tiles->row_first[size_t(ty)] = int32_t(tiles->spans.size());
-    for (int tx = 0; tx * kPx < VW;) {
-      if (!m[tx]) {
-        ++tx;
-        continue;
-      }
-      const int first = tx;
-      while (tx * kPx < VW && m[tx]) ++tx;
-      tiles->spans.emplace_back(first * kPx, std::min(VW, tx * kPx));
-    }
-  }
-  tiles->row_first[size_t(rows)] = int32_t(tiles->spans.size());
-}
 
 // unpack_view for a sparse layer whose records lie in the marked tiles: the planes zeroed where the last tiles
 // were (everywhere for fresh planes), the records read and emptied in the new tiles only, the cracks looked
@@ -1777,7 +1732,7 @@ void ViewWarper::unpack_tiles(const Frame& f, const WarpParams& prm, bool fresh,
       std::memset(out->weight.ptr<uint8_t>(y) + x0, 0, size_t(x1 - x0));
     });
   }
-  take_marked_tiles(VW, VH, &tiles);
+  tiles.set_marked(tile_marks_.data(), size_t(tile_cols_), VW, VH);
   for_each_tile_span(tiles, VH, [&](int y, int x0, int x1) {
     const int n = x1 - x0;
     unpack_samples(n, f.zbuf + size_t(y) * VW + x0, out->color.ptr<uint8_t>(y) + 3 * x0,

@@ -17,6 +17,7 @@
 #include <opencv2/core.hpp>
 
 #include <gst/vclassroom/core/rig.h>
+#include <gst/vclassroom/vva/sample_tiles.h>
 
 namespace vclassroom {
 
@@ -92,35 +93,6 @@ struct WarpParams {
   // comes from the room's meshes and lookup. Cell warp only (with `mesh` everything is drawn).
   bool learners_only = false;
 };
-
-// Where the samples of a sparse warped view may lie: the view in tiles of kPx x kPx pixels, and per row of
-// tiles the column spans of its marked tiles (neighbours joined). Learners spread over a room leave most of
-// their box empty (about 42 k pixels a camera in a box of 830 x 360 at 960 x 540): the view is unpacked,
-// cleared and fused over these spans only.
-struct SampleTiles {
-  static constexpr int kShift = 3, kPx = 1 << kShift;
-  // Per row of tiles, the index of its first span; one more entry at the end. Empty: samples anywhere.
-  std::vector<int32_t> row_first;
-  std::vector<std::pair<int, int>> spans;  // pixel columns [first, second)
-  bool anywhere() const { return row_first.empty(); }
-  // Whether these are tiles of a width x height view (a reader given them by another checks before of_row).
-  bool fit(int width, int height) const;
-  // The indices [first, second) in `spans` of pixel row y's spans (y within the view).
-  std::pair<int32_t, int32_t> of_row(int y) const {
-    const size_t t = size_t(y >> kShift);
-    return {row_first[t], row_first[t + 1]};
-  }
-};
-
-// Calls fn(y, x0, x1) for every span [x0, x1) of every pixel row y < height of `tiles` (not anywhere()), row
-// by row, left to right.
-template <typename Fn>
-void for_each_tile_span(const SampleTiles& tiles, int height, Fn&& fn) {
-  for (int y = 0; y < height; ++y) {
-    const auto [first, end] = tiles.of_row(y);
-    for (int32_t i = first; i < end; ++i) fn(y, tiles.spans[size_t(i)].first, tiles.spans[size_t(i)].second);
-  }
-}
 
 // The source warped to the virtual view: all images have the virtual camera's size.
 struct WarpedView {
@@ -210,7 +182,6 @@ class ViewWarper {
   void draw_room_layer(const Frame& f, const WarpSource& in, const WarpParams& params);
   void draw_learner_layer(const Frame& f, const WarpSource& in, const uint16_t* depth, const uint8_t* label,
                           const WarpParams& params);
-  void take_marked_tiles(int view_width, int view_height, SampleTiles* tiles);
   void unpack_tiles(const Frame& f, const WarpParams& params, bool fresh, WarpedView* out);
   void unpack_view(const Frame& f, const WarpParams& params, WarpedView* out);
   // The cell warp's rows in pairs over every column, or only over the columns that can land in the view.
