@@ -44,7 +44,7 @@ bool one_surface(const cv::Mat& d, int x0, int y0, int s = 1) {
       if (z == 0) return false;
       lo = std::min(lo, z), hi = std::max(hi, z);
     }
-  return hi - lo <= std::max(15.0, 0.03 * lo);
+  return same_surface(lo, hi);
 }
 
 struct Leaf {
