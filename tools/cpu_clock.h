@@ -5,6 +5,7 @@
 
 namespace vclassroom_tools {
 
+// A clock's time, in ms.
 inline double clock_ms(clockid_t clock) {
   timespec t{};
   clock_gettime(clock, &t);
