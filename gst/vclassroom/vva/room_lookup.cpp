@@ -163,6 +163,7 @@ void lookup_row_portable(const std::vector<LookupCamera>& cams, const LookupView
   const float ry = (float(y) - view.cy) * view.ify;
   for (int x = x_begin; x < x_end; ++x) {
     written_row[x] = 0;
+    for (int ch = 0; ch < 3; ++ch) color_row[3 * x + ch] = 0;
     const float z = float(depth_row[x]);
     if (z == 0) continue;
     const float rx = (float(x) - view.cx) * view.ifx;

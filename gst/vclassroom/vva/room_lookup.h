@@ -56,8 +56,8 @@ struct RoomLookupParams {
 };
 
 // Writes into `color` (the view's size, CV_8UC3 RGB; made when it is not) the looked-up colour of every
-// pixel where `view_depth` (CV_16UC1 mm along the view's axis) is known and some camera sees the point; other
-// pixels are left alone. `written` (CV_8UC1, made): 255 where a colour was written, 0 elsewhere. `virt` is
+// pixel where `view_depth` (CV_16UC1 mm along the view's axis) is known and some camera sees the point, black
+// into the others. `written` (CV_8UC1, made): 255 where a colour was looked up, 0 elsewhere. `virt` is
 // pinhole. With AVX2 and FMA, 8 view pixels at a time; elsewhere (and for the last pixels of a row whose width
 // is not a multiple of 8) pixel by pixel, giving the same colours within a grey level.
 void room_lookup(const std::vector<const RoomTexture*>& cameras, const CameraCalib& virt, const cv::Mat& view_depth,
@@ -96,7 +96,7 @@ std::vector<LookupCamera> lookup_cameras(const std::vector<const RoomTexture*>& 
 LookupView lookup_view(const CameraCalib& virt, const RoomLookupParams& params,
                        const std::vector<LookupCamera>& cameras);
 
-// Pixels [x_begin, x_end) of row y, one by one (the reference and the fallback).
+// Pixels [x_begin, x_end) of row y, one by one (the reference and the fallback); black where not seen.
 void lookup_row_portable(const std::vector<LookupCamera>& cams, const LookupView& view, int y, int x_begin,
                          int x_end, const uint16_t* depth_row, uint8_t* color_row, uint8_t* written_row);
 // Rows [y_begin, y_end) of the view 8 pixels at a time (the rest of each row by lookup_row_portable). False,

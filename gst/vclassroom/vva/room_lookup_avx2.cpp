@@ -204,13 +204,12 @@ VCLASSROOM_AVX2 void add_samples(const CamV& c, bool far, RowGroup* groups, int 
   }
 }
 
-// The blended colour of a row's groups written where a camera sees the point.
+// The blended colour of a row's groups written where a camera sees the point, black elsewhere.
 VCLASSROOM_AVX2 void write_groups(const RowGroup* groups, int n, uint8_t* out, uint8_t* out_written) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f),
                c255 = _mm256_set1_ps(255.0f), tiny = _mm256_set1_ps(1e-30f);
   const __m256i pick = _mm256_setr_epi8(0, 1, 2, 4, 5, 6, 8, 9, 10, 12, 13, 14, -1, -1, -1, -1, 0, 1, 2, 4, 5, 6, 8,
                                         9, 10, 12, 13, 14, -1, -1, -1, -1);
-  alignas(32) uint32_t px[8];
   for (int g = 0; g < n; ++g) {
     const RowGroup& rg = groups[g];
     const int x0 = rg.x0;
@@ -219,25 +218,24 @@ VCLASSROOM_AVX2 void write_groups(const RowGroup* groups, int n, uint8_t* out, u
         _mm256_and_ps(_mm256_cmp_ps(sn, zero, _CMP_GT_OQ), _mm256_cmp_ps(_mm256_load_ps(rg.z), zero, _CMP_NEQ_OQ));
     const int wm = _mm256_movemask_ps(write);
     for (int j = 0; j < 8; ++j) out_written[x0 + j] = uint8_t((wm >> j & 1) * 255);
-    if (!wm) continue;
+    uint8_t* o = out + 3 * x0;
+    if (!wm) {
+      std::memset(o, 0, 24);
+      continue;
+    }
     const __m256 in_ = _mm256_div_ps(one, _mm256_max_ps(sn, tiny));
     const __m256i r = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_load_ps(rg.sr), in_, half))),
                   g8 = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_load_ps(rg.sg), in_, half))),
                   b = _mm256_cvttps_epi32(_mm256_min_ps(c255, _mm256_fmadd_ps(_mm256_load_ps(rg.sb), in_, half)));
-    const __m256i rgb = _mm256_or_si256(r, _mm256_or_si256(_mm256_slli_epi32(g8, 8), _mm256_slli_epi32(b, 16)));
-    uint8_t* o = out + 3 * x0;
-    if (wm == 0xFF) {
-      const __m256i q = _mm256_shuffle_epi8(rgb, pick);
-      const __m128i hi = _mm256_extracti128_si256(q, 1);
-      _mm_storeu_si128(reinterpret_cast<__m128i*>(o), _mm256_castsi256_si128(q));  // 12 + 4 overwritten next
-      _mm_storel_epi64(reinterpret_cast<__m128i*>(o + 12), hi);
-      const int last = _mm_extract_epi32(hi, 2);
-      std::memcpy(o + 20, &last, 4);
-    } else {
-      _mm256_store_si256(reinterpret_cast<__m256i*>(px), rgb);
-      for (int j = 0; j < 8; ++j)
-        if (wm >> j & 1) std::memcpy(o + 3 * j, &px[j], 3);
-    }
+    const __m256i rgb = _mm256_and_si256(
+        _mm256_castps_si256(write),
+        _mm256_or_si256(r, _mm256_or_si256(_mm256_slli_epi32(g8, 8), _mm256_slli_epi32(b, 16))));
+    const __m256i q = _mm256_shuffle_epi8(rgb, pick);
+    const __m128i hi = _mm256_extracti128_si256(q, 1);
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(o), _mm256_castsi256_si128(q));  // 12 + 4 overwritten next
+    _mm_storel_epi64(reinterpret_cast<__m128i*>(o + 12), hi);
+    const int last = _mm_extract_epi32(hi, 2);
+    std::memcpy(o + 20, &last, 4);
   }
 }
 
@@ -275,6 +273,7 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
       const __m128i z16 = _mm_loadu_si128(reinterpret_cast<const __m128i*>(drow + x0));
       if (_mm_testz_si128(z16, z16)) {  // no depth in these 8
         std::memset(out_written + x0, 0, 8);
+        std::memset(out + 3 * x0, 0, 24);
         continue;
       }
       RowGroup& rg = groups[size_t(n++)];

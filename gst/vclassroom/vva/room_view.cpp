@@ -101,6 +101,12 @@ void take_where_empty(int n, const uint16_t* __restrict near, const uint16_t* __
   for (int x = 0; x < n; ++x) out[x] = near[x] ? near[x] : far[x];
 }
 
+// The depth where the lookup found a colour (`seen` 255), 0 elsewhere.
+VCLASSROOM_SIMD_CLONES
+void keep_where_seen(int n, const uint8_t* __restrict seen, uint16_t* __restrict depth) {
+  for (int x = 0; x < n; ++x) depth[x] = seen[x] ? depth[x] : uint16_t(0);
+}
+
 }  // namespace
 
 RoomLookupParams room_lookup_params(const FuseParams& fuse) {
@@ -203,10 +209,9 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
     close_strips_along_rows(drawn_, out->depth);
     close_strips_along_columns(out->depth);
   }
-  room_lookup(textures_, view, out->depth, lookup, &out->color, &out->weight);
-  cv::compare(out->weight, 0, unseen_, cv::CMP_EQ);
-  out->depth.setTo(0, unseen_);  // what no camera sees there is a hole
-  out->color.setTo(0, unseen_);
+  room_lookup(textures_, view, out->depth, lookup, &out->color, &out->weight);  // black where not seen
+  for (int y = 0; y < out->depth.rows; ++y)  // what no camera sees there is a hole
+    keep_where_seen(out->depth.cols, out->weight.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y));
   out->label.create(out->depth.size(), CV_8UC1);
   out->label.setTo(0);
   out->tiles = SampleTiles();

@@ -78,7 +78,6 @@ class RoomViewRenderer {
   cv::Mat far_depth_;
   std::vector<const RoomTexture*> textures_;
   std::vector<const RoomShape*> near_;  // the cameras whose meshes are drawn whole
-  cv::Mat unseen_;
   cv::Mat drawn_;  // the depth as drawn, with two zero columns either side (for closing the gaps along rows)
 };
 
