@@ -1,6 +1,8 @@
 #include <gst/vclassroom/vva/view_warp.h>
 
 #include <algorithm>
+#include <memory>
+#include <mutex>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -232,36 +234,53 @@ struct Projection {
 // torn, and the camera's quality for the point: cos^8 of the angle between
 // its ray and the virtual ray (10° -> 0.89, 30° -> 0.32), times how much
 // nearer the virtual camera is.
+// One point of project_points.
+VCLASSROOM_SIMD_INLINE void project_point(size_t i, const uint16_t* zmm, const float* ray_x, const float* ray_y,
+                                          const Projection& p, float* __restrict px, float* __restrict py,
+                                          float* __restrict pz, float* __restrict plim, float* __restrict pw) {
+  const float z = float(zmm[i]) * 0.001f;
+  const float X = ray_x[i] * z, Y = ray_y[i] * z;
+  const float qx = p.r[0] * X + p.r[1] * Y + p.r[2] * z + p.t[0];
+  const float qy = p.r[3] * X + p.r[4] * Y + p.r[5] * z + p.t[1];
+  const float qz = p.r[6] * X + p.r[7] * Y + p.r[8] * z + p.t[2];
+  const bool valid = (zmm[i] != 0) & (qz >= kNear);
+  const float dx = qx - p.t[0], dy = qy - p.t[1], dz = qz - p.t[2];  // from the source centre
+  const float nq2 = qx * qx + qy * qy + qz * qz, nd2 = std::max(dx * dx + dy * dy + dz * dz, 1e-12f);
+  // |q| |d|, and one division for both 1 / qz and 1 / (|q| |d|): division
+  // and square root are what this loop waits on.
+  const float qd = valid ? std::sqrt(nq2 * nd2) : 1.0f, vz = valid ? qz : 1.0f;
+  const float r = 1.0f / (vz * qd);
+  const float iz = qd * r, iqd = vz * r;
+  px[i] = p.fx * qx * iz + p.cx;
+  py[i] = p.fy * qy * iz + p.cy;
+  pz[i] = valid ? qz : 0.0f;
+  plim[i] = p.link_scale * z * iz + p.link_gap;
+  const float c = (qx * dx + qy * dy + qz * dz) * iqd;
+  const float c2 = c * c, c4 = c2 * c2, c8 = c4 * c4;
+  const float nearer = std::min(1.0f, nq2 * iqd);  // |q| / |d|
+  pw[i] = std::max(0.02f, c8) * nearer;
+}
+
+// Points in blocks of this many: a block is one loop the compiler unrolls into whole vectors, so a short run
+// (a learner's span: tens of pixels) is not left to a scalar remainder of up to 31 points, as one loop over
+// the run was (its vector step is 32 points wide with AVX-512).
+constexpr size_t kProjectBlock = 16;
+
+// Every source pixel into the virtual camera: position, depth (0 = not
+// drawn), the longest a one-pixel mesh edge may grow before it counts as
+// torn, and the camera's quality for the point: cos^8 of the angle between
+// its ray and the virtual ray (10° -> 0.89, 30° -> 0.32), times how much
+// nearer the virtual camera is.
 VCLASSROOM_SIMD_CLONES
-void project_points(size_t n, const uint16_t* zmm, const float* ray_x, const float* ray_y, const Projection& p,
+void project_points(size_t n, const uint16_t* zmm, const float* ray_x, const float* ray_y, const Projection& proj,
                     float* __restrict px, float* __restrict py, float* __restrict pz, float* __restrict plim,
                     float* __restrict pw) {
-  const float r0 = p.r[0], r1 = p.r[1], r2 = p.r[2], r3 = p.r[3], r4 = p.r[4], r5 = p.r[5], r6 = p.r[6],
-              r7 = p.r[7], r8 = p.r[8], tx = p.t[0], ty = p.t[1], tz = p.t[2];
-  const float fx = p.fx, fy = p.fy, cx = p.cx, cy = p.cy, link_scale = p.link_scale, link_gap = p.link_gap;
-  for (size_t i = 0; i < n; ++i) {
-    const float z = float(zmm[i]) * 0.001f;
-    const float X = ray_x[i] * z, Y = ray_y[i] * z;
-    const float qx = r0 * X + r1 * Y + r2 * z + tx;
-    const float qy = r3 * X + r4 * Y + r5 * z + ty;
-    const float qz = r6 * X + r7 * Y + r8 * z + tz;
-    const bool valid = (zmm[i] != 0) & (qz >= kNear);
-    const float dx = qx - tx, dy = qy - ty, dz = qz - tz;  // from the source centre
-    const float nq2 = qx * qx + qy * qy + qz * qz, nd2 = std::max(dx * dx + dy * dy + dz * dz, 1e-12f);
-    // |q| |d|, and one division for both 1 / qz and 1 / (|q| |d|): division
-    // and square root are what this loop waits on.
-    const float qd = valid ? std::sqrt(nq2 * nd2) : 1.0f, vz = valid ? qz : 1.0f;
-    const float r = 1.0f / (vz * qd);
-    const float iz = qd * r, iqd = vz * r;
-    px[i] = fx * qx * iz + cx;
-    py[i] = fy * qy * iz + cy;
-    pz[i] = valid ? qz : 0.0f;
-    plim[i] = link_scale * z * iz + link_gap;
-    const float c = (qx * dx + qy * dy + qz * dz) * iqd;
-    const float c2 = c * c, c4 = c2 * c2, c8 = c4 * c4;
-    const float nearer = std::min(1.0f, nq2 * iqd);  // |q| / |d|
-    pw[i] = std::max(0.02f, c8) * nearer;
-  }
+  const Projection p = proj;  // a local copy: the stores cannot change it
+  size_t i0 = 0;
+  for (; i0 + kProjectBlock <= n; i0 += kProjectBlock)
+    for (size_t j = 0; j < kProjectBlock; ++j)
+      project_point(i0 + j, zmm, ray_x, ray_y, p, px, py, pz, plim, pw);
+  for (size_t i = i0; i < n; ++i) project_point(i, zmm, ray_x, ray_y, p, px, py, pz, plim, pw);
 }
 
 // flag on out[i] where pixels i and i + stride lie on the same surface: both
@@ -718,21 +737,44 @@ CameraCalib virtual_camera(const CameraCalib& base, const Eigen::Isometry3d& cam
   return v;
 }
 
+// A camera's rays (per pixel the normalised image point) and their boxes per tile (view_cull.h): one table per
+// set of intrinsics, shared by every warper of that camera. A table per warper (one per camera and lecturer's
+// view) kept a view's warps reading tables of 8 bytes a source pixel that the other views had pushed out of the
+// cache.
+struct ViewWarper::RayTable {
+  CameraCalib intrinsics;
+  std::vector<float> x, y, tile_boxes;
+};
+
 void ViewWarper::prepare_rays(const CameraCalib& src) {
-  if (have_rays_ && same_intrinsics(rays_for_, src)) return;
+  if (rays_ && same_intrinsics(rays_->intrinsics, src)) return;
+  static std::mutex lock;
+  static std::vector<std::weak_ptr<const RayTable>> tables;  // the tables in use
+  std::lock_guard<std::mutex> g(lock);
+  tables.erase(std::remove_if(tables.begin(), tables.end(), [](const auto& t) { return t.expired(); }),
+               tables.end());
+  for (const auto& t : tables) {
+    std::shared_ptr<const RayTable> table = t.lock();
+    if (table && same_intrinsics(table->intrinsics, src)) {
+      rays_ = std::move(table);
+      return;
+    }
+  }
+  auto table = std::make_shared<RayTable>();
   const size_t n = size_t(src.width) * src.height;
-  ray_x_.resize(n);
-  ray_y_.resize(n);
+  table->intrinsics = src;
+  table->x.resize(n);
+  table->y.resize(n);
   for (int v = 0; v < src.height; ++v)
     for (int u = 0; u < src.width; ++u) {
       const Eigen::Vector2d r = src.has_distortion() ? src.normalized(u, v)
                                                      : Eigen::Vector2d((u - src.cx) / src.fx, (v - src.cy) / src.fy);
-      ray_x_[size_t(v) * src.width + u] = float(r.x());
-      ray_y_[size_t(v) * src.width + u] = float(r.y());
+      table->x[size_t(v) * src.width + u] = float(r.x());
+      table->y[size_t(v) * src.width + u] = float(r.y());
     }
-  tile_ray_boxes(src.width, src.height, ray_x_.data(), ray_y_.data(), &tile_rays_);
-  rays_for_ = src;
-  have_rays_ = true;
+  tile_ray_boxes(src.width, src.height, table->x.data(), table->y.data(), &table->tile_boxes);
+  rays_ = table;
+  tables.push_back(rays_);
 }
 
 void ViewWarper::smooth_stepped_depth(int W, int H, const WarpParams& prm) {
@@ -1126,6 +1168,18 @@ ThreadZBuffer& thread_zbuffer() {
   static thread_local ThreadZBuffer zbuf;
   return zbuf;
 }
+
+// Likewise the source's projections (Frame::PX ..: per source pixel the projected position, the virtual depth
+// (m; <= 0 invalid), the longest unbroken mesh edge (px), the vertex weight): a warp projects every pixel it
+// reads first, so the warpers on a thread can share them, and the next warp finds the lines of the last one's
+// learners in the cache.
+struct ThreadProjections {
+  std::vector<float> x, y, z, lim, weight;
+};
+ThreadProjections& thread_projections() {
+  static thread_local ThreadProjections projections;
+  return projections;
+}
 }  // namespace
 
 void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in, const uint16_t* depth,
@@ -1136,7 +1190,8 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   const int VW = virt.width, VH = virt.height;
   const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
   const size_t pad = size_t(W) + 1;
-  for (auto* a : {&px_, &py_, &pz_, &plim_, &pw_}) {
+  ThreadProjections& proj = thread_projections();
+  for (auto* a : {&proj.x, &proj.y, &proj.z, &proj.lim, &proj.weight}) {
     a->resize(n + 2 * pad);
     std::fill_n(a->begin(), pad, 0.0f);
     std::fill_n(a->end() - ptrdiff_t(pad), pad, 0.0f);
@@ -1147,8 +1202,8 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   if (zbuf.records.size() != vn || !zbuf.empty) zbuf.records.assign(vn, kEmptyRecord);
   zbuf.empty = false;
   track_tiles_ = false;  // set by draw_learner_layer alone (a warp that threw may have left it set)
-  Frame f{W, H, VW, VH, px_.data() + pad, py_.data() + pad, pz_.data() + pad, pw_.data() + pad,
-          plim_.data() + pad, reinterpret_cast<Sample*>(zbuf.records.data()), {}, float(W - 1), float(H - 1),
+  Frame f{W, H, VW, VH, proj.x.data() + pad, proj.y.data() + pad, proj.z.data() + pad, proj.weight.data() + pad,
+          proj.lim.data() + pad, reinterpret_cast<Sample*>(zbuf.records.data()), {}, float(W - 1), float(H - 1),
           float(prm.edge_ratio), float(prm.edge_min_mm * 0.001), float(prm.max_stretch)};
   // Source -> virtual camera.
   const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * src.cam_to_rig;
@@ -1165,7 +1220,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   if (cull) {
     // A cell's affine map strays from the true projection of its pixel by far less than a pixel: 4 px of room.
     constexpr float kViewMarginPx = 4;
-    columns_in_view(W, H, tile_rays_, tile_nearest, tile_farthest, frustum_between(src, virt), kNear, kViewMarginPx,
+    columns_in_view(W, H, rays_->tile_boxes, tile_nearest, tile_farthest, frustum_between(src, virt), kNear, kViewMarginPx,
                     &view_columns_);
     size_t kept = 0;
     for (size_t ty = 0; ty < view_columns_.size(); ++ty)
@@ -1199,11 +1254,15 @@ void ViewWarper::splat_layer(const Frame& f, const Layer& layer, const WarpParam
 void ViewWarper::project_rows(const Frame& f, const Layer& layer, int r0, int r1, int c0, int c1) {
   const int W = f.W;
   const size_t first = size_t(r0) * W + size_t(c0);
-  // Whole rows in one call: the loop's remainder once, not once per row.
+  // Whole rows in one call: the loop's remainder once, not once per row. A part of a row is rounded up to whole
+  // blocks of project_points (the pixels after it, in the row or the next, projected as they are: a pixel's
+  // projection is its own), where the image goes on that far.
   const bool whole = c0 == 0 && c1 == W;
-  const size_t count = whole ? size_t(r1 - r0) * W : size_t(c1 - c0);
+  const size_t blocks = (size_t(c1 - c0) + kProjectBlock - 1) / kProjectBlock * kProjectBlock;
+  const size_t count = whole ? size_t(r1 - r0) * W
+                             : (r1 == r0 + 1 && first + blocks <= size_t(f.H) * W ? blocks : size_t(c1 - c0));
   for (size_t at = first; at < size_t(r1) * W; at += whole ? count : size_t(W)) {
-    project_points(count, layer.depth + at, ray_x_.data() + at, ray_y_.data() + at, f.proj, f.PX + at, f.PY + at,
+    project_points(count, layer.depth + at, rays_->x.data() + at, rays_->y.data() + at, f.proj, f.PX + at, f.PY + at,
                    f.PZ + at, f.PL + at, f.PW + at);
     if (layer.weight_scale != 1.0f)
       for (size_t i = at; i < at + count; ++i) f.PW[i] *= layer.weight_scale;

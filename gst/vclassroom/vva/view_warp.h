@@ -169,6 +169,7 @@ class ViewWarper {
   struct Frame;
   struct Layer;
   struct CellPass;
+  struct RayTable;
   void splat_layer(const Frame& f, const Layer& layer, const WarpParams& params);
   void splat_mesh(const Frame& f, const Layer& layer, const WarpParams& params);
   void splat_cells(const Frame& f, const Layer& layer, const WarpParams& params);
@@ -194,16 +195,10 @@ class ViewWarper {
   // WarpParams::edge_to_near on src_depth_ and src_label_.
   void give_edges_to_near_side(int width, int height, const WarpParams& params, const cv::Mat& color,
                                const cv::Mat& static_depth);
-  CameraCalib rays_for_;
-  bool have_rays_ = false;
-  std::vector<float> ray_x_, ray_y_;
-  std::vector<float> tile_rays_;  // per tile: the box its rays span (view_cull.h)
+  std::shared_ptr<const RayTable> rays_;  // the source's (prepare_rays)
   std::vector<uint16_t> tile_nearest_, tile_farthest_;  // per tile: prepare_here's depth range
   std::vector<std::pair<int, int>> view_columns_;       // per row of tiles: the columns that can land in the view
   double warped_share_ = 1.0;
-  // Per source pixel: projected position, virtual depth (m; <= 0 invalid),
-  // longest unbroken mesh edge (px), vertex weight.
-  std::vector<float> px_, py_, pz_, plim_, pw_;
   std::vector<uint16_t> src_depth_;  // chosen layer depth (mm)
   std::vector<uint16_t> learner_depth_;  // learners_only: draw_learner_layer's depth
   const uint16_t* prepared_learner_depth_ = nullptr;  // learners_only: the prepared one, for this warp
