@@ -87,11 +87,19 @@ void close_column_gaps(int n, const uint16_t* __restrict above, uint16_t* __rest
   }
 }
 
-void close_strips_along_columns(cv::Mat& depth) {
+// The column pass, row by row from the top; with `within`, over its spans alone (the rows' gaps lie there).
+void close_strips_along_columns(cv::Mat& depth, const SampleTiles* within = nullptr) {
   static_assert(kStripPx == 2, "the column pass looks two rows ahead");
-  for (int y = 1; y + 1 < depth.rows; ++y)
-    close_column_gaps(depth.cols, depth.ptr<uint16_t>(y - 1), depth.ptr<uint16_t>(y), depth.ptr<uint16_t>(y + 1),
-                      y + 2 < depth.rows ? depth.ptr<uint16_t>(y + 2) : nullptr);
+  auto close = [&](int y, int x0, int x1) {
+    if (y < 1 || y + 1 >= depth.rows) return;
+    close_column_gaps(x1 - x0, depth.ptr<uint16_t>(y - 1) + x0, depth.ptr<uint16_t>(y) + x0,
+                      depth.ptr<uint16_t>(y + 1) + x0, y + 2 < depth.rows ? depth.ptr<uint16_t>(y + 2) + x0 : nullptr);
+  };
+  if (within) {
+    for_each_tile_span(*within, depth.rows, close);
+    return;
+  }
+  for (int y = 1; y + 1 < depth.rows; ++y) close(y, 0, depth.cols);
 }
 
 // The near meshes' depth, and the far ones' where it is empty.
@@ -203,11 +211,18 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
     far_raster_.begin_in_tiles(view, hole_tiles_);
     for (size_t k : far) far_raster_.draw_where_empty(*cameras[k].shape->unseen_by(near_), empty_tiles_);
     far_raster_.depth_in_tiles(&far_depth_, hole_tiles_);
-    for (int y = 0; y < out->depth.rows; ++y)
-      take_where_empty(out->depth.cols, out->depth.ptr<uint16_t>(y), far_depth_.ptr<uint16_t>(y),
-                       drawn.ptr<uint16_t>(y));
-    close_strips_along_rows(drawn_, out->depth);
-    close_strips_along_columns(out->depth);
+    // Every pixel the near meshes left empty lies in a hole tile: only there does the far depth go in and are
+    // the gaps closed again (from the depth as merged kStripPx around them). Elsewhere the near depth, closed
+    // already, has no gap and stays as it is.
+    for_each_tile_span(hole_tiles_, view.height, [&](int y, int x0, int x1) {
+      const int a = std::max(0, x0 - kStripPx), b = std::min(view.width, x1 + kStripPx);
+      take_where_empty(b - a, out->depth.ptr<uint16_t>(y) + a, far_depth_.ptr<uint16_t>(y) + a,
+                       drawn.ptr<uint16_t>(y) + a);
+    });
+    for_each_tile_span(hole_tiles_, view.height, [&](int y, int x0, int x1) {
+      close_row_gaps(x1 - x0, drawn.ptr<uint16_t>(y) + x0, out->depth.ptr<uint16_t>(y) + x0);
+    });
+    close_strips_along_columns(out->depth, &hole_tiles_);
   }
   room_lookup(textures_, view, out->depth, lookup, &out->color, &out->weight);  // black where not seen
   for (int y = 0; y < out->depth.rows; ++y)  // what no camera sees there is a hole
