@@ -289,22 +289,24 @@ void fade_unseen(const UnseenDistance& u, cv::Mat& color, double start, double l
     }
 }
 
-// first_is_base: 1 where the row `d` has a sample.
+// first_is_base: `bit` where the row `d` has a sample.
 VCLASSROOM_SIMD_CLONES
-void mark_samples(int n, const uint16_t* d, uint8_t* marks) {
-  for (int i = 0; i < n; ++i) marks[i] |= uint8_t(d[i] != 0);
+void mark_samples(int n, const uint16_t* d, uint8_t bit, uint8_t* marks) {
+  for (int i = 0; i < n; ++i) marks[i] |= d[i] != 0 ? bit : uint8_t(0);
 }
 
-// The end of the run of `value` (0 or 1) in marks[x..n) that starts at x, 8 marks at a time where it can.
-int run_end(const uint8_t* marks, int x, int n, uint8_t value) {
-  const uint64_t all = value ? 0x0101010101010101ull : 0;
+// The end of the run of marks in marks[x..n) that starts at x, unmarked ones (`marked` false: 0) or marked ones
+// (not 0), 8 marks at a time where it can.
+int run_end(const uint8_t* marks, int x, int n, bool marked) {
+  constexpr uint64_t kOnes = 0x0101010101010101ull, kHighs = 0x8080808080808080ull;
   while (x + 8 <= n) {
     uint64_t eight;
     std::memcpy(&eight, marks + x, 8);
-    if (eight != all) break;
+    const bool has_zero = ((eight - kOnes) & ~eight & kHighs) != 0;  // some byte is 0
+    if (marked ? has_zero : eight != 0) break;
     x += 8;
   }
-  while (x < n && marks[x] == value) ++x;
+  while (x < n && (marks[x] != 0) == marked) ++x;
   return x;
 }
 
@@ -318,21 +320,23 @@ void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& view
   const int k = int(views.size());
   others->assign(size_t(W), 0);
   uint8_t* const marks = others->data();
+  // View c's mark: bit c (views past the eighth share the last bit, and a span with it blends them all).
+  auto bit_of = [](int c) { return uint8_t(1u << std::min(c, 7)); };
   for (int c = 1; c < k; ++c) {
     const SampleTiles& tiles = views[size_t(c)]->tiles;
     if (!tiled[size_t(c)]) {
-      mark_samples(W, rows[c].d, marks);
+      mark_samples(W, rows[c].d, bit_of(c), marks);
       continue;
     }
     const auto [first, end] = tiles.of_row(y);
     for (int32_t i = first; i < end; ++i) {
       const auto [x0, x1] = tiles.spans[size_t(i)];
-      mark_samples(x1 - x0, rows[c].d + x0, marks + x0);
+      mark_samples(x1 - x0, rows[c].d + x0, bit_of(c), marks + x0);
     }
   }
   for (int x = 0; x < W;) {
     if (!marks[x]) {
-      const int e = run_end(marks, x, W, 0);
+      const int e = run_end(marks, x, W, false);
       // A plane the base was rendered into (share_room_planes) holds it there already.
       if (rows[0].c != oc) std::memcpy(oc + 3 * x, rows[0].c + 3 * x, size_t(e - x) * 3);
       if (rows[0].d != od) std::memcpy(od + x, rows[0].d + x, size_t(e - x) * 2);
@@ -345,14 +349,21 @@ void fuse_row_over_base(int W, int y, const std::vector<const WarpedView*>& view
     // about 30 px), and where the base alone has a sample its blend is the base to the grey level (its colour x
     // weight / weight rounds back to it; FuseParams::first_is_base: no sample where its weight is 0).
     constexpr int kJoinPx = 16, kRoundPx = 16;
-    int e = run_end(marks, x, W, 1);
-    for (int gap_end = run_end(marks, e, W, 0); gap_end < W && gap_end - e <= kJoinPx;
-         gap_end = run_end(marks, e, W, 0))
-      e = run_end(marks, gap_end, W, 1);
+    int e = run_end(marks, x, W, true);
+    for (int gap_end = run_end(marks, e, W, false); gap_end < W && gap_end - e <= kJoinPx;
+         gap_end = run_end(marks, e, W, false))
+      e = run_end(marks, gap_end, W, true);
     e = std::min(W, x + (e - x + kRoundPx - 1) / kRoundPx * kRoundPx);
+    // The views with a sample in the span, the base first: one without adds exactly 0 to every sum (and is
+    // nearest nowhere), so leaving it out gives the same blend.
+    uint8_t present = 0;
+    for (int i = x; i < e; ++i) present |= marks[i];
+    int blended = 0;
     for (int c = 0; c < k; ++c)
-      (*span_rows)[size_t(c)] = ViewRow{rows[c].c + 3 * x, rows[c].d + x, rows[c].l + x, rows[c].w + x};
-    blend_row(e - x, k, span_rows->data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x, true);
+      if (c == 0 || (present & bit_of(c)))
+        (*span_rows)[size_t(blended++)] = ViewRow{rows[c].c + 3 * x, rows[c].d + x, rows[c].l + x, rows[c].w + x};
+    blend_row(e - x, blended, span_rows->data(), wlut, tol_mm, tol_ratio, scratch, oc + 3 * x, od + x, ol + x,
+              true);
     x = e;
   }
 }
