@@ -145,7 +145,7 @@ void BackgroundMemory::room_behind_learners(const cv::Mat& label, const cv::Mat&
   if (margin > 0)
     cv::dilate(hidden, hidden, cv::getStructuringElement(cv::MORPH_RECT, {2 * margin + 1, 2 * margin + 1}));
   depth->create(label.size(), CV_16UC1);
-  depth->setTo(0);
+  *depth = cv::Scalar::all(0);
   cv::compare(count_, stable_count(), steady, cv::CMP_GE);
   cv::bitwise_and(hidden, steady, hidden);
   static_depth.copyTo(*depth, hidden);

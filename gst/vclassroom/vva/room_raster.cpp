@@ -310,7 +310,7 @@ void RoomRaster::set_view(const CameraCalib& view, double near_m) {
 void RoomRaster::begin(const CameraCalib& view, double near_m) {
   set_view(view, near_m);
   buf_.create(height_, width_ + kSlack, CV_32FC1);
-  buf_.setTo(0);
+  buf_ = cv::Scalar::all(0);
   inv_ = buf_.colRange(0, width_);
 }
 
@@ -318,7 +318,7 @@ void RoomRaster::begin_in_tiles(const CameraCalib& view, const SampleTiles& tile
   set_view(view, near_m);
   if (buf_.rows != height_ || buf_.cols != width_ + kSlack || buf_.type() != CV_32FC1) {
     buf_.create(height_, width_ + kSlack, CV_32FC1);
-    buf_.setTo(0);
+    buf_ = cv::Scalar::all(0);
   } else {
     CV_Assert(tiles.fit(width_, height_));
     for_each_tile_span(tiles, height_, [&](int y, int x0, int x1) {

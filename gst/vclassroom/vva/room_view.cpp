@@ -228,7 +228,7 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
   for (int y = 0; y < out->depth.rows; ++y)  // what no camera sees there is a hole
     keep_where_seen(out->depth.cols, out->weight.ptr<uint8_t>(y), out->depth.ptr<uint16_t>(y));
   out->label.create(out->depth.size(), CV_8UC1);
-  out->label.setTo(0);
+  out->label = cv::Scalar::all(0);
   out->tiles = SampleTiles();
 }
 

@@ -409,7 +409,7 @@ void fuse_views(const std::vector<const WarpedView*>& views_in, const FuseParams
   }
   // Reused like the other planes: a fresh 0.5 MB each frame costs page faults.
   out->filled.create(size, CV_8UC1);
-  out->filled.setTo(0);
+  out->filled = cv::Scalar::all(0);
   // The fused depth stays as seen (0 in the holes): the fill's depth is a guess.
   const int unseen = int(out->depth.total()) - cv::countNonZero(out->depth);
   out->unseen_share = double(unseen) / double(out->depth.total());
