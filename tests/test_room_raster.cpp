@@ -490,6 +490,43 @@ TEST(RoomLookup, TheVectorLoopGivesThePixelLoopsPicture) {
   }
 }
 
+// A camera frame's packed records (room_lookup.h): the frame's depth and colour where it shows the room (label
+// 0, depth known), the background memory's room layer elsewhere, or, without that layer, the frame's colour
+// with the room's depth where the label is 0. Rows of every width from 1 px, so that the AVX2 loop's 4 pixels
+// and the row loop's last ones are both checked, with the label, the depth and the colour random.
+TEST(RoomLookup, PackedRecordsHoldTheFramesRoomAndTheMemorysBehindTheLearners) {
+  cv::RNG rng(35);
+  for (int width : {1, 2, 3, 5, 6, 7, 9, 10, 13, 64, 317}) {
+    const int height = 3;
+    CameraCalib cam;
+    cam.width = width, cam.height = height, cam.fx = cam.fy = 100, cam.cx = width / 2.0, cam.cy = 1;
+    cv::Mat depth(height, width, CV_16UC1), label(height, width, CV_8UC1), color(height, width, CV_8UC3);
+    cv::Mat room_depth(height, width, CV_16UC1), room_color(height, width, CV_8UC3);
+    rng.fill(depth, cv::RNG::UNIFORM, 0, 65536);
+    rng.fill(room_depth, cv::RNG::UNIFORM, 0, 65536);
+    rng.fill(color, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(room_color, cv::RNG::UNIFORM, 0, 256);
+    rng.fill(label, cv::RNG::UNIFORM, 0, 3);  // 0: the room, 1 and 2: learners
+    depth.setTo(0, depth < 8000);               // an eighth without depth
+    for (const bool with_room : {true, false}) {
+      RoomTexture tex;
+      pack_room_records(cam, depth.ptr<uint16_t>(), label.ptr<uint8_t>(), color, with_room ? room_depth : cv::Mat(),
+                        with_room ? room_color : cv::Mat(), &tex);
+      ASSERT_EQ(tex.packed.size(), size_t(width) * height);
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) {
+          const int d = depth.at<uint16_t>(y, x), l = label.at<uint8_t>(y, x);
+          const bool frame_room = l == 0 && d != 0;
+          const cv::Vec3b c = with_room && !frame_room ? room_color.at<cv::Vec3b>(y, x) : color.at<cv::Vec3b>(y, x);
+          const uint64_t z = with_room ? (frame_room ? d : room_depth.at<uint16_t>(y, x)) : (l == 0 ? d : 0);
+          const uint64_t want = z | uint64_t(c[0]) << 16 | uint64_t(c[1]) << 32 | uint64_t(c[2]) << 48;
+          ASSERT_EQ(tex.packed[size_t(y) * width + x], want)
+              << "width " << width << " at " << x << "," << y << (with_room ? " with" : " without") << " the room layer";
+        }
+    }
+  }
+}
+
 // A view standing at a camera's place is that camera's picture where it sees the room (the others, drawn
 // through the room's mesh, are a pixel off where the mesh is); with the angles alone (place_sigma_m 0) the
 // others blend in.

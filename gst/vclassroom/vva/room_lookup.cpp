@@ -26,7 +26,6 @@ void room_records_row(int n, const uint16_t* __restrict depth, const uint8_t* __
     }
     return;
   }
-  // Each channel chosen on its own, not through a pointer per pixel, so that the loop is vector code.
   for (int x = 0; x < n; ++x) {
     const bool seen = label[x] == 0 && depth[x] != 0;
     const uint64_t d = seen ? depth[x] : room_depth[x];
@@ -49,10 +48,15 @@ void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const u
   out->camera = camera;
   out->width = W, out->height = H;
   out->packed.resize(size_t(W) * H);
-  for (int y = 0; y < H; ++y)
-    room_records_row(W, depth + size_t(y) * W, label + size_t(y) * W, color.ptr<uint8_t>(y),
-                     room ? room_depth.ptr<uint16_t>(y) : nullptr, room ? room_color.ptr<uint8_t>(y) : nullptr,
-                     out->packed.data() + size_t(y) * W);
+  for (int y = 0; y < H; ++y) {
+    const uint16_t* d = depth + size_t(y) * W;
+    const uint8_t *l = label + size_t(y) * W, *c = color.ptr<uint8_t>(y);
+    const uint16_t* rd = room ? room_depth.ptr<uint16_t>(y) : nullptr;
+    const uint8_t* rc = room ? room_color.ptr<uint8_t>(y) : nullptr;
+    uint64_t* o = out->packed.data() + size_t(y) * W;
+    const int x = room_lookup_detail::room_records_avx2(W, d, l, c, rd, rc, o);  // the loop below does not vectorise
+    room_records_row(W - x, d + x, l + x, c + 3 * x, rd ? rd + x : nullptr, rc ? rc + 3 * x : nullptr, o + x);
+  }
 }
 
 float room_place_weight(const CameraCalib& camera, const CameraCalib& view, double sigma_m) {

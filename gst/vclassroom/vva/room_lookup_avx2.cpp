@@ -306,7 +306,48 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
   }
 }
 
+// Four pixels' records: the colour (12 bytes of the 16 at `color`) and the depth (4 x 16 bits at `depth`) in
+// place, 8 bytes a pixel: depth, r, g, b as 16-bit lanes.
+VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256i four_records(const uint8_t* color, const uint16_t* depth) {
+  // Within each 128-bit lane (pixels 0-1, 2-3) the bytes each record takes from the colour and the depth.
+  const __m256i from_color = _mm256_setr_epi8(-1, -1, 0, -1, 1, -1, 2, -1, -1, -1, 3, -1, 4, -1, 5, -1,  //
+                                              -1, -1, 6, -1, 7, -1, 8, -1, -1, -1, 9, -1, 10, -1, 11, -1);
+  const __m256i from_depth = _mm256_setr_epi8(0, 1, -1, -1, -1, -1, -1, -1, 2, 3, -1, -1, -1, -1, -1, -1,  //
+                                              4, 5, -1, -1, -1, -1, -1, -1, 6, 7, -1, -1, -1, -1, -1, -1);
+  const __m256i c = _mm256_broadcastsi128_si256(_mm_loadu_si128(reinterpret_cast<const __m128i*>(color)));
+  const __m256i d = _mm256_broadcastsi128_si256(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(depth)));
+  return _mm256_or_si256(_mm256_shuffle_epi8(c, from_color), _mm256_shuffle_epi8(d, from_depth));
+}
+
+VCLASSROOM_AVX2 int records_avx2(int n, const uint16_t* depth, const uint8_t* label, const uint8_t* color,
+                                 const uint16_t* room_depth, const uint8_t* room_color, uint64_t* out) {
+  const __m256i zero = _mm256_setzero_si256(), depth_lane = _mm256_set1_epi64x(0xffff);
+  int x = 0;
+  for (; x + 6 <= n; x += 4) {  // 16 bytes of colour from pixel x stay within the row's 3n
+    const __m256i live = four_records(color + 3 * x, depth + x);
+    int32_t four_labels;
+    std::memcpy(&four_labels, label + x, 4);
+    const __m256i room_label = _mm256_cmpeq_epi64(_mm256_cvtepu8_epi64(_mm_cvtsi32_si128(four_labels)), zero);
+    __m256i rec;
+    if (room_depth) {  // the frame's room where it shows it, the memory's behind the learners
+      const __m256i no_depth = _mm256_cmpeq_epi64(_mm256_and_si256(live, depth_lane), zero);
+      const __m256i seen = _mm256_andnot_si256(no_depth, room_label);
+      rec = _mm256_blendv_epi8(four_records(room_color + 3 * x, room_depth + x), live, seen);
+    } else {  // the frame's colour everywhere, its depth where it shows the room
+      rec = _mm256_andnot_si256(_mm256_andnot_si256(room_label, depth_lane), live);
+    }
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(out + x), rec);
+  }
+  return x;
+}
+
 }  // namespace
+
+int room_records_avx2(int n, const uint16_t* depth, const uint8_t* label, const uint8_t* color,
+                      const uint16_t* room_depth, const uint8_t* room_color, uint64_t* out) {
+  if (!__builtin_cpu_supports("avx2")) return 0;
+  return records_avx2(n, depth, label, color, room_depth, room_color, out);
+}
 
 bool lookup_avx2(const std::vector<LookupCamera>& cams, const LookupView& view, const cv::Mat& view_depth,
                  int y_begin, int y_end, cv::Mat* color, cv::Mat* written) {
@@ -316,6 +357,10 @@ bool lookup_avx2(const std::vector<LookupCamera>& cams, const LookupView& view, 
 }
 
 #else
+int room_records_avx2(int, const uint16_t*, const uint8_t*, const uint8_t*, const uint16_t*, const uint8_t*,
+                      uint64_t*) {
+  return 0;
+}
 bool lookup_avx2(const std::vector<LookupCamera>&, const LookupView&, const cv::Mat&, int, int, cv::Mat*, cv::Mat*) {
   return false;
 }
