@@ -848,17 +848,20 @@ void minus_one(size_t n, const uint16_t* __restrict d, uint16_t* __restrict out)
 }
 
 // flag[i] = 1 where pixel i has depth and lies beyond the edge tolerance
-// behind nearest_minus_one[i] + 1 (the tolerance taken at nearest_minus_one[i]).
+// behind nearest_minus_one[i] + 1 (the tolerance taken at nearest_minus_one[i]),
+// and is not the static layer's (`stays`, optional: 1 where the pixel's rim stays).
 // In 16-bit lanes, as depth_edges: the sum saturates (no depth around: never).
 VCLASSROOM_SIMD_CLONES
 void far_of_nearest(size_t n, const uint16_t* __restrict d, const uint16_t* __restrict nearest_minus_one,
-                    uint16_t ratio_q16, uint16_t min_mm, uint8_t* __restrict flag) {
+                    const uint8_t* __restrict label, const uint16_t* __restrict static_depth, uint16_t ratio_q16,
+                    uint16_t min_mm, uint8_t* __restrict flag) {
   for (size_t i = 0; i < n; ++i) {
     const uint16_t near = nearest_minus_one[i], z = d[i];
     const uint16_t rel = uint16_t((uint32_t(near) * ratio_q16) >> 16);
     const uint16_t lim = rel > min_mm ? rel : min_mm;
     const uint16_t reach = uint16_t(near > uint16_t(65535 - lim) ? 65535 : near + lim);
-    flag[i] = uint8_t((z != 0) & (reach < uint16_t(z - 1)));
+    const bool static_rim = static_depth && (label[i] == 0) & (static_depth[i] != 0);
+    flag[i] = uint8_t((z != 0) & (reach < uint16_t(z - 1)) & !static_rim);
   }
 }
 
@@ -891,7 +894,15 @@ void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, co
   // and label, so that every pixel is judged on the depths as they came.
   claim_flags_.resize(n + 8);
   std::fill(claim_flags_.end() - 8, claim_flags_.end(), 0);
-  far_of_nearest(n, src_depth_.data(), nearest_around_.ptr<uint16_t>(), ratio, min_mm, claim_flags_.data());
+  // The static layer's depth is the room model's, whose edges come from geometry fitted over many frames, not
+  // from a sensor a pixel off the colour: its rims stay (moving them cost 0.13 dB on Table I).
+  // (prepare_here checked its type and size; a part of a larger image is taken row by row.)
+  const bool by_rows = !static_depth.empty() && !static_depth.isContinuous();
+  for (size_t first = 0, count = by_rows ? size_t(W) : n; first < n; first += count)
+    far_of_nearest(count, src_depth_.data() + first, nearest_around_.ptr<uint16_t>() + first,
+                   src_label_.data() + first,
+                   static_depth.empty() ? nullptr : static_depth.ptr<uint16_t>(int(first / W)) + first % W, ratio,
+                   min_mm, claim_flags_.data() + first);
   edge_claims_.clear();
   for (size_t i = 0; i < n; i += 8) {
     uint64_t eight;
@@ -903,10 +914,6 @@ void ViewWarper::give_edges_to_near_side(int W, int H, const WarpParams& prm, co
   size_t kept = 0;
   for (const EdgeClaim& claim : edge_claims_) {
     const int u = claim.pixel % W, v = claim.pixel / W;
-    // The static layer's depth is the room model's, whose edges come from
-    // geometry fitted over many frames, not from a sensor a pixel off the
-    // colour: its rims stay (moving them cost 0.13 dB on Table I).
-    if (!static_depth.empty() && src_label_[size_t(claim.pixel)] == 0 && static_depth.ptr<uint16_t>(v)[u]) continue;
     const uint16_t near = uint16_t(nearest_around_.ptr<uint16_t>(v)[u] + 1);
     // The neighbour on the near side: a nearest one, one beside the pixel
     // rather than across a corner.
