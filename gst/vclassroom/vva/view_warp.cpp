@@ -1,12 +1,12 @@
 #include <gst/vclassroom/vva/view_warp.h>
 
 #include <algorithm>
-#include <memory>
-#include <mutex>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <mutex>
 
 #include <opencv2/imgproc.hpp>
 
@@ -248,11 +248,6 @@ struct Projection {
   float link_gap;    // px
 };
 
-// Every source pixel into the virtual camera: position, depth (0 = not
-// drawn), the longest a one-pixel mesh edge may grow before it counts as
-// torn, and the camera's quality for the point: cos^8 of the angle between
-// its ray and the virtual ray (10° -> 0.89, 30° -> 0.32), times how much
-// nearer the virtual camera is.
 // One point of project_points.
 VCLASSROOM_SIMD_INLINE void project_point(size_t i, const uint16_t* zmm, const float* ray_x, const float* ray_y,
                                           const Projection& p, float* __restrict px, float* __restrict py,
@@ -868,7 +863,7 @@ void minus_one(size_t n, const uint16_t* __restrict d, uint16_t* __restrict out)
 
 // flag[i] = 1 where pixel i has depth and lies beyond the edge tolerance
 // behind nearest_minus_one[i] + 1 (the tolerance taken at nearest_minus_one[i]),
-// and is not the static layer's (`stays`, optional: 1 where the pixel's rim stays).
+// unless it is the static layer's (label 0 where `static_depth`, optional, has a depth): those rims stay.
 // In 16-bit lanes, as depth_edges: the sum saturates (no depth around: never).
 VCLASSROOM_SIMD_CLONES
 void far_of_nearest(size_t n, const uint16_t* __restrict d, const uint16_t* __restrict nearest_minus_one,

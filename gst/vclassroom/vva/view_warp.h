@@ -11,6 +11,7 @@
 // background and disoccluded areas stay holes for the fusion to fill.
 #pragma once
 
+#include <memory>
 #include <utility>
 #include <vector>
 
