@@ -1234,20 +1234,22 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   f.proj.link_scale = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
   f.proj.link_gap = float(prm.max_gap_px);
 
-  const bool cull = culls(prm);
+  const bool learners_alone = prm.learners_only && !prm.mesh;  // the mesh rasteriser draws whole frames only
+  // The learners' layer is drawn over its spans, not over the columns that can land in the view: none found.
+  const bool cull = culls(prm) && !learners_alone;
   warped_share_ = 1.0;
   if (cull) {
     // A cell's affine map strays from the true projection of its pixel by far less than a pixel: 4 px of room.
     constexpr float kViewMarginPx = 4;
-    columns_in_view(W, H, rays_->tile_boxes, tile_nearest, tile_farthest, frustum_between(src, virt), kNear, kViewMarginPx,
-                    &view_columns_);
+    columns_in_view(W, H, rays_->tile_boxes, tile_nearest, tile_farthest, frustum_between(src, virt), kNear,
+                    kViewMarginPx, &view_columns_);
     size_t kept = 0;
     for (size_t ty = 0; ty < view_columns_.size(); ++ty)
       kept += size_t(view_columns_[ty].second - view_columns_[ty].first) *
               size_t(std::min(kTileSize, H - int(ty) * kTileSize));
     warped_share_ = double(kept) / double(n);
   }
-  if (prm.learners_only && !prm.mesh) {  // the mesh rasteriser draws whole frames only
+  if (learners_alone) {
     draw_learner_layer(f, in, depth, label, prm);
   } else {
     splat_layer(f,
