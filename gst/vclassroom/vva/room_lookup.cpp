@@ -49,13 +49,17 @@ void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const u
   out->width = W, out->height = H;
   out->packed.resize(size_t(W) * H);
   for (int y = 0; y < H; ++y) {
-    const uint16_t* d = depth + size_t(y) * W;
-    const uint8_t *l = label + size_t(y) * W, *c = color.ptr<uint8_t>(y);
-    const uint16_t* rd = room ? room_depth.ptr<uint16_t>(y) : nullptr;
-    const uint8_t* rc = room ? room_color.ptr<uint8_t>(y) : nullptr;
-    uint64_t* o = out->packed.data() + size_t(y) * W;
-    const int x = room_lookup_detail::room_records_avx2(W, d, l, c, rd, rc, o);  // the loop below does not vectorise
-    room_records_row(W - x, d + x, l + x, c + 3 * x, rd ? rd + x : nullptr, rc ? rc + 3 * x : nullptr, o + x);
+    const uint16_t* depth_row = depth + size_t(y) * W;
+    const uint8_t *label_row = label + size_t(y) * W, *color_row = color.ptr<uint8_t>(y);
+    const uint16_t* room_depth_row = room ? room_depth.ptr<uint16_t>(y) : nullptr;
+    const uint8_t* room_color_row = room ? room_color.ptr<uint8_t>(y) : nullptr;
+    uint64_t* out_row = out->packed.data() + size_t(y) * W;
+    // The first pixels with AVX2 (the row loop does not vectorise), the rest by the row loop.
+    const int x = room_lookup_detail::room_records_avx2(W, depth_row, label_row, color_row, room_depth_row,
+                                                        room_color_row, out_row);
+    room_records_row(W - x, depth_row + x, label_row + x, color_row + 3 * x,
+                     room_depth_row ? room_depth_row + x : nullptr, room_color_row ? room_color_row + 3 * x : nullptr,
+                     out_row + x);
   }
 }
 

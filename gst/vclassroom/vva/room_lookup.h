@@ -106,8 +106,8 @@ bool lookup_avx2(const std::vector<LookupCamera>& cams, const LookupView& view, 
                  int y_begin, int y_end, cv::Mat* color, cv::Mat* written);
 
 // The first pixels of a row of pack_room_records, 4 at a time with AVX2 (the same records as the row loop):
-// how many it packed (a multiple of 4, leaving at least two pixels, so that no load reads past the row's
-// colour); 0 where the CPU lacks AVX2. `room_depth`, `room_color`: both or neither.
+// how many it packed (a multiple of 4; when it packs any, at least two pixels are left, so that no load reads
+// past the row's colour); 0 where the CPU lacks AVX2. `room_depth`, `room_color`: both or neither.
 int room_records_avx2(int n, const uint16_t* depth, const uint8_t* label, const uint8_t* color,
                       const uint16_t* room_depth, const uint8_t* room_color, uint64_t* out);
 

@@ -29,6 +29,12 @@ constexpr uint32_t kRight = 0x0f, kDown = 0xf0;
 
 // Whether a warp with these settings skips what cannot land in the view (the cell warp only).
 bool culls(const WarpParams& prm) { return prm.cull_outside_view && !prm.mesh; }
+// Whether a warp draws the learners alone (WarpParams::learners_only; the mesh rasteriser draws whole frames
+// only), as a sparse layer over its own spans.
+bool learners_alone(const WarpParams& prm) { return prm.learners_only && !prm.mesh; }
+// Whether a warp looks for the columns that can land in the view: one that culls and draws a whole layer (the
+// learners' layer is drawn over its spans, not over those columns).
+bool finds_view_columns(const WarpParams& prm) { return culls(prm) && !learners_alone(prm); }
 
 bool same_intrinsics(const CameraCalib& a, const CameraCalib& b) {
   return a.width == b.width && a.height == b.height && a.fx == b.fx && a.fy == b.fy && a.cx == b.cx &&
@@ -42,14 +48,16 @@ void learner_median_depths(const uint16_t* depth, const uint8_t* label, int W, i
     const uint16_t* d = depth + size_t(y) * W;
     const uint8_t* l = label + size_t(y) * W;
     for (int x = 0; x < W; x += 2) {
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
       if (x + 16 <= W) {  // most of a row is the room: 16 labels at a time
         uint64_t a, b;
         std::memcpy(&a, l + x, 8), std::memcpy(&b, l + x + 8, 8);
-        if (!((a | b) & 0x00ff00ff00ff00ffull)) {  // the even pixels, the ones sampled
+        if (!((a | b) & 0x00ff00ff00ff00ffull)) {  // the even pixels (the ones sampled) in the low bytes
           x += 14;
           continue;
         }
       }
+#endif
       if (l[x] && d[x]) samples[l[x]].push_back(d[x]);
     }
   }
@@ -286,10 +294,10 @@ constexpr size_t kProjectBlock = 16;
 // its ray and the virtual ray (10° -> 0.89, 30° -> 0.32), times how much
 // nearer the virtual camera is.
 VCLASSROOM_SIMD_CLONES
-void project_points(size_t n, const uint16_t* zmm, const float* ray_x, const float* ray_y, const Projection& proj,
-                    float* __restrict px, float* __restrict py, float* __restrict pz, float* __restrict plim,
-                    float* __restrict pw) {
-  const Projection p = proj;  // a local copy: the stores cannot change it
+void project_points(size_t n, const uint16_t* zmm, const float* ray_x, const float* ray_y,
+                    const Projection& projection, float* __restrict px, float* __restrict py, float* __restrict pz,
+                    float* __restrict plim, float* __restrict pw) {
+  const Projection p = projection;  // a local copy: the stores cannot change it
   size_t i0 = 0;
   for (; i0 + kProjectBlock <= n; i0 += kProjectBlock)
     for (size_t j = 0; j < kProjectBlock; ++j)
@@ -764,16 +772,22 @@ void ViewWarper::prepare_rays(const CameraCalib& src) {
   if (rays_ && same_intrinsics(rays_->intrinsics, src)) return;
   static std::mutex lock;
   static std::vector<std::weak_ptr<const RayTable>> tables;  // the tables in use
-  std::lock_guard<std::mutex> g(lock);
-  tables.erase(std::remove_if(tables.begin(), tables.end(), [](const auto& t) { return t.expired(); }),
-               tables.end());
-  for (const auto& t : tables) {
-    std::shared_ptr<const RayTable> table = t.lock();
-    if (table && same_intrinsics(table->intrinsics, src)) {
-      rays_ = std::move(table);
-      return;
+  auto in_use = [&]() -> std::shared_ptr<const RayTable> {
+    tables.erase(std::remove_if(tables.begin(), tables.end(), [](const auto& t) { return t.expired(); }),
+                 tables.end());
+    for (const auto& t : tables) {
+      std::shared_ptr<const RayTable> table = t.lock();
+      if (table && same_intrinsics(table->intrinsics, src)) return table;
     }
+    return nullptr;
+  };
+  {
+    std::lock_guard<std::mutex> g(lock);
+    rays_ = in_use();
+    if (rays_) return;
   }
+  // Made without the lock (a distorted camera's half a million rays), then shared unless another warper of
+  // the camera made one meanwhile.
   auto table = std::make_shared<RayTable>();
   const size_t n = size_t(src.width) * src.height;
   table->intrinsics = src;
@@ -787,6 +801,9 @@ void ViewWarper::prepare_rays(const CameraCalib& src) {
       table->y[size_t(v) * src.width + u] = float(r.y());
     }
   tile_ray_boxes(src.width, src.height, table->x.data(), table->y.data(), &table->tile_boxes);
+  std::lock_guard<std::mutex> g(lock);
+  rays_ = in_use();
+  if (rays_) return;
   rays_ = table;
   tables.push_back(rays_);
 }
@@ -1011,7 +1028,7 @@ void ViewWarper::warp_prepared(const CameraCalib& src, const WarpSource& in, con
   const std::vector<uint16_t>* farthest = &prepared.tile_farthest;
   const TileGrid g = tile_grid(src.width, src.height);
   const size_t tiles = size_t(g.cols) * g.rows;
-  if (culls(prm) && (nearest->size() != tiles || farthest->size() != tiles)) {
+  if (finds_view_columns(prm) && (nearest->size() != tiles || farthest->size() != tiles)) {
     tile_depth_ranges(src.width, src.height, prepared.depth.data(), &tile_nearest_, &tile_farthest_);
     nearest = &tile_nearest_, farthest = &tile_farthest_;
   }
@@ -1209,8 +1226,8 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   const int VW = virt.width, VH = virt.height;
   const size_t n = size_t(W) * H, vn = size_t(VW) * VH;
   const size_t pad = size_t(W) + 1;
-  ThreadProjections& proj = thread_projections();
-  for (auto* a : {&proj.x, &proj.y, &proj.z, &proj.lim, &proj.weight}) {
+  ThreadProjections& projected = thread_projections();
+  for (auto* a : {&projected.x, &projected.y, &projected.z, &projected.lim, &projected.weight}) {
     a->resize(n + 2 * pad);
     std::fill_n(a->begin(), pad, 0.0f);
     std::fill_n(a->end() - ptrdiff_t(pad), pad, 0.0f);
@@ -1221,8 +1238,8 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   if (zbuf.records.size() != vn || !zbuf.empty) zbuf.records.assign(vn, kEmptyRecord);
   zbuf.empty = false;
   track_tiles_ = false;  // set by draw_learner_layer alone (a warp that threw may have left it set)
-  Frame f{W, H, VW, VH, proj.x.data() + pad, proj.y.data() + pad, proj.z.data() + pad, proj.weight.data() + pad,
-          proj.lim.data() + pad, reinterpret_cast<Sample*>(zbuf.records.data()), {}, float(W - 1), float(H - 1),
+  Frame f{W, H, VW, VH, projected.x.data() + pad, projected.y.data() + pad, projected.z.data() + pad,
+          projected.weight.data() + pad, projected.lim.data() + pad, reinterpret_cast<Sample*>(zbuf.records.data()), {}, float(W - 1), float(H - 1),
           float(prm.edge_ratio), float(prm.edge_min_mm * 0.001), float(prm.max_stretch)};
   // Source -> virtual camera.
   const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * src.cam_to_rig;
@@ -1234,9 +1251,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   f.proj.link_scale = float(0.5 * (virt.fx / src.fx + virt.fy / src.fy));
   f.proj.link_gap = float(prm.max_gap_px);
 
-  const bool learners_alone = prm.learners_only && !prm.mesh;  // the mesh rasteriser draws whole frames only
-  // The learners' layer is drawn over its spans, not over the columns that can land in the view: none found.
-  const bool cull = culls(prm) && !learners_alone;
+  const bool cull = finds_view_columns(prm);
   warped_share_ = 1.0;
   if (cull) {
     // A cell's affine map strays from the true projection of its pixel by far less than a pixel: 4 px of room.
@@ -1249,7 +1264,7 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
               size_t(std::min(kTileSize, H - int(ty) * kTileSize));
     warped_share_ = double(kept) / double(n);
   }
-  if (learners_alone) {
+  if (learners_alone(prm)) {
     draw_learner_layer(f, in, depth, label, prm);
   } else {
     splat_layer(f,

@@ -153,7 +153,7 @@ class ViewWarper {
   void warp_prepared(const CameraCalib& source, const WarpSource& in, const PreparedSource& prepared,
                      const CameraCalib& virt, const WarpParams& params, WarpedView* out);
   // The share of the source's pixels the last warp set up (WarpParams::cull_outside_view: those whose
-  // columns can land in the view; 1 without it).
+  // columns can land in the view; 1 without it, and for a learners-only warp, drawn over its spans).
   double warped_share() const { return warped_share_; }
 
  private:
