@@ -527,7 +527,8 @@ TEST(RoomLookup, PackedRecordsHoldTheFramesRoomAndTheMemorysBehindTheLearners) {
           const uint64_t z = with_room ? (frame_room ? d : room_depth.at<uint16_t>(y, x)) : (l == 0 ? d : 0);
           const uint64_t want = z | uint64_t(c[0]) << 16 | uint64_t(c[1]) << 32 | uint64_t(c[2]) << 48;
           ASSERT_EQ(tex.packed[size_t(y) * width + x], want)
-              << "width " << width << " at " << x << "," << y << (with_room ? " with" : " without") << " the room layer";
+              << "width " << width << " at " << x << "," << y << (with_room ? " with" : " without")
+              << " the room layer";
         }
     }
   }

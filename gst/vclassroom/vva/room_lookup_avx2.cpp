@@ -308,7 +308,8 @@ VCLASSROOM_AVX2 void lookup_rows(const std::vector<LookupCamera>& cf, const Look
 
 // Four pixels' records: the colour (12 bytes of the 16 at `color`) and the depth (4 x 16 bits at `depth`) in
 // place, 8 bytes a pixel: depth, r, g, b as 16-bit lanes.
-VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256i four_records(const uint8_t* color, const uint16_t* depth) {
+VCLASSROOM_AVX2 inline __attribute__((always_inline)) __m256i four_records(const uint8_t* color,
+                                                                           const uint16_t* depth) {
   // Within each 128-bit lane (pixels 0-1, 2-3) the bytes each record takes from the colour and the depth.
   const __m256i from_color = _mm256_setr_epi8(-1, -1, 0, -1, 1, -1, 2, -1, -1, -1, 3, -1, 4, -1, 5, -1,  //
                                               -1, -1, 6, -1, 7, -1, 8, -1, -1, -1, 9, -1, 10, -1, 11, -1);

@@ -212,14 +212,12 @@ void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const Came
     for (size_t k : far) far_raster_.draw_where_empty(*cameras[k].shape->unseen_by(near_), empty_tiles_);
     far_raster_.depth_in_tiles(&far_depth_, hole_tiles_);
     // Every pixel the near meshes left empty lies in a hole tile: only there does the far depth go in and are
-    // the gaps closed again (from the depth as merged kStripPx around them). Elsewhere the near depth, closed
-    // already, has no gap and stays as it is.
+    // the gaps closed again, each span's row from the depth as merged kStripPx around it (what the row pass
+    // reads). Elsewhere the near depth, closed already, has no gap and stays as it is.
     for_each_tile_span(hole_tiles_, view.height, [&](int y, int x0, int x1) {
       const int a = std::max(0, x0 - kStripPx), b = std::min(view.width, x1 + kStripPx);
       take_where_empty(b - a, out->depth.ptr<uint16_t>(y) + a, far_depth_.ptr<uint16_t>(y) + a,
                        drawn.ptr<uint16_t>(y) + a);
-    });
-    for_each_tile_span(hole_tiles_, view.height, [&](int y, int x0, int x1) {
       close_row_gaps(x1 - x0, drawn.ptr<uint16_t>(y) + x0, out->depth.ptr<uint16_t>(y) + x0);
     });
     close_strips_along_columns(out->depth, &hole_tiles_);

@@ -10,13 +10,12 @@ bool SampleTiles::fit(int width, int height) const {
 }
 
 void SampleTiles::set_marked(const uint8_t* marks, size_t stride, int width, int height) {
-  SampleTiles& tiles = *this;
-  tiles.spans.clear();
+  spans.clear();
   const int rows = (height + kPx - 1) / kPx;  // a mark past the view's last row or column marks nothing there
-  tiles.row_first.assign(size_t(rows) + 1, 0);
+  row_first.assign(size_t(rows) + 1, 0);
   for (int ty = 0; ty < rows; ++ty) {
     const uint8_t* m = marks + size_t(ty) * stride;
-    tiles.row_first[size_t(ty)] = int32_t(tiles.spans.size());
+    row_first[size_t(ty)] = int32_t(spans.size());
     for (int tx = 0; tx * kPx < width;) {
       if (!m[tx]) {
         ++tx;
@@ -24,10 +23,10 @@ void SampleTiles::set_marked(const uint8_t* marks, size_t stride, int width, int
       }
       const int first = tx;
       while (tx * kPx < width && m[tx]) ++tx;
-      tiles.spans.emplace_back(first * kPx, std::min(width, tx * kPx));
+      spans.emplace_back(first * kPx, std::min(width, tx * kPx));
     }
   }
-  tiles.row_first[size_t(rows)] = int32_t(tiles.spans.size());
+  row_first[size_t(rows)] = int32_t(spans.size());
 }
 
 }  // namespace vclassroom

@@ -1239,8 +1239,8 @@ void ViewWarper::warp_prepared_here(const CameraCalib& src, const WarpSource& in
   zbuf.empty = false;
   track_tiles_ = false;  // set by draw_learner_layer alone (a warp that threw may have left it set)
   Frame f{W, H, VW, VH, projected.x.data() + pad, projected.y.data() + pad, projected.z.data() + pad,
-          projected.weight.data() + pad, projected.lim.data() + pad, reinterpret_cast<Sample*>(zbuf.records.data()), {}, float(W - 1), float(H - 1),
-          float(prm.edge_ratio), float(prm.edge_min_mm * 0.001), float(prm.max_stretch)};
+          projected.weight.data() + pad, projected.lim.data() + pad, reinterpret_cast<Sample*>(zbuf.records.data()),
+          {}, float(W - 1), float(H - 1), float(prm.edge_ratio), float(prm.edge_min_mm * 0.001), float(prm.max_stretch)};
   // Source -> virtual camera.
   const Eigen::Isometry3d T = virt.cam_to_rig.inverse() * src.cam_to_rig;
   for (int r = 0; r < 3; ++r) {
@@ -1298,8 +1298,8 @@ void ViewWarper::project_rows(const Frame& f, const Layer& layer, int r0, int r1
   const size_t count = whole ? size_t(r1 - r0) * W
                              : (r1 == r0 + 1 && first + blocks <= size_t(f.H) * W ? blocks : size_t(c1 - c0));
   for (size_t at = first; at < size_t(r1) * W; at += whole ? count : size_t(W)) {
-    project_points(count, layer.depth + at, rays_->x.data() + at, rays_->y.data() + at, f.proj, f.PX + at, f.PY + at,
-                   f.PZ + at, f.PL + at, f.PW + at);
+    project_points(count, layer.depth + at, rays_->x.data() + at, rays_->y.data() + at, f.proj, f.PX + at,
+                   f.PY + at, f.PZ + at, f.PL + at, f.PW + at);
     if (layer.weight_scale != 1.0f)
       for (size_t i = at; i < at + count; ++i) f.PW[i] *= layer.weight_scale;
   }
@@ -1517,7 +1517,6 @@ void ViewWarper::link_row(const Frame& f, const Layer& layer, int v, int c0, int
     link_neighbours(n, W, f.PX + row, f.PY + row, f.PZ + row, f.PL + row, &layer.label[row], f.er, f.emin, kDown,
                     out);
 }
-
 
 void find_sparse_rows(int W, int H, const uint16_t* depth, SparseRows* out) {
   out->row_begin = H, out->row_end = 0;
@@ -1807,9 +1806,6 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
                       rows->row_end, 1.0f, true, nullptr, rows},
                 prm);
 }
-
-
-
 
 // unpack_view for a sparse layer whose records lie in the marked tiles: the planes zeroed where the last tiles
 // were (everywhere for fresh planes), the records read and emptied in the new tiles only, the cracks looked
