@@ -232,6 +232,7 @@ function watchFrames(video) {
   const readout = document.getElementById('readout');
   const onFrame = (now, meta) => {
     stats.framesShown += 1;
+    if (stats.framesShown === 1) startHomeWait();
     const status = document.getElementById('status');
     if (status.textContent === kNoPicture) status.textContent = 'joined';
     stats.width = meta.width; stats.height = meta.height; stats.lastRtp = meta.rtpTimestamp;
@@ -311,6 +312,17 @@ const kNoPictureMs = 3000;
 const kNoPicture = 'joined, no picture yet: no camera is sending to the server';
 const kHomeWaitMs = 2000;
 
+// The first pose goes out once the server's first echo names its view (adoptHome); a server that names none
+// gets the page's view a while after the first frame is shown with the pose channel open. The wait counts
+// from the picture, not from the channel: a loaded server's first frame (and the echo with it) can come
+// later than the wait, and the page would then steer away from the server's view before it knew it.
+let homeWaitStarted = false;
+function startHomeWait() {
+  if (homeWaitStarted || stats.framesShown === 0 || !channel || channel.readyState !== 'open') return;
+  homeWaitStarted = true;
+  setTimeout(() => { if (seq === 0 && !xrPose) viewChanged(); }, kHomeWaitMs);
+}
+
 async function join() {
   const params = new URLSearchParams(location.search);
   const token = params.get('token') || '';
@@ -324,9 +336,7 @@ async function join() {
   const audio = pc.addTransceiver('audio', { direction: 'sendrecv' });
   channel = pc.createDataChannel('pose');
   channel.onmessage = e => onEcho(e.data);
-  // The first pose goes out once the server's first echo names its view (adoptHome); a server that names
-  // none gets the page's view after a while.
-  channel.onopen = () => setTimeout(() => { if (seq === 0 && !xrPose) viewChanged(); }, kHomeWaitMs);
+  channel.onopen = startHomeWait;
   pc.ontrack = e => {
     if (e.track.kind === 'audio') return playSound(e.track);
     if ('jitterBufferTarget' in e.receiver) e.receiver.jitterBufferTarget = 0;
