@@ -1301,6 +1301,20 @@ TEST(BackgroundMemory, AveragesNoiseButShowsChangesAndLearnersAtOnce) {
   EXPECT_THROW(memory.update(room, cv::Mat::zeros(3, 3, CV_8UC1), &out), Error);
 }
 
+// A memory of one frame remembers nothing: every frame is shown as it comes, however far it is from the last
+// (the mean's update once got a jump of 210 grey levels right only by a 32-bit product wrapping round).
+TEST(BackgroundMemory, AMemoryOfOneFrameShowsEveryFrameAsItComes) {
+  BackgroundMemory memory(BackgroundMemoryParams{1, 255});
+  const cv::Mat label = cv::Mat::zeros(4, 6, CV_8UC1);
+  cv::Mat out, remembered;
+  for (const int level : {20, 230, 25, 128, 0, 255}) {
+    const cv::Mat frame(label.size(), CV_8UC3, cv::Scalar(level, 255 - level, level / 2));
+    memory.update(frame, label, &out, &remembered);
+    EXPECT_TRUE(vctest::same_image(out, frame)) << "level " << level;
+    EXPECT_TRUE(vctest::same_image(remembered, frame)) << "level " << level;
+  }
+}
+
 // The room behind a learner: what the memory saw there before the learner
 // came, or the empty room it was seeded with; nothing where it never saw the
 // room. The layer covers the learner and a margin around it.

@@ -19,12 +19,12 @@ namespace {
 // mean with a branch per pixel cost ~4 ms a 960x540 frame.
 constexpr int kFraction = 256;
 
-// Per-row scratch of update_row.
+// Per-row scratch of update_row: per channel, whether it changed much, its pixel's rate (65536 / the pixel's
+// count of frames), whether the pixel restarts, whether it is room.
 struct RowScratch {
-  std::vector<int32_t> diff, rate;
+  std::vector<int32_t> rate;
   std::vector<uint8_t> big, restart, room;
   void resize(size_t n) {
-    diff.resize(3 * n);
     rate.resize(3 * n);
     big.resize(3 * n);
     restart.resize(3 * n);
@@ -34,13 +34,16 @@ struct RowScratch {
 
 // The passes of update_row, each a plain loop the compiler vectorises: the
 // channels as one array where a pixel's three do the same, the per-pixel
-// decision on its own.
-VCLASSROOM_SIMD_INLINE void channel_differences(int n3, const uint8_t* __restrict color,
-                                                const uint16_t* __restrict mean, int32_t limit,
-                                                int32_t* __restrict diff, uint8_t* __restrict big) {
+// decision on its own. A channel's difference to its mean is computed where
+// it is used rather than kept: the row's scratch stays in the first-level cache.
+VCLASSROOM_SIMD_INLINE int32_t difference_to_mean(uint8_t color, uint16_t mean) {
+  return int32_t(color) * kFraction - int32_t(mean);
+}
+
+VCLASSROOM_SIMD_INLINE void channel_changes(int n3, const uint8_t* __restrict color, const uint16_t* __restrict mean,
+                                            int32_t limit, uint8_t* __restrict big) {
   for (int i = 0; i < n3; ++i) {
-    const int32_t d = int32_t(color[i]) * kFraction - int32_t(mean[i]);
-    diff[i] = d;
+    const int32_t d = difference_to_mean(color[i], mean[i]);
     big[i] = uint8_t((d > limit) | (d < -limit));
   }
 }
@@ -50,8 +53,9 @@ VCLASSROOM_SIMD_INLINE void pixel_decisions(int n, const uint8_t* __restrict lab
                                             uint8_t* __restrict restart, uint8_t* __restrict room) {
   for (int x = 0; x < n; ++x) {
     const int32_t k = count[x];
-    // Something new (or nothing yet) starts the mean again at this pixel.
-    const bool again = (k == 0) | (big[3 * x] != 0) | (big[3 * x + 1] != 0) | (big[3 * x + 2] != 0);
+    // Something new (or nothing yet) starts the mean again at this pixel, as does every frame of a memory of one.
+    const bool again =
+        (k == 0) | (big[3 * x] != 0) | (big[3 * x + 1] != 0) | (big[3 * x + 2] != 0) | (frames == 1);
     const int32_t next = again ? 1 : (k + 1 < frames ? k + 1 : frames);
     // A learner: shown as seen, the room behind stays remembered.
     const bool is_room = label[x] == 0;
@@ -65,14 +69,14 @@ VCLASSROOM_SIMD_INLINE void pixel_decisions(int n, const uint8_t* __restrict lab
   }
 }
 
-VCLASSROOM_SIMD_INLINE void channel_updates(int n3, const uint8_t* __restrict color, const int32_t* __restrict diff,
-                                            const int32_t* __restrict rate, const uint8_t* __restrict restart,
-                                            const uint8_t* __restrict room, uint16_t* __restrict mean,
-                                            uint8_t* __restrict shown, uint8_t* __restrict remembered) {
+VCLASSROOM_SIMD_INLINE void channel_updates(int n3, const uint8_t* __restrict color, const int32_t* __restrict rate,
+                                            const uint8_t* __restrict restart, const uint8_t* __restrict room,
+                                            uint16_t* __restrict mean, uint8_t* __restrict shown,
+                                            uint8_t* __restrict remembered) {
   for (int i = 0; i < n3; ++i) {
     const int32_t c = color[i];
     // Without a restart |diff| <= 255 levels and rate <= 65536 / 2: no overflow.
-    const int32_t kept = int32_t(mean[i]) + ((diff[i] * rate[i]) >> 16);
+    const int32_t kept = int32_t(mean[i]) + ((difference_to_mean(color[i], mean[i]) * rate[i]) >> 16);
     const int32_t m = restart[i] ? c * kFraction : kept;
     mean[i] = uint16_t(m);
     const int32_t r = (m + kFraction / 2) >> 8;
@@ -87,10 +91,9 @@ VCLASSROOM_SIMD_INLINE void channel_updates(int n3, const uint8_t* __restrict co
 VCLASSROOM_SIMD_CLONES
 void update_row(int n, const uint8_t* color, const uint8_t* label, uint16_t* mean, uint8_t* count, int frames,
                 int change, RowScratch& s, uint8_t* shown, uint8_t* remembered) {
-  channel_differences(3 * n, color, mean, change * kFraction, s.diff.data(), s.big.data());
+  channel_changes(3 * n, color, mean, change * kFraction, s.big.data());
   pixel_decisions(n, label, s.big.data(), count, frames, s.rate.data(), s.restart.data(), s.room.data());
-  channel_updates(3 * n, color, s.diff.data(), s.rate.data(), s.restart.data(), s.room.data(), mean, shown,
-                  remembered);
+  channel_updates(3 * n, color, s.rate.data(), s.restart.data(), s.room.data(), mean, shown, remembered);
 }
 
 }  // namespace

@@ -880,20 +880,34 @@ void minus_one(size_t n, const uint16_t* __restrict d, uint16_t* __restrict out)
 
 // flag[i] = 1 where pixel i has depth and lies beyond the edge tolerance
 // behind nearest_minus_one[i] + 1 (the tolerance taken at nearest_minus_one[i]),
-// unless it is the static layer's (label 0 where `static_depth`, optional, has a depth): those rims stay.
-// In 16-bit lanes, as depth_edges: the sum saturates (no depth around: never).
-VCLASSROOM_SIMD_CLONES
-void far_of_nearest(size_t n, const uint16_t* __restrict d, const uint16_t* __restrict nearest_minus_one,
-                    const uint8_t* __restrict label, const uint16_t* __restrict static_depth, uint16_t ratio_q16,
-                    uint16_t min_mm, uint8_t* __restrict flag) {
+// unless it is the static layer's (label 0 where `static_depth`, when kWithStatic, has a depth): those rims
+// stay. In 16-bit lanes, as depth_edges: the sum saturates (no depth around: never). A loop of its own for
+// each case: with the optional layer tested inside, the loop compiled to scalar code with branches.
+template <bool kWithStatic>
+VCLASSROOM_SIMD_INLINE void far_of_nearest_loop(size_t n, const uint16_t* __restrict d,
+                                                const uint16_t* __restrict nearest_minus_one,
+                                                const uint8_t* __restrict label,
+                                                const uint16_t* __restrict static_depth, uint16_t ratio_q16,
+                                                uint16_t min_mm, uint8_t* __restrict flag) {
   for (size_t i = 0; i < n; ++i) {
     const uint16_t near = nearest_minus_one[i], z = d[i];
     const uint16_t rel = uint16_t((uint32_t(near) * ratio_q16) >> 16);
     const uint16_t lim = rel > min_mm ? rel : min_mm;
-    const uint16_t reach = uint16_t(near > uint16_t(65535 - lim) ? 65535 : near + lim);
-    const bool static_rim = static_depth && (label[i] == 0) & (static_depth[i] != 0);
-    flag[i] = uint8_t((z != 0) & (reach < uint16_t(z - 1)) & !static_rim);
+    const uint32_t sum = uint32_t(near) + lim;
+    const uint16_t reach = uint16_t(sum < 65535u ? sum : 65535u);
+    uint8_t far = uint8_t((z != 0) & (reach < uint16_t(z - 1)));
+    if (kWithStatic) far &= uint8_t((label[i] != 0) | (static_depth[i] == 0));
+    flag[i] = far;
   }
+}
+
+VCLASSROOM_SIMD_CLONES
+void far_of_nearest(size_t n, const uint16_t* d, const uint16_t* nearest_minus_one, const uint8_t* label,
+                    const uint16_t* static_depth, uint16_t ratio_q16, uint16_t min_mm, uint8_t* flag) {
+  if (static_depth)
+    far_of_nearest_loop<true>(n, d, nearest_minus_one, label, static_depth, ratio_q16, min_mm, flag);
+  else
+    far_of_nearest_loop<false>(n, d, nearest_minus_one, label, nullptr, ratio_q16, min_mm, flag);
 }
 
 // The share of the object's colour in the pixel's: its colour projected on
