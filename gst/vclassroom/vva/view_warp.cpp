@@ -896,7 +896,7 @@ VCLASSROOM_SIMD_INLINE void far_of_nearest_loop(size_t n, const uint16_t* __rest
     const uint32_t sum = uint32_t(near) + lim;
     const uint16_t reach = uint16_t(sum < 65535u ? sum : 65535u);
     uint8_t far = uint8_t((z != 0) & (reach < uint16_t(z - 1)));
-    if (kWithStatic) far &= uint8_t((label[i] != 0) | (static_depth[i] == 0));
+    if constexpr (kWithStatic) far &= uint8_t((label[i] != 0) | (static_depth[i] == 0));
     flag[i] = far;
   }
 }
