@@ -251,7 +251,7 @@ void LearnerSegmenter::segment(const cv::Mat& color, const cv::Mat& depth, cv::M
   const std::vector<int> blob_id = identify_blobs(looks, min_area, W, H);
   update_tracks(looks, blob_id);
   // The labels become the next frame's fast state.
-  prev_label_.setTo(0);
+  prev_label_ = cv::Scalar::all(0);  // by memset (setTo copies a pattern)
   for (size_t r = 0; r < runs_.size(); ++r) {
     const int id = blob_id[run_blob_[r]];
     if (id) std::memset(prev_label_.ptr<uint8_t>(runs_[r].y) + runs_[r].x0, id, size_t(runs_[r].x1 - runs_[r].x0 + 1));

@@ -249,7 +249,7 @@ bool measure_unseen(const cv::Mat& depth, double start, double exact_to, UnseenD
 
 // The holes farther than `beyond` from everything seen, set in `left` (zero elsewhere); how many.
 int mark_far_holes(const UnseenDistance& u, double beyond, cv::Mat& left) {
-  left.setTo(0);
+  left = cv::Scalar::all(0);  // by memset (setTo copies a pattern)
   const float limit = float(beyond);
   int count = 0;
   for (const UnseenPart& p : u)
