@@ -61,7 +61,8 @@ VCLASSROOM_SIMD_INLINE void pixel_decisions(int n, const uint8_t* __restrict lab
     const bool is_room = label[x] == 0;
     count[x] = uint8_t(is_room ? next : k);
     // 65536 / next, exact for next <= 255 (a float has 24 bits); 0 where the pixel restarts, whose kept mean is
-    // not used (65536 there would overflow the product with its difference).
+    // not used (65536 there would overflow the product with its difference). (The restart taken from next == 1
+    // instead, which would cover a memory of one frame without the test above, compiles to scalar code.)
     const int32_t r = (is_room & !again) ? int32_t(65536.0f / float(next)) : 0;
     const uint8_t a = uint8_t(is_room & again), o = uint8_t(is_room);
     rate[3 * x] = rate[3 * x + 1] = rate[3 * x + 2] = r;
