@@ -420,6 +420,57 @@ TEST(RoomView, TheRoomDrawnFromMeshesAndTheLearnersWarpedAloneMakeTheFullWarpsVi
   }
 }
 
+// A camera far from the view among the room's cameras (its place weight under 0.3 of the nearest one's, as
+// the lookup calls a camera far) leaves its learners to the nearer ones; a camera that is lost is not among
+// them, and then the others are near again. Its learners' view, warp_nothing's, holds nothing: the fuse gives
+// the room alone, as without it, though the planes held a learners' view before.
+TEST(RoomView, AFarCameraLeavesItsLearnersToTheNearerOnesAndItsEmptyViewChangesNothing) {
+  const Rig rig = default_classroom_rig();
+  std::vector<Eigen::Vector3d> centres;
+  for (int k = 0; k < 3; ++k) centres.push_back(rig.camera(k).center_in_rig());
+  const Eigen::Vector3d at0 = centres[0], between01 = 0.5 * (centres[0] + centres[1]);
+  EXPECT_FALSE(learners_left_to_nearer(centres[0], centres, at0));
+  EXPECT_TRUE(learners_left_to_nearer(centres[1], centres, at0));
+  EXPECT_TRUE(learners_left_to_nearer(centres[2], centres, at0));
+  EXPECT_FALSE(learners_left_to_nearer(centres[0], centres, between01));
+  EXPECT_FALSE(learners_left_to_nearer(centres[1], centres, between01));
+  EXPECT_TRUE(learners_left_to_nearer(centres[2], centres, between01));
+  EXPECT_FALSE(learners_left_to_nearer(centres[1], {centres[1], centres[2]}, at0)) << "camera 0 lost";
+  EXPECT_FALSE(learners_left_to_nearer(centres[2], {centres[1], centres[2]}, at0)) << "camera 0 lost";
+
+  const Classroom room(ClassroomConfig{2, 5, 2.0}), empty(ClassroomConfig{2, 0, 2.0});
+  const CameraCalib cam = scale_camera(rig.camera(1), 320, 180);
+  const RenderOutput frame = render(room, 1.0, cam);
+  FramePreparer preparer;
+  preparer.set_static_depth(render(empty, 0.0, cam).depth);
+  const auto prepared = preparer.prepare(cam, frame.color, frame.depth, frame.label, WarpParams());
+  const WarpSource src = FramePreparer::source_of(*prepared, frame.color, frame.depth, frame.label);
+  const CameraCalib virt = scale_camera(rig.camera(0), 320, 180);
+  WarpParams learners_only;
+  learners_only.learners_only = true;
+  ViewWarper warper;
+  WarpedView learners;
+  warper.warp_prepared(cam, src, prepared->source, virt, learners_only, &learners);
+  ASSERT_GT(cv::countNonZero(learners.depth), 500) << "camera 1's learners in view";
+  warper.warp_nothing(virt, &learners);
+  ASSERT_EQ(learners.depth.size(), cv::Size(320, 180));
+  EXPECT_EQ(cv::countNonZero(learners.depth), 0);
+  EXPECT_EQ(cv::countNonZero(learners.weight), 0);
+  EXPECT_EQ(cv::countNonZero(learners.label), 0);
+  EXPECT_EQ(cv::countNonZero(learners.color.reshape(1)), 0);
+  EXPECT_TRUE(learners.tiles.fit(320, 180) && learners.tiles.spans.empty()) << "tiles that mark nothing";
+  RoomViewRenderer renderer;
+  WarpedView room_part;
+  const RoomShape shape(cam, render(empty, 0.0, cam).depth);
+  renderer.render({RoomCamera{&shape, &prepared->room_texture(frame.color)}}, virt, RoomLookupParams(), &room_part);
+  FuseParams base;
+  base.first_is_base = true;
+  FusedView alone, with_empty;
+  fuse_views({&room_part}, base, &alone);
+  fuse_views({&room_part, &learners}, base, &with_empty);
+  EXPECT_EQ(cv::norm(alone.color, with_empty.color, cv::NORM_INF), 0.0);
+}
+
 namespace {
 
 // Camera k of the classroom at 320x180 with its room packed as viewprep packs it (static depth: the empty

@@ -869,7 +869,140 @@ GstPadProbeReturn count_room_parts(GstPad*, GstPadProbeInfo* info, gpointer data
   return GST_PAD_PROBE_OK;
 }
 
+// What a far camera's viewwarp tells viewfuse: per frame whether it left its learners to camera 0 (and to it
+// alone) with an empty learners' view, and whether it warped them itself.
+struct LeftLearners {
+  int left_to_0 = 0, warped = 0, other = 0;
+};
+
+GstPadProbeReturn count_left_learners(GstPad*, GstPadProbeInfo* info, gpointer data) {
+  auto* counts = static_cast<LeftLearners*>(data);
+  const auto part = buffer_get_room_view_part(GST_PAD_PROBE_INFO_BUFFER(info));
+  if (!part) ++counts->other;
+  else if (part->learners_left_to.empty()) ++counts->warped;
+  else if (part->learners_left_to == std::vector<int>{0} && part->tiles.fit(160, 90) && part->tiles.spans.empty())
+    ++counts->left_to_0;
+  else ++counts->other;
+  return GST_PAD_PROBE_OK;
+}
+
+// Drops camera 0's frame 4 (its fifth) before viewfuse: a round without the camera the others left their
+// learners to.
+GstPadProbeReturn drop_fifth(GstPad*, GstPadProbeInfo*, gpointer data) {
+  return (*static_cast<int*>(data))++ == 4 ? GST_PAD_PROBE_DROP : GST_PAD_PROBE_OK;
+}
+
 }  // namespace
+
+// viewfuse's warp-start answer names the room's cameras; what a viewwarp reads back is what was set, and a
+// field it cannot trust (another type, doubles not in fours, an id that is no int, a centre not finite, too
+// many cameras) gives no camera: the warp then draws its learners itself.
+TEST(ViewFuseElement, TheRoomsCamerasInTheWarpStartAnswerReadBackAsSetAndABadFieldGivesNone) {
+  GstStructure* s = gst_structure_new_empty(kWarpStartQueryName);
+  warp_start_set_room_cameras(s, {RoomCameraPlace{0, Eigen::Vector3d(0, 0, 0)},
+                                  RoomCameraPlace{7, Eigen::Vector3d(-0.8, 0.25, 1.5)}});
+  const std::vector<RoomCameraPlace> back = warp_start_room_cameras(s);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[1].id, 7);
+  EXPECT_EQ(back[1].centre, Eigen::Vector3d(-0.8, 0.25, 1.5));
+  auto read = [](const std::string& field) {
+    GstStructure* t = gst_structure_from_string(("q, room-cameras=" + field + ";").c_str(), nullptr);
+    EXPECT_NE(t, nullptr) << field;
+    const size_t n = t ? warp_start_room_cameras(t).size() : 99;
+    if (t) gst_structure_free(t);
+    return n;
+  };
+  EXPECT_EQ(read("(double)1.0"), 0u) << "not an array";
+  EXPECT_EQ(read("<(double)1.0, (double)2.0, (double)3.0>"), 0u);
+  EXPECT_EQ(read("<(double)1.5, (double)0.0, (double)0.0, (double)0.0>"), 0u);
+  EXPECT_EQ(read("<(double)1e12, (double)0.0, (double)0.0, (double)0.0>"), 0u);
+  EXPECT_EQ(read("<(double)1.0, (double)nan, (double)0.0, (double)0.0>"), 0u);
+  EXPECT_EQ(read("<(int)1, (int)0, (int)0, (int)0>"), 0u);
+  EXPECT_EQ(read("<(double)1.0, (double)0.0, (double)0.0, (double)0.0>"), 1u);
+  std::vector<RoomCameraPlace> many(kMaxRoomCameras + 1);
+  warp_start_set_room_cameras(s, many);
+  EXPECT_TRUE(warp_start_room_cameras(s).empty());
+  gst_structure_free(s);
+}
+
+// Two cameras with prior-depth, the view at camera 0's place: from the second frame on (viewfuse's warp-start
+// answer names the room's cameras once it has drawn them) camera 1's viewwarp, far from the view, leaves its
+// learners to camera 0 and sends an empty learners' view; the learners are still in every picture (camera 0's),
+// which is the view of the pose it names. A round without camera 0's frame, where nobody drew the learners, is
+// not shown.
+TEST(ViewFuseElement, AFarCameraLeavesItsLearnersToTheNearOneAndARoundWithoutThatOneIsNotShown) {
+  vctest::TempDir dir;
+  const std::string rig = small_classroom_rig(dir);
+  const Rig small = load_rig(rig);
+  const Classroom empty(ClassroomConfig{1, 0, 2.0}), room(ClassroomConfig{1, 3, 2.0});
+  std::vector<std::string> priors;
+  for (int k = 0; k < 2; ++k) {
+    priors.push_back(dir / ("prior-cam" + std::to_string(k) + ".png"));
+    cv::imwrite(priors.back(), render(empty, 0.0, small.camera(k)).depth);
+  }
+  auto run = [&](bool drop, LeftLearners* far, std::vector<double>* learner_scores) {
+    std::string desc = "viewfuse name=f ! appsink name=out sync=false max-buffers=8";
+    for (int k = 0; k < 2; ++k)
+      desc += " rgbdtestsrc rig=" + rig + " camera-id=" + std::to_string(k) + " learners=3 seed=1 num-buffers=8" +
+              " ! learnerseg prior-depth=" + priors[size_t(k)] + " ! viewwarp name=w" + std::to_string(k) +
+              " rig=" + rig + " prior-depth=" + priors[size_t(k)] + " ! queue ! f.cam_" + std::to_string(k);
+    GError* err = nullptr;
+    GstElement* pipe = gst_parse_launch(desc.c_str(), &err);
+    EXPECT_EQ(err, nullptr) << (err ? err->message : "");
+    if (err || !pipe) {
+      g_clear_error(&err);
+      if (pipe) gst_object_unref(pipe);
+      return 0;
+    }
+    int camera0_frames = 0;
+    for (const char* name : {"w0", "w1"}) {
+      GstElement* w = gst_bin_get_by_name(GST_BIN(pipe), name);
+      GstPad* src = gst_element_get_static_pad(w, "src");
+      if (std::string(name) == "w1") gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_BUFFER, count_left_learners, far, nullptr);
+      else if (drop) gst_pad_add_probe(src, GST_PAD_PROBE_TYPE_BUFFER, drop_fifth, &camera0_frames, nullptr);
+      gst_object_unref(src);
+      gst_object_unref(w);
+    }
+    GstElement* sink = gst_bin_get_by_name(GST_BIN(pipe), "out");
+    gst_element_set_state(pipe, GST_STATE_PLAYING);
+    int pictures = 0;
+    while (GstSample* sample = gst_app_sink_try_pull_sample(GST_APP_SINK(sink), 30 * GST_SECOND)) {
+      ++pictures;
+      GstBuffer* b = gst_sample_get_buffer(sample);
+      const PoseMeta* meta = buffer_get_pose_meta(b);
+      GstMapInfo map;
+      if (meta && meta->rendered.known && gst_buffer_map(b, &map, GST_MAP_READ)) {
+        GstVideoInfo vi;
+        gst_video_info_from_caps(&vi, gst_sample_get_caps(sample));
+        const cv::Mat picture(90, 160, CV_8UC3, map.data, size_t(GST_VIDEO_INFO_PLANE_STRIDE(&vi, 0)));
+        const CameraCalib view = virtual_camera(small.camera(0), pose_of(meta->rendered).cam_to_rig(), NAN);
+        const RenderOutput truth = render(room, double(GST_BUFFER_PTS(b)) / GST_SECOND, view);
+        // Over the learners alone (where the room would show, the picture is far off the truth).
+        const cv::Mat learners = truth.label > 0;
+        learner_scores->push_back(psnr_rgb_masked(picture, truth.color, learners));
+        gst_buffer_unmap(b, &map);
+      }
+      gst_sample_unref(sample);
+    }
+    gst_element_set_state(pipe, GST_STATE_NULL);
+    gst_object_unref(sink);
+    gst_object_unref(pipe);
+    return pictures;
+  };
+  LeftLearners far;
+  std::vector<double> scores;
+  EXPECT_EQ(run(false, &far, &scores), 8);
+  EXPECT_EQ(far.warped, 1) << "the first frame, before viewfuse has drawn a room";
+  EXPECT_EQ(far.left_to_0, 7);
+  EXPECT_EQ(far.other, 0);
+  ASSERT_EQ(scores.size(), 8u);
+  for (size_t i = 0; i < scores.size(); ++i) EXPECT_GT(scores[i], 25.0) << "picture " << i << ": its learners";
+  LeftLearners far_dropped;
+  std::vector<double> dropped_scores;
+  EXPECT_EQ(run(true, &far_dropped, &dropped_scores), 7) << "the round without camera 0 is not shown";
+  for (size_t i = 0; i < dropped_scores.size(); ++i)
+    EXPECT_GT(dropped_scores[i], 25.0) << "picture " << i << ": its learners";
+}
 
 // Three cameras into one view through the elements, with viewfuse room-view on and off. On: the viewwarps of
 // the cameras with prior-depth warp only their learners and pass their frame's room to viewfuse, which draws

@@ -247,6 +247,8 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
   only.learners_only = true;
   std::vector<std::vector<ViewWarper>> warpers(size_t(views), std::vector<ViewWarper>(cams.size()));
   std::vector<WarpedView> warped(cams.size());
+  std::vector<Eigen::Vector3d> centres;
+  for (const Camera& c : cams) centres.push_back(c.calib.center_in_rig());
   RoomViewRenderer renderer;
   WarpedView room;
   FusedView fused;
@@ -276,7 +278,11 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       t1 = process_cpu_ms();
       std::vector<const WarpedView*> inputs{&room};
       for (size_t i = 0; i < cams.size(); ++i) {
-        warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, only, &warped[i]);
+        // As each viewwarp decides: a camera far from the view leaves its learners to the nearer ones.
+        if (learners_left_to_nearer(cams[i].calib.center_in_rig(), centres, virt.center_in_rig()))
+          warpers[size_t(v)][i].warp_nothing(virt, &warped[i]);
+        else
+          warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, only, &warped[i]);
         inputs.push_back(&warped[i]);
       }
       const double t_learners = process_cpu_ms();

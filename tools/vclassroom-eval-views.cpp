@@ -365,6 +365,8 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
   std::vector<const WarpedView*> ptrs{&room};
   WarpParams only = wp;
   only.learners_only = true;
+  std::vector<Eigen::Vector3d> centres;
+  for (const CameraCalib& c : cams) centres.push_back(c.center_in_rig());
   for (size_t i = 0; i < cams.size(); ++i) {
     WarpSource src;
     src.color = in[i].color;
@@ -376,7 +378,10 @@ void synthesize_room_view(RoomViewPath& p, const std::vector<CameraCalib>& cams,
                       src.room_color, &textures[i]);
     textures[i].steady = rooms != nullptr;  // the sources' colour through the background memory
     room_cams.push_back(RoomCamera{p.shapes[i].get(), &textures[i]});
-    p.warpers[i].warp(cams[i], src, virt, only, &learners[i]);
+    if (learners_left_to_nearer(cams[i].center_in_rig(), centres, virt.center_in_rig()))
+      p.warpers[i].warp_nothing(virt, &learners[i]);  // as viewwarp: its learners left to nearer cameras
+    else
+      p.warpers[i].warp(cams[i], src, virt, only, &learners[i]);
     ptrs.push_back(&learners[i]);
   }
   p.renderer.render(room_cams, virt, room_lookup_params(fp), &room);

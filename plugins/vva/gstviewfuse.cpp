@@ -73,6 +73,10 @@ static gboolean gst_view_fuse_sink_query(GstAggregator* agg, GstAggregatorPad* p
   if (s && gst_structure_has_name(s, kWarpStartQueryName)) {
     gst_structure_set(gst_query_writable_structure(query), "room-view", G_TYPE_BOOLEAN, gboolean(st->room_view.load()),
                       nullptr);
+    {
+      std::lock_guard<std::mutex> g(st->lock);
+      warp_start_set_room_cameras(gst_query_writable_structure(query), st->room_cameras);
+    }
     guint64 frame = GST_CLOCK_TIME_NONE;
     gst_structure_get_uint64(s, "running-time", &frame);
     if (st->live) {

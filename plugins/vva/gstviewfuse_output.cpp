@@ -4,6 +4,7 @@
 #include "config.h"
 #endif
 
+#include <algorithm>
 #include <memory>
 
 #include <gst/vclassroom/core/pose_meta.h>
@@ -109,6 +110,32 @@ bool draw_room(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomVi
   return true;
 }
 
+// Tells the next warps which cameras this round's room has (ViewFuseState::room_cameras), and whether every
+// camera a far one left its learners to is in the round: where one is missing (a dropped frame, a camera
+// lost), nobody drew those learners, and the round is not shown (the last picture stays); the next warps,
+// told the cameras without it, draw them again.
+static bool learners_complete(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomViewPart>>& parts) {
+  ViewFuseState* st = self->st;
+  std::vector<RoomCameraPlace> cameras;
+  for (const auto& p : parts)
+    if (p) cameras.push_back(RoomCameraPlace{p->frame->room_shape->camera().id,
+                                             p->frame->room_shape->camera().center_in_rig()});
+  auto present = [&](int id) {
+    return std::any_of(cameras.begin(), cameras.end(), [&](const RoomCameraPlace& c) { return c.id == id; });
+  };
+  bool complete = true;
+  for (const auto& p : parts)
+    if (p) complete = complete && std::all_of(p->learners_left_to.begin(), p->learners_left_to.end(), present);
+  std::lock_guard<std::mutex> g(st->lock);
+  st->room_cameras = std::move(cameras);
+  if (!complete) {
+    ++st->rounds_without_learners;
+    GST_DEBUG_OBJECT(self, "a round without a camera others left their learners to: not shown (%" G_GUINT64_FORMAT
+                     " so far)", st->rounds_without_learners);
+  }
+  return complete;
+}
+
 // Maps the frames to fuse, fuses them and sends the picture (stamped as output_stamp() says).
 GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPad*>& pads,
                                    const std::vector<GstBuffer*>& bufs, const std::vector<RgbdInfo>& infos,
@@ -140,7 +167,7 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
     stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
     fused.push_back(i);
   }
-  if (ptrs.empty() || !st->have_out) {
+  if (ptrs.empty() || !st->have_out || !learners_complete(self, room_parts)) {
     drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
     return GST_FLOW_OK;
   }

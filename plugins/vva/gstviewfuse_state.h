@@ -18,6 +18,7 @@
 #include <gst/vclassroom/vva/camera_liveness.h>
 #include <gst/vclassroom/vva/fuse_inputs.h>
 #include <gst/vclassroom/vva/navigation.h>
+#include <gst/vclassroom/vva/prepared_frame.h>
 #include <gst/vclassroom/vva/room_view.h>
 #include <gst/vclassroom/vva/view_fuse.h>
 #include <gst/vclassroom/vva/warp_start.h>
@@ -46,6 +47,10 @@ struct ViewFuseState {
   FuseParams params;
   // The room drawn here (room_view.h), the viewwarps asked to warp only the learners (their warp-start query).
   std::atomic<bool> room_view{kRoomViewByDefault};
+  // The cameras whose room the last round drew (told to the viewwarps in the warp-start answer, so that a
+  // camera far from the view leaves its learners to the nearer ones: learners_left_to_nearer).
+  std::vector<RoomCameraPlace> room_cameras;
+  guint64 rounds_without_learners = 0;  // rounds not shown: a camera that took others' learners was missing
   std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
   // Which pads are left out, lost, stale (the decisions of each round).
   FuseInputs inputs;

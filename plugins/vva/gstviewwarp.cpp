@@ -189,8 +189,9 @@ static std::shared_ptr<const PreparedFrame> prepared_frame(GstViewWarp* self, Gs
 
 // The pose the frame shows: asked for at the last moment, after the pose-independent work, so that this work
 // is not part of the pose's latency. `room_view`: whether the viewfuse downstream draws the room itself
-// (its room-view), so that this element warps only the learners.
-static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf, bool* room_view) {
+// (its room-view), so that this element warps only the learners; `room_cameras`: the cameras of its room.
+static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf, bool* room_view,
+                       std::vector<RoomCameraPlace>* room_cameras) {
   GstBaseTransform* trans = GST_BASE_TRANSFORM(self);
   const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
                                        ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
@@ -200,11 +201,26 @@ static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf, bool* room_view) {
   GstQuery* warp_start = gst_query_new_custom(
       GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
   gboolean fuse_draws_room = FALSE;
-  if (gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start))
+  if (gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start)) {
     gst_structure_get_boolean(gst_query_get_structure(warp_start), "room-view", &fuse_draws_room);
+    *room_cameras = warp_start_room_cameras(gst_query_get_structure(warp_start));
+  }
   gst_query_unref(warp_start);
   *room_view = fuse_draws_room;
   return view_warp_frame_pose(self->st, running_time);
+}
+
+// The cameras of the view's room (as viewfuse last told them) this camera leaves its learners to, when it is
+// far from the view among them (learners_left_to_nearer): the near ones. None: it warps its learners itself.
+static std::vector<int> nearer_cameras(const CameraCalib& camera, const std::vector<RoomCameraPlace>& cameras,
+                                       const CameraCalib& view) {
+  std::vector<Eigen::Vector3d> centres;
+  for (const RoomCameraPlace& c : cameras) centres.push_back(c.centre);
+  std::vector<int> nearer;
+  if (!learners_left_to_nearer(camera.center_in_rig(), centres, view.center_in_rig())) return nearer;
+  for (const RoomCameraPlace& c : cameras)
+    if (c.id != camera.id && !learners_left_to_nearer(c.centre, centres, view.center_in_rig())) nearer.push_back(c.id);
+  return nearer;
 }
 
 static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer* inbuf, GstBuffer* outbuf) {
@@ -238,7 +254,8 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
       prepared->room_shape->mesh();
     }
     bool room_view = false;
-    const Pose pose = frame_pose(self, inbuf, &room_view);
+    std::vector<RoomCameraPlace> room_cameras;
+    const Pose pose = frame_pose(self, inbuf, &room_view, &room_cameras);
     st->room_view_last = room_view;
     const CameraCalib virt = virtual_camera(out_info.camera, pose.cam_to_rig(), pose.fov_deg);
     // The room drawn by viewfuse from every camera's mesh and packed room; here only the learners.
@@ -254,9 +271,15 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     st->warped.label = out.label();
     st->warped.weight = out.plane(Plane::Weight);
     st->warped.tiles = SampleTiles();  // a new buffer: the learners' view clears it all, not only its last tiles
-    st->warper.warp_prepared(in_info.camera, src, prepared->source, virt, params, &st->warped);
+    const std::vector<int> left_to =
+        params.learners_only ? nearer_cameras(in_info.camera, room_cameras, virt) : std::vector<int>();
+    if (left_to.empty())
+      st->warper.warp_prepared(in_info.camera, src, prepared->source, virt, params, &st->warped);
+    else
+      st->warper.warp_nothing(virt, &st->warped);
     if (params.learners_only) {
       auto part = std::make_shared<RoomViewPart>();
+      part->learners_left_to = left_to;
       part->frame = prepared;
       part->texture = &prepared->room_texture(in.color());
       part->view = virt;

@@ -1,6 +1,8 @@
 #include <gst/vclassroom/vva/prepared_frame.h>
 
 #include <atomic>
+#include <climits>
+#include <cmath>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -232,6 +234,40 @@ void buffer_add_room_view_part(GstBuffer* buf, std::shared_ptr<const RoomViewPar
 
 std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf) {
   return shared_meta_get<RoomViewPart>(buf);
+}
+
+void warp_start_set_room_cameras(GstStructure* s, const std::vector<RoomCameraPlace>& cameras) {
+  GValue array = G_VALUE_INIT, v = G_VALUE_INIT;
+  gst_value_array_init(&array, guint(4 * cameras.size()));
+  g_value_init(&v, G_TYPE_DOUBLE);
+  for (const RoomCameraPlace& c : cameras)
+    for (double x : {double(c.id), c.centre.x(), c.centre.y(), c.centre.z()}) {
+      g_value_set_double(&v, x);
+      gst_value_array_append_value(&array, &v);
+    }
+  g_value_unset(&v);
+  gst_structure_take_value(s, kRoomCamerasField, &array);
+}
+
+std::vector<RoomCameraPlace> warp_start_room_cameras(const GstStructure* s) {
+  const GValue* array = gst_structure_get_value(s, kRoomCamerasField);
+  if (!array || !GST_VALUE_HOLDS_ARRAY(array)) return {};
+  const guint n = gst_value_array_get_size(array);
+  if (n % 4 != 0 || n / 4 > kMaxRoomCameras) return {};
+  std::vector<RoomCameraPlace> out(n / 4);
+  for (guint i = 0; i < n; ++i) {
+    const GValue* v = gst_value_array_get_value(array, i);
+    if (!G_VALUE_HOLDS_DOUBLE(v) || !std::isfinite(g_value_get_double(v))) return {};
+    const double x = g_value_get_double(v);
+    RoomCameraPlace& c = out[i / 4];
+    if (i % 4 == 0) {
+      if (x != std::floor(x) || x < double(INT_MIN) || x > double(INT_MAX)) return {};
+      c.id = int(x);
+    } else {
+      c.centre[int(i % 4) - 1] = x;
+    }
+  }
+  return out;
 }
 
 }  // namespace vclassroom

@@ -108,8 +108,28 @@ struct RoomViewPart {
   const RoomTexture* texture = nullptr;  // frame->room_texture(), made by the viewwarp
   CameraCalib view;
   SampleTiles tiles;  // WarpedView::tiles of the learners' view
+  // The ids of the cameras nearer the view that this camera left its learners to (learners_left_to_nearer:
+  // its learners' view is empty); empty when it warped them itself. A picture without all of them has
+  // nobody's learners there.
+  std::vector<int> learners_left_to;
 };
 void buffer_add_room_view_part(GstBuffer* buf, std::shared_ptr<const RoomViewPart> part);
 std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf);
+
+// A camera of a view's room as viewfuse tells its viewwarps (the "room-cameras" field of its answer to their
+// warp-start query, warp_start.h): its id and centre (rig frame, metres), so that each warp knows before it
+// warps whether a nearer camera takes its learners.
+struct RoomCameraPlace {
+  int id = 0;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+};
+inline constexpr const char* kRoomCamerasField = "room-cameras";
+// At most this many cameras are read from the field; more, and it gives none.
+inline constexpr size_t kMaxRoomCameras = 64;
+// Sets the field: four doubles a camera (id, x, y, z) in a GstValueArray.
+void warp_start_set_room_cameras(GstStructure* s, const std::vector<RoomCameraPlace>& cameras);
+// The field as set; none where it is absent or malformed (not doubles in fours, an id that is not a whole
+// number of int's range, a centre that is not finite, more than kMaxRoomCameras cameras).
+std::vector<RoomCameraPlace> warp_start_room_cameras(const GstStructure* s);
 
 }  // namespace vclassroom

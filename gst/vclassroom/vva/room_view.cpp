@@ -164,6 +164,15 @@ std::shared_ptr<const RoomMesh> RoomShape::unseen_by(const std::vector<const Roo
   return kept;
 }
 
+bool learners_left_to_nearer(const Eigen::Vector3d& camera, const std::vector<Eigen::Vector3d>& cameras,
+                             const Eigen::Vector3d& view) {
+  const double sigma2 = RoomLookupParams().place_sigma_m * RoomLookupParams().place_sigma_m;
+  auto place = [&](const Eigen::Vector3d& c) { return float(sigma2 / ((c - view).squaredNorm() + sigma2)); };
+  float nearest = place(camera);
+  for (const Eigen::Vector3d& c : cameras) nearest = std::max(nearest, place(c));
+  return room_camera_is_far(place(camera), nearest);
+}
+
 void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const CameraCalib& view,
                               const RoomLookupParams& params, WarpedView* out) {
   textures_.clear();

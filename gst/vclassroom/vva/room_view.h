@@ -61,6 +61,16 @@ struct RoomCamera {
 // with a point as the fuse's samples agree with each other; the place's sigma the default.
 RoomLookupParams room_lookup_params(const FuseParams& fuse);
 
+// Whether a camera's learners go forward from cameras nearer the view instead (docs/vva.md, "How a view is
+// made", step 3): the camera at `camera` (its centre in the rig frame) is far from the view at `view` among the
+// view's cameras at `cameras` (itself among them or not), as the room's lookup calls a camera far
+// (room_camera_is_far, its place weight's sigma RoomLookupParams' default). Near a camera its own picture of a
+// learner is the view's, and a farther camera's, a pixel off at the view, only blurs it (vclassroom-eval-views
+// --room-view, 2026-11-28: near camera 0 from all three cameras 29.317 dB against 26.782, at the sources' own
+// places 45.061 against 35.125, Table I and the novel poses the same to three decimals).
+bool learners_left_to_nearer(const Eigen::Vector3d& camera, const std::vector<Eigen::Vector3d>& cameras,
+                             const Eigen::Vector3d& view);
+
 // Renders the room at a view; keeps its buffers between views.
 class RoomViewRenderer {
  public:

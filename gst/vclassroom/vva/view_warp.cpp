@@ -1821,24 +1821,53 @@ void ViewWarper::draw_learner_layer(const Frame& f, const WarpSource& in, const 
                 prm);
 }
 
+namespace {
+
+// A sparse layer's planes (of the view's size) zeroed where its last tiles were, or everywhere for fresh planes
+// or tiles that do not fit them.
+void zero_last_tiles(bool fresh, int VW, int VH, WarpedView* out) {
+  const SampleTiles& tiles = out->tiles;
+  if (fresh || tiles.anywhere() || !tiles.fit(VW, VH)) {
+    // Zeros by memset (cv::Mat::setTo copies a pattern block by block: a third slower).
+    out->color = cv::Scalar::all(0), out->depth = cv::Scalar::all(0), out->label = cv::Scalar::all(0);
+    out->weight = cv::Scalar::all(0);
+    return;
+  }
+  for_each_tile_span(tiles, VH, [&](int y, int x0, int x1) {
+    std::memset(out->color.ptr<uint8_t>(y) + 3 * x0, 0, size_t(x1 - x0) * 3);
+    std::memset(out->depth.ptr<uint16_t>(y) + x0, 0, size_t(x1 - x0) * 2);
+    std::memset(out->label.ptr<uint8_t>(y) + x0, 0, size_t(x1 - x0));
+    std::memset(out->weight.ptr<uint8_t>(y) + x0, 0, size_t(x1 - x0));
+  });
+}
+
+// The view's planes made of its size: whether any of them is new (not the planes out held).
+bool make_view_planes(int VW, int VH, WarpedView* out) {
+  const void* before[4] = {out->color.data, out->depth.data, out->label.data, out->weight.data};
+  out->color.create(VH, VW, CV_8UC3);
+  out->depth.create(VH, VW, CV_16UC1);
+  out->label.create(VH, VW, CV_8UC1);
+  out->weight.create(VH, VW, CV_8UC1);
+  return before[0] != out->color.data || before[1] != out->depth.data || before[2] != out->label.data ||
+         before[3] != out->weight.data;
+}
+
+}  // namespace
+
+void ViewWarper::warp_nothing(const CameraCalib& virt, WarpedView* out) {
+  const bool fresh = make_view_planes(virt.width, virt.height, out);
+  zero_last_tiles(fresh, virt.width, virt.height, out);
+  const std::vector<uint8_t> none(size_t((virt.width + SampleTiles::kPx - 1) / SampleTiles::kPx), 0);
+  out->tiles.set_marked(none.data(), 0, virt.width, virt.height);
+}
+
 // unpack_view for a sparse layer whose records lie in the marked tiles: the planes zeroed where the last tiles
 // were (everywhere for fresh planes), the records read and emptied in the new tiles only, the cracks looked
 // for there only (a crack lies between two pixels with depth, one of them in its own tile).
 void ViewWarper::unpack_tiles(const Frame& f, const WarpParams& prm, bool fresh, WarpedView* out) {
   const int VW = f.VW, VH = f.VH;
   SampleTiles& tiles = out->tiles;
-  if (fresh || tiles.anywhere() || !tiles.fit(VW, VH)) {
-    // Zeros by memset (cv::Mat::setTo copies a pattern block by block: a third slower).
-    out->color = cv::Scalar::all(0), out->depth = cv::Scalar::all(0), out->label = cv::Scalar::all(0);
-    out->weight = cv::Scalar::all(0);
-  } else {
-    for_each_tile_span(tiles, VH, [&](int y, int x0, int x1) {
-      std::memset(out->color.ptr<uint8_t>(y) + 3 * x0, 0, size_t(x1 - x0) * 3);
-      std::memset(out->depth.ptr<uint16_t>(y) + x0, 0, size_t(x1 - x0) * 2);
-      std::memset(out->label.ptr<uint8_t>(y) + x0, 0, size_t(x1 - x0));
-      std::memset(out->weight.ptr<uint8_t>(y) + x0, 0, size_t(x1 - x0));
-    });
-  }
+  zero_last_tiles(fresh, VW, VH, out);
   tiles.set_marked(tile_marks_.data(), size_t(tile_cols_), VW, VH);
   for_each_tile_span(tiles, VH, [&](int y, int x0, int x1) {
     const int n = x1 - x0;
@@ -1855,13 +1884,7 @@ void ViewWarper::unpack_tiles(const Frame& f, const WarpParams& prm, bool fresh,
 // The z-buffer into the view's planes, and the cracks closed.
 void ViewWarper::unpack_view(const Frame& f, const WarpParams& prm, WarpedView* out) {
   const int VW = f.VW, VH = f.VH;
-  const void* before[4] = {out->color.data, out->depth.data, out->label.data, out->weight.data};
-  out->color.create(VH, VW, CV_8UC3);
-  out->depth.create(VH, VW, CV_16UC1);
-  out->label.create(VH, VW, CV_8UC1);
-  out->weight.create(VH, VW, CV_8UC1);
-  const bool fresh = before[0] != out->color.data || before[1] != out->depth.data || before[2] != out->label.data ||
-                     before[3] != out->weight.data;
+  const bool fresh = make_view_planes(VW, VH, out);
   // In bands of rows where the planes have no row padding (a vector loop
   // per row would spend a good part of its time in the row's remainder);
   // each band's records emptied for the next frame while they are in cache.

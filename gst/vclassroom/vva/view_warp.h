@@ -152,6 +152,11 @@ class ViewWarper {
   void prepare(const CameraCalib& source, const WarpSource& in, const WarpParams& params, PreparedSource* out);
   void warp_prepared(const CameraCalib& source, const WarpSource& in, const PreparedSource& prepared,
                      const CameraCalib& virt, const WarpParams& params, WarpedView* out);
+  // A learners' view of `virt` with nothing drawn, as a learners-only warp that found no learner makes it (a
+  // camera that leaves its learners to cameras nearer the view: learners_left_to_nearer in room_view.h): the
+  // planes of the view's size, zero (where the last tiles were, when they are the last warp's planes), and
+  // tiles that mark nothing.
+  void warp_nothing(const CameraCalib& virt, WarpedView* out);
   // The share of the source's pixels the last warp set up (WarpParams::cull_outside_view: those whose
   // columns can land in the view; 1 without it, and for a learners-only warp, drawn over its spans).
   double warped_share() const { return warped_share_; }
