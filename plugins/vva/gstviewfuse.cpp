@@ -19,7 +19,9 @@
  * learners (and what the room's mesh does not draw) and passes its frame's room along with the picture, and
  * this element rasterises every such camera's mesh of its static depth at the view and looks its colour up in
  * the cameras, the learners fused over it (docs/vva.md, "How a view is made"). Cameras without `prior-depth`
- * are warped whole, as with `room-view=false`.
+ * are warped whole, as with `room-view=false`. A camera far from the view leaves its learners to the nearer
+ * ones; a round that lacks one of those (a dropped frame, a lost camera) is not shown, and the next ones are
+ * warped without it.
  *
  * ## Example launch line
  * |[

@@ -23,7 +23,9 @@
  *
  * With `prior-depth`, feeding a viewfuse whose `room-view` is on (the default), the warp draws only the
  * learners and what the room's mesh does not draw, and each buffer carries the camera's room (a
- * RoomViewPart meta) for viewfuse to draw at the view (docs/vva.md, "How a view is made").
+ * RoomViewPart meta) for viewfuse to draw at the view (docs/vva.md, "How a view is made"). A camera far from
+ * the view among the room's cameras (viewfuse names them in its answer to the warp-start query) leaves its
+ * learners to the nearer ones: its learners' view is then empty.
  *
  * ## Example launch line
  * |[
@@ -277,6 +279,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
       st->warper.warp_prepared(in_info.camera, src, prepared->source, virt, params, &st->warped);
     else
       st->warper.warp_nothing(virt, &st->warped);
+    if (!left_to.empty()) GST_LOG_OBJECT(self, "far from the view: its learners left to %zu nearer camera(s)", left_to.size());
     if (params.learners_only) {
       auto part = std::make_shared<RoomViewPart>();
       part->learners_left_to = left_to;
