@@ -471,6 +471,36 @@ TEST(RoomView, AFarCameraLeavesItsLearnersToTheNearerOnesAndItsEmptyViewChangesN
   EXPECT_EQ(cv::norm(alone.color, with_empty.color, cv::NORM_INF), 0.0);
 }
 
+// A fuse's rounds: a camera is told to the warps once its room has been in kSteadyRounds rounds in a row, and
+// a round has its learners when every camera a frame left them to drew its own in it: not when that camera is
+// missing, left its own learners too (two warps that read different poses), or shares its id with another
+// camera. A frame warped whole drew its learners but has no room to be told.
+TEST(RoomView, ACameraIsToldOnceSteadyAndARoundHasItsLearnersWhenTheCamerasLeftThemToDrewThem) {
+  const RoomCameraPlace c0{0, Eigen::Vector3d(0, 0, 0)}, c1{1, Eigen::Vector3d(-0.8, 0, 0)};
+  const RoundFrame drew0{c0, true, {}}, drew1{c1, true, {}}, left1_to0{c1, true, {0}}, left0_to1{c0, true, {1}};
+  auto ids = [](const LearnerRounds& r) {
+    std::vector<int> out;
+    for (const RoomCameraPlace& c : r.steady()) out.push_back(c.id);
+    return out;
+  };
+  LearnerRounds rounds;
+  EXPECT_TRUE(rounds.take({drew0, drew1}));
+  EXPECT_TRUE(rounds.take({drew0, drew1}));
+  EXPECT_TRUE(ids(rounds).empty()) << "two rounds: not steady yet";
+  EXPECT_TRUE(rounds.take({drew0, left1_to0}));
+  EXPECT_EQ(ids(rounds), (std::vector<int>{0, 1}));
+  EXPECT_EQ(rounds.steady()[1].centre, c1.centre);
+  EXPECT_FALSE(rounds.take({left1_to0})) << "camera 0 missing";
+  EXPECT_EQ(ids(rounds), (std::vector<int>{1})) << "camera 0 steady again only after three rounds";
+  EXPECT_FALSE(rounds.take({left0_to1, left1_to0})) << "each left its learners to the other";
+  EXPECT_TRUE(rounds.take({RoundFrame{c0, false, {}}, left1_to0})) << "camera 0 warped whole drew them";
+  EXPECT_EQ(ids(rounds), (std::vector<int>{1})) << "a camera warped whole has no room to be told";
+  EXPECT_FALSE(rounds.take({drew0, RoundFrame{RoomCameraPlace{0, c1.centre}, true, {0}}})) << "ids repeat";
+  EXPECT_TRUE(rounds.take({drew0, drew0})) << "ids repeat, but nobody left learners";
+  rounds.clear();
+  EXPECT_TRUE(rounds.steady().empty());
+}
+
 namespace {
 
 // Camera k of the classroom at 320x180 with its room packed as viewprep packs it (static depth: the empty

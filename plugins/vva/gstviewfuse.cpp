@@ -20,8 +20,8 @@
  * this element rasterises every such camera's mesh of its static depth at the view and looks its colour up in
  * the cameras, the learners fused over it (docs/vva.md, "How a view is made"). Cameras without `prior-depth`
  * are warped whole, as with `room-view=false`. A camera far from the view leaves its learners to the nearer
- * ones; a round that lacks one of those (a dropped frame, a lost camera) is not shown, and the next ones are
- * warped without it.
+ * ones that have been in the last rounds; a round in which one of those did not draw them (a dropped frame, a
+ * lost camera) is not shown, and the next ones are warped without it until it is back for three rounds.
  *
  * ## Example launch line
  * |[
@@ -75,10 +75,6 @@ static gboolean gst_view_fuse_sink_query(GstAggregator* agg, GstAggregatorPad* p
   if (s && gst_structure_has_name(s, kWarpStartQueryName)) {
     gst_structure_set(gst_query_writable_structure(query), "room-view", G_TYPE_BOOLEAN, gboolean(st->room_view.load()),
                       nullptr);
-    {
-      std::lock_guard<std::mutex> g(st->lock);
-      warp_start_set_room_cameras(gst_query_writable_structure(query), st->room_cameras);
-    }
     guint64 frame = GST_CLOCK_TIME_NONE;
     gst_structure_get_uint64(s, "running-time", &frame);
     if (st->live) {
@@ -87,6 +83,9 @@ static gboolean gst_view_fuse_sink_query(GstAggregator* agg, GstAggregatorPad* p
       // The cameras that go together share it (whepviewsink's views take turns by these rounds).
       gst_structure_set(gst_query_writable_structure(query), "group", G_TYPE_UINT64, guint64(group), nullptr);
     }
+    // After the wait: the cameras of the rounds fused until now.
+    std::lock_guard<std::mutex> g(st->lock);
+    warp_start_set_room_cameras(gst_query_writable_structure(query), st->room_cameras);
     return TRUE;
   }
   return GST_AGGREGATOR_CLASS(gst_view_fuse_parent_class)->sink_query(agg, pad, query);
@@ -269,7 +268,9 @@ static gboolean gst_view_fuse_start(GstAggregator* agg) {
     st->pad_info.clear();
     st->inputs.clear();
     st->steering_session.reset();
+    st->room_cameras.clear();
   }
+  st->learner_rounds.clear();
   st->warp_start.resume();
   st->trace.clear();
   st->trace_next = 0;

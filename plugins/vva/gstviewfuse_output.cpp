@@ -110,24 +110,16 @@ bool draw_room(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomVi
   return true;
 }
 
-// Tells the next warps which cameras this round's room has (ViewFuseState::room_cameras), and whether every
-// camera a far one left its learners to is in the round: where one is missing (a dropped frame, a camera
-// lost), nobody drew those learners, and the round is not shown (the last picture stays); the next warps,
-// told the cameras without it, draw them again.
-static bool learners_complete(GstViewFuse* self, const std::vector<std::shared_ptr<const RoomViewPart>>& parts) {
+// Takes the round into ViewFuseState::learner_rounds: the cameras the next warps are told, and whether every
+// camera a far one left its learners to drew its own in this round. Where one did not (its frame dropped or
+// late, the camera lost, or its warp read another pose and left its learners too), nobody drew those
+// learners: the round is not shown (the last picture stays), and the next warps, not told that camera until
+// it is steady again, draw their own.
+static bool learners_complete(GstViewFuse* self, const std::vector<RoundFrame>& round) {
   ViewFuseState* st = self->st;
-  std::vector<RoomCameraPlace> cameras;
-  for (const auto& p : parts)
-    if (p) cameras.push_back(RoomCameraPlace{p->frame->room_shape->camera().id,
-                                             p->frame->room_shape->camera().center_in_rig()});
-  auto present = [&](int id) {
-    return std::any_of(cameras.begin(), cameras.end(), [&](const RoomCameraPlace& c) { return c.id == id; });
-  };
-  bool complete = true;
-  for (const auto& p : parts)
-    if (p) complete = complete && std::all_of(p->learners_left_to.begin(), p->learners_left_to.end(), present);
+  const bool complete = st->learner_rounds.take(round);
   std::lock_guard<std::mutex> g(st->lock);
-  st->room_cameras = std::move(cameras);
+  st->room_cameras = st->learner_rounds.steady();
   if (!complete) {
     ++st->rounds_without_learners;
     GST_DEBUG_OBJECT(self, "a round without a camera others left their learners to: not shown (%" G_GUINT64_FORMAT
@@ -148,6 +140,7 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
   std::vector<FrameStamp> stamps;
   std::vector<size_t> fused;  // the index of each of them among the pads
   std::vector<std::shared_ptr<const RoomViewPart>> room_parts;  // per fused frame: its room to draw here, or null
+  std::vector<RoundFrame> round_frames;                          // per fused frame: who drew its learners
   for (size_t i = 0; i < pads.size(); ++i) {
     if (round.verdicts[i] != FrameVerdict::kFuse) continue;
     auto f = std::make_unique<RgbdFrame>();
@@ -161,13 +154,19 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
     }
     views[i] = WarpedView{f->color(), f->depth(), f->label(), f->plane(Plane::Weight), SampleTiles()};
     room_parts.push_back(buffer_get_room_view_part(bufs[i]));
-    if (room_parts.back()) views[i].tiles = room_parts.back()->tiles;
+    // The caps name the source camera's id but the view's geometry: the camera's own is its room's.
+    round_frames.push_back(RoundFrame{RoomCameraPlace{infos[i].camera.id, Eigen::Vector3d::Zero()}, false, {}});
+    if (const auto& part = room_parts.back()) {
+      views[i].tiles = part->tiles;
+      const CameraCalib& source = part->frame->room_shape->camera();
+      round_frames.back() = RoundFrame{RoomCameraPlace{source.id, source.center_in_rig()}, true, part->learners_left_to};
+    }
     ptrs.push_back(&views[i]);
     frames.push_back(std::move(f));
     stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
     fused.push_back(i);
   }
-  if (ptrs.empty() || !st->have_out || !learners_complete(self, room_parts)) {
+  if (ptrs.empty() || !st->have_out || !learners_complete(self, round_frames)) {
     drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
     return GST_FLOW_OK;
   }

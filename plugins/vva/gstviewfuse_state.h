@@ -37,7 +37,7 @@ constexpr GstClockTime kIdleWake = 100 * GST_MSECOND;
 constexpr bool kRoomViewByDefault = true;
 
 struct ViewFuseState {
-  std::mutex lock;  // guards the properties, pad_info and inputs
+  std::mutex lock;  // guards the properties, pad_info, inputs, room_cameras and rounds_without_learners
   std::string trace_path;
   std::string rig_path;
   NavigationClamp bounds;  // every pose sent upstream stays inside the rig's navigation bounds
@@ -47,10 +47,10 @@ struct ViewFuseState {
   FuseParams params;
   // The room drawn here (room_view.h), the viewwarps asked to warp only the learners (their warp-start query).
   std::atomic<bool> room_view{kRoomViewByDefault};
-  // The cameras whose room the last round drew (told to the viewwarps in the warp-start answer, so that a
-  // camera far from the view leaves its learners to the nearer ones: learners_left_to_nearer).
+  // The cameras a far camera may leave its learners to (LearnerRounds::steady of the rounds so far), told to
+  // the viewwarps in the warp-start answer; the rounds not shown because one of them had not drawn them.
   std::vector<RoomCameraPlace> room_cameras;
-  guint64 rounds_without_learners = 0;  // rounds not shown: a camera that took others' learners was missing
+  guint64 rounds_without_learners = 0;
   std::map<InputKey, RgbdInfo> pad_info;  // each pad's caps, to map its frames
   // Which pads are left out, lost, stale (the decisions of each round).
   FuseInputs inputs;
@@ -68,6 +68,7 @@ struct ViewFuseState {
   bool have_out = false;
   FusedView fused;
   RoomViewRenderer room_renderer;
+  LearnerRounds learner_rounds;  // which cameras took others' learners, round by round
   WarpedView room;  // the room's view of the last round
   // The fill of the last picture, kept while the pose it was rendered for stays (same_rendered_view).
   HoleFillHistory fill_history;

@@ -275,11 +275,12 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     st->warped.tiles = SampleTiles();  // a new buffer: the learners' view clears it all, not only its last tiles
     const std::vector<int> left_to =
         params.learners_only ? nearer_cameras(in_info.camera, room_cameras, virt) : std::vector<int>();
-    if (left_to.empty())
+    if (left_to.empty()) {
       st->warper.warp_prepared(in_info.camera, src, prepared->source, virt, params, &st->warped);
-    else
+    } else {
+      GST_LOG_OBJECT(self, "far from the view: its learners left to %zu nearer camera(s)", left_to.size());
       st->warper.warp_nothing(virt, &st->warped);
-    if (!left_to.empty()) GST_LOG_OBJECT(self, "far from the view: its learners left to %zu nearer camera(s)", left_to.size());
+    }
     if (params.learners_only) {
       auto part = std::make_shared<RoomViewPart>();
       part->learners_left_to = left_to;

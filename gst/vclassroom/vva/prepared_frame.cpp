@@ -238,9 +238,10 @@ std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf) {
 
 void warp_start_set_room_cameras(GstStructure* s, const std::vector<RoomCameraPlace>& cameras) {
   GValue array = G_VALUE_INIT, v = G_VALUE_INIT;
-  gst_value_array_init(&array, guint(4 * cameras.size()));
+  const bool fits = cameras.size() <= kMaxRoomCameras;  // else none: every warp then draws its own learners
+  gst_value_array_init(&array, fits ? guint(4 * cameras.size()) : 0);
   g_value_init(&v, G_TYPE_DOUBLE);
-  for (const RoomCameraPlace& c : cameras)
+  for (const RoomCameraPlace& c : fits ? cameras : std::vector<RoomCameraPlace>())
     for (double x : {double(c.id), c.centre.x(), c.centre.y(), c.centre.z()}) {
       g_value_set_double(&v, x);
       gst_value_array_append_value(&array, &v);

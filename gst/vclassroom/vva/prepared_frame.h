@@ -116,17 +116,13 @@ struct RoomViewPart {
 void buffer_add_room_view_part(GstBuffer* buf, std::shared_ptr<const RoomViewPart> part);
 std::shared_ptr<const RoomViewPart> buffer_get_room_view_part(GstBuffer* buf);
 
-// A camera of a view's room as viewfuse tells its viewwarps (the "room-cameras" field of its answer to their
-// warp-start query, warp_start.h): its id and centre (rig frame, metres), so that each warp knows before it
-// warps whether a nearer camera takes its learners.
-struct RoomCameraPlace {
-  int id = 0;
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-};
+// The cameras a view's warps may leave their learners to (LearnerRounds::steady, room_view.h) as viewfuse
+// tells its viewwarps: the "room-cameras" field of its answer to their warp-start query (warp_start.h), so that
+// each warp knows before it warps whether a nearer camera takes its learners.
 inline constexpr const char* kRoomCamerasField = "room-cameras";
-// At most this many cameras are read from the field; more, and it gives none.
+// At most this many cameras go in the field and are read from it; more, and it holds (and gives) none.
 inline constexpr size_t kMaxRoomCameras = 64;
-// Sets the field: four doubles a camera (id, x, y, z) in a GstValueArray.
+// Sets the field: four doubles a camera (id, x, y, z) in a GstValueArray (empty for more than kMaxRoomCameras).
 void warp_start_set_room_cameras(GstStructure* s, const std::vector<RoomCameraPlace>& cameras);
 // The field as set; none where it is absent or malformed (not doubles in fours, an id that is not a whole
 // number of int's range, a centre that is not finite, more than kMaxRoomCameras cameras).

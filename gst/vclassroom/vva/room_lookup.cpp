@@ -63,10 +63,14 @@ void pack_room_records(const CameraCalib& camera, const uint16_t* depth, const u
   }
 }
 
-float room_place_weight(const CameraCalib& camera, const CameraCalib& view, double sigma_m) {
+float room_place_weight(const Eigen::Vector3d& camera_centre, const Eigen::Vector3d& view_centre, double sigma_m) {
   const double sigma2 = sigma_m * sigma_m;
   if (sigma2 <= 0) return 1.0f;
-  return float(sigma2 / ((camera.center_in_rig() - view.center_in_rig()).squaredNorm() + sigma2));
+  return float(sigma2 / ((camera_centre - view_centre).squaredNorm() + sigma2));
+}
+
+float room_place_weight(const CameraCalib& camera, const CameraCalib& view, double sigma_m) {
+  return room_place_weight(camera.center_in_rig(), view.center_in_rig(), sigma_m);
 }
 
 namespace room_lookup_detail {

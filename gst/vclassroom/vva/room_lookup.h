@@ -66,6 +66,7 @@ void room_lookup(const std::vector<const RoomTexture*>& cameras, const CameraCal
 
 // A camera's weight for where the view stands: sigma^2 / (d^2 + sigma^2), d the distance between their
 // centres (metres); 1 with sigma 0.
+float room_place_weight(const Eigen::Vector3d& camera_centre, const Eigen::Vector3d& view_centre, double sigma_m);
 float room_place_weight(const CameraCalib& camera, const CameraCalib& view, double sigma_m);
 // A camera under this share of the nearest camera's place weight is far: looked at only where no nearer camera
 // sees the point strictly, and its mesh drawn only where the near ones leave a hole (room_view.h).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <set>
 
 #include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/simd.h>
@@ -166,11 +167,39 @@ std::shared_ptr<const RoomMesh> RoomShape::unseen_by(const std::vector<const Roo
 
 bool learners_left_to_nearer(const Eigen::Vector3d& camera, const std::vector<Eigen::Vector3d>& cameras,
                              const Eigen::Vector3d& view) {
-  const double sigma2 = RoomLookupParams().place_sigma_m * RoomLookupParams().place_sigma_m;
-  auto place = [&](const Eigen::Vector3d& c) { return float(sigma2 / ((c - view).squaredNorm() + sigma2)); };
-  float nearest = place(camera);
-  for (const Eigen::Vector3d& c : cameras) nearest = std::max(nearest, place(c));
-  return room_camera_is_far(place(camera), nearest);
+  const double sigma = RoomLookupParams().place_sigma_m;
+  float nearest = room_place_weight(camera, view, sigma);
+  for (const Eigen::Vector3d& c : cameras) nearest = std::max(nearest, room_place_weight(c, view, sigma));
+  return room_camera_is_far(room_place_weight(camera, view, sigma), nearest);
+}
+
+bool LearnerRounds::take(const std::vector<RoundFrame>& round) {
+  std::set<int> ids, drew;
+  bool repeated = false, left = false;
+  for (const RoundFrame& f : round) {
+    repeated = !ids.insert(f.camera.id).second || repeated;
+    left = left || !f.learners_left_to.empty();
+    if (f.learners_left_to.empty()) drew.insert(f.camera.id);
+  }
+  bool complete = !(repeated && left);
+  for (const RoundFrame& f : round)
+    for (int id : f.learners_left_to) complete = complete && drew.count(id) > 0;
+  std::map<int, int> streak;
+  steady_.clear();
+  for (const RoundFrame& f : round) {
+    if (!f.room || streak.count(f.camera.id)) continue;
+    const auto before = streak_.find(f.camera.id);
+    const int n = std::min(kSteadyRounds, (before == streak_.end() ? 0 : before->second) + 1);
+    streak[f.camera.id] = n;
+    if (n >= kSteadyRounds) steady_.push_back(f.camera);
+  }
+  streak_.swap(streak);
+  return complete;
+}
+
+void LearnerRounds::clear() {
+  streak_.clear();
+  steady_.clear();
 }
 
 void RoomViewRenderer::render(const std::vector<RoomCamera>& cameras, const CameraCalib& view,

@@ -63,13 +63,50 @@ RoomLookupParams room_lookup_params(const FuseParams& fuse);
 
 // Whether a camera's learners go forward from cameras nearer the view instead (docs/vva.md, "How a view is
 // made", step 3): the camera at `camera` (its centre in the rig frame) is far from the view at `view` among the
-// view's cameras at `cameras` (itself among them or not), as the room's lookup calls a camera far
-// (room_camera_is_far, its place weight's sigma RoomLookupParams' default). Near a camera its own picture of a
-// learner is the view's, and a farther camera's, a pixel off at the view, only blurs it (vclassroom-eval-views
-// --room-view, 2026-11-28: near camera 0 from all three cameras 29.317 dB against 26.782, at the sources' own
-// places 45.061 against 35.125, Table I and the novel poses the same to three decimals).
+// view's cameras at `cameras` (itself among them or not) by the room's threshold (room_camera_is_far) on the
+// place weight with sigma 0.2 m (RoomLookupParams' default), with or without the background memory: the room's
+// lookup weighs the place only with the memory, whose averaged colour needs no other camera to average its
+// noise, but a far camera's learners, a pixel off at the view, blur the near camera's and flicker with its
+// noise either way (vclassroom-eval-views --room-view, 2026-11-28: near camera 0 from all three cameras
+// 29.317 dB against 26.782, at the sources' own places 45.061 against 35.125, Table I and the novel poses the
+// same to three decimals; vclassroom-measure-flicker 0.5313 / 1.3912 with memory 8 / 0 against 0.7126 /
+// 1.5640).
 bool learners_left_to_nearer(const Eigen::Vector3d& camera, const std::vector<Eigen::Vector3d>& cameras,
                              const Eigen::Vector3d& view);
+
+// A camera of a view's room as a fuse tells its warps: its id and centre (rig frame, metres).
+struct RoomCameraPlace {
+  int id = 0;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+};
+
+// One frame of a fused round, for LearnerRounds: its camera, whether it carries the camera's room (its warp drew
+// only the learners), and the cameras it left its learners to (none: it drew them, or was warped whole).
+struct RoundFrame {
+  RoomCameraPlace camera;
+  bool room = false;
+  std::vector<int> learners_left_to;
+};
+
+// Which cameras a fuse tells its warps they may leave their learners to, from the rounds it fused, and
+// whether a round has every learner drawn (docs/vva.md, "How a view is made", step 3). A camera is told
+// only once its room has been in each of the last kSteadyRounds rounds: a camera that skips rounds (a
+// slower one, one that drops frames) would lose the others' learners with every round it misses. Not
+// thread-safe (the fuse's thread takes the rounds; the caller copies steady() under its own lock).
+class LearnerRounds {
+ public:
+  static constexpr int kSteadyRounds = 3;
+  // Takes a round: true when every camera a frame left its learners to drew its own in the round (a frame
+  // of it without learners_left_to). Where cameras share an id, true only when no frame left its learners.
+  bool take(const std::vector<RoundFrame>& round);
+  // The cameras whose room was in each of the last kSteadyRounds rounds.
+  const std::vector<RoomCameraPlace>& steady() const { return steady_; }
+  void clear();
+
+ private:
+  std::map<int, int> streak_;  // rounds in a row with the camera's room in them
+  std::vector<RoomCameraPlace> steady_;
+};
 
 // Renders the room at a view; keeps its buffers between views.
 class RoomViewRenderer {

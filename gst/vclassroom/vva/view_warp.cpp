@@ -1855,6 +1855,7 @@ bool make_view_planes(int VW, int VH, WarpedView* out) {
 }  // namespace
 
 void ViewWarper::warp_nothing(const CameraCalib& virt, WarpedView* out) {
+  warped_share_ = 0;
   const bool fresh = make_view_planes(virt.width, virt.height, out);
   zero_last_tiles(fresh, virt.width, virt.height, out);
   const std::vector<uint8_t> none(size_t((virt.width + SampleTiles::kPx - 1) / SampleTiles::kPx), 0);
