@@ -437,6 +437,12 @@ TEST(RoomView, AFarCameraLeavesItsLearnersToTheNearerOnesAndItsEmptyViewChangesN
   EXPECT_TRUE(learners_left_to_nearer(centres[2], centres, between01));
   EXPECT_FALSE(learners_left_to_nearer(centres[1], {centres[1], centres[2]}, at0)) << "camera 0 lost";
   EXPECT_FALSE(learners_left_to_nearer(centres[2], {centres[1], centres[2]}, at0)) << "camera 0 lost";
+  // As a warp asks it: the ids of the near cameras a far one leaves its learners to, none for a near one.
+  const std::vector<RoomCameraPlace> named{{0, centres[0]}, {1, centres[1]}, {2, centres[2]}};
+  const CameraCalib view_at0 = rig.camera(0);
+  EXPECT_EQ(cameras_taking_learners(rig.camera(1), named, view_at0), std::vector<int>{0});
+  EXPECT_TRUE(cameras_taking_learners(rig.camera(0), named, view_at0).empty());
+  EXPECT_TRUE(cameras_taking_learners(rig.camera(1), {named[1], named[2]}, view_at0).empty()) << "camera 0 lost";
 
   const Classroom room(ClassroomConfig{2, 5, 2.0}), empty(ClassroomConfig{2, 0, 2.0});
   const CameraCalib cam = scale_camera(rig.camera(1), 320, 180);

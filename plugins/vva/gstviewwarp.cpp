@@ -212,19 +212,6 @@ static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf, bool* room_view,
   return view_warp_frame_pose(self->st, running_time);
 }
 
-// The cameras of the view's room (as viewfuse last told them) this camera leaves its learners to, when it is
-// far from the view among them (learners_left_to_nearer): the near ones. None: it warps its learners itself.
-static std::vector<int> nearer_cameras(const CameraCalib& camera, const std::vector<RoomCameraPlace>& cameras,
-                                       const CameraCalib& view) {
-  std::vector<Eigen::Vector3d> centres;
-  for (const RoomCameraPlace& c : cameras) centres.push_back(c.centre);
-  std::vector<int> nearer;
-  if (!learners_left_to_nearer(camera.center_in_rig(), centres, view.center_in_rig())) return nearer;
-  for (const RoomCameraPlace& c : cameras)
-    if (c.id != camera.id && !learners_left_to_nearer(c.centre, centres, view.center_in_rig())) nearer.push_back(c.id);
-  return nearer;
-}
-
 static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer* inbuf, GstBuffer* outbuf) {
   GstViewWarp* self = GST_VIEW_WARP(trans);
   GstRgbdFilter* filter = GST_RGBD_FILTER(trans);
@@ -274,7 +261,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     st->warped.weight = out.plane(Plane::Weight);
     st->warped.tiles = SampleTiles();  // a new buffer: the learners' view clears it all, not only its last tiles
     const std::vector<int> left_to =
-        params.learners_only ? nearer_cameras(in_info.camera, room_cameras, virt) : std::vector<int>();
+        params.learners_only ? cameras_taking_learners(in_info.camera, room_cameras, virt) : std::vector<int>();
     if (left_to.empty()) {
       st->warper.warp_prepared(in_info.camera, src, prepared->source, virt, params, &st->warped);
     } else {

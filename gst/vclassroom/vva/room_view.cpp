@@ -173,6 +173,17 @@ bool learners_left_to_nearer(const Eigen::Vector3d& camera, const std::vector<Ei
   return room_camera_is_far(room_place_weight(camera, view, sigma), nearest);
 }
 
+std::vector<int> cameras_taking_learners(const CameraCalib& camera, const std::vector<RoomCameraPlace>& cameras,
+                                         const CameraCalib& view) {
+  std::vector<Eigen::Vector3d> centres;
+  for (const RoomCameraPlace& c : cameras) centres.push_back(c.centre);
+  std::vector<int> near;
+  if (!learners_left_to_nearer(camera.center_in_rig(), centres, view.center_in_rig())) return near;
+  for (const RoomCameraPlace& c : cameras)
+    if (c.id != camera.id && !learners_left_to_nearer(c.centre, centres, view.center_in_rig())) near.push_back(c.id);
+  return near;
+}
+
 bool LearnerRounds::take(const std::vector<RoundFrame>& round) {
   std::set<int> ids, drew;
   bool repeated = false, left = false;

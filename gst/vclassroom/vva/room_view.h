@@ -80,6 +80,12 @@ struct RoomCameraPlace {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
 };
 
+// The cameras among `cameras` (as a fuse names them: LearnerRounds::steady) that `camera` leaves its learners
+// to at `view`: when it is far from the view among them (learners_left_to_nearer), the ids of those that are
+// not, itself left out; none when it draws its learners itself.
+std::vector<int> cameras_taking_learners(const CameraCalib& camera, const std::vector<RoomCameraPlace>& cameras,
+                                         const CameraCalib& view);
+
 // One frame of a fused round, for LearnerRounds: its camera, whether it carries the camera's room (its warp drew
 // only the learners), and the cameras it left its learners to (none: it drew them, or was warped whole).
 struct RoundFrame {
