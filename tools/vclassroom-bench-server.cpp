@@ -357,7 +357,7 @@ void time_fill(std::vector<Camera>& cams, const std::function<CameraCalib(int)>&
 int main(int argc, char** argv) {
   int frames = 60, threads = 2, memory = -1, views = 0;  // memory -1: not given
   double yaw = 0, pitch = 0;
-  gboolean room_view = FALSE;
+  gboolean room_view = FALSE, without_camera_0 = FALSE;
   gboolean no_edge_to_near = FALSE, no_model = FALSE, fill_only = FALSE, no_view_cull = FALSE;
   const GOptionEntry entries[] = {
       {"frames", 0, 0, G_OPTION_ARG_INT, &frames, "frames timed (default 60)", "N"},
@@ -389,6 +389,10 @@ int main(int argc, char** argv) {
       {"room-view", 0, 0, G_OPTION_ARG_NONE, &room_view,
        "with --views: the views as viewfuse room-view=true makes them (the room rasterised from meshes and looked "
        "up, the learners and the room's pixels beside them warped alone), timed by part",
+       nullptr},
+      {"without-camera-0", 0, 0, G_OPTION_ARG_NONE, &without_camera_0,
+       "with --views: the views drawn from cameras 1 and 2 alone, as Table I's (no camera at the walk, and none "
+       "of the two far from it: each warps its learners)",
        nullptr},
       {"fill-only", 0, 0, G_OPTION_ARG_NONE, &fill_only,
        "only time the hole filling of viewfuse, its two methods (fill-method pyramid and rays) alternating on the "
@@ -437,7 +441,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   if (views > 0) {
-    std::vector<Camera> cams = make_cams({0, 1, 2});
+    std::vector<Camera> cams = make_cams(without_camera_0 ? std::vector<int>{1, 2} : std::vector<int>{0, 1, 2});
     // View v: the walk above, its start moved v slider steps right and up, so no two views share a pose.
     const double turn = yaw / kSliderDegrees;
     const std::function<CameraCalib(int, int)> view_at = [&ref, turn, look_up](int f, int v) {
