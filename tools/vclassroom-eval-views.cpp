@@ -346,6 +346,7 @@ struct RoomViewPath {
   std::vector<ViewWarper> warpers = std::vector<ViewWarper>(3);
   RoomViewRenderer renderer;
   Stats psnr, ssim, npsnr, nssim;
+  Stats unseen;  // Table I on the pixels no source sees (the full system's mask)
   std::vector<HoleFillHistory> histories;
   HoleScore holes;  // Table I: what the fill made
   double filled_share = 0;
@@ -556,6 +557,7 @@ void eval_classroom(const Options& opt) {
           synthesize_room_view(p, sources, in, src_priors, src_labels, room_layers, target, wp, fp, &room_fused,
                                &p.histories[0]);
           p.psnr.add(psnr_rgb(room_fused.color, imgs[0].color));
+          if (cv::countNonZero(unseen) > 0) p.unseen.add(psnr_rgb_masked(room_fused.color, imgs[0].color, unseen));
           p.holes.add(room_fused.color, imgs[0].color, room_fused.filled,
                       cv::Rect(0, 0, room_fused.color.cols, room_fused.color.rows));
           p.ssim.add(ssim_luma(room_fused.color, imgs[0].color));
@@ -641,12 +643,13 @@ void eval_classroom(const Options& opt) {
     const RoomViewPath& p = room_view;
     std::printf("%-52s | Table I PSNR %.3f (full system %.3f) SSIMx100 %.2f (%.2f) | novel poses PSNR %.3f (%.3f) "
                 "SSIMx100 %.2f (%.2f) | at the sources' places PSNR %.3f (%.3f) | near camera 0 from all three "
-                "PSNR %.3f (%.3f) | filled %.1f %% of the pixels; Table I %s\n",
+                "PSNR %.3f (%.3f) | filled %.1f %% of the pixels; Table I %s; Table I on the pixels no source sees "
+                "PSNR %.2f dB (full system %.2f)\n",
                 "room view (viewfuse room-view=true)", p.psnr.avg(), psnr[0].avg(), 100 * p.ssim.avg(),
                 100 * ssim[0].avg(), p.npsnr.avg(), npsnr[0].avg(), 100 * p.nssim.avg(), 100 * nssim[0].avg(),
                 own_room_psnr.avg(), own_psnr.avg(), near_room_psnr.avg(), near_psnr.avg(),
                 100 * p.filled_share / std::max(1L, p.views),
-                p.holes.line().c_str());
+                p.holes.line().c_str(), p.unseen.avg(), hole_psnr.avg());
   }
   std::printf("learnerseg against the ground-truth labels (IoU avg/min over frames):\n");
   for (int i = 0; i < 3; ++i)
