@@ -45,7 +45,6 @@
 #include <gst/vclassroom/core/pose_event.h>
 #include <gst/vclassroom/core/pose_meta.h>
 #include <gst/vclassroom/vva/room_view.h>
-#include <gst/vclassroom/vva/warp_start.h>
 #include <gst/vclassroom/vva/virtual_view.h>
 
 #include "gstviewwarp_state.h"
@@ -189,29 +188,6 @@ static std::shared_ptr<const PreparedFrame> prepared_frame(GstViewWarp* self, Gs
   return st->preparer.prepare(info.camera, in.color(), in.depth(), in.label(), params);
 }
 
-// The pose the frame shows: asked for at the last moment, after the pose-independent work, so that this work
-// is not part of the pose's latency. `room_view`: whether the viewfuse downstream draws the room itself
-// (its room-view), so that this element warps only the learners; `room_cameras`: the cameras of its room.
-static Pose frame_pose(GstViewWarp* self, GstBuffer* inbuf, bool* room_view,
-                       std::vector<RoomCameraPlace>* room_cameras) {
-  GstBaseTransform* trans = GST_BASE_TRANSFORM(self);
-  const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
-                                       ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
-                                       : GST_CLOCK_TIME_NONE;
-  // Live, viewfuse holds this until the view's other cameras have a frame to warp too (its warp-sync), so
-  // that all read the same newest pose below.
-  GstQuery* warp_start = gst_query_new_custom(
-      GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
-  gboolean fuse_draws_room = FALSE;
-  if (gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start)) {
-    gst_structure_get_boolean(gst_query_get_structure(warp_start), "room-view", &fuse_draws_room);
-    *room_cameras = warp_start_room_cameras(gst_query_get_structure(warp_start));
-  }
-  gst_query_unref(warp_start);
-  *room_view = fuse_draws_room;
-  return view_warp_frame_pose(self->st, running_time);
-}
-
 static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer* inbuf, GstBuffer* outbuf) {
   GstViewWarp* self = GST_VIEW_WARP(trans);
   GstRgbdFilter* filter = GST_RGBD_FILTER(trans);
@@ -244,7 +220,7 @@ static GstFlowReturn gst_view_warp_transform(GstBaseTransform* trans, GstBuffer*
     }
     bool room_view = false;
     std::vector<RoomCameraPlace> room_cameras;
-    const Pose pose = frame_pose(self, inbuf, &room_view, &room_cameras);
+    const Pose pose = view_warp_ask_pose(trans, st, inbuf, &room_view, &room_cameras);
     st->room_view_last = room_view;
     const CameraCalib virt = virtual_camera(out_info.camera, pose.cam_to_rig(), pose.fov_deg);
     // The room drawn by viewfuse from every camera's mesh and packed room; here only the learners.

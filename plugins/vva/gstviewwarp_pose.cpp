@@ -9,6 +9,7 @@
 #include <gst/vclassroom/core/error.h>
 #include <gst/vclassroom/core/rig.h>
 #include <gst/vclassroom/vva/virtual_view.h>
+#include <gst/vclassroom/vva/warp_start.h>
 
 #include "gstviewwarp_state.h"
 
@@ -106,6 +107,26 @@ Pose view_warp_frame_pose(ViewWarpState* st, GstClockTime running_time) {
   }
   ++st->frames;
   return pose;
+}
+
+Pose view_warp_ask_pose(GstBaseTransform* trans, ViewWarpState* st, GstBuffer* inbuf, bool* room_view,
+                        std::vector<RoomCameraPlace>* room_cameras) {
+  const GstClockTime running_time = trans->segment.format == GST_FORMAT_TIME && GST_BUFFER_PTS_IS_VALID(inbuf)
+                                       ? gst_segment_to_running_time(&trans->segment, GST_FORMAT_TIME, GST_BUFFER_PTS(inbuf))
+                                       : GST_CLOCK_TIME_NONE;
+  // Live, viewfuse holds this until the view's other cameras have a frame to warp too (its warp-sync), so
+  // that all read the same newest pose below.
+  GstQuery* warp_start = gst_query_new_custom(
+      GST_QUERY_CUSTOM, gst_structure_new(kWarpStartQueryName, "running-time", G_TYPE_UINT64, running_time, nullptr));
+  gboolean fuse_draws_room = FALSE;
+  room_cameras->clear();
+  if (gst_pad_peer_query(GST_BASE_TRANSFORM_SRC_PAD(trans), warp_start)) {
+    gst_structure_get_boolean(gst_query_get_structure(warp_start), "room-view", &fuse_draws_room);
+    *room_cameras = warp_start_room_cameras(gst_query_get_structure(warp_start));
+  }
+  gst_query_unref(warp_start);
+  *room_view = fuse_draws_room;
+  return view_warp_frame_pose(st, running_time);
 }
 
 }  // namespace vclassroom

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include <gst/base/gstbasetransform.h>
 #include <gst/gst.h>
 
 #include <gst/vclassroom/core/pose.h>
@@ -82,5 +83,12 @@ void view_warp_reference_from_caps(ViewWarpState* st, const CameraCalib& camera)
 void view_warp_take_pose(ViewWarpState* st, const Pose& pose);
 // The pose the next frame shows: the trace's for its running time (or frame number), else the latest.
 Pose view_warp_frame_pose(ViewWarpState* st, GstClockTime running_time);
+// The pose frame `inbuf` shows, asked for at the last moment, after the pose-independent work, so that this
+// work is not part of the pose's latency: first the warp-start query to the viewfuse downstream (live, it
+// holds it until the view's other cameras have a frame too). `room_view`: whether that viewfuse draws the room
+// itself (its room-view), so that this element warps only the learners; `room_cameras`: the cameras a far one
+// may leave its learners to (none without an answer).
+Pose view_warp_ask_pose(GstBaseTransform* trans, ViewWarpState* st, GstBuffer* inbuf, bool* room_view,
+                        std::vector<RoomCameraPlace>* room_cameras);
 
 }  // namespace vclassroom
