@@ -503,6 +503,8 @@ TEST(RoomView, ACameraIsToldOnceSteadyAndARoundHasItsLearnersWhenTheCamerasLeftT
   EXPECT_EQ(ids(rounds), (std::vector<int>{1})) << "a camera warped whole has no room to be told";
   EXPECT_FALSE(rounds.take({drew0, RoundFrame{RoomCameraPlace{0, c1.centre}, true, {0}}})) << "ids repeat";
   EXPECT_TRUE(rounds.take({drew0, drew0})) << "ids repeat, but nobody left learners";
+  for (int i = 0; i < LearnerRounds::kSteadyRounds; ++i) EXPECT_TRUE(rounds.take({drew0, drew0, drew1}));
+  EXPECT_EQ(ids(rounds), (std::vector<int>{1})) << "a repeated id is never named";
   rounds.clear();
   EXPECT_TRUE(rounds.steady().empty());
 }

@@ -982,7 +982,7 @@ TEST(ViewFuseElement, AFarCameraLeavesItsLearnersToTheNearOneAndARoundWithoutTha
   std::vector<RoomCameraPlace> told;
   auto run = [&](bool drop, LeftLearners* far, std::vector<double>* learner_scores) {
     std::string desc = "viewfuse name=f ! appsink name=out sync=false max-buffers=8";
-    // One frame a queue: a camera's warp runs at most a frame or two ahead of the fuse's rounds.
+    // One frame a queue: a camera's warp runs at most three frames ahead of the fuse's rounds.
     for (int k = 0; k < 2; ++k)
       desc += " rgbdtestsrc rig=" + rig + " camera-id=" + std::to_string(k) + " learners=3 seed=1 num-buffers=8" +
               " ! learnerseg prior-depth=" + priors[size_t(k)] + " ! viewwarp name=w" + std::to_string(k) +
@@ -1046,9 +1046,10 @@ TEST(ViewFuseElement, AFarCameraLeavesItsLearnersToTheNearOneAndARoundWithoutTha
   LeftLearners far_dropped;
   std::vector<double> dropped_scores;
   const int shown = run(true, &far_dropped, &dropped_scores);
-  EXPECT_GE(far_dropped.left_to_0, 1);
-  EXPECT_EQ(shown, far_dropped.last_left ? 7 : 8) << "the last round, without camera 0, is shown only where camera "
-                                                     "1 drew its own learners";
+  // Camera 1's branch runs at most three frames ahead of the fuse (the fuse's pad, the queue's thread, the
+  // queue of one): its last frame asks after four rounds, camera 0 steady by then, whatever the load.
+  EXPECT_TRUE(far_dropped.last_left) << "camera 1's last frame left its learners to camera 0";
+  EXPECT_EQ(shown, 7) << "the last round, without camera 0, is not shown";
   for (size_t i = 0; i < dropped_scores.size(); ++i)
     EXPECT_GT(dropped_scores[i], 25.0) << "picture " << i << ": its learners";
 }

@@ -254,6 +254,7 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
   FusedView fused;
   double camera_ms = 0, texture_ms = 0, room_ms = 0, learner_ms = 0, fuse_ms = 0;
   size_t triangles = 0;
+  long left_learners = 0;  // timed camera views whose learners were left to nearer cameras
   const int warm_up = 3;
   for (int f = 0; f < warm_up + frames; ++f) {
     const bool timed = f >= warm_up;
@@ -279,7 +280,9 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       std::vector<const WarpedView*> inputs{&room};
       for (size_t i = 0; i < cams.size(); ++i) {
         // As each viewwarp decides: a camera far from the view leaves its learners to the nearer ones.
-        if (learners_left_to_nearer(cams[i].calib.center_in_rig(), centres, virt.center_in_rig()))
+        const bool far = learners_left_to_nearer(cams[i].calib.center_in_rig(), centres, virt.center_in_rig());
+        if (far && timed) ++left_learners;
+        if (far)
           warpers[size_t(v)][i].warp_nothing(virt, &warped[i]);
         else
           warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, only, &warped[i]);
@@ -298,8 +301,9 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
   std::printf("room view: meshes of %zu triangles for %zu cameras\n", triangles, cams.size());
   std::printf("per camera frame: learnerseg + viewprep %.2f ms, room records %.2f ms CPU for %zu cameras\n",
               camera_ms / frames, texture_ms / frames, cams.size());
-  std::printf("per view frame: room (raster + lookup) %.2f + learners %.2f + fuse %.2f ms\n", room_ms / n,
-              learner_ms / n, fuse_ms / n);
+  std::printf("per view frame: room (raster + lookup) %.2f + learners %.2f + fuse %.2f ms; of %ld cameras' "
+              "views, %ld far ones left their learners to nearer cameras\n",
+              room_ms / n, learner_ms / n, fuse_ms / n, long(n) * long(cams.size()), left_learners);
   std::printf("per view frame: %.1f ms CPU (%d views, %zu cameras %dx%d -> %dx%d)\n",
               (room_ms + learner_ms + fuse_ms) / n, views, cams.size(), cams[0].calib.width, cams[0].calib.height,
               fused.color.cols, fused.color.rows);
@@ -413,6 +417,7 @@ int main(int argc, char** argv) {
   if (!memory_given) memory = 0;
   if (frames < 1 || threads < 1 || memory < 0 || views < 0)
     vclassroom_tools::usage_error("--frames and --threads must be at least 1, --memory and --views at least 0");
+  if (without_camera_0 && views == 0) vclassroom_tools::usage_error("--without-camera-0 needs --views");
   cv::setNumThreads(1);  // our threads are the cameras
   WarpParams warp;  // viewwarp's defaults
   warp.edge_to_near = !no_edge_to_near;

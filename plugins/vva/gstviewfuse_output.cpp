@@ -166,6 +166,7 @@ GstFlowReturn fuse_and_push(GstViewFuse* self, const std::vector<GstAggregatorPa
     stamps.push_back(FrameStamp{pending[i].running_time_ns, pending[i].pose});
     fused.push_back(i);
   }
+  // (A round of gaps alone is not taken: the cameras' streaks go on from the round before.)
   if (ptrs.empty() || !st->have_out || !learners_complete(self, round_frames)) {
     drop_buffers(pads, round.verdicts, FrameVerdict::kFuse);
     return GST_FLOW_OK;

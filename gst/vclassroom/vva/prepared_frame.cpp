@@ -241,8 +241,8 @@ void warp_start_set_room_cameras(GstStructure* s, const std::vector<RoomCameraPl
   const bool fits = cameras.size() <= kMaxRoomCameras;  // else none: every warp then draws its own learners
   gst_value_array_init(&array, fits ? guint(4 * cameras.size()) : 0);
   g_value_init(&v, G_TYPE_DOUBLE);
-  for (const RoomCameraPlace& c : fits ? cameras : std::vector<RoomCameraPlace>())
-    for (double x : {double(c.id), c.centre.x(), c.centre.y(), c.centre.z()}) {
+  for (size_t i = 0; fits && i < cameras.size(); ++i)
+    for (double x : {double(cameras[i].id), cameras[i].centre.x(), cameras[i].centre.y(), cameras[i].centre.z()}) {
       g_value_set_double(&v, x);
       gst_value_array_append_value(&array, &v);
     }

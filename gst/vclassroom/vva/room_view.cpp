@@ -185,20 +185,21 @@ std::vector<int> cameras_taking_learners(const CameraCalib& camera, const std::v
 }
 
 bool LearnerRounds::take(const std::vector<RoundFrame>& round) {
-  std::set<int> ids, drew;
-  bool repeated = false, left = false;
+  std::set<int> ids, repeated, drew;
+  bool left = false;
   for (const RoundFrame& f : round) {
-    repeated = !ids.insert(f.camera.id).second || repeated;
+    if (!ids.insert(f.camera.id).second) repeated.insert(f.camera.id);
     left = left || !f.learners_left_to.empty();
     if (f.learners_left_to.empty()) drew.insert(f.camera.id);
   }
-  bool complete = !(repeated && left);
+  bool complete = !(!repeated.empty() && left);
   for (const RoundFrame& f : round)
     for (int id : f.learners_left_to) complete = complete && drew.count(id) > 0;
+  // A repeated id is never named: a warp could not tell which of the cameras takes its learners.
   std::map<int, int> streak;
   steady_.clear();
   for (const RoundFrame& f : round) {
-    if (!f.room || streak.count(f.camera.id)) continue;
+    if (!f.room || streak.count(f.camera.id) || repeated.count(f.camera.id)) continue;
     const auto before = streak_.find(f.camera.id);
     const int n = std::min(kSteadyRounds, (before == streak_.end() ? 0 : before->second) + 1);
     streak[f.camera.id] = n;

@@ -103,7 +103,8 @@ class LearnerRounds {
  public:
   static constexpr int kSteadyRounds = 3;
   // Takes a round: true when every camera a frame left its learners to drew its own in the round (a frame
-  // of it without learners_left_to). Where cameras share an id, true only when no frame left its learners.
+  // of it without learners_left_to). Where cameras share an id, true only when no frame left its learners,
+  // and that id is not named (steady) until it is one camera's again for kSteadyRounds rounds.
   bool take(const std::vector<RoundFrame>& round);
   // The cameras whose room was in each of the last kSteadyRounds rounds.
   const std::vector<RoomCameraPlace>& steady() const { return steady_; }
