@@ -4,7 +4,6 @@
 #include "config.h"
 #endif
 
-#include <algorithm>
 #include <memory>
 
 #include <gst/vclassroom/core/pose_meta.h>

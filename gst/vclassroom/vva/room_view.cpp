@@ -168,9 +168,10 @@ std::shared_ptr<const RoomMesh> RoomShape::unseen_by(const std::vector<const Roo
 bool learners_left_to_nearer(const Eigen::Vector3d& camera, const std::vector<Eigen::Vector3d>& cameras,
                              const Eigen::Vector3d& view) {
   const double sigma = RoomLookupParams().place_sigma_m;
-  float nearest = room_place_weight(camera, view, sigma);
+  const float own = room_place_weight(camera, view, sigma);
+  float nearest = own;
   for (const Eigen::Vector3d& c : cameras) nearest = std::max(nearest, room_place_weight(c, view, sigma));
-  return room_camera_is_far(room_place_weight(camera, view, sigma), nearest);
+  return room_camera_is_far(own, nearest);
 }
 
 std::vector<int> cameras_taking_learners(const CameraCalib& camera, const std::vector<RoomCameraPlace>& cameras,

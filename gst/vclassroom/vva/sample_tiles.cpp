@@ -9,6 +9,11 @@ bool SampleTiles::fit(int width, int height) const {
          spans_fit(row_first, spans, width);
 }
 
+void SampleTiles::set_none(int height) {
+  spans.clear();
+  row_first.assign(size_t((height + kPx - 1) / kPx) + 1, 0);
+}
+
 void SampleTiles::set_marked(const uint8_t* marks, size_t stride, int width, int height) {
   spans.clear();
   const int rows = (height + kPx - 1) / kPx;  // a mark past the view's last row or column marks nothing there

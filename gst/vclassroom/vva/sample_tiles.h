@@ -25,6 +25,8 @@ struct SampleTiles {
   // Made the tiles `marks` sets (per row of tiles `stride` bytes, one per tile; at least as many rows and
   // columns of tiles as the width x height view has), as spans of each row of tiles.
   void set_marked(const uint8_t* marks, size_t stride, int width, int height);
+  // Made the tiles of a view `height` pixels high with nothing marked.
+  void set_none(int height);
   // The indices [first, second) in `spans` of pixel row y's spans (y within the view).
   std::pair<int32_t, int32_t> of_row(int y) const {
     const size_t t = size_t(y >> kShift);

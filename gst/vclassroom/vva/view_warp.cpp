@@ -1858,8 +1858,7 @@ void ViewWarper::warp_nothing(const CameraCalib& virt, WarpedView* out) {
   warped_share_ = 0;
   const bool fresh = make_view_planes(virt.width, virt.height, out);
   zero_last_tiles(fresh, virt.width, virt.height, out);
-  const std::vector<uint8_t> none(size_t((virt.width + SampleTiles::kPx - 1) / SampleTiles::kPx), 0);
-  out->tiles.set_marked(none.data(), 0, virt.width, virt.height);
+  out->tiles.set_none(virt.height);
 }
 
 // unpack_view for a sparse layer whose records lie in the marked tiles: the planes zeroed where the last tiles
