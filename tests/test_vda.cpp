@@ -505,6 +505,38 @@ TEST(StaticModel, UnmeasuredPixelsStayInsideTheRoom) {
   }
 }
 
+// Where no camera measured a strip of a wall seen at a slant (the window's
+// mullions between panes that give no depth), the completion alone stretched
+// the neighbouring wall pixel's depth flat across it: the strip stood in front
+// of the wall, and the view warped it off its place. Decided by colour as the
+// depth is, those pixels lie on the wall; unmeasured furniture (what the
+// desks hide) stays in front of it.
+TEST(StaticModel, AnUnmeasuredStripOfAWallLiesOnTheWallNotInFrontOfIt) {
+  const SmallModel s(480, 270, 3);
+  StaticModelOptions flat;
+  flat.unmeasured_side_by_colour = false;
+  const StaticModel by_side = build_static_model(s.rig, s.captures), stretched = build_static_model(s.rig, s.captures, flat);
+  const Classroom room(ClassroomConfig{1, 0, 2.0});
+  int in_front_by_side = 0, in_front_stretched = 0, behind_by_side = 0, behind_stretched = 0, unmeasured = 0;
+  for (const CameraCalib& cam : s.rig.cameras) {
+    const cv::Mat truth = render(room, 0.0, cam).depth, missed = by_side.prior_measured.at(cam.id) == 0;
+    for (int y = 0; y < truth.rows; ++y)
+      for (int x = 0; x < truth.cols; ++x) {
+        if (!missed.at<uint8_t>(y, x)) continue;
+        const double t = truth.at<uint16_t>(y, x);
+        const double a = by_side.prior(cam.id).at<uint16_t>(y, x), b = stretched.prior(cam.id).at<uint16_t>(y, x);
+        ++unmeasured;
+        in_front_by_side += a < 0.97 * t, in_front_stretched += b < 0.97 * t;
+        behind_by_side += a > 1.03 * t, behind_stretched += b > 1.03 * t;
+      }
+  }
+  ASSERT_GT(unmeasured, 3 * 480 * 270 / 20) << "the cameras should miss the ceiling, the window and under the desks";
+  // 3588 against 4879 when written; behind the truth 8394 against 8391.
+  EXPECT_LT(in_front_by_side * 5, in_front_stretched * 4) << in_front_by_side << " vs " << in_front_stretched;
+  EXPECT_LE(behind_by_side * 100, behind_stretched * 100 + unmeasured)
+      << "nothing in front of the walls is pushed onto them: " << behind_by_side << " vs " << behind_stretched;
+}
+
 TEST(StaticModel, PlaneSnappingCanBeLeftOut) {
   // The "without planes" ablation's model: the same capture, prior not snapped.
   const SmallModel s(160, 90, 2);

@@ -262,27 +262,80 @@ std::vector<RoomPlane> room_boundary(const std::vector<RoomPlane>& planes, const
   return bounds;
 }
 
-// Unmeasured prior pixels (unknown != 0) beyond the room's nearest bounding
-// plane along their ray are moved onto it, and those whose ray leaves the
-// room through the assumed ceiling are put on it.
-void close_room(cv::Mat& prior, const cv::Mat& unknown, const std::vector<RoomPlane>& bounds, const CameraCalib& cam) {
-  if (bounds.empty()) return;
+// Each pixel's depth (mm) where its ray leaves the room through the nearest of
+// its bounding planes (0: through none), and which of those planes is the
+// assumed ceiling.
+struct RoomBound {
+  cv::Mat depth;    // CV_32FC1
+  cv::Mat assumed;  // CV_8UC1, nonzero: the bound is the assumed ceiling
+};
+
+RoomBound room_bound(const std::vector<RoomPlane>& bounds, const CameraCalib& cam) {
+  RoomBound rb{cv::Mat(cam.height, cam.width, CV_32FC1, cv::Scalar(0)),
+               cv::Mat(cam.height, cam.width, CV_8UC1, cv::Scalar(0))};
   std::vector<Eigen::Vector4d> pc;
   for (const RoomPlane& b : bounds) pc.push_back(plane_in_camera(b, cam));
-  for (int v = 0; v < prior.rows; ++v)
-    for (int u = 0; u < prior.cols; ++u) {
-      if (!unknown.at<uint8_t>(v, u)) continue;
+  for (int v = 0; v < cam.height; ++v)
+    for (int u = 0; u < cam.width; ++u) {
       double nearest = 0;
       bool assumed = false;
       for (size_t i = 0; i < pc.size(); ++i) {
         const double z = plane_depth_mm(pc[i], cam, u, v);
         if (z > 0 && (nearest == 0 || z < nearest)) nearest = z, assumed = bounds[i].inliers == 0;
       }
+      if (nearest > 0 && nearest < 65535) {
+        rb.depth.at<float>(v, u) = static_cast<float>(nearest);
+        rb.assumed.at<uint8_t>(v, u) = assumed ? 255 : 0;
+      }
+    }
+  return rb;
+}
+
+// Whether each unmeasured pixel lies on the room's bound or on something in
+// front of it, decided as its depth is: propagated from the measured pixels by
+// colour (the same completion). The depth's completion stretches a
+// neighbour's depth flat across an unmeasured strip (a window's mullion
+// between panes that give no depth), which on a wall seen at a slant puts
+// the strip in front of the wall; a pixel whose nearest look-alikes lie on
+// the wall takes the wall's depth instead (docs/vda.md).
+cv::Mat on_the_bound(const cv::Mat& measured_depth, const cv::Mat& color, const cv::Mat& unknown,
+                     const RoomBound& rb, const StaticModelOptions& o) {
+  // 1000: in front of the bound, 2000: on it or beyond (nearer is smaller, as
+  // the completion's dilation prefers); 0: unknown.
+  constexpr uint16_t kInFront = 1000, kOnBound = 2000;
+  cv::Mat side(measured_depth.size(), CV_16UC1, cv::Scalar(0));
+  for (int v = 0; v < side.rows; ++v)
+    for (int u = 0; u < side.cols; ++u) {
+      const uint16_t d = measured_depth.at<uint16_t>(v, u);
+      const float b = rb.depth.at<float>(v, u);
+      if (!d) continue;
+      side.at<uint16_t>(v, u) = b > 0 && d < b - o.plane_tolerance.at(int(b)) ? kInFront : kOnBound;
+    }
+  GuidedCompletionParams guided = o.guided;
+  guided.median = false;
+  cv::Mat filled;
+  guided_completion(side, color, guided, filled);
+  colorization_fill(filled, color, unknown, o.colorize);
+  cv::Mat on;
+  cv::compare(filled, (kInFront + kOnBound) / 2, on, cv::CMP_GT);
+  return on & unknown;
+}
+
+// Unmeasured prior pixels (unknown != 0) beyond the room's nearest bounding
+// plane along their ray, or judged to lie on it (`on_bound`), are moved onto
+// it, and those whose ray leaves the room through the assumed ceiling are put
+// on it.
+void close_room(cv::Mat& prior, const cv::Mat& unknown, const cv::Mat& on_bound, const RoomBound& rb) {
+  for (int v = 0; v < prior.rows; ++v)
+    for (int u = 0; u < prior.cols; ++u) {
+      if (!unknown.at<uint8_t>(v, u)) continue;
+      const float nearest = rb.depth.at<float>(v, u);
       uint16_t& d = prior.at<uint16_t>(v, u);
       // Beyond the room nothing is seen; and overhead, where nothing was
       // measured at all, the completion only spread the walls' depth: the
       // assumed ceiling is the better guess there.
-      if (nearest > 0 && nearest < 65535 && (d == 0 || d > nearest || assumed))
+      if (nearest > 0 && (d == 0 || d > nearest || rb.assumed.at<uint8_t>(v, u) ||
+                          (!on_bound.empty() && on_bound.at<uint8_t>(v, u))))
         d = static_cast<uint16_t>(std::lround(nearest));
     }
 }
@@ -411,7 +464,12 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
     guided_completion(prior, col, guided, filled);
     colorization_fill(filled, col, unknown, o.colorize);
     if (o.guided.median) filled_median(filled, unknown, o.guided.median_size, col, o.guided.median_color_distance);
-    close_room(filled, unknown, bounds, cam);
+    if (!bounds.empty()) {
+      const RoomBound rb = room_bound(bounds, cam);
+      const cv::Mat on = o.unmeasured_side_by_colour && !col.empty() ? on_the_bound(prior, col, unknown, rb, o)
+                                                                      : cv::Mat();
+      close_room(filled, unknown, on, rb);
+    }
     if (o.snap_planes) {
       const PlaneMaps maps = plane_maps_for_camera(m.planes, cam, filled, o.plane_tolerance);
       plane_refine(filled, maps, cv::Mat(), o.plane_tolerance, filled);

@@ -54,6 +54,11 @@ struct StaticModelOptions {
   // and more too far (docs/vda.md).
   bool close_room = true;
   double boundary_outlier_share = 0.005;
+  // With close_room: whether each unmeasured pixel lies on the room's bound or
+  // in front of it is propagated by colour from the measured pixels, as its
+  // depth is, and those on it take the bound's depth (a wall's unmeasured strip
+  // follows the wall's slant instead of a neighbour's depth stretched flat).
+  bool unmeasured_side_by_colour = true;
   // Offline completion of each prior: image-guided fill, then colorization.
   GuidedCompletionParams guided;
   ColorizationParams colorize{1000, 12.0, 0.0, 1.8};
