@@ -1395,6 +1395,32 @@ TEST(WebrtcViews, ALecturerBeforeAnyCameraIsRefusedWith503) {
   gst_object_unref(sink);
 }
 
+// Both WHEP sinks started and stopped at once, again and again, as a pipeline that runs a few frames and
+// ends does (the documentation's example line): the stop must end the server's thread however far it got.
+// Its quit once reached the thread's main loop before the loop ran and was lost, and the stop waited for
+// ever (one run of the whole suite in eight or so hung there).
+TEST(WhepEndpoint, AServerStoppedRightAfterItStartedStops) {
+  for (const char* factory : {"whepserversink", "whepviewsink"}) {
+    GstElement* sink = gst_element_factory_make(factory, nullptr);
+    if (!sink) GTEST_SKIP() << "the webrtc plugin is not built (no webrtcbin)";
+    gst_object_ref_sink(sink);
+    g_object_set(sink, "port", 0u, "token", "cycle-test-token", nullptr);
+    for (int round = 0; round < 200; ++round) {
+      ASSERT_EQ(gst_element_set_state(sink, GST_STATE_READY), GST_STATE_CHANGE_SUCCESS) << factory << " round " << round;
+      guint port = 0;
+      g_object_get(sink, "bound-port", &port, nullptr);
+      ASSERT_GT(port, 0u) << factory << " round " << round;
+      if (round % 50 == 0)
+        EXPECT_EQ(vctest::first_response_line(port, false, "GET /?token=wrong HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+                                                           "Connection: close\r\n\r\n"),
+                  "HTTP/1.1 401 Unauthorized")
+            << factory;
+      ASSERT_EQ(gst_element_set_state(sink, GST_STATE_NULL), GST_STATE_CHANGE_SUCCESS) << factory << " round " << round;
+    }
+    gst_object_unref(sink);
+  }
+}
+
 // With tls-certificate and tls-key the page and WHEP are served over HTTPS (what browsers need for WebXR off
 // localhost), the token still checked; plain HTTP gets no page; a key that does not load stops the element
 // at start with an error naming the port.

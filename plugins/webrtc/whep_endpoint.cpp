@@ -803,7 +803,22 @@ void WhepEndpoint::stop() {
   State* st = st_.get();
   if (!st->context) return;
   if (st->thread) {
-    g_main_loop_quit(st->loop);
+    // The quit goes to the loop as a source of its context: g_main_loop_run marks the loop running when it
+    // starts, so a g_main_loop_quit that came before the server thread got that far (a pipeline that ran and
+    // stopped within the thread's first time slice, on a loaded machine) was lost, and the join below waited
+    // for ever. (g_main_context_invoke is no help: while no thread owns the context it runs the callback
+    // here, before the loop.)
+    GSource* quit = g_idle_source_new();
+    g_source_set_priority(quit, G_PRIORITY_HIGH);
+    g_source_set_callback(
+        quit,
+        [](gpointer loop) -> gboolean {
+          g_main_loop_quit(static_cast<GMainLoop*>(loop));
+          return G_SOURCE_REMOVE;
+        },
+        st->loop, nullptr);
+    g_source_attach(quit, st->context);
+    g_source_unref(quit);
     g_thread_join(st->thread);
     st->thread = nullptr;
   }
