@@ -300,16 +300,19 @@ RoomBound room_bound(const std::vector<RoomPlane>& bounds, const CameraCalib& ca
 // the wall takes the wall's depth instead (docs/vda.md).
 cv::Mat on_the_bound(const cv::Mat& measured_depth, const cv::Mat& color, const cv::Mat& unknown,
                      const RoomBound& rb, const StaticModelOptions& o) {
-  // 1000: in front of the bound, 2000: on it or beyond (nearer is smaller, as
-  // the completion's dilation prefers); 0: unknown.
+  // 1000: in front of the bound, 2000: on it or beyond; 0: unknown (and where
+  // no bound is, no vote). The completion never mixes the two marks (its
+  // "agree" tolerance, 30 mm or 3 %, is far below their difference) and the
+  // colorization blends them, so 1500 splits the result.
   constexpr uint16_t kInFront = 1000, kOnBound = 2000;
+  static_assert(kOnBound - kInFront > 2 * 30, "the marks must not agree within the completion's tolerance");
   cv::Mat side(measured_depth.size(), CV_16UC1, cv::Scalar(0));
   for (int v = 0; v < side.rows; ++v)
     for (int u = 0; u < side.cols; ++u) {
       const uint16_t d = measured_depth.at<uint16_t>(v, u);
       const float b = rb.depth.at<float>(v, u);
-      if (!d) continue;
-      side.at<uint16_t>(v, u) = b > 0 && d < b - o.plane_tolerance.at(int(b)) ? kInFront : kOnBound;
+      if (!d || b <= 0) continue;
+      side.at<uint16_t>(v, u) = d < b - o.plane_tolerance.at(int(b)) ? kInFront : kOnBound;
     }
   GuidedCompletionParams guided = o.guided;
   guided.median = false;
@@ -322,10 +325,14 @@ cv::Mat on_the_bound(const cv::Mat& measured_depth, const cv::Mat& color, const 
 }
 
 // Unmeasured prior pixels (unknown != 0) beyond the room's nearest bounding
-// plane along their ray, or judged to lie on it (`on_bound`), are moved onto
-// it, and those whose ray leaves the room through the assumed ceiling are put
-// on it.
-void close_room(cv::Mat& prior, const cv::Mat& unknown, const cv::Mat& on_bound, const RoomBound& rb) {
+// plane along their ray are moved onto it; so are those judged to lie on it
+// (`on_bound`) from no more than `max_pull` of its depth in front of it (a
+// depth stretched flat strays from a slanted wall by a few per cent; an
+// unmeasured chair seat that looks like the floor stands farther in front of
+// it and stays);
+// and those whose ray leaves the room through the assumed ceiling are put on it.
+void close_room(cv::Mat& prior, const cv::Mat& unknown, const cv::Mat& on_bound, const RoomBound& rb,
+                double max_pull) {
   for (int v = 0; v < prior.rows; ++v)
     for (int u = 0; u < prior.cols; ++u) {
       if (!unknown.at<uint8_t>(v, u)) continue;
@@ -334,8 +341,8 @@ void close_room(cv::Mat& prior, const cv::Mat& unknown, const cv::Mat& on_bound,
       // Beyond the room nothing is seen; and overhead, where nothing was
       // measured at all, the completion only spread the walls' depth: the
       // assumed ceiling is the better guess there.
-      if (nearest > 0 && (d == 0 || d > nearest || rb.assumed.at<uint8_t>(v, u) ||
-                          (!on_bound.empty() && on_bound.at<uint8_t>(v, u))))
+      const bool on = !on_bound.empty() && on_bound.at<uint8_t>(v, u) && nearest - d <= max_pull * nearest;
+      if (nearest > 0 && (d == 0 || d > nearest || rb.assumed.at<uint8_t>(v, u) || on))
         d = static_cast<uint16_t>(std::lround(nearest));
     }
 }
@@ -468,7 +475,7 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
       const RoomBound rb = room_bound(bounds, cam);
       const cv::Mat on = o.unmeasured_side_by_colour && !col.empty() ? on_the_bound(prior, col, unknown, rb, o)
                                                                       : cv::Mat();
-      close_room(filled, unknown, on, rb);
+      close_room(filled, unknown, on, rb, o.unmeasured_max_pull);
     }
     if (o.snap_planes) {
       const PlaneMaps maps = plane_maps_for_camera(m.planes, cam, filled, o.plane_tolerance);
