@@ -816,7 +816,7 @@ void WhepEndpoint::stop() {
           g_main_loop_quit(static_cast<GMainLoop*>(loop));
           return G_SOURCE_REMOVE;
         },
-        st->loop, nullptr);
+        g_main_loop_ref(st->loop), reinterpret_cast<GDestroyNotify>(g_main_loop_unref));
     g_source_attach(quit, st->context);
     g_source_unref(quit);
     g_thread_join(st->thread);
