@@ -280,12 +280,12 @@ void run_room_views(std::vector<Camera>& cams, const std::function<CameraCalib(i
       std::vector<const WarpedView*> inputs{&room};
       for (size_t i = 0; i < cams.size(); ++i) {
         // As each viewwarp decides: a camera far from the view leaves its learners to the nearer ones.
-        const bool far = learners_left_to_nearer(cams[i].calib.center_in_rig(), centres, virt.center_in_rig());
-        if (far && timed) ++left_learners;
-        if (far)
+        if (learners_left_to_nearer(cams[i].calib.center_in_rig(), centres, virt.center_in_rig())) {
+          left_learners += timed;
           warpers[size_t(v)][i].warp_nothing(virt, &warped[i]);
-        else
+        } else {
           warpers[size_t(v)][i].warp_prepared(cams[i].calib, sources[i], prepared[i]->source, virt, only, &warped[i]);
+        }
         inputs.push_back(&warped[i]);
       }
       const double t_learners = process_cpu_ms();

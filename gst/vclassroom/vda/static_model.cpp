@@ -262,6 +262,20 @@ std::vector<RoomPlane> room_boundary(const std::vector<RoomPlane>& planes, const
   return bounds;
 }
 
+// The model's offline completion of a sparse image (CV_16UC1, 0 unknown) guided
+// by the camera's colour: image-guided fill without its median, then
+// colorization over `unknown`; the same for the prior's depth and for the
+// on-the-bound mark below.
+cv::Mat complete_offline(const cv::Mat& sparse, const cv::Mat& color, const cv::Mat& unknown,
+                         const StaticModelOptions& o) {
+  GuidedCompletionParams guided = o.guided;
+  guided.median = false;
+  cv::Mat filled;
+  guided_completion(sparse, color, guided, filled);
+  colorization_fill(filled, color, unknown, o.colorize);
+  return filled;
+}
+
 // Each pixel's depth (mm) where its ray leaves the room through the nearest of
 // its bounding planes (0: through none), and which of those planes is the
 // assumed ceiling.
@@ -314,11 +328,7 @@ cv::Mat on_the_bound(const cv::Mat& measured_depth, const cv::Mat& color, const 
       if (!d || b <= 0) continue;
       side.at<uint16_t>(v, u) = d < b - o.plane_tolerance.at(int(b)) ? kInFront : kOnBound;
     }
-  GuidedCompletionParams guided = o.guided;
-  guided.median = false;
-  cv::Mat filled;
-  guided_completion(side, color, guided, filled);
-  colorization_fill(filled, color, unknown, o.colorize);
+  const cv::Mat filled = complete_offline(side, color, unknown, o);
   cv::Mat on;
   cv::compare(filled, (kInFront + kOnBound) / 2, on, cv::CMP_GT);
   return on & unknown;
@@ -329,8 +339,8 @@ cv::Mat on_the_bound(const cv::Mat& measured_depth, const cv::Mat& color, const 
 // (`on_bound`) from no more than `max_pull` of its depth in front of it (a
 // depth stretched flat strays from a slanted wall by a few per cent; an
 // unmeasured chair seat that looks like the floor stands farther in front of
-// it and stays);
-// and those whose ray leaves the room through the assumed ceiling are put on it.
+// it and stays); and those whose ray leaves the room through the assumed
+// ceiling are put on it.
 void close_room(cv::Mat& prior, const cv::Mat& unknown, const cv::Mat& on_bound, const RoomBound& rb,
                 double max_pull) {
   for (int v = 0; v < prior.rows; ++v)
@@ -464,12 +474,8 @@ StaticModel build_static_model(const Rig& rig, const std::vector<CameraCapture>&
     cv::compare(prior, 0, unknown, cv::CMP_EQ);
     m.prior_measured[cam.id] = unknown == 0;
     const cv::Mat& col = color[cam.id].empty() ? cv::Mat() : color[cam.id];
-    cv::Mat filled;
     // The same order as per frame (depth_complete): the median last.
-    GuidedCompletionParams guided = o.guided;
-    guided.median = false;
-    guided_completion(prior, col, guided, filled);
-    colorization_fill(filled, col, unknown, o.colorize);
+    cv::Mat filled = complete_offline(prior, col, unknown, o);
     if (o.guided.median) filled_median(filled, unknown, o.guided.median_size, col, o.guided.median_color_distance);
     if (!bounds.empty()) {
       const RoomBound rb = room_bound(bounds, cam);

@@ -193,7 +193,7 @@ bool LearnerRounds::take(const std::vector<RoundFrame>& round) {
     left = left || !f.learners_left_to.empty();
     if (f.learners_left_to.empty()) drew.insert(f.camera.id);
   }
-  bool complete = !(!repeated.empty() && left);
+  bool complete = repeated.empty() || !left;
   for (const RoundFrame& f : round)
     for (int id : f.learners_left_to) complete = complete && drew.count(id) > 0;
   // A repeated id is never named: a warp could not tell which of the cameras takes its learners.
